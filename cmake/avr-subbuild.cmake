@@ -1,0 +1,21 @@
+# Drives the AVR sub-build (firmware/CMakeLists.txt) with the avr-gcc toolchain. BUILD_ALWAYS makes every
+# `cmake --build` re-check it, so a change in core/ or codecs/ that breaks avr-gcc fails the build at once.
+find_program(TETHER_AVR_GXX avr-g++)
+if(NOT TETHER_AVR_GXX)
+  message(FATAL_ERROR "avr-g++ not found: run tools/setup (installs gcc-avr), or configure with -DTETHER_BUILD_AVR=OFF")
+endif()
+
+include(ExternalProject)
+set(TETHER_FIRMWARE_DIR ${CMAKE_BINARY_DIR}/firmware CACHE INTERNAL "Where the AVR images land")
+ExternalProject_Add(avr-firmware
+  SOURCE_DIR ${CMAKE_SOURCE_DIR}/firmware
+  BINARY_DIR ${CMAKE_BINARY_DIR}/avr-build
+  CMAKE_ARGS
+    -DCMAKE_TOOLCHAIN_FILE=${CMAKE_SOURCE_DIR}/cmake/avr-gcc.cmake
+    -DCMAKE_BUILD_TYPE=MinSizeRel
+    -DTETHER_ROOT=${CMAKE_SOURCE_DIR}
+    -DTETHER_FIRMWARE_OUTPUT_DIR=${TETHER_FIRMWARE_DIR}
+    -DTETHER_NANOPB_SOURCE_DIR=${TETHER_NANOPB_SOURCE_DIR}
+  BUILD_ALWAYS ON
+  INSTALL_COMMAND ""
+  USES_TERMINAL_BUILD ON)

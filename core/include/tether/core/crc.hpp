@@ -1,0 +1,76 @@
+/// @file crc.hpp
+/// The two checksums Tether's protocols use, behind one interface.
+///
+/// - `Crc8Smbus`: CRC-8/SMBUS (poly 0x07, init 0, no reflection, xorout 0; check 0xF4). Romi frames and
+///   Elcano generation D.
+/// - `Crc16Mcrf4xx`: CRC-16/MCRF4XX (poly 0x1021 reflected, init 0xFFFF, xorout 0; check 0x6F91). The
+///   proxy protocol's frame check; the same as MAVLink's X.25 checksum.
+///
+/// Both have the same shape: construct (or `reset`), `update` with bytes in any chunking, read `value`;
+/// or call the static `compute`. Back ends differ per platform and are chosen at link time: the host uses
+/// Boost.CRC (`boost::crc_optimal`, table driven), the AVR uses avr-libc's hand-tuned `util/crc16.h`
+/// (`_crc8_ccitt_update`, `_crc_ccitt_update`). The register kept between updates is back-end private.
+#pragma once
+
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+
+namespace tether {
+
+/// CRC-8/SMBUS, incremental.
+class Crc8Smbus {
+ public:
+  /// Width of the checksum value.
+  using Value = uint8_t;
+  /// Starts a new computation.
+  Crc8Smbus() { reset(); }
+  /// Forgets all bytes fed so far.
+  void reset();
+  /// Feeds one byte.
+  void update(uint8_t byte);
+  /// Feeds bytes; any chunking gives the same result.
+  void update(ByteView bytes);
+  /// Checksum of all bytes fed since the last reset.
+  Value value() const;
+  /// Checksum of `bytes` in one call.
+  static Value compute(ByteView bytes) {
+    Crc8Smbus crc;
+    crc.update(bytes);
+    return crc.value();
+  }
+
+ private:
+  uint8_t state_;
+};
+
+/// CRC-16/MCRF4XX, incremental.
+class Crc16Mcrf4xx {
+ public:
+  /// Width of the checksum value.
+  using Value = uint16_t;
+  /// Starts a new computation.
+  Crc16Mcrf4xx() { reset(); }
+  /// Forgets all bytes fed so far.
+  void reset();
+  /// Feeds one byte.
+  void update(uint8_t byte);
+  /// Feeds bytes; any chunking gives the same result.
+  void update(ByteView bytes);
+  /// Checksum of all bytes fed since the last reset.
+  Value value() const;
+  /// Checksum of `bytes` in one call.
+  static Value compute(ByteView bytes) {
+    Crc16Mcrf4xx crc;
+    crc.update(bytes);
+    return crc.value();
+  }
+
+ private:
+  uint16_t state_;
+};
+
+/// Name of the back end compiled in ("boost" or "avr-libc"), for diagnostics and benchmarks.
+const char* crc_backend_name();
+
+}  // namespace tether

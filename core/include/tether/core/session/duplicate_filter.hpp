@@ -1,0 +1,92 @@
+/// @file duplicate_filter.hpp
+/// Device half of exactly-once: recognise a re-sent request and answer it from a cache.
+///
+/// The host re-sends a request with the same id when it did not get (or could not check) the reply. The
+/// device must not execute it twice: it looks the request up here first. A request counts as a repeat
+/// when both its id and its fingerprint (a checksum of the request's bytes, e.g. its CRC) match one of
+/// the last `Depth` requests executed; the fingerprint keeps a new host session that restarts its ids from
+/// zero from getting an old reply to a different command. The reply bytes of each remembered request are
+/// kept (up to `ReplyCapacity` bytes) so the device can send the very same reply again.
+///
+/// Romi uses Depth 1 with a 64-byte reply; the proxy protocol Depth >= the host's requests in flight and no
+/// reply bytes (its reply, an Ack, is rebuilt from the id).
+#pragma once
+
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/status.hpp"
+
+namespace tether {
+namespace session {
+
+/// Recent-request memory of a device. No heap: `Depth * ReplyCapacity` bytes inside.
+template <typename Id, uint8_t Depth, uint16_t ReplyCapacity>
+class DuplicateFilter {
+  static_assert(Depth >= 1, "remember at least one request");
+
+ public:
+  /// Answer of `check`.
+  struct Lookup {
+    bool duplicate = false;  ///< The request was executed already: do not execute it again.
+    ByteView cached_reply;   ///< Its reply as first sent (empty when none was cached).
+  };
+
+  /// Empty filter; `counters` (outliving it) receives duplicates.
+  explicit DuplicateFilter(LinkCounters& counters) : counters_(&counters) {}
+
+  /// Looks up a request before executing it. Counts a duplicate when found.
+  Lookup check(Id id, uint16_t fingerprint) {
+    Lookup lookup;
+    for (uint8_t i = 0; i < count_; ++i) {
+      const Entry& entry = entries_[i];
+      if (entry.id == id && entry.fingerprint == fingerprint) {
+        ++counters_->duplicates;
+        lookup.duplicate = true;
+        lookup.cached_reply = ByteView(entry.reply, entry.reply_size);
+        return lookup;
+      }
+    }
+    return lookup;
+  }
+
+  /// Records an executed request and its reply; the oldest entry goes when full. A reply longer than
+  /// `ReplyCapacity` is not cached (the request is still remembered) and `Status::buffer_too_small` says so.
+  Status remember(Id id, uint16_t fingerprint, ByteView reply) {
+    Entry& entry = entries_[next_];
+    next_ = static_cast<uint8_t>((next_ + 1) % Depth);
+    if (count_ < Depth) ++count_;
+    entry.id = id;
+    entry.fingerprint = fingerprint;
+    const bool fits = reply.size() <= ReplyCapacity;
+    entry.reply_size = fits ? static_cast<uint16_t>(reply.size()) : 0;
+    for (uint16_t i = 0; i < entry.reply_size; ++i) entry.reply[i] = reply[i];
+    return fits ? Status::ok : Status::buffer_too_small;
+  }
+
+  /// Forgets everything (e.g. after a manual request that has no id of its own).
+  void clear() {
+    count_ = 0;
+    next_ = 0;
+  }
+  /// Requests remembered.
+  uint8_t size() const { return count_; }
+
+ private:
+  static constexpr uint16_t kStorage = ReplyCapacity > 0 ? ReplyCapacity : 1;
+  struct Entry {
+    Id id = 0;
+    uint16_t fingerprint = 0;
+    uint16_t reply_size = 0;
+    uint8_t reply[kStorage] = {};
+  };
+
+  LinkCounters* counters_;
+  Entry entries_[Depth];
+  uint8_t count_ = 0;
+  uint8_t next_ = 0;
+};
+
+}  // namespace session
+}  // namespace tether

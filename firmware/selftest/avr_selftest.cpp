@@ -1,0 +1,159 @@
+// AVR selftest: runs the portable core on the real MCU model (simavr) and reports over UART0.
+//   1. CRC check values with the avr-libc back end.
+//   2. CRCs of pseudo-random buffers (seed from EEPROM bytes 0..3) for the host to compare with Boost.
+//   3. The device half of the session engine (duplicate filter, partial-frame deadline, failsafe watchdog)
+//      and the host half's 8-bit id wrap, with 16-bit int arithmetic.
+// Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
+// Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
+#include <avr/eeprom.h>
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+
+#include "selftest_sequence.hpp"
+#include "tether/core/crc.hpp"
+#include "tether/core/session/duplicate_filter.hpp"
+#include "tether/core/session/failsafe_watchdog.hpp"
+#include "tether/core/session/partial_frame_deadline.hpp"
+#include "tether/core/session/request_table.hpp"
+
+namespace {
+
+void uart_init() {
+  UCSR0A = _BV(U2X0);
+  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+  UCSR0B = _BV(TXEN0);
+  UBRR0H = 0;
+  UBRR0L = 16;  // 115200 at 16 MHz with U2X; written last (simavr recomputes the baud rate on UBRR0L)
+}
+void put(char c) {
+  while ((UCSR0A & _BV(UDRE0)) == 0) {
+  }
+  UDR0 = static_cast<uint8_t>(c);
+}
+void put(const char* text) {
+  while (*text != '\0') put(*text++);
+}
+void put_hex(uint32_t value, uint8_t digits) {
+  static const char kHex[] = "0123456789abcdef";
+  for (int8_t shift = static_cast<int8_t>((digits - 1) * 4); shift >= 0; shift = static_cast<int8_t>(shift - 4)) {
+    put(kHex[(value >> shift) & 0xFu]);
+  }
+}
+
+uint8_t failures = 0;
+void report(const char* name, bool ok) {
+  put("engine ");
+  put(name);
+  put(ok ? " ok\n" : " fail\n");
+  if (!ok) ++failures;
+}
+
+void check_crc_values() {
+  const tether::ByteView check = tether::ByteView::from_literal("123456789");
+  put("backend ");
+  put(tether::crc_backend_name());
+  put("\ncheck crc8 ");
+  put_hex(tether::Crc8Smbus::compute(check), 2);
+  put(" crc16 ");
+  put_hex(tether::Crc16Mcrf4xx::compute(check), 4);
+  put("\n");
+}
+
+void checksum_random_buffers(uint32_t seed) {
+  tether::selftest::Xorshift32 random(seed);
+  for (uint8_t index = 0; index < tether::selftest::kBufferCount; ++index) {
+    const uint16_t length = random.next_length();
+    tether::Crc8Smbus crc8;
+    tether::Crc16Mcrf4xx crc16;
+    for (uint16_t i = 0; i < length; ++i) {
+      const uint8_t byte = random.next_byte();
+      crc8.update(byte);
+      crc16.update(byte);
+    }
+    put("buf ");
+    put_hex(index, 2);
+    put(" ");
+    put_hex(length, 4);
+    put(" ");
+    put_hex(crc8.value(), 2);
+    put(" ");
+    put_hex(crc16.value(), 4);
+    put("\n");
+  }
+}
+
+void check_duplicate_filter() {
+  tether::LinkCounters counters;
+  tether::session::DuplicateFilter<uint8_t, 1, 64> filter(counters);
+  bool ok = !filter.check(255, 7).duplicate;  // B6: a fresh device knows no id, not even 255
+  const tether::ByteView reply = tether::ByteView::from_literal("#a[0]:ffxx\r\n");
+  ok = ok && filter.remember(255, 7, reply) == tether::Status::ok;
+  const auto again = filter.check(255, 7);
+  ok = ok && again.duplicate && again.cached_reply.equals(reply) && counters.duplicates == 1;
+  ok = ok && !filter.check(255, 8).duplicate;
+  report("duplicate_filter", ok);
+}
+
+void check_watchdog() {
+  tether::LinkCounters counters;
+  tether::session::FailsafeWatchdog watchdog(10000, counters);
+  watchdog.start(0xFFFFF000u);  // silence limit crosses the 32-bit wrap
+  bool ok = !watchdog.poll(0x170Fu) && watchdog.poll(0x1710u) && watchdog.triggered();
+  ok = ok && !watchdog.poll(0x2000u) && counters.failsafes == 1;
+  report("failsafe_watchdog", ok);
+}
+
+void check_partial_frame() {
+  tether::LinkCounters counters;
+  tether::session::PartialFrameDeadline deadline(1000, counters);
+  deadline.on_frame_start(64000u);
+  const bool ok = !deadline.poll(64999u) && deadline.poll(65000u) && !deadline.poll(65001u) &&
+                  counters.partial_timeouts == 1;
+  report("partial_frame_deadline", ok);
+}
+
+struct ByteIdPolicy {
+  using Id = uint8_t;
+  using Code = int16_t;
+  static bool is_success(Code code) { return code >= 0; }
+  static bool is_retryable(Code code) { return code < 0 && code >= -6; }
+};
+
+void check_request_ids() {
+  tether::LinkCounters counters;
+  tether::session::CallTiming timing;
+  tether::session::RequestTable<ByteIdPolicy, 1> table(timing, 255, counters);
+  bool ok = true;
+  for (uint16_t call = 0; call < 300 && ok; ++call) {
+    const auto id = table.begin(call);
+    ok = id.ok() && id.value() == static_cast<uint8_t>(call) &&
+         table.on_reply(id.value(), 0, call).completion.outcome == tether::session::CallOutcome::ok;
+  }
+  report("request_ids", ok);
+}
+
+}  // namespace
+
+int main() {
+  uart_init();
+  const uint32_t seed = eeprom_read_dword(reinterpret_cast<const uint32_t*>(0));
+  put("selftest begin seed ");
+  put_hex(seed, 8);
+  put("\n");
+  check_crc_values();
+  checksum_random_buffers(seed);
+  check_duplicate_filter();
+  check_watchdog();
+  check_partial_frame();
+  check_request_ids();
+  put("selftest end failures ");
+  put_hex(failures, 2);
+  put("\n");
+  while ((UCSR0A & _BV(TXC0)) == 0) {
+  }
+  cli();
+  sleep_cpu();
+  for (;;) {
+  }
+}
