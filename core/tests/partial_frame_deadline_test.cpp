@@ -35,7 +35,7 @@ TEST(PartialFrameDeadline, NewStartRestartsTheWindow) {
   EXPECT_TRUE(deadline.poll(1800));
 }
 
-TEST(PartialFrameDeadline, WorksWithSixteenBitSizedWindowsAcrossWrap) {
+TEST(PartialFrameDeadline, WorksAcrossTheClockWrap) {
   LinkCounters counters;
   PartialFrameDeadline deadline(1000, counters);
   deadline.on_frame_start(0xFFFFFF00u);
