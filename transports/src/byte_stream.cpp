@@ -16,6 +16,12 @@ ByteStream::ByteStream(executor_type executor, std::size_t read_ahead)
 
 ByteStream::~ByteStream() = default;
 
+void ByteStream::preload(const std::uint8_t* data, std::size_t size) {
+  const std::size_t kept = std::min(size, read_ahead_.size() - ahead_end_);
+  std::copy_n(data, kept, read_ahead_.data() + ahead_end_);
+  ahead_end_ += kept;
+}
+
 void ByteStream::start_user_read(std::vector<asio::mutable_buffer> buffers, SteadyClock::time_point deadline,
                                  IoHandler handler) {
   asio::dispatch(strand_, [this, self = shared_from_this(), buffers = std::move(buffers), deadline,

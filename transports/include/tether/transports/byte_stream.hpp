@@ -128,6 +128,10 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
   /// `executor`: where completions run (a strand of it); `read_ahead`: internal buffer size (> 0).
   explicit ByteStream(executor_type executor, std::size_t read_ahead = 4096);
 
+  /// Puts `size` bytes at `data` in front of everything the device delivers (bytes an opener read past a
+  /// boot banner, say). Only before the stream is shared; at most the read-ahead capacity is kept.
+  void preload(const std::uint8_t* data, std::size_t size);
+
   /// The strand all hooks are called on and must complete on.
   const asio::strand<executor_type>& strand() const { return strand_; }
 
