@@ -9,12 +9,15 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 
+#include <atomic>
+#include <cctype>
 #include <filesystem>
 #include <random>
 #include <string>
 #include <thread>
 
 #include "tether/testing/child_process.hpp"
+#include "ser2net_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/pty_stream.hpp"
 #include "tether/transports/serial_port_stream.hpp"
@@ -229,6 +232,39 @@ TEST(TcpStream, PeerClosingEndsAPendingReadWithEof) {
   server.join();
   EXPECT_EQ(error, asio::error::eof);
   stream->close();
+}
+
+}  // namespace
+}  // namespace tether::transports
+
+namespace tether::transports {
+namespace {
+
+TEST(Ser2net, TcpClientReachesAPtyDeviceThroughARealSer2net) {
+  IoThread io;
+  auto device = PtyStream::open(io.executor());
+  // The device echoes in upper case, so the test sees that the bytes went through it.
+  std::atomic<bool> running{true};
+  std::thread echo([&] {
+    std::vector<uint8_t> buffer(256);
+    while (running) {
+      error_code error;
+      const std::size_t got = device->read_some(asio::buffer(buffer), 50ms, error);
+      for (std::size_t i = 0; i < got; ++i) buffer[i] = static_cast<uint8_t>(std::toupper(buffer[i]));
+      if (got > 0) device->write(asio::buffer(buffer.data(), got));
+    }
+  });
+  {
+    test_support::Ser2netProcess ser2net(device->slave_path());
+    ASSERT_TRUE(ser2net.wait_until_listening(5000ms));
+    auto stream = TcpStream::connect(io.executor(), "127.0.0.1", ser2net.port());
+    stream->write(asio::buffer(std::string("through ser2net")));
+    EXPECT_EQ(read_exactly(*stream, 15), "THROUGH SER2NET");
+    stream->close();
+  }
+  running = false;
+  echo.join();
+  device->close();
 }
 
 }  // namespace
