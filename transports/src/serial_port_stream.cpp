@@ -6,26 +6,82 @@
 
 #include <boost/asio/error.hpp>
 
-#include <thread>
-#include <vector>
 
 namespace tether::transports {
 
 SerialPortStream::SerialPortStream(executor_type executor, std::string path, const SerialOptions& options)
     : AsioObjectStream(std::move(executor)), path_(std::move(path)), options_(options) {}
 
-std::shared_ptr<SerialPortStream> SerialPortStream::open(executor_type executor, const std::string& path,
-                                                         const SerialOptions& options, error_code& error) {
+void SerialPortStream::start_open(executor_type executor, const std::string& path, const SerialOptions& options,
+                                  OpenHandler handler) {
   auto stream = std::make_shared<SerialPortStream>(std::move(executor), path, options);
-  stream->object_.open(path, error);
+  error_code error;
+  stream->object_.open(path, error);  // open and configure are quick: no need to be asynchronous
   if (!error) stream->configure(error);
-  if (!error) stream->wait_for_boot(error);
   if (error) {
     error_code ignored;
     stream->object_.close(ignored);
+    asio::post(stream->strand(), [handler = std::move(handler), error]() mutable { handler(error, nullptr); });
+    return;
+  }
+  if (options.boot_wait.count() == 0) {
+    asio::dispatch(stream->strand(), [stream, handler = std::move(handler)]() mutable {
+      stream->after_boot_wait(std::move(handler));
+    });
+    return;
+  }
+  // The board is in its bootloader now: anything sent would be lost.
+  stream->boot_timer_.expires_after(options.boot_wait);
+  stream->boot_timer_.async_wait([stream, handler = std::move(handler)](error_code) mutable {
+    stream->after_boot_wait(std::move(handler));
+  });
+}
+
+void SerialPortStream::after_boot_wait(OpenHandler handler) {
+  if (options_.ready_banner.empty()) {
+    if (options_.discard_boot_noise && options_.boot_wait.count() > 0) ::tcflush(object_.native_handle(), TCIFLUSH);
+    asio::post(strand(), [self = std::static_pointer_cast<SerialPortStream>(shared_from_this()),
+                          handler = std::move(handler)]() mutable { handler(error_code(), std::move(self)); });
+    return;
+  }
+  await_banner(std::make_shared<std::string>(), SteadyClock::now() + options_.boot_timeout, std::move(handler));
+}
+
+void SerialPortStream::await_banner(std::shared_ptr<std::string> seen, SteadyClock::time_point deadline,
+                                    OpenHandler handler) {
+  // One byte at a time through the read-ahead: whatever follows the banner stays buffered, in order.
+  async_read_some(
+      asio::buffer(&banner_byte_, 1), deadline,
+      [self = std::static_pointer_cast<SerialPortStream>(shared_from_this()), seen, deadline,
+       handler = std::move(handler)](error_code error, std::size_t size) mutable {
+        if (error) {
+          if (error == make_error_code(TransportError::timed_out)) error = make_error_code(TransportError::boot_timeout);
+          error_code ignored;
+          self->close(ignored);
+          handler(error, nullptr);
+          return;
+        }
+        seen->append(reinterpret_cast<const char*>(&self->banner_byte_), size);
+        const std::string& banner = self->options_.ready_banner;
+        if (seen->size() >= banner.size() && seen->compare(seen->size() - banner.size(), banner.size(), banner) == 0) {
+          handler(error_code(), std::move(self));
+          return;
+        }
+        if (seen->size() > 4 * banner.size() + 256) seen->erase(0, seen->size() - banner.size());
+        self->await_banner(std::move(seen), deadline, std::move(handler));
+      });
+}
+
+std::shared_ptr<SerialPortStream> SerialPortStream::open(executor_type executor, const std::string& path,
+                                                         const SerialOptions& options, error_code& error) {
+  auto result = async_open(std::move(executor), path, options, asio::use_future);
+  try {
+    error = error_code();
+    return result.get();
+  } catch (const boost::system::system_error& failure) {
+    error = failure.code();
     return nullptr;
   }
-  return stream;
 }
 
 std::shared_ptr<SerialPortStream> SerialPortStream::open(executor_type executor, const std::string& path,
@@ -70,50 +126,6 @@ void SerialPortStream::configure(error_code& error) {
       low_latency_applied_ = ::ioctl(fd, TIOCSSERIAL, &serial) == 0;
     }
   }
-}
-
-void SerialPortStream::wait_for_boot(error_code& error) {
-  const int fd = object_.native_handle();
-  if (options_.boot_wait.count() > 0) std::this_thread::sleep_for(options_.boot_wait);
-  if (!options_.ready_banner.empty()) {
-    // Read directly from the fd: the stream is not yet shared with anybody, and blocking here is the point.
-    const auto deadline = SteadyClock::now() + options_.boot_timeout;
-    std::string seen;
-    while (seen.find(options_.ready_banner) == std::string::npos) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - SteadyClock::now());
-      if (left.count() <= 0) {
-        error = make_error_code(TransportError::boot_timeout);
-        return;
-      }
-      fd_set readable;
-      FD_ZERO(&readable);
-      FD_SET(fd, &readable);
-      timeval timeout{static_cast<time_t>(left.count() / 1000), static_cast<suseconds_t>((left.count() % 1000) * 1000)};
-      const int ready = ::select(fd + 1, &readable, nullptr, nullptr, &timeout);
-      if (ready < 0 && errno != EINTR) {
-        error = error_code(errno, boost::system::system_category());
-        return;
-      }
-      if (ready <= 0) continue;
-      char chunk[256];
-      const ssize_t got = ::read(fd, chunk, sizeof chunk);
-      if (got < 0 && errno != EAGAIN && errno != EINTR) {
-        error = error_code(errno, boost::system::system_category());
-        return;
-      }
-      if (got == 0) {
-        error = asio::error::eof;
-        return;
-      }
-      if (got > 0) seen.append(chunk, static_cast<std::size_t>(got));
-      if (seen.size() > 4096) seen.erase(0, seen.size() - options_.ready_banner.size());
-    }
-    // Bytes after the banner are real traffic: keep them for the first read.
-    const std::size_t after = seen.find(options_.ready_banner) + options_.ready_banner.size();
-    preload(reinterpret_cast<const std::uint8_t*>(seen.data()) + after, seen.size() - after);
-    return;
-  }
-  if (options_.discard_boot_noise && options_.boot_wait.count() > 0) ::tcflush(fd, TCIFLUSH);
 }
 
 std::string SerialPortStream::description() const {

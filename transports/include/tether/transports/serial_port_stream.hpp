@@ -11,7 +11,10 @@
 
 #include <boost/asio/serial_port.hpp>
 
+#include <boost/asio/steady_timer.hpp>
+
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -38,11 +41,37 @@ struct SerialOptions {
   }
 };
 
-/// Serial port stream; create with `open`/`async_open`.
+/// Serial port stream; create with `async_open` or `open`.
 class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
  public:
-  /// Opens and configures `path`; blocks for the boot handling of `options`. Errors: OS errors (ENOENT,
-  /// EACCES, EBUSY when exclusive), `TransportError::invalid_option`, `TransportError::boot_timeout`.
+  /// Completion signature of `async_open`.
+  using OpenSignature = void(error_code, std::shared_ptr<SerialPortStream>);
+
+  /// Opens and configures `path`, then performs the boot handling of `options` (boot wait, noise
+  /// discard, ready banner) asynchronously. Completes with the stream, or with an error and null: OS
+  /// errors (ENOENT, EACCES, EBUSY when exclusive), `TransportError::invalid_option` (baud),
+  /// `TransportError::boot_timeout` (banner not seen).
+  template <typename OpenToken>
+  static auto async_open(executor_type executor, const std::string& path, const SerialOptions& options,
+                         OpenToken&& token) {
+    return asio::async_initiate<OpenToken, OpenSignature>(
+        [](auto handler, executor_type target, const std::string& device, const SerialOptions& settings) {
+          auto work = asio::make_work_guard(asio::get_associated_executor(handler, target));
+          start_open(std::move(target), device, settings,
+                     [handler = std::move(handler), work = std::move(work)](
+                         error_code error, std::shared_ptr<SerialPortStream> stream) mutable {
+                       auto handler_executor = work.get_executor();
+                       asio::dispatch(handler_executor,
+                                      [handler = std::move(handler), error, stream = std::move(stream)]() mutable {
+                                        handler(error, std::move(stream));
+                                      });
+                       work.reset();
+                     });
+        },
+        token, std::move(executor), path, options);
+  }
+
+  /// Blocking `async_open`; needs another thread running the executor (like every blocking call).
   static std::shared_ptr<SerialPortStream> open(executor_type executor, const std::string& path,
                                                 const SerialOptions& options, error_code& error);
   /// Throwing variant of `open`.
@@ -50,6 +79,8 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
                                                 const SerialOptions& options = SerialOptions());
 
   std::string description() const override;
+  /// The options the port was opened with.
+  const SerialOptions& options() const { return options_; }
   /// Whether the driver accepted the low-latency request.
   bool low_latency_applied() const { return low_latency_applied_; }
 
@@ -57,9 +88,15 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
   SerialPortStream(executor_type executor, std::string path, const SerialOptions& options);
 
  private:
+  using OpenHandler = UniqueFunction<OpenSignature>;
+  static void start_open(executor_type executor, const std::string& path, const SerialOptions& options,
+                         OpenHandler handler);
   void configure(error_code& error);
-  void wait_for_boot(error_code& error);
+  void after_boot_wait(OpenHandler handler);
+  void await_banner(std::shared_ptr<std::string> seen, SteadyClock::time_point deadline, OpenHandler handler);
 
+  asio::steady_timer boot_timer_{strand()};
+  std::uint8_t banner_byte_ = 0;
   std::string path_;
   SerialOptions options_;
   bool low_latency_applied_ = false;
