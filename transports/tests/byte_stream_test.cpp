@@ -6,6 +6,7 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 
+#include <deque>
 #include <functional>
 #include <random>
 #include <string>
@@ -20,6 +21,12 @@ namespace {
 
 using namespace std::chrono_literals;
 
+// Bytes for an asynchronous write: they must outlive the operation, so never a temporary.
+const std::string& persistent(const char* text) {
+  static std::deque<std::string> kept;
+  return kept.emplace_back(text);
+}
+
 std::string as_string(const std::vector<uint8_t>& bytes, std::size_t size) {
   return std::string(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size));
 }
@@ -29,7 +36,7 @@ TEST(ByteStream, BytesWrittenOnOneEndAreReadOnTheOther) {
   auto [a, b] = InMemoryStream::make_pair(io.get_executor());
   std::vector<uint8_t> buffer(64);
   std::string got;
-  asio::async_write(*a, asio::buffer(std::string("hello")), [](error_code error, std::size_t size) {
+  asio::async_write(*a, asio::buffer(persistent("hello")), [](error_code error, std::size_t size) {
     EXPECT_FALSE(error);
     EXPECT_EQ(size, 5u);
   });
@@ -61,7 +68,7 @@ TEST(ByteStream, DeadlineTimesOutAndLateBytesAreKeptForTheNextRead) {
   b->async_read_some(asio::buffer(buffer), SteadyClock::now() + 20ms, [&](error_code error, std::size_t) {
     first_error = error;
     // The peer writes only after the deadline; the next read must still get every byte.
-    asio::async_write(*a, asio::buffer(std::string("late")), [](error_code, std::size_t) {});
+    asio::async_write(*a, asio::buffer(persistent("late")), [](error_code, std::size_t) {});
     asio::async_read(*b, asio::buffer(buffer, 4), [&](error_code error2, std::size_t size) {
       EXPECT_FALSE(error2);
       second = as_string(buffer, size);
@@ -78,13 +85,13 @@ TEST(ByteStream, AnExpiredDeadlineDoesNotTimeOutTheNextRead) {
   auto [a, b] = InMemoryStream::make_pair(io.get_executor());
   std::vector<uint8_t> buffer(16);
   std::vector<error_code> errors;
-  asio::async_write(*a, asio::buffer(std::string("x")), [](error_code, std::size_t) {});
+  asio::async_write(*a, asio::buffer(persistent("x")), [](error_code, std::size_t) {});
   b->async_read_some(asio::buffer(buffer), SteadyClock::now(), [&](error_code error, std::size_t) {
     errors.push_back(error);
     b->async_read_some(asio::buffer(buffer), SteadyClock::now() + 10s, [&](error_code error2, std::size_t) {
       errors.push_back(error2);
     });
-    asio::post(io, [&] { asio::async_write(*a, asio::buffer(std::string("y")), [](error_code, std::size_t) {}); });
+    asio::post(io, [&] { asio::async_write(*a, asio::buffer(persistent("y")), [](error_code, std::size_t) {}); });
   });
   io.run_for(2s);
   ASSERT_EQ(errors.size(), 2u);
@@ -119,7 +126,7 @@ TEST(ByteStream, CloseAbortsOwnReadAndPeerSeesEofAfterPendingBytes) {
     });
   };
   a->async_read_some(asio::buffer(buffer_a), [&](error_code error, std::size_t) { own_read = error; });
-  asio::async_write(*a, asio::buffer(std::string("ab")), [&](error_code, std::size_t) {
+  asio::async_write(*a, asio::buffer(persistent("ab")), [&](error_code, std::size_t) {
     a->close();
     read_on();
   });
@@ -141,7 +148,7 @@ TEST(ByteStream, WriteToAClosedPeerFailsWithBrokenPipe) {
     io.run_for(2s);
   });
   b->close();
-  asio::async_write(*a, asio::buffer(std::string("x")), [&](error_code error, std::size_t) {
+  asio::async_write(*a, asio::buffer(persistent("x")), [&](error_code error, std::size_t) {
     write_error = error;
     io.stop();
   });
@@ -203,7 +210,7 @@ TEST(ByteStream, FuturesWorkAsCompletionTokens) {
   auto guard = asio::make_work_guard(io);
   std::thread runner([&] { io.run(); });
   auto [a, b] = InMemoryStream::make_pair(io.get_executor());
-  auto written = asio::async_write(*a, asio::buffer(std::string("fut")), asio::use_future);
+  auto written = asio::async_write(*a, asio::buffer(persistent("fut")), asio::use_future);
   std::vector<uint8_t> buffer(3);
   auto read = asio::async_read(*b, asio::buffer(buffer), asio::use_future);
   EXPECT_EQ(written.get(), 3u);

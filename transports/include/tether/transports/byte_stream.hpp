@@ -18,7 +18,9 @@
 /// write at a time (a second concurrent read fails with `TransportError::read_in_progress`).
 ///
 /// Lifetime: streams are created by factories as `std::shared_ptr`; operations in flight keep the stream
-/// alive until they complete. `close()` ends them; dropping the last reference does not.
+/// alive until they complete. `close()` ends them; dropping the last reference does not. After a read
+/// ends at its deadline the stream keeps one device read in flight (that is how late bytes are kept);
+/// like any pending asio operation it keeps `io_context::run()` from returning until the stream is closed.
 ///
 /// Implementations derive from `ByteStream` and implement the three `do_*` hooks; the base class provides
 /// the read-ahead buffer, deadlines, blocking calls and handler dispatch.
@@ -29,7 +31,8 @@
 #include <boost/asio/associated_executor.hpp>
 #include <boost/asio/buffer.hpp>
 #include <boost/asio/dispatch.hpp>
-#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/execution/outstanding_work.hpp>
+#include <boost/asio/prefer.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
@@ -56,6 +59,18 @@ using boost::system::error_code;
 
 /// Clock of all transport deadlines.
 using SteadyClock = std::chrono::steady_clock;
+
+/// Wraps `handler` so that calling the result dispatches it to its associated executor (`fallback` when it
+/// has none), which counts as having work until then: what asio requires of an initiating function.
+/// Works with old- and new-style executors (strands of any_io_executor included).
+template <typename Signature, typename Handler, typename Executor>
+UniqueFunction<Signature> bind_to_associated_executor(Handler handler, const Executor& fallback) {
+  auto tracked = asio::prefer(asio::get_associated_executor(handler, fallback),
+                              asio::execution::outstanding_work.tracked);
+  return [handler = std::move(handler), tracked = std::move(tracked)](auto... args) mutable {
+    asio::dispatch(tracked, [handler = std::move(handler), args...]() mutable { handler(std::move(args)...); });
+  };
+}
 
 /// Abstract byte stream with deadlines; see the file overview.
 class ByteStream : public std::enable_shared_from_this<ByteStream> {
@@ -167,17 +182,9 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
     }
     return asio::const_buffer();
   }
-  // Binds a completion handler to its associated executor (default: this stream's executor) and keeps
-  // that executor busy until it runs, as asio's rules for initiating functions require.
   template <typename Handler>
   IoHandler wrap(Handler handler) {
-    auto executor = asio::get_associated_executor(handler, executor_);
-    auto work = asio::make_work_guard(executor);
-    return [handler = std::move(handler), work = std::move(work)](error_code error, std::size_t size) mutable {
-      auto target = work.get_executor();
-      asio::dispatch(target, [handler = std::move(handler), error, size]() mutable { handler(error, size); });
-      work.reset();
-    };
+    return bind_to_associated_executor<void(error_code, std::size_t)>(std::move(handler), executor_);
   }
 
   void start_user_read(std::vector<asio::mutable_buffer> buffers, SteadyClock::time_point deadline, IoHandler handler);

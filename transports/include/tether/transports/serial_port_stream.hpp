@@ -56,17 +56,8 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
                          OpenToken&& token) {
     return asio::async_initiate<OpenToken, OpenSignature>(
         [](auto handler, executor_type target, const std::string& device, const SerialOptions& settings) {
-          auto work = asio::make_work_guard(asio::get_associated_executor(handler, target));
-          start_open(std::move(target), device, settings,
-                     [handler = std::move(handler), work = std::move(work)](
-                         error_code error, std::shared_ptr<SerialPortStream> stream) mutable {
-                       auto handler_executor = work.get_executor();
-                       asio::dispatch(handler_executor,
-                                      [handler = std::move(handler), error, stream = std::move(stream)]() mutable {
-                                        handler(error, std::move(stream));
-                                      });
-                       work.reset();
-                     });
+          auto bound = bind_to_associated_executor<OpenSignature>(std::move(handler), target);
+          start_open(std::move(target), device, settings, std::move(bound));
         },
         token, std::move(executor), path, options);
   }
