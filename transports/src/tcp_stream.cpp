@@ -1,51 +1,68 @@
 #include "tether/transports/tcp_stream.hpp"
 
 #include <boost/asio/connect.hpp>
-#include <boost/asio/io_context.hpp>
+#include <boost/asio/steady_timer.hpp>
 
 namespace tether::transports {
 
 TcpStream::TcpStream(executor_type executor, std::string host, unsigned short port)
     : AsioObjectStream(std::move(executor)), host_(std::move(host)), port_(port) {}
 
-std::shared_ptr<TcpStream> TcpStream::connect(executor_type executor, const std::string& host, unsigned short port,
-                                              std::chrono::milliseconds timeout, error_code& error) {
-  // Resolve and connect on a private io_context so a deadline applies without needing the caller's
-  // executor to run; the connected socket then moves to the stream's strand.
-  asio::io_context private_io;
-  asio::ip::tcp::resolver resolver(private_io);
-  asio::ip::tcp::socket socket(private_io);
-  asio::steady_timer timer(private_io, timeout);
-  bool timed_out = false;
-  error = asio::error::would_block;
-  resolver.async_resolve(host, std::to_string(port), [&](error_code resolve_error, auto endpoints) {
-    if (resolve_error) {
-      error = resolve_error;
-      timer.cancel();
+void TcpStream::start_connect(executor_type executor, const std::string& host, unsigned short port,
+                              std::chrono::milliseconds timeout, UniqueFunction<ConnectSignature> handler) {
+  // Resolver, connect and deadline all run on the new stream's strand; whichever ends first decides.
+  struct Attempt {
+    std::shared_ptr<TcpStream> stream;
+    asio::ip::tcp::resolver resolver;
+    asio::steady_timer deadline;
+    UniqueFunction<ConnectSignature> handler;
+    bool timed_out = false;
+    void finish(error_code error) {
+      deadline.cancel();
+      if (timed_out) error = make_error_code(TransportError::timed_out);
+      if (!error) stream->object_.set_option(asio::ip::tcp::no_delay(true), error);
+      if (!handler) return;
+      auto done = std::move(handler);
+      if (error) {
+        error_code ignored;
+        stream->object_.close(ignored);
+        done(error, nullptr);
+      } else {
+        done(error, stream);
+      }
+    }
+  };
+  auto stream = std::make_shared<TcpStream>(std::move(executor), host, port);
+  auto attempt = std::make_shared<Attempt>(
+      Attempt{stream, asio::ip::tcp::resolver(stream->strand()), asio::steady_timer(stream->strand()), std::move(handler)});
+  attempt->deadline.expires_after(timeout);
+  attempt->deadline.async_wait([attempt](error_code error) {
+    if (error) return;
+    attempt->timed_out = true;
+    attempt->resolver.cancel();
+    error_code ignored;
+    attempt->stream->object_.close(ignored);  // aborts a connect in progress
+  });
+  attempt->resolver.async_resolve(host, std::to_string(port), [attempt](error_code error, auto endpoints) {
+    if (error || attempt->timed_out) {
+      attempt->finish(error ? error : make_error_code(TransportError::timed_out));
       return;
     }
-    asio::async_connect(socket, endpoints, [&](error_code connect_error, const auto&) {
-      error = connect_error;
-      timer.cancel();
-    });
+    asio::async_connect(attempt->stream->object_, endpoints,
+                        [attempt](error_code connect_error, const auto&) { attempt->finish(connect_error); });
   });
-  timer.async_wait([&](error_code timer_error) {
-    if (timer_error) return;
-    timed_out = true;
-    resolver.cancel();
-    error_code ignored;
-    socket.close(ignored);
-  });
-  private_io.run();
-  if (timed_out) error = make_error_code(TransportError::timed_out);
-  if (error) return nullptr;
-  auto stream = std::make_shared<TcpStream>(std::move(executor), host, port);
-  const auto protocol = socket.local_endpoint().protocol();
-  const int fd = socket.release(error);
-  if (!error) stream->object_.assign(protocol, fd, error);
-  if (!error) stream->object_.set_option(asio::ip::tcp::no_delay(true), error);
-  if (error) return nullptr;
-  return stream;
+}
+
+std::shared_ptr<TcpStream> TcpStream::connect(executor_type executor, const std::string& host, unsigned short port,
+                                              std::chrono::milliseconds timeout, error_code& error) {
+  auto result = async_connect(std::move(executor), host, port, timeout, asio::use_future);
+  try {
+    error = error_code();
+    return result.get();
+  } catch (const boost::system::system_error& failure) {
+    error = failure.code();
+    return nullptr;
+  }
 }
 
 std::shared_ptr<TcpStream> TcpStream::connect(executor_type executor, const std::string& host, unsigned short port,
