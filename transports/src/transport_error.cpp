@@ -1,5 +1,8 @@
 #include "tether/transports/transport_error.hpp"
 
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 
 namespace tether::transports {
@@ -22,7 +25,31 @@ class TransportCategory final : public boost::system::error_category {
   }
 };
 
+// A boost category that speaks for a std category.
+class StdCategoryAdapter final : public boost::system::error_category {
+ public:
+  explicit StdCategoryAdapter(const std::error_category& inner) : inner_(&inner) {}
+  const char* name() const noexcept override { return inner_->name(); }
+  std::string message(int value) const override { return inner_->message(value); }
+
+ private:
+  const std::error_category* inner_;
+};
+
 }  // namespace
+
+boost::system::error_code to_boost_error(const std::error_code& error) {
+  if (!error) return {};
+  if (error.category() == std::system_category()) return {error.value(), boost::system::system_category()};
+  if (error.category() == std::generic_category()) return {error.value(), boost::system::generic_category()};
+  // Categories are singletons that live as long as the program: one adapter each, never freed.
+  static std::mutex mutex;
+  static std::map<const std::error_category*, std::unique_ptr<StdCategoryAdapter>> adapters;
+  std::lock_guard lock(mutex);
+  auto& adapter = adapters[&error.category()];
+  if (!adapter) adapter = std::make_unique<StdCategoryAdapter>(error.category());
+  return {error.value(), *adapter};
+}
 
 const boost::system::error_category& transport_category() {
   static const TransportCategory category;

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "tether/testing/child_process.hpp"
+#include "tether/testing/io_thread.hpp"
 #include "ser2net_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/pty_stream.hpp"
@@ -28,22 +29,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// An io_context run by a background thread for the duration of a test.
-class IoThread {
- public:
-  IoThread() : guard_(asio::make_work_guard(io_)), thread_([this] { io_.run(); }) {}
-  ~IoThread() {
-    guard_.reset();
-    io_.stop();
-    thread_.join();
-  }
-  asio::any_io_executor executor() { return io_.get_executor(); }
-
- private:
-  asio::io_context io_;
-  asio::executor_work_guard<asio::io_context::executor_type> guard_;
-  std::thread thread_;
-};
+using IoThread = tether::testing::IoThread;
 
 std::string read_exactly(ByteStream& stream, std::size_t size, std::chrono::milliseconds timeout = 5s) {
   std::string result(size, '\0');

@@ -7,6 +7,7 @@
 
 #include <boost/system/error_code.hpp>
 
+#include <system_error>
 #include <type_traits>
 
 namespace tether::transports {
@@ -27,6 +28,10 @@ const boost::system::error_category& transport_category();
 
 /// Makes an error_code of the transport category.
 boost::system::error_code make_error_code(TransportError error);
+
+/// The same error as a boost error_code (Boost 1.74 converts only the other way): std's system and
+/// generic categories map to boost's; any other category keeps its name and messages through an adapter.
+boost::system::error_code to_boost_error(const std::error_code& error);
 
 }  // namespace tether::transports
 

@@ -1,0 +1,35 @@
+/// @file io_thread.hpp
+/// An asio io_context run by one background thread for the lifetime of the object (tests and tools that
+/// use blocking calls on streams need some other thread to run the executor).
+#pragma once
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+
+#include <thread>
+
+namespace tether::testing {
+
+/// io_context + work guard + thread; stops and joins on destruction.
+class IoThread {
+ public:
+  IoThread() : guard_(boost::asio::make_work_guard(io_)), thread_([this] { io_.run(); }) {}
+  ~IoThread() {
+    guard_.reset();
+    io_.stop();
+    thread_.join();
+  }
+  IoThread(const IoThread&) = delete;
+  IoThread& operator=(const IoThread&) = delete;
+
+  /// Executor for streams and timers.
+  boost::asio::any_io_executor executor() { return io_.get_executor(); }
+
+ private:
+  boost::asio::io_context io_;
+  boost::asio::executor_work_guard<boost::asio::io_context::executor_type> guard_;
+  std::thread thread_;
+};
+
+}  // namespace tether::testing

@@ -1,0 +1,61 @@
+/// @file virtual_uno_stream.hpp
+/// A virtual Uno's UART0 as a ByteStream, so every codec client drives simulated firmware exactly as it
+/// drives a real port.
+///
+/// The stream takes the board's output handler: bytes the simulated MCU transmits arrive on the simulation
+/// thread and wait in a bounded inbox (64 KiB; when nobody reads for that long, the oldest bytes go and
+/// `discarded()` counts them) until a read takes them. Writes are queued to the board at once, as a tty
+/// driver accepts bytes before they are on the wire; the board feeds them to the UART at the line rate.
+/// Faults and resets are configured on the board (`board()`); the stream itself adds none.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "tether/transports/byte_stream.hpp"
+#include "tether/transports/virtual_uno.hpp"
+
+namespace tether::transports {
+
+/// ByteStream over a VirtualUno's UART0.
+class VirtualUnoStream final : public ByteStream {
+ public:
+  struct Inbox;
+
+  /// Creates a board from `options`, starts it on its own thread and returns a stream that owns it (the
+  /// board stops when the stream closes). Errors: those of `VirtualUno::create`.
+  static std::shared_ptr<VirtualUnoStream> open(executor_type executor, VirtualUnoOptions options,
+                                                error_code& error);
+  /// Throwing variant of `open` (std::system_error).
+  static std::shared_ptr<VirtualUnoStream> open(executor_type executor, VirtualUnoOptions options);
+  /// Stream over a board the caller owns and keeps alive while the stream exists (e.g. a member of a
+  /// lockstep group). Starting and stopping the board stays the caller's business.
+  static std::shared_ptr<VirtualUnoStream> attach(executor_type executor, VirtualUno& board);
+
+  /// The simulated board (faults, resets, pins, time).
+  VirtualUno& board() { return *board_; }
+  /// Received bytes dropped because nobody read them (inbox overflow).
+  std::uint64_t discarded() const;
+
+  std::string description() const override;
+
+  /// Constructed by `open`/`attach` (public for std::make_shared).
+  VirtualUnoStream(executor_type executor, std::shared_ptr<VirtualUno> board, bool owns_board);
+  ~VirtualUnoStream() override;
+
+ protected:
+  void do_read(asio::mutable_buffer buffer, IoHandler handler) override;
+  void do_write(asio::const_buffer buffer, IoHandler handler) override;
+  void do_close(error_code& error) override;
+
+ private:
+  std::shared_ptr<VirtualUno> board_;
+  bool owns_board_;
+  std::shared_ptr<Inbox> inbox_;
+};
+
+}  // namespace tether::transports
