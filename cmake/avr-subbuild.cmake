@@ -19,7 +19,6 @@ if(NOT TETHER_NANOPB_SOURCE_DIR)
 endif()
 
 include(ExternalProject)
-set(TETHER_FIRMWARE_DIR ${CMAKE_BINARY_DIR}/firmware CACHE INTERNAL "Where the AVR images land")
 ExternalProject_Add(avr-firmware
   SOURCE_DIR ${CMAKE_SOURCE_DIR}/firmware
   BINARY_DIR ${CMAKE_BINARY_DIR}/avr-build

@@ -1,0 +1,16 @@
+// The subcommand table: one row per subcommand (name, entry point, one-line help).
+#include "commands.hpp"
+
+namespace tether::cli {
+
+namespace {
+
+constexpr Command kCommands[] = {
+    {"sim", run_sim, "run a firmware image on a virtual Arduino Uno, its UART on a pseudo-terminal"},
+};
+
+}  // namespace
+
+std::span<const Command> commands() { return kCommands; }
+
+}  // namespace tether::cli

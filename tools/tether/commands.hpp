@@ -1,0 +1,23 @@
+// The subcommands of the `tether` program: one file each, listed in commands.cpp.
+#pragma once
+
+#include <span>
+#include <string_view>
+
+namespace tether::cli {
+
+/// A subcommand. `run` gets argv with argv[0] = the subcommand name and returns the exit status:
+/// 0 success, 1 the operation failed (e.g. a call timed out), 2 usage or setup error (message on stderr).
+struct Command {
+  std::string_view name;
+  int (*run)(int argc, char** argv);
+  std::string_view summary;  ///< one line for `tether --help`
+};
+
+/// Every subcommand, in the order `tether --help` lists them.
+std::span<const Command> commands();
+
+// --- one declaration per subcommand (defined in <name>.cpp) ---
+int run_sim(int argc, char** argv);
+
+}  // namespace tether::cli

@@ -1,0 +1,197 @@
+// `tether sim IMAGE.elf [--fast] [--link PATH] [--baud N]`: runs the image on a virtual Arduino Uno and
+// bridges its UART0 to a pseudo-terminal that picocom, screen, pyserial or a tether client can open.
+//
+// Output contract (scripts rely on it): once the port is ready, exactly one line `PTY <slave path>` on
+// stdout, flushed; nothing else ever goes to stdout. Runs until SIGINT or SIGTERM, then stops the
+// simulation, closes the pty, removes the --link symlink it made, and exits 0. Errors: a message on
+// stderr and exit status 2.
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <system_error>
+
+#include "commands.hpp"
+#include "tether/transports/virtual_uno.hpp"
+
+namespace tether::cli {
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N]\n"
+    "\n"
+    "Runs IMAGE.elf on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
+    "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
+    "\n"
+    "  --fast       run as fast as possible instead of in real time\n"
+    "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
+    "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
+    "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n";
+
+int usage_error(const std::string& message) {
+  std::fprintf(stderr, "tether sim: %s\n\n%s", message.c_str(), kUsage);
+  return 2;
+}
+
+int fail(const std::string& message) {
+  std::fprintf(stderr, "tether sim: %s\n", message.c_str());
+  return 2;
+}
+
+struct Arguments {
+  std::filesystem::path image;
+  bool fast = false;
+  std::optional<std::filesystem::path> link;
+  std::uint32_t baud = 115200;
+};
+
+// Returns an exit status if parsing ends the program (help or error).
+std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
+  bool have_image = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view argument = argv[i];
+    if (argument == "--help" || argument == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (argument == "--fast") {
+      arguments.fast = true;
+    } else if (argument == "--link" || argument == "--baud") {
+      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      const std::string_view value = argv[++i];
+      if (argument == "--link") {
+        if (value.empty()) return usage_error("--link needs a path");
+        arguments.link = std::filesystem::path(value);
+      } else {
+        std::uint32_t baud = 0;
+        const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), baud);
+        if (error != std::errc() || end != value.data() + value.size() || baud == 0) {
+          return usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
+        }
+        arguments.baud = baud;
+      }
+    } else if (argument.starts_with("-")) {
+      return usage_error("unknown option " + std::string(argument));
+    } else if (have_image) {
+      return usage_error("more than one image given");
+    } else {
+      arguments.image = std::filesystem::path(argument);
+      have_image = true;
+    }
+  }
+  if (!have_image) return usage_error("no image given");
+  return std::nullopt;
+}
+
+// Makes `link` point to `target`. An existing symlink is taken to be stale and replaced; anything else
+// at that path is left alone and reported.
+std::error_code make_link(const std::filesystem::path& link, const std::string& target, std::string& message) {
+  std::error_code error;
+  const auto status = std::filesystem::symlink_status(link, error);
+  if (!error && std::filesystem::exists(status)) {
+    if (!std::filesystem::is_symlink(status)) {
+      message = link.string() + " exists and is not a symlink";
+      return std::make_error_code(std::errc::file_exists);
+    }
+    std::filesystem::remove(link, error);
+    if (error) {
+      message = "cannot replace " + link.string() + ": " + error.message();
+      return error;
+    }
+  }
+  error.clear();
+  std::filesystem::create_symlink(target, link, error);
+  if (error) message = "cannot create the symlink " + link.string() + ": " + error.message();
+  return error;
+}
+
+// Removes `link` if it still points to `target` (someone may have replaced it meanwhile).
+void remove_link(const std::filesystem::path& link, const std::string& target) {
+  std::error_code error;
+  if (std::filesystem::is_symlink(std::filesystem::symlink_status(link, error)) &&
+      std::filesystem::read_symlink(link, error) == target) {
+    std::filesystem::remove(link, error);
+  }
+}
+
+}  // namespace
+
+int run_sim(int argc, char** argv) {
+  Arguments arguments;
+  if (const auto status = parse(argc, argv, arguments)) return *status;
+
+  // Block the stop signals in every thread (the simulation thread inherits the mask); sigtimedwait
+  // below takes them synchronously.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  if (const int error = pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr); error != 0) {
+    return fail(std::string("cannot block signals: ") + std::strerror(error));
+  }
+
+  transports::VirtualUnoOptions options;
+  options.firmware = arguments.image;
+  options.pacing = arguments.fast ? transports::Pacing::fast : transports::Pacing::real_time;
+  options.pty_baud = arguments.baud;
+  std::error_code error;
+  std::string message;
+  auto uno = transports::VirtualUno::create(options, error, &message);
+  if (!uno) return fail(message.empty() ? error.message() : message);
+
+  // Open the pty before starting, so the boot output waits in it for the first client.
+  const std::string path = uno->open_pty(error);
+  if (error) return fail("cannot open a pseudo-terminal: " + error.message());
+  if (arguments.link) {
+    if (make_link(*arguments.link, path, message)) return fail(message);
+  }
+  try {
+    uno->start();
+  } catch (const std::exception& failure) {
+    if (arguments.link) remove_link(*arguments.link, path);
+    return fail(failure.what());
+  }
+
+  std::printf("PTY %s\n", path.c_str());
+  std::fflush(stdout);
+
+  bool baud_checked = false;
+  const timespec poll_interval{0, 200'000'000};
+  for (;;) {
+    const int signal = sigtimedwait(&stop_signals, nullptr, &poll_interval);
+    if (signal == SIGINT || signal == SIGTERM) break;
+    if (signal < 0 && errno != EAGAIN && errno != EINTR) {
+      std::fprintf(stderr, "tether sim: sigtimedwait: %s\n", std::strerror(errno));
+      break;
+    }
+    if (!baud_checked) {
+      // Once the firmware has sent something, its baud rate is the one it meant (simavr powers up with
+      // TXEN0 set and UBRR0 = 0, so the registers alone say nothing before that).
+      const auto uart = uno->uart();
+      if (uart.tx_enabled && uno->stats().tx_bytes > 0) {
+        baud_checked = true;
+        const double off = (static_cast<double>(uart.baud) - arguments.baud) / arguments.baud;
+        if (off > 0.05 || off < -0.05) {
+          std::fprintf(stderr,
+                       "tether sim: warning: the firmware's UART runs at %u bit/s, %.1f%% off the host's %u: "
+                       "a real board would garble the bytes\n",
+                       uart.baud, off * 100.0, arguments.baud);
+        }
+      }
+    }
+  }
+
+  uno->stop();
+  if (arguments.link) remove_link(*arguments.link, path);
+  return 0;
+}
+
+}  // namespace tether::cli
