@@ -1,5 +1,5 @@
-// How fast the virtual Uno simulates in fast mode: the "x_real_time" counter is simulated seconds per wall
-// second. Run: build/transports/virtual-uno/benchmarks/tether_virtual_uno_benchmarks
+// How fast the virtual Uno simulates in fast mode: the "sim_seconds" counter is simulated seconds per wall
+// second. Run: build/benchmarks/tether_virtual_uno_benchmarks (sim_Mcycles: simulated megacycles per wall second)
 #include <benchmark/benchmark.h>
 
 #include <chrono>
