@@ -14,7 +14,14 @@ ByteStream::ByteStream(executor_type executor, std::size_t read_ahead)
       read_ahead_(read_ahead == 0 ? 1 : read_ahead),
       deadline_timer_(strand_) {}
 
-ByteStream::~ByteStream() = default;
+ByteStream::~ByteStream() {
+  // Like an asio object: a read still pending completes with operation_aborted, never silently.
+  if (pending_read_) {
+    asio::post(executor_, [handler = std::move(pending_read_->handler)]() mutable {
+      handler(asio::error::operation_aborted, 0);
+    });
+  }
+}
 
 void ByteStream::preload(const std::uint8_t* data, std::size_t size) {
   const std::size_t kept = std::min(size, read_ahead_.size() - ahead_end_);
@@ -53,9 +60,10 @@ void ByteStream::start_user_read(std::vector<asio::mutable_buffer> buffers, Stea
     const std::uint64_t generation = ++read_generation_;
     if (deadline != SteadyClock::time_point::max()) {
       deadline_timer_.expires_at(deadline);
-      deadline_timer_.async_wait([this, self = shared_from_this(), generation](error_code error) {
+      deadline_timer_.async_wait([this, weak = weak_from_this(), generation](error_code error) {
+        const auto alive = weak.lock();
         // Stale when the read completed first, even if a newer read is pending by now.
-        if (error || !pending_read_ || generation != read_generation_) return;
+        if (!alive || error || !pending_read_ || generation != read_generation_) return;
         // The device read stays in flight; whatever it brings is kept in the read-ahead buffer.
         complete_pending_read(make_error_code(TransportError::timed_out));
       });
@@ -69,8 +77,11 @@ void ByteStream::fill_read_ahead() {
   if (ahead_begin_ == ahead_end_) ahead_begin_ = ahead_end_ = 0;
   if (ahead_end_ == read_ahead_.size()) return;  // full: bounded, the reader must consume first
   device_read_in_flight_ = true;
+  // Weak: the read-ahead must not keep a stream alive that nobody reads any more (no user read pending).
   do_read(asio::buffer(read_ahead_.data() + ahead_end_, read_ahead_.size() - ahead_end_),
-          [this, self = shared_from_this()](error_code error, std::size_t size) { on_device_read(error, size); });
+          [weak = weak_from_this()](error_code error, std::size_t size) {
+            if (const auto self = weak.lock()) self->on_device_read(error, size);
+          });
 }
 
 void ByteStream::on_device_read(error_code error, std::size_t size) {

@@ -50,10 +50,13 @@ void FaultInjectingStream::do_read(asio::mutable_buffer buffer, IoHandler handle
     deliver(buffer, std::move(handler));
     return;
   }
+  // Weak, like the base class's read-ahead: a pending inner read must not keep the wrapper alive.
   inner_->async_read_some(
       asio::buffer(scratch_),
-      asio::bind_executor(strand(), [this, self = shared_from_this(), buffer, handler = std::move(handler)](
+      asio::bind_executor(strand(), [this, weak = weak_from_this(), buffer, handler = std::move(handler)](
                                         error_code error, std::size_t size) mutable {
+        const auto self = weak.lock();
+        if (!self) return;
         if (error) {
           handler(error, 0);
           return;

@@ -67,7 +67,12 @@ InMemoryStream::InMemoryStream(executor_type executor, std::shared_ptr<Channel> 
       name_(std::move(name)) {}
 
 InMemoryStream::~InMemoryStream() {
-  // An end that goes away closes its side of both channels, like a process exiting closes its fds.
+  // An end that goes away closes its side of both channels, like a process exiting closes its fds. Its
+  // own parked read points into its buffer: withdraw it.
+  {
+    std::lock_guard lock(incoming_->mutex);
+    incoming_->reader.reset();
+  }
   {
     std::lock_guard lock(outgoing_->mutex);
     outgoing_->writer_closed = true;

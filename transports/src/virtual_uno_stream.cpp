@@ -94,6 +94,11 @@ VirtualUnoStream::VirtualUnoStream(executor_type executor, std::shared_ptr<Virtu
 
 VirtualUnoStream::~VirtualUnoStream() {
   board_->set_output_handler({});  // once it returns, the handler never runs again
+  {
+    std::lock_guard lock(inbox_->mutex);
+    inbox_->closed = true;
+    inbox_->reader = IoHandler();  // its target is this stream's buffer
+  }
   if (owns_board_) board_->stop();
 }
 

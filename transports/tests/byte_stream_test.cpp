@@ -240,3 +240,46 @@ TEST(TransportError, HasMessages) {
 
 }  // namespace
 }  // namespace tether::transports
+
+namespace tether::transports {
+namespace {
+
+TEST(ByteStream, DroppedStreamWithAReadAheadPendingIsFreed) {
+  // Regression: the internal device read held the stream, and an in-memory channel held that read, so a
+  // stream dropped after a timed-out read was never freed (LeakSanitizer found it).
+  asio::io_context io;
+  std::weak_ptr<InMemoryStream> weak_a;
+  std::weak_ptr<InMemoryStream> weak_b;
+  {
+    auto [a, b] = InMemoryStream::make_pair(io.get_executor());
+    weak_a = a;
+    weak_b = b;
+    std::vector<uint8_t> buffer(4);
+    b->async_read_some(asio::buffer(buffer), SteadyClock::now() + 5ms, [](error_code, std::size_t) {});
+    io.run_for(50ms);  // the read timed out; the device read stays parked in the channel
+  }
+  io.poll();
+  EXPECT_TRUE(weak_a.expired());
+  EXPECT_TRUE(weak_b.expired());
+}
+
+TEST(ByteStream, DestroyingAStreamCompletesItsPendingReadWithOperationAborted) {
+  asio::io_context io;
+  error_code error;
+  bool called = false;
+  std::vector<uint8_t> buffer(4);
+  {
+    auto [a, b] = InMemoryStream::make_pair(io.get_executor());
+    b->async_read_some(asio::buffer(buffer), [&](error_code e, std::size_t) {
+      called = true;
+      error = e;
+    });
+    io.poll();  // the read is pending now
+  }
+  io.run_for(1s);
+  EXPECT_TRUE(called);
+  EXPECT_EQ(error, asio::error::operation_aborted);
+}
+
+}  // namespace
+}  // namespace tether::transports

@@ -17,10 +17,10 @@
 /// public functions may be called from any thread. As with asio streams, start at most one read and one
 /// write at a time (a second concurrent read fails with `TransportError::read_in_progress`).
 ///
-/// Lifetime: streams are created by factories as `std::shared_ptr`; operations in flight keep the stream
-/// alive until they complete. `close()` ends them; dropping the last reference does not. After a read
-/// ends at its deadline the stream keeps one device read in flight (that is how late bytes are kept);
-/// like any pending asio operation it keeps `io_context::run()` from returning until the stream is closed.
+/// Lifetime: streams are created by factories as `std::shared_ptr`. Dropping the last reference destroys
+/// the stream; a read still pending then completes with `operation_aborted`. After a read ends at its
+/// deadline the stream keeps one device read in flight (that is how late bytes are kept); like any pending
+/// asio operation it keeps `io_context::run()` from returning until the stream is closed or destroyed.
 ///
 /// Implementations derive from `ByteStream` and implement the three `do_*` hooks; the base class provides
 /// the read-ahead buffer, deadlines, blocking calls and handler dispatch.
@@ -154,6 +154,8 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
   ///   1. `handler` is called exactly once, on `strand()`, never from inside this call.
   ///   2. It reports at least one byte, or an error (EOF/vanished device as that error).
   ///   3. At most one read is started at a time.
+  ///   4. `buffer` belongs to this stream: an implementation that parks the read somewhere outlasting the
+  ///      stream (a shared channel) must withdraw it in its destructor.
   virtual void do_read(asio::mutable_buffer buffer, IoHandler handler) = 0;
   /// Hook: start one write of up to `buffer.size()` bytes; same contract as `do_read`.
   virtual void do_write(asio::const_buffer buffer, IoHandler handler) = 0;
