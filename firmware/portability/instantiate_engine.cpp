@@ -6,6 +6,8 @@
 #include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/core/session/session_monitor.hpp"
+#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/limits.hpp"
 
 namespace tether {
 namespace portability {
@@ -32,5 +34,6 @@ template class session::RequestTable<portability::WordIdPolicy, 4>;
 template class session::SessionMonitor<uint32_t, 8>;
 template class session::DuplicateFilter<uint8_t, 1, 64>;
 template class session::DuplicateFilter<uint32_t, 8, 0>;
+template class romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity>;
 
 }  // namespace tether

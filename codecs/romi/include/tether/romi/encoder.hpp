@@ -1,0 +1,74 @@
+/// @file encoder.hpp
+/// Romi frame writers: requests (host), responses and log lines (device), and a validating request
+/// builder. All write into a caller's buffer and return the frame length or `Status::buffer_too_small`.
+///
+/// Frames, byte for byte as RomiSerial writes them:
+///   request   `#` payload `:` id crc `\r\n`     payload = opcode [ `[` args `]` ], e.g. `#a[1,2,3]:00dd\r\n`
+///   manual    `#` payload `:xxxx\r\n`            no id, CRC not checked (typed in a terminal)
+///   response  `#` opcode `[` code (`,` value)* `]` `:` id crc `\r\n`   e.g. `#e[0,1,2]:00dc\r\n`
+///   log       `#!` text `:xxxx\r\n`
+/// id and crc are two lowercase hex digits each; crc is CRC-8/SMBUS over every byte from `#` through the id.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/status.hpp"
+#include "tether/romi/errors.hpp"
+#include "tether/romi/limits.hpp"
+
+namespace tether {
+namespace romi {
+
+/// Writes a request frame for `payload` with `id`. `payload` is not checked (see RequestBuilder).
+Result<size_t> encode_request(ByteView payload, uint8_t id, MutableByteView out);
+/// Writes a manual request frame (`:xxxx`) for `payload`.
+Result<size_t> encode_manual_request(ByteView payload, MutableByteView out);
+/// Writes a response frame: `opcode`, then `body` (the bracketed array text, e.g. `[0,1,2]`), then the
+/// metadata. Every ':' in `body` is written as '-' (the reference does the same: ':' ends the payload).
+Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out);
+/// Writes a log frame `#!text:xxxx\r\n`. CR and LF in `text` become spaces ('#' is kept: hosts find the
+/// metadata at the end of the line, and Tether hosts resynchronise on it anyway).
+Result<size_t> encode_log(ByteView text, MutableByteView out);
+
+/// True for an opcode character: [a-zA-Z0-9?].
+bool is_opcode(uint8_t c);
+/// True for a character the reference firmware accepts in a string argument, ':' excluded (':' would
+/// end the payload on the wire): [A-Za-z0-9] and `` -_ !?%()[]{}&=+*/.,;' ``.
+bool is_string_char(uint8_t c);
+
+/// Builds and validates a request payload (`L[1]`, `M[16,"Shutdown"]`) so that bad input is rejected
+/// before it reaches the wire. The first error sticks; later calls are ignored.
+class RequestBuilder {
+ public:
+  /// Starts a payload with `opcode` (-14 invalid opcode when not [a-zA-Z0-9?]).
+  explicit RequestBuilder(char opcode);
+  /// Appends an integer argument (-9 after 12, -10 outside int16).
+  RequestBuilder& add_int(int32_t value);
+  /// Appends the string argument (-13 for a second one, -11 over 32 characters, -32 for a reserved
+  /// character, -12 for any other character outside the allowed set).
+  RequestBuilder& add_string(ByteView text);
+  /// `ErrorCode::no_error`, or the first error.
+  ErrorCode error() const { return error_; }
+  /// The payload (meaningful when `error()` is no_error), e.g. `M[16,"Shutdown"]`; -22 when it would
+  /// exceed kMaxHostPayload is reported by `error()`.
+  ByteView payload() const { return ByteView(buffer_, size_); }
+
+ private:
+  void append(uint8_t c);
+  void open_argument();
+
+  uint8_t buffer_[kMaxHostPayload + 1];
+  size_t size_ = 0;
+  uint8_t arguments_ = 0;
+  bool has_string_ = false;
+  ErrorCode error_ = ErrorCode::no_error;
+};
+
+/// Checks a complete payload typed by a user (`L[1]`): the same rules as RequestBuilder, as the device's
+/// parser would apply them, plus the host's length limit. Returns the first error or no_error.
+ErrorCode validate_request_payload(ByteView payload);
+
+}  // namespace romi
+}  // namespace tether

@@ -1,0 +1,31 @@
+/// @file request_parser.hpp
+/// Parses a request payload (`L[1]`, `M[16,"Shutdown"]`) into an opcode, up to 12 int16 arguments and at
+/// most one string, with the reference's message-parser error codes (-8..-14). Used by Tether firmware
+/// after the envelope decoder delivered a frame; portable, no allocation.
+#pragma once
+
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/romi/errors.hpp"
+#include "tether/romi/limits.hpp"
+
+namespace tether {
+namespace romi {
+
+/// A parsed request.
+struct Request {
+  char opcode = 0;                        ///< [a-zA-Z0-9?].
+  uint8_t argument_count = 0;             ///< Integer arguments in `arguments`.
+  int16_t arguments[kMaxArguments] = {};  ///< The integers, in order (a string does not count).
+  bool has_string = false;                ///< A string argument was given.
+  char string[kMaxStringLength + 1] = {}; ///< The string, NUL-terminated (handlers get a C string).
+};
+
+/// Parses `payload` into `request`. Returns no_error, or -14 (bad opcode), -8 (unexpected character),
+/// -9 (more than 12 integers), -10 (outside int16), -11 (string over 32), -12 (bad string character or
+/// unterminated string), -13 (second string).
+ErrorCode parse_request(ByteView payload, Request& request);
+
+}  // namespace romi
+}  // namespace tether

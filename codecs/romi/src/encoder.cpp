@@ -1,0 +1,193 @@
+#include "tether/romi/encoder.hpp"
+
+#include "tether/core/crc.hpp"
+#include "tether/romi/request_parser.hpp"
+
+namespace tether {
+namespace romi {
+namespace {
+
+const char kHex[] = "0123456789abcdef";
+
+// Sequential writer into a caller's buffer; remembers overflow instead of failing at each step.
+class FrameWriter {
+ public:
+  explicit FrameWriter(MutableByteView out) : out_(out) {}
+  void put(uint8_t c) {
+    if (size_ < out_.size()) out_[size_] = c;
+    ++size_;
+  }
+  void put(ByteView bytes) {
+    for (uint8_t c : bytes) put(c);
+  }
+  void put_hex(uint8_t value) {
+    put(static_cast<uint8_t>(kHex[value >> 4]));
+    put(static_cast<uint8_t>(kHex[value & 0xF]));
+  }
+  // ':' id crc "\r\n", the CRC covering everything written so far plus ':' and the id.
+  void put_metadata(uint8_t id) {
+    put(':');
+    put_hex(id);
+    const uint8_t crc = size_ <= out_.size() ? Crc8Smbus::compute(ByteView(out_.data(), size_)) : 0;
+    put_hex(crc);
+    put('\r');
+    put('\n');
+  }
+  void put_manual_metadata() { put(ByteView::from_literal(":xxxx\r\n")); }
+  Result<size_t> result() const {
+    if (size_ > out_.size()) return Status::buffer_too_small;
+    return size_;
+  }
+
+ private:
+  MutableByteView out_;
+  size_t size_ = 0;
+};
+
+bool is_reserved(uint8_t c) { return c == '#' || c == ':' || c == '"' || c == '\r' || c == '\n'; }
+
+}  // namespace
+
+bool is_opcode(uint8_t c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '?';
+}
+
+bool is_string_char(uint8_t c) {
+  if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')) return true;
+  switch (c) {
+    case '-': case '_': case ' ': case '!': case '?': case '%': case '(': case ')': case '[': case ']':
+    case '{': case '}': case '&': case '=': case '+': case '*': case '/': case '.': case ',': case ';':
+    case '\'':
+      return true;
+    default:
+      return false;
+  }
+}
+
+Result<size_t> encode_request(ByteView payload, uint8_t id, MutableByteView out) {
+  FrameWriter writer(out);
+  writer.put('#');
+  writer.put(payload);
+  writer.put_metadata(id);
+  return writer.result();
+}
+
+Result<size_t> encode_manual_request(ByteView payload, MutableByteView out) {
+  FrameWriter writer(out);
+  writer.put('#');
+  writer.put(payload);
+  writer.put_manual_metadata();
+  return writer.result();
+}
+
+Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out) {
+  FrameWriter writer(out);
+  writer.put('#');
+  writer.put(static_cast<uint8_t>(opcode));
+  for (uint8_t c : body) writer.put(c == ':' ? static_cast<uint8_t>('-') : c);
+  writer.put_metadata(id);
+  return writer.result();
+}
+
+Result<size_t> encode_log(ByteView text, MutableByteView out) {
+  FrameWriter writer(out);
+  writer.put('#');
+  writer.put('!');
+  for (uint8_t c : text) writer.put(c == '\r' || c == '\n' ? static_cast<uint8_t>(' ') : c);
+  writer.put_manual_metadata();
+  return writer.result();
+}
+
+RequestBuilder::RequestBuilder(char opcode) {
+  if (!is_opcode(static_cast<uint8_t>(opcode))) {
+    error_ = ErrorCode::invalid_opcode;
+    return;
+  }
+  append(static_cast<uint8_t>(opcode));
+}
+
+void RequestBuilder::append(uint8_t c) {
+  if (size_ >= kMaxHostPayload) {
+    if (error_ == ErrorCode::no_error) error_ = ErrorCode::client_request_too_long;
+    return;
+  }
+  buffer_[size_++] = c;
+}
+
+void RequestBuilder::open_argument() {
+  if (arguments_ == 0 && !has_string_) {
+    append('[');
+  } else {
+    --size_;  // the closing ']' becomes a separator
+    append(',');
+  }
+}
+
+RequestBuilder& RequestBuilder::add_int(int32_t value) {
+  if (error_ != ErrorCode::no_error) return *this;
+  if (arguments_ == kMaxArguments) {
+    error_ = ErrorCode::too_many_arguments;
+    return *this;
+  }
+  if (value < -32768 || value > 32767) {
+    error_ = ErrorCode::value_out_of_range;
+    return *this;
+  }
+  open_argument();
+  char digits[6];
+  uint8_t count = 0;
+  uint32_t magnitude = value < 0 ? static_cast<uint32_t>(-value) : static_cast<uint32_t>(value);
+  do {
+    digits[count++] = static_cast<char>('0' + magnitude % 10);
+    magnitude /= 10;
+  } while (magnitude != 0);
+  if (value < 0) append('-');
+  while (count > 0) append(static_cast<uint8_t>(digits[--count]));
+  append(']');
+  ++arguments_;
+  return *this;
+}
+
+RequestBuilder& RequestBuilder::add_string(ByteView text) {
+  if (error_ != ErrorCode::no_error) return *this;
+  if (has_string_) {
+    error_ = ErrorCode::too_many_strings;
+    return *this;
+  }
+  if (text.size() > kMaxStringLength) {
+    error_ = ErrorCode::string_too_long;
+    return *this;
+  }
+  for (uint8_t c : text) {
+    if (is_reserved(c)) {
+      error_ = ErrorCode::reserved_character;
+      return *this;
+    }
+    if (!is_string_char(c)) {
+      error_ = ErrorCode::invalid_string;
+      return *this;
+    }
+  }
+  open_argument();
+  append('"');
+  for (uint8_t c : text) append(c);
+  append('"');
+  append(']');
+  has_string_ = true;
+  return *this;
+}
+
+ErrorCode validate_request_payload(ByteView payload) {
+  if (payload.empty()) return ErrorCode::client_empty_request;
+  for (uint8_t c : payload) {
+    if (c == '#' || c == ':' || c == '\r' || c == '\n') return ErrorCode::reserved_character;
+  }
+  Request request;
+  const ErrorCode parsed = parse_request(payload, request);
+  if (parsed != ErrorCode::no_error) return parsed;
+  if (payload.size() > kMaxHostPayload) return ErrorCode::client_request_too_long;
+  return ErrorCode::no_error;
+}
+
+}  // namespace romi
+}  // namespace tether

@@ -1,0 +1,216 @@
+// The incremental envelope decoder: published vectors, every envelope error code, resynchronisation,
+// chunking independence and the host's long-line capacity (reference defect B2).
+#include "tether/romi/envelope_decoder.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include "tether/romi/encoder.hpp"
+#include "tether/testing/random_seed.hpp"
+
+namespace tether::romi {
+namespace {
+
+struct Decoded {
+  EnvelopeEvent::Kind kind;
+  ErrorCode error;
+  std::string payload;
+  bool manual;
+  bool has_id;
+  int id;
+  char opcode;
+};
+
+template <size_t Capacity = kDeviceDecoderCapacity>
+std::vector<Decoded> decode(const std::string& bytes, LinkCounters* counters_out = nullptr) {
+  LinkCounters counters;
+  EnvelopeDecoder<Capacity> decoder(counters);
+  std::vector<Decoded> events;
+  for (char c : bytes) {
+    const EnvelopeEvent e = decoder.feed(static_cast<uint8_t>(c));
+    if (e.kind == EnvelopeEvent::Kind::none) continue;
+    events.push_back({e.kind, e.error, std::string(reinterpret_cast<const char*>(e.payload.data()), e.payload.size()),
+                      e.manual, e.has_id, e.id, e.opcode});
+  }
+  if (counters_out) *counters_out = counters;
+  return events;
+}
+
+ErrorCode single_error(const std::string& bytes) {
+  const auto events = decode(bytes);
+  EXPECT_EQ(events.size(), 1u) << bytes;
+  if (events.size() != 1 || events[0].kind != EnvelopeEvent::Kind::error) return ErrorCode::no_error;
+  return events[0].error;
+}
+
+TEST(RomiEnvelope, ValidRequestWithIdAndCrc) {
+  const auto events = decode("#M[16,\"Shutdown\"]:7bba\r\n");
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
+  EXPECT_EQ(events[0].payload, "M[16,\"Shutdown\"]");
+  EXPECT_TRUE(events[0].has_id);
+  EXPECT_EQ(events[0].id, 0x7b);
+  EXPECT_EQ(events[0].opcode, 'M');
+  EXPECT_FALSE(events[0].manual);
+}
+
+TEST(RomiEnvelope, ManualRequest) {
+  const auto events = decode("#a[1]:xxxx\r\n");
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_TRUE(events[0].manual);
+  EXPECT_FALSE(events[0].has_id);
+  EXPECT_EQ(events[0].payload, "a[1]");
+}
+
+TEST(RomiEnvelope, PublishedErrorVectors) {
+  EXPECT_EQ(single_error("#e:7b00\r\n"), ErrorCode::crc_mismatch);
+  EXPECT_EQ(single_error("#e:\r\n"), ErrorCode::invalid_id);
+  EXPECT_EQ(single_error("#e\r\n"), ErrorCode::missing_metadata);
+}
+
+TEST(RomiEnvelope, EveryEnvelopeErrorCode) {
+  EXPECT_EQ(single_error("#a" + std::string(80, '1') + ":xxxx\r\n"), ErrorCode::envelope_too_long);
+  EXPECT_EQ(single_error("#a:7B04\r\n"), ErrorCode::invalid_id);  // uppercase hex is rejected
+  EXPECT_EQ(single_error("#a:7\r\n"), ErrorCode::invalid_id);
+  EXPECT_EQ(single_error("#a:7bZ4\r\n"), ErrorCode::invalid_crc);
+  EXPECT_EQ(single_error("#a:7b0\r\n"), ErrorCode::invalid_crc);
+  EXPECT_EQ(single_error("#a:008f\r\n"), ErrorCode::crc_mismatch);
+  EXPECT_EQ(single_error("#a:008e\rX"), ErrorCode::expected_end);
+  EXPECT_EQ(single_error("#a:008e1\r\n"), ErrorCode::expected_end);
+  EXPECT_EQ(single_error("#a:008e\n"), ErrorCode::expected_end);
+  EXPECT_EQ(single_error("#a[1]\r\n"), ErrorCode::missing_metadata);
+  EXPECT_EQ(single_error("#a\n"), ErrorCode::missing_metadata);
+  EXPECT_EQ(single_error("#a:xxyx\r\n"), ErrorCode::invalid_dummy_metadata);
+  EXPECT_EQ(single_error("#a:x\r\n"), ErrorCode::invalid_dummy_metadata);
+}
+
+TEST(RomiEnvelope, ErrorEventsCarryTheFramesOpcodeAndIdParsedSoFar) {
+  auto events = decode("#s[1,2]:2a00\r\n");  // CRC wrong, id valid
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].error, ErrorCode::crc_mismatch);
+  EXPECT_EQ(events[0].opcode, 's');
+  EXPECT_TRUE(events[0].has_id);
+  EXPECT_EQ(events[0].id, 0x2a);
+  events = decode("#s[1]:zz00\r\n");
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].opcode, 's');
+  EXPECT_FALSE(events[0].has_id);
+  events = decode("#\r\n");
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].opcode, '_');
+}
+
+TEST(RomiEnvelope, OversizeIsReportedExactlyOnce) {
+  // Reference defect B1: the reference firmware answered an overlong frame twice.
+  LinkCounters counters;
+  const auto events = decode("#a[" + std::string(200, '1') + "]:xxxx\r\n", &counters);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].error, ErrorCode::envelope_too_long);
+  EXPECT_EQ(counters.oversize_frames, 1u);
+}
+
+TEST(RomiEnvelope, DeviceAcceptsTheReferenceClientsLongestPayload) {
+  // The reference client sends payloads of up to 58 characters (B1: its firmware accepted only 57).
+  const std::string payload = "m[" + std::string(55, '1') + "]";
+  ASSERT_EQ(payload.size(), kMaxDevicePayload);
+  uint8_t frame[128];
+  const auto size = encode_request(ByteView::from_chars(payload.data(), payload.size()), 9, frame);
+  const auto events = decode(std::string(reinterpret_cast<char*>(frame), size.value()));
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
+  EXPECT_EQ(events[0].payload, payload);
+  EXPECT_EQ(single_error("#m[" + std::string(56, '1') + "]:xxxx\r\n"), ErrorCode::envelope_too_long);
+}
+
+TEST(RomiEnvelope, HostReadsLongResponsesAndLogLines) {
+  // Reference defect B2: its host rejected responses and log lines longer than 57 characters.
+  const std::string text(300, 'L');
+  uint8_t frame[512];
+  auto size = encode_log(ByteView::from_chars(text.data(), text.size()), frame);
+  auto events = decode<kHostDecoderCapacity>(std::string(reinterpret_cast<char*>(frame), size.value()));
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::log);
+  EXPECT_EQ(events[0].payload, text);
+  const std::string body = "[0,\"" + std::string(200, 'v') + "\"]";
+  size = encode_response('r', ByteView::from_chars(body.data(), body.size()), 3, frame);
+  events = decode<kHostDecoderCapacity>(std::string(reinterpret_cast<char*>(frame), size.value()));
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
+  EXPECT_EQ(events[0].payload, "r" + body);
+}
+
+TEST(RomiEnvelope, LogTextMayContainColons) {
+  const auto events = decode<kHostDecoderCapacity>("#!speed: 3 m/s, state: ok:xxxx\r\n");
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::log);
+  EXPECT_EQ(events[0].payload, "speed: 3 m/s, state: ok");
+}
+
+TEST(RomiEnvelope, JunkBeforeAFrameAndAHashInsideOneResynchronise) {
+  LinkCounters counters;
+  const std::string stream("noise\x00\xff#a:0#e:7b04\r\n", 22);  // sized: the NUL is data
+  const auto events = decode(stream, &counters);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].payload, "e");
+  EXPECT_EQ(counters.resyncs, 2u);
+  EXPECT_EQ(counters.frames_ok, 1u);
+}
+
+TEST(RomiEnvelope, AfterAnErrorTheRestOfTheLineIsIgnoredAndTheNextFrameDecodes) {
+  const auto events = decode("#a:zz\r\n#e:7b04\r\n");
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].error, ErrorCode::invalid_id);
+  EXPECT_EQ(events[1].kind, EnvelopeEvent::Kind::frame);
+}
+
+TEST(RomiEnvelope, CountersSeparateCauses) {
+  LinkCounters counters;
+  decode("#a:008f\r\n#a\r\n#a:008e\r\n", &counters);
+  EXPECT_EQ(counters.crc_errors, 1u);
+  EXPECT_EQ(counters.framing_errors, 1u);
+  EXPECT_EQ(counters.frames_ok, 1u);
+}
+
+TEST(RomiEnvelope, RandomStreamsOfValidFramesDecodeInAnyChunking) {
+  // The decoder is byte-wise, so chunking cannot matter; what this guards is state carried across
+  // frames: every frame of a long random stream, with junk between, must come out intact.
+  auto generator = tether::testing::seeded_generator(21);
+  std::string stream;
+  std::vector<std::string> payloads;
+  for (int i = 0; i < 300; ++i) {
+    if (generator() % 4 == 0) stream += "junk\r\n";
+    RequestBuilder builder("aZ9?"[generator() % 4]);
+    const int args = static_cast<int>(generator() % 5);
+    for (int a = 0; a < args; ++a) builder.add_int(static_cast<int32_t>(generator() % 65536) - 32768);
+    if (generator() % 3 == 0) builder.add_string(ByteView::from_literal("Hello (world) 42"));
+    ASSERT_EQ(builder.error(), ErrorCode::no_error);
+    payloads.emplace_back(reinterpret_cast<const char*>(builder.payload().data()), builder.payload().size());
+    uint8_t frame[128];
+    const auto size = encode_request(builder.payload(), static_cast<uint8_t>(i), frame);
+    stream.append(reinterpret_cast<char*>(frame), size.value());
+  }
+  const auto events = decode(stream);
+  ASSERT_EQ(events.size(), payloads.size());
+  for (size_t i = 0; i < events.size(); ++i) {
+    EXPECT_EQ(events[i].payload, payloads[i]);
+    EXPECT_EQ(events[i].id, static_cast<int>(i % 256));
+  }
+}
+
+TEST(RomiEnvelope, ResetDropsTheFrameInProgress) {
+  LinkCounters counters;
+  EnvelopeDecoder<kDeviceDecoderCapacity> decoder(counters);
+  for (char c : std::string("#a[1,2")) decoder.feed(static_cast<uint8_t>(c));
+  EXPECT_TRUE(decoder.in_frame());
+  decoder.reset();
+  EXPECT_FALSE(decoder.in_frame());
+  for (char c : std::string("]:xxxx\r\n")) {
+    EXPECT_EQ(decoder.feed(static_cast<uint8_t>(c)).kind, EnvelopeEvent::Kind::none);
+  }
+}
+
+}  // namespace
+}  // namespace tether::romi
