@@ -1,0 +1,22 @@
+/// @file fuzz_target.hpp
+/// Conventions of Tether's fuzz targets. Each decoder has one: a file defining
+/// `extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)` that feeds `data` to the
+/// decoder and checks its invariants with `TETHER_FUZZ_CHECK`, which aborts (a finding) when one breaks.
+///
+/// The same file builds two ways (cmake/fuzz.cmake):
+///   - in every build, linked with a driver (core/testing/src/fuzz_driver.cpp) that runs the corpus in
+///     the target's folder plus seeded random inputs and mutations; a ctest test, honours RANDOM_SEED;
+///   - with clang and libFuzzer for coverage-guided runs: `tools/fuzz <target> [seconds]`.
+#pragma once
+
+#include <cstdio>
+#include <cstdlib>
+
+/// Aborts with a message when `condition` is false: a fuzzing finding, never a recoverable error.
+#define TETHER_FUZZ_CHECK(condition)                                                            \
+  do {                                                                                          \
+    if (!(condition)) {                                                                         \
+      std::fprintf(stderr, "fuzz invariant broken: %s (%s:%d)\n", #condition, __FILE__, __LINE__); \
+      std::abort();                                                                             \
+    }                                                                                           \
+  } while (false)
