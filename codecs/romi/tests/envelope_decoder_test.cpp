@@ -103,6 +103,16 @@ TEST(RomiEnvelope, ErrorEventsCarryTheFramesOpcodeAndIdParsedSoFar) {
   EXPECT_EQ(events[0].opcode, '_');
 }
 
+TEST(RomiEnvelope, AnErrorNeverCarriesTheIdOfThePreviousFrame) {
+  // Regression: a delivered frame's id stayed in the decoder and was reported with the next frame's error.
+  const auto events = decode("#a:42d4\r\n#c\r\n");
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
+  EXPECT_EQ(events[1].error, ErrorCode::missing_metadata);
+  EXPECT_FALSE(events[1].has_id);
+  EXPECT_EQ(events[1].id, 0);
+}
+
 TEST(RomiEnvelope, OversizeIsReportedExactlyOnce) {
   // Reference defect B1: the reference firmware answered an overlong frame twice.
   LinkCounters counters;

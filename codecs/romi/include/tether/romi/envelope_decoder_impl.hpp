@@ -26,6 +26,7 @@ EnvelopeEvent EnvelopeDecoder<Capacity>::feed(uint8_t byte) {
     state_ = State::body;
     size_ = 0;
     seen_colon_ = false;
+    pending_ = EnvelopeEvent();  // nothing of the previous frame (its id!) may leak into this one
     return EnvelopeEvent();
   }
   switch (state_) {

@@ -1,0 +1,487 @@
+// Host tests of the Romi device library (firmware/romi): the dispatcher's wire behaviour with in-memory
+// streams and a fake clock. The same sources run on the AVR images; the interop tests drive those.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <deque>
+#include <string>
+
+#include "RomiSerial.h"
+#include "tether/romi/encoder.hpp"
+
+namespace {
+
+using namespace romiserial;
+
+// --- test doubles ------------------------------------------------------------------------------------
+
+class StringStreams final : public IInputStream, public IOutputStream {
+ public:
+  bool available() override { return !input.empty(); }
+  bool read(char& c) override {
+    if (input.empty()) return false;
+    c = input.front();
+    input.pop_front();
+    return true;
+  }
+  bool write(char c) override {
+    output.push_back(c);
+    return true;
+  }
+  std::string take() {
+    std::string out;
+    out.swap(output);
+    return out;
+  }
+  std::deque<char> input;
+  std::string output;
+};
+
+uint32_t fake_now = 0;
+uint32_t fake_clock() { return fake_now; }
+
+// Handler side effects, reset by the fixture.
+int runs = 0;
+int16_t last_args[12];
+std::string last_string;
+RomiSerial* active = nullptr;
+
+void ok(IRomiSerial* romi, int16_t* args, const char* text) {
+  ++runs;
+  for (int i = 0; i < 12; ++i) last_args[i] = args[i];
+  last_string = text;
+  romi->send_ok();
+}
+void silent(IRomiSerial*, int16_t*, const char*) { ++runs; }
+void values(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send("[0,1,2]");
+}
+void fail(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send_error(101, "I will try again tomorrow");
+}
+void twice(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send_ok();
+  romi->send_error(1, "second");
+  romi->send("[0]");
+}
+void logs_then_ok(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->log("first");
+  romi->log("multi\r\nline: yes");
+  romi->send_ok();
+}
+void too_long(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send("[0,\"0123456789012345678901234567890123456789012345678901234567890123456789\"]");
+}
+void long_error(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send_error(7, "0123456789012345678901234567890123456789012345678901234567890123456789012345");
+}
+void colon(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send("[0,\"a:b\"]");
+}
+void null_send(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send(nullptr);
+}
+void reentrant(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  active->handle_input();  // must not consume the bytes queued behind this request
+  romi->send_ok();
+}
+void error_without_message(IRomiSerial* romi, int16_t*, const char*) {
+  ++runs;
+  romi->send_error(3, nullptr);
+}
+
+const MessageHandler kHandlers[] = {
+    {'a', 0, false, ok},         {'b', 0, false, silent},      {'c', 2, false, ok},
+    {'d', 0, true, ok},          {'e', 0, false, values},      {'f', 0, false, fail},
+    {'m', 12, false, ok},        {'2', 0, false, twice},       {'g', 0, false, logs_then_ok},
+    {'L', 0, false, too_long},   {'E', 0, false, long_error},  {'k', 0, false, colon},
+    {'n', 0, false, null_send},  {'r', 0, false, reentrant},   {'x', 0, false, error_without_message},
+};
+constexpr uint8_t kHandlerCount = sizeof(kHandlers) / sizeof(kHandlers[0]);
+
+std::string response(char opcode, const std::string& body, uint8_t id) {
+  uint8_t buffer[256];
+  const auto frame = tether::romi::encode_response(
+      opcode, tether::ByteView::from_chars(body.data(), body.size()), id, tether::MutableByteView(buffer));
+  EXPECT_TRUE(frame.ok());
+  return std::string(reinterpret_cast<const char*>(buffer), frame.value());
+}
+
+std::string request(const std::string& payload, uint8_t id) {
+  uint8_t buffer[256];
+  const auto frame = tether::romi::encode_request(tether::ByteView::from_chars(payload.data(), payload.size()), id,
+                                                  tether::MutableByteView(buffer));
+  EXPECT_TRUE(frame.ok());
+  return std::string(reinterpret_cast<const char*>(buffer), frame.value());
+}
+
+class RomiSerialTest : public ::testing::Test {
+ protected:
+  RomiSerialTest() : device(streams, streams, kHandlers, kHandlerCount, fake_clock) {
+    fake_now = 0;
+    runs = 0;
+    last_string.clear();
+    active = &device;
+  }
+  // Feeds `bytes` and returns everything the device wrote.
+  std::string exchange(const std::string& bytes) {
+    streams.input.insert(streams.input.end(), bytes.begin(), bytes.end());
+    device.handle_input();
+    return streams.take();
+  }
+
+  StringStreams streams;
+  RomiSerial device;
+};
+
+// --- the spec's vectors --------------------------------------------------------------------------------
+
+TEST_F(RomiSerialTest, SpecVectors) {
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(exchange("#a[1]:xxxx\r\n"), "#a[-17]:00ac\r\n");
+  EXPECT_EQ(exchange("#z:xxxx\r\n"), "#z[-16]:0001\r\n");
+  EXPECT_EQ(exchange("#e:xxxx\r\n"), "#e[0,1,2]:00dc\r\n");
+  EXPECT_EQ(exchange("#f:32dd\r\n"), "#f[101,\"I will try again tomorrow\"]:32c3\r\n");
+}
+
+TEST_F(RomiSerialTest, SpecEnvelopeErrorVectors) {
+  EXPECT_EQ(exchange("#e:7b00\r\n"), response('e', "[-4]", 0x7b));
+  EXPECT_EQ(exchange("#e:\r\n"), response('e', "[-2]", 0));
+  EXPECT_EQ(exchange("#e\r\n"), response('e', "[-6]", 0));
+  EXPECT_EQ(runs, 0);
+  EXPECT_EQ(device.counters().link.crc_errors, 1u);
+  EXPECT_EQ(device.counters().link.framing_errors, 2u);
+}
+
+TEST_F(RomiSerialTest, EveryEnvelopeErrorIsAnsweredWithItsCode) {
+  EXPECT_EQ(exchange("#a:0g00\r\n"), response('a', "[-2]", 0));       // id not lowercase hex
+  EXPECT_EQ(exchange("#a:0A00\r\n"), response('a', "[-2]", 0));       // uppercase rejected
+  EXPECT_EQ(exchange("#a:05zz\r\n"), response('a', "[-3]", 5));       // CRC digits
+  EXPECT_EQ(exchange("#a:xxxx\rX"), response('a', "[-5]", 0));        // no LF after CR
+  EXPECT_EQ(exchange("#a:xxyy\r\n"), response('a', "[-7]", 0));       // bad dummy metadata
+  EXPECT_EQ(runs, 0);
+}
+
+TEST_F(RomiSerialTest, GarbageBeforeTheFrameIsIgnored) {
+  EXPECT_EQ(exchange("noise\r\n!!#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_GE(device.counters().link.resyncs, 1u);
+}
+
+TEST_F(RomiSerialTest, HashRestartsTheFrame) {
+  EXPECT_EQ(exchange("#c[1,#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+}
+
+TEST_F(RomiSerialTest, RequestWithIdGetsItsIdBack) {
+  EXPECT_EQ(exchange(request("a", 0x7b)), response('a', "[0]", 0x7b));
+  EXPECT_EQ(exchange("#e:7b04\r\n"), "#e[0,1,2]:7b" + response('e', "[0,1,2]", 0x7b).substr(12));
+}
+
+// --- dispatch ------------------------------------------------------------------------------------------
+
+TEST_F(RomiSerialTest, DispatchOrderAndCodes) {
+  EXPECT_EQ(exchange(request("z", 1)), response('z', "[-16]", 1));
+  EXPECT_EQ(exchange(request("c[1]", 2)), response('c', "[-17]", 2));
+  EXPECT_EQ(exchange(request("d", 3)), response('d', "[-18]", 3));
+  EXPECT_EQ(exchange(request("a[\"x\"]", 4)), response('a', "[-19]", 4));
+  // Argument count is checked before the string: "d[1]" lacks the string AND has a stray integer.
+  EXPECT_EQ(exchange(request("d[1]", 5)), response('d', "[-17]", 5));
+  EXPECT_EQ(runs, 0);
+  EXPECT_EQ(exchange(request("b", 6)), response('b', "[-20]", 6));
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(device.counters().silent_handlers, 1u);
+  EXPECT_EQ(device.counters().rejected, 5u);
+}
+
+TEST_F(RomiSerialTest, ParserErrorsUseTheFramesOpcodeAndId) {
+  EXPECT_EQ(exchange(request("a", 9)), response('a', "[0]", 9));
+  EXPECT_EQ(exchange(request("c[x]", 10)), response('c', "[-8]", 10));
+  EXPECT_EQ(exchange(request("c[1,2,3,4,5,6,7,8,9,10,11,12,13]", 11)), response('c', "[-9]", 11));
+  EXPECT_EQ(exchange(request("c[1,40000]", 12)), response('c', "[-10]", 12));
+  EXPECT_EQ(exchange(request("d[\"012345678901234567890123456789012\"]", 13)), response('d', "[-11]", 13));
+  EXPECT_EQ(exchange(request("d[\"a<b\"]", 14)), response('d', "[-12]", 14));
+  EXPECT_EQ(exchange(request("d[\"a\",\"b\"]", 15)), response('d', "[-13]", 15));
+  EXPECT_EQ(exchange(request("#", 16)).substr(0, 2), "#_");  // '#' restarts: becomes an empty frame
+  EXPECT_EQ(exchange(request("%", 17)), response('_', "[-14]", 17));
+}
+
+TEST_F(RomiSerialTest, ErrorAfterAGoodFrameDoesNotBorrowItsId) {
+  EXPECT_EQ(exchange(request("a", 0x42)), response('a', "[0]", 0x42));
+  // A frame with no metadata: the id read so far is none, so 00 (not the previous frame's 42).
+  EXPECT_EQ(exchange("#c\r\n"), response('c', "[-6]", 0));
+  EXPECT_EQ(exchange("#c:\r\n"), response('c', "[-2]", 0));
+}
+
+TEST_F(RomiSerialTest, ArgumentsAndStringReachTheHandler) {
+  EXPECT_EQ(exchange(request("m[1,-2,3,-4,5,-6,7,-8,9,-10,32767,-32768]", 1)), response('m', "[0]", 1));
+  const int16_t expected[12] = {1, -2, 3, -4, 5, -6, 7, -8, 9, -10, 32767, -32768};
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(last_args[i], expected[i]) << i;
+  EXPECT_EQ(last_string, "");
+  EXPECT_EQ(exchange(request("d[\"Hello world!\"]", 2)), response('d', "[0]", 2));
+  EXPECT_EQ(last_string, "Hello world!");
+}
+
+TEST_F(RomiSerialTest, LogLinesGoOutBeforeTheResponse) {
+  EXPECT_EQ(exchange("#g:xxxx\r\n"), "#!first:xxxx\r\n#!multi  line: yes:xxxx\r\n" + response('g', "[0]", 0));
+}
+
+TEST_F(RomiSerialTest, ColonInTheBodyIsSentAsDash) {
+  EXPECT_EQ(exchange("#k:xxxx\r\n"), response('k', "[0,\"a-b\"]", 0));
+}
+
+TEST_F(RomiSerialTest, ErrorWithoutMessage) { EXPECT_EQ(exchange("#x:xxxx\r\n"), response('x', "[3]", 0)); }
+
+TEST_F(RomiSerialTest, OnlyTheFirstReplyOfAHandlerIsSent) {
+  EXPECT_EQ(exchange("#2:xxxx\r\n"), response('2', "[0]", 0));
+  EXPECT_EQ(device.counters().extra_replies, 2u);
+}
+
+TEST_F(RomiSerialTest, RepliesOutsideAHandlerAreIgnoredButLogsAreSent) {
+  device.send_ok();
+  device.send_error(1, "x");
+  device.send("[0]");
+  EXPECT_EQ(streams.take(), "");
+  EXPECT_EQ(device.counters().extra_replies, 3u);
+  device.log("hello");
+  EXPECT_EQ(streams.take(), "#!hello:xxxx\r\n");
+}
+
+TEST_F(RomiSerialTest, NullSendCountsAsNoReply) {
+  EXPECT_EQ(exchange("#n:xxxx\r\n"), response('n', "[-20]", 0));
+}
+
+TEST_F(RomiSerialTest, ReplyTooLongIsAnsweredWithMinus31) {
+  EXPECT_EQ(exchange(request("L", 3)), response('L', "[-31]", 3));
+  EXPECT_EQ(exchange(request("E", 4)), response('E', "[-31]", 4));
+  EXPECT_EQ(device.counters().replies_too_long, 2u);
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, LargestReplyThatFits) {
+  // 72 bytes: '#', opcode, 63-character body, ':', id, CRC, CRLF.
+  static std::string body;
+  body = "[0,\"" + std::string(57, 'a') + "\"]";
+  ASSERT_EQ(body.size(), 63u);
+  const MessageHandler handlers[] = {{'q', 0, false, [](IRomiSerial* romi, int16_t*, const char*) {
+                                        romi->send(body.c_str());
+                                      }}};
+  device.set_handlers(handlers, 1);
+  EXPECT_EQ(exchange("#q:xxxx\r\n"), response('q', body, 0));
+  body += " ";  // one byte more: -31
+  EXPECT_EQ(exchange(request("q", 1)), response('q', "[-31]", 1));
+}
+
+TEST_F(RomiSerialTest, HandleInputInsideAHandlerDoesNothing) {
+  EXPECT_EQ(exchange("#r:xxxx\r\n#a:xxxx\r\n"), "#r[0]:00" + response('r', "[0]", 0).substr(8) + "#a[0]:00e7\r\n");
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, ReceivedLogFrameIsAnInvalidOpcode) {
+  EXPECT_EQ(exchange("#!hello:xxxx\r\n"), response('_', "[-14]", 0));
+}
+
+// --- exactly-once (B3) and ids (B6) ----------------------------------------------------------------------
+
+TEST_F(RomiSerialTest, RepeatedRequestGetsTheCachedResponseWithoutRunningTheHandler) {
+  const std::string first = exchange(request("c[1,2]", 7));
+  EXPECT_EQ(first, response('c', "[0]", 7));
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(exchange(request("c[1,2]", 7)), first);
+  EXPECT_EQ(exchange(request("c[1,2]", 7)), first);
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(device.counters().link.duplicates, 2u);
+  EXPECT_EQ(device.counters().executed, 1u);
+}
+
+TEST_F(RomiSerialTest, NeverAnswersDuplicate) {
+  for (int i = 0; i < 3; ++i) {
+    for (const char* payload : {"a", "e", "f", "b", "c[1,2]"}) {
+      EXPECT_EQ(exchange(request(payload, 1)).find("[-15]"), std::string::npos) << payload;
+    }
+  }
+}
+
+TEST_F(RomiSerialTest, CachedResponseSurvivesErrorsInBetween) {
+  const std::string first = exchange(request("e", 0x20));
+  EXPECT_EQ(exchange("#e:2000\r\n"), response('e', "[-4]", 0x20));  // a damaged copy of the retry
+  EXPECT_EQ(exchange(request("z", 0x21)), response('z', "[-16]", 0x21));
+  EXPECT_EQ(exchange(request("e", 0x20)), first);
+  EXPECT_EQ(runs, 1);
+}
+
+TEST_F(RomiSerialTest, ApplicationErrorsAndMissingRepliesAreCachedToo) {
+  const std::string failed = exchange(request("f", 1));
+  EXPECT_EQ(exchange(request("f", 1)), failed);
+  const std::string silent_reply = exchange(request("b", 2));
+  EXPECT_EQ(silent_reply, response('b', "[-20]", 2));
+  EXPECT_EQ(exchange(request("b", 2)), silent_reply);
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, SameIdDifferentRequestRuns) {
+  EXPECT_EQ(exchange(request("c[1,2]", 5)), response('c', "[0]", 5));
+  EXPECT_EQ(exchange(request("c[1,3]", 5)), response('c', "[0]", 5));
+  EXPECT_EQ(last_args[1], 3);
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, OnlyTheLastRequestIsRemembered) {
+  exchange(request("a", 1));
+  exchange(request("e", 2));
+  EXPECT_EQ(exchange(request("a", 1)), response('a', "[0]", 1));
+  EXPECT_EQ(runs, 3);
+}
+
+TEST_F(RomiSerialTest, FreshDeviceAcceptsId255) {
+  EXPECT_EQ(exchange(request("a", 255)), response('a', "[0]", 255));
+  EXPECT_EQ(runs, 1);
+}
+
+TEST_F(RomiSerialTest, ManualRequestsBypassTheCacheAndDoNotPoisonIdZero) {
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(runs, 2);
+  EXPECT_EQ(exchange(request("a", 0)), "#a[0]:00e7\r\n");  // id 0 after manual ones: runs
+  EXPECT_EQ(runs, 3);
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");  // manual after id 0: runs, cache kept
+  EXPECT_EQ(runs, 4);
+  EXPECT_EQ(exchange(request("a", 0)), "#a[0]:00e7\r\n");  // the id-0 request is still a repeat
+  EXPECT_EQ(runs, 4);
+}
+
+// --- overlong frames (B1) ------------------------------------------------------------------------------
+
+TEST_F(RomiSerialTest, PayloadOf58CharactersIsAccepted) {
+  const std::string payload = "m[-1234,-1234,-1234,-1234,-1234,-1234,-1234,-1234,1,1,1,1]";
+  ASSERT_EQ(payload.size(), 58u);
+  EXPECT_EQ(exchange(request(payload, 3)), response('m', "[0]", 3));
+  EXPECT_EQ(exchange("#" + payload + ":xxxx\r\n"), response('m', "[0]", 0));
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, OverlongFrameGetsExactlyOneMinus1) {
+  const std::string payload = "m[-1234,-1234,-1234,-1234,-1234,-1234,-1234,-1234,10,1,1,1]";
+  ASSERT_EQ(payload.size(), 59u);
+  EXPECT_EQ(exchange(request(payload, 3)), response('m', "[-1]", 0));
+  EXPECT_EQ(exchange("#" + payload + ":xxxx\r\n"), response('m', "[-1]", 0));
+  EXPECT_EQ(exchange("#" + std::string(200, '-') + ":xxxx\r\n"), response('_', "[-1]", 0));
+  EXPECT_EQ(runs, 0);
+  EXPECT_EQ(device.counters().link.oversize_frames, 3u);
+  // And the device is in step afterwards.
+  EXPECT_EQ(exchange(request("a", 4)), response('a', "[0]", 4));
+}
+
+// --- controller timeout (B7) ---------------------------------------------------------------------------
+
+TEST_F(RomiSerialTest, IncompleteRequestIsDroppedAfterOneSecond) {
+  fake_now = 100;
+  EXPECT_EQ(exchange("#a[1"), "");
+  fake_now = 1099;
+  EXPECT_EQ(exchange(""), "");
+  fake_now = 1100;
+  EXPECT_EQ(exchange(""), response('a', "[-30]", 0));
+  EXPECT_EQ(exchange(""), "");  // once
+  EXPECT_EQ(exchange("]:xxxx\r\n"), "");  // the rest of the late frame is skipped
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(device.counters().link.partial_timeouts, 1u);
+  EXPECT_EQ(runs, 1);
+}
+
+TEST_F(RomiSerialTest, LateByteDoesNotCompleteAnExpiredRequest) {
+  fake_now = 0;
+  exchange("#a:xxxx\r");
+  fake_now = 1500;  // the LF arrives after the deadline: -30, not [0]
+  EXPECT_EQ(exchange("\n"), response('a', "[-30]", 0));
+  EXPECT_EQ(runs, 0);
+}
+
+TEST_F(RomiSerialTest, NewHashRestartsTheDeadline) {
+  fake_now = 0;
+  exchange("#a[");
+  fake_now = 900;
+  exchange("#a");
+  fake_now = 1800;
+  EXPECT_EQ(exchange(":xxxx\r\n"), "#a[0]:00e7\r\n");
+}
+
+TEST_F(RomiSerialTest, TimeoutWithoutOpcodeUsesUnderscore) {
+  fake_now = 0;
+  exchange("#");
+  fake_now = 1000;
+  EXPECT_EQ(exchange(""), response('_', "[-30]", 0));
+}
+
+TEST_F(RomiSerialTest, CompletedAndRejectedFramesHaveNoDeadline) {
+  exchange("#a:xxxx\r\n");
+  exchange("#a:zz\r\n");  // -2, then skipping until '#'
+  fake_now = 5000;
+  EXPECT_EQ(exchange(""), "");
+}
+
+TEST_F(RomiSerialTest, DeadlineWorksAcrossTheClockWrap) {
+  fake_now = 0xFFFFFF00u;
+  exchange("#a[");
+  fake_now = 0xFFFFFF00u + 999u;
+  EXPECT_EQ(exchange(""), "");
+  fake_now = 0xFFFFFF00u + 1000u;
+  EXPECT_EQ(exchange(""), response('a', "[-30]", 0));
+}
+
+TEST(RomiSerialNoClock, WithoutAClockThereIsNoDeadline) {
+  StringStreams streams;
+  RomiSerial device(streams, streams, kHandlers, kHandlerCount, nullptr);
+  streams.input.assign({'#', 'a'});
+  device.handle_input();
+  device.handle_timeouts(1000000);  // sans-I/O use can still pass its own time
+  EXPECT_EQ(streams.take(), response('a', "[-30]", 0));
+}
+
+TEST(RomiSerialNoHandlers, EverythingIsUnknown) {
+  StringStreams streams;
+  RomiSerial device(streams, streams, nullptr, 0, fake_clock);
+  const std::string frame = "#a:xxxx\r\n";
+  streams.input.assign(frame.begin(), frame.end());
+  device.handle_input();
+  EXPECT_EQ(streams.take(), response('a', "[-16]", 0));
+}
+
+// --- ArrayText -----------------------------------------------------------------------------------------
+
+TEST(ArrayText, BuildsArrays) {
+  ArrayText<32> text;
+  EXPECT_STREQ(text.c_str(), "[]");
+  text.add_int(0).add_int(-32768).add_int(1023).add_string("hi");
+  EXPECT_STREQ(text.c_str(), "[0,-32768,1023,\"hi\"]");
+  EXPECT_TRUE(text.ok());
+  EXPECT_EQ(text.size(), 20u);
+  text.clear();
+  text.add_int(INT32_MIN).add_int(INT32_MAX);
+  EXPECT_STREQ(text.c_str(), "[-2147483648,2147483647]");
+}
+
+TEST(ArrayText, OverflowKeepsAValidArray) {
+  ArrayText<8> text;  // "[12345]" + NUL fits exactly
+  text.add_int(12345);
+  EXPECT_STREQ(text.c_str(), "[12345]");
+  EXPECT_TRUE(text.ok());
+  text.add_int(1);
+  EXPECT_STREQ(text.c_str(), "[12345]");
+  EXPECT_FALSE(text.ok());
+  ArrayText<6> small;
+  small.add_string("abc");  // "[\"abc\"]" needs 8
+  EXPECT_STREQ(small.c_str(), "[]");
+  EXPECT_FALSE(small.ok());
+  small.clear();
+  small.add_string(nullptr);
+  EXPECT_STREQ(small.c_str(), "[\"\"]");
+}
+
+}  // namespace

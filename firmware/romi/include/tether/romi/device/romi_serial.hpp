@@ -1,0 +1,179 @@
+/// @file romi_serial.hpp
+/// Tether's Romi device: the firmware side of the Romi text protocol, with the handler-table API of the
+/// reference RomiSerial library and without its known defects (../shared/specs/romi.md, B1..B7).
+///
+/// ## Use
+///
+///     UartStream<Serial> serial;                               // or ArduinoSerial serial(Serial);
+///     RomiSerial romi(serial, serial, handlers, sizeof(handlers) / sizeof(MessageHandler));
+///     ...
+///     for (;;) { romi.handle_input(); idle<Serial>(); }        // Arduino: loop() { romi.handle_input(); }
+///
+/// `handle_input()` reads every byte waiting, answers each complete request and drops a request that is
+/// not complete 1 s after its '#'. Handlers are described in handler.hpp (their contract: one reply each).
+///
+/// ## What the device answers (wire behaviour)
+///
+/// Every response is `#` opcode `[` code ... `]` `:` id crc `\r\n`.
+///   1. Bytes before '#' are ignored; '#' (re)starts a request anywhere.
+///   2. A damaged frame gets `[code]` with the envelope code -1..-7 (-1 too long, -2 bad id, -3 bad CRC
+///      digits, -4 CRC mismatch, -5 expected end, -6 missing metadata, -7 bad `xxxx`), the frame's opcode
+///      (`_` when its first character is not one) and the id read so far (0 when none). A frame too long
+///      for the buffer gets exactly ONE `[-1]` and nothing else: the rest of it is skipped (B1).
+///   3. A good frame whose id and bytes equal those of the last request whose handler ran is answered
+///      with that request's response again, byte for byte, without running the handler (exactly-once,
+///      B3; the reference answers -15 instead). -15 is never sent. A fresh device knows no id, so the
+///      first request is never a repeat whatever its id (B6).
+///   4. Manual requests (`:xxxx`, typed in a terminal) are never treated as repeats and are not
+///      remembered: they neither hit nor poison the cache (B6). Their response carries id 00.
+///   5. Otherwise the payload is parsed: -8..-14 on a syntax error (`[code]`, the frame's opcode and id).
+///   6. Then, in this order: unknown opcode -16, wrong number of integers -17, missing string -18,
+///      string given but not expected -19.
+///   7. Then the handler runs; no reply from it: -20. Its response (or the -20) is remembered for 3.
+///   8. A request not complete 1 s after its '#' (`kRequestDeadlineMs`, the spec's controller timeout,
+///      B7) is dropped and answered with `[-30]` (opcode of the partial frame or `_`, id 00); the device
+///      then waits for the next '#'.
+///   9. A response that does not fit `kReplyCapacity` bytes is replaced by `[-31]`.
+///  10. A log frame received (`#!...`) is answered like the reference does: -14 (invalid opcode), `_`.
+/// Every response echoes the opcode and id of the frame it answers (the reference echoes the last good
+/// opcode on errors).
+///
+/// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
+/// One `RomiSerial` is 393 bytes of static RAM (measured), all bounded at compile time:
+///   - request buffer: 83 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
+///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
+///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
+///   - reply buffer: `kReplyCapacity` = 72 bytes (+1), reply cache: 81 bytes (id, fingerprint, 72 bytes);
+///   - counters: 68 bytes; pointers, deadline and state: 28 bytes.
+/// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
+/// in a 72-byte buffer). Measured peaks, interrupts included: 155 bytes (romi-blink), 221 (romi-test).
+/// Nothing is allocated at run time. Flash: ~6.5 KB for the device and the codec it uses.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/session/duplicate_filter.hpp"
+#include "tether/core/session/partial_frame_deadline.hpp"
+#include "tether/core/time.hpp"
+#include "tether/romi/device/handler.hpp"
+#include "tether/romi/device/streams.hpp"
+#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/errors.hpp"
+#include "tether/romi/limits.hpp"
+#include "tether/romi/request_parser.hpp"
+
+namespace tether {
+namespace romi {
+namespace device {
+
+/// A millisecond clock (wrapping 32-bit counter), e.g. Arduino's `millis`.
+typedef uint32_t (*ClockFunction)();
+
+/// The platform's millisecond clock, chosen at link time: Arduino's `millis()` in Arduino builds
+/// (src/clock_arduino.cpp), `tether::firmware::millis()` on Tether's runtime (src/clock_tether_runtime.cpp).
+/// Other platforms (host tests) pass their own clock to `RomiSerial` and do not link either.
+uint32_t default_clock();
+
+/// Diagnostics of one device. Counters only grow (wrap at 2^32). Plain data: copy it for a snapshot.
+struct DeviceCounters {
+  /// Link counters shared with every Tether codec. Used here: frames_ok (well-formed request frames),
+  /// crc_errors (-4), framing_errors (-2, -3, -5, -6, -7), oversize_frames (-1), resyncs (garbage or a
+  /// half frame skipped), partial_timeouts (requests dropped with -30), duplicates (repeats answered
+  /// from the cache).
+  LinkCounters link;
+  /// Handlers run (each at most once per request).
+  uint32_t executed = 0;
+  /// Error responses the device built itself: -1..-14, -16..-19, -30 (not -20/-31, counted below).
+  uint32_t rejected = 0;
+  /// Handlers that returned without replying (answered -20).
+  uint32_t silent_handlers = 0;
+  /// `send_*` calls ignored: a handler's second reply, or a reply outside any handler.
+  uint32_t extra_replies = 0;
+  /// Responses replaced by -31 because they did not fit `RomiSerial::kReplyCapacity`.
+  uint32_t replies_too_long = 0;
+};
+
+/// A Romi device: decodes requests from an input stream, dispatches them to a handler table and writes
+/// the responses to an output stream. See the file comment for the behaviour, handler.hpp for handlers.
+/// Not copyable. Not reentrant: use it from the main loop only (never from an interrupt handler).
+class RomiSerial final : public IRomiSerial {
+ public:
+  /// Largest response frame, '#' to '\n'. 72 >= 65, the longest response a reference host accepts
+  /// (57 characters between '#' and ':'); e.g. `[0,` + eleven 5-digit values fits. Longer ones: -31.
+  static constexpr uint8_t kReplyCapacity = 72;
+  /// Time from a request's '#' to its '\n' before it is dropped with -30 (the spec's 1 s).
+  static constexpr Duration kRequestDeadlineMs = kControllerDeadlineMs;
+
+  /// Device reading `in`, writing `out`, dispatching to `handlers[0..count)` (which must outlive it),
+  /// timing requests with `clock` (null: no request deadline). The streams may be the same object.
+  RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers = nullptr, uint8_t count = 0,
+             ClockFunction clock = default_clock);
+  /// Not copyable: handlers and streams are bound to this instance.
+  RomiSerial(const RomiSerial&) = delete;
+  /// Not assignable.
+  RomiSerial& operator=(const RomiSerial&) = delete;
+  /// Nothing to release (no heap).
+  ~RomiSerial() = default;
+
+  /// Replaces the handler table (not from inside a handler).
+  void set_handlers(const MessageHandler* handlers, uint8_t count);
+
+  /// Reads and handles every byte waiting on the input stream, then checks the request deadline.
+  /// Call it from the main loop (Arduino: `loop()`), as often as possible: the deadline is checked
+  /// only here. Returns at once when called from inside a handler (contract 7).
+  void handle_input();
+
+  /// Sans-I/O entry: handles one received byte at `now` (ms on the same clock as the deadline).
+  /// `handle_input()` calls it for each byte. Ignored when called from inside a handler.
+  void handle_byte(uint8_t byte, Millis now);
+  /// Sans-I/O entry: answers -30 if the request being received is past its deadline at `now`.
+  void handle_timeouts(Millis now);
+
+  /// See `IRomiSerial::send_ok`.
+  void send_ok() override;
+  /// See `IRomiSerial::send_error`.
+  void send_error(int code, const char* message) override;
+  /// See `IRomiSerial::send`.
+  void send(const char* message) override;
+  /// See `IRomiSerial::log`.
+  void log(const char* text) override;
+
+  /// The diagnostics counters.
+  const DeviceCounters& counters() const { return counters_; }
+  /// True while a handler runs.
+  bool in_handler() const { return in_handler_; }
+
+ private:
+  void handle_frame(const EnvelopeEvent& event);
+  void dispatch(const EnvelopeEvent& event, uint16_t fingerprint);
+  void handler_reply(ByteView body);
+  void send_response(char opcode, uint8_t id, ByteView body);
+  void send_code(char opcode, uint8_t id, ErrorCode code);
+  void write(ByteView bytes);
+
+  IInputStream* in_;
+  IOutputStream* out_;
+  const MessageHandler* handlers_;
+  uint8_t handler_count_;
+  ClockFunction clock_;
+  DeviceCounters counters_;  // before the members that count into it
+  EnvelopeDecoder<kDeviceDecoderCapacity> decoder_;
+  session::PartialFrameDeadline deadline_;
+  session::DuplicateFilter<uint8_t, 1, kReplyCapacity> replies_;
+  Request request_;  // the request being handled (its arguments are the handler's `args`)
+  uint8_t reply_[kReplyCapacity];
+  uint8_t reply_size_ = 0;
+  char opcode_ = '_';          // opcode and id of the request being handled
+  uint8_t id_ = 0;
+  char partial_opcode_ = '_';  // first character of the frame being received, for -30
+  bool await_opcode_ = false;  // the next byte is the first after '#'
+  bool in_handler_ = false;
+  bool replied_ = false;
+};
+
+}  // namespace device
+}  // namespace romi
+}  // namespace tether

@@ -1,0 +1,44 @@
+/// @file uart_stream.hpp
+/// Adapter from Tether's bare-metal UART (`tether::firmware::Uart0<Rx, Tx>`, firmware/runtime) to the
+/// device's byte streams, so a `RomiSerial` runs on the Tether runtime without the Arduino core:
+///
+///     using Serial = tether::firmware::Uart0<128, 128>;
+///     TETHER_UART0_ISRS(Serial);
+///     tether::romi::device::UartStream<Serial> serial;
+///     tether::romi::device::RomiSerial romi(serial, serial, handlers, count);
+///
+/// Header-only and stateless (the UART's rings are static); works with any `Uart` type providing
+/// static `available()`, `read()` (-1 when empty) and `write(uint8_t)`.
+#pragma once
+
+#include <stdint.h>
+
+#include "tether/romi/device/streams.hpp"
+
+namespace tether {
+namespace romi {
+namespace device {
+
+/// Input and output stream over the static UART `Uart`.
+template <typename Uart>
+class UartStream final : public IInputStream, public IOutputStream {
+ public:
+  /// True when the RX ring holds a byte.
+  bool available() override { return Uart::available() != 0; }
+  /// Takes the next byte from the RX ring.
+  bool read(char& c) override {
+    const int16_t byte = Uart::read();
+    if (byte < 0) return false;
+    c = static_cast<char>(byte);
+    return true;
+  }
+  /// Queues `c` on the TX ring; sleeps (IDLE) while the ring is full. Always true.
+  bool write(char c) override {
+    Uart::write(static_cast<uint8_t>(c));
+    return true;
+  }
+};
+
+}  // namespace device
+}  // namespace romi
+}  // namespace tether

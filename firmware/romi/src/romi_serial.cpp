@@ -1,0 +1,223 @@
+// Tether's Romi device (romi_serial.hpp): envelope decoding, exactly-once cache, dispatch, replies.
+#include "tether/romi/device/romi_serial.hpp"
+
+#include <string.h>
+
+#include "tether/core/crc.hpp"
+#include "tether/romi/device/array_text.hpp"
+#include "tether/romi/encoder.hpp"
+
+namespace tether {
+namespace romi {
+namespace device {
+
+static_assert(RomiSerial::kReplyCapacity >= 16, "room for every protocol error response");
+
+constexpr uint8_t RomiSerial::kReplyCapacity;
+constexpr Duration RomiSerial::kRequestDeadlineMs;
+
+namespace {
+
+ByteView text_view(const char* text) { return ByteView::from_chars(text, text == nullptr ? 0 : strlen(text)); }
+
+}  // namespace
+
+RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
+                       ClockFunction clock)
+    : in_(&in),
+      out_(&out),
+      handlers_(handlers),
+      handler_count_(count),
+      clock_(clock),
+      counters_(),
+      decoder_(counters_.link),
+      deadline_(kRequestDeadlineMs, counters_.link),
+      replies_(counters_.link) {}
+
+void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
+  handlers_ = handlers;
+  handler_count_ = count;
+}
+
+void RomiSerial::handle_input() {
+  if (in_handler_) return;
+  Millis now = clock_ != nullptr ? clock_() : 0;
+  char c;
+  while (in_->available() && in_->read(c)) {
+    if (clock_ != nullptr) now = clock_();
+    handle_byte(static_cast<uint8_t>(c), now);
+  }
+  handle_timeouts(now);
+}
+
+void RomiSerial::handle_timeouts(Millis now) {
+  if (in_handler_ || !deadline_.poll(now)) return;
+  // The request being received is too late: drop it, say so, wait for the next '#'.
+  decoder_.reset();
+  await_opcode_ = false;
+  send_code(partial_opcode_, 0, ErrorCode::controller_timeout);
+}
+
+void RomiSerial::handle_byte(uint8_t byte, Millis now) {
+  if (in_handler_) return;
+  handle_timeouts(now);  // a byte arriving after the deadline does not extend it
+  if (byte == '#') {
+    deadline_.on_frame_start(now);
+    partial_opcode_ = '_';
+    await_opcode_ = true;
+  } else if (await_opcode_) {
+    partial_opcode_ = is_opcode(byte) ? static_cast<char>(byte) : '_';
+    await_opcode_ = false;
+  }
+  const EnvelopeEvent event = decoder_.feed(byte);
+  switch (event.kind) {
+    case EnvelopeEvent::Kind::none:
+      return;
+    case EnvelopeEvent::Kind::error:
+      deadline_.on_frame_end();
+      send_code(event.opcode, event.has_id ? event.id : 0, event.error);
+      return;
+    case EnvelopeEvent::Kind::frame:
+    case EnvelopeEvent::Kind::log:
+      deadline_.on_frame_end();
+      handle_frame(event);
+      return;
+  }
+}
+
+void RomiSerial::handle_frame(const EnvelopeEvent& event) {
+  const uint8_t id = event.has_id ? event.id : 0;
+  if (event.kind == EnvelopeEvent::Kind::log) {
+    // "#!text": '!' is no opcode; the reference's message parser says the same.
+    send_code('_', id, ErrorCode::invalid_opcode);
+    return;
+  }
+  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
+  const uint16_t fingerprint = Crc16Mcrf4xx::compute(event.payload);
+  if (!event.manual) {
+    const auto lookup = replies_.check(id, fingerprint);
+    if (lookup.duplicate && !lookup.cached_reply.empty()) {
+      write(lookup.cached_reply);  // exactly-once: the same response again, the handler does not run
+      return;
+    }
+  }
+  dispatch(event, fingerprint);
+}
+
+void RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint) {
+  const uint8_t id = event.has_id ? event.id : 0;
+  const ErrorCode parsed = parse_request(event.payload, request_);
+  if (parsed != ErrorCode::no_error) {
+    send_code(event.opcode, id, parsed);
+    return;
+  }
+  const MessageHandler* handler = nullptr;
+  for (uint8_t i = 0; i < handler_count_; ++i) {
+    if (handlers_[i].opcode == request_.opcode) {
+      handler = &handlers_[i];
+      break;
+    }
+  }
+  ErrorCode check = ErrorCode::no_error;
+  if (handler == nullptr || handler->callback == nullptr) {
+    check = ErrorCode::unknown_opcode;
+  } else if (request_.argument_count != handler->number_arguments) {
+    check = ErrorCode::bad_number_of_arguments;
+  } else if (request_.has_string != handler->requires_string) {
+    check = handler->requires_string ? ErrorCode::missing_string : ErrorCode::bad_string;
+  }
+  if (check != ErrorCode::no_error) {
+    send_code(request_.opcode, id, check);
+    return;
+  }
+
+  opcode_ = request_.opcode;
+  id_ = id;
+  replied_ = false;
+  in_handler_ = true;
+  ++counters_.executed;
+  handler->callback(this, request_.arguments, request_.string);
+  in_handler_ = false;
+  if (!replied_) {
+    ++counters_.silent_handlers;
+    send_response(opcode_, id_, ByteView::from_literal("[-20]"));
+  }
+  // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
+  if (!event.manual) {
+    replies_.remember(id, fingerprint, ByteView(reply_, reply_size_));
+  }
+}
+
+void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
+
+void RomiSerial::send_error(int code, const char* message) {
+  if (!in_handler_ || replied_) {
+    ++counters_.extra_replies;
+    return;
+  }
+  ArrayText<kReplyCapacity> body;
+  body.add_int(code);
+  if (message != nullptr) body.add_string(message);
+  if (!body.ok()) {
+    // The body alone does not fit the buffer, so the frame would not either.
+    replied_ = true;
+    ++counters_.replies_too_long;
+    send_response(opcode_, id_, ByteView::from_literal("[-31]"));
+    return;
+  }
+  handler_reply(text_view(body.c_str()));
+}
+
+void RomiSerial::send(const char* message) {
+  if (message == nullptr) {
+    if (in_handler_ && !replied_) return;  // no reply: the device answers -20 after the handler
+    ++counters_.extra_replies;
+    return;
+  }
+  handler_reply(text_view(message));
+}
+
+void RomiSerial::handler_reply(ByteView body) {
+  if (!in_handler_ || replied_) {
+    ++counters_.extra_replies;
+    return;
+  }
+  replied_ = true;
+  send_response(opcode_, id_, body);
+}
+
+void RomiSerial::log(const char* text) {
+  out_->write('#');
+  out_->write('!');
+  if (text != nullptr) {
+    for (; *text != '\0'; ++text) out_->write(*text == '\r' || *text == '\n' ? ' ' : *text);
+  }
+  write(ByteView::from_literal(":xxxx\r\n"));
+}
+
+void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
+  Result<size_t> frame = body.size() < sizeof(reply_)
+                             ? encode_response(opcode, body, id, MutableByteView(reply_))
+                             : Result<size_t>(Status::buffer_too_small);
+  if (!frame.ok()) {
+    ++counters_.replies_too_long;
+    frame = encode_response(opcode, ByteView::from_literal("[-31]"), id, MutableByteView(reply_));
+  }
+  reply_size_ = static_cast<uint8_t>(frame.value());
+  write(ByteView(reply_, reply_size_));
+}
+
+void RomiSerial::send_code(char opcode, uint8_t id, ErrorCode code) {
+  ++counters_.rejected;
+  ArrayText<8> body;  // "[-32768]" never needed: protocol codes have at most 3 characters
+  body.add_int(static_cast<int16_t>(code));
+  send_response(opcode, id, text_view(body.c_str()));
+}
+
+void RomiSerial::write(ByteView bytes) {
+  for (uint8_t byte : bytes) out_->write(static_cast<char>(byte));
+}
+
+}  // namespace device
+}  // namespace romi
+}  // namespace tether
