@@ -3,6 +3,7 @@
 #include <boost/asio/error.hpp>
 
 #include <algorithm>
+#include <thread>
 
 namespace tether::transports {
 
@@ -64,6 +65,16 @@ std::shared_ptr<VirtualUnoStream> VirtualUnoStream::open(executor_type executor,
   } catch (const std::system_error& failure) {
     error = to_boost_error(failure.code());
     return nullptr;
+  }
+  // Like a real board after reset, the firmware loses bytes until it enables its receiver: the stream is
+  // ready when it has (the virtual counterpart of SerialOptions::boot_wait).
+  const auto deadline = SteadyClock::now() + kBootLimit;
+  while (!stream->board_->uart().rx_enabled) {
+    if (SteadyClock::now() >= deadline) {
+      error = make_error_code(TransportError::boot_timeout);
+      return nullptr;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   error = error_code();
   return stream;

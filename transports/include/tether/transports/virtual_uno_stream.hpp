@@ -10,6 +10,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -26,8 +27,13 @@ class VirtualUnoStream final : public ByteStream {
  public:
   struct Inbox;
 
+  /// Longest wait in `open` for the firmware to enable its UART receiver (wall time).
+  static constexpr std::chrono::milliseconds kBootLimit{5000};
+
   /// Creates a board from `options`, starts it on its own thread and returns a stream that owns it (the
-  /// board stops when the stream closes). Errors: those of `VirtualUno::create`.
+  /// board stops when the stream closes), once the firmware has enabled its UART receiver: bytes written
+  /// before that would be lost, as on a real board booting. Errors: those of `VirtualUno::create`;
+  /// `TransportError::boot_timeout` when the receiver is not enabled within `kBootLimit`.
   static std::shared_ptr<VirtualUnoStream> open(executor_type executor, VirtualUnoOptions options,
                                                 error_code& error);
   /// Throwing variant of `open` (std::system_error).
