@@ -7,6 +7,7 @@ namespace {
 
 constexpr Command kCommands[] = {
     {"sim", run_sim, "run a firmware image on a virtual Arduino Uno, its UART on a pseudo-terminal"},
+    {"call", run_call, "send one Romi command to a device (serial port or pty) and print its answer as JSON"},
 };
 
 }  // namespace

@@ -7,7 +7,8 @@
 namespace tether::cli {
 
 /// A subcommand. `run` gets argv with argv[0] = the subcommand name and returns the exit status:
-/// 0 success, 1 the operation failed (e.g. a call timed out), 2 usage or setup error (message on stderr).
+/// 0 success, 1 the device answered with an application error, 2 usage, setup, protocol or transport error
+/// (timeouts included; message on stderr).
 struct Command {
   std::string_view name;
   int (*run)(int argc, char** argv);
@@ -19,5 +20,6 @@ std::span<const Command> commands();
 
 // --- one declaration per subcommand (defined in <name>.cpp) ---
 int run_sim(int argc, char** argv);
+int run_call(int argc, char** argv);
 
 }  // namespace tether::cli

@@ -1,0 +1,650 @@
+// RomiClient: the session engine (romi::RequestTable) driven by one read loop and one timer on a strand.
+//
+// Everything below `ClientImpl`'s public functions runs on `strand_`. Handlers that capture the
+// implementation strongly (timer, writes, posted work) are owned by the io_context and released when it
+// runs or is destroyed; the read loop captures it weakly, because a pending read is owned by the stream,
+// which the implementation owns (a strong capture would be a cycle that outlives an io_context that
+// stopped). The read buffer is shared with the pending read, so a read that completes after the
+// implementation died never writes into freed memory.
+#include "tether/romi/client.hpp"
+
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/error.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/system/system_error.hpp>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <deque>
+#include <future>
+#include <limits>
+#include <mutex>
+#include <stdexcept>
+#include <utility>
+
+#include "tether/core/time.hpp"
+#include "tether/romi/encoder.hpp"
+#include "tether/romi/envelope_decoder.hpp"
+#include "tether/transports/transport_error.hpp"
+
+namespace tether::romi {
+
+namespace asio = boost::asio;
+using nlohmann::json;
+using transports::ByteStream;
+
+// ---------------------------------------------------------------------------------------------------------
+// Command
+
+Command::Command(std::string_view text) : payload_(text) {
+  const ErrorCode code = validate_request_payload(ByteView::from_chars(text.data(), text.size()));
+  if (code != ErrorCode::no_error) error_ = make_error_code(code);
+}
+
+Command::Command(char opcode, const std::vector<std::int32_t>& ints, std::optional<std::string_view> text) {
+  RequestBuilder builder(opcode);
+  for (const std::int32_t value : ints) builder.add_int(value);
+  if (text) builder.add_string(ByteView::from_chars(text->data(), text->size()));
+  if (builder.error() != ErrorCode::no_error) {
+    error_ = make_error_code(builder.error());
+    payload_.assign(1, opcode);  // keeps opcode() meaningful for the failure's response
+    return;
+  }
+  const ByteView payload = builder.payload();
+  payload_.assign(reinterpret_cast<const char*>(payload.data()), payload.size());
+}
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------------------
+// Responses
+
+// A response describing `code` without a device answer (or with an unreadable one): [code, message].
+void describe_failure(RomiResponse& response, std::int16_t code, std::string message) {
+  response.code = code;
+  response.message = std::move(message);
+  response.values = json::array({code, response.message});
+}
+
+RomiResponse failure(std::int16_t code, char opcode) {
+  RomiResponse response;
+  response.opcode = opcode;
+  describe_failure(response, code, romi::message(code));
+  return response;
+}
+
+// The response for an error_code without an answer: Romi codes keep theirs, anything else is -33.
+RomiResponse failure(const error_code& error, char opcode) {
+  if (error.category() == romi_category()) return failure(static_cast<std::int16_t>(error.value()), opcode);
+  RomiResponse response;
+  response.opcode = opcode;
+  const auto code = static_cast<std::int16_t>(ErrorCode::transport_error);
+  describe_failure(response, code, std::string(romi::message(code)) + ": " + error.message());
+  return response;
+}
+
+// Reads an intact answer frame: `payload` is the opcode followed by the JSON array.
+RomiResponse parse_answer(ByteView payload, char opcode) {
+  RomiResponse response;
+  response.answered = true;
+  response.opcode = opcode;
+  response.raw.assign(reinterpret_cast<const char*>(payload.data()), payload.size());
+  const std::string_view body = payload.size() > 1 ? std::string_view(response.raw).substr(1) : std::string_view();
+  if (body.empty()) {
+    const auto code = static_cast<std::int16_t>(ErrorCode::client_empty_response);
+    describe_failure(response, code, romi::message(code));
+    return response;
+  }
+  json values = json::parse(body.begin(), body.end(), nullptr, /*allow_exceptions=*/false);
+  if (values.is_discarded()) {  // defect B5: the reference throws here
+    const auto code = static_cast<std::int16_t>(ErrorCode::client_invalid_json);
+    describe_failure(response, code, romi::message(code));
+    return response;
+  }
+  const bool has_code = values.is_array() && !values.empty() && values[0].is_number_integer();
+  const std::int64_t first = has_code ? values[0].get<std::int64_t>() : 0;
+  const bool in_range =
+      first >= std::numeric_limits<std::int16_t>::min() && first <= std::numeric_limits<std::int16_t>::max();
+  if (!has_code || !in_range) {
+    const auto code = static_cast<std::int16_t>(ErrorCode::client_bad_response);
+    describe_failure(response, code, romi::message(code));
+    return response;
+  }
+  response.code = static_cast<std::int16_t>(first);
+  if (response.code != 0) {
+    response.message = values.size() > 1 && values[1].is_string() ? values[1].get<std::string>()
+                                                                   : std::string(romi::message(response.code));
+  }
+  response.values = std::move(values);
+  return response;
+}
+
+// Whether an answer carrying `answer_opcode` and `code` may belong to a call with `call_opcode`: success
+// and application answers mirror the opcode; error answers may echo another one (rule 6 of the header).
+bool opcode_matches(char call_opcode, char answer_opcode, std::int16_t code) {
+  return code < 0 || answer_opcode == call_opcode;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Time
+
+std::uint64_t steady_milliseconds() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
+          .count());
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// The implementation
+
+namespace detail {
+
+class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
+ public:
+  ClientImpl(std::shared_ptr<ByteStream> stream, const ClientOptions& options)
+      : stream_(std::move(stream)),
+        executor_(stream_->get_executor()),
+        strand_(asio::make_strand(executor_)),
+        timer_(strand_),
+        decoder_(counters_),
+        table_(options.timing, options.last_id, counters_),
+        read_buffer_(std::make_shared<ReadBuffer>()) {}
+
+  // Starts the read loop (after construction: it needs shared_from_this).
+  void start() {
+    asio::post(strand_, [self = shared_from_this()] { self->read(); });
+  }
+
+  const asio::any_io_executor& executor() const { return executor_; }
+  bool on_strand() const { return strand_.running_in_this_thread(); }
+  bool is_open() const { return !closed_.load(); }
+
+  void submit(Command command, bool manual, CallHandler handler) {
+    const char opcode = command.opcode();
+    // Off the strand: these completions touch no state (and must not publish the counters).
+    if (!command.valid()) {
+      post_completion(std::move(handler), command.error(), failure(command.error(), opcode));
+      return;
+    }
+    if (closed_.load()) {
+      const error_code aborted = asio::error::operation_aborted;
+      post_completion(std::move(handler), aborted, failure(aborted, opcode));
+      return;
+    }
+    auto call = std::make_unique<Call>();
+    call->payload = command.payload();
+    call->opcode = opcode;
+    call->manual = manual;
+    call->handler = std::move(handler);
+    asio::post(strand_, [self = shared_from_this(), call = std::move(call)]() mutable {
+      self->queue_.push_back(std::move(call));
+      self->start_next();
+      self->publish();
+    });
+  }
+
+  void close() {
+    if (closed_.exchange(true)) return;
+    // Posted, not dispatched: close() may be called from the log handler, in the middle of decoding.
+    asio::post(strand_, [self = shared_from_this()] {
+      const error_code aborted = asio::error::operation_aborted;
+      self->fail_all(aborted);
+      self->timer_.cancel();
+      self->publish();
+    });
+    error_code ignored;
+    stream_->close(ignored);  // completes the pending read with operation_aborted: the loop ends
+  }
+
+  void set_log_handler(LogHandler handler) {
+    auto shared = handler ? std::make_shared<LogHandler>(std::move(handler)) : nullptr;
+    std::lock_guard lock(mutex_);
+    log_handler_ = std::move(shared);
+  }
+
+  void set_timing(const session::CallTiming& timing) {
+    asio::post(strand_, [self = shared_from_this(), timing] { self->table_.set_timing(timing); });
+  }
+
+  LinkCounters counters() const {
+    std::lock_guard lock(mutex_);
+    return published_;
+  }
+
+ private:
+  struct Call {
+    std::string payload;
+    char opcode = '\0';
+    bool manual = false;
+    CallHandler handler;
+    std::shared_ptr<const std::string> frame;  // the encoded bytes, re-sent as they are
+    std::uint8_t id = 0;
+    // The last failure reported to the engine came from our own decoder (the answer arrived damaged),
+    // not from the device: if it ends the call, it is an error_code, not an answer.
+    bool last_failure_local = false;
+    RomiResponse answer;  // the intact answer that completed the call
+  };
+  using ReadBuffer = std::array<std::uint8_t, 1024>;
+  using Table = RequestTable;
+
+  static Millis now() { return static_cast<Millis>(steady_milliseconds()); }
+
+  // --- calls -----------------------------------------------------------------------------------------
+
+  void start_next() {
+    while (!current_ && !queue_.empty()) {
+      std::unique_ptr<Call> call = std::move(queue_.front());
+      queue_.pop_front();
+      if (closed_.load() || link_error_) {
+        const error_code error = link_error_ ? link_error_ : error_code(asio::error::operation_aborted);
+        complete(std::move(call->handler), error, failure(error, call->opcode));
+        continue;
+      }
+      const Millis started = now();
+      if (call->manual) {
+        // The answer carries id 00: the call occupies id 0 in the table (the sequence is not advanced).
+        const Result<std::uint8_t> id = table_.begin_with(0, started);
+        call->id = id.ok() ? id.value() : 0;
+        skip_id_zero_ = true;
+      } else {
+        Result<std::uint8_t> id = table_.begin(started);
+        if (id.ok() && id.value() == 0 && skip_id_zero_) {
+          // Defect B6: the reference firmware remembers the manual call's id 0 as its last id.
+          (void)table_.cancel(0);
+          id = table_.begin(started);
+        }
+        skip_id_zero_ = false;
+        call->id = id.ok() ? id.value() : 0;
+      }
+      std::array<std::uint8_t, kMaxRequestFrame> buffer{};
+      const ByteView payload = ByteView::from_chars(call->payload.data(), call->payload.size());
+      const MutableByteView out(buffer.data(), buffer.size());
+      const Result<size_t> size =
+          call->manual ? encode_manual_request(payload, out) : encode_request(payload, call->id, out);
+      // Validation bounds the payload to 56 characters, so the frame always fits 64 bytes.
+      call->frame = std::make_shared<const std::string>(reinterpret_cast<const char*>(buffer.data()),
+                                                        size.ok() ? size.value() : 0);
+      current_ = std::move(call);
+      write(current_->frame);
+      arm_timer();
+    }
+  }
+
+  // Ends the current call with the engine's verdict.
+  void finish(const Table::Completion& completion) {
+    std::unique_ptr<Call> call = std::move(current_);
+    error_code error;
+    RomiResponse response;
+    switch (completion.outcome) {
+      case session::CallOutcome::ok:
+        response = std::move(call->answer);
+        break;
+      case session::CallOutcome::remote_error:
+        if (call->last_failure_local) {
+          error = make_romi_error_code(completion.code);  // every answer arrived damaged
+          response = failure(error, call->opcode);
+        } else {
+          response = std::move(call->answer);
+        }
+        break;
+      case session::CallOutcome::timeout:
+        error = make_error_code(ErrorCode::client_timeout);
+        response = failure(error, call->opcode);
+        break;
+      case session::CallOutcome::cancelled:
+        error = asio::error::operation_aborted;
+        response = failure(error, call->opcode);
+        break;
+    }
+    response.id = call->id;
+    response.attempts = completion.attempts;
+    complete(std::move(call->handler), error, std::move(response));
+    start_next();
+    arm_timer();
+  }
+
+  void fail_all(const error_code& error) {
+    if (current_) {
+      const Result<Table::Completion> cancelled = table_.cancel(current_->id);
+      std::unique_ptr<Call> call = std::move(current_);
+      RomiResponse response = failure(error, call->opcode);
+      response.id = call->id;
+      response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+      complete(std::move(call->handler), error, std::move(response));
+    }
+    while (!queue_.empty()) {
+      std::unique_ptr<Call> call = std::move(queue_.front());
+      queue_.pop_front();
+      complete(std::move(call->handler), error, failure(error, call->opcode));
+    }
+  }
+
+  // Hands the result of a call to its caller (on the strand). The counters are published first, so a
+  // caller reading them after its completion sees its call.
+  void complete(CallHandler handler, error_code error, RomiResponse response) {
+    publish();
+    post_completion(std::move(handler), error, std::move(response));
+  }
+
+  // Posted, so handlers never run on the strand or inside an initiation. Any thread.
+  void post_completion(CallHandler handler, error_code error, RomiResponse response) {
+    asio::post(executor_, [handler = std::move(handler), error, response = std::move(response)]() mutable {
+      handler(error, std::move(response));
+    });
+  }
+
+  // --- writes --------------------------------------------------------------------------------------------
+
+  void write(std::shared_ptr<const std::string> frame) {
+    writes_.push_back(std::move(frame));
+    if (!writing_) write_next();
+  }
+
+  void write_next() {
+    if (writes_.empty() || closed_.load()) {
+      writing_ = false;
+      writes_.clear();
+      return;
+    }
+    writing_ = true;
+    std::shared_ptr<const std::string> frame = writes_.front();
+    writes_.pop_front();
+    asio::async_write(*stream_, asio::buffer(*frame),
+                      asio::bind_executor(strand_, [self = shared_from_this(), frame](error_code error, std::size_t) {
+                        self->on_written(error);
+                      }));
+  }
+
+  void on_written(const error_code& error) {
+    if (error) {
+      writing_ = false;
+      writes_.clear();
+      if (!closed_.load()) link_failed(error);
+      publish();
+      return;
+    }
+    write_next();
+  }
+
+  // --- reads ---------------------------------------------------------------------------------------------
+
+  void read() {
+    if (closed_.load() || link_error_) return;
+    std::shared_ptr<ReadBuffer> buffer = read_buffer_;
+    stream_->async_read_some(
+        asio::buffer(*buffer),
+        asio::bind_executor(strand_, [weak = weak_from_this(), buffer](error_code error, std::size_t size) {
+          if (const auto self = weak.lock()) self->on_read(error, size);
+        }));
+  }
+
+  void on_read(const error_code& error, std::size_t size) {
+    if (error) {
+      if (!closed_.load()) link_failed(error);
+      publish();
+      return;
+    }
+    for (std::size_t i = 0; i < size; ++i) on_event(decoder_.feed((*read_buffer_)[i]));
+    arm_timer();
+    publish();
+    read();
+  }
+
+  void link_failed(const error_code& error) {
+    if (!link_error_) link_error_ = error;
+    fail_all(error);
+    timer_.cancel();
+  }
+
+  void on_event(const EnvelopeEvent& event) {
+    switch (event.kind) {
+      case EnvelopeEvent::Kind::none:
+        return;
+      case EnvelopeEvent::Kind::log:
+        deliver_log(event.payload);
+        table_.on_activity(now());
+        return;
+      case EnvelopeEvent::Kind::frame:
+        on_frame(event);
+        return;
+      case EnvelopeEvent::Kind::error:
+        on_damaged_frame(event.error);
+        return;
+    }
+  }
+
+  void on_frame(const EnvelopeEvent& event) {
+    const Millis at = now();
+    if (!event.has_id || !current_) {
+      // A frame with `xxxx` metadata (not a log line) or an answer nobody waits for.
+      stale(at, event);
+      return;
+    }
+    RomiResponse answer = parse_answer(event.payload, event.opcode);
+    const bool matches = current_->manual ? event.id == 0 && opcode_matches(current_->opcode, event.opcode, answer.code)
+                                          : event.id == current_->id &&
+                                                opcode_matches(current_->opcode, event.opcode, answer.code);
+    if (!matches) {
+      stale(at, event);
+      return;
+    }
+    const Table::ReplyResult result = table_.on_reply(current_->id, answer.code, at);
+    switch (result.verdict) {
+      case Table::Verdict::completed:
+        current_->last_failure_local = false;
+        current_->answer = std::move(answer);
+        finish(result.completion);
+        return;
+      case Table::Verdict::resend:
+        write(current_->frame);
+        return;
+      case Table::Verdict::stale:  // not reached: the call is in flight
+        table_.on_activity(at);
+        return;
+    }
+  }
+
+  // A frame that is not the current call's answer: counted, dropped, and it re-arms the attempt window.
+  void stale(Millis at, const EnvelopeEvent& event) {
+    if (event.has_id && !table_.contains(event.id)) {
+      (void)table_.on_reply(event.id, 0, at);  // the engine counts it
+    } else {
+      ++counters_.stale;  // an id in flight with the wrong opcode, or no id at all
+    }
+    table_.on_activity(at);
+  }
+
+  // Our decoder rejected a frame (CRC mismatch, bad metadata, too long, ...) while a call waits: its
+  // answer was probably lost, so the call fails retryably (same bytes again; Tether firmware answers a
+  // repeated id from its cache). -7 (bad `xxxx`) is a damaged log line: answers carry hex metadata.
+  void on_damaged_frame(ErrorCode code) {
+    const Millis at = now();
+    if (!current_) return;
+    if (!is_envelope_error(static_cast<std::int16_t>(code))) {
+      table_.on_activity(at);
+      return;
+    }
+    const Table::ReplyResult result = table_.on_reply(current_->id, static_cast<std::int16_t>(code), at);
+    switch (result.verdict) {
+      case Table::Verdict::completed:
+        current_->last_failure_local = true;
+        finish(result.completion);
+        return;
+      case Table::Verdict::resend:
+        write(current_->frame);
+        return;
+      case Table::Verdict::stale:
+        return;
+    }
+  }
+
+  void deliver_log(ByteView text) {
+    std::shared_ptr<LogHandler> handler;
+    {
+      std::lock_guard lock(mutex_);
+      handler = log_handler_;
+    }
+    if (handler) (*handler)(std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+  }
+
+  // --- deadlines -----------------------------------------------------------------------------------------
+
+  void arm_timer() {
+    const Deadline wakeup = table_.next_wakeup();
+    if (!wakeup.armed() || closed_.load()) {
+      if (timer_armed_) timer_.cancel();
+      timer_armed_ = false;
+      return;
+    }
+    if (timer_armed_ && timer_at_ == wakeup.at()) return;
+    const std::uint64_t full = steady_milliseconds();
+    const std::int32_t left = tick_difference(wakeup.at(), static_cast<Millis>(full));
+    const std::uint64_t due = full + static_cast<std::uint64_t>(left > 0 ? left : 0);
+    timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::milliseconds(due)));
+    timer_armed_ = true;
+    timer_at_ = wakeup.at();
+    timer_.async_wait(asio::bind_executor(strand_, [self = shared_from_this()](error_code error) {
+      if (error) return;  // re-armed or cancelled
+      self->on_timer();
+    }));
+  }
+
+  void on_timer() {
+    timer_armed_ = false;
+    for (;;) {
+      const Table::Step step = table_.poll(now());
+      if (step.action == Table::Action::idle) break;
+      if (step.action == Table::Action::resend) {
+        if (current_) write(current_->frame);
+      } else if (current_ && current_->id == step.id) {
+        finish(step.completion);
+      }
+    }
+    arm_timer();
+    publish();
+  }
+
+  void publish() {
+    std::lock_guard lock(mutex_);
+    published_ = counters_;
+  }
+
+  std::shared_ptr<ByteStream> stream_;
+  asio::any_io_executor executor_;
+  asio::strand<asio::any_io_executor> strand_;
+  asio::steady_timer timer_;
+  bool timer_armed_ = false;
+  Millis timer_at_ = 0;
+
+  // Strand only.
+  LinkCounters counters_;
+  EnvelopeDecoder<kHostDecoderCapacity> decoder_;
+  Table table_;
+  std::unique_ptr<Call> current_;
+  std::deque<std::unique_ptr<Call>> queue_;
+  std::deque<std::shared_ptr<const std::string>> writes_;
+  bool writing_ = false;
+  bool skip_id_zero_ = false;
+  error_code link_error_;
+  std::shared_ptr<ReadBuffer> read_buffer_;
+
+  // Any thread.
+  std::atomic<bool> closed_{false};
+  mutable std::mutex mutex_;  // guards published_ and log_handler_
+  LinkCounters published_;
+  std::shared_ptr<LogHandler> log_handler_;
+};
+
+void start_call(const std::shared_ptr<ClientImpl>& impl, Command command, bool manual, CallHandler handler) {
+  impl->submit(std::move(command), manual, std::move(handler));
+}
+
+asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl) { return impl->executor(); }
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------------------------------------
+// RomiClient
+
+namespace {
+std::shared_ptr<transports::ByteStream> require(std::shared_ptr<transports::ByteStream> stream) {
+  if (!stream) throw std::invalid_argument("RomiClient needs a stream");
+  return stream;
+}
+}  // namespace
+
+RomiClient::RomiClient(std::shared_ptr<transports::ByteStream> stream, const ClientOptions& options)
+    : impl_(std::make_shared<detail::ClientImpl>(require(std::move(stream)), options)) {
+  impl_->start();
+}
+
+RomiClient::~RomiClient() {
+  if (impl_) impl_->close();
+}
+
+RomiClient::RomiClient(RomiClient&&) noexcept = default;
+
+RomiClient& RomiClient::operator=(RomiClient&& other) noexcept {
+  if (this != &other) {
+    if (impl_) impl_->close();
+    impl_ = std::move(other.impl_);
+  }
+  return *this;
+}
+
+asio::any_io_executor RomiClient::get_executor() const { return impl_->executor(); }
+
+RomiResponse RomiClient::blocking_call(const Command& command, bool manual, error_code& error) {
+  if (impl_->on_strand()) {
+    error = transports::make_error_code(transports::TransportError::would_deadlock);
+    return failure(error, command.opcode());
+  }
+  std::promise<std::pair<error_code, RomiResponse>> done;
+  auto result = done.get_future();
+  detail::start_call(impl_, command, manual, [&done](error_code e, RomiResponse r) {
+    done.set_value({e, std::move(r)});
+  });
+  auto [call_error, response] = result.get();
+  error = call_error;
+  return std::move(response);
+}
+
+RomiResponse RomiClient::call(const Command& command, error_code& error) {
+  return blocking_call(command, false, error);
+}
+
+RomiResponse RomiClient::call(const Command& command) {
+  error_code error;
+  RomiResponse response = blocking_call(command, false, error);
+  if (error) throw boost::system::system_error(error, "romi call " + command.payload());
+  return response;
+}
+
+RomiResponse RomiClient::call_manual(const Command& command, error_code& error) {
+  return blocking_call(command, true, error);
+}
+
+RomiResponse RomiClient::call_manual(const Command& command) {
+  error_code error;
+  RomiResponse response = blocking_call(command, true, error);
+  if (error) throw boost::system::system_error(error, "romi manual call " + command.payload());
+  return response;
+}
+
+void RomiClient::set_log_handler(LogHandler handler) { impl_->set_log_handler(std::move(handler)); }
+
+void RomiClient::set_timing(const session::CallTiming& timing) { impl_->set_timing(timing); }
+
+LinkCounters RomiClient::counters() const { return impl_->counters(); }
+
+void RomiClient::close() { impl_->close(); }
+
+bool RomiClient::is_open() const { return impl_->is_open(); }
+
+}  // namespace tether::romi

@@ -1,0 +1,820 @@
+// RomiClient against a scripted fake device over an in-memory pair: the reference vectors, answers and
+// errors, host-side validation, retries, stale frames (B4), invalid JSON (B5), long lines (B2), log lines,
+// the timing rules, id wrap, concurrency, close, damaged answers (B3) and manual mode.
+#include <gtest/gtest.h>
+
+#include <boost/asio/co_spawn.hpp>
+#include <boost/asio/detached.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/use_awaitable.hpp>
+#include <boost/asio/use_future.hpp>
+
+#include <atomic>
+#include <future>
+#include <mutex>
+#include <thread>
+
+#include "tether/testing/child_process.hpp"
+#include "tether/testing/io_thread.hpp"
+#include "test_support.hpp"
+
+namespace tether::romi::testing {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+namespace asio = boost::asio;
+using IoThread = ::tether::testing::IoThread;
+
+// Generous bound for "completes promptly" (no timing assertion tighter than this, ASan included).
+constexpr auto kPrompt = 3000ms;
+
+// --- reference vectors ------------------------------------------------------------------------------------
+
+TEST(RomiClient, FirstRequestsFromId255AreTheReferenceFrames) {
+  IoThread io;
+  {
+    Link link(io.executor());
+    link.device->on_request(answer_with("[0]"));
+    const RomiResponse response = link.client->call("a");
+    EXPECT_TRUE(response.ok());
+    EXPECT_EQ(link.device->received(), "#a:008e\r\n");
+  }
+  {
+    Link link(io.executor());
+    link.device->on_request(answer_with("[0]"));
+    link.client->call("a[1,2,3]");
+    EXPECT_EQ(link.device->received(), "#a[1,2,3]:00dd\r\n");
+  }
+  {
+    Link link(io.executor());
+    link.device->on_request(answer_with("[0]"));
+    link.client->call('a', {1, 2, 3});  // built: the same bytes
+    EXPECT_EQ(link.device->received(), "#a[1,2,3]:00dd\r\n");
+  }
+}
+
+TEST(RomiClient, PublishedResponseVectorsAreRead) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    // The spec's firmware answers, sent verbatim (ids 00 as in the vectors; the client's first id is 0).
+    if (request.payload == "e") device.send("#e[0,1,2]:00dc\r\n");
+  });
+  const RomiResponse response = link.client->call("e");
+  EXPECT_EQ(response.values, json::parse("[0,1,2]"));
+  EXPECT_EQ(response.raw, "e[0,1,2]");
+  EXPECT_EQ(response.opcode, 'e');
+  EXPECT_EQ(response.id, 0);
+  EXPECT_TRUE(response.answered);
+}
+
+// --- answers ----------------------------------------------------------------------------------------------
+
+TEST(RomiClient, SuccessCarriesTheWholeArray) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with(R"([0,512,-3,"text",1.5])"));
+  error_code error;
+  const RomiResponse response = link.client->call("A", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.code, 0);
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(response.values, json::parse(R"([0,512,-3,"text",1.5])"));
+  EXPECT_EQ(response.message, "");
+  EXPECT_EQ(response.attempts, 1);
+}
+
+TEST(RomiClient, ApplicationErrorIsAnAnswerNotAnErrorCode) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response('f', R"([101,"I will try again tomorrow"])", request.id));
+  });
+  error_code error;
+  RomiResponse response = link.client->call("f", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.code, 101);
+  EXPECT_TRUE(response.application_error());
+  EXPECT_EQ(response.message, "I will try again tomorrow");
+  EXPECT_EQ(response.values, json::parse(R"([101,"I will try again tomorrow"])"));
+  EXPECT_NO_THROW(response = link.client->call("f"));  // the throwing form returns answers
+  EXPECT_EQ(response.code, 101);
+}
+
+TEST(RomiClient, DeviceProtocolErrorWithoutMessageGetsTheTableText) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[-17]"));
+  error_code error;
+  const RomiResponse response = link.client->call("a[1]", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.code, -17);
+  EXPECT_EQ(response.message, "bad number of arguments");
+}
+
+// --- rejected before the wire -----------------------------------------------------------------------------
+
+TEST(RomiClient, InvalidCommandsNeverReachTheWire) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[0]"));
+  const std::string long_string(33, 'x');
+  const std::vector<std::int32_t> thirteen(13, 1);
+  const std::vector<std::int32_t> twelve_wide(12, -32768);  // 12 x 7 characters: frame over 64 bytes
+  const struct {
+    Command command;
+    ErrorCode expected;
+  } cases[] = {
+      {Command(""), ErrorCode::client_empty_request},
+      {Command("~"), ErrorCode::invalid_opcode},
+      {Command('#'), ErrorCode::invalid_opcode},
+      {Command("a[1,2,3,4,5,6,7,8,9,10,11,12,13]"), ErrorCode::too_many_arguments},
+      {Command('a', thirteen), ErrorCode::too_many_arguments},
+      {Command("a[40000]"), ErrorCode::value_out_of_range},
+      {Command('a', {-32769}), ErrorCode::value_out_of_range},
+      {Command("a[\"" + long_string + "\"]"), ErrorCode::string_too_long},
+      {Command('a', {}, long_string), ErrorCode::string_too_long},
+      {Command("a[\"<>\"]"), ErrorCode::invalid_string},
+      {Command('a', {}, "tab\there"), ErrorCode::invalid_string},
+      {Command("a[\"x\",\"y\"]"), ErrorCode::too_many_strings},
+      {Command('a', twelve_wide), ErrorCode::client_request_too_long},
+      {Command("a[-32768,-32768,-32768,-32768,-32768,-32768,-32768,-32768,-32768]"),
+       ErrorCode::client_request_too_long},
+      {Command('M', {16}, "a:b"), ErrorCode::reserved_character},
+      {Command('M', {}, "say \"hi\""), ErrorCode::reserved_character},
+      {Command("a[\"#\"]"), ErrorCode::reserved_character},
+      {Command("a:1"), ErrorCode::reserved_character},
+      {Command("a[1"), ErrorCode::unexpected_char},
+  };
+  for (const auto& test : cases) {
+    SCOPED_TRACE(test.command.payload());
+    EXPECT_FALSE(test.command.valid());
+    EXPECT_EQ(test.command.error(), test.expected);
+    error_code error;
+    const RomiResponse response = link.client->call(test.command, error);
+    EXPECT_EQ(error, test.expected);
+    EXPECT_EQ(error.category(), romi_category());
+    EXPECT_EQ(response.code, static_cast<std::int16_t>(test.expected));
+    EXPECT_EQ(response.values, json::array({response.code, romi::message(response.code)}));
+    EXPECT_FALSE(response.answered);
+    EXPECT_EQ(response.attempts, 0);
+    EXPECT_THROW(link.client->call(test.command), boost::system::system_error);
+  }
+  // Nothing was written, and no id was used: the first valid call is the reference's first frame.
+  const RomiResponse response = link.client->call("a");
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(link.device->received(), "#a:008e\r\n");
+}
+
+TEST(RomiClient, BuiltCommandsAreTheExpectedPayloads) {
+  EXPECT_EQ(Command('M', {16}, "Shutdown").payload(), "M[16,\"Shutdown\"]");
+  EXPECT_EQ(Command('a').payload(), "a");
+  EXPECT_EQ(Command('c', {-32768, 32767}).payload(), "c[-32768,32767]");
+  EXPECT_EQ(Command('d', {}, "").payload(), "d[\"\"]");
+  EXPECT_EQ(Command('?').payload(), "?");
+  // The longest accepted frame is 64 bytes: a 56-character payload.
+  const std::string longest = "a[\"" + std::string(32, 'x') + "\",1000,1000,1000,100]";
+  ASSERT_EQ(longest.size(), kMaxHostPayload);
+  EXPECT_TRUE(Command(longest).valid());
+  EXPECT_EQ(request_frame(longest, 0).size(), kMaxRequestFrame);
+  const std::string too_long = "a[\"" + std::string(32, 'x') + "\",1000,1000,1000,1000]";  // 57
+  EXPECT_EQ(Command(too_long).error(), ErrorCode::client_request_too_long);
+}
+
+// --- retries ----------------------------------------------------------------------------------------------
+
+TEST(RomiClient, EnvelopeErrorAnswerIsRetriedWithTheSameBytes) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, request.repeat == 1 ? "[-4]" : "[0,7]", request.id));
+  });
+  const RomiResponse response = link.client->call("b[5]");
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(response.values, json::parse("[0,7]"));
+  EXPECT_EQ(response.attempts, 2);
+  const auto requests = link.device->requests();
+  ASSERT_EQ(requests.size(), 2u);
+  EXPECT_EQ(requests[0].frame, request_frame("b[5]", 0));
+  EXPECT_EQ(requests[1].frame, requests[0].frame);
+  EXPECT_EQ(link.client->counters().retries, 1u);
+}
+
+TEST(RomiClient, EveryEnvelopeErrorCodeIsRetriedAndOthersAreNot) {
+  IoThread io;
+  Link link(io.executor());
+  std::atomic<int> code{0};
+  link.device->on_request([&code](const DeviceRequest& request, FakeDevice& device) {
+    const std::string body = request.repeat == 1 ? "[" + std::to_string(code.load()) + "]" : "[0]";
+    device.send(FakeDevice::response(request.opcode, body, request.id));
+  });
+  for (int c = -20; c <= -1; ++c) {
+    SCOPED_TRACE(c);
+    code = c;
+    const std::size_t before = link.device->requests().size();
+    const RomiResponse response = link.client->call("a");
+    const std::size_t sent = link.device->requests().size() - before;
+    if (c >= -6) {
+      EXPECT_TRUE(response.ok());
+      EXPECT_EQ(sent, 2u);
+    } else {
+      EXPECT_EQ(response.code, c);  // e.g. -16: delivered at once, no second send
+      EXPECT_EQ(response.attempts, 1);
+      EXPECT_EQ(sent, 1u);
+    }
+  }
+}
+
+TEST(RomiClient, UnknownOpcodeIsNotRetried) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[-16]"));
+  error_code error;
+  const RomiResponse response = link.client->call("z", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.code, -16);
+  EXPECT_EQ(response.message, "unknown opcode");
+  EXPECT_EQ(link.device->requests().size(), 1u);
+  EXPECT_EQ(link.client->counters().retries, 0u);
+}
+
+TEST(RomiClient, EnvelopeErrorsStopAfterThreeSends) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[-4]"));
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  EXPECT_FALSE(error);  // the device answered, three times
+  EXPECT_EQ(response.code, -4);
+  EXPECT_EQ(response.attempts, 3);
+  EXPECT_EQ(link.device->requests().size(), 3u);
+}
+
+// --- stale frames (B4) ------------------------------------------------------------------------------------
+
+TEST(RomiClient, StaleAnswerIsIgnoredAndTheRightOneDelivered) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, "[0,111]", static_cast<std::uint8_t>(request.id - 1)));
+    device.send(FakeDevice::response(request.opcode, "[0,222]", request.id));
+  });
+  const RomiResponse response = link.client->call("a");
+  EXPECT_EQ(response.values, json::parse("[0,222]"));
+  EXPECT_EQ(link.client->counters().stale, 1u);
+}
+
+TEST(RomiClient, ErrorFrameWithAnotherIdIsNotPinnedOnTheCall) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    const auto other = static_cast<std::uint8_t>(request.id + 7);
+    device.send(FakeDevice::response(request.opcode, "[-16]", other));  // not retried, not delivered
+    device.send(FakeDevice::response(request.opcode, "[-4]", other));   // not a retry either
+    device.send(FakeDevice::response(request.opcode, "[0]", request.id));
+  });
+  const RomiResponse response = link.client->call("a");
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(response.attempts, 1);
+  EXPECT_EQ(link.device->requests().size(), 1u);
+  EXPECT_EQ(link.client->counters().stale, 2u);
+}
+
+TEST(RomiClient, LateErrorOfATimedOutCallIsNotPinnedOnTheNextCall) {
+  IoThread io;
+  Link link(io.executor(), short_timing(150, 300));
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    if (request.id == 0) return;  // the first call gets no answer in time
+    // The first call's late error arrives just before the second call's own answer.
+    device.send(FakeDevice::response('a', R"([-16,"late"])", 0));
+    device.send(FakeDevice::response(request.opcode, "[0,2]", request.id));
+  });
+  error_code error;
+  link.client->call("a", error);
+  EXPECT_EQ(error, ErrorCode::client_timeout);
+  const RomiResponse second = link.client->call("b", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(second.values, json::parse("[0,2]"));
+  EXPECT_EQ(second.id, 1);
+  EXPECT_EQ(link.client->counters().stale, 1u);
+}
+
+TEST(RomiClient, SuccessWithTheRightIdButAnotherOpcodeIsStale) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response('x', "[0,1]", request.id));
+    device.send(FakeDevice::response(request.opcode, "[0,2]", request.id));
+  });
+  const RomiResponse response = link.client->call("a");
+  EXPECT_EQ(response.values, json::parse("[0,2]"));
+  EXPECT_EQ(link.client->counters().stale, 1u);
+}
+
+// --- unreadable answers (B5) ------------------------------------------------------------------------------
+
+TEST(RomiClient, InvalidJsonIsCodeMinus26AndNeverThrows) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[0,oops]"));
+  error_code error;
+  RomiResponse response = link.client->call("a", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.code, -26);
+  EXPECT_EQ(response.message, "client: invalid JSON");
+  EXPECT_EQ(response.values, json::array({-26, "client: invalid JSON"}));
+  EXPECT_EQ(response.raw, "a[0,oops]");
+  EXPECT_TRUE(response.answered);
+  EXPECT_NO_THROW(response = link.client->call("a"));
+  EXPECT_EQ(response.code, -26);
+  EXPECT_EQ(link.device->requests().size(), 2u);  // -26 is not retried
+}
+
+TEST(RomiClient, AnswersThatAreNotACodeArrayAreBadlyFormed) {
+  IoThread io;
+  Link link(io.executor());
+  std::atomic<int> which{0};
+  const char* bodies[] = {R"("text")", "[]", R"(["0"])", "[40000]", "[1.5]", ""};
+  link.device->on_request([&](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, bodies[which.load()], request.id));
+  });
+  for (int i = 0; i < 6; ++i) {
+    SCOPED_TRACE(bodies[i]);
+    which = i;
+    error_code error;
+    const RomiResponse response = link.client->call("a", error);
+    EXPECT_FALSE(error);
+    EXPECT_EQ(response.code, i == 5 ? -23 : -27);
+    EXPECT_EQ(response.raw, std::string("a") + bodies[i]);
+  }
+}
+
+// --- long lines (B2) and log lines ------------------------------------------------------------------------
+
+TEST(RomiClient, LongAnswersAndLogLinesAreRead) {
+  IoThread io;
+  Link link(io.executor());
+  const std::string long_log = "log line with colons: " + std::string(300, 'L') + ": end";
+  const std::string long_value(200, 'v');
+  std::mutex mutex;
+  std::vector<std::string> logs;
+  link.client->set_log_handler([&](std::string_view text) {
+    std::lock_guard lock(mutex);
+    logs.emplace_back(text);
+  });
+  link.device->on_request([&](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::log(long_log));
+    device.send(FakeDevice::response(request.opcode, "[0,\"" + long_value + "\",12345]", request.id));
+  });
+  const RomiResponse response = link.client->call("a");
+  ASSERT_TRUE(response.ok());
+  EXPECT_EQ(response.values[1], long_value);
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(logs.size(), 1u);
+  EXPECT_EQ(logs[0], long_log);
+}
+
+TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
+  IoThread io;
+  // Six log lines 100 ms apart, then the answer: 600 ms after the request, twice the attempt window.
+  Link link(io.executor(), short_timing(300, 5000));
+  std::mutex mutex;
+  std::vector<std::string> logs;
+  link.client->set_log_handler([&](std::string_view text) {
+    std::lock_guard lock(mutex);
+    logs.emplace_back(text);
+  });
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    for (int i = 1; i <= 6; ++i) device.send_after(i * 100ms, FakeDevice::log("step " + std::to_string(i)));
+    device.send_after(650ms, FakeDevice::response(request.opcode, "[0]", request.id));
+  });
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  EXPECT_FALSE(error) << error.message();
+  EXPECT_TRUE(response.ok());
+  std::lock_guard lock(mutex);
+  EXPECT_EQ(logs, (std::vector<std::string>{"step 1", "step 2", "step 3", "step 4", "step 5", "step 6"}));
+}
+
+TEST(RomiClient, LogLinesBetweenCallsGoToTheSink) {
+  IoThread io;
+  Link link(io.executor());
+  std::promise<std::string> got;
+  link.client->set_log_handler([&](std::string_view text) { got.set_value(std::string(text)); });
+  link.device->send(FakeDevice::log("booted: v1.2"));
+  auto future = got.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(future.get(), "booted: v1.2");
+}
+
+TEST(RomiClient, BlockingCallFromTheLogHandlerFailsInsteadOfDeadlocking) {
+  IoThread io;
+  Link link(io.executor());
+  std::promise<error_code> inner;
+  RomiClient& client = *link.client;
+  client.set_log_handler([&](std::string_view) {
+    error_code error;
+    client.call("a", error);  // would wait for the strand it runs on
+    inner.set_value(error);
+  });
+  link.device->send(FakeDevice::log("hello"));
+  auto future = inner.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(future.get(), transports::make_error_code(transports::TransportError::would_deadlock));
+  client.set_log_handler(nullptr);
+}
+
+// --- timing -----------------------------------------------------------------------------------------------
+
+TEST(RomiClient, LogLinesNeverStretchACallPastItsBudget) {
+  IoThread io;
+  // The spec's case scaled by 4: attempt 250 ms, budget 500 ms, a log line every 200 ms, never an answer.
+  Link link(io.executor(), short_timing(250, 500));
+  std::atomic<int> logs{0};
+  link.client->set_log_handler([&](std::string_view) { ++logs; });
+  link.device->on_request([](const DeviceRequest&, FakeDevice& device) {
+    for (int i = 1; i <= 20; ++i) device.send_after(i * 200ms, FakeDevice::log("busy"));
+  });
+  const auto start = std::chrono::steady_clock::now();
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  const auto took = elapsed_ms(start);
+  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, boost::system::errc::timed_out);
+  EXPECT_EQ(response.code, -25);
+  EXPECT_EQ(response.message, "client: connection timed out");
+  EXPECT_LT(took, 500 + 400);  // the budget plus slack, never budget + attempt
+  EXPECT_GE(logs.load(), 1);
+  EXPECT_EQ(link.client->counters().timeouts, 1u);
+  EXPECT_EQ(link.device->requests().size(), 1u);  // a silent attempt is not re-sent
+}
+
+TEST(RomiClient, SilentDeviceTimesOutAfterTheAttemptWindow) {
+  IoThread io;
+  Link link(io.executor(), short_timing(150, 5000));
+  const auto start = std::chrono::steady_clock::now();
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  const auto took = elapsed_ms(start);
+  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_FALSE(response.answered);
+  EXPECT_EQ(response.attempts, 1);
+  EXPECT_LT(took, 150 + 1000);  // the attempt window, far from the 5 s budget
+  EXPECT_EQ(link.device->requests().size(), 1u);
+  EXPECT_THROW(link.client->call("a"), boost::system::system_error);
+}
+
+TEST(RomiClient, DefaultTimingIsTheSpecs) {
+  const ClientOptions options;
+  EXPECT_EQ(options.timing.attempt_timeout, 1000u);
+  EXPECT_EQ(options.timing.call_budget, 2000u);
+  EXPECT_EQ(options.timing.max_attempts, 3);
+  EXPECT_FALSE(options.timing.retry_on_timeout);
+  EXPECT_TRUE(options.timing.activity_rearms_attempt);
+  EXPECT_EQ(options.last_id, 255);
+}
+
+// --- ids, concurrency, many devices -----------------------------------------------------------------------
+
+TEST(RomiClient, IdsWrapAfter255) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, "[0," + std::to_string(request.id) + "]", request.id));
+  });
+  for (int i = 0; i < 300; ++i) {
+    const RomiResponse response = link.client->call("a");
+    ASSERT_TRUE(response.ok()) << i;
+    ASSERT_EQ(response.id, i % 256);
+    ASSERT_EQ(response.values[1], i % 256);
+  }
+  const auto requests = link.device->requests();
+  ASSERT_EQ(requests.size(), 300u);
+  EXPECT_EQ(requests[255].id, 255);
+  EXPECT_EQ(requests[256].id, 0);
+  EXPECT_EQ(link.client->counters().stale, 0u);
+}
+
+// Echo device: `c[t,i]` is answered `[0,t,i]`.
+void echo_arguments(const DeviceRequest& request, FakeDevice& device) {
+  if (request.error != ErrorCode::no_error) return;
+  const std::string arguments = request.payload.size() > 2 ? request.payload.substr(2) : "]";
+  device.send(FakeDevice::response(request.opcode, "[0," + arguments, request.id));
+}
+
+TEST(RomiClient, ConcurrentCallsFromSeveralThreadsGetTheirOwnAnswers) {
+  IoThreads io(3);
+  Link link(io.executor());
+  link.device->on_request(echo_arguments);
+  constexpr int kThreads = 4;
+  constexpr int kCalls = 40;
+  std::atomic<int> wrong{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < kCalls; ++i) {
+        error_code error;
+        const RomiResponse response = link.client->call({'c', {t, i}}, error);
+        if (error || response.values != json::array({0, t, i})) ++wrong;
+      }
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  EXPECT_EQ(wrong.load(), 0);
+  EXPECT_EQ(link.device->requests().size(), static_cast<std::size_t>(kThreads * kCalls));
+  EXPECT_EQ(link.client->counters().frames_ok, static_cast<std::uint32_t>(kThreads * kCalls));
+}
+
+TEST(RomiClient, QueuedAsyncCallsCompleteInOrder) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(echo_arguments);
+  std::vector<std::future<RomiResponse>> futures;
+  for (int i = 0; i < 20; ++i) futures.push_back(link.client->async_call({'c', {i}}, asio::use_future));
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(futures[static_cast<std::size_t>(i)].wait_for(kPrompt), std::future_status::ready);
+    const RomiResponse response = futures[static_cast<std::size_t>(i)].get();
+    EXPECT_EQ(response.values, json::array({0, i}));
+    EXPECT_EQ(response.id, i);  // started in submission order
+  }
+}
+
+TEST(RomiClient, ManyDevicesShareOneIoContext) {
+  IoThreads io(2);
+  std::vector<std::unique_ptr<Link>> links;
+  for (int d = 0; d < 4; ++d) {
+    links.push_back(std::make_unique<Link>(io.executor()));
+    links.back()->device->on_request([d](const DeviceRequest& request, FakeDevice& device) {
+      device.send(FakeDevice::response(request.opcode, "[0," + std::to_string(d) + "]", request.id));
+    });
+  }
+  std::vector<std::pair<int, std::future<RomiResponse>>> futures;
+  for (int round = 0; round < 10; ++round) {
+    for (int d = 0; d < 4; ++d) {
+      futures.emplace_back(d, links[static_cast<std::size_t>(d)]->client->async_call("v", asio::use_future));
+    }
+  }
+  for (auto& [d, future] : futures) {
+    ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+    EXPECT_EQ(future.get().values, json::array({0, d}));
+  }
+}
+
+// --- completion tokens ------------------------------------------------------------------------------------
+
+TEST(RomiClient, CallbackRunsOutsideTheInitiationWithTheAnswer) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[0,1]"));
+  // Initiated on the io thread itself: a completion inside the initiation would run before `returned`.
+  std::promise<std::pair<error_code, RomiResponse>> answered;
+  std::promise<bool> rejected_after_return;
+  bool returned = false;  // touched on the io thread only
+  asio::post(io.executor(), [&] {
+    link.client->async_call("", [&](error_code, RomiResponse) { rejected_after_return.set_value(returned); });
+    link.client->async_call("a", [&](error_code error, RomiResponse response) {
+      answered.set_value({error, std::move(response)});
+    });
+    returned = true;
+  });
+  auto rejected = rejected_after_return.get_future();
+  ASSERT_EQ(rejected.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_TRUE(rejected.get());  // even an immediate rejection is posted
+  auto future = answered.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  const auto [error, response] = future.get();
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.values, json::parse("[0,1]"));
+}
+
+TEST(RomiClient, FutureThrowsOnlyWhenThereIsNoAnswer) {
+  IoThread io;
+  Link link(io.executor());
+  auto rejected = link.client->async_call("a[99999]", asio::use_future);
+  try {
+    rejected.get();
+    ADD_FAILURE() << "expected an exception";
+  } catch (const boost::system::system_error& failure) {
+    EXPECT_EQ(failure.code(), ErrorCode::value_out_of_range);
+  }
+  link.device->on_request(answer_with("[5]"));
+  EXPECT_EQ(link.client->async_call("a", asio::use_future).get().code, 5);
+}
+
+#if defined(BOOST_ASIO_HAS_CO_AWAIT)
+TEST(RomiClient, WorksInACoroutine) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(echo_arguments);
+  std::promise<std::vector<json>> done;
+  RomiClient& client = *link.client;
+  asio::co_spawn(
+      io.executor(),
+      [&]() -> asio::awaitable<void> {
+        std::vector<json> values;
+        // Commands are named values: g++ 12 rejects braced lists and literals inside co_await expressions.
+        for (int i = 0; i < 3; ++i) {
+          const Command command('c', std::vector<std::int32_t>{i});
+          values.push_back((co_await client.async_call(command, asio::use_awaitable)).values);
+        }
+        try {
+          const Command empty("");
+          co_await client.async_call(empty, asio::use_awaitable);
+        } catch (const boost::system::system_error& failure) {
+          values.push_back(failure.code().value());
+        }
+        done.set_value(values);
+      },
+      asio::detached);
+  auto future = done.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(future.get(), (std::vector<json>{json::array({0, 0}), json::array({0, 1}), json::array({0, 2}), -24}));
+}
+#endif
+
+// --- close and link failures ------------------------------------------------------------------------------
+
+TEST(RomiClient, CloseAbortsTheCallInFlightAndTheQueuedOnes) {
+  IoThread io;
+  Link link(io.executor(), short_timing(60000, 60000));  // a silent device and no timeout in sight
+  std::vector<std::future<RomiResponse>> futures;
+  for (int i = 0; i < 3; ++i) futures.push_back(link.client->async_call("a", asio::use_future));
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  const auto start = std::chrono::steady_clock::now();
+  link.client->close();
+  EXPECT_FALSE(link.client->is_open());
+  for (auto& future : futures) {
+    ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+    try {
+      future.get();
+      ADD_FAILURE() << "expected operation_aborted";
+    } catch (const boost::system::system_error& failure) {
+      EXPECT_EQ(failure.code(), asio::error::operation_aborted);
+    }
+  }
+  EXPECT_LT(elapsed_ms(start), 3000);
+  error_code error;
+  const RomiResponse late = link.client->call("a", error);
+  EXPECT_EQ(error, asio::error::operation_aborted);
+  EXPECT_EQ(late.code, -33);
+  EXPECT_EQ(link.device->requests().size(), 1u);  // queued calls never reached the wire
+}
+
+TEST(RomiClient, DestroyingTheClientAbortsItsCalls) {
+  IoThread io;
+  auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor());
+  auto device = FakeDevice::start(device_end);
+  std::promise<error_code> done;
+  {
+    RomiClient client(host_end, short_timing(60000, 60000));
+    client.async_call("a", [&](error_code error, RomiResponse) { done.set_value(error); });
+    ASSERT_TRUE(device->wait_for_requests(1, kPrompt));
+  }
+  auto future = done.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(future.get(), asio::error::operation_aborted);
+  device->close();
+}
+
+TEST(RomiClient, VanishedDeviceFailsTheCallWithTheTransportError) {
+  IoThread io;
+  Link link(io.executor(), short_timing(60000, 60000));
+  link.device->on_request([](const DeviceRequest&, FakeDevice& device) { device.close(); });
+  error_code error;
+  RomiResponse response = link.client->call("a", error);
+  EXPECT_EQ(error, asio::error::eof);
+  EXPECT_EQ(response.code, -33);
+  EXPECT_NE(response.message.find("transport error"), std::string::npos);
+  response = link.client->call("a", error);  // the link stays failed: at once, no 60 s wait
+  EXPECT_EQ(error, asio::error::eof);
+}
+
+// --- damaged answers (B3) ---------------------------------------------------------------------------------
+
+TEST(RomiClient, DamagedAnswerIsReSentAndTheCachedAnswerCompletesTheCall) {
+  IoThread io;
+  Link link(io.executor());
+  // Like Tether firmware: runs the request once, caches the answer, answers a repeated id from the cache.
+  std::atomic<int> executed{0};
+  link.device->on_request([&](const DeviceRequest& request, FakeDevice& device) {
+    if (request.repeat == 1) ++executed;
+    const std::string answer = FakeDevice::response(request.opcode, "[0,42]", request.id);
+    device.send(request.repeat == 1 ? FakeDevice::corrupt_crc(answer) : answer);
+  });
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(response.values, json::parse("[0,42]"));
+  EXPECT_EQ(response.attempts, 2);
+  EXPECT_EQ(executed.load(), 1);
+  const auto requests = link.device->requests();
+  ASSERT_EQ(requests.size(), 2u);
+  EXPECT_EQ(requests[1].frame, requests[0].frame);
+  const LinkCounters counters = link.client->counters();
+  EXPECT_EQ(counters.crc_errors, 1u);
+  EXPECT_EQ(counters.retries, 1u);
+  EXPECT_EQ(counters.frames_ok, 1u);
+}
+
+TEST(RomiClient, AnswerDamagedOnEverySendIsAnErrorCode) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::corrupt_crc(FakeDevice::response(request.opcode, "[0]", request.id)));
+  });
+  error_code error;
+  const RomiResponse response = link.client->call("a", error);
+  EXPECT_EQ(error, ErrorCode::crc_mismatch);
+  EXPECT_EQ(response.code, -4);
+  EXPECT_FALSE(response.answered);
+  EXPECT_EQ(response.attempts, 3);
+  EXPECT_EQ(link.client->counters().crc_errors, 3u);
+}
+
+TEST(RomiClient, DamagedLogLineDoesNotFailTheCall) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send("#!half a log line:xxyy\r\n");  // bad dummy metadata (-7): not an answer's damage
+    device.send(FakeDevice::response(request.opcode, "[0]", request.id));
+  });
+  const RomiResponse response = link.client->call("a");
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(response.attempts, 1);
+  EXPECT_EQ(link.client->counters().framing_errors, 1u);
+}
+
+// --- manual mode ------------------------------------------------------------------------------------------
+
+TEST(RomiClient, ManualCallSendsXxxxAndMatchesTheAnswerByOpcode) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    if (!request.manual) {
+      device.send(FakeDevice::response(request.opcode, "[0]", request.id));
+      return;
+    }
+    device.send(FakeDevice::response('z', "[0,9]", 0));  // id 00 but another opcode: stale
+    device.send("#a[0]:00e7\r\n");                         // the spec's vector for `#a:xxxx`
+  });
+  error_code error;
+  const RomiResponse response = link.client->call_manual("a", error);
+  EXPECT_FALSE(error);
+  EXPECT_TRUE(response.ok());
+  EXPECT_EQ(response.id, 0);
+  EXPECT_EQ(link.device->received(), "#a:xxxx\r\n");
+  EXPECT_EQ(link.client->counters().stale, 1u);
+  // The next regular call skips id 0 (the reference firmware took the manual call's 00 as its last id).
+  link.client->call("a");
+  EXPECT_EQ(link.device->requests().back().frame, request_frame("a", 1));
+}
+
+TEST(RomiClient, ManualCallReceivesDeviceErrors) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request([](const DeviceRequest&, FakeDevice& device) { device.send("#a[-17]:00ac\r\n"); });
+  const RomiResponse response = link.client->call_manual("a[1]");
+  EXPECT_EQ(response.code, -17);
+  EXPECT_EQ(link.device->received(), "#a[1]:xxxx\r\n");
+}
+
+TEST(RomiClient, ManualCallIsBoundedByTheEngine) {
+  IoThread io;
+  Link link(io.executor(), short_timing(100, 200));
+  error_code error;
+  link.client->call_manual("a", error);
+  EXPECT_EQ(error, ErrorCode::client_timeout);
+}
+
+// --- error category and counters --------------------------------------------------------------------------
+
+TEST(RomiErrorCategory, ValuesAreRomiCodesAndMessagesTheTable) {
+  const error_code error = make_error_code(ErrorCode::unknown_opcode);
+  EXPECT_STREQ(error.category().name(), "tether.romi");
+  EXPECT_EQ(error.value(), -16);
+  EXPECT_EQ(error.message(), "unknown opcode");
+  EXPECT_EQ(error, ErrorCode::unknown_opcode);
+  EXPECT_EQ(make_romi_error_code(101).message(), "application error");
+  EXPECT_FALSE(make_romi_error_code(0));
+  EXPECT_EQ(make_error_code(ErrorCode::client_timeout), boost::system::errc::timed_out);
+  EXPECT_NE(make_error_code(ErrorCode::crc_mismatch), boost::system::errc::timed_out);
+}
+
+TEST(RomiClient, CountersSeeFramesLogsAndStaleBetweenCalls) {
+  IoThread io;
+  Link link(io.executor());
+  link.device->on_request(answer_with("[0]"));
+  link.client->call("a");
+  link.device->send(FakeDevice::response('a', "[0]", 200));  // nobody waits for it
+  link.device->send("garbage#a[0]:00e8\r\n");                 // a resync, then a CRC mismatch
+  ASSERT_TRUE(::tether::testing::eventually([&] { return link.client->counters().crc_errors == 1; }, kPrompt));
+  const LinkCounters counters = link.client->counters();
+  EXPECT_EQ(counters.frames_ok, 2u);
+  EXPECT_EQ(counters.stale, 1u);
+  EXPECT_EQ(counters.resyncs, 1u);
+  EXPECT_EQ(counters.timeouts, 0u);
+}
+
+}  // namespace
+}  // namespace tether::romi::testing
