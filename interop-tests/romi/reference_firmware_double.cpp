@@ -33,7 +33,8 @@ std::string ReferenceFirmwareDouble::respond(const std::string& body, char opcod
 }
 
 std::string ReferenceFirmwareDouble::reply(int16_t code, uint8_t id) {
-  return respond("[" + std::to_string(code) + ",\"" + message(code) + "\"]", last_opcode_, id);
+  // Protocol errors carry the code alone: `#a[-17]:00ac` in the published vectors.
+  return respond("[" + std::to_string(code) + "]", last_opcode_, id);
 }
 
 void ReferenceFirmwareDouble::error(int16_t code, std::string& out) {

@@ -243,6 +243,40 @@ TEST(RomiInterop, McuResetMidSessionThenTheNextCallsSucceed) {
   client.close();
 }
 
+TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) {
+  // Reference defect B7: the spec's 1 s controller deadline was not implemented. Real-time pacing: in
+  // fast mode simulated time runs on while this thread reads the clock, so only a lower bound would hold.
+  IoThread io;
+  auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
+  const auto sent_at = stream->board().simulated_time();
+  stream->write(boost::asio::buffer(std::string("#s[1,")));  // and nothing more
+  LinkCounters counters;
+  EnvelopeDecoder<kHostDecoderCapacity> decoder(counters);
+  std::vector<uint8_t> buffer(64);
+  EnvelopeEvent answer;
+  std::string payload;
+  while (payload.empty()) {
+    boost::system::error_code error;
+    const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 5s, error);
+    ASSERT_FALSE(error) << error.message();
+    for (std::size_t i = 0; i < got; ++i) {
+      const EnvelopeEvent event = decoder.feed(buffer[i]);
+      if (event.kind == EnvelopeEvent::Kind::frame) {
+        answer = event;
+        payload.assign(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
+      }
+    }
+  }
+  const auto waited = stream->board().simulated_time() - sent_at;
+  EXPECT_EQ(payload, "s[-30]");
+  EXPECT_GE(waited, 1s);
+  EXPECT_LT(waited, 1s + 500ms);
+  // The device is ready for the next request at once.
+  RomiClient client(stream);
+  EXPECT_EQ(client.call("s[1,2]").values, json::parse("[0,3]"));
+  client.close();
+}
+
 // --- cross-checks against the reference -------------------------------------------------------------
 
 // Serves a ReferenceFirmwareDouble on one end of an in-memory pair.
