@@ -161,7 +161,8 @@ TEST(RomiEnvelope, LogTextMayContainColons) {
 
 TEST(RomiEnvelope, JunkBeforeAFrameAndAHashInsideOneResynchronise) {
   LinkCounters counters;
-  const std::string stream("noise\x00\xff#a:0#e:7b04\r\n", 22);  // sized: the NUL is data
+  static const char kBytes[] = "noise\x00\xff#a:0#e:7b04\r\n";
+  const std::string stream(kBytes, sizeof kBytes - 1);  // sized: the NUL inside is data
   const auto events = decode(stream, &counters);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].payload, "e");
