@@ -11,7 +11,7 @@
 
 #include "ser2net_process.hpp"
 #include "tether/testing/child_process.hpp"
-#include "tether/testing/io_thread.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
@@ -21,7 +21,7 @@ namespace tether::transports {
 namespace {
 
 using namespace std::chrono_literals;
-using tether::testing::IoThread;
+using tether::transports::IoThread;
 
 const std::string kBanner = "tether echo\r\n";
 

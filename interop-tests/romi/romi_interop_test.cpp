@@ -17,7 +17,7 @@
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 #include "tether/testing/child_process.hpp"
-#include "tether/testing/io_thread.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
@@ -27,7 +27,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using tether::testing::IoThread;
+using tether::transports::IoThread;
 using transports::Pacing;
 using transports::VirtualUnoOptions;
 using transports::VirtualUnoStream;

@@ -11,8 +11,6 @@
 // Every run is a new host session. Starting each at id 0 would make two runs of the same command look like
 // one request sent twice to a device that filters repeated ids (reference firmware: -15 duplicate; Tether
 // firmware: the cached answer, without running the command again). So the id is random unless --id says.
-#include <boost/asio/executor_work_guard.hpp>
-#include <boost/asio/io_context.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -25,10 +23,10 @@
 #include <random>
 #include <string>
 #include <string_view>
-#include <thread>
 
 #include "commands.hpp"
 #include "tether/romi/client.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 
 namespace tether::cli {
@@ -67,10 +65,7 @@ constexpr const char* kUsage =
     "2 a protocol or transport error (code < 0: the device's, or the host's such as -25 timed out,\n"
     "-10 value out of range, -33 transport error) and usage errors.\n";
 
-int usage_error(const std::string& message) {
-  std::fprintf(stderr, "tether call: %s\n\n%s", message.c_str(), kUsage);
-  return 2;
-}
+int usage_error(const std::string& message) { return tether::cli::usage_error("call", message, kUsage); }
 
 struct Arguments {
   std::string port;
@@ -145,24 +140,6 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
   return std::nullopt;
 }
 
-// An io_context run by one thread while the object lives (the blocking calls need it).
-class IoThread {
- public:
-  IoThread() : guard_(asio::make_work_guard(io_)), thread_([this] { io_.run(); }) {}
-  ~IoThread() {
-    guard_.reset();
-    io_.stop();
-    thread_.join();
-  }
-  IoThread(const IoThread&) = delete;
-  IoThread& operator=(const IoThread&) = delete;
-  asio::any_io_executor executor() { return io_.get_executor(); }
-
- private:
-  asio::io_context io_;
-  asio::executor_work_guard<asio::io_context::executor_type> guard_;
-  std::thread thread_;
-};
 
 template <typename Json>
 std::string dump(const Json& value) {
@@ -186,7 +163,7 @@ int run_call(int argc, char** argv) {
     response.values = nlohmann::json::array({response.code, response.message});
     response.opcode = command.opcode();
   } else {
-    IoThread io;
+    tether::transports::IoThread io;
     transports::SerialOptions options;
     options.baud = arguments.baud;
     options.boot_wait = std::chrono::milliseconds(arguments.boot_wait_ms);

@@ -36,10 +36,7 @@ constexpr const char* kUsage =
     "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
     "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n";
 
-int usage_error(const std::string& message) {
-  std::fprintf(stderr, "tether sim: %s\n\n%s", message.c_str(), kUsage);
-  return 2;
-}
+int usage_error(const std::string& message) { return tether::cli::usage_error("sim", message, kUsage); }
 
 int fail(const std::string& message) {
   std::fprintf(stderr, "tether sim: %s\n", message.c_str());

@@ -17,7 +17,7 @@
 #include <thread>
 
 #include "tether/testing/child_process.hpp"
-#include "tether/testing/io_thread.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "ser2net_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/pty_stream.hpp"
@@ -29,7 +29,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-using IoThread = tether::testing::IoThread;
+using IoThread = tether::transports::IoThread;
 
 std::string read_exactly(ByteStream& stream, std::size_t size, std::chrono::milliseconds timeout = 5s) {
   std::string result(size, '\0');

@@ -15,7 +15,7 @@
 
 #include "fake_device.hpp"
 #include "tether/testing/child_process.hpp"
-#include "tether/testing/io_thread.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "tether/transports/pty_stream.hpp"
 #include "test_support.hpp"
 
@@ -59,7 +59,7 @@ Outcome run_tether(const std::vector<std::string>& arguments) {
 
 // A fake device on the master side of a new pty; the command opens the slave side.
 struct PtyDevice {
-  ::tether::testing::IoThread io;
+  ::tether::transports::IoThread io;
   std::shared_ptr<transports::PtyStream> pty = transports::PtyStream::open(io.executor());
   std::shared_ptr<FakeDevice> device = FakeDevice::start(pty);
   ~PtyDevice() { device->close(); }

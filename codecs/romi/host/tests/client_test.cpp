@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "tether/testing/child_process.hpp"
-#include "tether/testing/io_thread.hpp"
+#include "tether/transports/io_thread.hpp"
 #include "test_support.hpp"
 
 namespace tether::romi::testing {
@@ -24,7 +24,7 @@ namespace {
 using namespace std::chrono_literals;
 using nlohmann::json;
 namespace asio = boost::asio;
-using IoThread = ::tether::testing::IoThread;
+using IoThread = ::tether::transports::IoThread;
 
 // Generous bound for "completes promptly" (no timing assertion tighter than this, ASan included).
 constexpr auto kPrompt = 3000ms;

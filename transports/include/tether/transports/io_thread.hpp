@@ -1,6 +1,7 @@
 /// @file io_thread.hpp
-/// An asio io_context run by one background thread for the lifetime of the object (tests and tools that
-/// use blocking calls on streams need some other thread to run the executor).
+/// An asio io_context run by one background thread for the lifetime of the object. The blocking calls of
+/// streams and clients (`read_some`, `RomiClient::call`, ...) need some other thread to run the executor:
+/// programs without an event loop of their own create one of these and pass `executor()` to the streams.
 #pragma once
 
 #include <boost/asio/any_io_executor.hpp>
@@ -9,7 +10,7 @@
 
 #include <thread>
 
-namespace tether::testing {
+namespace tether::transports {
 
 /// io_context + work guard + thread; stops and joins on destruction.
 class IoThread {
@@ -32,4 +33,4 @@ class IoThread {
   std::thread thread_;
 };
 
-}  // namespace tether::testing
+}  // namespace tether::transports
