@@ -174,6 +174,18 @@ TEST(ProxyFrame, OversizeFrameIsDroppedOnceAndTheDecoderResynchronises) {
   EXPECT_TRUE(no_errors.empty());
 }
 
+TEST(ProxyFrame, CompatModeBoundsThePayloadToo) {
+  // Regression (found by the fuzz target): without a CRC, payloads up to two bytes over the bound passed.
+  for (const size_t size : {size_t{33}, size_t{34}}) {
+    LinkCounters counters;
+    const auto [payloads, errors] = receive<32>(frame(Bytes(size, 0x07), Integrity::none, true), Integrity::none, &counters);
+    EXPECT_TRUE(payloads.empty()) << size;
+    EXPECT_EQ(errors, (std::vector<Status>{Status::frame_too_long})) << size;
+    EXPECT_EQ(counters.oversize_frames, 1u);
+  }
+  EXPECT_EQ(receive<32>(frame(Bytes(32, 0x07), Integrity::none, true), Integrity::none).first.size(), 1u);
+}
+
 TEST(ProxyFrame, ResynchronisesAfterRandomGarbage) {
   auto random = tether::testing::seeded_generator(17);
   std::vector<Bytes> sent;

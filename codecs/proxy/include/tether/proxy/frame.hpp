@@ -68,6 +68,12 @@ class FrameDecoder {
     if (cobs.kind != CobsEvent::Kind::frame) return event;
     if (integrity_ == Integrity::none) {
       if (cobs.frame.empty()) return event;  // `01 00` carries nothing: an empty frame, ignored
+      if (cobs.frame.size() > MaxPayload) {  // the COBS stage has room for a CRC this mode does not send
+        ++counters_->oversize_frames;
+        event.kind = FrameEvent::Kind::error;
+        event.status = Status::frame_too_long;
+        return event;
+      }
       ++counters_->frames_ok;
       event.kind = FrameEvent::Kind::payload;
       event.payload = cobs.frame;

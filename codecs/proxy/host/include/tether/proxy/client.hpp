@@ -1,0 +1,560 @@
+/// @file client.hpp
+/// The proxy host client: drives one Arduino "I/O proxy" (servos, digital outputs) over any `ByteStream`
+/// with COBS-framed protobuf, in the designed protocol (primary mode) or the deployed variant (compat mode).
+///
+/// @code
+///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0", serial_options);
+///   proxy::ProxyClient client(port);                                  // primary mode: Reset, handshake, pings
+///   client.add_event_handler([](const proxy::ProxyEvent& event) { ... });
+///   client.servo(9).init(90);                                        // registered for replay AND sent; blocks
+///   client.servo(9).set(120);                                        // throws system_error on failure
+///   client.digital(13).async_set(true, [](error_code e, proxy::SendResult r) { ... });
+///   std::future<proxy::SendResult> f = client.async_send(message, asio::use_future);   // any ArduinoIn
+///
+///   proxy::ProxyClient old(port2, proxy::ProxyOptions::compat());     // the deployed firmware
+///   old.servo(5).set(180);                                           // completes when written
+/// @endcode
+///
+/// ## Primary mode (the design; `docs/proxy.md`)
+/// Wire: `0x00 ‖ COBS(crc16_le ‖ pb) ‖ 0x00` host to device (the leading 0x00 flushes line garbage), device
+/// frames `COBS(crc16_le ‖ pb) ‖ 0x00`; pb is one `tether::proxy::ArduinoIn` / `ArduinoOut`.
+///   1. **Sends.** Every message gets the next messageId of a 32-bit sequence that starts at a random value
+///      (`ProxyOptions::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
+///      put in the message is overwritten. At most `kMaxInFlight` (8) messages are in flight; at most one
+///      per pin ("lane"), so two commands to the same pin reach the device in submission order even when
+///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Other
+///      messages wait in a FIFO queue on the client's strand.
+///   2. **Acks and re-sends.** A message is re-sent, byte for byte (same messageId: the device executes an
+///      id once and acks a repeat again), each time an attempt window passes without its ack, until it is
+///      acked or its `send_budget` runs out (`ProxyError::timed_out`) or `max_sends` frames were sent. The
+///      attempt window is `ProxyTiming::ack_timeout(frame bytes)`: both frames' time on the wire
+///      (`(frame + kAckFrameBytes) * bits_per_byte / baud`) plus `processing_margin`. An ack whose id is not
+///      in flight (a duplicate ack of a re-sent message, a late ack) is counted in `link.stale` and dropped;
+///      acks of pings and Resets are recognised and counted as such, never as stale.
+///   3. **Heartbeat.** A `Ping` (its own messageId, fire and forget: the next ping follows) every
+///      `ping_period` (1 s), fixed rate (`session::HeartbeatSchedule`), from construction until `close()`.
+///   4. **Session** (`session::SessionMonitor`). On construction the client sends `Reset` and waits for
+///      `ResetEvent(sessionId)` (Reset re-sent every `session.reset_timeout`, 3 s), stores the id, sends
+///      every registered init in registration order, and, once they are all acked, emits
+///      `events::SessionEstablished`. Application messages wait in the queue until then (at most
+///      `queue_timeout`). A sessionId different from the stored one, in `ArduinoInfo` or in an
+///      unsolicited `ResetEvent`, means the device restarted: the client emits `events::ResetDetected`,
+///      fails the messages in flight with `ProxyError::device_reset` (whether they ran is unknown), sends
+///      `Reset`, waits for the `ResetEvent`, replays every init in order, and emits `SessionEstablished`
+///      again: the application does nothing. A replayed init that runs out of budget restarts the
+///      handshake (Reset again).
+///   5. **Inits.** Every `ServoInit` / `DigitalInit` the client sends (`servo(pin).init(...)`,
+///      `digital(pin).init(...)`, or one passed to `async_send`) is registered for replay, keyed by (kind,
+///      pin): registering a key again replaces its message and keeps its place. An init sent while the
+///      handshake waits for the `ResetEvent` is not sent twice: it completes when its replay is acked.
+///      Inits are never unregistered (the protocol has no "release pin"). At most `kMaxInits`.
+///   6. `Reset` cannot be sent with `async_send` (`ProxyError::reserved_message`): it is the handshake's;
+///      `restart_session()` resets the device and re-runs the handshake.
+///
+/// ## Compatibility mode (the deployed variant, `ProxyOptions::compat()`)
+/// Wire: host `0x00 ‖ COBS(pb) ‖ 0x00`, device `COBS(pb) ‖ 0x00`, no CRC, `RocketryProto` messages, 57600
+/// baud (the transport's setting). No messageIds, acks, pings or sessions: a send completes when its frame
+/// was written to the stream (`SendResult::acked` is false). Same convenience API; `async_send` takes a
+/// `RocketryProto::ArduinoIn` (Reset included). Device messages become events: `EventMessage` ->
+/// `events::CompatEvent`, `ErrorMessage` -> `events::CompatError`, `ServoState`/`DigitalState` ->
+/// `events::PinReport` (only when a pin reports for the first time, changes value, or comes back after
+/// being lost: the device repeats them every ~50 ms), other states -> `events::CompatState`. The deployed
+/// host's **staleness rule**: a pin whose state was not refreshed for `stale_after` (5 s) -- counted from
+/// its init through this client or its last report -- is reported once with `events::PinLost`, and its
+/// `PinStatus::stale` is set until it reports again. With `compat_replay_on_reset` (default) the client
+/// re-sends every registered init, in order, when the device announces `EventMessage{RESET}` (its setup
+/// ended: a boot, maybe behind the host's back).
+///
+/// ## What a send returns
+/// Every send completes exactly once with `void(error_code, SendResult)`:
+///   | error_code | when |
+///   |---|---|
+///   | none | primary: the device acked the messageId; compat: the frame was written |
+///   | `ProxyError::timed_out` | no ack within `send_budget` (or after `max_sends` frames) |
+///   | `ProxyError::queue_timeout` | not sent within `queue_timeout` (no session, pin busy, 8 in flight) |
+///   | `ProxyError::device_reset` | the session changed while it was in flight |
+///   | `ProxyError::wrong_mode`, `invalid_message`, `reserved_message`, `message_too_large`, `too_many_inits` | rejected before anything was written |
+///   | `asio::error::operation_aborted` | `close()` (or the client's destruction) |
+///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
+///
+/// ## Events (`add_event_handler`)
+/// Handlers receive a `ProxyEvent` (a variant; see `events::`). Contract: called on the client's strand, one
+/// event at a time, in arrival order; must not block for long (decoding waits), must not call the blocking
+/// API of this client (it fails with `TransportError::would_deadlock`; the async API is fine); exceptions
+/// are caught and dropped. Events are not queued for handlers added later.
+///
+/// ## Threading and lifetime (as `romi::RomiClient`)
+///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
+///     client. The client reads continuously from construction on (one read loop, no read deadline; one
+///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule).
+///   - Completion handlers run on their associated executor (default: the stream's), never on the client's
+///     strand and never inside the initiating call.
+///   - The blocking forms need another thread running the executor.
+///   - `close()` and the destructor complete every pending send (in flight, queued, or waiting for a
+///     replay) with `operation_aborted`, close the stream and never wait for the device. The client owns
+///     its stream's reading. `ServoHandle`/`DigitalHandle` keep the implementation alive; after the client
+///     is closed their sends complete with `operation_aborted`.
+#pragma once
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/async_result.hpp>
+#include <boost/system/error_code.hpp>
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "rocketry.pb.h"
+#include "tether/core/counters.hpp"
+#include "tether/core/session/session_monitor.hpp"
+#include "tether/core/time.hpp"
+#include "tether/proxy/error_category.hpp"
+#include "tether/proxy/frame.hpp"
+#include "tether/transports/byte_stream.hpp"
+#include "tether/transports/unique_function.hpp"
+#include "tether_proxy.pb.h"
+
+namespace tether::proxy {
+
+/// Error codes of the client (boost::system, like asio).
+using error_code = boost::system::error_code;
+
+/// Messages in flight at once (the RequestTable's capacity; the device's duplicate filter remembers 8).
+inline constexpr std::uint8_t kMaxInFlight = 8;
+/// Registered inits (ServoInit/DigitalInit keys) at most.
+inline constexpr std::uint8_t kMaxInits = 64;
+/// Largest protobuf payload sent or accepted; longer device frames are dropped (`link.oversize_frames`).
+inline constexpr std::size_t kMaxPayload = 256;
+/// Bytes of the longest ack frame (`ArduinoOut{ack{messageId}}`, 9-byte payload), delimiters included.
+inline constexpr std::size_t kAckFrameBytes = max_frame_size(9);
+
+/// Which protocol the client speaks.
+enum class Mode : std::uint8_t {
+  primary,  ///< The designed protocol: CRC-16, messageIds, acks, pings, sessions (`tether.proxy`).
+  compat,   ///< The deployed variant: no CRC, no acks, no ping, no sessions (`RocketryProto`).
+};
+
+/// All the client's timing. Every duration is in milliseconds; defaults are the protocol's values.
+struct ProxyTiming {
+  /// Link speed used to compute the ack timeout (the transport sets the real speed). 0 is invalid.
+  std::uint32_t baud = 115200;
+  /// Bits a byte takes on the wire in the ack-timeout formula (8N1 is 10; 11 leaves a margin). >= 1.
+  std::uint32_t bits_per_byte = 11;
+  /// Added to the wire time of frame + ack: device processing, OS and USB-serial latency, a device frame
+  /// already being sent.
+  Duration processing_margin = 50;
+  /// Total time from a message's first send to its ack, all re-sends included. >= 1.
+  Duration send_budget = 1000;
+  /// Frames sent per message at most, the first included (the budget is normally the bound). >= 1.
+  std::uint8_t max_sends = 255;
+  /// Longest a message waits before its first send (session being set up, its pin busy, 8 in flight).
+  Duration queue_timeout = 10000;
+  /// Heartbeat period (the protocol: 1000). 0 disables pings (tests; the device then fails safe after 10 s).
+  Duration ping_period = 1000;
+  /// Reset handshake: Reset is re-sent when no ResetEvent arrives within `session.reset_timeout` (3 s).
+  session::SessionTiming session;
+  /// Compat mode: a pin whose state was not refreshed for this long is lost (the deployed host's 5 s).
+  Duration stale_after = 5000;
+
+  /// The attempt window of a frame of `frame_bytes`:
+  /// `ceil((frame_bytes + kAckFrameBytes) * bits_per_byte * 1000 / baud) + processing_margin`.
+  Duration ack_timeout(std::size_t frame_bytes) const;
+};
+
+/// How a client behaves.
+struct ProxyOptions {
+  /// Protocol.
+  Mode mode = Mode::primary;
+  /// Timing (see `ProxyTiming`).
+  ProxyTiming timing;
+  /// The first messageId used (the open's Reset gets it); default: a random value. Tests fix it.
+  std::optional<std::uint32_t> first_message_id;
+  /// Compat mode: re-send every registered init when the device sends `EventMessage{RESET}`.
+  bool compat_replay_on_reset = true;
+
+  /// Primary mode with the protocol's timing.
+  static ProxyOptions primary() { return ProxyOptions(); }
+  /// Compatibility mode: the deployed variant at 57600 baud.
+  static ProxyOptions compat() {
+    ProxyOptions options;
+    options.mode = Mode::compat;
+    options.timing.baud = 57600;
+    return options;
+  }
+};
+
+/// What a send produced (with its error_code; see the file overview).
+struct SendResult {
+  /// Primary mode: the messageId on the wire (0 when rejected before sending, and in compat mode).
+  std::uint32_t message_id = 0;
+  /// Frames sent for this message (> 1 after re-sends; 0 when it never reached the wire).
+  std::uint8_t attempts = 0;
+  /// Primary mode: the device acknowledged it (true exactly when there is no error). Compat: false.
+  bool acked = false;
+};
+
+/// Completion signature of every asynchronous send.
+using SendSignature = void(error_code, SendResult);
+
+/// Kind of pin a report or status concerns.
+enum class PinKind : std::uint8_t {
+  unknown,  ///< Primary-mode PinState of a pin this client did not init.
+  servo,    ///< Servo output (value: position).
+  digital,  ///< Digital output (value: 0 or 1).
+};
+
+/// Level of a primary-mode device error.
+enum class ErrorLevel : std::uint8_t {
+  warning,  ///< `Error.Level.WARNING`.
+  fatal,    ///< `Error.Level.FATAL`.
+};
+
+/// The last known state of a pin (`pin_state`, `pin_states`).
+struct PinStatus {
+  PinKind kind = PinKind::unknown;  ///< Servo, digital (unknown: primary PinState of a pin not inited here).
+  std::uint32_t pin = 0;            ///< Pin number.
+  bool has_value = false;           ///< A report arrived (else only the init is known).
+  std::int32_t value = 0;           ///< Last reported position / level.
+  bool failsafe = false;            ///< Primary: the device drives it to its safe value (failsafe).
+  bool stale = false;               ///< Compat: not refreshed for `stale_after` (set until it reports again).
+  std::chrono::steady_clock::time_point updated;  ///< Last report (or its init, before any report).
+};
+
+/// Events to the application; each type is one alternative of `ProxyEvent`.
+namespace events {
+/// Primary: the device sent `Error(text, level)`.
+struct DeviceError {
+  std::string text;                        ///< The device's text.
+  ErrorLevel level = ErrorLevel::warning;  ///< WARNING or FATAL.
+};
+/// Primary: the device's periodic `ArduinoInfo` (every one, after the session check).
+struct DeviceInfo {
+  std::uint32_t session_id = 0;          ///< The device's session.
+  bool ping_failsafe_triggered = false;  ///< Its sticky failsafe flag.
+};
+/// Primary: `pingFailsafeTriggered` became true (once per episode; `reset_failsafe()` clears it).
+struct FailsafeTriggered {
+  std::uint32_t session_id = 0;  ///< The session it happened in.
+};
+/// A pin's state: primary `PinState` (every one), compat `ServoState`/`DigitalState` (first, changed, back).
+struct PinReport {
+  PinKind kind = PinKind::unknown;  ///< From the message (compat) or this client's inits (primary).
+  std::uint32_t pin = 0;            ///< Pin number.
+  std::int32_t value = 0;           ///< Position (servo) or 0/1 (digital).
+  bool failsafe = false;            ///< Primary: driven by the failsafe.
+};
+/// Compat: a pin not refreshed for `stale_after` (once, until it reports again).
+struct PinLost {
+  PinKind kind = PinKind::unknown;  ///< Servo or digital.
+  std::uint32_t pin = 0;            ///< Pin number.
+  Duration silent_ms = 0;           ///< How long it has been silent.
+};
+/// Primary: the handshake finished: the session id is stored and every registered init was acked.
+struct SessionEstablished {
+  std::uint32_t session_id = 0;  ///< The device's new session.
+  std::size_t inits = 0;         ///< Inits replayed in this handshake.
+  bool first = true;             ///< The first session of this client (false after a reset).
+};
+/// Primary: the device reported another session than the stored one: it restarted. Recovery follows.
+struct ResetDetected {
+  std::uint32_t previous_session_id = 0;  ///< The stored session.
+  std::uint32_t reported_session_id = 0;  ///< The id that revealed the restart.
+};
+/// Compat: the device's `EventMessage` (RESET at the end of its setup, SERVO_CONTROL before acting, ...).
+struct CompatEvent {
+  RocketryProto::EventTypes type = RocketryProto::RESET;  ///< What happened.
+  std::int32_t data = 0;                                  ///< Its data (the pin for control events).
+};
+/// Compat: the device's `ErrorMessage`.
+struct CompatError {
+  RocketryProto::ErrorTypes type = RocketryProto::DECODE_ERROR;  ///< What failed.
+  std::int32_t data = 0;                                         ///< Its data (the pin for PIN_NOT_INITIALIZED).
+};
+/// Compat: a DCMotorState, StepperMotorState or LoadCellState, as decoded.
+struct CompatState {
+  RocketryProto::ArduinoOut message;  ///< The whole message.
+};
+/// An intact frame whose payload is not a message this client understands (counted too).
+struct UndecodableMessage {
+  std::string payload;  ///< The payload bytes (CRC already checked in primary mode).
+  /// True: the payload is not valid protobuf of the mode's `ArduinoOut` (`undecodable`). False: it is, but
+  /// its oneof is unset or unknown to this schema (`unknown_messages`; newer firmware).
+  bool malformed = true;
+};
+/// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done.
+struct LinkFailed {
+  error_code error;  ///< The transport's error.
+};
+}  // namespace events
+
+/// Everything a handler can receive.
+using ProxyEvent = std::variant<events::DeviceError, events::DeviceInfo, events::FailsafeTriggered,
+                                events::PinReport, events::PinLost, events::SessionEstablished,
+                                events::ResetDetected, events::CompatEvent, events::CompatError,
+                                events::CompatState, events::UndecodableMessage, events::LinkFailed>;
+/// An event handler (contract in the file overview).
+using EventHandler = std::function<void(const ProxyEvent& event)>;
+/// Identifies a handler for `remove_event_handler`.
+using EventHandlerId = std::uint64_t;
+
+/// The client's counters (a snapshot; they only grow).
+struct ProxyCounters {
+  /// Decoder (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs) and session engine (stale
+  /// acks, retries = re-sends and unanswered Resets, timeouts, resets = device restarts detected).
+  LinkCounters link;
+  std::uint32_t undecodable = 0;       ///< Intact frames that are not protobuf of the mode's ArduinoOut.
+  std::uint32_t unknown_messages = 0;  ///< Valid protobuf with an unset / unknown oneof.
+  std::uint32_t messages_sent = 0;     ///< Application messages and replays sent (first sends).
+  std::uint32_t acks = 0;              ///< Acks that completed a message.
+  std::uint32_t pings_sent = 0;        ///< Heartbeat pings written.
+  std::uint32_t ping_acks = 0;         ///< Acks of pings.
+  std::uint32_t resets_sent = 0;       ///< Reset messages written.
+  std::uint32_t inits_replayed = 0;    ///< Init messages re-sent by the session (primary) or on RESET (compat).
+  std::uint32_t pins_lost = 0;         ///< Compat: PinLost events.
+};
+
+/// Where the session stands (`session()`).
+struct SessionStatus {
+  bool established = false;                ///< Primary: handshake done. Compat: always true.
+  std::optional<std::uint32_t> session_id;  ///< Primary: the stored session (from the first ResetEvent on).
+};
+
+namespace detail {
+class ProxyClientImpl;
+/// Type-erased completion handler of a send.
+using SendHandler = transports::UniqueFunction<SendSignature>;
+
+/// What the public API asks the implementation to send.
+struct Request {
+  /// The operation.
+  enum class Op : std::uint8_t { raw, servo_init, servo_set, digital_init, digital_set, failsafe_reset };
+  Op op = Op::raw;                                                                  ///< What to send.
+  std::uint32_t pin = 0;                                                            ///< Convenience ops.
+  std::int32_t value = 0;                                                           ///< Convenience ops.
+  std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn> message;       ///< `Op::raw`.
+};
+
+/// Queues `request` on `impl` (any thread). Defined in client.cpp.
+void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendHandler handler);
+/// The executor completions fall back to.
+boost::asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl);
+/// Blocking send: failures in `error`.
+SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error);
+/// Blocking send: throws `boost::system::system_error`.
+SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request);
+/// The pin's status (`ServoHandle::state`, ...).
+std::optional<PinStatus> pin_state(const std::shared_ptr<ProxyClientImpl>& impl, PinKind kind, std::uint32_t pin);
+
+/// Starts `request` with any completion token.
+template <typename SendToken>
+auto initiate_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendToken&& token) {
+  // The initiation holds the implementation, not the client: deferred tokens (use_awaitable) may start it
+  // after the ProxyClient object was moved.
+  return boost::asio::async_initiate<SendToken, SendSignature>(
+      [impl](auto handler, Request req) {
+        auto bound = transports::bind_to_associated_executor<SendSignature>(std::move(handler), executor_of(impl));
+        submit(impl, std::move(req), std::move(bound));
+      },
+      token, std::move(request));
+}
+
+inline Request make_request(Request::Op op, std::uint32_t pin, std::int32_t value) {
+  Request request;
+  request.op = op;
+  request.pin = pin;
+  request.value = value;
+  return request;
+}
+}  // namespace detail
+
+/// A servo output of one client: `client.servo(9).init(90)`, `.set(120)`. Cheap to copy; keeps the
+/// client's implementation alive. Primary: ServoInit{pin, safePosition} / ServoControl{pin, position};
+/// compat: the RocketryProto messages of the same names.
+class ServoHandle {
+ public:
+  /// The pin.
+  std::uint32_t pin() const { return pin_; }
+  /// Registers ServoInit{pin, safe_position} for replay and sends it; completes like a send.
+  template <typename SendToken>
+  auto async_init(std::int32_t safe_position, SendToken&& token) {
+    return detail::initiate_send(impl_, request(Op::servo_init, safe_position), std::forward<SendToken>(token));
+  }
+  /// Blocking `async_init`; failures in `error`.
+  SendResult init(std::int32_t safe_position, error_code& error) {
+    return detail::blocking_send(impl_, request(Op::servo_init, safe_position), error);
+  }
+  /// Blocking `async_init`; throws `boost::system::system_error`.
+  SendResult init(std::int32_t safe_position) {
+    return detail::blocking_send(impl_, request(Op::servo_init, safe_position));
+  }
+  /// Sends ServoControl{pin, position}; completes like a send.
+  template <typename SendToken>
+  auto async_set(std::int32_t position, SendToken&& token) {
+    return detail::initiate_send(impl_, request(Op::servo_set, position), std::forward<SendToken>(token));
+  }
+  /// Blocking `async_set`; failures in `error`.
+  SendResult set(std::int32_t position, error_code& error) {
+    return detail::blocking_send(impl_, request(Op::servo_set, position), error);
+  }
+  /// Blocking `async_set`; throws `boost::system::system_error`.
+  SendResult set(std::int32_t position) { return detail::blocking_send(impl_, request(Op::servo_set, position)); }
+  /// The pin's last known state (none before its init or first report).
+  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::servo, pin_); }
+
+ private:
+  friend class ProxyClient;
+  using Op = detail::Request::Op;
+  ServoHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin) : impl_(std::move(impl)), pin_(pin) {}
+  detail::Request request(Op op, std::int32_t value) const { return detail::make_request(op, pin_, value); }
+  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  std::uint32_t pin_;
+};
+
+/// A digital output of one client: `client.digital(13).init(false)`, `.set(true)`. Primary:
+/// DigitalInit{pin, safeState} / DigitalControl{pin, state}; compat: DigitalInit{pin, safeState 0/1} /
+/// DigitalControl{pin, activate}.
+class DigitalHandle {
+ public:
+  /// The pin.
+  std::uint32_t pin() const { return pin_; }
+  /// Registers DigitalInit{pin, safe_state} for replay and sends it; completes like a send.
+  template <typename SendToken>
+  auto async_init(bool safe_state, SendToken&& token) {
+    return detail::initiate_send(impl_, request(Op::digital_init, safe_state), std::forward<SendToken>(token));
+  }
+  /// Blocking `async_init`; failures in `error`.
+  SendResult init(bool safe_state, error_code& error) {
+    return detail::blocking_send(impl_, request(Op::digital_init, safe_state), error);
+  }
+  /// Blocking `async_init`; throws `boost::system::system_error`.
+  SendResult init(bool safe_state) { return detail::blocking_send(impl_, request(Op::digital_init, safe_state)); }
+  /// Sends DigitalControl{pin, state}; completes like a send.
+  template <typename SendToken>
+  auto async_set(bool state, SendToken&& token) {
+    return detail::initiate_send(impl_, request(Op::digital_set, state), std::forward<SendToken>(token));
+  }
+  /// Blocking `async_set`; failures in `error`.
+  SendResult set(bool state, error_code& error) {
+    return detail::blocking_send(impl_, request(Op::digital_set, state), error);
+  }
+  /// Blocking `async_set`; throws `boost::system::system_error`.
+  SendResult set(bool state) { return detail::blocking_send(impl_, request(Op::digital_set, state)); }
+  /// The pin's last known state (none before its init or first report).
+  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::digital, pin_); }
+
+ private:
+  friend class ProxyClient;
+  using Op = detail::Request::Op;
+  DigitalHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin)
+      : impl_(std::move(impl)), pin_(pin) {}
+  detail::Request request(Op op, bool value) const { return detail::make_request(op, pin_, value ? 1 : 0); }
+  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  std::uint32_t pin_;
+};
+
+/// Proxy host client for one device. Movable, not copyable; see the file overview.
+class ProxyClient {
+ public:
+  /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
+  /// Throws `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget
+  /// or max_sends of 0).
+  explicit ProxyClient(std::shared_ptr<transports::ByteStream> stream, const ProxyOptions& options = ProxyOptions());
+  /// Closes (`close()`).
+  ~ProxyClient();
+  ProxyClient(ProxyClient&&) noexcept;
+  ProxyClient& operator=(ProxyClient&&) noexcept;
+  ProxyClient(const ProxyClient&) = delete;
+  ProxyClient& operator=(const ProxyClient&) = delete;
+
+  /// Executor of the stream; completion handlers without an associated executor run on it.
+  boost::asio::any_io_executor get_executor() const;
+  /// The mode chosen at construction.
+  Mode mode() const;
+
+  /// Primary mode: sends `message` (its messageId is assigned) and completes with
+  /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token.
+  template <typename SendToken>
+  auto async_send(const ArduinoIn& message, SendToken&& token) {
+    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+  }
+  /// Compat mode: sends `message`; completes when written.
+  template <typename SendToken>
+  auto async_send(const RocketryProto::ArduinoIn& message, SendToken&& token) {
+    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+  }
+  /// Blocking send; failures in `error`.
+  SendResult send(const ArduinoIn& message, error_code& error) { return detail::blocking_send(impl_, raw(message), error); }
+  /// Blocking send; throws `boost::system::system_error`.
+  SendResult send(const ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+  /// Blocking compat send; failures in `error`.
+  SendResult send(const RocketryProto::ArduinoIn& message, error_code& error) {
+    return detail::blocking_send(impl_, raw(message), error);
+  }
+  /// Blocking compat send; throws `boost::system::system_error`.
+  SendResult send(const RocketryProto::ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+
+  /// The servo on `pin`.
+  ServoHandle servo(std::uint32_t pin) const { return ServoHandle(impl_, pin); }
+  /// The digital output on `pin`.
+  DigitalHandle digital(std::uint32_t pin) const { return DigitalHandle(impl_, pin); }
+
+  /// Primary mode: sends PingFailsafeReset (clears the device's pingFailsafeTriggered); completes like a
+  /// send. Compat: `ProxyError::wrong_mode`.
+  template <typename SendToken>
+  auto async_reset_failsafe(SendToken&& token) {
+    return detail::initiate_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0),
+                                 std::forward<SendToken>(token));
+  }
+  /// Blocking `async_reset_failsafe`; throws `boost::system::system_error`.
+  SendResult reset_failsafe() {
+    return detail::blocking_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0));
+  }
+
+  /// Resets the device. Primary: messages in flight fail with `device_reset`, then Reset, ResetEvent, the
+  /// inits and `SessionEstablished` as at the start (no `ResetDetected`). Compat: writes `Reset{}`; the
+  /// device's `EventMessage{RESET}` then triggers the replay. Any thread; returns at once.
+  void restart_session();
+
+  /// Adds an event handler (contract in the file overview). Any thread.
+  EventHandlerId add_event_handler(EventHandler handler);
+  /// Removes a handler; it may still receive an event being delivered on another thread. Any thread.
+  void remove_event_handler(EventHandlerId id);
+
+  /// Snapshot of the counters. Any thread; updated after each batch of bytes and each completion.
+  ProxyCounters counters() const;
+  /// Where the session stands. Any thread.
+  SessionStatus session() const;
+  /// The last known state of a pin (inited through this client or reported). Any thread.
+  std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const;
+  /// Every known pin, ordered by (kind, pin). Any thread.
+  std::vector<PinStatus> pin_states() const;
+
+  /// Completes every pending send with `operation_aborted`, closes the stream and stops reading, pinging
+  /// and timing; later sends complete with `operation_aborted` too. Idempotent, any thread, never waits for
+  /// the device (at most the stream's own 250 ms close fallback when no thread runs the executor).
+  void close();
+  /// False after `close()`.
+  bool is_open() const;
+
+ private:
+  static detail::Request raw(const ArduinoIn& message) {
+    detail::Request request;
+    request.message = message;
+    return request;
+  }
+  static detail::Request raw(const RocketryProto::ArduinoIn& message) {
+    detail::Request request;
+    request.message = message;
+    return request;
+  }
+
+  std::shared_ptr<detail::ProxyClientImpl> impl_;
+};
+
+}  // namespace tether::proxy
