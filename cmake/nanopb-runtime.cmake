@@ -36,8 +36,9 @@ add_library(nanopb_runtime STATIC
 # SYSTEM: third-party headers, so our -Wconversion/-Werror targets are not failed by nanopb's own code.
 target_include_directories(nanopb_runtime SYSTEM PUBLIC ${TETHER_NANOPB_SOURCE_DIR})
 # PUBLIC so the runtime, the generated *.pb.c and our code all see the same pb.h configuration; a
-# mismatch silently changes struct layouts. No 64-bit fields and no error strings keep flash/RAM down.
-target_compile_definitions(nanopb_runtime PUBLIC PB_WITHOUT_64BIT PB_NO_ERRMSG)
+# mismatch silently changes struct layouts. No 64-bit fields, no error strings and buffer-only streams
+# (Tether always encodes to and decodes from memory) keep flash/RAM down.
+target_compile_definitions(nanopb_runtime PUBLIC PB_WITHOUT_64BIT PB_NO_ERRMSG PB_BUFFER_ONLY)
 # Deliberately no tether_warnings(): this is upstream code, warnings are not ours to fix.
 
 unset(_f)

@@ -1,0 +1,40 @@
+/// @file text.hpp
+/// A bounded text builder for the short messages a device sends (Error.text), without printf.
+///
+/// avr-libc's printf family costs ~1.5 KB of flash; a device only needs words and unsigned numbers. The
+/// builder writes into a caller's buffer, always NUL-terminated, and truncates instead of overflowing.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+namespace tether {
+namespace proxy {
+namespace device {
+
+/// Appends text and numbers to `buffer[0..capacity)` (capacity includes the NUL).
+class TextBuilder {
+ public:
+  /// Builder over `buffer` of `capacity` bytes (>= 1), which it empties.
+  TextBuilder(char* buffer, size_t capacity);
+  /// Appends a NUL-terminated string (what fits).
+  TextBuilder& text(const char* string);
+  /// Appends `value` in decimal (all digits, or nothing if they do not all fit).
+  TextBuilder& number(uint32_t value);
+  /// Characters written (the NUL excluded).
+  size_t size() const { return size_; }
+  /// True when something did not fit.
+  bool truncated() const { return truncated_; }
+
+ private:
+  void put(char c);
+
+  char* buffer_;
+  size_t capacity_;
+  size_t size_ = 0;
+  bool truncated_ = false;
+};
+
+}  // namespace device
+}  // namespace proxy
+}  // namespace tether

@@ -1,0 +1,225 @@
+// Primary-mode proxy device: see tether/proxy/device/proxy_device.hpp for the wire behaviour.
+#include "tether/proxy/device/proxy_device.hpp"
+
+#include <pb_decode.h>
+
+#include "tether/core/crc.hpp"
+#include "tether/proxy/device/text.hpp"
+#include "tether_proxy.pb.h"
+
+namespace tether {
+namespace proxy {
+namespace device {
+
+static_assert(tether_proxy_ArduinoOut_size <= kMaxOutPayload, "an ArduinoOut must fit the send buffer");
+static_assert(tether_proxy_ArduinoIn_size <= ProxyDevice::kMaxPayload, "an ArduinoIn must fit the decoder");
+
+namespace {
+
+tether_proxy_ArduinoOut out_message(pb_size_t which) {
+  tether_proxy_ArduinoOut out = tether_proxy_ArduinoOut_init_zero;
+  out.which_data = which;
+  return out;
+}
+
+// An Error{WARNING} message whose text the caller builds.
+struct ErrorOut {
+  ErrorOut() : message(out_message(tether_proxy_ArduinoOut_error_tag)),
+               text(message.data.error.text, sizeof(message.data.error.text)) {
+    message.data.error.level = tether_proxy_Error_Level_WARNING;
+  }
+  tether_proxy_ArduinoOut message;
+  TextBuilder text;
+};
+
+}  // namespace
+
+ProxyDevice::ProxyDevice(OutputTable& outputs, FrameSink sink, RestartFunction restart, void* restart_context)
+    : outputs_(&outputs),
+      sink_(sink),
+      restart_(restart),
+      restart_context_(restart_context),
+      decoder_(Integrity::crc16, counters_.link),
+      partial_(kPartialFrameMs, counters_.link),
+      executed_(counters_.link),
+      watchdog_(kPingSilenceMs, counters_.link, &ProxyDevice::on_failsafe, this) {}
+
+void ProxyDevice::begin(uint32_t session_id, Millis now) {
+  session_id_ = session_id;
+  watchdog_.start(now);
+  next_info_.arm(now, kInfoPeriodMs);
+  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_resetEvent_tag);
+  out.data.resetEvent.sessionId = session_id_;
+  send(&out, true);
+}
+
+void ProxyDevice::handle_byte(uint8_t byte, Millis now) {
+  const bool was_in_frame = decoder_.in_frame();
+  const FrameEvent event = decoder_.feed(byte);
+  const bool in_frame = decoder_.in_frame();
+  if (!was_in_frame && in_frame) {
+    partial_.on_frame_start(now);
+  } else if (was_in_frame && !in_frame) {
+    partial_.on_frame_end();
+  }
+  if (event.kind == FrameEvent::Kind::payload) handle_payload(event.payload, now);
+}
+
+void ProxyDevice::poll(Millis now) {
+  if (partial_.poll(now)) {
+    // Drop the stalled frame; a fresh decoder takes the next byte as a frame's first (code) byte, so a
+    // host that sends no leading 0x00 loses only the stalled frame, not the next one too.
+    decoder_ = FrameDecoder<kMaxPayload>(Integrity::crc16, counters_.link);
+  }
+  watchdog_.poll(now);  // before ArduinoInfo: an info due in the same poll shows the flag
+  if (next_info_.expired(now)) {
+    send_info();
+    report_drops();
+    next_info_.arm(next_info_.at(), kInfoPeriodMs);
+    if (next_info_.expired(now)) next_info_.arm(now, kInfoPeriodMs);  // fell behind: no burst
+  }
+}
+
+void ProxyDevice::handle_payload(ByteView payload, Millis now) {
+  tether_proxy_ArduinoIn in = tether_proxy_ArduinoIn_init_zero;
+  pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
+  if (!pb_decode(&stream, tether_proxy_ArduinoIn_fields, &in)) {
+    ++counters_.decode_errors;
+    send_error("decode error");
+    return;
+  }
+  const uint32_t id = in.messageId;
+  const uint16_t fingerprint = Crc16Mcrf4xx::compute(payload);
+  if (executed_.check(id, fingerprint).duplicate) {
+    send_ack(id);  // a re-send: ack again, execute nothing
+    return;
+  }
+  executed_.remember(id, fingerprint, ByteView());
+  ++counters_.executed;
+  bool restart = false;
+  switch (in.which_data) {
+    case tether_proxy_ArduinoIn_ping_tag:
+      watchdog_.on_heartbeat(now);
+      break;
+    case tether_proxy_ArduinoIn_servoInit_tag: {
+      const tether_proxy_ServoInit& init = in.data.servoInit;
+      report_pin_result(outputs_->init_servo(init.pin, init.safePosition), init.pin, true);
+      break;
+    }
+    case tether_proxy_ArduinoIn_servoControl_tag: {
+      const tether_proxy_ServoControl& control = in.data.servoControl;
+      report_pin_result(outputs_->control_servo(control.pin, control.position), control.pin, true);
+      break;
+    }
+    case tether_proxy_ArduinoIn_digitalInit_tag: {
+      const tether_proxy_DigitalInit& init = in.data.digitalInit;
+      report_pin_result(outputs_->init_digital(init.pin, init.safeState), init.pin, false);
+      break;
+    }
+    case tether_proxy_ArduinoIn_digitalControl_tag: {
+      const tether_proxy_DigitalControl& control = in.data.digitalControl;
+      report_pin_result(outputs_->control_digital(control.pin, control.state), control.pin, false);
+      break;
+    }
+    case tether_proxy_ArduinoIn_reset_tag:
+      restart = true;
+      break;
+    case tether_proxy_ArduinoIn_pingFailsafeReset_tag:
+      watchdog_.clear_triggered();
+      break;
+    default:
+      ++counters_.refused;
+      send_error("unknown message");
+      break;
+  }
+  send_ack(id);
+  if (restart && restart_ != nullptr) restart_(restart_context_);  // on the AVR: flush, reset, no return
+}
+
+void ProxyDevice::on_failsafe(void* self, Millis) {
+  ProxyDevice& device = *static_cast<ProxyDevice*>(self);
+  device.outputs_->drive_safe();
+  device.send_error("ping failsafe");
+  for (uint8_t pin = 0; pin < kPinCount; ++pin) {
+    if (device.outputs_->initialised(pin)) device.send_pin_state(pin, true);
+  }
+}
+
+bool ProxyDevice::send(const void* out_message, bool leading_delimiter) {
+  if (send_message(sink_, Integrity::crc16, leading_delimiter, tether_proxy_ArduinoOut_fields, out_message)) {
+    return true;
+  }
+  ++counters_.send_failures;
+  return false;
+}
+
+void ProxyDevice::send_ack(uint32_t message_id) {
+  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_ack_tag);
+  out.data.ack.messageId = message_id;
+  send(&out);
+}
+
+void ProxyDevice::send_error(const char* text) {
+  ErrorOut error;
+  error.text.text(text);
+  send(&error.message);
+}
+
+void ProxyDevice::send_pin_state(uint8_t pin, bool failsafe) {
+  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_pinState_tag);
+  out.data.pinState.pin = pin;
+  out.data.pinState.value = outputs_->value(pin);
+  out.data.pinState.failsafe = failsafe;
+  send(&out);
+}
+
+void ProxyDevice::send_info() {
+  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_info_tag);
+  out.data.info.sessionId = session_id_;
+  out.data.info.pingFailsafeTriggered = watchdog_.triggered();
+  send(&out);
+}
+
+void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo) {
+  if (result == PinResult::ok) {
+    send_pin_state(static_cast<uint8_t>(pin), false);
+    return;
+  }
+  ++counters_.refused;
+  ErrorOut error;
+  if (result == PinResult::not_servo_pin) {
+    error.text.text("servo on pin ").number(pin).text(": D9/D10 only");
+  } else {
+    error.text.text("pin ").number(pin);
+    switch (result) {
+      case PinResult::no_such_pin:
+        error.text.text(" does not exist");
+        break;
+      case PinResult::uart_pin:
+        error.text.text(" is the UART");
+        break;
+      case PinResult::not_initialised:
+        error.text.text(" not initialised");
+        break;
+      default:  // wrong_kind
+        error.text.text(servo ? " is not a servo" : " is not digital");
+        break;
+    }
+  }
+  send(&error.message);
+}
+
+void ProxyDevice::report_drops() {
+  const LinkCounters& link = counters_.link;
+  const uint32_t drops = link.crc_errors + link.framing_errors + link.oversize_frames + link.partial_timeouts;
+  if (drops == reported_drops_) return;
+  reported_drops_ = drops;
+  ErrorOut error;
+  error.text.text("dropped: crc ").number(link.crc_errors).text(" cobs ").number(link.framing_errors);
+  error.text.text(" long ").number(link.oversize_frames).text(" stall ").number(link.partial_timeouts);
+  send(&error.message);
+}
+
+}  // namespace device
+}  // namespace proxy
+}  // namespace tether
