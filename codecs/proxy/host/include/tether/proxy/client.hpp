@@ -28,7 +28,9 @@
 ///      id once and acks a repeat again), each time an attempt window passes without its ack, until it is
 ///      acked or its `send_budget` runs out (`ProxyError::timed_out`) or `max_sends` frames were sent. The
 ///      attempt window is `ProxyTiming::ack_timeout(frame bytes)`: both frames' time on the wire
-///      (`(frame + kAckFrameBytes) * bits_per_byte / baud`) plus `processing_margin`. An ack whose id is not
+///      (`(frame + kAckFrameBytes) * bits_per_byte / baud`) plus `processing_margin`, computed for the
+///      longest frame in flight (the engine arms every window with one timing), so no message waits less
+///      than its own. The budget counts from the first send; queueing is not included. An ack whose id is not
 ///      in flight (a duplicate ack of a re-sent message, a late ack) is counted in `link.stale` and dropped;
 ///      acks of pings and Resets are recognised and counted as such, never as stale.
 ///   3. **Heartbeat.** A `Ping` (its own messageId, fire and forget: the next ping follows) every
@@ -45,11 +47,24 @@
 ///      handshake (Reset again).
 ///   5. **Inits.** Every `ServoInit` / `DigitalInit` the client sends (`servo(pin).init(...)`,
 ///      `digital(pin).init(...)`, or one passed to `async_send`) is registered for replay, keyed by (kind,
-///      pin): registering a key again replaces its message and keeps its place. An init sent while the
-///      handshake waits for the `ResetEvent` is not sent twice: it completes when its replay is acked.
-///      Inits are never unregistered (the protocol has no "release pin"). At most `kMaxInits`.
+///      pin), as soon as the client accepts it, whatever the outcome of that send: registering a key again
+///      replaces its message and keeps its place. An init sent while the handshake waits for the
+///      `ResetEvent` is not sent twice: it completes when its replay is acked. Inits are never unregistered
+///      (the protocol has no "release pin"). At most `kMaxInits`.
 ///   6. `Reset` cannot be sent with `async_send` (`ProxyError::reserved_message`): it is the handshake's;
 ///      `restart_session()` resets the device and re-runs the handshake.
+///
+/// ## Timing (`ProxyTiming`, all in ms; the protocol's values by default)
+///   | what | default | rule |
+///   |---|---|---|
+///   | attempt window | `ack_timeout(frame)`: ~54 ms for a 20-byte frame at 115200 | re-send the same bytes when it passes |
+///   | `send_budget` | 1000 | from the first send to the ack; then `ProxyError::timed_out` |
+///   | `max_sends` | 255 | frames per message at most (the budget normally ends it first) |
+///   | `queue_timeout` | 10000 | before the first send; then `ProxyError::queue_timeout` |
+///   | `ping_period` | 1000 | fixed rate; 0 disables (tests) |
+///   | `session.reset_timeout` | 3000 | Reset again when no ResetEvent came |
+///   | `stale_after` | 5000 | compat: a silent pin is lost |
+/// The device side of the design: it fails safe after 10 s without a ping and sends ArduinoInfo every 5 s.
 ///
 /// ## Compatibility mode (the deployed variant, `ProxyOptions::compat()`)
 /// Wire: host `0x00 ‖ COBS(pb) ‖ 0x00`, device `COBS(pb) ‖ 0x00`, no CRC, `RocketryProto` messages, 57600
@@ -233,7 +248,8 @@ struct DeviceError {
   std::string text;                        ///< The device's text.
   ErrorLevel level = ErrorLevel::warning;  ///< WARNING or FATAL.
 };
-/// Primary: the device's periodic `ArduinoInfo` (every one, after the session check).
+/// Primary: the device's periodic `ArduinoInfo`, every one. The `ResetDetected` or `FailsafeTriggered` it
+/// reveals is emitted just before it.
 struct DeviceInfo {
   std::uint32_t session_id = 0;          ///< The device's session.
   bool ping_failsafe_triggered = false;  ///< Its sticky failsafe flag.
@@ -462,9 +478,12 @@ class DigitalHandle {
 class ProxyClient {
  public:
   /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
-  /// Throws `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget
-  /// or max_sends of 0).
-  explicit ProxyClient(std::shared_ptr<transports::ByteStream> stream, const ProxyOptions& options = ProxyOptions());
+  /// `handler`, when given, is installed before anything starts, so it sees every event (the first
+  /// `SessionEstablished` may come before a handler added after construction). Throws
+  /// `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget or
+  /// max_sends of 0).
+  explicit ProxyClient(std::shared_ptr<transports::ByteStream> stream, const ProxyOptions& options = ProxyOptions(),
+                       EventHandler handler = EventHandler());
   /// Closes (`close()`).
   ~ProxyClient();
   ProxyClient(ProxyClient&&) noexcept;

@@ -1,0 +1,1200 @@
+// ProxyClient: the session engine (RequestTable, HeartbeatSchedule, SessionMonitor) driven by one read loop
+// and one timer on a strand, the same skeleton as romi::RomiClient.
+//
+// Everything below `ProxyClientImpl`'s public functions runs on `strand_`. All timed work goes through
+// `pump(now)`: the engine's deadlines (re-sends, timeouts), the session monitor's actions, the heartbeat,
+// queue deadlines, starting queued messages and the compat staleness rule; the one timer is re-armed at the
+// earliest deadline after every pump. Handlers that capture the implementation strongly (timer, writes,
+// posted work) are owned by the io_context; the read loop captures it weakly (the pending read is owned by
+// the stream, which the implementation owns) and shares its buffer with the pending read.
+#include "tether/proxy/client.hpp"
+
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/error.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/system/system_error.hpp>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <deque>
+#include <future>
+#include <map>
+#include <mutex>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <utility>
+
+#include "tether/core/session/heartbeat.hpp"
+#include "tether/core/session/request_table.hpp"
+#include "tether/transports/transport_error.hpp"
+
+namespace tether::proxy {
+
+namespace asio = boost::asio;
+using transports::ByteStream;
+
+Duration ProxyTiming::ack_timeout(std::size_t frame_bytes) const {
+  const std::uint64_t rate = baud == 0 ? 1 : baud;
+  const std::uint64_t bits = static_cast<std::uint64_t>(frame_bytes + kAckFrameBytes) * bits_per_byte;
+  const std::uint64_t wire_ms = (bits * 1000 + rate - 1) / rate;
+  return static_cast<Duration>(std::min<std::uint64_t>(wire_ms + processing_margin, 0x7FFFFFFFu));
+}
+
+namespace detail {
+namespace {
+
+// ---------------------------------------------------------------------------------------------------------
+// Engine types
+
+// The proxy's RequestTable policy: 32-bit messageIds; an ack carries no status (code 0 = acked); nothing is
+// retried on a reply, silent attempts are (retry_on_timeout).
+struct AckPolicy {
+  using Id = std::uint32_t;
+  using Code = std::uint8_t;
+  static bool is_success(Code code) { return code == 0; }
+  static bool is_retryable(Code) { return false; }
+};
+using Table = session::RequestTable<AckPolicy, kMaxInFlight>;
+using Monitor = session::SessionMonitor<std::uint32_t, kMaxInits>;
+using InitKey = Monitor::InitKey;
+using PinKey = std::pair<PinKind, std::uint32_t>;
+using AnyMessage = std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn>;
+
+std::uint64_t steady_milliseconds() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
+          .count());
+}
+Millis now_ms() { return static_cast<Millis>(steady_milliseconds()); }
+
+// The earlier of `wake` and `candidate` (disarmed deadlines never win).
+void consider(Deadline& wake, const Deadline& candidate) {
+  if (!candidate.armed()) return;
+  if (!wake.armed() || tick_difference(candidate.at(), wake.at()) < 0) wake.arm_at(candidate.at());
+}
+
+// `payload` framed: leading 0x00, COBS(crc ‖ payload) (or COBS(payload)), 0x00.
+std::shared_ptr<const std::string> frame_of(const std::string& payload, Integrity integrity) {
+  std::string out(max_frame_size(payload.size()), '\0');
+  const Result<size_t> size =
+      encode_frame(ByteView::from_chars(payload.data(), payload.size()), integrity, true,
+                   MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
+  out.resize(size.ok() ? size.value() : 0);  // the buffer is sized for the worst case: always ok
+  return std::make_shared<const std::string>(std::move(out));
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Requests -> messages (any thread: depends only on the mode)
+
+struct Built {
+  AnyMessage message;
+  std::optional<std::uint32_t> lane;  // the pin (primary: one message per pin in flight)
+  std::optional<PinKey> init;         // a ServoInit/DigitalInit: registered for replay
+  error_code error;
+};
+
+Built build_primary(Request& request) {
+  Built built;
+  using Op = Request::Op;
+  ArduinoIn message;
+  switch (request.op) {
+    case Op::raw: {
+      if (!std::holds_alternative<ArduinoIn>(request.message)) {
+        built.error = ProxyError::wrong_mode;
+        return built;
+      }
+      message = std::move(std::get<ArduinoIn>(request.message));
+      break;
+    }
+    case Op::servo_init:
+      message.mutable_servoinit()->set_pin(request.pin);
+      message.mutable_servoinit()->set_safeposition(request.value);
+      break;
+    case Op::servo_set:
+      message.mutable_servocontrol()->set_pin(request.pin);
+      message.mutable_servocontrol()->set_position(request.value);
+      break;
+    case Op::digital_init:
+      message.mutable_digitalinit()->set_pin(request.pin);
+      message.mutable_digitalinit()->set_safestate(request.value != 0);
+      break;
+    case Op::digital_set:
+      message.mutable_digitalcontrol()->set_pin(request.pin);
+      message.mutable_digitalcontrol()->set_state(request.value != 0);
+      break;
+    case Op::failsafe_reset:
+      message.mutable_pingfailsafereset();
+      break;
+  }
+  switch (message.data_case()) {
+    case ArduinoIn::DATA_NOT_SET:
+      built.error = ProxyError::invalid_message;
+      return built;
+    case ArduinoIn::kReset:
+      built.error = ProxyError::reserved_message;
+      return built;
+    case ArduinoIn::kServoInit:
+      built.lane = message.servoinit().pin();
+      built.init = PinKey(PinKind::servo, message.servoinit().pin());
+      break;
+    case ArduinoIn::kDigitalInit:
+      built.lane = message.digitalinit().pin();
+      built.init = PinKey(PinKind::digital, message.digitalinit().pin());
+      break;
+    case ArduinoIn::kServoControl:
+      built.lane = message.servocontrol().pin();
+      break;
+    case ArduinoIn::kDigitalControl:
+      built.lane = message.digitalcontrol().pin();
+      break;
+    case ArduinoIn::kPing:
+    case ArduinoIn::kPingFailsafeReset:
+      break;
+  }
+  message.clear_messageid();
+  if (message.ByteSizeLong() + 6 > kMaxPayload) {  // + the largest messageId field
+    built.error = ProxyError::message_too_large;
+    return built;
+  }
+  built.message = std::move(message);
+  return built;
+}
+
+Built build_compat(Request& request) {
+  Built built;
+  using Op = Request::Op;
+  RocketryProto::ArduinoIn message;
+  switch (request.op) {
+    case Op::raw: {
+      if (!std::holds_alternative<RocketryProto::ArduinoIn>(request.message)) {
+        built.error = ProxyError::wrong_mode;
+        return built;
+      }
+      message = std::move(std::get<RocketryProto::ArduinoIn>(request.message));
+      break;
+    }
+    case Op::servo_init:
+      message.mutable_servoinit()->set_pin(request.pin);
+      message.mutable_servoinit()->set_safeposition(request.value);
+      break;
+    case Op::servo_set:
+      message.mutable_servocontrol()->set_pin(request.pin);
+      message.mutable_servocontrol()->set_position(request.value);
+      break;
+    case Op::digital_init:
+      message.mutable_digitalinit()->set_pin(request.pin);
+      message.mutable_digitalinit()->set_safestate(request.value != 0 ? 1u : 0u);
+      break;
+    case Op::digital_set:
+      message.mutable_digitalcontrol()->set_pin(request.pin);
+      message.mutable_digitalcontrol()->set_activate(request.value != 0);
+      break;
+    case Op::failsafe_reset:
+      built.error = ProxyError::wrong_mode;  // the deployed variant has no failsafe flag
+      return built;
+  }
+  switch (message.data_case()) {
+    case RocketryProto::ArduinoIn::DATA_NOT_SET:
+      built.error = ProxyError::invalid_message;
+      return built;
+    case RocketryProto::ArduinoIn::kServoInit:
+      built.init = PinKey(PinKind::servo, message.servoinit().pin());
+      break;
+    case RocketryProto::ArduinoIn::kDigitalInit:
+      built.init = PinKey(PinKind::digital, message.digitalinit().pin());
+      break;
+    default:
+      break;
+  }
+  if (message.ByteSizeLong() > kMaxPayload) {
+    built.error = ProxyError::message_too_large;
+    return built;
+  }
+  built.message = std::move(message);
+  return built;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// The implementation
+
+class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
+ public:
+  ProxyClientImpl(std::shared_ptr<ByteStream> stream, const ProxyOptions& options)
+      : stream_(std::move(stream)),
+        executor_(stream_->get_executor()),
+        strand_(asio::make_strand(executor_)),
+        timer_(strand_),
+        options_(options),
+        decoder_(options.mode == Mode::primary ? Integrity::crc16 : Integrity::none, counters_.link),
+        table_(session::CallTiming(), 0, counters_.link),
+        heartbeat_(options.timing.ping_period),
+        monitor_(options.timing.session, counters_.link),
+        read_buffer_(std::make_shared<ReadBuffer>()) {
+    const std::uint32_t first = options.first_message_id ? *options.first_message_id : std::random_device()();
+    last_id_ = first - 1;  // next_id() hands out `first` (0 is skipped)
+  }
+
+  // Starts reading and, in primary mode, the handshake and the heartbeat (after construction: it needs
+  // shared_from_this).
+  void start() {
+    asio::post(strand_, [self = shared_from_this()] {
+      self->read();
+      if (self->primary()) {
+        const Millis now = now_ms();
+        self->monitor_.start(now);
+        if (self->options_.timing.ping_period > 0) self->heartbeat_.start(now);
+        self->pump(now);
+      }
+      self->publish();
+    });
+  }
+
+  const asio::any_io_executor& executor() const { return executor_; }
+  bool on_strand() const { return strand_.running_in_this_thread(); }
+  bool is_open() const { return !closed_.load(); }
+  Mode mode() const { return options_.mode; }
+
+  // Any thread.
+  void submit(Request request, SendHandler handler) {
+    Built built = primary() ? build_primary(request) : build_compat(request);
+    if (built.error) {
+      post_completion(std::move(handler), built.error, SendResult());
+      return;
+    }
+    if (closed_.load()) {
+      post_completion(std::move(handler), asio::error::operation_aborted, SendResult());
+      return;
+    }
+    auto pending = std::make_unique<Pending>();
+    pending->message = std::move(built.message);
+    pending->lane = built.lane;
+    pending->init = built.init;
+    pending->handler = std::move(handler);
+    asio::post(strand_, [self = shared_from_this(), pending = std::move(pending)]() mutable {
+      self->accept(std::move(pending));
+    });
+  }
+
+  void restart_session() {
+    asio::post(strand_, [self = shared_from_this()] {
+      if (self->closed_.load() || self->link_error_) return;
+      const Millis now = now_ms();
+      if (self->primary()) {
+        self->lose_session();
+        self->monitor_.start(now);
+        self->pump(now);
+      } else {
+        RocketryProto::ArduinoIn reset;
+        reset.mutable_reset();
+        self->write(frame_of(reset.SerializeAsString(), Integrity::none));
+        ++self->counters_.resets_sent;
+      }
+      self->publish();
+    });
+  }
+
+  void close() {
+    if (closed_.exchange(true)) return;
+    // Posted, not dispatched: close() may be called from an event handler, in the middle of decoding.
+    asio::post(strand_, [self = shared_from_this()] {
+      self->fail_all(asio::error::operation_aborted);
+      self->timer_.cancel();
+      self->publish();
+    });
+    error_code ignored;
+    stream_->close(ignored);  // completes the pending read with operation_aborted: the loop ends
+  }
+
+  EventHandlerId add_event_handler(EventHandler handler) {
+    std::lock_guard lock(mutex_);
+    const EventHandlerId id = ++last_handler_id_;
+    if (handler) handlers_.emplace_back(id, std::make_shared<EventHandler>(std::move(handler)));
+    return id;
+  }
+
+  void remove_event_handler(EventHandlerId id) {
+    std::lock_guard lock(mutex_);
+    handlers_.erase(std::remove_if(handlers_.begin(), handlers_.end(), [id](const auto& entry) { return entry.first == id; }),
+                    handlers_.end());
+  }
+
+  ProxyCounters counters() const {
+    std::lock_guard lock(mutex_);
+    return published_;
+  }
+
+  SessionStatus session() const {
+    std::lock_guard lock(mutex_);
+    return published_session_;
+  }
+
+  std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const {
+    std::lock_guard lock(mutex_);
+    const auto found = pins_.find(PinKey(kind, pin));
+    if (found == pins_.end()) return std::nullopt;
+    return found->second.status;
+  }
+
+  std::vector<PinStatus> pin_states() const {
+    std::lock_guard lock(mutex_);
+    std::vector<PinStatus> states;
+    states.reserve(pins_.size());
+    for (const auto& entry : pins_) states.push_back(entry.second.status);
+    return states;
+  }
+
+ private:
+  // One message on its way: queued, waiting for its init's replay, in flight, or (compat) being written.
+  struct Pending {
+    AnyMessage message;                 // messageId assigned at the first send (primary)
+    SendHandler handler;                // empty for replays
+    std::optional<std::uint32_t> lane;  // its pin: one message per pin in flight
+    std::optional<PinKey> init;         // an init (registered for replay)
+    InitKey replay_key = 0;             // != 0: the session's replay of this init
+    Millis queue_deadline = 0;          // application messages: fail if not sent by then
+    std::uint32_t id = 0;               // messageId on the wire
+    std::shared_ptr<const std::string> frame;
+  };
+  // A registered init and the application sends waiting for its replay.
+  struct InitEntry {
+    PinKey pin;
+    AnyMessage message;
+    std::vector<std::unique_ptr<Pending>> waiters;
+  };
+  struct PinEntry {
+    PinStatus status;
+    Millis updated_ms = 0;  // engine clock of `status.updated`
+  };
+  // A frame to write; `done` completes when it was written (compat sends).
+  struct WriteItem {
+    std::shared_ptr<const std::string> bytes;
+    std::unique_ptr<Pending> done;
+  };
+  // A message sent without the table (ping, Reset): its ack is expected and not stale.
+  enum class Untracked : std::uint8_t { ping, reset };
+  struct UntrackedId {
+    std::uint32_t id = 0;
+    Untracked kind = Untracked::ping;
+    bool used = false;
+  };
+  using ReadBuffer = std::array<std::uint8_t, 1024>;
+
+  bool primary() const { return options_.mode == Mode::primary; }
+
+  // --- accepting sends -------------------------------------------------------------------------------
+
+  void accept(std::unique_ptr<Pending> pending) {
+    if (closed_.load() || link_error_) {
+      const error_code error = link_error_ ? link_error_ : error_code(asio::error::operation_aborted);
+      complete(std::move(pending->handler), error, SendResult());
+      return;
+    }
+    const Millis now = now_ms();
+    pending->queue_deadline = static_cast<Millis>(now + options_.timing.queue_timeout);
+    if (pending->init && !register_init(*pending, now)) {
+      complete(std::move(pending->handler), ProxyError::too_many_inits, SendResult());
+      return;
+    }
+    if (!primary()) {
+      ++counters_.messages_sent;
+      std::shared_ptr<const std::string> frame = frame_of(serialize(pending->message), Integrity::none);
+      write(std::move(frame), std::move(pending));
+      pump(now);  // an init starts its pin's staleness clock
+      return;
+    }
+    if (pending->init && monitor_.state() == session::SessionState::awaiting_reset_event) {
+      // The replay after the ResetEvent sends it: it completes with its replay's ack.
+      inits_.at(init_keys_.at(*pending->init)).waiters.push_back(std::move(pending));
+    } else {
+      user_queue_.push_back(std::move(pending));
+    }
+    pump(now);
+  }
+
+  // Registers (or updates) the init `pending` carries. False when the table of inits is full.
+  bool register_init(const Pending& pending, Millis now) {
+    const PinKey pin = *pending.init;
+    const auto known = init_keys_.find(pin);
+    if (known != init_keys_.end()) {
+      inits_.at(known->second).message = pending.message;
+      return true;
+    }
+    if (init_order_.size() >= kMaxInits) return false;
+    const InitKey key = next_init_key_++;
+    if (primary() && monitor_.register_init(key) != Status::ok) return false;
+    init_keys_.emplace(pin, key);
+    InitEntry entry;
+    entry.pin = pin;
+    entry.message = pending.message;
+    inits_.emplace(key, std::move(entry));
+    init_order_.push_back(key);
+    std::lock_guard lock(mutex_);
+    auto [it, inserted] = pins_.try_emplace(pin);
+    if (inserted) {
+      it->second.status.kind = pin.first;
+      it->second.status.pin = pin.second;
+      it->second.status.updated = std::chrono::steady_clock::now();
+      it->second.updated_ms = now;  // the staleness rule counts from the init
+    }
+    return true;
+  }
+
+  static std::string serialize(const AnyMessage& message) {
+    if (const auto* in = std::get_if<ArduinoIn>(&message)) return in->SerializeAsString();
+    if (const auto* compat = std::get_if<RocketryProto::ArduinoIn>(&message)) return compat->SerializeAsString();
+    return std::string();
+  }
+
+  // --- the pump ----------------------------------------------------------------------------------------
+
+  void pump(Millis now) {
+    if (closed_.load() || link_error_) return;
+    if (primary()) {
+      for (;;) {
+        const Table::Step step = table_.poll(now);
+        if (step.action == Table::Action::idle) break;
+        if (step.action == Table::Action::resend) {
+          const auto found = in_flight_.find(step.id);
+          if (found != in_flight_.end()) write(found->second->frame);
+        } else {
+          on_completion(step.completion, now);
+        }
+      }
+      run_monitor(now);
+      if (options_.timing.ping_period > 0 && heartbeat_.due(now)) {
+        send_untracked(Untracked::ping);
+        heartbeat_.beat_sent(now);
+      }
+      expire_waiting(now);
+      start_queue(session_queue_, now);
+      if (established_) start_queue(user_queue_, now);
+    } else {
+      check_stale(now);
+    }
+    arm_timer();
+    publish();
+  }
+
+  void run_monitor(Millis now) {
+    for (;;) {
+      const Monitor::Action action = monitor_.poll(now);
+      switch (action.kind) {
+        case Monitor::ActionKind::none:
+          return;
+        case Monitor::ActionKind::send_reset:
+          send_untracked(Untracked::reset);
+          ++counters_.resets_sent;
+          break;
+        case Monitor::ActionKind::reset_detected:
+          lose_session();
+          emit(events::ResetDetected{detected_.first, detected_.second});
+          break;
+        case Monitor::ActionKind::replay_init: {
+          const InitEntry& entry = inits_.at(action.key);
+          auto replay = std::make_unique<Pending>();
+          replay->message = entry.message;
+          replay->lane = entry.pin.second;
+          replay->init = entry.pin;
+          replay->replay_key = action.key;
+          session_queue_.push_back(std::move(replay));
+          ++replays_outstanding_;
+          ++replayed_this_round_;
+          break;
+        }
+        case Monitor::ActionKind::established:
+          monitor_done_ = true;
+          maybe_established();
+          break;
+      }
+    }
+  }
+
+  void maybe_established() {
+    if (!monitor_done_ || replays_outstanding_ != 0 || established_) return;
+    established_ = true;
+    emit(events::SessionEstablished{monitor_.session_id(), replayed_this_round_, !ever_established_});
+    ever_established_ = true;
+  }
+
+  // The device's session ended (restart detected, restart requested, a replay unanswered): messages in
+  // flight fail with device_reset (replays are dropped: the next round sends them again).
+  void lose_session() {
+    established_ = false;
+    monitor_done_ = false;
+    replays_outstanding_ = 0;
+    replayed_this_round_ = 0;
+    session_queue_.clear();
+    std::map<std::uint32_t, std::unique_ptr<Pending>> in_flight = std::move(in_flight_);
+    in_flight_.clear();
+    lanes_.clear();
+    for (auto& [id, pending] : in_flight) {
+      const Result<Table::Completion> cancelled = table_.cancel(id);
+      if (pending->replay_key != 0) continue;
+      SendResult result;
+      result.message_id = id;
+      result.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+      complete(std::move(pending->handler), ProxyError::device_reset, result);
+    }
+  }
+
+  // --- sending -----------------------------------------------------------------------------------------
+
+  std::uint32_t next_id() {
+    for (;;) {
+      ++last_id_;
+      if (last_id_ == 0 || table_.contains(last_id_)) continue;
+      return last_id_;
+    }
+  }
+
+  // Starts what can start from `queue`, in order, keeping each pin's messages in order.
+  void start_queue(std::deque<std::unique_ptr<Pending>>& queue, Millis now) {
+    std::set<std::uint32_t> passed;  // pins with a message left behind in this scan
+    for (auto it = queue.begin(); it != queue.end();) {
+      if (table_.in_flight() >= kMaxInFlight) return;
+      const std::optional<std::uint32_t> lane = (*it)->lane;
+      if (lane && (lanes_.count(*lane) != 0 || passed.count(*lane) != 0)) {
+        passed.insert(*lane);
+        ++it;
+        continue;
+      }
+      std::unique_ptr<Pending> pending = std::move(*it);
+      it = queue.erase(it);
+      begin_send(std::move(pending), now);
+    }
+  }
+
+  void begin_send(std::unique_ptr<Pending> pending, Millis now) {
+    const std::uint32_t id = next_id();
+    ArduinoIn& message = std::get<ArduinoIn>(pending->message);
+    message.set_messageid(id);
+    pending->id = id;
+    pending->frame = frame_of(message.SerializeAsString(), Integrity::crc16);
+    refresh_table_timing(pending->frame->size());
+    (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight
+    if (pending->lane) lanes_.insert(*pending->lane);
+    ++counters_.messages_sent;
+    if (pending->replay_key != 0) ++counters_.inits_replayed;
+    std::shared_ptr<const std::string> frame = pending->frame;
+    in_flight_.emplace(id, std::move(pending));
+    write(std::move(frame));
+  }
+
+  // The table applies its current timing when it arms any attempt window (begin and every re-send), not
+  // a per-call one: the window is the ack timeout of the longest frame in flight, so no message gets less
+  // than its own `ack_timeout(frame bytes)`.
+  void refresh_table_timing(std::size_t starting_frame = 0) {
+    std::size_t longest = starting_frame;
+    for (const auto& entry : in_flight_) longest = std::max(longest, entry.second->frame->size());
+    session::CallTiming timing;
+    timing.attempt_timeout = options_.timing.ack_timeout(longest);
+    timing.call_budget = options_.timing.send_budget;
+    timing.max_attempts = options_.timing.max_sends;
+    timing.retry_on_timeout = true;
+    timing.activity_rearms_attempt = false;
+    table_.set_timing(timing);
+  }
+
+  void send_untracked(Untracked kind) {
+    ArduinoIn message;
+    const std::uint32_t id = next_id();
+    message.set_messageid(id);
+    if (kind == Untracked::ping) {
+      message.mutable_ping();
+      ++counters_.pings_sent;
+    } else {
+      message.mutable_reset();
+    }
+    UntrackedId& slot = untracked_[untracked_next_++ % untracked_.size()];
+    slot.id = id;
+    slot.kind = kind;
+    slot.used = true;
+    write(frame_of(message.SerializeAsString(), Integrity::crc16));
+  }
+
+  // Ends the message `completion` names (ack, timeout).
+  void on_completion(const Table::Completion& completion, Millis now) {
+    const auto found = in_flight_.find(completion.id);
+    if (found == in_flight_.end()) return;
+    std::unique_ptr<Pending> pending = std::move(found->second);
+    in_flight_.erase(found);
+    if (pending->lane) lanes_.erase(*pending->lane);
+    refresh_table_timing();
+    SendResult result;
+    result.message_id = completion.id;
+    result.attempts = completion.attempts;
+    result.acked = completion.outcome == session::CallOutcome::ok;
+    error_code error;
+    switch (completion.outcome) {
+      case session::CallOutcome::ok:
+        ++counters_.acks;
+        break;
+      case session::CallOutcome::cancelled:
+        error = asio::error::operation_aborted;
+        break;
+      case session::CallOutcome::timeout:
+      case session::CallOutcome::remote_error:  // not produced: acks carry no status
+        error = ProxyError::timed_out;
+        break;
+    }
+    if (pending->replay_key == 0) {
+      complete(std::move(pending->handler), error, result);
+      return;
+    }
+    if (error) {
+      // The device does not take its inits: start over (Reset, ResetEvent, replay).
+      lose_session();
+      monitor_.start(now);
+      return;
+    }
+    --replays_outstanding_;
+    const auto entry = inits_.find(pending->replay_key);
+    if (entry != inits_.end()) {
+      for (auto& waiter : entry->second.waiters) complete(std::move(waiter->handler), error_code(), result);
+      entry->second.waiters.clear();
+    }
+    maybe_established();
+  }
+
+  // Application messages that waited `queue_timeout` without being sent fail.
+  void expire_waiting(Millis now) {
+    for (auto it = user_queue_.begin(); it != user_queue_.end();) {
+      if (tick_reached(now, (*it)->queue_deadline)) {
+        complete(std::move((*it)->handler), ProxyError::queue_timeout, SendResult());
+        it = user_queue_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    for (auto& [key, entry] : inits_) {
+      auto& waiters = entry.waiters;
+      for (auto it = waiters.begin(); it != waiters.end();) {
+        if (tick_reached(now, (*it)->queue_deadline)) {
+          complete(std::move((*it)->handler), ProxyError::queue_timeout, SendResult());
+          it = waiters.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+  }
+
+  // --- completions -------------------------------------------------------------------------------------
+
+  void fail_all(const error_code& error) {
+    std::map<std::uint32_t, std::unique_ptr<Pending>> in_flight = std::move(in_flight_);
+    in_flight_.clear();
+    lanes_.clear();
+    for (auto& [id, pending] : in_flight) {
+      const Result<Table::Completion> cancelled = table_.cancel(id);
+      SendResult result;
+      result.message_id = id;
+      result.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+      if (pending->handler) complete(std::move(pending->handler), error, result);
+    }
+    session_queue_.clear();
+    replays_outstanding_ = 0;
+    for (auto& pending : user_queue_) complete(std::move(pending->handler), error, SendResult());
+    user_queue_.clear();
+    for (auto& [key, entry] : inits_) {
+      for (auto& waiter : entry.waiters) complete(std::move(waiter->handler), error, SendResult());
+      entry.waiters.clear();
+    }
+    for (auto& item : writes_) {
+      if (item.done) complete(std::move(item.done->handler), error, SendResult());
+    }
+    writes_.clear();
+    established_ = false;
+  }
+
+  // Hands a result to its caller (on the strand); the counters are published first, so a caller reading
+  // them after its completion sees its message.
+  void complete(SendHandler handler, error_code error, SendResult result) {
+    if (!handler) return;
+    publish();
+    post_completion(std::move(handler), error, result);
+  }
+
+  // Posted, so handlers never run on the strand or inside an initiation. Any thread.
+  void post_completion(SendHandler handler, error_code error, SendResult result) {
+    asio::post(executor_, [handler = std::move(handler), error, result]() mutable { handler(error, result); });
+  }
+
+  // --- writes ------------------------------------------------------------------------------------------
+
+  void write(std::shared_ptr<const std::string> bytes, std::unique_ptr<Pending> done = nullptr) {
+    writes_.push_back(WriteItem{std::move(bytes), std::move(done)});
+    if (!writing_) write_next();
+  }
+
+  void write_next() {
+    if (writes_.empty() || closed_.load() || link_error_) {
+      writing_ = false;
+      for (auto& item : writes_) {
+        if (item.done) complete(std::move(item.done->handler), asio::error::operation_aborted, SendResult());
+      }
+      writes_.clear();
+      return;
+    }
+    writing_ = true;
+    current_write_ = std::move(writes_.front());
+    writes_.pop_front();
+    std::shared_ptr<const std::string> bytes = current_write_.bytes;
+    asio::async_write(*stream_, asio::buffer(*bytes),
+                      asio::bind_executor(strand_, [self = shared_from_this(), bytes](error_code error, std::size_t) {
+                        self->on_written(error);
+                      }));
+  }
+
+  void on_written(const error_code& error) {
+    WriteItem done = std::move(current_write_);
+    current_write_ = WriteItem();
+    if (error) {
+      writing_ = false;
+      if (done.done) complete(std::move(done.done->handler), error, SendResult());
+      if (!closed_.load()) link_failed(error);
+      publish();
+      return;
+    }
+    if (done.done) {
+      SendResult result;
+      result.attempts = 1;
+      complete(std::move(done.done->handler), error_code(), result);
+    }
+    write_next();
+  }
+
+  // --- reads -------------------------------------------------------------------------------------------
+
+  void read() {
+    if (closed_.load() || link_error_) return;
+    std::shared_ptr<ReadBuffer> buffer = read_buffer_;
+    stream_->async_read_some(
+        asio::buffer(*buffer),
+        asio::bind_executor(strand_, [weak = weak_from_this(), buffer](error_code error, std::size_t size) {
+          if (const auto self = weak.lock()) self->on_read(error, size);
+        }));
+  }
+
+  void on_read(const error_code& error, std::size_t size) {
+    if (error) {
+      if (!closed_.load()) link_failed(error);
+      publish();
+      return;
+    }
+    const Millis now = now_ms();
+    for (std::size_t i = 0; i < size && !closed_.load() && !link_error_; ++i) {
+      const FrameEvent event = decoder_.feed((*read_buffer_)[i]);
+      if (event.kind == FrameEvent::Kind::payload) {
+        if (primary()) {
+          on_primary_payload(event.payload, now);
+        } else {
+          on_compat_payload(event.payload, now);
+        }
+      }
+    }
+    pump(now);
+    read();
+  }
+
+  void link_failed(const error_code& error) {
+    if (link_error_) return;
+    link_error_ = error;
+    fail_all(error);
+    timer_.cancel();
+    emit(events::LinkFailed{error});
+  }
+
+  void undecodable(ByteView payload, bool malformed) {
+    if (malformed) {
+      ++counters_.undecodable;
+    } else {
+      ++counters_.unknown_messages;
+    }
+    events::UndecodableMessage event;
+    event.payload.assign(reinterpret_cast<const char*>(payload.data()), payload.size());
+    event.malformed = malformed;
+    emit(event);
+  }
+
+  void on_primary_payload(ByteView payload, Millis now) {
+    ArduinoOut out;
+    if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+      undecodable(payload, true);
+      return;
+    }
+    switch (out.data_case()) {
+      case ArduinoOut::kAck:
+        on_ack(out.ack().messageid(), now);
+        return;
+      case ArduinoOut::kError:
+        emit(events::DeviceError{out.error().text(),
+                                 out.error().level() == Error::FATAL ? ErrorLevel::fatal : ErrorLevel::warning});
+        return;
+      case ArduinoOut::kInfo:
+        on_info(out.info().sessionid(), out.info().pingfailsafetriggered(), now);
+        return;
+      case ArduinoOut::kResetEvent:
+        on_reset_event(out.resetevent().sessionid(), now);
+        return;
+      case ArduinoOut::kPinState:
+        on_pin_state(out.pinstate(), now);
+        return;
+      case ArduinoOut::DATA_NOT_SET:
+        undecodable(payload, false);
+        return;
+    }
+  }
+
+  void on_ack(std::uint32_t id, Millis now) {
+    if (table_.contains(id)) {
+      const Table::ReplyResult reply = table_.on_reply(id, 0, now);
+      if (reply.verdict == Table::Verdict::completed) on_completion(reply.completion, now);
+      return;
+    }
+    for (const UntrackedId& slot : untracked_) {
+      if (slot.used && slot.id == id) {
+        if (slot.kind == Untracked::ping) ++counters_.ping_acks;
+        return;
+      }
+    }
+    (void)table_.on_reply(id, 0, now);  // not in flight: the table counts it stale
+  }
+
+  bool in_session() const {
+    return monitor_.state() == session::SessionState::replaying ||
+           monitor_.state() == session::SessionState::established;
+  }
+
+  void on_info(std::uint32_t session_id, bool failsafe, Millis now) {
+    const bool was_in_session = in_session();
+    const std::uint32_t stored = monitor_.session_id();
+    monitor_.on_session_report(session_id, now);
+    if (was_in_session && !in_session()) detected_ = {stored, session_id};
+    run_monitor(now);  // ResetDetected before the report that revealed it; FailsafeTriggered too
+    if (failsafe && !failsafe_seen_) emit(events::FailsafeTriggered{session_id});
+    failsafe_seen_ = failsafe;
+    emit(events::DeviceInfo{session_id, failsafe});
+  }
+
+  void on_reset_event(std::uint32_t session_id, Millis now) {
+    const bool was_in_session = in_session();
+    const bool was_awaiting = monitor_.state() == session::SessionState::awaiting_reset_event;
+    const std::uint32_t stored = monitor_.session_id();
+    monitor_.on_reset_event(session_id, now);
+    if (was_in_session && !in_session()) detected_ = {stored, session_id};
+    if (was_awaiting && in_session()) {  // a new session adopted: a new replay round
+      replayed_this_round_ = 0;
+      monitor_done_ = false;
+      failsafe_seen_ = false;
+    }
+    run_monitor(now);
+  }
+
+  void on_pin_state(const PinState& state, Millis now) {
+    PinKind kind = PinKind::unknown;
+    if (init_keys_.count(PinKey(PinKind::servo, state.pin())) != 0) {
+      kind = PinKind::servo;
+    } else if (init_keys_.count(PinKey(PinKind::digital, state.pin())) != 0) {
+      kind = PinKind::digital;
+    }
+    update_pin(kind, state.pin(), state.value(), state.failsafe(), now);
+    emit(events::PinReport{kind, state.pin(), state.value(), state.failsafe()});
+  }
+
+  // Records a report; true when it is news (first value, a change, or the pin back after being lost).
+  bool update_pin(PinKind kind, std::uint32_t pin, std::int32_t value, bool failsafe, Millis now) {
+    std::lock_guard lock(mutex_);
+    PinEntry& entry = pins_[PinKey(kind, pin)];
+    const bool news = !entry.status.has_value || entry.status.value != value || entry.status.stale ||
+                      entry.status.failsafe != failsafe;
+    entry.status.kind = kind;
+    entry.status.pin = pin;
+    entry.status.has_value = true;
+    entry.status.value = value;
+    entry.status.failsafe = failsafe;
+    entry.status.stale = false;
+    entry.status.updated = std::chrono::steady_clock::now();
+    entry.updated_ms = now;
+    return news;
+  }
+
+  void on_compat_payload(ByteView payload, Millis now) {
+    RocketryProto::ArduinoOut out;
+    if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+      undecodable(payload, true);
+      return;
+    }
+    switch (out.data_case()) {
+      case RocketryProto::ArduinoOut::kEventMessage:
+        emit(events::CompatEvent{out.eventmessage().type(), out.eventmessage().data()});
+        if (out.eventmessage().type() == RocketryProto::RESET && options_.compat_replay_on_reset) replay_compat();
+        return;
+      case RocketryProto::ArduinoOut::kErrorMessage:
+        emit(events::CompatError{out.errormessage().type(), out.errormessage().data()});
+        return;
+      case RocketryProto::ArduinoOut::kServoState: {
+        const auto& state = out.servostate();
+        if (update_pin(PinKind::servo, state.pin(), state.position(), false, now)) {
+          emit(events::PinReport{PinKind::servo, state.pin(), state.position(), false});
+        }
+        return;
+      }
+      case RocketryProto::ArduinoOut::kDigitalState: {
+        const auto& state = out.digitalstate();
+        const std::int32_t value = state.activated() ? 1 : 0;
+        if (update_pin(PinKind::digital, state.pin(), value, false, now)) {
+          emit(events::PinReport{PinKind::digital, state.pin(), value, false});
+        }
+        return;
+      }
+      case RocketryProto::ArduinoOut::kDcMotorState:
+      case RocketryProto::ArduinoOut::kStepperMotorState:
+      case RocketryProto::ArduinoOut::kLoadCellState:
+        emit(events::CompatState{out});
+        return;
+      case RocketryProto::ArduinoOut::DATA_NOT_SET:
+        undecodable(payload, false);
+        return;
+    }
+  }
+
+  // Compat: the device ended its setup; every registered init again, in registration order.
+  void replay_compat() {
+    for (const InitKey key : init_order_) {
+      write(frame_of(serialize(inits_.at(key).message), Integrity::none));
+      ++counters_.inits_replayed;
+    }
+  }
+
+  // Compat: pins silent for `stale_after` are lost (once, until they report again).
+  void check_stale(Millis now) {
+    std::vector<events::PinLost> lost;
+    {
+      std::lock_guard lock(mutex_);
+      for (auto& [key, entry] : pins_) {
+        if (entry.status.stale) continue;
+        const std::int32_t silent = tick_difference(now, entry.updated_ms);
+        if (silent >= static_cast<std::int32_t>(options_.timing.stale_after)) {
+          entry.status.stale = true;
+          lost.push_back(events::PinLost{key.first, key.second, static_cast<Duration>(silent)});
+        }
+      }
+    }
+    for (const events::PinLost& event : lost) {
+      ++counters_.pins_lost;
+      emit(event);
+    }
+  }
+
+  // --- events ------------------------------------------------------------------------------------------
+
+  // Delivers `event` to every handler. The counters are published first, so a handler (or a thread woken
+  // by it) reading them sees what the event reports.
+  void emit(const ProxyEvent& event) {
+    publish();
+    std::vector<std::shared_ptr<EventHandler>> handlers;
+    {
+      std::lock_guard lock(mutex_);
+      handlers.reserve(handlers_.size());
+      for (const auto& entry : handlers_) handlers.push_back(entry.second);
+    }
+    for (const auto& handler : handlers) {
+      try {
+        (*handler)(event);
+      } catch (...) {  // NOLINT(bugprone-empty-catch): the contract says handlers must not throw
+      }
+    }
+  }
+
+  // --- deadlines ---------------------------------------------------------------------------------------
+
+  void arm_timer() {
+    Deadline wakeup;
+    if (primary()) {
+      consider(wakeup, table_.next_wakeup());
+      consider(wakeup, monitor_.next_wakeup());
+      if (options_.timing.ping_period > 0) consider(wakeup, heartbeat_.next());
+      Deadline queued;
+      for (const auto& pending : user_queue_) {
+        queued.arm_at(pending->queue_deadline);
+        consider(wakeup, queued);
+      }
+      for (const auto& [key, entry] : inits_) {
+        for (const auto& waiter : entry.waiters) {
+          queued.arm_at(waiter->queue_deadline);
+          consider(wakeup, queued);
+        }
+      }
+    } else {
+      std::lock_guard lock(mutex_);
+      Deadline stale;
+      for (const auto& [key, entry] : pins_) {
+        if (entry.status.stale) continue;
+        stale.arm_at(static_cast<Millis>(entry.updated_ms + options_.timing.stale_after));
+        consider(wakeup, stale);
+      }
+    }
+    if (!wakeup.armed() || closed_.load()) {
+      if (timer_armed_) timer_.cancel();
+      timer_armed_ = false;
+      return;
+    }
+    if (timer_armed_ && timer_at_ == wakeup.at()) return;
+    const std::uint64_t full = steady_milliseconds();
+    const std::int32_t left = tick_difference(wakeup.at(), static_cast<Millis>(full));
+    const std::uint64_t due = full + static_cast<std::uint64_t>(left > 0 ? left : 0);
+    timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::milliseconds(due)));
+    timer_armed_ = true;
+    timer_at_ = wakeup.at();
+    timer_.async_wait(asio::bind_executor(strand_, [self = shared_from_this()](error_code error) {
+      if (error) return;  // re-armed or cancelled
+      self->timer_armed_ = false;
+      self->pump(now_ms());
+    }));
+  }
+
+  void publish() {
+    std::lock_guard lock(mutex_);
+    published_ = counters_;
+    published_session_.established = primary() ? established_ : !link_error_ && !closed_.load();
+    published_session_.session_id =
+        primary() && monitor_.has_session() ? std::optional<std::uint32_t>(monitor_.session_id()) : std::nullopt;
+  }
+
+  std::shared_ptr<ByteStream> stream_;
+  asio::any_io_executor executor_;
+  asio::strand<asio::any_io_executor> strand_;
+  asio::steady_timer timer_;
+  bool timer_armed_ = false;
+  Millis timer_at_ = 0;
+  const ProxyOptions options_;
+
+  // Strand only.
+  ProxyCounters counters_;
+  FrameDecoder<kMaxPayload> decoder_;
+  Table table_;
+  session::HeartbeatSchedule heartbeat_;
+  Monitor monitor_;
+  std::uint32_t last_id_ = 0;
+  std::array<UntrackedId, 8> untracked_{};
+  std::size_t untracked_next_ = 0;
+  std::map<std::uint32_t, std::unique_ptr<Pending>> in_flight_;  // by messageId
+  std::set<std::uint32_t> lanes_;                                 // pins with a message in flight
+  std::deque<std::unique_ptr<Pending>> session_queue_;            // replays: before anything else
+  std::deque<std::unique_ptr<Pending>> user_queue_;               // application messages
+  std::map<InitKey, InitEntry> inits_;
+  std::map<PinKey, InitKey> init_keys_;
+  std::vector<InitKey> init_order_;
+  InitKey next_init_key_ = 1;
+  std::size_t replays_outstanding_ = 0;  // replays queued or in flight in this round
+  std::size_t replayed_this_round_ = 0;
+  bool monitor_done_ = false;            // the monitor handed out every replay of this round
+  bool established_ = false;
+  bool ever_established_ = false;
+  bool failsafe_seen_ = false;
+  std::pair<std::uint32_t, std::uint32_t> detected_{0, 0};  // (stored, reported) of the last reset detected
+  std::deque<WriteItem> writes_;
+  WriteItem current_write_;
+  bool writing_ = false;
+  error_code link_error_;
+  std::shared_ptr<ReadBuffer> read_buffer_;
+
+  // Any thread.
+  std::atomic<bool> closed_{false};
+  mutable std::mutex mutex_;  // guards everything below
+  ProxyCounters published_;
+  SessionStatus published_session_;
+  std::map<PinKey, PinEntry> pins_;
+  std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
+  EventHandlerId last_handler_id_ = 0;
+};
+
+void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendHandler handler) {
+  impl->submit(std::move(request), std::move(handler));
+}
+
+asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl) { return impl->executor(); }
+
+SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error) {
+  if (impl->on_strand()) {
+    error = transports::make_error_code(transports::TransportError::would_deadlock);
+    return SendResult();
+  }
+  std::promise<std::pair<error_code, SendResult>> done;
+  auto result = done.get_future();
+  impl->submit(std::move(request), [&done](error_code e, SendResult r) { done.set_value({e, r}); });
+  const auto [send_error, sent] = result.get();
+  error = send_error;
+  return sent;
+}
+
+SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request) {
+  error_code error;
+  const SendResult result = blocking_send(impl, std::move(request), error);
+  if (error) throw boost::system::system_error(error, "proxy send");
+  return result;
+}
+
+std::optional<PinStatus> pin_state(const std::shared_ptr<ProxyClientImpl>& impl, PinKind kind, std::uint32_t pin) {
+  return impl->pin_state(kind, pin);
+}
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------------------------------------
+// ProxyClient
+
+namespace {
+std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const ProxyOptions& options) {
+  if (!stream) throw std::invalid_argument("ProxyClient needs a stream");
+  const ProxyTiming& timing = options.timing;
+  if (timing.baud == 0 || timing.bits_per_byte == 0 || timing.send_budget == 0 || timing.max_sends == 0) {
+    throw std::invalid_argument("ProxyClient: baud, bits_per_byte, send_budget and max_sends must be > 0");
+  }
+  return stream;
+}
+}  // namespace
+
+ProxyClient::ProxyClient(std::shared_ptr<ByteStream> stream, const ProxyOptions& options, EventHandler handler)
+    : impl_(std::make_shared<detail::ProxyClientImpl>(require(std::move(stream), options), options)) {
+  if (handler) impl_->add_event_handler(std::move(handler));
+  impl_->start();
+}
+
+ProxyClient::~ProxyClient() {
+  if (impl_) impl_->close();
+}
+
+ProxyClient::ProxyClient(ProxyClient&&) noexcept = default;
+
+ProxyClient& ProxyClient::operator=(ProxyClient&& other) noexcept {
+  if (this != &other) {
+    if (impl_) impl_->close();
+    impl_ = std::move(other.impl_);
+  }
+  return *this;
+}
+
+asio::any_io_executor ProxyClient::get_executor() const { return impl_->executor(); }
+Mode ProxyClient::mode() const { return impl_->mode(); }
+void ProxyClient::restart_session() { impl_->restart_session(); }
+EventHandlerId ProxyClient::add_event_handler(EventHandler handler) { return impl_->add_event_handler(std::move(handler)); }
+void ProxyClient::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
+ProxyCounters ProxyClient::counters() const { return impl_->counters(); }
+SessionStatus ProxyClient::session() const { return impl_->session(); }
+std::optional<PinStatus> ProxyClient::pin_state(PinKind kind, std::uint32_t pin) const {
+  return impl_->pin_state(kind, pin);
+}
+std::vector<PinStatus> ProxyClient::pin_states() const { return impl_->pin_states(); }
+void ProxyClient::close() { impl_->close(); }
+bool ProxyClient::is_open() const { return impl_->is_open(); }
+
+}  // namespace tether::proxy

@@ -1,0 +1,714 @@
+// ProxyClient in primary mode against a scripted fake device over an in-memory pair: acks, the wire format
+// byte for byte, re-sends with the same messageId, budgets, stale acks, pings, the session handshake and
+// reset recovery, damaged and undecodable frames, events, per-pin ordering, close and link failure.
+#include <gtest/gtest.h>
+
+#include <boost/asio/use_future.hpp>
+#include <boost/system/system_error.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <future>
+#include <set>
+
+#include "tether/transports/io_thread.hpp"
+#include "tether/transports/transport_error.hpp"
+#include "test_support.hpp"
+
+namespace tether::proxy::testing {
+namespace {
+
+namespace asio = boost::asio;
+using IoThread = transports::IoThread;
+
+bool is_servo_control(const DeviceFrame& frame) { return frame.decoded && frame.in.has_servocontrol(); }
+
+// --- sends and acks ---------------------------------------------------------------------------------------
+
+TEST(ProxyClient, SendIsAckedAfterTheHandshake) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  const SendResult result = link.client->servo(9).set(90);
+  EXPECT_TRUE(result.acked);
+  EXPECT_EQ(result.attempts, 1);
+  EXPECT_NE(result.message_id, 0u);
+  const auto frames = link.device->frames();
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_TRUE(frames[0].in.has_reset());  // the handshake comes first
+  ASSERT_TRUE(frames[1].in.has_servocontrol());
+  EXPECT_EQ(frames[1].in.messageid(), result.message_id);
+  EXPECT_EQ(frames[1].in.servocontrol().pin(), 9u);
+  EXPECT_EQ(frames[1].in.servocontrol().position(), 90);
+  EXPECT_EQ(link.client->session().session_id, std::optional<std::uint32_t>(100));
+  EXPECT_TRUE(link.client->session().established);
+  const ProxyCounters counters = link.client->counters();
+  EXPECT_EQ(counters.acks, 1u);
+  EXPECT_EQ(counters.resets_sent, 1u);
+  EXPECT_EQ(counters.link.stale, 0u);
+}
+
+TEST(ProxyClient, AnyArduinoInCanBeSentAndItsMessageIdIsAssigned) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device());
+  ArduinoIn message;
+  message.set_messageid(12345);  // overwritten
+  message.mutable_digitalcontrol()->set_pin(13);
+  message.mutable_digitalcontrol()->set_state(true);
+  std::future<SendResult> future = link.client->async_send(message, asio::use_future);
+  const SendResult result = future.get();
+  EXPECT_TRUE(result.acked);
+  const auto controls = frames_of(link.device->frames(), ArduinoIn::kDigitalControl);
+  ASSERT_EQ(controls.size(), 1u);
+  EXPECT_EQ(controls[0].in.messageid(), result.message_id);
+  EXPECT_TRUE(controls[0].in.digitalcontrol().state());
+  // A callback and error_code forms too.
+  error_code error;
+  const SendResult again = link.client->send(message, error);
+  EXPECT_FALSE(error);
+  EXPECT_EQ(again.message_id, result.message_id + 1);  // the sequence (no pings in these tests)
+}
+
+TEST(ProxyClient, FramesOnTheWireByteForByte) {
+  // messageIds chosen so the handshake's Reset is 1822 and the init 1823. The device answers the init with
+  // the spec's worked example frame, which decodes as ArduinoOut{ack{messageId 1823}} (its payload
+  // 0a 06 08 9f 0e 10 cf 09 is field 1 = Ack{1823, unknown field 2}).
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.first_message_id = 1822;
+  options.timing.session.reset_timeout = 3000;
+  const std::string worked_example = unhex("0b 57 88 0a 06 08 9f 0e 10 cf 09 00");
+  Link link(io.executor(), options, [worked_example](const DeviceFrame& frame, FakeDevice& device) {
+    if (frame.in.has_reset()) device.send(FakeDevice::reset_event(7));
+    if (frame.in.has_servoinit()) device.send(worked_example);
+  });
+  ASSERT_TRUE(link.established());
+  const SendResult result = link.client->servo(1823).init(1231);
+  EXPECT_EQ(result.message_id, 1823u);
+  EXPECT_TRUE(result.acked);
+  // Reset{messageId 1822}: payload 08 9e 0e 3a 00, crc 0x71ec.
+  // ServoInit{messageId 1823, pin 1823, safePosition 1231}: payload 08 9f 0e 1a 06 08 9f 0e 10 cf 09, crc 0xe58f.
+  EXPECT_EQ(hex(link.device->received()), "00 07 ec 71 08 9e 0e 3a 01 00 "
+                                           "00 0e 8f e5 08 9f 0e 1a 06 08 9f 0e 10 cf 09 00");
+  EXPECT_EQ(link.client->counters().link.stale, 0u);
+}
+
+TEST(ProxyClient, FirstPingFollowsTheResetByteForByte) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.first_message_id = 1822;
+  options.timing.ping_period = 1000;
+  Link link(io.executor(), options, [](const DeviceFrame& frame, FakeDevice& device) {
+    // The worked example frame acks messageId 1823: the ping.
+    if (frame.in.has_ping()) device.send(unhex("0b 57 88 0a 06 08 9f 0e 10 cf 09 00"));
+  });
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing), kPrompt));
+  // Reset{1822}, then Ping{1823}: payload 08 9f 0e 12 00, crc 0x80a4 (the empty Ping's zero length is COBS'd).
+  EXPECT_EQ(hex(link.device->received().substr(0, 20)), "00 07 ec 71 08 9e 0e 3a 01 00 00 07 a4 80 08 9f 0e 12 01 00");
+  EXPECT_TRUE(eventually([&] { return link.client->counters().ping_acks == 1; }));
+  EXPECT_EQ(link.client->counters().link.stale, 0u);
+}
+
+TEST(ProxyClient, AckTimeoutComesFromBaudRateAndFrameLength) {
+  EXPECT_EQ(kAckFrameBytes, 14u);
+  ProxyTiming timing;
+  timing.baud = 115200;
+  timing.bits_per_byte = 11;
+  timing.processing_margin = 50;
+  EXPECT_EQ(timing.ack_timeout(20), 4u + 50u);  // ceil(34 * 11 * 1000 / 115200) = ceil(3.25)
+  timing.baud = 9600;
+  EXPECT_EQ(timing.ack_timeout(20), 39u + 50u);  // ceil(38.96)
+  timing.processing_margin = 0;
+  timing.baud = 1100;
+  EXPECT_EQ(timing.ack_timeout(86), 1000u);  // 100 bytes * 11 bits at 1100 baud: exactly 1 s
+}
+
+// --- re-sends and budgets ---------------------------------------------------------------------------------
+
+TEST(ProxyClient, MissingAckIsResentWithTheSameMessageId) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 100;
+  Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
+              return is_servo_control(frame) && frame.repeat == 1;  // the first copy is "lost"
+            }));
+  const auto start = std::chrono::steady_clock::now();
+  const SendResult result = link.client->servo(9).set(45);
+  EXPECT_GE(elapsed_ms(start), 90);  // one attempt window went by
+  EXPECT_TRUE(result.acked);
+  EXPECT_EQ(result.attempts, 2);
+  const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
+  ASSERT_EQ(controls.size(), 2u);
+  EXPECT_EQ(controls[0].wire, controls[1].wire);  // the same bytes
+  EXPECT_EQ(controls[1].in.messageid(), result.message_id);
+  EXPECT_EQ(controls[1].repeat, 2);
+  EXPECT_GE(link.client->counters().link.retries, 1u);
+}
+
+TEST(ProxyClient, OutOfBudgetTimesOut) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 50;
+  options.timing.send_budget = 400;
+  Link link(io.executor(), options, standard_device(100, is_servo_control));
+  ASSERT_TRUE(link.established());
+  const auto start = std::chrono::steady_clock::now();
+  error_code error;
+  const SendResult result = link.client->servo(9).set(45, error);
+  const auto took = elapsed_ms(start);
+  EXPECT_EQ(error, ProxyError::timed_out);
+  EXPECT_EQ(error, boost::system::errc::timed_out);
+  EXPECT_FALSE(result.acked);
+  EXPECT_GE(result.attempts, 3);  // windows of ~54 ms in a 400 ms budget
+  EXPECT_GE(took, 380);
+  EXPECT_LT(took, 400 + kPrompt.count());
+  const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
+  EXPECT_EQ(controls.size(), result.attempts);
+  for (const auto& frame : controls) EXPECT_EQ(frame.in.messageid(), result.message_id);
+  EXPECT_EQ(link.client->counters().link.timeouts, 1u);
+  // The throwing form throws.
+  EXPECT_THROW(link.client->servo(9).set(46), boost::system::system_error);
+}
+
+TEST(ProxyClient, MaxSendsBoundsTheAttempts) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 30;
+  options.timing.max_sends = 2;
+  Link link(io.executor(), options, standard_device(100, is_servo_control));
+  error_code error;
+  const SendResult result = link.client->servo(9).set(45, error);
+  EXPECT_EQ(error, ProxyError::timed_out);
+  EXPECT_EQ(result.attempts, 2);
+}
+
+TEST(ProxyClient, DuplicateAndStaleAcksAreCountedAndIgnored) {
+  IoThread io;
+  Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
+    standard_device()(frame, device);
+    if (is_servo_control(frame)) {
+      device.send(FakeDevice::ack(frame.in.messageid()));            // a duplicate ack
+      device.send(FakeDevice::ack(frame.in.messageid() + 100000u));  // an ack for nothing in flight
+    }
+  });
+  Completions done;
+  link.client->servo(9).async_set(10, done.handler(0));
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_FALSE(done.at(0).error);
+  EXPECT_TRUE(eventually([&] { return link.client->counters().link.stale == 2; }));
+  EXPECT_EQ(done.calls(), 1u);  // exactly once
+  const SendResult next = link.client->servo(9).set(11);  // the link works on
+  EXPECT_TRUE(next.acked);
+  EXPECT_TRUE(eventually([&] { return link.client->counters().link.stale == 4; }));
+  EXPECT_EQ(link.client->counters().acks, 2u);
+}
+
+// --- heartbeat --------------------------------------------------------------------------------------------
+
+TEST(ProxyClient, PingsAtTheConfiguredPeriod) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.ping_period = 100;
+  Link link(io.executor(), options, standard_device());
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 6), kPrompt));
+  const auto pings = frames_of(link.device->frames(), ArduinoIn::kPing);
+  std::set<std::uint32_t> ids;
+  for (const auto& ping : pings) ids.insert(ping.in.messageid());
+  EXPECT_EQ(ids.size(), pings.size());  // each ping has its own messageId
+  const auto span = std::chrono::duration_cast<std::chrono::milliseconds>(pings[5].at - pings[0].at).count();
+  EXPECT_GE(span, 5 * 100 - 20);  // fixed rate: five periods
+  EXPECT_LT(span, 5 * 100 + 300);
+  EXPECT_TRUE(eventually([&] { return link.client->counters().ping_acks >= 6; }));
+  EXPECT_GE(link.client->counters().pings_sent, 6u);
+  EXPECT_EQ(link.client->counters().link.stale, 0u);  // ping acks are expected, not stale
+}
+
+TEST(ProxyClient, PingsDefaultToOneSecond) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.ping_period = ProxyTiming().ping_period;
+  EXPECT_EQ(options.timing.ping_period, 1000u);
+  Link link(io.executor(), options, standard_device());
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 2), kPrompt));
+  const auto pings = frames_of(link.device->frames(), ArduinoIn::kPing);
+  const auto gap = std::chrono::duration_cast<std::chrono::milliseconds>(pings[1].at - pings[0].at).count();
+  EXPECT_GE(gap, 980);
+  EXPECT_LT(gap, 1500);
+}
+
+// --- session ----------------------------------------------------------------------------------------------
+
+TEST(ProxyClient, HandshakeReplaysInitsInRegistrationOrderThenSendsTheQueue) {
+  IoThread io;
+  // The device acks but announces its session only when the test says so.
+  Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
+    if (frame.decoded) device.send(FakeDevice::ack(frame.in.messageid()));
+  });
+  Completions done;
+  link.client->servo(9).async_init(90, done.handler(0));
+  link.client->digital(13).async_init(false, done.handler(1));
+  link.client->servo(10).async_init(45, done.handler(2));
+  link.client->servo(9).async_set(120, done.handler(3));  // waits for the session
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kReset), kPrompt));
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(done.calls(), 0u);
+  EXPECT_EQ(link.device->frames().size(), 1u);  // only the Reset before the ResetEvent
+  EXPECT_FALSE(link.client->session().established);
+  link.device->send(FakeDevice::reset_event(0xABC));
+  ASSERT_TRUE(done.wait_for(4));
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_FALSE(done.at(i).error) << i;
+    EXPECT_TRUE(done.at(i).result.acked) << i;
+  }
+  const auto frames = link.device->frames();
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_TRUE(frames[0].in.has_reset());
+  EXPECT_EQ(frames[1].in.servoinit().pin(), 9u);
+  EXPECT_EQ(frames[1].in.servoinit().safeposition(), 90);
+  EXPECT_EQ(frames[2].in.digitalinit().pin(), 13u);
+  EXPECT_EQ(frames[3].in.servoinit().pin(), 10u);
+  EXPECT_EQ(frames[4].in.servocontrol().pin(), 9u);  // after the inits
+  ASSERT_TRUE(link.established());
+  const auto established = link.log.of<events::SessionEstablished>();
+  ASSERT_EQ(established.size(), 1u);
+  EXPECT_EQ(established[0].session_id, 0xABCu);
+  EXPECT_EQ(established[0].inits, 3u);
+  EXPECT_TRUE(established[0].first);
+  EXPECT_EQ(link.client->counters().inits_replayed, 3u);
+}
+
+TEST(ProxyClient, ChangedSessionIdInArduinoInfoResetsAndReplaysTheInits) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  link.client->servo(9).init(90);
+  link.client->digital(13).init(true);
+  link.client->servo(9).init(80);  // registered again: keeps its place, new safe value
+  ASSERT_TRUE(link.established());
+  const std::size_t before = link.device->frames().size();
+  link.device->send(FakeDevice::info(100, false));  // the same session: nothing happens
+  link.device->send(FakeDevice::info(999, false));  // another one: the device restarted
+  ASSERT_TRUE(link.established(2));
+  const auto detected = link.log.of<events::ResetDetected>();
+  ASSERT_EQ(detected.size(), 1u);
+  EXPECT_EQ(detected[0].previous_session_id, 100u);
+  EXPECT_EQ(detected[0].reported_session_id, 999u);
+  const auto established = link.log.of<events::SessionEstablished>();
+  EXPECT_EQ(established[1].session_id, 101u);  // the standard device's next boot
+  EXPECT_EQ(established[1].inits, 2u);
+  EXPECT_FALSE(established[1].first);
+  const auto frames = link.device->frames();
+  ASSERT_EQ(frames.size(), before + 3);
+  EXPECT_TRUE(frames[before].in.has_reset());
+  EXPECT_EQ(frames[before + 1].in.servoinit().pin(), 9u);
+  EXPECT_EQ(frames[before + 1].in.servoinit().safeposition(), 80);
+  EXPECT_EQ(frames[before + 2].in.digitalinit().pin(), 13u);
+  EXPECT_TRUE(frames[before + 2].in.digitalinit().safestate());
+  EXPECT_EQ(link.client->counters().link.resets, 1u);
+  EXPECT_EQ(link.client->session().session_id, std::optional<std::uint32_t>(101));
+  // The event order: the report that revealed the restart comes after ResetDetected.
+  const auto all = link.log.all();
+  const auto reset_at = std::find_if(all.begin(), all.end(), [](const ProxyEvent& event) {
+    return std::holds_alternative<events::ResetDetected>(event);
+  });
+  ASSERT_NE(reset_at, all.end());
+  ASSERT_NE(reset_at + 1, all.end());
+  ASSERT_TRUE(std::holds_alternative<events::DeviceInfo>(*(reset_at + 1)));
+  EXPECT_EQ(std::get<events::DeviceInfo>(*(reset_at + 1)).session_id, 999u);
+}
+
+TEST(ProxyClient, UnsolicitedResetEventWithANewIdIsAReset) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  link.client->digital(4).init(false);
+  ASSERT_TRUE(link.established());
+  link.device->send(FakeDevice::reset_event(100));  // a repeat of the known session: ignored
+  link.device->send(FakeDevice::reset_event(555));
+  ASSERT_TRUE(link.established(2));
+  const auto detected = link.log.of<events::ResetDetected>();
+  ASSERT_EQ(detected.size(), 1u);
+  EXPECT_EQ(detected[0].previous_session_id, 100u);
+  EXPECT_EQ(detected[0].reported_session_id, 555u);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kDigitalInit).size(), 2u);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 2u);
+}
+
+TEST(ProxyClient, MessageInFlightWhenTheDeviceRestartsFailsWithDeviceReset) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.send_budget = 5000;
+  Link link(io.executor(), options, standard_device(100, is_servo_control));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(9).async_set(1, done.handler(0));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  link.device->send(FakeDevice::info(777, false));
+  ASSERT_TRUE(done.wait_for(1, 2000ms));  // well before the 5 s budget
+  EXPECT_EQ(done.at(0).error, ProxyError::device_reset);
+  EXPECT_GE(done.at(0).result.attempts, 1);
+  EXPECT_TRUE(link.established(2));
+}
+
+TEST(ProxyClient, UnansweredResetIsSentAgain) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.session.reset_timeout = 150;
+  auto first = std::make_shared<std::atomic<bool>>(true);
+  Link link(io.executor(), options, standard_device(100, [first](const DeviceFrame& frame) {
+              return frame.in.has_reset() && first->exchange(false);  // the first Reset is lost
+            }));
+  ASSERT_TRUE(link.established());
+  const auto resets = frames_of(link.device->frames(), ArduinoIn::kReset);
+  ASSERT_EQ(resets.size(), 2u);
+  EXPECT_NE(resets[0].in.messageid(), resets[1].in.messageid());  // each Reset is a new message
+  EXPECT_GE(std::chrono::duration_cast<std::chrono::milliseconds>(resets[1].at - resets[0].at).count(), 140);
+  EXPECT_EQ(link.client->counters().resets_sent, 2u);
+}
+
+TEST(ProxyClient, UnacknowledgedReplayRestartsTheHandshake) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 30;
+  options.timing.send_budget = 200;
+  // The first session ignores the init: the client resets the device again and replays.
+  auto resets = std::make_shared<std::atomic<int>>(0);
+  Link link(io.executor(), options, standard_device(100, [resets](const DeviceFrame& frame) {
+              if (frame.in.has_reset()) ++*resets;
+              return frame.in.has_servoinit() && *resets == 1;
+            }));
+  Completions done;
+  link.client->servo(3).async_init(0, done.handler(0));
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_FALSE(done.at(0).error);
+  const auto established = link.log.of<events::SessionEstablished>();
+  ASSERT_EQ(established.size(), 1u);
+  EXPECT_EQ(established[0].session_id, 101u);  // not the first session: it never took its init
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 2u);
+  EXPECT_GE(link.client->counters().link.timeouts, 1u);
+}
+
+TEST(ProxyClient, RestartSessionResetsAndReplays) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  link.client->servo(9).init(90);
+  ASSERT_TRUE(link.established());
+  link.client->restart_session();
+  ASSERT_TRUE(link.established(2));
+  EXPECT_TRUE(link.log.of<events::ResetDetected>().empty());
+  EXPECT_EQ(link.log.of<events::SessionEstablished>()[1].session_id, 101u);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kServoInit).size(), 2u);
+}
+
+// --- damaged and undecodable frames -----------------------------------------------------------------------
+
+TEST(ProxyClient, DamagedAndGarbageFramesAreCountedNeverDelivered) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 100;
+  Link link(io.executor(), options, [](const DeviceFrame& frame, FakeDevice& device) {
+    if (is_servo_control(frame) && frame.repeat == 1) {
+      std::string damaged = FakeDevice::ack(frame.in.messageid());
+      char& last = damaged[damaged.size() - 2];  // the id's last byte (a data byte, never 0x00)
+      last = last == '\x01' ? '\x02' : '\x01';     // changed: a CRC mismatch
+      device.send(damaged);
+      device.send(unhex("05 11 22 00"));            // a block announcing 4 bytes ends early: bad COBS
+      device.send(unhex("02 11 00"));               // one byte: too short for a CRC
+      device.send(std::string(300, '\x01') + '\0');  // 300 decoded zeros: over kMaxPayload
+      device.send(unhex("11 22 33 00"));             // line noise: a block cut short by the delimiter
+      return;
+    }
+    standard_device()(frame, device);
+  });
+  const SendResult result = link.client->servo(9).set(30);
+  EXPECT_TRUE(result.acked);
+  EXPECT_EQ(result.attempts, 2);  // the damaged ack did not complete it
+  const LinkCounters counters = link.client->counters().link;
+  EXPECT_EQ(counters.crc_errors, 1u);
+  EXPECT_EQ(counters.framing_errors, 3u);
+  EXPECT_EQ(counters.oversize_frames, 1u);
+  EXPECT_EQ(link.client->counters().undecodable, 0u);
+  for (const auto& event : link.log.all()) {
+    EXPECT_FALSE(std::holds_alternative<events::UndecodableMessage>(event));
+    EXPECT_FALSE(std::holds_alternative<events::PinReport>(event));
+  }
+}
+
+TEST(ProxyClient, UndecodableProtobufIsCountedAndReported) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device());
+  ASSERT_TRUE(link.established());
+  link.device->send(FakeDevice::frame_bytes(unhex("ff ff"), Integrity::crc16));  // wire type 7: not protobuf
+  link.device->send(FakeDevice::frame_bytes(unhex("78 01"), Integrity::crc16));  // field 15: unknown content
+  ASSERT_TRUE(link.log.wait_for<events::UndecodableMessage>(2));
+  const auto undecodable = link.log.of<events::UndecodableMessage>();
+  EXPECT_EQ(hex(undecodable[0].payload), "ff ff");
+  EXPECT_TRUE(undecodable[0].malformed);
+  EXPECT_FALSE(undecodable[1].malformed);
+  const ProxyCounters counters = link.client->counters();
+  EXPECT_EQ(counters.undecodable, 1u);
+  EXPECT_EQ(counters.unknown_messages, 1u);
+  EXPECT_EQ(counters.link.crc_errors, 0u);
+  EXPECT_TRUE(link.client->servo(2).set(5).acked);  // and nothing broke
+}
+
+// --- device events ----------------------------------------------------------------------------------------
+
+TEST(ProxyClient, DeviceReportsBecomeEvents) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  link.client->servo(9).init(90);
+  ASSERT_TRUE(link.established());
+  link.device->send(FakeDevice::error("servo 9 stalled", Error::FATAL));
+  link.device->send(FakeDevice::info(100, true));
+  link.device->send(FakeDevice::info(100, true));  // still set: no second event
+  link.device->send(FakeDevice::pin_state(9, 90, true));
+  link.device->send(FakeDevice::pin_state(12, 1, false));
+  link.device->send(FakeDevice::info(100, false));
+  link.device->send(FakeDevice::info(100, true));  // a new episode
+  ASSERT_TRUE(link.log.wait_for<events::DeviceInfo>(4));  // each FailsafeTriggered precedes its report
+  const auto errors = link.log.of<events::DeviceError>();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].text, "servo 9 stalled");
+  EXPECT_EQ(errors[0].level, ErrorLevel::fatal);
+  EXPECT_EQ(link.log.of<events::FailsafeTriggered>().size(), 2u);
+  const auto infos = link.log.of<events::DeviceInfo>();
+  EXPECT_TRUE(infos[0].ping_failsafe_triggered);
+  EXPECT_FALSE(infos[2].ping_failsafe_triggered);
+  const auto reports = link.log.of<events::PinReport>();
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_EQ(reports[0].kind, PinKind::servo);  // known from its init
+  EXPECT_EQ(reports[0].value, 90);
+  EXPECT_TRUE(reports[0].failsafe);
+  EXPECT_EQ(reports[1].kind, PinKind::unknown);
+  const auto servo = link.client->servo(9).state();
+  ASSERT_TRUE(servo.has_value());
+  EXPECT_TRUE(servo->has_value);
+  EXPECT_TRUE(servo->failsafe);
+  EXPECT_EQ(link.client->counters().link.resets, 0u);
+  // The application clears the flag.
+  EXPECT_TRUE(link.client->reset_failsafe().acked);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kPingFailsafeReset).size(), 1u);
+}
+
+TEST(ProxyClient, SeveralHandlersAndRemoval) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  ASSERT_TRUE(link.established());
+  EventLog second;
+  const EventHandlerId id = link.client->add_event_handler(second.handler());
+  link.client->add_event_handler([](const ProxyEvent&) { throw std::runtime_error("ignored"); });
+  link.device->send(FakeDevice::error("one", Error::WARNING));
+  ASSERT_TRUE(second.wait_for<events::DeviceError>(1));
+  link.client->remove_event_handler(id);
+  link.device->send(FakeDevice::error("two", Error::WARNING));
+  ASSERT_TRUE(link.log.wait_for<events::DeviceError>(2));
+  EXPECT_EQ(second.of<events::DeviceError>().size(), 1u);
+  EXPECT_EQ(link.log.of<events::DeviceError>()[1].level, ErrorLevel::warning);
+}
+
+// --- ordering and capacity --------------------------------------------------------------------------------
+
+TEST(ProxyClient, MessagesToOnePinKeepTheirOrderOthersPass) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.processing_margin = 100;
+  Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
+              return is_servo_control(frame) && frame.in.servocontrol().position() == 10 && frame.repeat == 1;
+            }));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(9).async_set(10, done.handler(0));  // first copy lost
+  link.client->servo(9).async_set(20, done.handler(1));  // must not overtake it
+  link.client->servo(8).async_set(30, done.handler(2));  // another pin: not held back
+  ASSERT_TRUE(done.wait_for(3));
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_FALSE(done.at(i).error) << i;
+  std::vector<std::int32_t> positions;
+  for (const auto& frame : frames_of(link.device->frames(), ArduinoIn::kServoControl)) {
+    positions.push_back(frame.in.servocontrol().position());
+  }
+  EXPECT_EQ(positions, (std::vector<std::int32_t>{10, 30, 10, 20}));
+}
+
+TEST(ProxyClient, AtMostEightInFlight) {
+  IoThread io;
+  Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
+    if (!frame.decoded) return;
+    if (frame.in.has_reset()) device.send(FakeDevice::reset_event(1));
+    // Control messages are acked only when the device has seen ten of them.
+  });
+  ASSERT_TRUE(link.established());
+  Completions done;
+  for (std::uint32_t pin = 0; pin < 10; ++pin) link.client->servo(pin).async_set(1, done.handler(pin));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, kMaxInFlight), kPrompt));
+  std::this_thread::sleep_for(100ms);
+  std::set<std::uint32_t> pins;
+  for (const auto& frame : frames_of(link.device->frames(), ArduinoIn::kServoControl)) {
+    pins.insert(frame.in.servocontrol().pin());
+  }
+  EXPECT_EQ(pins.size(), kMaxInFlight);  // re-sends of the same 8
+  for (const auto& frame : frames_of(link.device->frames(), ArduinoIn::kServoControl)) {
+    link.device->send(FakeDevice::ack(frame.in.messageid()));
+  }
+  ASSERT_TRUE(done.wait_for(8));
+  ASSERT_TRUE(link.device->wait_for(
+      [](const std::vector<DeviceFrame>& frames) {
+        std::set<std::uint32_t> seen;
+        for (const auto& frame : frames_of(frames, ArduinoIn::kServoControl)) seen.insert(frame.in.servocontrol().pin());
+        return seen.size() == 10;
+      },
+      kPrompt));
+}
+
+// --- rejected before the wire -----------------------------------------------------------------------------
+
+TEST(ProxyClient, InvalidMessagesNeverReachTheWire) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device());
+  ASSERT_TRUE(link.established());
+  error_code error;
+  link.client->send(ArduinoIn(), error);
+  EXPECT_EQ(error, ProxyError::invalid_message);
+  ArduinoIn reset;
+  reset.mutable_reset();
+  link.client->send(reset, error);
+  EXPECT_EQ(error, ProxyError::reserved_message);
+  RocketryProto::ArduinoIn compat;
+  compat.mutable_servocontrol()->set_pin(1);
+  const SendResult result = link.client->send(compat, error);
+  EXPECT_EQ(error, ProxyError::wrong_mode);
+  EXPECT_EQ(result.attempts, 0);
+  EXPECT_EQ(error.category(), proxy_category());
+  EXPECT_FALSE(error.message().empty());
+  EXPECT_THROW(link.client->send(compat), boost::system::system_error);
+  EXPECT_EQ(link.device->frames().size(), 1u);  // the handshake's Reset only
+}
+
+TEST(ProxyClient, TooManyInitsAreRejected) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device());
+  ASSERT_TRUE(link.established());
+  Completions done;
+  for (std::uint32_t pin = 0; pin < kMaxInits; ++pin) link.client->digital(pin).async_init(false, done.handler(pin));
+  ASSERT_TRUE(done.wait_for(kMaxInits, 10000ms));
+  error_code error;
+  link.client->servo(1000).init(0, error);
+  EXPECT_EQ(error, ProxyError::too_many_inits);
+  link.client->digital(5).init(true, error);  // a known key can be registered again
+  EXPECT_FALSE(error);
+}
+
+TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
+  IoThread io;
+  std::promise<error_code> seen;
+  auto client_slot = std::make_shared<ProxyClient*>(nullptr);
+  Link link(io.executor(), test_options(), standard_device());
+  *client_slot = &*link.client;
+  link.client->add_event_handler([client_slot, &seen, once = std::make_shared<std::atomic<bool>>(false)](
+                                     const ProxyEvent& event) {
+    if (!std::holds_alternative<events::DeviceError>(event) || once->exchange(true)) return;
+    error_code error;
+    (*client_slot)->servo(1).set(1, error);
+    seen.set_value(error);
+  });
+  link.device->send(FakeDevice::error("x", Error::WARNING));
+  auto future = seen.get_future();
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(future.get(), transports::TransportError::would_deadlock);
+}
+
+// --- close and link failure -------------------------------------------------------------------------------
+
+TEST(ProxyClient, CloseCompletesEverythingPending) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.send_budget = 60000;
+  options.timing.queue_timeout = 60000;
+  Link link(io.executor(), options, standard_device(100, is_servo_control));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  for (std::uint32_t i = 0; i < 12; ++i) link.client->servo(i % 10).async_set(1, done.handler(i));  // 8 in flight
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, kMaxInFlight), kPrompt));
+  const auto start = std::chrono::steady_clock::now();
+  link.client->close();
+  ASSERT_TRUE(done.wait_for(12));
+  EXPECT_LT(elapsed_ms(start), kPrompt.count());
+  for (std::size_t i = 0; i < 12; ++i) EXPECT_EQ(done.at(i).error, asio::error::operation_aborted) << i;
+  EXPECT_FALSE(link.client->is_open());
+  error_code error;
+  link.client->servo(1).set(1, error);
+  EXPECT_EQ(error, asio::error::operation_aborted);
+  link.client->close();  // idempotent
+}
+
+TEST(ProxyClient, DestructionDuringTheHandshakeCompletesWaitingSends) {
+  IoThread io;
+  auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor());
+  auto device = FakeDevice::start(device_end, Integrity::crc16);  // never answers
+  Completions done;
+  {
+    ProxyClient client(host_end, test_options());
+    client.servo(9).async_init(90, done.handler(0));  // waits for the replay
+    client.servo(9).async_set(100, done.handler(1));  // waits for the session
+    ASSERT_TRUE(device->wait_for(has(ArduinoIn::kReset), kPrompt));
+  }
+  ASSERT_TRUE(done.wait_for(2));
+  EXPECT_EQ(done.at(0).error, asio::error::operation_aborted);
+  EXPECT_EQ(done.at(1).error, asio::error::operation_aborted);
+  device->close();
+}
+
+TEST(ProxyClient, WaitingForTheSessionIsBounded) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.queue_timeout = 200;
+  Link link(io.executor(), options, [](const DeviceFrame&, FakeDevice&) {});  // a silent device
+  error_code error;
+  const auto start = std::chrono::steady_clock::now();
+  link.client->servo(9).set(1, error);
+  EXPECT_EQ(error, ProxyError::queue_timeout);
+  EXPECT_EQ(error, boost::system::errc::timed_out);
+  EXPECT_GE(elapsed_ms(start), 190);
+  link.client->digital(3).init(true, error);
+  EXPECT_EQ(error, ProxyError::queue_timeout);
+}
+
+TEST(ProxyClient, LinkFailureFailsPendingSendsAndIsReported) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.send_budget = 60000;
+  Link link(io.executor(), options, standard_device(100, is_servo_control));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(9).async_set(1, done.handler(0));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  link.device->close();
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_TRUE(done.at(0).error);
+  EXPECT_NE(done.at(0).error, asio::error::operation_aborted);
+  ASSERT_TRUE(link.log.wait_for<events::LinkFailed>(1));
+  error_code error;
+  link.client->servo(1).set(1, error);
+  EXPECT_EQ(error, done.at(0).error);  // later sends fail the same way
+}
+
+TEST(ProxyClient, RejectsANullStreamAndNonsenseTiming) {
+  EXPECT_THROW(ProxyClient(nullptr), std::invalid_argument);
+  IoThread io;
+  auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor());
+  ProxyOptions options;
+  options.timing.baud = 0;
+  EXPECT_THROW({ ProxyClient client(host_end, options); }, std::invalid_argument);
+}
+
+TEST(ProxyClient, CompletionsRunOnTheirAssociatedExecutorNotInline) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device());
+  ASSERT_TRUE(link.established());
+  std::promise<bool> on_io_thread;
+  const auto caller = std::this_thread::get_id();
+  link.client->servo(3).async_set(1, [&](error_code, SendResult) {
+    on_io_thread.set_value(std::this_thread::get_id() != caller);
+  });
+  EXPECT_TRUE(on_io_thread.get_future().get());
+}
+
+}  // namespace
+}  // namespace tether::proxy::testing

@@ -1,0 +1,116 @@
+// A scripted proxy device for client tests: reads host frames from its end of a ByteStream with the
+// codec's frame decoder, decodes them with the mode's schema, and lets the test script the answers,
+// byte for byte.
+#pragma once
+
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "rocketry.pb.h"
+#include "tether/proxy/frame.hpp"
+#include "tether/transports/byte_stream.hpp"
+#include "tether_proxy.pb.h"
+
+namespace tether::proxy::testing {
+
+/// One frame the device received.
+struct DeviceFrame {
+  std::string wire;                   ///< the frame's bytes: COBS data and its closing 0x00
+  std::string payload;                ///< the checked payload (empty for a damaged frame)
+  bool damaged = false;               ///< the decoder dropped it (CRC, COBS, size)
+  bool decoded = false;               ///< the payload parsed as the mode's ArduinoIn
+  ArduinoIn in;                       ///< primary mode
+  RocketryProto::ArduinoIn compat;    ///< compat mode
+  int repeat = 1;                     ///< how many times this exact payload arrived so far (1 the first time)
+  std::chrono::steady_clock::time_point at;  ///< arrival
+};
+
+/// Scripted device; create with `start`, always `close` (or drop) it.
+class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
+ public:
+  /// Called on the device's strand for every frame received (good or damaged).
+  using Script = std::function<void(const DeviceFrame& frame, FakeDevice& device)>;
+
+  /// Device reading from `end` at once, decoding with `integrity` (crc16: primary, none: compat).
+  static std::shared_ptr<FakeDevice> start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
+                                           Script script = {});
+  ~FakeDevice();
+  FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity, int);  // for make_shared
+
+  /// Sets the script (any thread, before the frames it should see).
+  void on_frame(Script script);
+  /// Writes `bytes` now (in order with every other send).
+  void send(std::string bytes);
+  /// Writes `bytes` after `delay`.
+  void send_after(std::chrono::milliseconds delay, std::string bytes);
+  /// Closes the stream and cancels delayed sends.
+  void close();
+
+  /// Every frame so far (snapshot).
+  std::vector<DeviceFrame> frames() const;
+  /// Every byte received so far.
+  std::string received() const;
+  /// Waits until `predicate(frames())` holds; false after `timeout`.
+  bool wait_for(const std::function<bool(const std::vector<DeviceFrame>&)>& predicate,
+                std::chrono::milliseconds timeout) const;
+
+  /// A device frame `COBS(crc ‖ pb) ‖ 0x00` (primary) or `COBS(pb) ‖ 0x00` (compat) of raw `payload`.
+  static std::string frame_bytes(const std::string& payload, Integrity integrity);
+  /// A primary-mode frame of `out`.
+  static std::string frame(const ArduinoOut& out);
+  /// Primary-mode frames of the common messages.
+  static std::string ack(std::uint32_t message_id);
+  static std::string reset_event(std::uint32_t session_id);
+  static std::string info(std::uint32_t session_id, bool failsafe);
+  static std::string error(const std::string& text, Error::Level level);
+  static std::string pin_state(std::uint32_t pin, std::int32_t value, bool failsafe);
+
+ private:
+  void read();
+  void on_bytes(const std::uint8_t* data, std::size_t size);
+  void write_next();
+
+  std::shared_ptr<transports::ByteStream> end_;
+  Integrity integrity_;
+  boost::asio::strand<boost::asio::any_io_executor> strand_;
+  LinkCounters counters_;
+  FrameDecoder<512> decoder_;
+  std::string frame_;  // bytes of the frame in progress
+  std::map<std::string, int> seen_;
+  std::deque<std::shared_ptr<std::string>> writes_;
+  bool writing_ = false;
+  std::vector<std::shared_ptr<boost::asio::steady_timer>> timers_;
+  std::shared_ptr<std::array<std::uint8_t, 512>> buffer_;
+
+  mutable std::mutex mutex_;
+  mutable std::condition_variable changed_;
+  Script script_;
+  std::vector<DeviceFrame> frames_;
+  std::string received_;
+};
+
+/// A well-behaved primary device: acks every intact ArduinoIn (unless `ignore` says so) and answers each
+/// Reset with ResetEvent(session), the session starting at `first_session` and growing by one per Reset.
+/// `ignore(frame)` returning true drops the frame silently (no ack, no ResetEvent).
+FakeDevice::Script standard_device(std::uint32_t first_session = 100,
+                                   std::function<bool(const DeviceFrame&)> ignore = {});
+
+/// Hex dump "00 0a ff" of `bytes` (readable assertion failures).
+std::string hex(const std::string& bytes);
+/// Bytes from a hex dump "00 0a ff".
+std::string unhex(const std::string& text);
+
+}  // namespace tether::proxy::testing
