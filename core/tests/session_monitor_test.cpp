@@ -107,6 +107,41 @@ TEST(SessionMonitor, UnsolicitedResetEventWithNewIdIsDetected) {
   EXPECT_EQ(drain(monitor, 60), (std::vector<std::string>{"init 9", "established"}));
 }
 
+TEST(SessionMonitor, WithResetAckRequiredABootAnnouncementBeforeTheAckIsNotAdopted) {
+  // Regression: the device's own boot ResetEvent arrived while our Reset was on the way; adopting it made
+  // the reboot our Reset caused look like an unexpected restart.
+  LinkCounters counters;
+  SessionTiming with_ack = timing();
+  with_ack.require_reset_ack = true;
+  Monitor monitor(with_ack, counters);
+  monitor.register_init(4);
+  monitor.start(0);
+  ASSERT_EQ(drain(monitor, 0), (std::vector<std::string>{"reset"}));
+  monitor.on_reset_event(111, 5);  // the boot announcement: ignored
+  EXPECT_TRUE(drain(monitor, 5).empty());
+  monitor.on_reset_acknowledged(8);
+  monitor.on_reset_event(222, 20);  // the reboot our Reset caused
+  EXPECT_EQ(drain(monitor, 20), (std::vector<std::string>{"init 4", "established"}));
+  EXPECT_EQ(monitor.session_id(), 222u);
+  EXPECT_EQ(counters.resets, 0u);
+}
+
+TEST(SessionMonitor, AResentResetNeedsItsOwnAck) {
+  LinkCounters counters;
+  SessionTiming with_ack = timing();
+  with_ack.require_reset_ack = true;
+  Monitor monitor(with_ack, counters);
+  monitor.start(0);
+  drain(monitor, 0);
+  monitor.on_reset_acknowledged(1);
+  ASSERT_EQ(drain(monitor, 500), (std::vector<std::string>{"reset"}));  // no ResetEvent came: again
+  monitor.on_reset_event(7, 510);  // before the second Reset's ack
+  EXPECT_EQ(monitor.state(), SessionState::awaiting_reset_event);
+  monitor.on_reset_acknowledged(520);
+  monitor.on_reset_event(8, 530);
+  EXPECT_EQ(drain(monitor, 530), (std::vector<std::string>{"established"}));
+}
+
 TEST(SessionMonitor, InitCapacityIsBounded) {
   LinkCounters counters;
   SessionMonitor<uint32_t, 2> monitor(timing(), counters);

@@ -31,9 +31,14 @@ enum class SessionState : uint8_t {
   established,           ///< Device initialised in the stored session.
 };
 
-/// Timing of the reset handshake.
+/// Timing and rules of the reset handshake.
 struct SessionTiming {
   Duration reset_timeout = 3000;  ///< Re-send Reset when no ResetEvent arrives in this time.
+  /// Adopt a ResetEvent only after the device acknowledged our Reset (`on_reset_acknowledged`). A device
+  /// that boots by itself announces a session while our Reset is still on the way; adopting that one
+  /// would make our Reset's reboot look like an unexpected restart. For protocols whose device acks the
+  /// Reset before restarting (the proxy protocol).
+  bool require_reset_ack = false;
 };
 
 /// Session tracker for one device. `SessionId` is the device's id type; `InitCapacity` bounds the
@@ -80,6 +85,13 @@ class SessionMonitor {
     enter_awaiting();
   }
 
+  /// The device acknowledged the Reset we sent (with `require_reset_ack`: from now on a ResetEvent is the
+  /// answer to it).
+  void on_reset_acknowledged(Millis now) {
+    (void)now;
+    if (state_ == SessionState::awaiting_reset_event) reset_acked_ = true;
+  }
+
   /// The device announced a fresh session (ResetEvent).
   void on_reset_event(SessionId id, Millis now) {
     (void)now;
@@ -87,6 +99,8 @@ class SessionMonitor {
       case SessionState::idle:
         break;  // not started: nothing to initialise yet
       case SessionState::awaiting_reset_event:
+        // Before our Reset was acknowledged, this announces a boot that our Reset is about to end.
+        if (timing_.require_reset_ack && !reset_acked_) break;
         adopt(id);
         break;
       case SessionState::replaying:
@@ -117,6 +131,7 @@ class SessionMonitor {
       if (reset_pending_ || reset_deadline_.expired(now)) {
         if (!reset_pending_) ++counters_->retries;  // an unanswered Reset
         reset_pending_ = false;
+        reset_acked_ = false;  // the new Reset needs its own ack
         reset_deadline_.arm(now, timing_.reset_timeout);
         action.kind = ActionKind::send_reset;
       }
@@ -149,6 +164,7 @@ class SessionMonitor {
   void enter_awaiting() {
     state_ = SessionState::awaiting_reset_event;
     reset_pending_ = true;
+    reset_acked_ = false;
     reset_deadline_.disarm();
   }
   void detect_reset() {
@@ -170,6 +186,7 @@ class SessionMonitor {
   SessionId session_id_ = SessionId();
   bool has_session_ = false;
   bool reset_pending_ = false;
+  bool reset_acked_ = false;
   bool reset_detected_pending_ = false;
   Deadline reset_deadline_;
   InitKey inits_[InitCapacity] = {};
