@@ -188,8 +188,15 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy-compat.elf", Pacing::real_time));
   auto& uno = stream->board();
   EventLog log;
-  ProxyClient client(stream, ProxyOptions::compat());
-  client.add_event_handler(log.handler());
+  ProxyClient client(stream, ProxyOptions::compat(), log.handler());
+  // Like the deployed host: command the device once it announced the end of its setup (it re-sends
+  // nothing after that, but a client re-sends its inits on a RESET announcement).
+  ASSERT_TRUE(wait_for([&] {
+    for (const auto& event : log.all<events::CompatEvent>()) {
+      if (event.type == RocketryProto::RESET) return true;
+    }
+    return false;
+  }));
   client.servo(9).init(90);
   client.digital(13).init(false);
   client.servo(9).set(180);

@@ -1,27 +1,19 @@
-// ProxyClient: the session engine (RequestTable, HeartbeatSchedule, SessionMonitor) driven by one read loop
-// and one timer on a strand, the same skeleton as romi::RomiClient.
+// ProxyClient: the session engine (RequestTable, HeartbeatSchedule, SessionMonitor) driven by the read loop
+// and the timer of a transports::ClientLink, like romi::RomiClient (the link owns the strand, the write
+// queue, close and the lifetime rules).
 //
-// Everything below `ProxyClientImpl`'s public functions runs on `strand_`. All timed work goes through
-// `pump(now)`: the engine's deadlines (re-sends, timeouts), the session monitor's actions, the heartbeat,
-// queue deadlines, starting queued messages and the compat staleness rule; the one timer is re-armed at the
-// earliest deadline after every pump. Handlers that capture the implementation strongly (timer, writes,
-// posted work) are owned by the io_context; the read loop captures it weakly (the pending read is owned by
-// the stream, which the implementation owns) and shares its buffer with the pending read.
+// Everything below `ProxyClientImpl`'s public functions runs on the link's strand. All timed work goes
+// through `pump(now)`: the engine's deadlines (re-sends, timeouts), the session monitor's actions, the
+// heartbeat, queue deadlines, starting queued messages and the compat staleness rule; the one timer is
+// re-armed at the earliest deadline after every pump.
 #include "tether/proxy/client.hpp"
 
-#include <boost/asio/bind_executor.hpp>
 #include <boost/asio/error.hpp>
-#include <boost/asio/post.hpp>
-#include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-#include <boost/asio/write.hpp>
 #include <boost/system/system_error.hpp>
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <deque>
-#include <future>
 #include <map>
 #include <mutex>
 #include <random>
@@ -31,7 +23,7 @@
 
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
-#include "tether/transports/transport_error.hpp"
+#include "tether/transports/client_link.hpp"
 
 namespace tether::proxy {
 
@@ -65,12 +57,7 @@ using InitKey = Monitor::InitKey;
 using PinKey = std::pair<PinKind, std::uint32_t>;
 using AnyMessage = std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn>;
 
-std::uint64_t steady_milliseconds() {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
-          .count());
-}
-Millis now_ms() { return static_cast<Millis>(steady_milliseconds()); }
+Millis now_ms() { return transports::ClientLink::now(); }
 
 // The earlier of `wake` and `candidate` (disarmed deadlines never win).
 void consider(Deadline& wake, const Deadline& candidate) {
@@ -98,39 +85,50 @@ struct Built {
   error_code error;
 };
 
-Built build_primary(Request& request) {
-  Built built;
+// Sets `message` from `request` for the operations both schemas express alike; `digital_set` and
+// `failsafe_reset` go to `specific(message, request)`. An error when the request cannot be expressed.
+template <typename Message, typename Specific>
+error_code fill_message(Request& request, Message& message, Specific&& specific) {
   using Op = Request::Op;
-  ArduinoIn message;
   switch (request.op) {
-    case Op::raw: {
-      if (!std::holds_alternative<ArduinoIn>(request.message)) {
-        built.error = ProxyError::wrong_mode;
-        return built;
-      }
-      message = std::move(std::get<ArduinoIn>(request.message));
-      break;
-    }
+    case Op::raw:
+      if (!std::holds_alternative<Message>(request.message)) return ProxyError::wrong_mode;
+      message = std::move(std::get<Message>(request.message));
+      return error_code();
     case Op::servo_init:
       message.mutable_servoinit()->set_pin(request.pin);
       message.mutable_servoinit()->set_safeposition(request.value);
-      break;
+      return error_code();
     case Op::servo_set:
       message.mutable_servocontrol()->set_pin(request.pin);
       message.mutable_servocontrol()->set_position(request.value);
-      break;
-    case Op::digital_init:
+      return error_code();
+    case Op::digital_init: {
+      using SafeState = std::decay_t<decltype(message.digitalinit().safestate())>;  // bool or uint32
       message.mutable_digitalinit()->set_pin(request.pin);
-      message.mutable_digitalinit()->set_safestate(request.value != 0);
-      break;
+      message.mutable_digitalinit()->set_safestate(static_cast<SafeState>(request.value != 0 ? 1 : 0));
+      return error_code();
+    }
     case Op::digital_set:
-      message.mutable_digitalcontrol()->set_pin(request.pin);
-      message.mutable_digitalcontrol()->set_state(request.value != 0);
-      break;
     case Op::failsafe_reset:
-      message.mutable_pingfailsafereset();
-      break;
+      return specific(message, request);
   }
+  return error_code();
+}
+
+Built build_primary(Request& request) {
+  Built built;
+  ArduinoIn message;
+  built.error = fill_message(request, message, [](ArduinoIn& in, const Request& r) {
+    if (r.op == Request::Op::failsafe_reset) {
+      in.mutable_pingfailsafereset();
+    } else {
+      in.mutable_digitalcontrol()->set_pin(r.pin);
+      in.mutable_digitalcontrol()->set_state(r.value != 0);
+    }
+    return error_code();
+  });
+  if (built.error) return built;
   switch (message.data_case()) {
     case ArduinoIn::DATA_NOT_SET:
       built.error = ProxyError::invalid_message;
@@ -167,37 +165,14 @@ Built build_primary(Request& request) {
 
 Built build_compat(Request& request) {
   Built built;
-  using Op = Request::Op;
   RocketryProto::ArduinoIn message;
-  switch (request.op) {
-    case Op::raw: {
-      if (!std::holds_alternative<RocketryProto::ArduinoIn>(request.message)) {
-        built.error = ProxyError::wrong_mode;
-        return built;
-      }
-      message = std::move(std::get<RocketryProto::ArduinoIn>(request.message));
-      break;
-    }
-    case Op::servo_init:
-      message.mutable_servoinit()->set_pin(request.pin);
-      message.mutable_servoinit()->set_safeposition(request.value);
-      break;
-    case Op::servo_set:
-      message.mutable_servocontrol()->set_pin(request.pin);
-      message.mutable_servocontrol()->set_position(request.value);
-      break;
-    case Op::digital_init:
-      message.mutable_digitalinit()->set_pin(request.pin);
-      message.mutable_digitalinit()->set_safestate(request.value != 0 ? 1u : 0u);
-      break;
-    case Op::digital_set:
-      message.mutable_digitalcontrol()->set_pin(request.pin);
-      message.mutable_digitalcontrol()->set_activate(request.value != 0);
-      break;
-    case Op::failsafe_reset:
-      built.error = ProxyError::wrong_mode;  // the deployed variant has no failsafe flag
-      return built;
-  }
+  built.error = fill_message(request, message, [](RocketryProto::ArduinoIn& in, const Request& r) {
+    if (r.op == Request::Op::failsafe_reset) return error_code(ProxyError::wrong_mode);  // no failsafe flag
+    in.mutable_digitalcontrol()->set_pin(r.pin);
+    in.mutable_digitalcontrol()->set_activate(r.value != 0);
+    return error_code();
+  });
+  if (built.error) return built;
   switch (message.data_case()) {
     case RocketryProto::ArduinoIn::DATA_NOT_SET:
       built.error = ProxyError::invalid_message;
@@ -224,19 +199,15 @@ Built build_compat(Request& request) {
 // ---------------------------------------------------------------------------------------------------------
 // The implementation
 
-class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
+class ProxyClientImpl final : public transports::ClientLink {
  public:
   ProxyClientImpl(std::shared_ptr<ByteStream> stream, const ProxyOptions& options)
-      : stream_(std::move(stream)),
-        executor_(stream_->get_executor()),
-        strand_(asio::make_strand(executor_)),
-        timer_(strand_),
+      : ClientLink(std::move(stream)),
         options_(options),
         decoder_(options.mode == Mode::primary ? Integrity::crc16 : Integrity::none, counters_.link),
         table_(session::CallTiming(), 0, counters_.link),
         heartbeat_(options.timing.ping_period),
-        monitor_(options.timing.session, counters_.link),
-        read_buffer_(std::make_shared<ReadBuffer>()) {
+        monitor_(options.timing.session, counters_.link) {
     const std::uint32_t first = options.first_message_id ? *options.first_message_id : std::random_device()();
     last_id_ = first - 1;  // next_id() hands out `first` (0 is skipped)
   }
@@ -244,21 +215,18 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
   // Starts reading and, in primary mode, the handshake and the heartbeat (after construction: it needs
   // shared_from_this).
   void start() {
-    asio::post(strand_, [self = shared_from_this()] {
-      self->read();
-      if (self->primary()) {
+    post_to_strand([this] {
+      start_reading();
+      if (primary()) {
         const Millis now = now_ms();
-        self->monitor_.start(now);
-        if (self->options_.timing.ping_period > 0) self->heartbeat_.start(now);
-        self->pump(now);
+        monitor_.start(now);
+        if (options_.timing.ping_period > 0) heartbeat_.start(now);
+        pump(now);
       }
-      self->publish();
+      publish();
     });
   }
 
-  const asio::any_io_executor& executor() const { return executor_; }
-  bool on_strand() const { return strand_.running_in_this_thread(); }
-  bool is_open() const { return !closed_.load(); }
   Mode mode() const { return options_.mode; }
 
   // Any thread.
@@ -268,7 +236,7 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
       post_completion(std::move(handler), built.error, SendResult());
       return;
     }
-    if (closed_.load()) {
+    if (!is_open()) {
       post_completion(std::move(handler), asio::error::operation_aborted, SendResult());
       return;
     }
@@ -277,39 +245,25 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     pending->lane = built.lane;
     pending->init = built.init;
     pending->handler = std::move(handler);
-    asio::post(strand_, [self = shared_from_this(), pending = std::move(pending)]() mutable {
-      self->accept(std::move(pending));
-    });
+    post_to_strand([this, pending = std::move(pending)]() mutable { accept(std::move(pending)); });
   }
 
   void restart_session() {
-    asio::post(strand_, [self = shared_from_this()] {
-      if (self->closed_.load() || self->link_error_) return;
+    post_to_strand([this] {
+      if (!is_open() || link_error()) return;
       const Millis now = now_ms();
-      if (self->primary()) {
-        self->lose_session();
-        self->monitor_.start(now);
-        self->pump(now);
+      if (primary()) {
+        lose_session();
+        monitor_.start(now);
+        pump(now);
       } else {
         RocketryProto::ArduinoIn reset;
         reset.mutable_reset();
-        self->write(frame_of(reset.SerializeAsString(), Integrity::none));
-        ++self->counters_.resets_sent;
+        write(frame_of(reset.SerializeAsString(), Integrity::none));
+        ++counters_.resets_sent;
       }
-      self->publish();
+      publish();
     });
-  }
-
-  void close() {
-    if (closed_.exchange(true)) return;
-    // Posted, not dispatched: close() may be called from an event handler, in the middle of decoding.
-    asio::post(strand_, [self = shared_from_this()] {
-      self->fail_all(asio::error::operation_aborted);
-      self->timer_.cancel();
-      self->publish();
-    });
-    error_code ignored;
-    stream_->close(ignored);  // completes the pending read with operation_aborted: the loop ends
   }
 
   EventHandlerId add_event_handler(EventHandler handler) {
@@ -325,15 +279,9 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
                     handlers_.end());
   }
 
-  ProxyCounters counters() const {
-    std::lock_guard lock(mutex_);
-    return published_;
-  }
+  ProxyCounters counters() const { return published_.get(); }
 
-  SessionStatus session() const {
-    std::lock_guard lock(mutex_);
-    return published_session_;
-  }
+  SessionStatus session() const { return published_session_.get(); }
 
   std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const {
     std::lock_guard lock(mutex_);
@@ -372,11 +320,6 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     PinStatus status;
     Millis updated_ms = 0;  // engine clock of `status.updated`
   };
-  // A frame to write; `done` completes when it was written (compat sends).
-  struct WriteItem {
-    std::shared_ptr<const std::string> bytes;
-    std::unique_ptr<Pending> done;
-  };
   // A message sent without the table (ping, Reset): its ack is expected and not stale.
   enum class Untracked : std::uint8_t { ping, reset };
   struct UntrackedId {
@@ -384,15 +327,13 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     Untracked kind = Untracked::ping;
     bool used = false;
   };
-  using ReadBuffer = std::array<std::uint8_t, 1024>;
-
   bool primary() const { return options_.mode == Mode::primary; }
 
   // --- accepting sends -------------------------------------------------------------------------------
 
   void accept(std::unique_ptr<Pending> pending) {
-    if (closed_.load() || link_error_) {
-      const error_code error = link_error_ ? link_error_ : error_code(asio::error::operation_aborted);
+    if (!is_open() || link_error()) {
+      const error_code error = link_error() ? link_error() : error_code(asio::error::operation_aborted);
       complete(std::move(pending->handler), error, SendResult());
       return;
     }
@@ -405,7 +346,7 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     if (!primary()) {
       ++counters_.messages_sent;
       std::shared_ptr<const std::string> frame = frame_of(serialize(pending->message), Integrity::none);
-      write(std::move(frame), std::move(pending));
+      write_send(std::move(frame), std::move(pending));
       pump(now);  // an init starts its pin's staleness clock
       return;
     }
@@ -455,7 +396,7 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
   // --- the pump ----------------------------------------------------------------------------------------
 
   void pump(Millis now) {
-    if (closed_.load() || link_error_) return;
+    if (!is_open() || link_error()) return;
     if (primary()) {
       for (;;) {
         const Table::Step step = table_.poll(now);
@@ -665,23 +606,19 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
 
   // Application messages that waited `queue_timeout` without being sent fail.
   void expire_waiting(Millis now) {
-    for (auto it = user_queue_.begin(); it != user_queue_.end();) {
+    expire(user_queue_, now);
+    for (auto& [key, entry] : inits_) expire(entry.waiters, now);
+  }
+
+  // Fails (in order) the messages of `waiting` whose queue deadline passed; the others stay.
+  template <typename Container>
+  void expire(Container& waiting, Millis now) {
+    for (auto it = waiting.begin(); it != waiting.end();) {
       if (tick_reached(now, (*it)->queue_deadline)) {
         complete(std::move((*it)->handler), ProxyError::queue_timeout, SendResult());
-        it = user_queue_.erase(it);
+        it = waiting.erase(it);
       } else {
         ++it;
-      }
-    }
-    for (auto& [key, entry] : inits_) {
-      auto& waiters = entry.waiters;
-      for (auto it = waiters.begin(); it != waiters.end();) {
-        if (tick_reached(now, (*it)->queue_deadline)) {
-          complete(std::move((*it)->handler), ProxyError::queue_timeout, SendResult());
-          it = waiters.erase(it);
-        } else {
-          ++it;
-        }
       }
     }
   }
@@ -707,10 +644,7 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
       for (auto& waiter : entry.waiters) complete(std::move(waiter->handler), error, SendResult());
       entry.waiters.clear();
     }
-    for (auto& item : writes_) {
-      if (item.done) complete(std::move(item.done->handler), error, SendResult());
-    }
-    writes_.clear();
+    abort_writes(error);
     established_ = false;
   }
 
@@ -722,76 +656,23 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     post_completion(std::move(handler), error, result);
   }
 
-  // Posted, so handlers never run on the strand or inside an initiation. Any thread.
-  void post_completion(SendHandler handler, error_code error, SendResult result) {
-    asio::post(executor_, [handler = std::move(handler), error, result]() mutable { handler(error, result); });
-  }
-
   // --- writes ------------------------------------------------------------------------------------------
 
-  void write(std::shared_ptr<const std::string> bytes, std::unique_ptr<Pending> done = nullptr) {
-    writes_.push_back(WriteItem{std::move(bytes), std::move(done)});
-    if (!writing_) write_next();
-  }
-
-  void write_next() {
-    if (writes_.empty() || closed_.load() || link_error_) {
-      writing_ = false;
-      for (auto& item : writes_) {
-        if (item.done) complete(std::move(item.done->handler), asio::error::operation_aborted, SendResult());
-      }
-      writes_.clear();
-      return;
-    }
-    writing_ = true;
-    current_write_ = std::move(writes_.front());
-    writes_.pop_front();
-    std::shared_ptr<const std::string> bytes = current_write_.bytes;
-    asio::async_write(*stream_, asio::buffer(*bytes),
-                      asio::bind_executor(strand_, [self = shared_from_this(), bytes](error_code error, std::size_t) {
-                        self->on_written(error);
-                      }));
-  }
-
-  void on_written(const error_code& error) {
-    WriteItem done = std::move(current_write_);
-    current_write_ = WriteItem();
-    if (error) {
-      writing_ = false;
-      if (done.done) complete(std::move(done.done->handler), error, SendResult());
-      if (!closed_.load()) link_failed(error);
-      publish();
-      return;
-    }
-    if (done.done) {
+  // Compat sends: `pending` completes when its frame was written (or could not be).
+  void write_send(std::shared_ptr<const std::string> bytes, std::unique_ptr<Pending> pending) {
+    write(std::move(bytes), [this, pending = std::move(pending)](error_code error) {
       SendResult result;
-      result.attempts = 1;
-      complete(std::move(done.done->handler), error_code(), result);
-    }
-    write_next();
+      if (!error) result.attempts = 1;
+      complete(std::move(pending->handler), error, result);
+    });
   }
 
-  // --- reads -------------------------------------------------------------------------------------------
+  // --- the link's hooks --------------------------------------------------------------------------------
 
-  void read() {
-    if (closed_.load() || link_error_) return;
-    std::shared_ptr<ReadBuffer> buffer = read_buffer_;
-    stream_->async_read_some(
-        asio::buffer(*buffer),
-        asio::bind_executor(strand_, [weak = weak_from_this(), buffer](error_code error, std::size_t size) {
-          if (const auto self = weak.lock()) self->on_read(error, size);
-        }));
-  }
-
-  void on_read(const error_code& error, std::size_t size) {
-    if (error) {
-      if (!closed_.load()) link_failed(error);
-      publish();
-      return;
-    }
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
     const Millis now = now_ms();
-    for (std::size_t i = 0; i < size && !closed_.load() && !link_error_; ++i) {
-      const FrameEvent event = decoder_.feed((*read_buffer_)[i]);
+    for (std::size_t i = 0; i < size && is_open() && !link_error(); ++i) {
+      const FrameEvent event = decoder_.feed(data[i]);
       if (event.kind == FrameEvent::Kind::payload) {
         if (primary()) {
           on_primary_payload(event.payload, now);
@@ -801,16 +682,20 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
       }
     }
     pump(now);
-    read();
   }
 
-  void link_failed(const error_code& error) {
-    if (link_error_) return;
-    link_error_ = error;
+  void on_link_failed(const error_code& error) override {
     fail_all(error);
-    timer_.cancel();
     emit(events::LinkFailed{error});
+    publish();
   }
+
+  void on_closed() override {
+    fail_all(asio::error::operation_aborted);
+    publish();
+  }
+
+  void on_timer() override { pump(now_ms()); }
 
   void undecodable(ByteView payload, bool malformed) {
     if (malformed) {
@@ -862,6 +747,8 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
     for (const UntrackedId& slot : untracked_) {
       if (slot.used && slot.id == id) {
         if (slot.kind == Untracked::ping) ++counters_.ping_acks;
+        // The device acks Reset before it restarts: from now on a ResetEvent answers our Reset.
+        if (slot.kind == Untracked::reset) monitor_.on_reset_acknowledged(now);
         return;
       }
     }
@@ -1042,39 +929,18 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
         consider(wakeup, stale);
       }
     }
-    if (!wakeup.armed() || closed_.load()) {
-      if (timer_armed_) timer_.cancel();
-      timer_armed_ = false;
-      return;
-    }
-    if (timer_armed_ && timer_at_ == wakeup.at()) return;
-    const std::uint64_t full = steady_milliseconds();
-    const std::int32_t left = tick_difference(wakeup.at(), static_cast<Millis>(full));
-    const std::uint64_t due = full + static_cast<std::uint64_t>(left > 0 ? left : 0);
-    timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::milliseconds(due)));
-    timer_armed_ = true;
-    timer_at_ = wakeup.at();
-    timer_.async_wait(asio::bind_executor(strand_, [self = shared_from_this()](error_code error) {
-      if (error) return;  // re-armed or cancelled
-      self->timer_armed_ = false;
-      self->pump(now_ms());
-    }));
+    ClientLink::arm_timer(wakeup);
   }
 
   void publish() {
-    std::lock_guard lock(mutex_);
-    published_ = counters_;
-    published_session_.established = primary() ? established_ : !link_error_ && !closed_.load();
-    published_session_.session_id =
+    SessionStatus session;
+    session.established = primary() ? established_ : !link_error() && is_open();
+    session.session_id =
         primary() && monitor_.has_session() ? std::optional<std::uint32_t>(monitor_.session_id()) : std::nullopt;
+    published_.set(counters_);
+    published_session_.set(session);
   }
 
-  std::shared_ptr<ByteStream> stream_;
-  asio::any_io_executor executor_;
-  asio::strand<asio::any_io_executor> strand_;
-  asio::steady_timer timer_;
-  bool timer_armed_ = false;
-  Millis timer_at_ = 0;
   const ProxyOptions options_;
 
   // Strand only.
@@ -1101,17 +967,11 @@ class ProxyClientImpl : public std::enable_shared_from_this<ProxyClientImpl> {
   bool ever_established_ = false;
   bool failsafe_seen_ = false;
   std::pair<std::uint32_t, std::uint32_t> detected_{0, 0};  // (stored, reported) of the last reset detected
-  std::deque<WriteItem> writes_;
-  WriteItem current_write_;
-  bool writing_ = false;
-  error_code link_error_;
-  std::shared_ptr<ReadBuffer> read_buffer_;
 
   // Any thread.
-  std::atomic<bool> closed_{false};
+  transports::Published<ProxyCounters> published_;
+  transports::Published<SessionStatus> published_session_;
   mutable std::mutex mutex_;  // guards everything below
-  ProxyCounters published_;
-  SessionStatus published_session_;
   std::map<PinKey, PinEntry> pins_;
   std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
   EventHandlerId last_handler_id_ = 0;
@@ -1124,15 +984,9 @@ void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendH
 asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl) { return impl->executor(); }
 
 SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error) {
-  if (impl->on_strand()) {
-    error = transports::make_error_code(transports::TransportError::would_deadlock);
-    return SendResult();
-  }
-  std::promise<std::pair<error_code, SendResult>> done;
-  auto result = done.get_future();
-  impl->submit(std::move(request), [&done](error_code e, SendResult r) { done.set_value({e, r}); });
-  const auto [send_error, sent] = result.get();
-  error = send_error;
+  SendResult sent;
+  const auto start = [&](SendHandler handler) { impl->submit(std::move(request), std::move(handler)); };
+  if (!transports::wait_for_completion(*impl, start, error, sent)) return SendResult();
   return sent;
 }
 
@@ -1169,17 +1023,10 @@ ProxyClient::ProxyClient(std::shared_ptr<ByteStream> stream, const ProxyOptions&
   impl_->start();
 }
 
-ProxyClient::~ProxyClient() {
-  if (impl_) impl_->close();
-}
-
+ProxyClient::~ProxyClient() { transports::close_link(impl_); }
 ProxyClient::ProxyClient(ProxyClient&&) noexcept = default;
-
 ProxyClient& ProxyClient::operator=(ProxyClient&& other) noexcept {
-  if (this != &other) {
-    if (impl_) impl_->close();
-    impl_ = std::move(other.impl_);
-  }
+  transports::move_link(impl_, other.impl_);
   return *this;
 }
 

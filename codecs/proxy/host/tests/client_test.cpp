@@ -78,7 +78,10 @@ TEST(ProxyClient, FramesOnTheWireByteForByte) {
   options.timing.session.reset_timeout = 3000;
   const std::string worked_example = unhex("0b 57 88 0a 06 08 9f 0e 10 cf 09 00");
   Link link(io.executor(), options, [worked_example](const DeviceFrame& frame, FakeDevice& device) {
-    if (frame.in.has_reset()) device.send(FakeDevice::reset_event(7));
+    if (frame.in.has_reset()) {  // a device acks every message, Reset included, before it restarts
+      device.send(FakeDevice::ack(frame.in.messageid()));
+      device.send(FakeDevice::reset_event(7));
+    }
     if (frame.in.has_servoinit()) device.send(worked_example);
   });
   ASSERT_TRUE(link.established());
@@ -531,7 +534,10 @@ TEST(ProxyClient, AtMostEightInFlight) {
   IoThread io;
   Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
     if (!frame.decoded) return;
-    if (frame.in.has_reset()) device.send(FakeDevice::reset_event(1));
+    if (frame.in.has_reset()) {
+      device.send(FakeDevice::ack(frame.in.messageid()));
+      device.send(FakeDevice::reset_event(1));
+    }
     // Control messages are acked only when the device has seen ten of them.
   });
   ASSERT_TRUE(link.established());

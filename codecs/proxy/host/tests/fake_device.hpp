@@ -3,25 +3,19 @@
 // byte for byte.
 #pragma once
 
-#include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-
-#include <array>
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rocketry.pb.h"
 #include "tether/proxy/frame.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/testing/scripted_peer.hpp"
 #include "tether_proxy.pb.h"
 
 namespace tether::proxy::testing {
@@ -38,34 +32,28 @@ struct DeviceFrame {
   std::chrono::steady_clock::time_point at;  ///< arrival
 };
 
-/// Scripted device; create with `start`, always `close` (or drop) it.
-class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
+/// Scripted device; create with `start`, always `close` (or drop) it. `send`, `send_after`, `close` and
+/// `received` come from the shared `transports::testing::ScriptedPeer`.
+class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, DeviceFrame> {
  public:
   /// Called on the device's strand for every frame received (good or damaged).
-  using Script = std::function<void(const DeviceFrame& frame, FakeDevice& device)>;
+  using Script = ScriptedDevice::Script;
 
   /// Device reading from `end` at once, decoding with `integrity` (crc16: primary, none: compat).
   static std::shared_ptr<FakeDevice> start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
                                            Script script = {});
-  ~FakeDevice();
   FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity, int);  // for make_shared
 
   /// Sets the script (any thread, before the frames it should see).
-  void on_frame(Script script);
-  /// Writes `bytes` now (in order with every other send).
-  void send(std::string bytes);
-  /// Writes `bytes` after `delay`.
-  void send_after(std::chrono::milliseconds delay, std::string bytes);
-  /// Closes the stream and cancels delayed sends.
-  void close();
+  void on_frame(Script script) { set_script(std::move(script)); }
 
   /// Every frame so far (snapshot).
-  std::vector<DeviceFrame> frames() const;
-  /// Every byte received so far.
-  std::string received() const;
+  std::vector<DeviceFrame> frames() const { return records(); }
   /// Waits until `predicate(frames())` holds; false after `timeout`.
   bool wait_for(const std::function<bool(const std::vector<DeviceFrame>&)>& predicate,
-                std::chrono::milliseconds timeout) const;
+                std::chrono::milliseconds timeout) const {
+    return wait_for_records(predicate, timeout);
+  }
 
   /// A device frame `COBS(crc ‖ pb) ‖ 0x00` (primary) or `COBS(pb) ‖ 0x00` (compat) of raw `payload`.
   static std::string frame_bytes(const std::string& payload, Integrity integrity);
@@ -79,27 +67,14 @@ class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
   static std::string pin_state(std::uint32_t pin, std::int32_t value, bool failsafe);
 
  private:
-  void read();
-  void on_bytes(const std::uint8_t* data, std::size_t size);
-  void write_next();
+  void on_bytes(const std::uint8_t* data, std::size_t size) override;
 
-  std::shared_ptr<transports::ByteStream> end_;
+  // Strand only.
   Integrity integrity_;
-  boost::asio::strand<boost::asio::any_io_executor> strand_;
   LinkCounters counters_;
   FrameDecoder<512> decoder_;
   std::string frame_;  // bytes of the frame in progress
   std::map<std::string, int> seen_;
-  std::deque<std::shared_ptr<std::string>> writes_;
-  bool writing_ = false;
-  std::vector<std::shared_ptr<boost::asio::steady_timer>> timers_;
-  std::shared_ptr<std::array<std::uint8_t, 512>> buffer_;
-
-  mutable std::mutex mutex_;
-  mutable std::condition_variable changed_;
-  Script script_;
-  std::vector<DeviceFrame> frames_;
-  std::string received_;
 };
 
 /// A well-behaved primary device: acks every intact ArduinoIn (unless `ignore` says so) and answers each

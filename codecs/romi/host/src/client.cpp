@@ -1,26 +1,14 @@
-// RomiClient: the session engine (romi::RequestTable) driven by one read loop and one timer on a strand.
+// RomiClient: the session engine (romi::RequestTable) driven by the read loop and the timer of a
+// transports::ClientLink (which owns the strand, the write queue, close and the lifetime rules).
 //
-// Everything below `ClientImpl`'s public functions runs on `strand_`. Handlers that capture the
-// implementation strongly (timer, writes, posted work) are owned by the io_context and released when it
-// runs or is destroyed; the read loop captures it weakly, because a pending read is owned by the stream,
-// which the implementation owns (a strong capture would be a cycle that outlives an io_context that
-// stopped). The read buffer is shared with the pending read, so a read that completes after the
-// implementation died never writes into freed memory.
+// Everything below `ClientImpl`'s public functions runs on the link's strand.
 #include "tether/romi/client.hpp"
 
-#include <boost/asio/bind_executor.hpp>
 #include <boost/asio/error.hpp>
-#include <boost/asio/post.hpp>
-#include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-#include <boost/asio/write.hpp>
 #include <boost/system/system_error.hpp>
 
 #include <array>
-#include <atomic>
-#include <chrono>
 #include <deque>
-#include <future>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -29,7 +17,7 @@
 #include "tether/core/time.hpp"
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/envelope_decoder.hpp"
-#include "tether/transports/transport_error.hpp"
+#include "tether/transports/client_link.hpp"
 
 namespace tether::romi {
 
@@ -129,15 +117,6 @@ bool opcode_matches(char call_opcode, char answer_opcode, std::int16_t code) {
   return code < 0 || answer_opcode == call_opcode;
 }
 
-// ---------------------------------------------------------------------------------------------------------
-// Time
-
-std::uint64_t steady_milliseconds() {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
-          .count());
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -145,25 +124,15 @@ std::uint64_t steady_milliseconds() {
 
 namespace detail {
 
-class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
+class ClientImpl final : public transports::ClientLink {
  public:
   ClientImpl(std::shared_ptr<ByteStream> stream, const ClientOptions& options)
-      : stream_(std::move(stream)),
-        executor_(stream_->get_executor()),
-        strand_(asio::make_strand(executor_)),
-        timer_(strand_),
-        decoder_(counters_),
-        table_(options.timing, options.last_id, counters_),
-        read_buffer_(std::make_shared<ReadBuffer>()) {}
+      : ClientLink(std::move(stream)), decoder_(counters_), table_(options.timing, options.last_id, counters_) {}
 
   // Starts the read loop (after construction: it needs shared_from_this).
   void start() {
-    asio::post(strand_, [self = shared_from_this()] { self->read(); });
+    post_to_strand([this] { start_reading(); });
   }
-
-  const asio::any_io_executor& executor() const { return executor_; }
-  bool on_strand() const { return strand_.running_in_this_thread(); }
-  bool is_open() const { return !closed_.load(); }
 
   void submit(Command command, bool manual, CallHandler handler) {
     const char opcode = command.opcode();
@@ -172,7 +141,7 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
       post_completion(std::move(handler), command.error(), failure(command.error(), opcode));
       return;
     }
-    if (closed_.load()) {
+    if (!is_open()) {
       const error_code aborted = asio::error::operation_aborted;
       post_completion(std::move(handler), aborted, failure(aborted, opcode));
       return;
@@ -182,24 +151,11 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
     call->opcode = opcode;
     call->manual = manual;
     call->handler = std::move(handler);
-    asio::post(strand_, [self = shared_from_this(), call = std::move(call)]() mutable {
-      self->queue_.push_back(std::move(call));
-      self->start_next();
-      self->publish();
+    post_to_strand([this, call = std::move(call)]() mutable {
+      queue_.push_back(std::move(call));
+      start_next();
+      publish();
     });
-  }
-
-  void close() {
-    if (closed_.exchange(true)) return;
-    // Posted, not dispatched: close() may be called from the log handler, in the middle of decoding.
-    asio::post(strand_, [self = shared_from_this()] {
-      const error_code aborted = asio::error::operation_aborted;
-      self->fail_all(aborted);
-      self->timer_.cancel();
-      self->publish();
-    });
-    error_code ignored;
-    stream_->close(ignored);  // completes the pending read with operation_aborted: the loop ends
   }
 
   void set_log_handler(LogHandler handler) {
@@ -209,13 +165,10 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
   }
 
   void set_timing(const session::CallTiming& timing) {
-    asio::post(strand_, [self = shared_from_this(), timing] { self->table_.set_timing(timing); });
+    post_to_strand([this, timing] { table_.set_timing(timing); });
   }
 
-  LinkCounters counters() const {
-    std::lock_guard lock(mutex_);
-    return published_;
-  }
+  LinkCounters counters() const { return published_.get(); }
 
  private:
   struct Call {
@@ -230,10 +183,7 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
     bool last_failure_local = false;
     RomiResponse answer;  // the intact answer that completed the call
   };
-  using ReadBuffer = std::array<std::uint8_t, 1024>;
   using Table = RequestTable;
-
-  static Millis now() { return static_cast<Millis>(steady_milliseconds()); }
 
   // --- calls -----------------------------------------------------------------------------------------
 
@@ -241,8 +191,8 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
     while (!current_ && !queue_.empty()) {
       std::unique_ptr<Call> call = std::move(queue_.front());
       queue_.pop_front();
-      if (closed_.load() || link_error_) {
-        const error_code error = link_error_ ? link_error_ : error_code(asio::error::operation_aborted);
+      if (!is_open() || link_error()) {
+        const error_code error = link_error() ? link_error() : error_code(asio::error::operation_aborted);
         complete(std::move(call->handler), error, failure(error, call->opcode));
         continue;
       }
@@ -332,74 +282,22 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
     post_completion(std::move(handler), error, std::move(response));
   }
 
-  // Posted, so handlers never run on the strand or inside an initiation. Any thread.
-  void post_completion(CallHandler handler, error_code error, RomiResponse response) {
-    asio::post(executor_, [handler = std::move(handler), error, response = std::move(response)]() mutable {
-      handler(error, std::move(response));
-    });
-  }
+  // --- the link's hooks -----------------------------------------------------------------------------------
 
-  // --- writes --------------------------------------------------------------------------------------------
-
-  void write(std::shared_ptr<const std::string> frame) {
-    writes_.push_back(std::move(frame));
-    if (!writing_) write_next();
-  }
-
-  void write_next() {
-    if (writes_.empty() || closed_.load()) {
-      writing_ = false;
-      writes_.clear();
-      return;
-    }
-    writing_ = true;
-    std::shared_ptr<const std::string> frame = writes_.front();
-    writes_.pop_front();
-    asio::async_write(*stream_, asio::buffer(*frame),
-                      asio::bind_executor(strand_, [self = shared_from_this(), frame](error_code error, std::size_t) {
-                        self->on_written(error);
-                      }));
-  }
-
-  void on_written(const error_code& error) {
-    if (error) {
-      writing_ = false;
-      writes_.clear();
-      if (!closed_.load()) link_failed(error);
-      publish();
-      return;
-    }
-    write_next();
-  }
-
-  // --- reads ---------------------------------------------------------------------------------------------
-
-  void read() {
-    if (closed_.load() || link_error_) return;
-    std::shared_ptr<ReadBuffer> buffer = read_buffer_;
-    stream_->async_read_some(
-        asio::buffer(*buffer),
-        asio::bind_executor(strand_, [weak = weak_from_this(), buffer](error_code error, std::size_t size) {
-          if (const auto self = weak.lock()) self->on_read(error, size);
-        }));
-  }
-
-  void on_read(const error_code& error, std::size_t size) {
-    if (error) {
-      if (!closed_.load()) link_failed(error);
-      publish();
-      return;
-    }
-    for (std::size_t i = 0; i < size; ++i) on_event(decoder_.feed((*read_buffer_)[i]));
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
+    for (std::size_t i = 0; i < size; ++i) on_event(decoder_.feed(data[i]));
     arm_timer();
     publish();
-    read();
   }
 
-  void link_failed(const error_code& error) {
-    if (!link_error_) link_error_ = error;
+  void on_link_failed(const error_code& error) override {
     fail_all(error);
-    timer_.cancel();
+    publish();
+  }
+
+  void on_closed() override {
+    fail_all(asio::error::operation_aborted);
+    publish();
   }
 
   void on_event(const EnvelopeEvent& event) {
@@ -495,28 +393,9 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
 
   // --- deadlines -----------------------------------------------------------------------------------------
 
-  void arm_timer() {
-    const Deadline wakeup = table_.next_wakeup();
-    if (!wakeup.armed() || closed_.load()) {
-      if (timer_armed_) timer_.cancel();
-      timer_armed_ = false;
-      return;
-    }
-    if (timer_armed_ && timer_at_ == wakeup.at()) return;
-    const std::uint64_t full = steady_milliseconds();
-    const std::int32_t left = tick_difference(wakeup.at(), static_cast<Millis>(full));
-    const std::uint64_t due = full + static_cast<std::uint64_t>(left > 0 ? left : 0);
-    timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::milliseconds(due)));
-    timer_armed_ = true;
-    timer_at_ = wakeup.at();
-    timer_.async_wait(asio::bind_executor(strand_, [self = shared_from_this()](error_code error) {
-      if (error) return;  // re-armed or cancelled
-      self->on_timer();
-    }));
-  }
+  void arm_timer() { ClientLink::arm_timer(table_.next_wakeup()); }
 
-  void on_timer() {
-    timer_armed_ = false;
+  void on_timer() override {
     for (;;) {
       const Table::Step step = table_.poll(now());
       if (step.action == Table::Action::idle) break;
@@ -530,17 +409,7 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
     publish();
   }
 
-  void publish() {
-    std::lock_guard lock(mutex_);
-    published_ = counters_;
-  }
-
-  std::shared_ptr<ByteStream> stream_;
-  asio::any_io_executor executor_;
-  asio::strand<asio::any_io_executor> strand_;
-  asio::steady_timer timer_;
-  bool timer_armed_ = false;
-  Millis timer_at_ = 0;
+  void publish() { published_.set(counters_); }
 
   // Strand only.
   LinkCounters counters_;
@@ -548,16 +417,11 @@ class ClientImpl : public std::enable_shared_from_this<ClientImpl> {
   Table table_;
   std::unique_ptr<Call> current_;
   std::deque<std::unique_ptr<Call>> queue_;
-  std::deque<std::shared_ptr<const std::string>> writes_;
-  bool writing_ = false;
   bool skip_id_zero_ = false;
-  error_code link_error_;
-  std::shared_ptr<ReadBuffer> read_buffer_;
 
   // Any thread.
-  std::atomic<bool> closed_{false};
-  mutable std::mutex mutex_;  // guards published_ and log_handler_
-  LinkCounters published_;
+  transports::Published<LinkCounters> published_;
+  mutable std::mutex mutex_;  // guards log_handler_
   std::shared_ptr<LogHandler> log_handler_;
 };
 
@@ -584,57 +448,50 @@ RomiClient::RomiClient(std::shared_ptr<transports::ByteStream> stream, const Cli
   impl_->start();
 }
 
-RomiClient::~RomiClient() {
-  if (impl_) impl_->close();
-}
-
 RomiClient::RomiClient(RomiClient&&) noexcept = default;
 
 RomiClient& RomiClient::operator=(RomiClient&& other) noexcept {
-  if (this != &other) {
-    if (impl_) impl_->close();
-    impl_ = std::move(other.impl_);
-  }
+  transports::move_link(impl_, other.impl_);
   return *this;
 }
+
+RomiClient::~RomiClient() { transports::close_link(impl_); }
 
 asio::any_io_executor RomiClient::get_executor() const { return impl_->executor(); }
 
 RomiResponse RomiClient::blocking_call(const Command& command, bool manual, error_code& error) {
-  if (impl_->on_strand()) {
-    error = transports::make_error_code(transports::TransportError::would_deadlock);
-    return failure(error, command.opcode());
-  }
-  std::promise<std::pair<error_code, RomiResponse>> done;
-  auto result = done.get_future();
-  detail::start_call(impl_, command, manual, [&done](error_code e, RomiResponse r) {
-    done.set_value({e, std::move(r)});
-  });
-  auto [call_error, response] = result.get();
-  error = call_error;
-  return std::move(response);
+  RomiResponse response;
+  const auto start = [&](detail::CallHandler handler) { detail::start_call(impl_, command, manual, std::move(handler)); };
+  if (!transports::wait_for_completion(*impl_, start, error, response)) return failure(error, command.opcode());
+  return response;
 }
+
+namespace {
+// The throwing form of a blocking call: `call(error)`'s response, or its error_code thrown.
+template <typename Call>
+RomiResponse or_throw(Call&& call, const std::string& what) {
+  error_code error;
+  RomiResponse response = call(error);
+  if (error) throw boost::system::system_error(error, what);
+  return response;
+}
+}  // namespace
 
 RomiResponse RomiClient::call(const Command& command, error_code& error) {
   return blocking_call(command, false, error);
-}
-
-RomiResponse RomiClient::call(const Command& command) {
-  error_code error;
-  RomiResponse response = blocking_call(command, false, error);
-  if (error) throw boost::system::system_error(error, "romi call " + command.payload());
-  return response;
 }
 
 RomiResponse RomiClient::call_manual(const Command& command, error_code& error) {
   return blocking_call(command, true, error);
 }
 
+RomiResponse RomiClient::call(const Command& command) {
+  return or_throw([&](error_code& error) { return blocking_call(command, false, error); }, "romi call " + command.payload());
+}
+
 RomiResponse RomiClient::call_manual(const Command& command) {
-  error_code error;
-  RomiResponse response = blocking_call(command, true, error);
-  if (error) throw boost::system::system_error(error, "romi manual call " + command.payload());
-  return response;
+  return or_throw([&](error_code& error) { return blocking_call(command, true, error); },
+                  "romi manual call " + command.payload());
 }
 
 void RomiClient::set_log_handler(LogHandler handler) { impl_->set_log_handler(std::move(handler)); }

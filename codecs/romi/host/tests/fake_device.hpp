@@ -2,23 +2,19 @@
 // pty master) with the codec's decoder and lets the test script the answers, byte for byte.
 #pragma once
 
-#include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
+#include <utility>
 #include <string_view>
 #include <vector>
 
 #include "tether/romi/envelope_decoder.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::romi::testing {
 
@@ -33,30 +29,22 @@ struct DeviceRequest {
   int repeat = 1;       ///< how many times this exact frame has been received so far (1 the first time)
 };
 
-/// Scripted device; create with `start`, always `close` (or drop) it.
-class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
+/// Scripted device; create with `start`, always `close` (or drop) it. `send`, `send_after`, `close` and
+/// `received` come from the shared `transports::testing::ScriptedPeer`.
+class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, DeviceRequest> {
  public:
   /// Called on the device's strand for every frame received (good or damaged).
-  using Script = std::function<void(const DeviceRequest& request, FakeDevice& device)>;
+  using Script = ScriptedDevice::Script;
 
   /// Device reading from `end` at once.
   static std::shared_ptr<FakeDevice> start(std::shared_ptr<transports::ByteStream> end);
-  ~FakeDevice();
   FakeDevice(std::shared_ptr<transports::ByteStream> end, int);  // for make_shared
 
   /// Sets the script (any thread, before the requests it should see).
-  void on_request(Script script);
-  /// Writes `bytes` now (in order with every other send).
-  void send(std::string bytes);
-  /// Writes `bytes` after `delay`.
-  void send_after(std::chrono::milliseconds delay, std::string bytes);
-  /// Closes the stream and cancels delayed sends.
-  void close();
+  void on_request(Script script) { set_script(std::move(script)); }
 
   /// Every request so far (snapshot).
-  std::vector<DeviceRequest> requests() const;
-  /// Every byte received so far.
-  std::string received() const;
+  std::vector<DeviceRequest> requests() const { return records(); }
   /// Waits until at least `count` requests arrived; false after `timeout`.
   bool wait_for_requests(std::size_t count, std::chrono::milliseconds timeout) const;
 
@@ -68,26 +56,13 @@ class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
   static std::string corrupt_crc(std::string frame);
 
  private:
-  void read();
-  void on_bytes(const std::uint8_t* data, std::size_t size);
-  void write_next();
+  void on_bytes(const std::uint8_t* data, std::size_t size) override;
 
-  std::shared_ptr<transports::ByteStream> end_;
-  boost::asio::strand<boost::asio::any_io_executor> strand_;
+  // Strand only.
   LinkCounters counters_;
   EnvelopeDecoder<kHostDecoderCapacity> decoder_{counters_};
   std::string frame_;  // bytes of the frame in progress
   std::map<std::string, int> seen_;
-  std::deque<std::shared_ptr<std::string>> writes_;
-  bool writing_ = false;
-  std::vector<std::shared_ptr<boost::asio::steady_timer>> timers_;
-  std::shared_ptr<std::array<std::uint8_t, 512>> buffer_;
-
-  mutable std::mutex mutex_;
-  mutable std::condition_variable changed_;
-  Script script_;
-  std::vector<DeviceRequest> requests_;
-  std::string received_;
 };
 
 }  // namespace tether::romi::testing

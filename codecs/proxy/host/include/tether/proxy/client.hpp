@@ -101,7 +101,8 @@
 /// ## Threading and lifetime (as `romi::RomiClient`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The client reads continuously from construction on (one read loop, no read deadline; one
-///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule).
+///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule; the
+///     plumbing is the shared `transports::ClientLink`).
 ///   - Completion handlers run on their associated executor (default: the stream's), never on the client's
 ///     strand and never inside the initiating call.
 ///   - The blocking forms need another thread running the executor.
@@ -155,6 +156,14 @@ enum class Mode : std::uint8_t {
   compat,   ///< The deployed variant: no CRC, no acks, no ping, no sessions (`RocketryProto`).
 };
 
+/// The proxy protocol's handshake: Reset re-sent after 3 s, and a ResetEvent adopted only after the device
+/// acked our Reset (it acks before restarting; a boot announcement arriving earlier is not the answer).
+inline session::SessionTiming acknowledged_reset_handshake() {
+  session::SessionTiming timing;
+  timing.require_reset_ack = true;
+  return timing;
+}
+
 /// All the client's timing. Every duration is in milliseconds; defaults are the protocol's values.
 struct ProxyTiming {
   /// Link speed used to compute the ack timeout (the transport sets the real speed). 0 is invalid.
@@ -173,7 +182,7 @@ struct ProxyTiming {
   /// Heartbeat period (the protocol: 1000). 0 disables pings (tests; the device then fails safe after 10 s).
   Duration ping_period = 1000;
   /// Reset handshake: Reset is re-sent when no ResetEvent arrives within `session.reset_timeout` (3 s).
-  session::SessionTiming session;
+  session::SessionTiming session = acknowledged_reset_handshake();
   /// Compat mode: a pin whose state was not refreshed for this long is lost (the deployed host's 5 s).
   Duration stale_after = 5000;
 

@@ -64,7 +64,8 @@
 ///   - All state lives on a strand of the stream's executor; many clients (devices) can share one
 ///     `io_context` run by any number of threads.
 ///   - The client reads continuously from construction on (one read loop, no read deadline; one timer
-///     drives the engine's deadlines). Bytes that arrive between calls are decoded too: log lines go to
+///     drives the engine's deadlines). The plumbing (strand, read loop, write queue, timer, close) is the
+///     shared `transports::ClientLink`. Bytes that arrive between calls are decoded too: log lines go to
 ///     the handler, frames count as stale.
 ///   - Completion handlers run on their associated executor (default: the stream's executor), never on
 ///     the client's strand and never inside the initiating call.
