@@ -6,6 +6,7 @@
 #include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/core/session/session_monitor.hpp"
+#include "tether/elcano/reader.hpp"
 #include "tether/proxy/frame.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 #include "tether/romi/limits.hpp"
@@ -37,5 +38,6 @@ template class session::DuplicateFilter<uint8_t, 1, 64>;
 template class session::DuplicateFilter<uint32_t, 8, 0>;
 template class romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity>;
 template class proxy::FrameDecoder<64>;
+template class elcano::Reader<96>;
 
 }  // namespace tether

@@ -1,0 +1,72 @@
+/// @file message.hpp
+/// Elcano ring messages: `D{s 50}{a 25}\n`-style text passed around a one-way ring of boards.
+///
+/// Two wire generations (docs/elcano.md):
+///   - **B** (primary): header `D` drive, `S` sensor, `G` goal, `X` segment; attributes `{` letter ` `
+///     value `}` in the order n s a b p r, position as `{p E,N}`; `\n` ends the message.
+///   - **D** (optional, adds integrity): no spaces, position split into `{p E}{q N}`, attribute order
+///     n s a o b r p q (`o` obstacle), then the decimal CRC-8/SMBUS of every byte from the header to the
+///     last `}`, then `\n`. Example: `D{s50}{a25}74\n`.
+/// Values are int32; `kUnset` (0x7FFFFFFF, the reference's "unset") marks a field that is absent.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/status.hpp"
+
+namespace tether {
+namespace elcano {
+
+/// The reference's "no value".
+constexpr int32_t kUnset = 0x7FFFFFFF;
+
+/// Wire generation.
+enum class Generation : uint8_t {
+  b,  ///< Spaces, `{p E,N}`, no checksum (primary).
+  d,  ///< No spaces, `{p E}{q N}`, decimal CRC-8 trailer.
+};
+
+/// Message types (the header character).
+enum class Type : uint8_t { drive = 'D', sensor = 'S', goal = 'G', segment = 'X' };
+
+/// One message. Fields not set stay `kUnset` and are not written.
+struct Message {
+  Type type = Type::drive;       ///< Header.
+  int32_t number = kUnset;       ///< `n` (goal, segment).
+  int32_t speed = kUnset;        ///< `s` cm/s (drive, sensor, segment).
+  int32_t angle = kUnset;        ///< `a` (drive, sensor).
+  int32_t obstacle = kUnset;     ///< `o` mm (generation D only).
+  int32_t bearing = kUnset;      ///< `b` (sensor, goal, segment).
+  int32_t probability = kUnset;  ///< `r` (goal, optional).
+  int32_t east = kUnset;         ///< `p` east cm (sensor, goal, segment; written only with north).
+  int32_t north = kUnset;        ///< `p` north cm (gen B: second value of `p`; gen D: `q`).
+};
+
+/// Outcome kinds of reading (the reference's names) plus Tether's.
+enum class ReadError : uint8_t {
+  success = 0,  ///< A complete, valid message.
+  bad_type,     ///< The header is not D, S, G or X.
+  bad_lcurly,   ///< Expected `{` (or the end of the message).
+  bad_attrib,   ///< Unknown attribute letter.
+  bad_number,   ///< Malformed number, or outside int32 (never wrapped).
+  inval_comb,   ///< A field the type requires is missing.
+  bad_crc,      ///< Generation D: the checksum does not match.
+  too_long,     ///< More bytes than the reader holds.
+  timed_out,    ///< A partial message older than its deadline was dropped (set by the node, not the reader).
+};
+
+/// Short name of a read outcome (the reference's where it has one).
+const char* to_string(ReadError error);
+
+/// True when `message` has every field its type requires: drive s a; sensor s a p b; goal n p b (r
+/// optional); segment n p b s. `p` means both east and north.
+bool has_required_fields(const Message& message);
+
+/// Writes `message` (with its trailing `\n`) in `generation`. `Status::invalid_argument` when a required
+/// field is missing or the type is unknown; `Status::buffer_too_small`.
+Result<size_t> write_message(const Message& message, Generation generation, MutableByteView out);
+
+}  // namespace elcano
+}  // namespace tether

@@ -1,0 +1,168 @@
+// Implementation of reader.hpp (a template: the capacity is the user's choice).
+#pragma once
+
+namespace tether {
+namespace elcano {
+namespace detail {
+
+inline bool is_header(uint8_t c) { return c == 'D' || c == 'S' || c == 'G' || c == 'X'; }
+inline bool is_ignored(uint8_t c) { return c == ' ' || c == '\t' || c == '\r' || c == '\0'; }
+
+}  // namespace detail
+
+template <size_t Capacity>
+bool Reader<Capacity>::keep(uint8_t byte) {
+  if (size_ == Capacity) return false;
+  buffer_[size_++] = byte;
+  return true;
+}
+
+template <size_t Capacity>
+bool Reader<Capacity>::store_value() {
+  const int32_t value = static_cast<int32_t>(negative_ ? -value_ : value_);
+  switch (letter_) {
+    case 'n': message_.number = value; return true;
+    case 's': message_.speed = value; return true;
+    case 'a': message_.angle = value; return true;
+    case 'o': message_.obstacle = value; return true;
+    case 'b': message_.bearing = value; return true;
+    case 'r': message_.probability = value; return true;
+    case 'q': message_.north = value; return true;
+    case 'p':
+      if (generation_ == Generation::d) {
+        message_.east = value;
+      } else if (second_) {
+        message_.east = first_;
+        message_.north = value;
+      } else {
+        return false;  // generation B `p` needs both values
+      }
+      return true;
+    default: return false;
+  }
+}
+
+template <size_t Capacity>
+ReadEvent Reader<Capacity>::fail(ReadError error) {
+  ReadEvent event;
+  event.kind = ReadEvent::Kind::error;
+  event.error = error;
+  if (error == ReadError::bad_crc) {
+    ++counters_->crc_errors;
+  } else if (error == ReadError::too_long) {
+    ++counters_->oversize_frames;
+  } else {
+    ++counters_->framing_errors;
+  }
+  state_ = State::skip;
+  size_ = 0;
+  return event;
+}
+
+template <size_t Capacity>
+ReadEvent Reader<Capacity>::finish() {
+  if (generation_ == Generation::d) {
+    if (!trailer_digits_) return fail(ReadError::bad_crc);
+    if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(ReadError::bad_crc);
+  }
+  if (!has_required_fields(message_)) return fail(ReadError::inval_comb);
+  if (!keep('\n')) return fail(ReadError::too_long);
+  ReadEvent event;
+  event.kind = ReadEvent::Kind::message;
+  event.message = message_;
+  event.forward = ByteView(buffer_, size_);
+  ++counters_->frames_ok;
+  state_ = State::header;
+  return event;
+}
+
+template <size_t Capacity>
+ReadEvent Reader<Capacity>::feed(uint8_t byte) {
+  if (detail::is_ignored(byte)) return ReadEvent();
+  if (state_ == State::skip) {
+    if (byte == '\n') {
+      state_ = State::header;
+      ++counters_->resyncs;
+      return ReadEvent();
+    }
+    if (!detail::is_header(byte)) return ReadEvent();
+    ++counters_->resyncs;
+    state_ = State::header;  // and read this byte as the header below
+  }
+  switch (state_) {
+    case State::header:
+      if (byte == '\n') return ReadEvent();  // an empty line
+      if (!detail::is_header(byte)) return fail(ReadError::bad_type);
+      message_ = Message();
+      message_.type = static_cast<Type>(byte);
+      size_ = 0;
+      trailer_ = 0;
+      trailer_digits_ = false;
+      keep(byte);
+      state_ = State::lcurly;
+      return ReadEvent();
+    case State::lcurly:
+      if (byte == '\n') return finish();
+      if (byte == '{') {
+        if (!keep(byte)) return fail(ReadError::too_long);
+        state_ = State::letter;
+        return ReadEvent();
+      }
+      if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
+        crc_end_ = size_;
+        state_ = State::trailer;
+        return feed(byte);
+      }
+      return fail(ReadError::bad_lcurly);
+    case State::letter: {
+      const bool known = byte == 'n' || byte == 's' || byte == 'a' || byte == 'b' || byte == 'r' || byte == 'p' ||
+                         (generation_ == Generation::d && (byte == 'o' || byte == 'q'));
+      if (!known) return fail(ReadError::bad_attrib);
+      if (!keep(byte)) return fail(ReadError::too_long);
+      letter_ = static_cast<char>(byte);
+      second_ = false;
+      negative_ = false;
+      digits_ = false;
+      value_ = 0;
+      state_ = State::number;
+      return ReadEvent();
+    }
+    case State::number:
+      if (byte == '-' && !digits_ && !negative_) {
+        negative_ = true;
+      } else if (byte >= '0' && byte <= '9') {
+        digits_ = true;
+        value_ = value_ * 10 + (byte - '0');
+        // int32 range (the unset value itself is reserved): an error, never a wrap.
+        if (value_ > (negative_ ? 2147483648LL : 2147483646LL)) return fail(ReadError::bad_number);
+      } else if (byte == ',' && letter_ == 'p' && generation_ == Generation::b && !second_ && digits_) {
+        first_ = static_cast<int32_t>(negative_ ? -value_ : value_);
+        second_ = true;
+        negative_ = false;
+        digits_ = false;
+        value_ = 0;
+      } else if (byte == '}' && digits_) {
+        if (!store_value()) return fail(ReadError::bad_number);
+        if (!keep(byte)) return fail(ReadError::too_long);
+        state_ = State::lcurly;
+        return ReadEvent();
+      } else {
+        return fail(ReadError::bad_number);
+      }
+      if (!keep(byte)) return fail(ReadError::too_long);
+      return ReadEvent();
+    case State::trailer:
+      if (byte == '\n') return finish();
+      if (byte < '0' || byte > '9' || trailer_ > 25) return fail(ReadError::bad_crc);
+      trailer_ = static_cast<uint16_t>(trailer_ * 10u + static_cast<uint8_t>(byte - '0'));
+      trailer_digits_ = true;
+      if (!keep(byte)) return fail(ReadError::too_long);
+      return ReadEvent();
+    case State::skip:
+      break;
+  }
+  return ReadEvent();
+}
+
+}  // namespace elcano
+}  // namespace tether

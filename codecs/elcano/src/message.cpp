@@ -1,0 +1,125 @@
+#include "tether/elcano/message.hpp"
+
+#include "tether/core/crc.hpp"
+
+namespace tether {
+namespace elcano {
+namespace {
+
+bool set(int32_t value) { return value != kUnset; }
+
+class TextWriter {
+ public:
+  explicit TextWriter(MutableByteView out) : out_(out) {}
+  void put(uint8_t c) {
+    if (size_ < out_.size()) out_[size_] = c;
+    ++size_;
+  }
+  void put_number(int32_t value) {
+    char digits[11];
+    uint8_t count = 0;
+    uint32_t magnitude = value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value);
+    do {
+      digits[count++] = static_cast<char>('0' + magnitude % 10u);
+      magnitude /= 10u;
+    } while (magnitude != 0);
+    if (value < 0) put('-');
+    while (count > 0) put(static_cast<uint8_t>(digits[--count]));
+  }
+  void attribute(char letter, int32_t value, bool spaced) {
+    if (!set(value)) return;
+    put('{');
+    put(static_cast<uint8_t>(letter));
+    if (spaced) put(' ');
+    put_number(value);
+    put('}');
+  }
+  size_t size() const { return size_; }
+  bool fits() const { return size_ <= out_.size(); }
+  ByteView written() const { return ByteView(out_.data(), size_); }
+
+ private:
+  MutableByteView out_;
+  size_t size_ = 0;
+};
+
+// Which attributes a type carries (the reference writer's table).
+struct Uses {
+  bool n, s, a, b, p, r;
+};
+Uses uses(Type type) {
+  switch (type) {
+    case Type::drive: return {false, true, true, false, false, false};
+    case Type::sensor: return {false, true, true, true, true, false};
+    case Type::goal: return {true, false, false, true, true, true};
+    case Type::segment: return {true, true, false, true, true, false};
+  }
+  return {false, false, false, false, false, false};
+}
+
+}  // namespace
+
+const char* to_string(ReadError error) {
+  switch (error) {
+    case ReadError::success: return "success";
+    case ReadError::bad_type: return "bad_type";
+    case ReadError::bad_lcurly: return "bad_lcurly";
+    case ReadError::bad_attrib: return "bad_attrib";
+    case ReadError::bad_number: return "bad_number";
+    case ReadError::inval_comb: return "inval_comb";
+    case ReadError::bad_crc: return "bad_crc";
+    case ReadError::too_long: return "too_long";
+    case ReadError::timed_out: return "timed_out";
+  }
+  return "unknown";
+}
+
+bool has_required_fields(const Message& m) {
+  const bool position = set(m.east) && set(m.north);
+  switch (m.type) {
+    case Type::drive: return set(m.speed) && set(m.angle);
+    case Type::sensor: return set(m.speed) && set(m.angle) && position && set(m.bearing);
+    case Type::goal: return set(m.number) && position && set(m.bearing);
+    case Type::segment: return set(m.number) && position && set(m.bearing) && set(m.speed);
+  }
+  return false;
+}
+
+Result<size_t> write_message(const Message& m, Generation generation, MutableByteView out) {
+  if (!has_required_fields(m)) return Status::invalid_argument;
+  const Uses u = uses(m.type);
+  const bool b = generation == Generation::b;
+  TextWriter w(out);
+  w.put(static_cast<uint8_t>(m.type));
+  if (u.n) w.attribute('n', m.number, b);
+  if (u.s) w.attribute('s', m.speed, b);
+  if (u.a) w.attribute('a', m.angle, b);
+  if (b) {
+    if (u.b) w.attribute('b', m.bearing, true);
+    if (u.p && set(m.east) && set(m.north)) {
+      w.put('{');
+      w.put('p');
+      w.put(' ');
+      w.put_number(m.east);
+      w.put(',');
+      w.put_number(m.north);
+      w.put('}');
+    }
+    if (u.r) w.attribute('r', m.probability, true);
+  } else {
+    w.attribute('o', m.obstacle, false);
+    if (u.b) w.attribute('b', m.bearing, false);
+    if (u.r) w.attribute('r', m.probability, false);
+    if (u.p && set(m.east) && set(m.north)) {
+      w.attribute('p', m.east, false);
+      w.attribute('q', m.north, false);
+    }
+    if (w.fits()) w.put_number(Crc8Smbus::compute(w.written()));
+  }
+  w.put('\n');
+  if (!w.fits()) return Status::buffer_too_small;
+  return w.size();
+}
+
+}  // namespace elcano
+}  // namespace tether

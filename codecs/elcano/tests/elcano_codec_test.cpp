@@ -1,0 +1,209 @@
+// Elcano codec: the spec's vectors both ways, each error kind, whitespace rules, generation D CRCs,
+// overflow, forwarding bytes.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "tether/elcano/message.hpp"
+#include "tether/elcano/reader.hpp"
+
+namespace tether::elcano {
+namespace {
+
+std::string written(const Message& message, Generation generation) {
+  uint8_t out[128];
+  const auto size = write_message(message, generation, out);
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<char*>(out), size.ok() ? size.value() : 0);
+}
+
+struct Read {
+  std::vector<Message> messages;
+  std::vector<ReadError> errors;
+  std::vector<std::string> forwarded;
+};
+
+Read read(const std::string& bytes, Generation generation) {
+  LinkCounters counters;
+  Reader<> reader(generation, counters);
+  Read result;
+  for (char c : bytes) {
+    const ReadEvent event = reader.feed(static_cast<uint8_t>(c));
+    if (event.kind == ReadEvent::Kind::message) {
+      result.messages.push_back(event.message);
+      result.forwarded.emplace_back(reinterpret_cast<const char*>(event.forward.data()), event.forward.size());
+    }
+    if (event.kind == ReadEvent::Kind::error) result.errors.push_back(event.error);
+  }
+  return result;
+}
+
+Message drive(int32_t s, int32_t a) {
+  Message m;
+  m.type = Type::drive;
+  m.speed = s;
+  m.angle = a;
+  return m;
+}
+Message sensor(int32_t s, int32_t a, int32_t b, int32_t e, int32_t n) {
+  Message m;
+  m.type = Type::sensor;
+  m.speed = s;
+  m.angle = a;
+  m.bearing = b;
+  m.east = e;
+  m.north = n;
+  return m;
+}
+Message goal(int32_t num, int32_t b, int32_t e, int32_t n, int32_t r = kUnset) {
+  Message m;
+  m.type = Type::goal;
+  m.number = num;
+  m.bearing = b;
+  m.east = e;
+  m.north = n;
+  m.probability = r;
+  return m;
+}
+Message segment(int32_t num, int32_t s, int32_t b, int32_t e, int32_t n) {
+  Message m;
+  m.type = Type::segment;
+  m.number = num;
+  m.speed = s;
+  m.bearing = b;
+  m.east = e;
+  m.north = n;
+  return m;
+}
+
+bool same(const Message& a, const Message& b) {
+  return a.type == b.type && a.number == b.number && a.speed == b.speed && a.angle == b.angle &&
+         a.obstacle == b.obstacle && a.bearing == b.bearing && a.probability == b.probability && a.east == b.east &&
+         a.north == b.north;
+}
+
+TEST(ElcanoWriter, GenerationBVectors) {
+  EXPECT_EQ(written(drive(50, 25), Generation::b), "D{s 50}{a 25}\n");
+  EXPECT_EQ(written(drive(1500, 60), Generation::b), "D{s 1500}{a 60}\n");
+  EXPECT_EQ(written(drive(259, -3), Generation::b), "D{s 259}{a -3}\n");
+  EXPECT_EQ(written(sensor(69, -12, 432, 420, 90210), Generation::b), "S{s 69}{a -12}{b 432}{p 420,90210}\n");
+  EXPECT_EQ(written(sensor(1691, 165, -30, -91, 30), Generation::b), "S{s 1691}{a 165}{b -30}{p -91,30}\n");
+  EXPECT_EQ(written(goal(3, 679, -23456, 123450), Generation::b), "G{n 3}{b 679}{p -23456,123450}\n");
+  EXPECT_EQ(written(goal(2, 679, 0, 0, 59), Generation::b), "G{n 2}{b 679}{p 0,0}{r 59}\n");
+  EXPECT_EQ(written(segment(1, 1599, 270, 14263, 123456), Generation::b), "X{n 1}{s 1599}{b 270}{p 14263,123456}\n");
+  EXPECT_EQ(written(segment(4, 160, 80, 3200, -64000), Generation::b), "X{n 4}{s 160}{b 80}{p 3200,-64000}\n");
+}
+
+TEST(ElcanoWriter, GenerationDVectors) {
+  EXPECT_EQ(written(drive(50, 25), Generation::d), "D{s50}{a25}74\n");
+  EXPECT_EQ(written(drive(1500, 60), Generation::d), "D{s1500}{a60}179\n");
+  EXPECT_EQ(written(segment(4, 160, 80, 3200, -64000), Generation::d), "X{n4}{s160}{b80}{p3200}{q-64000}243\n");
+}
+
+TEST(ElcanoWriter, MissingRequiredFieldIsRejected) {
+  Message incomplete;
+  incomplete.type = Type::drive;
+  incomplete.speed = 5;
+  uint8_t out[64];
+  EXPECT_EQ(write_message(incomplete, Generation::b, out).status(), Status::invalid_argument);
+}
+
+TEST(ElcanoReader, EveryVectorReadsBackToItsMessage) {
+  const std::vector<Message> all = {drive(50, 25), drive(259, -3), sensor(69, -12, 432, 420, 90210),
+                                    goal(2, 679, 0, 0, 59), segment(4, 160, 80, 3200, -64000)};
+  for (const Generation generation : {Generation::b, Generation::d}) {
+    std::string stream;
+    for (const auto& m : all) stream += written(m, generation);
+    const Read result = read(stream, generation);
+    ASSERT_EQ(result.messages.size(), all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) EXPECT_TRUE(same(result.messages[i], all[i])) << i;
+    EXPECT_TRUE(result.errors.empty());
+  }
+}
+
+TEST(ElcanoReader, WhitespaceIsIgnoredEverywhereEvenInsideNumbers) {
+  static const char kBytes[] = " D\t{ s 1 5\r0 }{a\0 -2 5}\r\n";
+  const Read result = read(std::string(kBytes, sizeof kBytes - 1), Generation::b);  // sized: the NUL is data
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].speed, 150);
+  EXPECT_EQ(result.messages[0].angle, -25);
+  EXPECT_EQ(result.forwarded[0], "D{s150}{a-25}\n");  // forwarded whitespace-stripped, like the reference
+}
+
+TEST(ElcanoReader, GenerationDIsForwardedByteIdentical) {
+  const std::string wire = "X{n4}{s160}{b80}{p3200}{q-64000}243\n";
+  const Read result = read(wire, Generation::d);
+  ASSERT_EQ(result.forwarded.size(), 1u);
+  EXPECT_EQ(result.forwarded[0], wire);
+}
+
+TEST(ElcanoReader, EachErrorKind) {
+  EXPECT_EQ(read("Q{s 1}{a 2}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_type}));
+  EXPECT_EQ(read("D(s 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_lcurly}));
+  EXPECT_EQ(read("D{z 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_attrib}));
+  EXPECT_EQ(read("D{s 1x}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s --1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s }\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::inval_comb}));
+  EXPECT_EQ(read("S{s 1}{a 2}{b 3}{p 4}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s50}{a25}75\n", Generation::d).errors, (std::vector<ReadError>{ReadError::bad_crc}));
+  EXPECT_EQ(read("D{s50}{a25}\n", Generation::d).errors, (std::vector<ReadError>{ReadError::bad_crc}));
+  EXPECT_EQ(read("D{o5}{s50}{a25}74\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_attrib}));
+  EXPECT_STREQ(to_string(ReadError::inval_comb), "inval_comb");
+}
+
+TEST(ElcanoReader, AnAttributeItsTypeDoesNotCarryIsReadAndForwardedUnchanged) {
+  // Like the reference reader: lenient on input. The writer writes only the type's own attributes, but a
+  // node forwards the bytes it read, so nothing is lost on the ring.
+  const Read result = read("D{s 1}{a 2}{b 3}\n", Generation::b);
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].bearing, 3);
+  EXPECT_EQ(result.forwarded[0], "D{s1}{a2}{b3}\n");
+  EXPECT_EQ(written(result.messages[0], Generation::b), "D{s 1}{a 2}\n");
+}
+
+TEST(ElcanoReader, OverflowingNumbersAreErrorsNotWraps) {
+  EXPECT_EQ(read("D{s 2147483647}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s 99999999999}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  const Read edges = read("D{s 2147483646}{a -2147483648}\n", Generation::b);
+  ASSERT_EQ(edges.messages.size(), 1u);
+  EXPECT_EQ(edges.messages[0].speed, 2147483646);
+  EXPECT_EQ(edges.messages[0].angle, INT32_MIN);
+}
+
+TEST(ElcanoReader, AfterAnErrorItSkipsToTheNextHeader) {
+  const Read result = read("D{s 1x}{a 2}\nG{n 3}{b 679}{p -23456,123450}\n", Generation::b);
+  EXPECT_EQ(result.errors, (std::vector<ReadError>{ReadError::bad_number}));
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].type, Type::goal);
+}
+
+TEST(ElcanoReader, BoundedAndReportsTooLong) {
+  LinkCounters counters;
+  Reader<16> reader(Generation::b, counters);
+  ReadError seen = ReadError::success;
+  for (char c : std::string("S{s 69}{a -12}{b 432}{p 420,90210}\n")) {
+    const ReadEvent event = reader.feed(static_cast<uint8_t>(c));
+    if (event.kind == ReadEvent::Kind::error) seen = event.error;
+  }
+  EXPECT_EQ(seen, ReadError::too_long);
+  EXPECT_EQ(counters.oversize_frames, 1u);
+}
+
+TEST(ElcanoReader, PartialMessageCanBeDroppedAtItsDeadline) {
+  LinkCounters counters;
+  Reader<> reader(Generation::b, counters);
+  for (char c : std::string("D{s 5")) reader.feed(static_cast<uint8_t>(c));
+  EXPECT_TRUE(reader.in_message());
+  reader.reset();  // what a node does when PartialFrameDeadline expires
+  EXPECT_FALSE(reader.in_message());
+  int messages = 0;
+  for (char c : std::string("0}{a 1}\nD{s 7}{a 8}\n")) {
+    if (reader.feed(static_cast<uint8_t>(c)).kind == ReadEvent::Kind::message) ++messages;
+  }
+  EXPECT_EQ(messages, 1);  // the tail of the dropped message never passes as a message
+}
+
+}  // namespace
+}  // namespace tether::elcano
