@@ -4,8 +4,8 @@ namespace tether {
 namespace proxy {
 
 Result<size_t> encode_frame(ByteView payload, Integrity integrity, bool leading_delimiter, MutableByteView out) {
-  // COBS works on crc ‖ payload; encode the CRC block and the payload without copying the payload by
-  // COBS-encoding into the output and patching: simpler to stage crc ‖ payload in the output's tail.
+  // COBS works on crc ‖ payload: stage those bytes in the output's tail and encode them forward into the
+  // head of the same buffer (no second buffer, which matters on the AVR).
   const size_t crc_size = integrity == Integrity::crc16 ? 2 : 0;
   const size_t raw_size = crc_size + payload.size();
   const size_t lead = leading_delimiter ? 1 : 0;

@@ -117,7 +117,8 @@ class RequestTable {
   RequestTable(const CallTiming& timing, Id last_id, LinkCounters& counters)
       : timing_(timing), last_id_(last_id), counters_(&counters) {}
 
-  /// Changes the timing of calls begun from now on.
+  /// Changes the timing. The call budget is fixed when a call begins; the attempt window, `max_attempts`
+  /// and the retry rules apply from the next window armed, for calls already in flight too.
   void set_timing(const CallTiming& timing) { timing_ = timing; }
   /// Current timing.
   const CallTiming& timing() const { return timing_; }
