@@ -6,7 +6,10 @@
 #include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/core/session/session_monitor.hpp"
+#include "tether/core/session/write_pacer.hpp"
 #include "tether/elcano/reader.hpp"
+#include "tether/elcano/ring_node.hpp"
+#include "tether/elcano/session_policy.hpp"
 #include "tether/proxy/frame.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 #include "tether/romi/limits.hpp"
@@ -39,5 +42,8 @@ template class session::DuplicateFilter<uint32_t, 8, 0>;
 template class romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity>;
 template class proxy::FrameDecoder<64>;
 template class elcano::Reader<96>;
+template class elcano::RingNode<96, 256, 4>;
+template class elcano::RingNode<96, 128, 2>;
+template class session::RequestTable<elcano::SessionPolicy, 4>;
 
 }  // namespace tether

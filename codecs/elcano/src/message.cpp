@@ -70,6 +70,7 @@ const char* to_string(ReadError error) {
     case ReadError::bad_crc: return "bad_crc";
     case ReadError::too_long: return "too_long";
     case ReadError::timed_out: return "timed_out";
+    case ReadError::queue_full: return "queue_full";
   }
   return "unknown";
 }

@@ -55,6 +55,7 @@ enum class ReadError : uint8_t {
   bad_crc,      ///< Generation D: the checksum does not match.
   too_long,     ///< More bytes than the reader holds.
   timed_out,    ///< A partial message older than its deadline was dropped (set by the node, not the reader).
+  queue_full,   ///< A message to forward found the node's output queue full (set by the node).
 };
 
 /// Short name of a read outcome (the reference's where it has one).

@@ -1,0 +1,161 @@
+// Implementation of ring_node.hpp (a template: the buffer sizes are the user's choice).
+#pragma once
+
+namespace tether {
+namespace elcano {
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::enqueue(ByteView bytes) {
+  if (bytes.size() > output_room()) return false;
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    queue_[head_ & (OutputCapacity - 1)] = bytes[i];
+    head_ = static_cast<uint8_t>(head_ + 1);
+  }
+  return true;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView stripped) {
+  if (stripped.size() > 255) return false;
+  const uint8_t length = static_cast<uint8_t>(stripped.size());
+  const uint16_t crc = signature_crc(stripped);
+  // The oldest matching record: the same bytes sent twice come back in order.
+  Origin* oldest = nullptr;
+  for (Origin& origin : origins_) {
+    if (!origin.used || origin.length != length || origin.crc != crc) continue;
+    if (oldest == nullptr || tick_difference(origin.expires.at(), oldest->expires.at()) < 0) oldest = &origin;
+  }
+  if (oldest == nullptr) return false;
+  oldest->used = false;
+  return true;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::feed(uint8_t byte, Millis now) {
+  ReadEvent read = reader_.feed(byte);
+  // The partial-message deadline follows the reader: armed when a message starts, off when none is open.
+  if (reader_.in_message()) {
+    if (!partial_.in_frame()) partial_.on_frame_start(now);
+  } else {
+    partial_.on_frame_end();
+  }
+  RingEvent event;
+  if (read.kind == ReadEvent::Kind::none) return event;
+  if (read.kind == ReadEvent::Kind::error) {
+    event.kind = RingEvent::Kind::dropped;
+    event.error = read.error;
+    return event;
+  }
+  event.message = read.message;
+  if (came_back(read.forward)) {
+    ++counters_->undeliverable;
+    event.kind = RingEvent::Kind::undeliverable;
+    return event;
+  }
+  if (config_.capture.contains(read.message.type)) {
+    ++counters_->captured;
+    event.kind = RingEvent::Kind::captured;
+    return event;
+  }
+  if (!enqueue(read.forward)) {
+    ++counters_->queue_full_drops;
+    event.kind = RingEvent::Kind::dropped;
+    event.error = ReadError::queue_full;
+    return event;
+  }
+  ++counters_->forwarded;
+  event.kind = RingEvent::Kind::forwarded;
+  return event;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const Message& message, Millis now) {
+  uint8_t bytes[MessageCapacity];
+  const Result<size_t> written = write_message(message, config_.generation, MutableByteView(bytes, sizeof bytes));
+  if (!written.ok()) return written.status() == Status::buffer_too_small ? Status::invalid_argument : written.status();
+  if (written.value() > output_room()) return Status::busy;
+  // The signature covers the bytes as they come back: forwarded copies are whitespace-stripped.
+  uint8_t stripped[MessageCapacity];
+  size_t stripped_size = 0;
+  for (size_t i = 0; i < written.value(); ++i) {
+    if (bytes[i] != ' ') stripped[stripped_size++] = bytes[i];
+  }
+  // Take a free record, else the one closest to expiry (counted as expired: it can no longer be told).
+  Origin* slot = nullptr;
+  for (Origin& origin : origins_) {
+    if (!origin.used) {
+      slot = &origin;
+      break;
+    }
+    if (slot == nullptr || tick_difference(origin.expires.at(), slot->expires.at()) < 0) slot = &origin;
+  }
+  if (slot->used) ++counters_->origins_expired;
+  slot->used = true;
+  slot->length = static_cast<uint8_t>(stripped_size);
+  slot->crc = signature_crc(ByteView(stripped, stripped_size));
+  slot->expires.arm(now, config_.return_timeout);
+  enqueue(ByteView(bytes, written.value()));
+  ++counters_->originated;
+  return Status::ok;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+size_t RingNode<MessageCapacity, OutputCapacity, OriginSlots>::take_output(MutableByteView out, Millis now) {
+  size_t count = pending_output();
+  if (count > out.size()) count = out.size();
+  const uint16_t allowed = pacer_.allowance(now);
+  if (count > allowed) count = allowed;
+  for (size_t i = 0; i < count; ++i) {
+    out[i] = queue_[tail_ & (OutputCapacity - 1)];
+    tail_ = static_cast<uint8_t>(tail_ + 1);
+  }
+  pacer_.consume(static_cast<uint16_t>(count));
+  return count;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::poll(Millis now) {
+  RingEvent event;
+  if (partial_.poll(now)) {
+    reader_.reset();
+    event.kind = RingEvent::Kind::dropped;
+    event.error = ReadError::timed_out;
+    return event;
+  }
+  for (Origin& origin : origins_) {
+    if (origin.used && origin.expires.expired(now)) {
+      origin.used = false;
+      ++counters_->origins_expired;
+    }
+  }
+  return event;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+Deadline RingNode<MessageCapacity, OutputCapacity, OriginSlots>::next_wakeup(Millis now) {
+  Deadline earliest = partial_.deadline();
+  const auto consider = [&earliest](Millis at) {
+    if (!earliest.armed() || tick_difference(at, earliest.at()) < 0) earliest.arm_at(at);
+  };
+  for (const Origin& origin : origins_) {
+    if (origin.used) consider(origin.expires.at());
+  }
+  const size_t pending = pending_output();
+  if (pending != 0) {
+    const uint16_t chunk = static_cast<uint16_t>(pending < pacer_.depth() ? pending : pacer_.depth());
+    consider(pacer_.next_allowed(chunk, now));
+  }
+  return earliest;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+void RingNode<MessageCapacity, OutputCapacity, OriginSlots>::reset() {
+  reader_.reset();
+  partial_.on_frame_end();
+  head_ = 0;
+  tail_ = 0;
+  for (Origin& origin : origins_) origin.used = false;
+}
+
+}  // namespace elcano
+}  // namespace tether
