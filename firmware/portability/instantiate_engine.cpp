@@ -43,7 +43,7 @@ template class romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity>;
 template class proxy::FrameDecoder<64>;
 template class elcano::Reader<96>;
 template class elcano::RingNode<96, 256, 4>;
-template class elcano::RingNode<96, 128, 2>;
+template class elcano::RingNode<48, 128, 8>;
 template class session::RequestTable<elcano::SessionPolicy, 4>;
 
 }  // namespace tether

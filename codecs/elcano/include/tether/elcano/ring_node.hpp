@@ -16,15 +16,18 @@
 ///      (whitespace-stripped) bytes of each message it originates for `return_timeout`. A message that
 ///      matches one comes back from a trip round the ring: nobody captured it. It is dropped and reported
 ///      once as `undeliverable` (the reference let it circulate forever). A record that expires means the
-///      message was consumed somewhere (or lost). Limits: a record is kept for `return_timeout` only, and
-///      another node originating the very same bytes within that window would be taken for ours.
+///      message was consumed somewhere (or lost). Limits: a record is kept for `return_timeout` at most,
+///      and when all `OriginSlots` are taken the oldest is overwritten (`origins_evicted`); another node
+///      originating the very same bytes within that window would be taken for ours.
 ///   3. A partial message older than `partial_message_timeout` is dropped (`dropped`, `timed_out`): the node
 ///      never waits forever on half a message.
 ///   4. Output is paced (core/session/write_pacer.hpp) by the baud rate and the next node's receive buffer,
 ///      so a node never writes faster than the next one reads. A message that finds the output queue full
 ///      is dropped and reported (`dropped`, `queue_full`); `originate` answers `Status::busy` instead, so
-///      the application sees the back-pressure. Forwarding has priority only in the sense that it never
-///      waits for the application.
+///      the application sees the back-pressure. Forwarding has priority: `originate` leaves room for one
+///      more message of `MessageCapacity` bytes in the queue, so traffic passing through (which arrives
+///      no faster than it leaves when the ring's links are paced alike) is not squeezed out by local
+///      traffic.
 ///   5. Read errors are reported (`dropped` with the reader's error kind) and counted; the reader resyncs
 ///      on the next header.
 #pragma once
@@ -102,6 +105,10 @@ struct RingCounters {
   uint32_t undeliverable = 0;      ///< Own messages that came back (nobody captured them).
   uint32_t queue_full_drops = 0;   ///< Messages to forward dropped because the output queue was full.
   uint32_t origins_expired = 0;    ///< Origin records that expired without the message coming back.
+  /// Origin records overwritten before expiry because every slot was taken (the oldest goes): if that
+  /// message was still travelling and nobody captures it, it is no longer recognised. Non-zero means
+  /// the node originates faster than `OriginSlots` per round trip: give it more slots.
+  uint32_t origins_evicted = 0;
 };
 
 /// What one byte (or one poll) produced.
@@ -129,6 +136,8 @@ class RingNode {
   static_assert(OutputCapacity >= 2 && OutputCapacity <= 256 && (OutputCapacity & (OutputCapacity - 1)) == 0,
                 "the output queue is a power of two of at most 256 bytes");
   static_assert(OriginSlots >= 1, "a node needs at least one origin record");
+  static_assert(OutputCapacity - 1 >= 2 * MessageCapacity,
+                "the output queue holds an originated message plus the reserve for forwarding");
 
  public:
   /// Node with `config` at `now`; `link` and `ring` counters outlive it.
@@ -142,7 +151,8 @@ class RingNode {
   /// Consumes one byte from the previous node.
   RingEvent feed(uint8_t byte, Millis now);
   /// Queues `message` for the next node and remembers it (rule 2). `Status::invalid_argument` when it
-  /// lacks a field its type requires, `Status::busy` when the output queue has no room for it.
+  /// lacks a field its type requires, `Status::busy` when the output queue has no room for it beside the
+  /// forwarding reserve (rule 4): try again after `take_output`.
   Status originate(const Message& message, Millis now);
   /// Moves paced output bytes into `out`; returns how many. Write them to the next node now.
   size_t take_output(MutableByteView out, Millis now);

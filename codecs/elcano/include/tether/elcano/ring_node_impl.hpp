@@ -73,14 +73,14 @@ Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const M
   uint8_t bytes[MessageCapacity];
   const Result<size_t> written = write_message(message, config_.generation, MutableByteView(bytes, sizeof bytes));
   if (!written.ok()) return written.status() == Status::buffer_too_small ? Status::invalid_argument : written.status();
-  if (written.value() > output_room()) return Status::busy;
+  if (written.value() + MessageCapacity > output_room()) return Status::busy;  // keep the forwarding reserve
   // The signature covers the bytes as they come back: forwarded copies are whitespace-stripped.
   uint8_t stripped[MessageCapacity];
   size_t stripped_size = 0;
   for (size_t i = 0; i < written.value(); ++i) {
     if (bytes[i] != ' ') stripped[stripped_size++] = bytes[i];
   }
-  // Take a free record, else the one closest to expiry (counted as expired: it can no longer be told).
+  // Take a free record, else the oldest (counted: its message can no longer be recognised).
   Origin* slot = nullptr;
   for (Origin& origin : origins_) {
     if (!origin.used) {
@@ -89,7 +89,7 @@ Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const M
     }
     if (slot == nullptr || tick_difference(origin.expires.at(), slot->expires.at()) < 0) slot = &origin;
   }
-  if (slot->used) ++counters_->origins_expired;
+  if (slot->used) ++counters_->origins_evicted;
   slot->used = true;
   slot->length = static_cast<uint8_t>(stripped_size);
   slot->crc = signature_crc(ByteView(stripped, stripped_size));
