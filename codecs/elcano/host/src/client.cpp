@@ -1,0 +1,734 @@
+// RingClient: the portable RingNode and the Elcano session engine (elcano::RequestTable) driven by the read
+// loop, the write queue and the timer of a transports::ClientLink, like romi::RomiClient and
+// proxy::ProxyClient (the link owns the strand, close and the lifetime rules).
+//
+// Everything below `RingClientImpl`'s public functions runs on the link's strand. All timed work goes
+// through `pump(now)`: the node's deadlines (partial message, origin records), the engine's (re-sends,
+// timeouts), the send and receive deadlines, originating what waits for room, and handing paced output to
+// the stream; the one timer is re-armed at the earliest deadline after every pump. One write is on the
+// stream at a time: the bytes of the next one are taken from the node when it completes, so a stream that
+// does not take bytes fills the node's queue (forwarding then drops and reports, sends wait) instead of an
+// unbounded write queue.
+#include "tether/elcano/client.hpp"
+
+#include <boost/asio/error.hpp>
+#include <boost/system/system_error.hpp>
+
+#include <algorithm>
+#include <array>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tether/transports/client_link.hpp"
+
+namespace tether::elcano {
+
+namespace asio = boost::asio;
+using transports::ByteStream;
+
+namespace detail {
+namespace {
+
+using Node = RingNode<kMaxMessageBytes, kOutputQueueBytes, kOriginRecords>;
+using Table = RequestTable;
+
+Millis now_ms() { return transports::ClientLink::now(); }
+
+// The earlier of `wake` and `candidate` (disarmed deadlines never win).
+void consider(Deadline& wake, const Deadline& candidate) {
+  if (!candidate.armed()) return;
+  if (!wake.armed() || tick_difference(candidate.at(), wake.at()) < 0) wake.arm_at(candidate.at());
+}
+
+Deadline deadline_at(Millis instant) {
+  Deadline deadline;
+  deadline.arm_at(instant);
+  return deadline;
+}
+
+bool known_type(Type type) {
+  switch (type) {
+    case Type::drive:
+    case Type::sensor:
+    case Type::goal:
+    case Type::segment:
+      return true;
+  }
+  return false;
+}
+
+// The bytes the node writes for `message` (empty when it cannot be written): what a request is recognised
+// by when it comes back.
+std::string encode(const Message& message, Generation generation) {
+  std::array<std::uint8_t, kMaxMessageBytes> buffer{};
+  const Result<size_t> size = write_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
+  if (!size.ok()) return std::string();
+  return std::string(reinterpret_cast<const char*>(buffer.data()), size.value());
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// The implementation
+
+class RingClientImpl final : public transports::ClientLink {
+ public:
+  RingClientImpl(std::shared_ptr<ByteStream> stream, const RingClientOptions& options)
+      : ClientLink(std::move(stream)),
+        options_(options),
+        node_(options.node, now_ms(), counters_.link, counters_.ring),
+        table_(options.timing, 0, counters_.link),
+        capture_(options.node.capture) {
+    published_capture_.set(capture_);
+  }
+
+  // Starts the read loop (after construction: it needs shared_from_this).
+  void start() {
+    post_to_strand([this] {
+      start_reading();
+      pump(now_ms());
+    });
+  }
+
+  // --- submissions (any thread) ----------------------------------------------------------------------
+
+  void submit_send(const Message& message, SendHandler handler) {
+    std::string bytes = encode(message, options_.node.generation);
+    if (bytes.empty()) {
+      post_completion(std::move(handler), error_code(RingError::invalid_message));
+      return;
+    }
+    if (!is_open()) {
+      post_completion(std::move(handler), error_code(asio::error::operation_aborted));
+      return;
+    }
+    auto item = std::make_unique<Outgoing>();
+    item->message = message;
+    item->send_handler = std::move(handler);
+    post_to_strand([this, item = std::move(item)]() mutable { accept_send(std::move(item)); });
+  }
+
+  void submit_request(const Message& message, Type reply_type, MessageHandler handler) {
+    std::string bytes = encode(message, options_.node.generation);
+    if (bytes.empty()) {
+      post_completion(std::move(handler), error_code(RingError::invalid_message), Message());
+      return;
+    }
+    if (!known_type(reply_type)) {
+      post_completion(std::move(handler), error_code(RingError::invalid_reply_type), Message());
+      return;
+    }
+    if (!is_open()) {
+      post_completion(std::move(handler), error_code(asio::error::operation_aborted), Message());
+      return;
+    }
+    auto call = std::make_shared<Call>();
+    call->reply = reply_type;
+    call->message = message;
+    call->bytes = std::move(bytes);
+    call->handler = std::move(handler);
+    post_to_strand([this, call = std::move(call)]() mutable { accept_request(std::move(call)); });
+  }
+
+  void submit_receive(std::optional<Duration> timeout, MessageHandler handler) {
+    if (!is_open()) {
+      post_completion(std::move(handler), error_code(asio::error::operation_aborted), Message());
+      return;
+    }
+    auto receiver = std::make_unique<Receiver>();
+    receiver->handler = std::move(handler);
+    receiver->timeout = timeout;
+    post_to_strand([this, receiver = std::move(receiver)]() mutable { accept_receive(std::move(receiver)); });
+  }
+
+  void set_capture(TypeSet capture) {
+    published_capture_.set(capture);
+    post_to_strand([this, capture] {
+      capture_ = capture;
+      refresh_capture();
+    });
+  }
+
+  TypeSet capture() const { return published_capture_.get(); }
+
+  EventHandlerId add_event_handler(EventHandler handler) {
+    std::lock_guard lock(mutex_);
+    const EventHandlerId id = ++last_handler_id_;
+    if (handler) handlers_.emplace_back(id, std::make_shared<EventHandler>(std::move(handler)));
+    return id;
+  }
+
+  void remove_event_handler(EventHandlerId id) {
+    std::lock_guard lock(mutex_);
+    std::erase_if(handlers_, [id](const auto& entry) { return entry.first == id; });
+  }
+
+  RingClientCounters counters() const { return published_.get(); }
+
+ private:
+  // A request from acceptance to completion.
+  struct Call {
+    Type reply = Type::segment;
+    Message message;
+    std::string bytes;            // as written: recognises the request when it comes back
+    MessageHandler handler;
+    bool sent = false;            // first originated: its reply type is captured from then on
+    bool resend_pending = false;  // the engine asked for a re-send that found no room yet
+  };
+  // A send or a request's first origination waiting for room in the node's output queue.
+  struct Outgoing {
+    std::shared_ptr<Call> call;  // a request; else a send:
+    Message message;
+    SendHandler send_handler;
+    Millis deadline = 0;  // sends: `send_timeout` after acceptance
+  };
+  // A send originated, completing once its last byte (at offset `end` of the output) was written.
+  struct Written {
+    std::uint64_t end = 0;
+    SendHandler handler;
+  };
+  struct Receiver {
+    MessageHandler handler;
+    std::optional<Duration> timeout;
+    Millis deadline = 0;
+  };
+
+  // --- accepting operations ----------------------------------------------------------------------------
+
+  // The link's state as an error for new operations (empty while it works).
+  error_code unusable() const {
+    if (link_error()) return link_error();
+    if (!is_open()) return asio::error::operation_aborted;
+    return error_code();
+  }
+
+  void accept_send(std::unique_ptr<Outgoing> item) {
+    if (const error_code error = unusable()) {
+      complete(std::move(item->send_handler), error);
+      return;
+    }
+    const Millis now = now_ms();
+    item->deadline = static_cast<Millis>(now + options_.send_timeout);
+    enqueue(std::move(item), now);
+    pump(now);
+  }
+
+  void accept_request(std::shared_ptr<Call> call) {
+    if (const error_code error = unusable()) {
+      complete(std::move(call->handler), error, Message());
+      return;
+    }
+    const std::uint8_t id = call_id(call->reply);
+    const Millis now = now_ms();
+    if (calls_.count(id) != 0 || !table_.begin_with(id, now).ok()) {
+      complete(std::move(call->handler), RingError::reply_type_busy, Message());
+      return;
+    }
+    calls_.emplace(id, call);
+    auto item = std::make_unique<Outgoing>();
+    item->call = std::move(call);
+    enqueue(std::move(item), now);
+    pump(now);
+  }
+
+  void accept_receive(std::unique_ptr<Receiver> receiver) {
+    if (const error_code error = unusable()) {
+      complete(std::move(receiver->handler), error, Message());
+      return;
+    }
+    if (!received_.empty() && receivers_.empty()) {
+      Message message = received_.front();
+      received_.pop_front();
+      complete(std::move(receiver->handler), error_code(), message);
+      return;
+    }
+    if (receiver->timeout && *receiver->timeout == 0) {
+      complete(std::move(receiver->handler), RingError::receive_timed_out, Message());
+      return;
+    }
+    const Millis now = now_ms();
+    if (receiver->timeout) receiver->deadline = static_cast<Millis>(now + *receiver->timeout);
+    receivers_.push_back(std::move(receiver));
+    pump(now);
+  }
+
+  // Originates `item` now if nothing waits before it and there is room; else queues it within the bound.
+  void enqueue(std::unique_ptr<Outgoing> item, Millis now) {
+    if (outgoing_.empty() && !resend_waiting() && originate(*item, now)) return;
+    if (outgoing_.size() >= options_.send_queue_bound) {
+      if (item->call) {
+        const std::shared_ptr<Call> call = item->call;
+        (void)table_.cancel(call_id(call->reply));
+        calls_.erase(call_id(call->reply));
+        complete(std::move(call->handler), RingError::send_queue_full, Message());
+      } else {
+        complete(std::move(item->send_handler), RingError::send_queue_full);
+      }
+      return;
+    }
+    outgoing_.push_back(std::move(item));
+  }
+
+  // --- originating ---------------------------------------------------------------------------------------
+
+  bool resend_waiting() const {
+    return std::any_of(calls_.begin(), calls_.end(), [](const auto& entry) { return entry.second->resend_pending; });
+  }
+
+  // Hands `item` to the node. False when the output queue has no room (the item stays the caller's).
+  bool originate(Outgoing& item, Millis now) {
+    const Message& message = item.call ? item.call->message : item.message;
+    const Status status = node_.originate(message, now);
+    if (status == Status::busy) return false;
+    if (status != Status::ok) {  // not reached: validated on submission. The caller drops the item.
+      if (item.call) {
+        (void)table_.cancel(call_id(item.call->reply));
+        calls_.erase(call_id(item.call->reply));
+        complete(std::move(item.call->handler), RingError::invalid_message, Message());
+      } else {
+        complete(std::move(item.send_handler), RingError::invalid_message);
+      }
+      return true;
+    }
+    if (item.call) {
+      item.call->sent = true;
+      refresh_capture();
+    } else {
+      written_.push_back(Written{taken_ + node_.pending_output(), std::move(item.send_handler)});
+    }
+    return true;
+  }
+
+  // Re-sends first, then waiting messages in order, while the node has room.
+  void originate_waiting(Millis now) {
+    for (auto& [id, call] : calls_) {
+      if (!call->resend_pending) continue;
+      if (node_.originate(call->message, now) != Status::ok) return;
+      call->resend_pending = false;
+    }
+    while (!outgoing_.empty()) {
+      if (!originate(*outgoing_.front(), now)) return;
+      outgoing_.pop_front();
+    }
+  }
+
+  // The node captures the configured set plus the reply types of requests sent and not completed.
+  void refresh_capture() {
+    TypeSet effective = capture_;
+    for (const auto& [id, call] : calls_) {
+      if (call->sent) effective = effective.with(call->reply);
+    }
+    node_.set_capture(effective);
+  }
+
+  // --- writing -------------------------------------------------------------------------------------------
+
+  // Hands what the pacer allows to the stream, one write at a time.
+  void flush(Millis now) {
+    if (writing_ || unusable()) return;
+    std::array<std::uint8_t, kOutputQueueBytes> buffer{};
+    const std::size_t size = node_.take_output(MutableByteView(buffer.data(), buffer.size()), now);
+    if (size == 0) return;
+    taken_ += size;
+    writing_ = true;
+    write(std::make_shared<const std::string>(reinterpret_cast<const char*>(buffer.data()), size),
+          [this, size](error_code error) { on_flushed(error, size); });
+  }
+
+  void on_flushed(const error_code& error, std::size_t size) {
+    writing_ = false;
+    if (error) return;  // closed or failed: on_closed / on_link_failed fail what waits
+    written_total_ += size;
+    counters_.bytes_written += static_cast<std::uint32_t>(size);
+    while (!written_.empty() && written_.front().end <= written_total_) {
+      complete(std::move(written_.front().handler), error_code());
+      written_.pop_front();
+    }
+    pump(now_ms());
+  }
+
+  // --- the ring ------------------------------------------------------------------------------------------
+
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
+    const Millis now = now_ms();
+    for (std::size_t i = 0; i < size && !unusable(); ++i) {
+      const bool was_in_message = node_.in_message();
+      const RingEvent event = node_.feed(data[i], now);
+      if (!was_in_message && node_.in_message()) partial_started_ = now;
+      on_ring_event(event, now);
+    }
+    pump(now);
+  }
+
+  void on_ring_event(const RingEvent& event, Millis now) {
+    switch (event.kind) {
+      case RingEvent::Kind::none:
+      case RingEvent::Kind::forwarded:
+        return;
+      case RingEvent::Kind::captured:
+        on_captured(event.message, now);
+        return;
+      case RingEvent::Kind::undeliverable:
+        on_undeliverable(event.message);
+        return;
+      case RingEvent::Kind::dropped: {
+        ClientEvent report;
+        if (event.error == ReadError::queue_full) {
+          report.kind = ClientEvent::Kind::forward_dropped;
+          report.message = event.message;
+        } else {
+          report.kind = ClientEvent::Kind::read_error;
+          report.error = event.error;
+        }
+        emit(report);
+        return;
+      }
+    }
+  }
+
+  void on_captured(const Message& message, Millis now) {
+    const auto found = calls_.find(call_id(message.type));
+    if (found != calls_.end() && found->second->sent) {
+      const Table::ReplyResult result = table_.on_reply(found->first, 0, now);
+      if (result.verdict == Table::Verdict::completed) {
+        ++counters_.replies;
+        finish(found->second, error_code(), message);
+        return;
+      }
+    }
+    if (!receivers_.empty()) {
+      std::unique_ptr<Receiver> receiver = std::move(receivers_.front());
+      receivers_.pop_front();
+      complete(std::move(receiver->handler), error_code(), message);
+      return;
+    }
+    received_.push_back(message);
+    if (received_.size() > options_.receive_queue_bound) {
+      ClientEvent report;
+      report.kind = ClientEvent::Kind::receive_overflow;
+      report.message = received_.front();
+      received_.pop_front();
+      ++counters_.receive_overflows;
+      emit(report);
+    }
+  }
+
+  // One of our messages came back: the request it belongs to (if any) fails at once; reported once.
+  void on_undeliverable(const Message& message) {
+    const std::string bytes = encode(message, options_.node.generation);
+    ClientEvent report;
+    report.kind = ClientEvent::Kind::undeliverable;
+    report.message = message;
+    for (const auto& [id, call] : calls_) {
+      if (!call->sent || call->bytes != bytes) continue;
+      (void)table_.cancel(id);
+      report.request_failed = true;
+      finish(call, RingError::undeliverable, Message());
+      break;
+    }
+    emit(report);
+  }
+
+  // --- completions ---------------------------------------------------------------------------------------
+
+  // Ends request `call` (already out of the engine) with `error` or `reply`.
+  void finish(std::shared_ptr<Call> call, error_code error, const Message& reply) {
+    calls_.erase(call_id(call->reply));
+    if (!call->sent) {
+      std::erase_if(outgoing_, [&](const auto& item) { return item->call == call; });
+    }
+    refresh_capture();
+    complete(std::move(call->handler), error, reply);
+  }
+
+  // An engine completion (timeout; `ok` and `cancelled` are finished where they happen).
+  void on_completion(const Table::Completion& completion) {
+    const auto found = calls_.find(completion.id);
+    if (found == calls_.end()) return;
+    error_code error;
+    switch (completion.outcome) {
+      case session::CallOutcome::timeout:
+      case session::CallOutcome::remote_error:  // not produced: every reply of the type succeeds
+      case session::CallOutcome::ok:            // not produced by poll
+        error = RingError::timed_out;
+        break;
+      case session::CallOutcome::cancelled:
+        error = asio::error::operation_aborted;
+        break;
+    }
+    finish(found->second, error, Message());
+  }
+
+  void fail_all(const error_code& error) {
+    std::map<std::uint8_t, std::shared_ptr<Call>> calls = std::move(calls_);
+    calls_.clear();
+    for (auto& [id, call] : calls) {
+      (void)table_.cancel(id);
+      complete(std::move(call->handler), error, Message());
+    }
+    for (auto& item : outgoing_) {
+      if (!item->call) complete(std::move(item->send_handler), error);
+    }
+    outgoing_.clear();
+    for (auto& written : written_) complete(std::move(written.handler), error);
+    written_.clear();
+    for (auto& receiver : receivers_) complete(std::move(receiver->handler), error, Message());
+    receivers_.clear();
+    abort_writes(error);
+    refresh_capture();
+  }
+
+  // Hands a result to its caller (posted, never on the strand); the counters are published first, so a
+  // caller reading them after its completion sees what led to it.
+  template <typename Handler, typename... Args>
+  void complete(Handler handler, Args... args) {
+    if (!handler) return;
+    publish();
+    post_completion(std::move(handler), std::move(args)...);
+  }
+
+  void complete(SendHandler handler, RingError error) { complete(std::move(handler), error_code(error)); }
+  void complete(MessageHandler handler, RingError error, Message message) {
+    complete(std::move(handler), error_code(error), std::move(message));
+  }
+
+  // --- events --------------------------------------------------------------------------------------------
+
+  void emit(const ClientEvent& event) {
+    publish();
+    std::vector<std::shared_ptr<EventHandler>> handlers;
+    {
+      std::lock_guard lock(mutex_);
+      handlers.reserve(handlers_.size());
+      for (const auto& entry : handlers_) handlers.push_back(entry.second);
+    }
+    for (const auto& handler : handlers) {
+      try {
+        (*handler)(event);
+      } catch (...) {  // NOLINT(bugprone-empty-catch): the contract says handlers must not throw
+      }
+    }
+  }
+
+  // --- the link's hooks ----------------------------------------------------------------------------------
+
+  void on_link_failed(const error_code& error) override {
+    fail_all(error);
+    ClientEvent report;
+    report.kind = ClientEvent::Kind::link_failed;
+    report.link_error = error;
+    emit(report);
+    publish();
+  }
+
+  void on_closed() override {
+    fail_all(asio::error::operation_aborted);
+    publish();
+  }
+
+  void on_timer() override { pump(now_ms()); }
+
+  // --- the pump ------------------------------------------------------------------------------------------
+
+  void pump(Millis now) {
+    if (unusable()) return;
+    for (;;) {
+      const RingEvent event = node_.poll(now);
+      if (event.kind == RingEvent::Kind::none) break;
+      on_ring_event(event, now);
+    }
+    for (;;) {
+      const Table::Step step = table_.poll(now);
+      if (step.action == Table::Action::idle) break;
+      if (step.action == Table::Action::resend) {
+        const auto found = calls_.find(step.id);
+        // A request still waiting for its first origination needs no second copy.
+        if (found != calls_.end() && found->second->sent) found->second->resend_pending = true;
+      } else {
+        on_completion(step.completion);
+      }
+    }
+    expire(now);
+    originate_waiting(now);
+    flush(now);
+    arm_timer(now);
+    publish();
+  }
+
+  // Sends that waited `send_timeout` for room, receives past their timeout.
+  void expire(Millis now) {
+    for (auto it = outgoing_.begin(); it != outgoing_.end();) {
+      if (!(*it)->call && tick_reached(now, (*it)->deadline)) {
+        complete(std::move((*it)->send_handler), RingError::send_timed_out);
+        it = outgoing_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    for (auto it = receivers_.begin(); it != receivers_.end();) {
+      if ((*it)->timeout && tick_reached(now, (*it)->deadline)) {
+        complete(std::move((*it)->handler), RingError::receive_timed_out, Message());
+        it = receivers_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+
+  void arm_timer(Millis now) {
+    Deadline wake = table_.next_wakeup();
+    const Deadline node_wake = node_.next_wakeup(now);
+    // While a write is on the stream the pacer may already allow more: that is for the write's completion
+    // to take (it pumps), not for the timer, which would fire at once again and again. The other deadlines
+    // of the node are then not due yet (poll ran), except the partial message's, which the pacer's may hide.
+    if (!writing_ || tick_difference(node_wake.at(), now) > 0) consider(wake, node_wake);
+    if (writing_ && node_.in_message()) {
+      consider(wake, deadline_at(static_cast<Millis>(partial_started_ + options_.node.partial_message_timeout)));
+    }
+    for (const auto& item : outgoing_) {
+      if (!item->call) consider(wake, deadline_at(item->deadline));
+    }
+    for (const auto& receiver : receivers_) {
+      if (receiver->timeout) consider(wake, deadline_at(receiver->deadline));
+    }
+    ClientLink::arm_timer(wake);
+  }
+
+  void publish() { published_.set(counters_); }
+
+  const RingClientOptions options_;
+
+  // Strand only.
+  RingClientCounters counters_;
+  Node node_;
+  Table table_;
+  TypeSet capture_;
+  std::map<std::uint8_t, std::shared_ptr<Call>> calls_;  // by call id (the reply type)
+  std::deque<std::unique_ptr<Outgoing>> outgoing_;
+  std::deque<Written> written_;
+  std::deque<std::unique_ptr<Receiver>> receivers_;
+  std::deque<Message> received_;
+  std::uint64_t taken_ = 0;          // bytes taken from the node's output queue
+  std::uint64_t written_total_ = 0;  // of which written to the stream
+  bool writing_ = false;
+  Millis partial_started_ = 0;       // when the message being read started (mirror of the node's deadline)
+
+  // Any thread.
+  transports::Published<RingClientCounters> published_;
+  transports::Published<TypeSet> published_capture_;
+  mutable std::mutex mutex_;  // guards the handlers
+  std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
+  EventHandlerId last_handler_id_ = 0;
+};
+
+void start_send(const std::shared_ptr<RingClientImpl>& impl, const Message& message, SendHandler handler) {
+  impl->submit_send(message, std::move(handler));
+}
+
+void start_request(const std::shared_ptr<RingClientImpl>& impl, const Message& message, Type reply_type,
+                   MessageHandler handler) {
+  impl->submit_request(message, reply_type, std::move(handler));
+}
+
+void start_receive(const std::shared_ptr<RingClientImpl>& impl, std::optional<Duration> timeout,
+                   MessageHandler handler) {
+  impl->submit_receive(timeout, std::move(handler));
+}
+
+asio::any_io_executor executor_of(const std::shared_ptr<RingClientImpl>& impl) { return impl->executor(); }
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------------------------------------
+// RingClient
+
+namespace {
+
+std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const RingClientOptions& options) {
+  if (!stream) throw std::invalid_argument("RingClient needs a stream");
+  if (options.timing.max_attempts == 0 || options.timing.call_budget == 0) {
+    throw std::invalid_argument("RingClient: timing.max_attempts and timing.call_budget must be > 0");
+  }
+  if (options.receive_queue_bound == 0) throw std::invalid_argument("RingClient: receive_queue_bound must be > 0");
+  return stream;
+}
+
+// Blocking form of an operation completing with `void(error_code, Message)`.
+template <typename Start>
+Message wait_for_message(const detail::RingClientImpl& impl, Start&& start, error_code& error) {
+  Message message;
+  if (!transports::wait_for_completion(impl, std::forward<Start>(start), error, message)) return Message();
+  return message;
+}
+
+}  // namespace
+
+RingClient::RingClient(std::shared_ptr<ByteStream> stream, const RingClientOptions& options, EventHandler handler)
+    : impl_(std::make_shared<detail::RingClientImpl>(require(std::move(stream), options), options)) {
+  if (handler) impl_->add_event_handler(std::move(handler));
+  impl_->start();
+}
+
+RingClient::~RingClient() { transports::close_link(impl_); }
+RingClient::RingClient(RingClient&&) noexcept = default;
+RingClient& RingClient::operator=(RingClient&& other) noexcept {
+  transports::move_link(impl_, other.impl_);
+  return *this;
+}
+
+asio::any_io_executor RingClient::get_executor() const { return impl_->executor(); }
+
+void RingClient::send(const Message& message, error_code& error) {
+  bool sent = false;
+  const auto start = [&](transports::UniqueFunction<void(error_code, bool)> done) {
+    impl_->submit_send(message, [done = std::move(done)](error_code e) mutable { done(e, !e); });
+  };
+  (void)transports::wait_for_completion(*impl_, start, error, sent);
+}
+
+void RingClient::send(const Message& message) {
+  error_code error;
+  send(message, error);
+  if (error) throw boost::system::system_error(error, "elcano send");
+}
+
+Message RingClient::request(const Message& message, Type reply_type, error_code& error) {
+  return wait_for_message(
+      *impl_, [&](detail::MessageHandler done) { impl_->submit_request(message, reply_type, std::move(done)); }, error);
+}
+
+Message RingClient::request(const Message& message, Type reply_type) {
+  error_code error;
+  Message reply = request(message, reply_type, error);
+  if (error) throw boost::system::system_error(error, "elcano request");
+  return reply;
+}
+
+Message RingClient::receive(Duration timeout, error_code& error) {
+  return wait_for_message(
+      *impl_, [&](detail::MessageHandler done) { impl_->submit_receive(timeout, std::move(done)); }, error);
+}
+
+Message RingClient::receive(Duration timeout) {
+  error_code error;
+  Message message = receive(timeout, error);
+  if (error) throw boost::system::system_error(error, "elcano receive");
+  return message;
+}
+
+void RingClient::set_capture(TypeSet capture) { impl_->set_capture(capture); }
+TypeSet RingClient::capture() const { return impl_->capture(); }
+EventHandlerId RingClient::add_event_handler(EventHandler handler) {
+  return impl_->add_event_handler(std::move(handler));
+}
+void RingClient::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
+RingClientCounters RingClient::counters() const { return impl_->counters(); }
+void RingClient::close() { impl_->close(); }
+bool RingClient::is_open() const { return impl_->is_open(); }
+
+}  // namespace tether::elcano

@@ -1,0 +1,212 @@
+#include "fake_ring.hpp"
+
+#include <array>
+
+namespace tether::elcano::testing {
+
+// --- FakeRing ----------------------------------------------------------------------------------------------
+
+std::shared_ptr<FakeRing> FakeRing::start(std::shared_ptr<transports::ByteStream> end, Generation generation,
+                                          Script script) {
+  auto ring = std::make_shared<FakeRing>(std::move(end), generation, 0);
+  ring->on_message(std::move(script));
+  ring->ScriptedPeer::start();
+  return ring;
+}
+
+FakeRing::FakeRing(std::shared_ptr<transports::ByteStream> end, Generation generation, int)
+    : ScriptedDevice(std::move(end)), reader_(generation, counters_) {}
+
+std::vector<Arrival> FakeRing::arrivals() const {
+  std::vector<Arrival> snapshot;
+  inspect([&] { snapshot = arrivals_; });
+  return snapshot;
+}
+
+void FakeRing::on_bytes(const std::uint8_t* data, std::size_t size) {
+  const auto now = std::chrono::steady_clock::now();
+  record([&] { arrivals_.push_back(Arrival{now, size}); });
+  for (std::size_t i = 0; i < size; ++i) {
+    wire_.push_back(static_cast<char>(data[i]));
+    const ReadEvent event = reader_.feed(data[i]);
+    if (event.kind == ReadEvent::Kind::none) continue;
+    RingRecord entry;
+    entry.wire = std::move(wire_);
+    wire_.clear();
+    entry.ok = event.kind == ReadEvent::Kind::message;
+    entry.message = event.message;
+    entry.error = event.error;
+    entry.at = now;
+    deliver(entry);
+  }
+}
+
+// --- messages ----------------------------------------------------------------------------------------------
+
+std::string wire(const Message& message, Generation generation) {
+  std::array<std::uint8_t, kMaxMessageBytes> buffer{};
+  const Result<size_t> size = write_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
+  return std::string(reinterpret_cast<const char*>(buffer.data()), size.ok() ? size.value() : 0);
+}
+
+Message drive(std::int32_t speed, std::int32_t angle) {
+  Message message;
+  message.type = Type::drive;
+  message.speed = speed;
+  message.angle = angle;
+  return message;
+}
+
+Message sensor(std::int32_t speed) {
+  Message message;
+  message.type = Type::sensor;
+  message.speed = speed;
+  message.angle = -12;
+  message.bearing = 432;
+  message.east = 420;
+  message.north = 90210;
+  return message;
+}
+
+Message goal(std::int32_t number) {
+  Message message;
+  message.type = Type::goal;
+  message.number = number;
+  message.bearing = 90;
+  message.east = 100;
+  message.north = 200;
+  return message;
+}
+
+Message segment(std::int32_t number) {
+  Message message;
+  message.type = Type::segment;
+  message.number = number;
+  message.speed = 160;
+  message.bearing = 80;
+  message.east = 3200;
+  message.north = -64000;
+  return message;
+}
+
+RingClientOptions test_options(Duration attempt_ms, Duration budget_ms) {
+  RingClientOptions options;
+  options.timing.attempt_timeout = attempt_ms;
+  options.timing.call_budget = budget_ms;
+  options.timing.max_attempts = 3;
+  options.timing.retry_on_timeout = true;
+  options.node.pacing.baud = 115200;
+  options.node.pacing.receiver_buffer = 64;
+  options.node.pacing.receiver_poll_interval = 0;
+  return options;
+}
+
+session::LinkPacing trickle() {
+  session::LinkPacing pacing;
+  pacing.baud = 10;
+  pacing.receiver_buffer = 2;
+  pacing.receiver_poll_interval = 0;
+  return pacing;
+}
+
+// --- EventLog ----------------------------------------------------------------------------------------------
+
+EventHandler EventLog::handler() {
+  return [state = state_](const ClientEvent& event) {
+    {
+      std::lock_guard lock(state->mutex);
+      state->events.push_back(event);
+    }
+    state->changed.notify_all();
+  };
+}
+
+std::vector<ClientEvent> EventLog::all() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->events;
+}
+
+std::vector<ClientEvent> EventLog::of(ClientEvent::Kind kind) const {
+  std::lock_guard lock(state_->mutex);
+  std::vector<ClientEvent> found;
+  for (const auto& event : state_->events) {
+    if (event.kind == kind) found.push_back(event);
+  }
+  return found;
+}
+
+bool EventLog::wait_for(ClientEvent::Kind kind, std::size_t count, std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(state_->mutex);
+  return state_->changed.wait_for(lock, timeout, [&] {
+    std::size_t seen = 0;
+    for (const auto& event : state_->events) {
+      if (event.kind == kind) ++seen;
+    }
+    return seen >= count;
+  });
+}
+
+// --- Completions -------------------------------------------------------------------------------------------
+
+void Completions::store(std::size_t index, Outcome outcome) {
+  {
+    std::lock_guard lock(state_->mutex);
+    if (state_->outcomes.size() <= index) state_->outcomes.resize(index + 1);
+    state_->outcomes[index] = std::move(outcome);
+    ++state_->calls;
+  }
+  state_->changed.notify_all();
+}
+
+std::function<void(error_code)> Completions::send_handler(std::size_t index) {
+  return [self = *this, index](error_code error) mutable { self.store(index, Outcome{error, std::nullopt}); };
+}
+
+std::function<void(error_code, Message)> Completions::message_handler(std::size_t index) {
+  return [self = *this, index](error_code error, Message message) mutable {
+    self.store(index, Outcome{error, message});
+  };
+}
+
+bool Completions::wait_for(std::size_t count, std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(state_->mutex);
+  return state_->changed.wait_for(lock, timeout, [&] { return state_->calls >= count; });
+}
+
+std::size_t Completions::calls() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->calls;
+}
+
+std::optional<Outcome> Completions::at(std::size_t index) const {
+  std::lock_guard lock(state_->mutex);
+  return index < state_->outcomes.size() ? state_->outcomes[index] : std::nullopt;
+}
+
+// --- Link --------------------------------------------------------------------------------------------------
+
+Link::Link(boost::asio::any_io_executor executor, const RingClientOptions& options, FakeRing::Script script) {
+  auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor);
+  ring = FakeRing::start(ring_end, options.node.generation, std::move(script));
+  client.emplace(host_end, options, log.handler());
+}
+
+Link::~Link() {
+  if (client) client->close();
+  ring->close();
+}
+
+bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < until) {
+    if (condition()) return true;
+    std::this_thread::sleep_for(5ms);
+  }
+  return condition();
+}
+
+long long elapsed_ms(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace tether::elcano::testing
