@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "fake_hardware.hpp"
+#include "tether/firmware/servo_timer1.hpp"
 #include "tether/proxy/device/outputs.hpp"
 #include "tether/proxy/device/pins.hpp"
 #include "tether/proxy/device/session_id.hpp"
@@ -51,13 +52,15 @@ TEST(Pins, ServoPulseIsDegreesToMicroseconds) {
   }
 }
 
-TEST(Pins, CompareValueGivesThePulseInHalfMicrosecondTicks) {
-  // Mode 14: high for OCR1x + 1 ticks of 0.5 us.
-  EXPECT_EQ(servo_compare_value(1000), 1999);
-  EXPECT_EQ(servo_compare_value(1500), 2999);
-  EXPECT_EQ(servo_compare_value(2000), 3999);
-  EXPECT_LT(servo_compare_value(2000), kServoTimerTop);
-  EXPECT_EQ(kServoTimerTop, 39999);  // (39999 + 1) * 0.5 us = 20 ms
+TEST(ServoTimer1, CompareValueGivesThePulseInHalfMicrosecondTicks) {
+  // The runtime's Timer1 driver (firmware/runtime), mode 14: high for OCR1x + 1 ticks of 0.5 us.
+  using tether::firmware::servo_timer1::compare_value;
+  using tether::firmware::servo_timer1::kTop;
+  EXPECT_EQ(compare_value(1000), 1999);
+  EXPECT_EQ(compare_value(1500), 2999);
+  EXPECT_EQ(compare_value(2000), 3999);
+  EXPECT_LT(compare_value(2000), kTop);
+  EXPECT_EQ(kTop, 39999);  // (39999 + 1) * 0.5 us = 20 ms
 }
 
 // --- text ------------------------------------------------------------------------------------------------

@@ -31,8 +31,6 @@ constexpr int32_t kServoMaxDegrees = 180;
 constexpr uint16_t kServoMinPulseUs = 1000;
 /// Pulse at 180 degrees (us).
 constexpr uint16_t kServoMaxPulseUs = 2000;
-/// Timer1 TOP (ICR1) for a 20 ms period at 0.5 us per tick.
-constexpr uint16_t kServoTimerTop = 39999;
 
 /// True for a pin the board has (0..19).
 constexpr bool pin_exists(uint32_t pin) { return pin < kPinCount; }
@@ -54,12 +52,6 @@ constexpr uint16_t servo_pulse_us(int32_t degrees) {
                                static_cast<uint32_t>(clamp_degrees(degrees)) *
                                    static_cast<uint32_t>(kServoMaxPulseUs - kServoMinPulseUs) /
                                    static_cast<uint32_t>(kServoMaxDegrees));
-}
-
-/// OCR1x value for a pulse of `pulse_us`: in mode 14 the output is high from BOTTOM through the compare
-/// match, i.e. for OCR1x + 1 ticks of 0.5 us, so OCR1x = 2 * pulse_us - 1 (1000 us -> 1999).
-constexpr uint16_t servo_compare_value(uint16_t pulse_us) {
-  return static_cast<uint16_t>(pulse_us == 0 ? 0u : 2u * static_cast<uint32_t>(pulse_us) - 1u);
 }
 
 }  // namespace device
