@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <mutex>
 #include <random>
@@ -84,6 +85,38 @@ TEST(RomiInterop, EveryRomiTestHandlerThroughTheRealFirmware) {
   EXPECT_EQ(client.call({'a', {}, "x"}).code, -19);
   EXPECT_EQ(client.counters().timeouts, 0u);
   client.close();
+}
+
+// The demo's Romi device: S drives the servos (checked on the pins), A reads the analog inputs.
+TEST(RomiInterop, RoverImageDrivesItsServosAndReadsItsSensors) {
+  IoThread io;
+  VirtualUnoOptions options = romi_test_board(Pacing::fast);
+  options.firmware = TETHER_FIRMWARE_DIR "/romi-rover.elf";
+  auto stream = VirtualUnoStream::open(io.executor(), options);
+  RomiClient client(stream);
+  const auto pulse_us = [&](int pin) {
+    return std::chrono::duration<double, std::micro>(stream->board().pulse_timing(pin).high_time).count();
+  };
+  // Boot: both servos at neutral.
+  ASSERT_TRUE(tether::testing::eventually([&] { return pulse_us(9) > 0 && pulse_us(10) > 0; }, 10s));
+  EXPECT_NEAR(pulse_us(9), 1500.0, 2.0);
+  EXPECT_NEAR(pulse_us(10), 1500.0, 2.0);
+
+  EXPECT_EQ(client.call("S[1200,1800]").values, json::parse("[0]"));
+  EXPECT_TRUE(tether::testing::eventually([&] { return std::abs(pulse_us(9) - 1200.0) < 2.0; }, 10s)) << pulse_us(9);
+  EXPECT_TRUE(tether::testing::eventually([&] { return std::abs(pulse_us(10) - 1800.0) < 2.0; }, 10s))
+      << pulse_us(10);
+  const RomiResponse out_of_range = client.call("S[999,1500]");
+  EXPECT_EQ(out_of_range.code, 1);
+  EXPECT_EQ(out_of_range.message, "pulse out of range");
+
+  stream->board().set_analog_input(0, 2.5);
+  stream->board().set_analog_input(3, 5.0);
+  const RomiResponse a0 = client.call("A[0]");
+  ASSERT_EQ(a0.code, 0);
+  EXPECT_NEAR(a0.values.at(1).get<int>(), 512, 2);
+  EXPECT_NEAR(client.call("A[3]").values.at(1).get<int>(), 1023, 1);
+  EXPECT_EQ(client.call("A[6]").code, 2);
 }
 
 TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {

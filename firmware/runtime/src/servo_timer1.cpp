@@ -15,12 +15,19 @@ constexpr uint8_t kClockSelect = _BV(CS12) | _BV(CS11) | _BV(CS10);
 uint8_t port_bit(Output output) { return output == Output::d9 ? _BV(PB1) : _BV(PB2); }
 uint8_t compare_output_bit(Output output) { return output == Output::d9 ? _BV(COM1A1) : _BV(COM1B1); }
 
+// Sets OCR1x; simavr applies it on a timer reconfiguration only (see the header), so a running timer's
+// clock is stopped and restarted.
 void set_compare(Output output, uint16_t pulse_us) {
   const uint16_t value = compare_value(pulse_us);
   if (output == Output::d9) {
     OCR1A = value;
   } else {
     OCR1B = value;
+  }
+  const uint8_t clock = TCCR1B;
+  if ((clock & kClockSelect) != 0) {
+    TCCR1B = static_cast<uint8_t>(clock & static_cast<uint8_t>(~kClockSelect));
+    TCCR1B = clock;
   }
 }
 
@@ -47,15 +54,7 @@ void attach(Output output, uint16_t pulse_us) {
 }
 
 void write(Output output, uint16_t pulse_us) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    set_compare(output, pulse_us);
-    // simavr applies OCR1x on a timer reconfiguration only (see the header).
-    const uint8_t clock = TCCR1B;
-    if ((clock & kClockSelect) != 0) {
-      TCCR1B = static_cast<uint8_t>(clock & static_cast<uint8_t>(~kClockSelect));
-      TCCR1B = clock;
-    }
-  }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { set_compare(output, pulse_us); }
 }
 
 void detach(Output output) {

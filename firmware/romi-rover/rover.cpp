@@ -1,0 +1,71 @@
+// Romi rover: the Romi device of the virtual rover (`tether demo`, docs/examples/rover-virtual.json): an
+// actuator and a sensor behind the Romi protocol, the same job the proxy and Elcano devices do in the demo.
+//
+//   S[throttle_us,steering_us] -> servo pulses on D9 (throttle) and D10 (steering), each 1000..2000 us;
+//                                 replies [0], or [1,"pulse out of range"] without touching the outputs.
+//   A[channel]                 -> replies [0,value]: one 10-bit conversion of A<channel> (0..5), AVcc reference;
+//                                 [2,"no such channel"] otherwise.
+//
+// 115200 8N1, no banner. At boot both servos are driven at 1500 us (neutral), like an ESC expects.
+#include "RomiSerial.h"
+#include "tether/firmware/adc.hpp"
+#include "tether/firmware/runtime.hpp"
+#include "tether/firmware/servo_timer1.hpp"
+#include "tether/romi/device/uart_stream.hpp"
+
+using namespace romiserial;
+using tether::firmware::servo_timer1::Output;
+
+namespace {
+
+// A request is at most 66 bytes; 128 bytes of RX absorb a host that sends the next one early.
+using Serial = tether::firmware::Uart0<128, 64>;
+constexpr uint32_t kBaud = 115200;
+constexpr int16_t kMinPulseUs = 1000;
+constexpr int16_t kMaxPulseUs = 2000;
+constexpr uint16_t kNeutralUs = 1500;
+
+bool valid_pulse(int16_t us) { return us >= kMinPulseUs && us <= kMaxPulseUs; }
+
+void set_servos(IRomiSerial* romi, int16_t* args, const char*) {
+  if (!valid_pulse(args[0]) || !valid_pulse(args[1])) {
+    romi->send_error(1, "pulse out of range");
+    return;
+  }
+  tether::firmware::servo_timer1::write(Output::d9, static_cast<uint16_t>(args[0]));
+  tether::firmware::servo_timer1::write(Output::d10, static_cast<uint16_t>(args[1]));
+  romi->send_ok();
+}
+
+void read_analog(IRomiSerial* romi, int16_t* args, const char*) {
+  if (args[0] < 0 || args[0] > 5) {
+    romi->send_error(2, "no such channel");
+    return;
+  }
+  ArrayText<16> reply;
+  reply.add_int(0).add_int(tether::firmware::adc::read(static_cast<uint8_t>(args[0])));
+  romi->send(reply.c_str());
+}
+
+const MessageHandler handlers[] = {
+    {'S', 2, false, set_servos},
+    {'A', 1, false, read_analog},
+};
+
+tether::romi::device::UartStream<Serial> serial;
+RomiSerial romi_serial(serial, serial, handlers, sizeof(handlers) / sizeof(MessageHandler));
+
+}  // namespace
+
+TETHER_UART0_ISRS(Serial);
+
+int main() {
+  tether::firmware::adc::begin(0x3F);  // A0..A5 are analog inputs here
+  tether::firmware::servo_timer1::attach(Output::d9, kNeutralUs);
+  tether::firmware::servo_timer1::attach(Output::d10, kNeutralUs);
+  tether::firmware::runtime_init<Serial>(kBaud);
+  for (;;) {
+    romi_serial.handle_input();
+    tether::firmware::idle<Serial>();
+  }
+}
