@@ -94,17 +94,29 @@ std::shared_ptr<VirtualUnoStream> VirtualUnoStream::attach(executor_type executo
                                             false);
 }
 
+std::shared_ptr<VirtualUnoStream> VirtualUnoStream::attach_ring(executor_type executor, VirtualUno& first,
+                                                                VirtualUno& last) {
+  auto keep = [](VirtualUno*) {};  // non-owning, as attach()
+  return std::make_shared<VirtualUnoStream>(std::move(executor), std::shared_ptr<VirtualUno>(&first, keep),
+                                            std::shared_ptr<VirtualUno>(&last, keep), false);
+}
+
 VirtualUnoStream::VirtualUnoStream(executor_type executor, std::shared_ptr<VirtualUno> board, bool owns_board)
+    : VirtualUnoStream(std::move(executor), board, board, owns_board) {}
+
+VirtualUnoStream::VirtualUnoStream(executor_type executor, std::shared_ptr<VirtualUno> board,
+                                   std::shared_ptr<VirtualUno> source, bool owns_board)
     : ByteStream(std::move(executor)),
       board_(std::move(board)),
+      source_(std::move(source)),
       owns_board_(owns_board),
       inbox_(std::make_shared<Inbox>(strand())) {
   // The handler holds the inbox, not the stream: it may run while the stream is being destroyed.
-  board_->set_output_handler([inbox = inbox_](const std::uint8_t* data, std::size_t size) { inbox->receive(data, size); });
+  source_->set_output_handler([inbox = inbox_](const std::uint8_t* data, std::size_t size) { inbox->receive(data, size); });
 }
 
 VirtualUnoStream::~VirtualUnoStream() {
-  board_->set_output_handler({});  // once it returns, the handler never runs again
+  source_->set_output_handler({});  // once it returns, the handler never runs again
   {
     std::lock_guard lock(inbox_->mutex);
     inbox_->closed = true;
@@ -119,6 +131,9 @@ std::uint64_t VirtualUnoStream::discarded() const {
 }
 
 std::string VirtualUnoStream::description() const {
+  if (source_ != board_) {
+    return "virtual Uno ring " + board_->options().name + " -> ... -> " + source_->options().name;
+  }
   return "virtual Uno " + board_->options().firmware.filename().string();
 }
 
@@ -147,7 +162,7 @@ void VirtualUnoStream::do_write(asio::const_buffer buffer, IoHandler handler) {
 
 void VirtualUnoStream::do_close(error_code& error) {
   error = error_code();
-  board_->set_output_handler({});
+  source_->set_output_handler({});
   IoHandler reader;
   {
     std::lock_guard lock(inbox_->mutex);

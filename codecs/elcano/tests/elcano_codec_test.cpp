@@ -205,5 +205,20 @@ TEST(ElcanoReader, PartialMessageCanBeDroppedAtItsDeadline) {
   EXPECT_EQ(messages, 1);  // the tail of the dropped message never passes as a message
 }
 
+// Regression (found by the ring tests, a node reset mid-message): the header that interrupts a half
+// message used to be swallowed with it, losing the next whole message too.
+TEST(ElcanoReader, HeaderInsideAMessageEndsItAndStartsTheNextOne) {
+  for (const Generation generation : {Generation::b, Generation::d}) {
+    const std::string next = generation == Generation::b ? "D{s1}{a2}\n" : "D{s50}{a25}74\n";
+    const Read result = read("D{s150}{a" + next, generation);
+    ASSERT_EQ(result.messages.size(), 1u);
+    EXPECT_EQ(result.errors.size(), 1u);
+    EXPECT_EQ(result.forwarded[0], next);
+  }
+  // Inside a number and inside the generation D trailer too.
+  EXPECT_EQ(read("X{n 12S{s 1}{a 2}{b 3}{p 4,5}\n", Generation::b).messages.size(), 1u);
+  EXPECT_EQ(read("D{s50}{a25}7D{s50}{a25}74\n", Generation::d).messages.size(), 1u);
+}
+
 }  // namespace
 }  // namespace tether::elcano

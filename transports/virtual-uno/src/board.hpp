@@ -27,6 +27,7 @@ struct VirtualUno::Impl {
 
   // --- constant after construction -----------------------------------------------------------------
   VirtualUnoOptions options;
+  detail::SymbolTable symbols;  // the image's, filled by load_avr
   avr_t* avr = nullptr;
   avr_uart_t* uart = nullptr;
   avr_irq_t* uart_irq = nullptr;    // UART_IRQ_* of UART0

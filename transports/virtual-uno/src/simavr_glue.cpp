@@ -102,8 +102,31 @@ struct ElfHandle {
 
 constexpr std::uint64_t kFlashSize = 32 * 1024;
 
+// avr-gcc's ELF address spaces: flash from 0, SRAM (data space) from 0x800000, EEPROM from 0x810000.
+constexpr std::uint64_t kDataBase = 0x800000;
+constexpr std::uint64_t kEepromBase = 0x810000;
+constexpr std::uint64_t kSpaceEnd = 0x820000;
+
+FirmwareSymbol to_firmware_symbol(const GElf_Sym& symbol) {
+  FirmwareSymbol result;
+  const std::uint64_t value = symbol.st_value;
+  if (value >= kEepromBase && value < kSpaceEnd) {
+    result.space = FirmwareSymbol::Space::eeprom;
+    result.address = static_cast<std::uint32_t>(value - kEepromBase);
+  } else if (value >= kDataBase && value < kEepromBase) {
+    result.space = FirmwareSymbol::Space::data;
+    result.address = static_cast<std::uint32_t>(value - kDataBase);
+  } else {
+    result.space = FirmwareSymbol::Space::flash;
+    result.address = static_cast<std::uint32_t>(value);
+  }
+  result.size = static_cast<std::uint32_t>(symbol.st_size);
+  return result;
+}
+
 // Everything elf_read_firmware() relies on without checking, so that a bad file is an error, not a crash.
-void validate_elf(const std::filesystem::path& path) {
+// Collects the named symbols into `table` when given (a global one replaces a local one of that name).
+void validate_elf(const std::filesystem::path& path, SymbolTable* table) {
   FileDescriptor file;
   file.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (file.fd < 0) fail(std::error_code(errno, std::generic_category()), path, "cannot open the image");
@@ -155,6 +178,12 @@ void validate_elf(const std::filesystem::path& path) {
         const char* symbol_name = elf_strptr(handle.elf, section_header.sh_link, symbol.st_name);
         if (symbol_name == nullptr) fail(bad, path, "unreadable symbol name");
         if (std::strcmp(symbol_name, "__vectors") == 0) base = symbol.st_value;
+        const int type = GELF_ST_TYPE(symbol.st_info);
+        if (table != nullptr && symbol_name[0] != '\0' && type != STT_SECTION && type != STT_FILE) {
+          const bool global = GELF_ST_BIND(symbol.st_info) != STB_LOCAL;
+          const auto [entry, added] = table->try_emplace(symbol_name, to_firmware_symbol(symbol));
+          if (!added && global) entry->second = to_firmware_symbol(symbol);
+        }
       }
     }
   }
@@ -183,11 +212,11 @@ void install_quiet_logger() {
   std::call_once(once, [] { avr_global_logger_set(quiet_logger); });
 }
 
-avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz) {
+avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz, SymbolTable* symbols) {
   install_quiet_logger();
   std::lock_guard lock(loader_mutex());
   if (elf_version(EV_CURRENT) == EV_NONE) fail(make_error_code(VirtualUnoError::simulator_failed), path, "libelf is out of date");
-  validate_elf(path);
+  validate_elf(path, symbols);
 
   // Zero-initialised, so fields a differently configured libsimavr does not touch stay null for free_firmware().
   auto* firmware = static_cast<elf_firmware_t*>(std::calloc(1, sizeof(elf_firmware_t)));

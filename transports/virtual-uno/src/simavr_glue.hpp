@@ -3,14 +3,19 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <unordered_map>
 
 // libsimavr's headers (C, with their own extern "C"); included as system headers (see CMakeLists.txt).
 #include <avr_adc.h>
+#include <avr_eeprom.h>
 #include <avr_ioport.h>
 #include <avr_uart.h>
 #include <sim_avr.h>
 #include <sim_elf.h>
 #include <sim_irq.h>
+
+#include "tether/transports/virtual_uno.hpp"
 
 namespace tether::transports::detail {
 
@@ -18,10 +23,14 @@ namespace tether::transports::detail {
 /// silent otherwise (simavr prints "Loaded ..." and UART lines to stdout by default). Idempotent.
 void install_quiet_logger();
 
+/// The image's named symbols (section symbols and file names left out), by name.
+using SymbolTable = std::unordered_map<std::string, FirmwareSymbol>;
+
 /// Validates `path` as an AVR ELF that fits the ATmega328P, creates an atmega328p, initialises it at
-/// `frequency_hz` and loads the image. Throws std::system_error (OS errors from open/read, VirtualUnoError
-/// otherwise) with a message naming the file. The result is released with `destroy_avr`.
-avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz);
+/// `frequency_hz` and loads the image; `symbols` (when given) receives its symbol table. Throws
+/// std::system_error (OS errors from open/read, VirtualUnoError otherwise) with a message naming the
+/// file. The result is released with `destroy_avr`.
+avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz, SymbolTable* symbols = nullptr);
 
 /// avr_terminate + free.
 void destroy_avr(avr_t* avr);

@@ -97,7 +97,7 @@ Board::Impl(VirtualUnoOptions board_options)
   if (options.frequency_hz == 0) throw std::invalid_argument("virtual Uno: frequency_hz must not be 0");
   if (options.quantum.count() <= 0) throw std::invalid_argument("virtual Uno: quantum must be positive");
   if (options.name.empty()) options.name = options.firmware.filename().string();
-  avr = detail::load_avr(options.firmware, options.frequency_hz);
+  avr = detail::load_avr(options.firmware, options.frequency_hz, &symbols);
   try {
     for (avr_io_t* io = avr->io_port; io != nullptr; io = io->next) {
       if (io->kind != nullptr && std::strcmp(io->kind, "uart") == 0 && reinterpret_cast<avr_uart_t*>(io)->name == '0') {
@@ -944,6 +944,44 @@ void VirtualUno::write_memory(std::uint16_t address, std::span<const std::uint8_
     throw std::out_of_range("virtual Uno: write_memory beyond RAMEND");
   }
   impl_->execute([this, address, bytes] { std::copy(bytes.begin(), bytes.end(), impl_->avr->data + address); });
+}
+
+void VirtualUno::write_eeprom(std::uint16_t address, std::span<const std::uint8_t> bytes) {
+  if (static_cast<std::size_t>(address) + bytes.size() > reg::kEepromSize) {
+    throw std::out_of_range("virtual Uno: write_eeprom beyond the 1 KiB EEPROM");
+  }
+  if (bytes.empty()) return;
+  impl_->execute([this, address, bytes] {
+    // simavr copies from `ee`; the ioctl's parameter is not const-qualified.
+    std::vector<std::uint8_t> copy(bytes.begin(), bytes.end());
+    avr_eeprom_desc_t descriptor{copy.data(), address, static_cast<std::uint32_t>(copy.size())};
+    // simavr 1.6 answers -1 on success (so other modules get their turn) and -2 on a bad argument.
+    if (avr_ioctl(impl_->avr, AVR_IOCTL_EEPROM_SET, &descriptor) == -2) {
+      throw std::out_of_range("virtual Uno: libsimavr refused the EEPROM write");
+    }
+  });
+}
+
+std::vector<std::uint8_t> VirtualUno::read_eeprom(std::uint16_t address, std::size_t length) const {
+  if (static_cast<std::size_t>(address) + length > reg::kEepromSize) {
+    throw std::out_of_range("virtual Uno: read_eeprom beyond the 1 KiB EEPROM");
+  }
+  if (length == 0) return {};
+  return impl_->execute([this, address, length] {
+    std::vector<std::uint8_t> bytes(length);
+    avr_eeprom_desc_t descriptor{bytes.data(), address, static_cast<std::uint32_t>(length)};
+    if (avr_ioctl(impl_->avr, AVR_IOCTL_EEPROM_GET, &descriptor) == -2) {
+      throw std::out_of_range("virtual Uno: libsimavr refused the EEPROM read");
+    }
+    return bytes;
+  });
+}
+
+std::optional<FirmwareSymbol> VirtualUno::symbol(std::string_view name) const {
+  // Constant after construction: no need to go through the simulation thread.
+  const auto found = impl_->symbols.find(std::string(name));
+  if (found == impl_->symbols.end()) return std::nullopt;
+  return found->second;
 }
 
 std::uint8_t VirtualUno::io_read(std::uint16_t address) {

@@ -608,6 +608,74 @@ TEST(VirtualUnoPins, AdcConvertsTheVoltageSetOnAChannel) {
   EXPECT_THROW(uno.set_analog_input(8, 1.0), std::out_of_range);
 }
 
+// --- EEPROM and firmware symbols ------------------------------------------------------------------------------
+
+std::uint32_t little_endian32(const std::vector<std::uint8_t>& bytes) {
+  return static_cast<std::uint32_t>(bytes.at(0) | (bytes.at(1) << 8) | (bytes.at(2) << 16)) |
+         (static_cast<std::uint32_t>(bytes.at(3)) << 24);
+}
+
+TEST(VirtualUnoEeprom, StartsErasedRoundTripsAndRefusesOutOfRange) {
+  VirtualUno uno(echo_options());
+  EXPECT_EQ(uno.read_eeprom(0, reg::kEepromSize), std::vector<std::uint8_t>(reg::kEepromSize, 0xFF)) << "erased";
+  const std::vector<std::uint8_t> block = marker();
+  uno.write_eeprom(0x200, block);
+  uno.write_eeprom(reg::kEepromSize - 1, std::vector<std::uint8_t>{0x5A});
+  EXPECT_EQ(uno.read_eeprom(0x200, block.size()), block);
+  EXPECT_EQ(uno.read_eeprom(reg::kEepromSize - 1, 1), std::vector<std::uint8_t>{0x5A});
+  EXPECT_EQ(uno.read_eeprom(0x1FF, 1), std::vector<std::uint8_t>{0xFF}) << "neighbours untouched";
+  EXPECT_TRUE(uno.read_eeprom(0, 0).empty());
+  EXPECT_THROW(uno.write_eeprom(reg::kEepromSize - 1, std::vector<std::uint8_t>{1, 2}), std::out_of_range);
+  EXPECT_THROW(static_cast<void>(uno.read_eeprom(reg::kEepromSize, 1)), std::out_of_range);
+
+  // The accessors also work while a thread runs the board (they go through the simulation thread).
+  uno.start();
+  uno.write_eeprom(0x300, block);
+  EXPECT_EQ(uno.read_eeprom(0x300, block.size()), block);
+}
+
+TEST(VirtualUnoEeprom, FirmwareReadsWhatTheHostWroteAndBothSurviveResets) {
+  // proxy.elf counts its boots in EEPROM 0x3F8 (uint32, firmware/proxy/README.md): it reads the value
+  // the host wrote before its first boot, and the host reads what it wrote back.
+  constexpr std::uint16_t kBootCounter = 0x3F8;
+  VirtualUno uno({.firmware = firmware_path("proxy.elf"), .pacing = Pacing::fast});
+  uno.write_eeprom(kBootCounter, std::vector<std::uint8_t>{41, 0, 0, 0});
+  uno.write_eeprom(0x10, marker());
+  uno.run_for(50ms);
+  EXPECT_EQ(little_endian32(uno.read_eeprom(kBootCounter, 4)), 42u);
+  uno.reset(ResetKind::watchdog);
+  uno.run_for(50ms);
+  EXPECT_EQ(little_endian32(uno.read_eeprom(kBootCounter, 4)), 43u);
+  uno.reset(ResetKind::power_cycle, 5ms);
+  uno.run_for(60ms);
+  EXPECT_EQ(uno.stats().boots, 3u);
+  EXPECT_EQ(little_endian32(uno.read_eeprom(kBootCounter, 4)), 44u);
+  EXPECT_EQ(uno.read_eeprom(0x10, marker().size()), marker()) << "EEPROM survives a power cycle";
+}
+
+TEST(VirtualUnoSymbols, FindsFirmwareGlobalsByName) {
+  VirtualUno uno(echo_options());
+  OutputRecorder recorder(uno);
+  boot(uno, recorder);
+  const auto main_symbol = uno.symbol("main");
+  ASSERT_TRUE(main_symbol.has_value());
+  EXPECT_EQ(main_symbol->space, FirmwareSymbol::Space::flash);
+  EXPECT_GT(main_symbol->size, 0u);
+  const auto data_start = uno.symbol("__data_start");
+  ASSERT_TRUE(data_start.has_value());
+  EXPECT_EQ(data_start->space, FirmwareSymbol::Space::data);
+  EXPECT_EQ(data_start->address, reg::kSramStart);
+  EXPECT_FALSE(uno.symbol("no_such_symbol").has_value());
+
+  // A real use: echo's UART counters (a mangled C++ name), read without knowing where the build put them.
+  const auto counters = uno.symbol("_ZN6tether8firmware5Uart0ILj128ELj128EE9counters_E");
+  ASSERT_TRUE(counters.has_value());
+  EXPECT_EQ(counters->space, FirmwareSymbol::Space::data);
+  ASSERT_EQ(counters->size, 12u) << "rx_overflows, framing_errors, data_overruns";
+  EXPECT_EQ(uno.read_memory(static_cast<std::uint16_t>(counters->address), counters->size),
+            std::vector<std::uint8_t>(12, 0));
+}
+
 // --- lifecycle and errors ------------------------------------------------------------------------------------
 
 TEST(VirtualUnoLifecycle, StopAndStartContinueAndRunForNeedsAStoppedBoard) {

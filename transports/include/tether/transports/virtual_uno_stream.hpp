@@ -7,6 +7,10 @@
 /// `discarded()` counts them) until a read takes them. Writes are queued to the board at once, as a tty
 /// driver accepts bytes before they are on the wire; the board feeds them to the UART at the line rate.
 /// Faults and resets are configured on the board (`board()`); the stream itself adds none.
+///
+/// A ring of boards (a `VirtualUnoGroup` wired first -> ... -> last) is one stream too (`attach_ring`):
+/// the host's writes enter the first board's RX, its reads take what the last board transmits, so a
+/// host-side codec sits in the ring exactly as a host on a real Elcano ring does.
 #pragma once
 
 #include <atomic>
@@ -41,9 +45,15 @@ class VirtualUnoStream final : public ByteStream {
   /// Stream over a board the caller owns and keeps alive while the stream exists (e.g. a member of a
   /// lockstep group). Starting and stopping the board stays the caller's business.
   static std::shared_ptr<VirtualUnoStream> attach(executor_type executor, VirtualUno& board);
+  /// Stream over a ring the caller owns: writes go to `first`'s RX, reads come from `last`'s TX (which
+  /// must not be wired to another board: `VirtualUnoGroup::connect`). The boards stay the caller's, as
+  /// with `attach`; `first == last` is `attach`.
+  static std::shared_ptr<VirtualUnoStream> attach_ring(executor_type executor, VirtualUno& first, VirtualUno& last);
 
-  /// The simulated board (faults, resets, pins, time).
+  /// The simulated board the stream writes to (faults, resets, pins, time); the first board of a ring.
   VirtualUno& board() { return *board_; }
+  /// The board whose transmissions the stream reads: `board()`, or the last board of a ring.
+  VirtualUno& reading_board() { return *source_; }
   /// Received bytes dropped because nobody read them (inbox overflow).
   std::uint64_t discarded() const;
 
@@ -51,6 +61,9 @@ class VirtualUnoStream final : public ByteStream {
 
   /// Constructed by `open`/`attach` (public for std::make_shared).
   VirtualUnoStream(executor_type executor, std::shared_ptr<VirtualUno> board, bool owns_board);
+  /// Constructed by `attach_ring`: writes to `board`, reads from `source` (public for std::make_shared).
+  VirtualUnoStream(executor_type executor, std::shared_ptr<VirtualUno> board, std::shared_ptr<VirtualUno> source,
+                   bool owns_board);
   ~VirtualUnoStream() override;
 
  protected:
@@ -60,6 +73,7 @@ class VirtualUnoStream final : public ByteStream {
 
  private:
   std::shared_ptr<VirtualUno> board_;
+  std::shared_ptr<VirtualUno> source_;  // whose output handler feeds the inbox
   bool owns_board_;
   std::shared_ptr<Inbox> inbox_;
 };

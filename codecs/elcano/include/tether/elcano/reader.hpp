@@ -6,7 +6,9 @@
 /// Rules (the reference's, made precise):
 ///   1. Spaces, tabs, `\r` and NUL are ignored anywhere, also inside numbers.
 ///   2. A message starts at a header D, S, G or X; anything else where a header is expected is bad_type.
-///   3. After an error the reader skips to the next header (or the end of the line).
+///   3. After an error the reader skips to the next header (or the end of the line). A header arriving
+///      inside a message (the sender reset mid-message) ends that message with an error and starts the
+///      next one: it is never swallowed.
 ///   4. Numbers: optional `-`, decimal digits, int32; one that does not fit is bad_number (never wrapped).
 ///   5. Generation B `p` carries `E,N`; generation D carries `p` and `q` and a decimal CRC-8 trailer
 ///      (bad_crc when it does not match).
@@ -58,6 +60,7 @@ class Reader {
  private:
   enum class State : uint8_t { header, lcurly, letter, number, trailer, skip };
 
+  ReadEvent step(uint8_t byte);
   ReadEvent fail(ReadError error);
   ReadEvent finish();
   bool keep(uint8_t byte);

@@ -78,6 +78,20 @@ ReadEvent Reader<Capacity>::finish() {
 
 template <size_t Capacity>
 ReadEvent Reader<Capacity>::feed(uint8_t byte) {
+  const bool was_open = in_message();
+  const ReadEvent event = step(byte);
+  // A header never appears inside a message: one arriving mid-message (the sender reset, bytes were
+  // lost) ends the broken message with its error AND starts the next message, which must not be lost.
+  if (event.kind == ReadEvent::Kind::error && was_open && detail::is_header(byte)) {
+    state_ = State::header;
+    ++counters_->resyncs;
+    step(byte);  // opens the message; cannot produce an event
+  }
+  return event;
+}
+
+template <size_t Capacity>
+ReadEvent Reader<Capacity>::step(uint8_t byte) {
   if (detail::is_ignored(byte)) return ReadEvent();
   if (state_ == State::skip) {
     if (byte == '\n') {
@@ -111,7 +125,7 @@ ReadEvent Reader<Capacity>::feed(uint8_t byte) {
       if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
         crc_end_ = size_;
         state_ = State::trailer;
-        return feed(byte);
+        return step(byte);
       }
       return fail(ReadError::bad_lcurly);
     case State::letter: {

@@ -100,6 +100,14 @@
 /// stamped with the cycle at which simavr raised the IRQ: exact to within the instruction that was
 /// executing (a few cycles). simavr models PWM only through these pin IRQs; the timer registers
 /// (`timer1()`) are the other way to read a servo's setting.
+///
+/// ## EEPROM and firmware symbols
+/// `write_eeprom`/`read_eeprom` reach the 1 KiB EEPROM through simavr's ioctl (a programmer's view: no
+/// write delay, no wear). It starts erased (0xFF) or with the image's .eeprom section and survives every
+/// reset and power cycle, so a test configures a board before its first `run_for()` and the firmware
+/// finds the bytes at boot. `symbol(name)` gives the address of a firmware global from the image's
+/// ELF symbol table, so tests read firmware state with `read_memory` at an address that follows the
+/// build instead of a hard-coded one.
 #pragma once
 
 #include <chrono>
@@ -161,6 +169,8 @@ inline constexpr std::uint16_t PINB = 0x23, DDRB = 0x24, PORTB = 0x25, PINC = 0x
                                UCSR0B = 0xC1, UCSR0C = 0xC2, UBRR0L = 0xC4, UBRR0H = 0xC5, UDR0 = 0xC6;
 /// First SRAM address and the last one (RAMEND).
 inline constexpr std::uint16_t kSramStart = 0x100, kRamEnd = 0x8FF;
+/// EEPROM size in bytes (addresses 0 .. 0x3FF).
+inline constexpr std::uint16_t kEepromSize = 1024;
 /// MCUSR bits.
 inline constexpr std::uint8_t PORF = 0x01, EXTRF = 0x02, BORF = 0x04, WDRF = 0x08;
 }  // namespace atmega328p
@@ -237,6 +247,15 @@ struct Timer1Registers {
   std::uint16_t ocr1a = 0;
   std::uint16_t ocr1b = 0;
   std::uint16_t icr1 = 0;
+};
+
+/// A symbol of the firmware image's ELF symbol table (`VirtualUno::symbol`).
+struct FirmwareSymbol {
+  /// Which memory the address is in (avr-gcc's ELF puts data at 0x800000 and EEPROM at 0x810000).
+  enum class Space { flash, data, eeprom };
+  Space space = Space::flash;  ///< Memory of the symbol.
+  std::uint32_t address = 0;   ///< Address inside that memory (data: what `read_memory` takes).
+  std::uint32_t size = 0;      ///< Size in bytes as the ELF records it (0 for labels).
 };
 
 /// Counters of one board.
@@ -344,6 +363,18 @@ class VirtualUno {
   std::vector<std::uint8_t> read_memory(std::uint16_t address, std::size_t length) const;
   /// Overwrites data-space bytes (e.g. markers in free SRAM), no side effects.
   void write_memory(std::uint16_t address, std::span<const std::uint8_t> bytes);
+  /// Overwrites EEPROM bytes (0 .. kEepromSize-1) through simavr's EEPROM ioctl, as a programmer would:
+  /// the firmware reads them at its next EEPROM access. EEPROM survives every kind of reset and power
+  /// cycle (it starts erased, 0xFF, or with the image's .eeprom section). Throws std::out_of_range.
+  void write_eeprom(std::uint16_t address, std::span<const std::uint8_t> bytes);
+  /// Copies `length` EEPROM bytes from `address` (what the firmware wrote included). Throws
+  /// std::out_of_range.
+  std::vector<std::uint8_t> read_eeprom(std::uint16_t address, std::size_t length) const;
+  /// Looks `name` up in the image's ELF symbol table (read when the board was created): where a firmware
+  /// global lives, so a test reads it with `read_memory` without hard-coding an address that moves with
+  /// every build. C++ names are mangled: give the variable C linkage (`extern "C"`). A global symbol wins
+  /// over local ones of the same name; nullopt when there is none.
+  std::optional<FirmwareSymbol> symbol(std::string_view name) const;
   /// Reads / writes an I/O register the way the CPU would (peripheral side effects included: e.g. reading
   /// ADCL returns a conversion, writing ADCSRA starts one). For tests and tools poking peripherals.
   std::uint8_t io_read(std::uint16_t address);
