@@ -1,0 +1,267 @@
+/// @file config.hpp
+/// A rover's devices as an application configures them: a JSON document (schema in docs/config.md) parsed
+/// into typed structs, one `DeviceConfig` per device: its name, its transport (serial port, ser2net over
+/// TCP, a virtual Uno, a virtual ring of Unos), its codec (`romi`, `proxy`, `proxy-compat`, `elcano`) and
+/// the codec's options.
+///
+/// @code
+///   devices::ParseOptions where;
+///   where.firmware_dir = TETHER_FIRMWARE_DIR;                       // for "firmware": "romi-test"
+///   devices::RoverConfig config = devices::load_config("/etc/rover/rover.json", where);
+///   devices::Rover rover = devices::open_rover(config, io.get_executor());   // rover.hpp
+/// @endcode
+///
+/// ## Errors
+/// Everything that is wrong with a configuration is a `ConfigError`: parsing (`parse_config`,
+/// `load_config`) and opening (`open_rover`, see rover.hpp) alike. Its `path()` is the JSON path of the
+/// offending value (`devices[1].transport.serial.baud`) and `what()` says what was expected:
+///   - `devices[1].transport.serial.baud: expected an unsigned integer, got string "fast"`
+///   - `devices[0].codec: unknown codec "mavlink" (expected one of romi, proxy, proxy-compat, elcano)`
+///   - `devices[2].transport.serial: missing key "path"`
+///   - `devices[0].options: unknown key "atempt_timeout_ms" (did you mean "attempt_timeout_ms"?)`
+///   - `devices[3].name: duplicate device name "arm" (also devices[0])`
+///   - at open time: `devices[1].transport.serial.path: /dev/ttyUSB9: No such file or directory`
+/// Unknown keys are errors everywhere (a misspelt option silently ignored is a field bug); a close match
+/// is suggested. Parsing never touches a device or the file system (except `load_config` reading its file):
+/// ports and firmware images are checked when the rover opens.
+///
+/// ## Firmware images
+/// A virtual board's `firmware` is either a path (absolute, or relative to `ParseOptions::base_dir`: the
+/// config file's folder for `load_config`) or a bare image name (`romi-test`, `proxy.elf`: no `/`) looked
+/// up in `ParseOptions::firmware_dir` as `<dir>/<name>.elf`. The library knows no firmware folder of its
+/// own: tools pass the build's (`TETHER_FIRMWARE_DIR`).
+#pragma once
+
+#include <boost/system/error_code.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+#include "tether/core/session/request_table.hpp"
+#include "tether/core/session/write_pacer.hpp"
+#include "tether/elcano/message.hpp"
+#include "tether/elcano/ring_node.hpp"
+#include "tether/elcano/session_policy.hpp"
+#include "tether/proxy/client.hpp"
+#include "tether/romi/session_policy.hpp"
+#include "tether/transports/serial_port_stream.hpp"
+#include "tether/transports/virtual_uno.hpp"
+
+namespace tether::devices {
+
+/// Error codes of the devices library (boost::system, like the transports and clients).
+using error_code = boost::system::error_code;
+
+/// What went wrong, when it is not the transport's or the OS's own error.
+enum class DevicesError {
+  invalid_config = 1,  ///< The configuration is malformed or inconsistent (a `ConfigError` from parsing).
+  unknown_device,      ///< No device of that name.
+  wrong_codec,         ///< The device exists but speaks another codec.
+  not_supported,       ///< The configuration is valid but this build cannot open it (yet).
+  device_not_ready,    ///< The device opened but did not answer its handshake in time.
+};
+
+/// The "tether.devices" category.
+const boost::system::error_category& devices_category();
+/// Makes an error_code of the "tether.devices" category.
+error_code make_error_code(DevicesError error);
+
+/// A configuration that cannot be parsed or opened. `what()` is `<path>: <detail>` (prefixed with the
+/// file name for `load_config`), e.g. `devices[1].transport.serial.baud: expected an unsigned integer,
+/// got string "fast"`.
+class ConfigError : public std::runtime_error {
+ public:
+  /// Error at JSON path `path` (empty: the document itself) with `detail` (what was expected, or what the
+  /// OS said), `code` the machine-readable cause (`DevicesError::invalid_config` for parse errors, the
+  /// transport's error at open time) and `file` the configuration file, if any.
+  ConfigError(std::string path, std::string detail, error_code code = make_error_code(DevicesError::invalid_config),
+              std::string file = {});
+
+  /// JSON path of the offending value: `devices[1].transport.serial.baud`; empty for the document itself.
+  const std::string& path() const { return path_; }
+  /// What was expected or what failed, without the path.
+  const std::string& detail() const { return detail_; }
+  /// Machine-readable cause.
+  const error_code& code() const { return code_; }
+  /// The configuration file (`load_config`), else empty.
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string path_;
+  std::string detail_;
+  error_code code_;
+  std::string file_;
+};
+
+/// The protocol a device speaks.
+enum class Codec {
+  romi,          ///< Romi text request/response (`romi::RomiClient`).
+  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::ProxyClient`, primary mode).
+  proxy_compat,  ///< The deployed proxy variant (`proxy::ProxyClient`, `ProxyOptions::compat()`).
+  elcano,        ///< Elcano ring (`elcano::RingClient`).
+};
+
+/// The codec's name in configurations: `romi`, `proxy`, `proxy-compat`, `elcano`.
+std::string_view to_string(Codec codec);
+
+/// A serial port (`{"serial": {...}}`).
+struct SerialTransport {
+  /// Device path: `/dev/ttyACM0`, `/dev/serial/by-id/...`.
+  std::string path;
+  /// Baud, boot wait, banner, exclusivity, latency, HUPCL. The parser starts from
+  /// `SerialOptions::arduino_uno()` (2 s boot wait) and the codec's baud (57600 for proxy-compat, else
+  /// 115200).
+  transports::SerialOptions options = transports::SerialOptions::arduino_uno();
+};
+
+/// A TCP-serial bridge such as ser2net (`{"tcp": {...}}`).
+struct TcpTransport {
+  std::string host;                                      ///< Host name or address.
+  std::uint16_t port = 0;                                ///< TCP port (1..65535).
+  std::chrono::milliseconds connect_timeout{5000};       ///< Resolve + connect limit.
+};
+
+/// One simulated Arduino Uno running a firmware image (`{"virtual": {...}}`). The rover owns the board.
+struct VirtualTransport {
+  /// `firmware` (resolved path), `pacing`, `seed`, `to_mcu_faults`, `from_mcu_faults`; the board's `name`
+  /// is the device's.
+  transports::VirtualUnoOptions board;
+};
+
+/// Node settings of an `elcano-node` board given as structure instead of raw EEPROM bytes (the image's
+/// configuration block, firmware/elcano-node/README.md; generation and baud are the ring's: the device's
+/// `ElcanoOptions`).
+struct RingNodeSettings {
+  elcano::TypeSet capture;                ///< Message types the node consumes.
+  std::uint8_t behaviour_bits = 0;        ///< What it does with them (`behaviours`: bit 0 answer_goal_with_segment,
+                                          ///< 1 answer_segment_with_drive, 2 answer_sensor_with_drive,
+                                          ///< 3 drive_servos, 4 report_drive_as_sensor).
+  std::uint16_t next_receiver_buffer = 64;  ///< Pacing of its output: the next node's receive buffer (>= 2).
+  std::uint16_t next_poll_interval = 0;   ///< Pacing: the next node's longest gap between reads (ms).
+  std::uint16_t loop_period = 0;          ///< It reads its RX every N ms (0: continuously).
+  std::uint8_t node_number = 0;           ///< Free label (diagnostics); default: its index in the ring.
+};
+
+/// One board of a virtual ring.
+struct RingBoardConfig {
+  /// Resolved image path (default image: `elcano-node`).
+  std::filesystem::path firmware;
+  /// Initial EEPROM: raw bytes (at most 1024), or node settings the opener encodes.
+  std::variant<std::vector<std::uint8_t>, RingNodeSettings> eeprom;
+};
+
+/// A ring of simulated Unos wired TX to RX in order (`{"virtual_ring": {...}}`, elcano only). The host
+/// writes to the first board and reads from the last, as it would through one USB-serial adapter on a real
+/// ring. The rover owns the boards.
+struct VirtualRingTransport {
+  std::vector<RingBoardConfig> boards;                   ///< In ring order, at least one.
+  transports::Pacing pacing = transports::Pacing::real_time;  ///< The group's pacing.
+  std::uint64_t seed = 0;                                ///< Seed of every board (fault models, power-up RAM).
+};
+
+/// How a device is reached.
+using TransportConfig = std::variant<SerialTransport, TcpTransport, VirtualTransport, VirtualRingTransport>;
+
+/// One line describing a transport: `serial /dev/ttyACM0 115200`, `tcp rover-pi:4001`,
+/// `virtual romi-test.elf (real_time, seed 0)`, `virtual ring of 3 boards (elcano-node.elf)`.
+std::string describe(const TransportConfig& transport);
+
+/// Options of a `romi` device.
+struct RomiOptions {
+  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::ClientOptions`).
+  session::CallTiming timing = romi::default_call_timing();
+};
+
+/// One pin init a proxy device replays after every reset (`ProxyClient` registers it; see client.hpp).
+struct PinInit {
+  /// Which kind of output.
+  enum class Kind {
+    servo,    ///< `ServoInit{pin, safePosition}`; `safe_value` in degrees 0..180.
+    digital,  ///< `DigitalInit{pin, safeState}`; `safe_value` 0 or 1.
+  };
+  Kind kind = Kind::servo;      ///< Servo or digital output.
+  std::uint32_t pin = 0;        ///< Arduino pin number.
+  std::int32_t safe_value = 0;  ///< Safe position (servo) or state (digital).
+};
+
+/// Options of a `proxy` or `proxy-compat` device.
+struct ProxyDeviceOptions {
+  /// Mode (from the codec) and timing (`ProxyTiming`; its `baud` follows a serial transport's baud unless
+  /// the configuration sets it).
+  proxy::ProxyOptions client;
+  /// Inits sent, in order, when the device opens (and replayed by the client after every reset).
+  std::vector<PinInit> inits;
+  /// How long opening waits for the session handshake (primary mode) and the inits.
+  std::chrono::milliseconds open_timeout{15000};
+};
+
+/// Options of an `elcano` device (the host's node in the ring).
+struct ElcanoOptions {
+  elcano::Generation generation = elcano::Generation::b;  ///< Wire generation of the ring.
+  elcano::TypeSet capture;                                ///< Types the host consumes (besides call replies).
+  /// The link to the next node: `receiver_buffer`, `receiver_poll_interval`; `baud` follows a serial
+  /// transport (115200 otherwise).
+  session::LinkPacing pacing;
+  /// Calls (a request answered by a reply type): attempt window, budget, sends.
+  session::CallTiming timing = elcano::default_call_timing();
+};
+
+/// A codec's options; the alternative matches `DeviceConfig::codec` (proxy and proxy-compat share one).
+using CodecOptions = std::variant<RomiOptions, ProxyDeviceOptions, ElcanoOptions>;
+
+/// One device of the rover.
+struct DeviceConfig {
+  std::string name;           ///< Unique within the rover, non-empty.
+  Codec codec = Codec::romi;  ///< Protocol.
+  TransportConfig transport;  ///< How it is reached.
+  CodecOptions options;       ///< The codec's options (defaults when the document gives none).
+};
+
+/// Every device of a rover, in the document's order (the order they open in).
+struct RoverConfig {
+  std::string name;                  ///< Optional rover name (logs).
+  std::vector<DeviceConfig> devices; ///< At least one.
+};
+
+/// Where firmware names and relative paths resolve.
+struct ParseOptions {
+  /// Folder of the firmware images, for bare names (`romi-test` -> `<dir>/romi-test.elf`). Empty: bare
+  /// names are an error.
+  std::filesystem::path firmware_dir;
+  /// Folder relative firmware paths (`images/x.elf`) are relative to. Empty: the current directory.
+  std::filesystem::path base_dir;
+};
+
+/// Parses a JSON document. Throws `ConfigError` (path and expectation; JSON syntax errors with line and
+/// column).
+RoverConfig parse_config(std::string_view json_text, const ParseOptions& options = ParseOptions());
+/// Parses an already-parsed JSON document (e.g. one section of a larger application config). Throws
+/// `ConfigError`.
+RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& options = ParseOptions());
+/// Reads and parses `file`; `base_dir` defaults to the file's folder. Throws `ConfigError` whose `file()`
+/// is the file (an unreadable file has an empty path and the OS's message).
+RoverConfig load_config(const std::filesystem::path& file, ParseOptions options = ParseOptions());
+
+/// Checks what parsing guarantees, for configurations built in code: devices present, names unique and
+/// non-empty, options matching the codec, transport allowed for the codec, timing values usable. Throws
+/// `ConfigError`. `open_rover` calls it.
+void validate(const RoverConfig& config);
+
+/// The virtual rover of docs/examples/rover-virtual.json (embedded at build time): one device per codec
+/// on simulated Unos. Parse it with a `firmware_dir`.
+std::string_view default_virtual_rover_config();
+
+}  // namespace tether::devices
+
+/// Lets `DevicesError` values convert to `error_code`.
+template <>
+struct boost::system::is_error_code_enum<tether::devices::DevicesError> : std::true_type {};

@@ -1,0 +1,199 @@
+/// @file rover.hpp
+/// Opens every device of a `RoverConfig` (config.hpp) in one call and hands out typed clients by name.
+///
+/// @code
+///   transports::IoThread io;                                           // or any thread running an io_context
+///   devices::Rover rover = devices::open_rover(config, io.executor());  // throws devices::ConfigError
+///   rover.romi("arm")->call("L[1]");
+///   rover.proxy("servos")->servo(9).set(120);
+///   for (const devices::RoverDevice& device : rover.devices()) log(device.name, device.transport);
+///   rover.close();                                                     // or let it go out of scope
+/// @endcode
+///
+/// ## Opening
+/// Devices open one after the other, in the configuration's order:
+///   1. the transport: the serial port (with its boot wait), the TCP connection, or the virtual board
+///      (created, started, owned by the rover: it stops when the device closes);
+///   2. the codec's client: `romi::RomiClient`, `proxy::ProxyClient` (primary or compat mode), or
+///      `elcano::RingClient` (see "Elcano" below);
+///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
+///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
+///      the session handshake is done, within `ProxyDeviceOptions::open_timeout`. A device that does not
+///      answer fails the open (`DevicesError::device_not_ready`).
+/// Nothing is half-opened: when a device fails, the devices opened before it are closed (in reverse
+/// order) before the error is reported. Errors are `ConfigError`s naming the JSON path of the culprit and
+/// carrying the transport's or client's error_code:
+///   `devices[1].transport.serial.path: /dev/ttyUSB9: No such file or directory`,
+///   `devices[2].transport.tcp: rover-pi:4001: Connection refused`,
+///   `devices[0].transport.virtual.firmware: /opt/fw/romi-test.elf: No such file or directory`,
+///   `devices[1].options.inits[0]: servo 9: <the client's error>`.
+/// `open_rover` blocks; like every blocking call of the transports and clients it needs another thread
+/// running the executor. `async_open_rover` does not: a program whose only thread runs its `io_context`
+/// (a service's event loop) opens its rover with it.
+///
+/// ## Elcano
+/// An elcano device is the host's node in a ring (`elcano::RingClient`): over a serial port or TCP the
+/// stream's TX goes to the first board and its RX comes from the last; a `virtual_ring` creates the boards
+/// (`elcano-node` images, each EEPROM written from the configuration before the first boot), wires them in
+/// a lockstep group (first -> ... -> last -> host), starts it and waits until every board's UART receiver
+/// is enabled. The rover owns the group; the ring stops when the device closes.
+///
+/// ## Handles and lifetime
+/// The typed getters return shared pointers to the clients; they stay valid after the rover is gone, but
+/// `close()` (and the rover's destruction) closes every client: later calls on a kept handle complete with
+/// `operation_aborted`. A `Rover` is movable; one thread at a time may call `close()` or move it, while
+/// the clients themselves are thread-safe.
+#pragma once
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/associated_executor.hpp>
+#include <boost/asio/async_result.hpp>
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/execution/outstanding_work.hpp>
+#include <boost/asio/prefer.hpp>
+
+#include <exception>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "tether/devices/config.hpp"
+#include "tether/elcano/client.hpp"
+#include "tether/proxy/client.hpp"
+#include "tether/romi/client.hpp"
+#include "tether/transports/byte_stream.hpp"
+#include "tether/transports/unique_function.hpp"
+#include "tether/transports/virtual_uno.hpp"
+
+namespace tether::devices {
+
+/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one).
+using DeviceClient = std::variant<std::shared_ptr<romi::RomiClient>, std::shared_ptr<proxy::ProxyClient>,
+                                  std::shared_ptr<elcano::RingClient>>;
+
+/// One opened device.
+struct RoverDevice {
+  std::string name;           ///< Its name in the configuration.
+  Codec codec = Codec::romi;  ///< Its codec.
+  std::string transport;      ///< `describe(transport)`: `serial /dev/ttyACM0 115200`, `virtual proxy.elf (...)`.
+  DeviceClient client;        ///< The client (`romi::RomiClient`, `proxy::ProxyClient`, `elcano::RingClient`).
+  /// The simulated boards behind a virtual device (one, or a ring's in ring order); empty for hardware.
+  /// For fault injection, resets and pin checks (`tether demo`); each keeps its board alive.
+  std::vector<std::shared_ptr<transports::VirtualUno>> boards;
+};
+
+/// Hooks of `open_rover`.
+struct OpenOptions {
+  /// Called after each device opened (its inits done), on the opening thread, before the next one opens
+  /// (logging, progress). An exception it throws fails the open: the devices opened so far are closed.
+  std::function<void(const RoverDevice& device)> on_opened;
+  /// Called with each device's transport stream before its client is created; returns the stream the
+  /// client uses (e.g. a `transports::FaultInjectingStream` around it, for noise and byte counts). The
+  /// returned stream owns the one it was given. Unset: the stream is used as it is.
+  std::function<std::shared_ptr<transports::ByteStream>(const DeviceConfig& device,
+                                                        std::shared_ptr<transports::ByteStream> stream)>
+      wrap_stream;
+};
+
+namespace detail {
+class RoverOpener;  // builds a Rover device by device (rover.cpp)
+}  // namespace detail
+
+/// The opened devices of a rover. Movable, not copyable. See the file overview.
+class Rover {
+ public:
+  /// A rover without devices (what a failed `open_rover(..., error)` returns).
+  Rover();
+  /// Closes every device (`close()`).
+  ~Rover();
+  /// Takes `other`'s devices; `other` is left empty.
+  Rover(Rover&& other) noexcept;
+  /// Closes this rover's devices and takes `other`'s.
+  Rover& operator=(Rover&& other) noexcept;
+  Rover(const Rover&) = delete;
+  Rover& operator=(const Rover&) = delete;
+
+  /// The client of the romi device `name`. Throws `std::out_of_range` when there is no such device or it
+  /// speaks another codec (the message says which, and lists the devices).
+  std::shared_ptr<romi::RomiClient> romi(std::string_view name) const;
+  /// The client of the proxy or proxy-compat device `name`. Throws `std::out_of_range` like `romi()`.
+  std::shared_ptr<proxy::ProxyClient> proxy(std::string_view name) const;
+  /// The ring client of the elcano device `name`. Throws `std::out_of_range` like `romi()`.
+  std::shared_ptr<elcano::RingClient> elcano(std::string_view name) const;
+  /// The device `name`, or null.
+  const RoverDevice* find(std::string_view name) const;
+  /// Every device, in the configuration's order.
+  const std::vector<RoverDevice>& devices() const;
+
+  /// Closes every client (in reverse order) and stops the virtual boards and rings. Idempotent; the rover
+  /// is empty afterwards. Never waits for a device (see the clients' `close()`).
+  void close();
+  /// True while the rover holds devices.
+  bool is_open() const;
+
+ private:
+  friend class detail::RoverOpener;
+  const RoverDevice& lookup(std::string_view name, std::string_view wanted, bool (*accepts)(Codec)) const;
+
+  std::vector<RoverDevice> devices_;
+  std::vector<std::function<void()>> stops_;  // stop what the clients do not (virtual rings), after they closed
+};
+
+/// Opens every device of `config` (validated first). Throws `ConfigError`: its `path()` names the device's
+/// configuration, its `code()` is the cause (the transport's error, `DevicesError::device_not_ready`, ...).
+/// Blocks; another thread must run `executor`.
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor,
+                 const OpenOptions& options = OpenOptions());
+/// Non-throwing `open_rover`: on failure returns an empty rover, sets `error` (the `ConfigError`'s code)
+/// and, when given, `*message` (its `what()`).
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, error_code& error,
+                 std::string* message = nullptr);
+/// Non-throwing `open_rover` with hooks.
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, const OpenOptions& options,
+                 error_code& error, std::string* message = nullptr);
+
+/// Completion signature of `async_open_rover`: the `ConfigError` (or any other exception) as an
+/// exception_ptr, or the rover. With `use_future` the future's `get()` rethrows it.
+using OpenSignature = void(std::exception_ptr, Rover);
+
+namespace detail {
+/// Type-erased completion handler of `async_open_rover`.
+using OpenHandler = transports::UniqueFunction<OpenSignature>;
+/// Runs `open_rover` on a thread of its own and hands the outcome to `handler` (rover.cpp).
+void start_open(RoverConfig config, boost::asio::any_io_executor executor, OpenOptions options, OpenHandler handler);
+}  // namespace detail
+
+/// Opens `config` without blocking the caller: the blocking `open_rover` runs on a short-lived thread of its
+/// own (the executor's threads stay free to run the transports), then the handler runs on its associated
+/// executor (default: `executor`) with `(exception_ptr, Rover)`. Any completion token: a callback,
+/// `asio::use_future` (`get()` rethrows the ConfigError), `asio::use_awaitable`. `options.on_opened` runs on
+/// the opening thread. The io_context must keep running until the handler has run.
+template <typename OpenToken>
+auto async_open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, const OpenOptions& options,
+                      OpenToken&& token) {
+  return boost::asio::async_initiate<OpenToken, OpenSignature>(
+      [](auto handler, RoverConfig settings, boost::asio::any_io_executor target, OpenOptions hooks) {
+        auto tracked = boost::asio::prefer(boost::asio::get_associated_executor(handler, target),
+                                           boost::asio::execution::outstanding_work.tracked);
+        detail::start_open(std::move(settings), std::move(target), std::move(hooks),
+                           [handler = std::move(handler), tracked = std::move(tracked)](std::exception_ptr failure,
+                                                                                         Rover rover) mutable {
+                             boost::asio::dispatch(tracked, [handler = std::move(handler), failure,
+                                                             rover = std::move(rover)]() mutable {
+                               handler(failure, std::move(rover));
+                             });
+                           });
+      },
+      token, config, std::move(executor), options);
+}
+
+/// `async_open_rover` without hooks.
+template <typename OpenToken>
+auto async_open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, OpenToken&& token) {
+  return async_open_rover(config, std::move(executor), OpenOptions(), std::forward<OpenToken>(token));
+}
+
+}  // namespace tether::devices

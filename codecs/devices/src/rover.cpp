@@ -1,0 +1,481 @@
+// Opening a rover: transports, clients, proxy inits; rollback on failure; typed lookups.
+#include "tether/devices/rover.hpp"
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <stdexcept>
+#include <utility>
+
+#include "tether/elcano/node/config.hpp"
+#include "tether/transports/fault_model.hpp"
+#include "tether/transports/serial_port_stream.hpp"
+#include "tether/transports/tcp_stream.hpp"
+#include "tether/transports/transport_error.hpp"
+#include "tether/transports/virtual_uno.hpp"
+#include "tether/transports/virtual_uno_stream.hpp"
+
+namespace tether::devices {
+
+namespace detail {
+
+namespace {
+
+std::string device_path(std::size_t index) { return "devices[" + std::to_string(index) + "]"; }
+
+[[noreturn]] void fail(std::string path, std::string detail, error_code code) {
+  throw ConfigError(std::move(path), std::move(detail), code);
+}
+
+// An elcano-node EEPROM block.
+struct NodeBlock {
+  std::uint8_t bytes[elcano::node::kConfigBlockSize];
+};
+
+// --- transports ---------------------------------------------------------------------------------------------
+
+std::shared_ptr<transports::ByteStream> open_serial(const SerialTransport& serial, const std::string& path,
+                                                    const boost::asio::any_io_executor& executor) {
+  error_code error;
+  auto stream = transports::SerialPortStream::open(executor, serial.path, serial.options, error);
+  if (!error) return stream;
+  if (error == transports::TransportError::boot_timeout) {
+    fail(path + ".ready_banner",
+         serial.path + ": no " + nlohmann::json(serial.options.ready_banner).dump() + " banner within " +
+             std::to_string(serial.options.boot_timeout.count()) + " ms",
+         error);
+  }
+  if (error == transports::TransportError::invalid_option) fail(path + ".baud", serial.path + ": " + error.message(), error);
+  fail(path + ".path", serial.path + ": " + error.message(), error);
+}
+
+std::shared_ptr<transports::ByteStream> open_tcp(const TcpTransport& tcp, const std::string& path,
+                                                 const boost::asio::any_io_executor& executor) {
+  error_code error;
+  auto stream = transports::TcpStream::connect(executor, tcp.host, tcp.port, tcp.connect_timeout, error);
+  if (!error) return stream;
+  fail(path, tcp.host + ":" + std::to_string(tcp.port) + ": " + error.message(), error);
+}
+
+std::shared_ptr<transports::VirtualUnoStream> open_virtual(const VirtualTransport& virt, const std::string& path,
+                                                          const boost::asio::any_io_executor& executor) {
+  error_code error;
+  auto stream = transports::VirtualUnoStream::open(executor, virt.board, error);
+  if (!error) return stream;
+  if (error == transports::TransportError::boot_timeout) {
+    fail(path, virt.board.firmware.string() + ": the firmware did not enable its UART receiver within " +
+                   std::to_string(transports::VirtualUnoStream::kBootLimit.count()) + " ms",
+         error);
+  }
+  // Everything else concerns the image: missing, unreadable, not an AVR ELF, too large.
+  fail(path + ".firmware", virt.board.firmware.string() + ": " + error.message(), error);
+}
+
+// --- virtual rings ------------------------------------------------------------------------------------------
+
+// The boards of a virtual ring and their lockstep group. The ring's stream holds aliasing pointers to it, so
+// the boards outlive the stream (its destructor touches the last board); the rover stops the group when the
+// device closes.
+struct VirtualRing {
+  std::vector<std::unique_ptr<transports::VirtualUno>> boards;
+  std::unique_ptr<transports::VirtualUnoGroup> group;
+  VirtualRing() = default;
+  VirtualRing(const VirtualRing&) = delete;
+  VirtualRing& operator=(const VirtualRing&) = delete;
+  ~VirtualRing() {
+    if (group) group->stop();
+    group.reset();  // as the interop ring harness: the group goes first, then its (stopped) members
+  }
+};
+
+// The configuration block of an elcano-node board (firmware/elcano-node/README.md).
+NodeBlock encode_node(const RingNodeSettings& settings, const ElcanoOptions& options,
+                                const std::string& path) {
+  elcano::node::NodeConfig config;
+  config.generation = options.generation;
+  config.baud = options.pacing.baud;
+  config.capture_bits = settings.capture.bits();
+  config.behaviour_bits = settings.behaviour_bits;
+  config.next_receiver_buffer = settings.next_receiver_buffer;
+  config.next_poll_interval = settings.next_poll_interval;
+  config.loop_period = settings.loop_period;
+  config.node_number = settings.node_number;
+  if (!elcano::node::config_is_valid(config)) {
+    fail(path, "not a valid elcano-node configuration (baud " + std::to_string(config.baud) + " outside " +
+                   std::to_string(elcano::node::kMinBaud) + ".." + std::to_string(elcano::node::kMaxBaud) +
+                   ", unknown behaviour bits, or a next receiver buffer under 2)",
+         make_error_code(DevicesError::invalid_config));
+  }
+  NodeBlock block{};
+  elcano::node::encode_config(config, block.bytes);
+  return block;
+}
+
+std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const ElcanoOptions& options,
+                                                          const std::string& device_name, const std::string& path,
+                                                          const boost::asio::any_io_executor& executor,
+                                                          std::function<void()>& stop,
+                                                          std::vector<std::shared_ptr<transports::VirtualUno>>& boards) {
+  auto owned = std::make_shared<VirtualRing>();
+  owned->group = std::make_unique<transports::VirtualUnoGroup>(ring.pacing);
+  for (std::size_t i = 0; i < ring.boards.size(); ++i) {
+    const RingBoardConfig& board = ring.boards[i];
+    const std::string board_path = path + ".boards[" + std::to_string(i) + "]";
+    transports::VirtualUnoOptions board_options;
+    board_options.firmware = board.firmware;
+    board_options.pacing = ring.pacing;
+    board_options.seed = transports::FaultRandom::mix(ring.seed, i);
+    board_options.name = device_name + "[" + std::to_string(i) + "]";
+    std::error_code created;
+    auto uno = transports::VirtualUno::create(board_options, created);
+    if (!uno) {
+      fail(board_path + ".firmware", board.firmware.string() + ": " + created.message(),
+           transports::to_boost_error(created));
+    }
+    if (const auto* bytes = std::get_if<std::vector<std::uint8_t>>(&board.eeprom)) {
+      if (bytes->size() > transports::atmega328p::kEepromSize) {
+        fail(board_path + ".eeprom", "expected at most " + std::to_string(transports::atmega328p::kEepromSize) +
+                                         " bytes, got " + std::to_string(bytes->size()),
+             make_error_code(DevicesError::invalid_config));
+      }
+      if (!bytes->empty()) uno->write_eeprom(0, *bytes);
+    } else {
+      const NodeBlock block =
+          encode_node(std::get<RingNodeSettings>(board.eeprom), options, board_path + ".eeprom");
+      uno->write_eeprom(elcano::node::kConfigAddress, block.bytes);
+    }
+    owned->group->add(*uno);
+    owned->boards.push_back(std::move(uno));
+  }
+  for (std::size_t i = 0; i + 1 < owned->boards.size(); ++i) {
+    owned->group->connect(*owned->boards[i], *owned->boards[i + 1]);
+  }
+  // Host TX -> first board, last board -> host RX (VirtualUnoStream::attach_ring, but owning the ring).
+  std::shared_ptr<transports::VirtualUno> first(owned, owned->boards.front().get());
+  std::shared_ptr<transports::VirtualUno> last(owned, owned->boards.back().get());
+  auto stream = std::make_shared<transports::VirtualUnoStream>(executor, std::move(first), std::move(last), false);
+  owned->group->start();
+  // Ready when every firmware has enabled its receiver (bytes sent before are lost, as on real boards).
+  const auto deadline = std::chrono::steady_clock::now() + transports::VirtualUnoStream::kBootLimit;
+  for (std::size_t i = 0; i < owned->boards.size(); ++i) {
+    while (!owned->boards[i]->uart().rx_enabled) {
+      if (std::chrono::steady_clock::now() >= deadline) {
+        stream->close();
+        fail(path + ".boards[" + std::to_string(i) + "]",
+             ring.boards[i].firmware.string() + ": the firmware did not enable its UART receiver within " +
+                 std::to_string(transports::VirtualUnoStream::kBootLimit.count()) + " ms",
+             make_error_code(transports::TransportError::boot_timeout));
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  for (const auto& board : owned->boards) boards.emplace_back(owned, board.get());  // share the ring's ownership
+  stop = [ring_ref = std::weak_ptr<VirtualRing>(owned)] {
+    if (auto held = ring_ref.lock()) held->group->stop();
+  };
+  return stream;
+}
+
+// --- proxy: inits and handshake ------------------------------------------------------------------------------
+
+// What opening a proxy device waits for, filled in from the client's completions and events.
+struct ProxyReadiness {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::size_t inits_pending = 0;
+  bool established = false;
+  std::optional<std::size_t> failed_init;
+  error_code init_error;
+  error_code link_error;
+};
+
+std::string init_text(const PinInit& init) {
+  return std::string(init.kind == PinInit::Kind::servo ? "servo " : "digital ") + std::to_string(init.pin);
+}
+
+void await_proxy(proxy::ProxyClient& client, const ProxyDeviceOptions& options, const std::string& path) {
+  auto state = std::make_shared<ProxyReadiness>();
+  const bool primary = options.client.mode == proxy::Mode::primary;
+  const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::ProxyEvent& event) {
+    std::lock_guard lock(state->mutex);
+    if (std::holds_alternative<proxy::events::SessionEstablished>(event)) state->established = true;
+    if (const auto* failed = std::get_if<proxy::events::LinkFailed>(&event)) state->link_error = failed->error;
+    state->changed.notify_all();
+  });
+  {
+    std::lock_guard lock(state->mutex);
+    state->inits_pending = options.inits.size();
+    if (client.session().established) state->established = true;
+  }
+  for (std::size_t i = 0; i < options.inits.size(); ++i) {
+    const PinInit& init = options.inits[i];
+    auto done = [state, i](error_code error, proxy::SendResult) {
+      std::lock_guard lock(state->mutex);
+      --state->inits_pending;
+      if (error && !state->failed_init) {
+        state->failed_init = i;
+        state->init_error = error;
+      }
+      state->changed.notify_all();
+    };
+    if (init.kind == PinInit::Kind::servo) {
+      client.servo(init.pin).async_init(init.safe_value, std::move(done));
+    } else {
+      client.digital(init.pin).async_init(init.safe_value != 0, std::move(done));
+    }
+  }
+  std::unique_lock lock(state->mutex);
+  const bool finished = state->changed.wait_for(lock, options.open_timeout, [&] {
+    return state->failed_init.has_value() || state->link_error.failed() ||
+           (state->inits_pending == 0 && (state->established || !primary));
+  });
+  const auto failed_init = state->failed_init;
+  const error_code init_error = state->init_error;
+  const error_code link_error = state->link_error;
+  const bool established = state->established;
+  lock.unlock();
+  client.remove_event_handler(handler);
+
+  if (link_error) fail(path + ".transport", "the link failed: " + link_error.message(), link_error);
+  if (failed_init) {
+    fail(path + ".options.inits[" + std::to_string(*failed_init) + "]",
+         init_text(options.inits[*failed_init]) + ": " + init_error.message(), init_error);
+  }
+  if (!finished) {
+    const auto limit = std::to_string(options.open_timeout.count());
+    if (primary && !established) {
+      fail(path, "no proxy session within " + limit + " ms (no ResetEvent answered our Reset: is the device " +
+                     "running proxy firmware, at the right baud rate?)",
+           make_error_code(DevicesError::device_not_ready));
+    }
+    fail(path + ".options.inits", "the inits did not complete within " + limit + " ms",
+         make_error_code(DevicesError::device_not_ready));
+  }
+}
+
+}  // namespace
+
+/// Opens devices into a Rover; closes what it opened when one fails.
+class RoverOpener {
+ public:
+  static Rover open(const RoverConfig& config, const boost::asio::any_io_executor& executor,
+                    const OpenOptions& options) {
+    validate(config);
+    Rover rover;
+    try {
+      for (std::size_t i = 0; i < config.devices.size(); ++i) {
+        open_device(rover, config.devices[i], i, executor, options);
+        if (options.on_opened) options.on_opened(rover.devices_.back());
+      }
+    } catch (...) {
+      rover.close();
+      throw;
+    }
+    return rover;
+  }
+
+ private:
+  static void open_device(Rover& rover, const DeviceConfig& device, std::size_t index,
+                          const boost::asio::any_io_executor& executor, const OpenOptions& hooks) {
+    const std::string path = device_path(index);
+    const std::string transport_path = path + ".transport";
+    std::shared_ptr<transports::ByteStream> stream;
+    std::function<void()> stop;  // for what the client's close does not stop (a virtual ring)
+    std::vector<std::shared_ptr<transports::VirtualUno>> boards;
+    try {
+      if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
+        stream = open_serial(*serial, transport_path + ".serial", executor);
+      } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
+        stream = open_tcp(*tcp, transport_path + ".tcp", executor);
+      } else if (const auto* virt = std::get_if<VirtualTransport>(&device.transport)) {
+        auto board_stream = open_virtual(*virt, transport_path + ".virtual", executor);
+        boards.emplace_back(board_stream, &board_stream->board());  // shares the stream's ownership
+        stream = std::move(board_stream);
+      } else {
+        stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
+                                   std::get<ElcanoOptions>(device.options), device.name,
+                                   transport_path + ".virtual_ring", executor, stop, boards);
+      }
+      if (hooks.wrap_stream) stream = hooks.wrap_stream(device, stream);
+    } catch (const ConfigError&) {
+      throw;
+    } catch (const std::exception& error) {
+      fail(transport_path, error.what(), make_error_code(DevicesError::invalid_config));
+    }
+
+    RoverDevice opened;
+    opened.name = device.name;
+    opened.codec = device.codec;
+    opened.transport = describe(device.transport);
+    opened.boards = std::move(boards);
+    try {
+      switch (device.codec) {
+        case Codec::romi: {
+          romi::ClientOptions client_options;
+          client_options.timing = std::get<RomiOptions>(device.options).timing;
+          opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
+          rover.devices_.push_back(std::move(opened));
+          if (stop) rover.stops_.push_back(std::move(stop));
+          return;
+        }
+        case Codec::elcano: {
+          const auto& options = std::get<ElcanoOptions>(device.options);
+          elcano::RingClientOptions client_options;
+          client_options.node.generation = options.generation;
+          client_options.node.capture = options.capture;
+          client_options.node.pacing = options.pacing;
+          client_options.timing = options.timing;
+          opened.client = std::make_shared<elcano::RingClient>(stream, client_options);
+          rover.devices_.push_back(std::move(opened));
+          if (stop) rover.stops_.push_back(std::move(stop));
+          return;
+        }
+        case Codec::proxy:
+        case Codec::proxy_compat: {
+          const auto& options = std::get<ProxyDeviceOptions>(device.options);
+          auto client = std::make_shared<proxy::ProxyClient>(stream, options.client);
+          opened.client = client;
+          // Registered before waiting: a failure below closes it with the others.
+          rover.devices_.push_back(std::move(opened));
+          if (stop) rover.stops_.push_back(std::move(stop));
+          await_proxy(*client, options, path);
+          return;
+        }
+      }
+    } catch (const ConfigError&) {
+      stream->close();
+      if (stop) stop();
+      throw;
+    } catch (const std::exception& error) {
+      stream->close();
+      if (stop) stop();
+      fail(path + ".options", error.what(), make_error_code(DevicesError::invalid_config));
+    }
+  }
+};
+
+}  // namespace detail
+
+// --- Rover ------------------------------------------------------------------------------------------------
+
+Rover::Rover() = default;
+
+Rover::~Rover() { close(); }
+
+Rover::Rover(Rover&& other) noexcept : devices_(std::move(other.devices_)), stops_(std::move(other.stops_)) {
+  other.devices_.clear();
+  other.stops_.clear();
+}
+
+Rover& Rover::operator=(Rover&& other) noexcept {
+  if (this != &other) {
+    close();
+    devices_ = std::move(other.devices_);
+    stops_ = std::move(other.stops_);
+    other.devices_.clear();
+    other.stops_.clear();
+  }
+  return *this;
+}
+
+void Rover::close() {
+  for (auto device = devices_.rbegin(); device != devices_.rend(); ++device) {
+    std::visit([](const auto& client) {
+      if (client) client->close();
+    }, device->client);
+  }
+  for (auto stop = stops_.rbegin(); stop != stops_.rend(); ++stop) (*stop)();
+  devices_.clear();
+  stops_.clear();
+}
+
+bool Rover::is_open() const { return !devices_.empty(); }
+
+const std::vector<RoverDevice>& Rover::devices() const { return devices_; }
+
+const RoverDevice* Rover::find(std::string_view name) const {
+  for (const auto& device : devices_) {
+    if (device.name == name) return &device;
+  }
+  return nullptr;
+}
+
+const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted, bool (*accepts)(Codec)) const {
+  const RoverDevice* device = find(name);
+  const std::string quoted_name = nlohmann::json(std::string(name)).dump();
+  if (device == nullptr) {
+    if (devices_.empty()) throw std::out_of_range("rover: no device " + quoted_name + " (the rover has no devices)");
+    std::string names;
+    for (const auto& each : devices_) names += (names.empty() ? "" : ", ") + each.name;
+    throw std::out_of_range("rover: no device " + quoted_name + " (devices: " + names + ")");
+  }
+  if (!accepts(device->codec)) {
+    throw std::out_of_range("rover: device " + quoted_name + " speaks " + std::string(to_string(device->codec)) +
+                            ", not " + std::string(wanted));
+  }
+  return *device;
+}
+
+std::shared_ptr<romi::RomiClient> Rover::romi(std::string_view name) const {
+  const RoverDevice& device = lookup(name, "romi", [](Codec codec) { return codec == Codec::romi; });
+  return std::get<std::shared_ptr<romi::RomiClient>>(device.client);
+}
+
+std::shared_ptr<proxy::ProxyClient> Rover::proxy(std::string_view name) const {
+  const RoverDevice& device = lookup(name, "proxy or proxy-compat", [](Codec codec) {
+    return codec == Codec::proxy || codec == Codec::proxy_compat;
+  });
+  return std::get<std::shared_ptr<proxy::ProxyClient>>(device.client);
+}
+
+std::shared_ptr<elcano::RingClient> Rover::elcano(std::string_view name) const {
+  const RoverDevice& device = lookup(name, "elcano", [](Codec codec) { return codec == Codec::elcano; });
+  return std::get<std::shared_ptr<elcano::RingClient>>(device.client);
+}
+
+// --- open_rover -------------------------------------------------------------------------------------------
+
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, const OpenOptions& options) {
+  return detail::RoverOpener::open(config, executor, options);
+}
+
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, const OpenOptions& options,
+                 error_code& error, std::string* message) {
+  error.clear();
+  if (message != nullptr) message->clear();
+  try {
+    return detail::RoverOpener::open(config, executor, options);
+  } catch (const ConfigError& failure) {
+    error = failure.code();
+    if (message != nullptr) *message = failure.what();
+  }
+  return Rover();
+}
+
+namespace detail {
+
+void start_open(RoverConfig config, boost::asio::any_io_executor executor, OpenOptions options, OpenHandler handler) {
+  std::thread([config = std::move(config), executor = std::move(executor), options = std::move(options),
+               handler = std::move(handler)]() mutable {
+    std::exception_ptr failure;
+    Rover rover;
+    try {
+      rover = RoverOpener::open(config, executor, options);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    handler(failure, std::move(rover));
+  }).detach();
+}
+
+}  // namespace detail
+
+Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, error_code& error,
+                 std::string* message) {
+  return open_rover(config, std::move(executor), OpenOptions(), error, message);
+}
+
+}  // namespace tether::devices
