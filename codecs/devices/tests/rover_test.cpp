@@ -232,11 +232,11 @@ TEST(DevicesRover, TheDefaultVirtualRoverOpensEveryCodecIncludingTheElcanoRing) 
   IoThread io;
   const RoverConfig config = parse_config(default_virtual_rover_config(), firmware());
   Rover rover = open_rover(config, io.executor());
-  ASSERT_EQ(rover.devices().size(), 4u);
+  ASSERT_EQ(rover.devices().size(), 5u);
   EXPECT_EQ(rover.devices()[3].codec, Codec::elcano);
   EXPECT_EQ(rover.devices()[3].transport, "virtual ring of 3 boards (elcano-node.elf; real_time)");
 
-  EXPECT_EQ(rover.romi("arm")->call("e").code, 0);
+  EXPECT_EQ(rover.romi("arm")->call("S[1200,1800]").code, 0);  // the romi-rover image
   EXPECT_TRUE(rover.proxy("servos")->servo(10).set(45).acked);
   boost::system::error_code error;
   rover.proxy("legacy")->digital(7).set(true, error);

@@ -1,0 +1,141 @@
+// Rendering of a demo report: the side-by-side table and JSON; see rover_demo.hpp.
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+#include "tether/demo/rover_demo.hpp"
+
+namespace tether::demo {
+
+namespace {
+
+std::string fixed(double value, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+
+std::string per_operation(std::uint64_t bytes, std::uint32_t operations) {
+  return operations == 0 ? "-" : fixed(static_cast<double>(bytes) / operations, 1);
+}
+
+std::string optional_count(const std::optional<std::uint32_t>& value) {
+  return value ? std::to_string(*value) : "n/a";
+}
+
+}  // namespace
+
+std::string format_table(const DemoReport& report) {
+  std::vector<std::string> labels = {"",
+                                     "operations",
+                                     "successes",
+                                     "failures",
+                                     "wrong answers",
+                                     "wire bytes / op (to+from)",
+                                     "latency p50 (ms)",
+                                     "latency p99 (ms)",
+                                     "latency max (ms)",
+                                     "retries",
+                                     "stale replies",
+                                     "CRC / framing drops",
+                                     "bits flipped by noise",
+                                     "resets injected",
+                                     "resets detected",
+                                     "recovered after (ms)",
+                                     "servo pins (D9, D10)"};
+  std::vector<std::vector<std::string>> columns;
+  for (const DeviceReport& d : report.devices) {
+    std::vector<std::string> column;
+    column.push_back(d.device + " (" + d.codec + ")");
+    column.push_back(std::to_string(d.operations));
+    column.push_back(std::to_string(d.successes));
+    column.push_back(std::to_string(d.failures));
+    column.push_back(std::to_string(d.wrong));
+    column.push_back(per_operation(d.bytes_to_device + d.bytes_from_device, d.operations) + " (" +
+                     per_operation(d.bytes_to_device, d.operations) + "+" +
+                     per_operation(d.bytes_from_device, d.operations) + ")");
+    column.push_back(fixed(d.latency_p50_ms, 1));
+    column.push_back(fixed(d.latency_p99_ms, 1));
+    column.push_back(fixed(d.latency_max_ms, 1));
+    column.push_back(std::to_string(d.retries));
+    column.push_back(std::to_string(d.stale));
+    column.push_back(std::to_string(d.crc_errors) + " / " + std::to_string(d.framing_errors));
+    column.push_back(std::to_string(d.bits_flipped));
+    column.push_back(std::to_string(d.resets_injected));
+    column.push_back(optional_count(d.resets_detected));
+    column.push_back(d.recovery_ms            ? fixed(*d.recovery_ms, 0)
+                     : !d.confirmed           ? "n/a (no acks)"
+                     : d.resets_injected != 0 ? "never"
+                                              : "-");
+    column.push_back(d.pins_match ? (*d.pins_match ? "match" : "MISMATCH") : "n/a");
+    columns.push_back(std::move(column));
+  }
+  std::size_t label_width = 0;
+  for (const std::string& label : labels) label_width = std::max(label_width, label.size());
+  std::vector<std::size_t> widths;
+  for (const auto& column : columns) {
+    std::size_t width = 0;
+    for (const std::string& cell : column) width = std::max(width, cell.size());
+    widths.push_back(width);
+  }
+
+  std::ostringstream out;
+  out << "tether demo: " << report.rover << ", " << report.iterations << " operations per device, bit error rate "
+      << report.bit_error_rate << (report.reset_halfway ? ", one power cycle per virtual device halfway" : "")
+      << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
+  for (std::size_t row = 0; row < labels.size(); ++row) {
+    out << labels[row] << std::string(label_width - labels[row].size(), ' ');
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const std::string& cell = columns[c][row];
+      out << "  " << std::string(widths[c] - cell.size(), ' ') << cell;
+    }
+    out << '\n';
+  }
+  out << '\n';
+  for (const DeviceReport& d : report.devices) {
+    out << d.device << ": " << d.operation << "; " << d.transport << '\n';
+    if (!d.pins_detail.empty()) out << "  pins measured/expected: " << d.pins_detail << '\n';
+    if (!d.first_error.empty()) out << "  first error: " << d.first_error << '\n';
+  }
+  return out.str();
+}
+
+nlohmann::json to_json(const DemoReport& report) {
+  nlohmann::json devices = nlohmann::json::array();
+  for (const DeviceReport& d : report.devices) {
+    nlohmann::json device = {
+        {"device", d.device},
+        {"codec", d.codec},
+        {"transport", d.transport},
+        {"operation", d.operation},
+        {"confirmed", d.confirmed},
+        {"operations", d.operations},
+        {"successes", d.successes},
+        {"failures", d.failures},
+        {"wrong", d.wrong},
+        {"bytes_to_device", d.bytes_to_device},
+        {"bytes_from_device", d.bytes_from_device},
+        {"bits_flipped", d.bits_flipped},
+        {"latency_ms", {{"p50", d.latency_p50_ms}, {"p99", d.latency_p99_ms}, {"max", d.latency_max_ms}}},
+        {"retries", d.retries},
+        {"stale", d.stale},
+        {"crc_errors", d.crc_errors},
+        {"framing_errors", d.framing_errors},
+        {"resets_injected", d.resets_injected},
+        {"resets_detected", d.resets_detected ? nlohmann::json(*d.resets_detected) : nlohmann::json(nullptr)},
+        {"recovery_ms", d.recovery_ms ? nlohmann::json(*d.recovery_ms) : nlohmann::json(nullptr)},
+        {"pins_match", d.pins_match ? nlohmann::json(*d.pins_match) : nlohmann::json(nullptr)},
+        {"pins_detail", d.pins_detail},
+        {"first_error", d.first_error},
+    };
+    devices.push_back(std::move(device));
+  }
+  return {{"rover", report.rover},
+          {"iterations", report.iterations},
+          {"bit_error_rate", report.bit_error_rate},
+          {"reset_halfway", report.reset_halfway},
+          {"wall_seconds", report.wall_seconds},
+          {"devices", std::move(devices)}};
+}
+
+}  // namespace tether::demo

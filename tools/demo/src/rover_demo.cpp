@@ -1,0 +1,348 @@
+// `tether demo`: runs the servo workload on every device of a rover at once; see rover_demo.hpp.
+#include "tether/demo/rover_demo.hpp"
+
+#include <boost/asio/use_future.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <variant>
+
+#include "tether/devices/rover.hpp"
+#include "tether/elcano/node/behaviour.hpp"
+#include "tether/proxy/device/pins.hpp"
+#include "tether/transports/fault_injecting_stream.hpp"
+#include "tether/transports/io_thread.hpp"
+
+namespace tether::demo {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using error_code = boost::system::error_code;
+
+/// Servo pulses an operation should leave on D9/D10 (0: that output is not driven by the workload).
+struct Pulses {
+  std::uint16_t d9 = 0;
+  std::uint16_t d10 = 0;
+};
+
+/// How one operation ended.
+struct Outcome {
+  bool ok = false;       ///< Confirmed with the values sent.
+  bool wrong = false;    ///< Confirmed, but with other values.
+  std::string error;     ///< Why not ok.
+  Pulses expected;       ///< Pulses after it (meaningful when ok).
+};
+
+/// One codec's way of doing the operation.
+class Workload {
+ public:
+  virtual ~Workload() = default;
+  /// What one operation is on the wire.
+  virtual std::string operation() const = 0;
+  /// Runs operation `i` (blocking).
+  virtual Outcome run(unsigned i) = 0;
+  /// The client's link counters.
+  virtual LinkCounters link() const = 0;
+  /// Resets detected by the protocol (unset: it cannot tell).
+  virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
+  /// False when a success only means "written" (nothing tells when the device works again).
+  virtual bool confirms() const { return true; }
+};
+
+// Values of operation i: spread over the range, different each time, deterministic.
+std::uint16_t throttle_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 73u) % 800u); }
+std::uint16_t steering_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 131u) % 800u); }
+std::int32_t degrees(unsigned i, unsigned stride) { return static_cast<std::int32_t>((i * stride) % 181u); }
+
+class RomiWorkload final : public Workload {
+ public:
+  explicit RomiWorkload(std::shared_ptr<romi::RomiClient> client) : client_(std::move(client)) {}
+  std::string operation() const override { return "call S[throttle_us,steering_us] -> [0]"; }
+  Outcome run(unsigned i) override {
+    Outcome outcome;
+    outcome.expected = {throttle_us(i), steering_us(i)};
+    error_code error;
+    const romi::RomiResponse response =
+        client_->call("S[" + std::to_string(outcome.expected.d9) + "," + std::to_string(outcome.expected.d10) + "]",
+                      error);
+    if (error) {
+      outcome.error = error.message();
+    } else if (response.code != 0) {
+      outcome.error = "device answered " + response.values.dump();
+    } else {
+      outcome.ok = true;
+    }
+    return outcome;
+  }
+  LinkCounters link() const override { return client_->counters(); }
+
+ private:
+  std::shared_ptr<romi::RomiClient> client_;
+};
+
+class ProxyWorkload final : public Workload {
+ public:
+  ProxyWorkload(std::shared_ptr<proxy::ProxyClient> client, std::vector<std::uint32_t> servo_pins, bool compat)
+      : client_(std::move(client)), pins_(std::move(servo_pins)), compat_(compat) {
+    if (pins_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
+    if (pins_.size() > 2) pins_.resize(2);
+  }
+  std::string operation() const override {
+    std::string text = std::to_string(pins_.size()) + " x ServoControl";
+    return text + (compat_ ? " written, unconfirmed (no acks in this variant)" : " -> Ack each");
+  }
+  Outcome run(unsigned i) override {
+    Outcome outcome;
+    std::vector<std::future<proxy::SendResult>> sends;
+    for (std::size_t k = 0; k < pins_.size(); ++k) {
+      const std::int32_t position = degrees(i, k == 0 ? 37u : 53u);
+      set_expected(outcome.expected, pins_[k], proxy::device::servo_pulse_us(position));
+      sends.push_back(client_->servo(pins_[k]).async_set(position, boost::asio::use_future));
+    }
+    outcome.ok = true;
+    for (auto& send : sends) {
+      try {
+        send.get();
+      } catch (const boost::system::system_error& error) {  // what use_future throws for an error_code
+        if (outcome.ok) outcome.error = error.code().message();
+        outcome.ok = false;
+      }
+    }
+    return outcome;
+  }
+  LinkCounters link() const override { return client_->counters().link; }
+  bool confirms() const override { return !compat_; }
+  std::optional<std::uint32_t> resets_detected() const override {
+    if (compat_) return std::nullopt;  // compat announces RESET, but has no session to tell restarts apart
+    return client_->counters().link.resets;
+  }
+
+ private:
+  static void set_expected(Pulses& pulses, std::uint32_t pin, std::uint16_t us) {
+    if (pin == 9) pulses.d9 = us;
+    if (pin == 10) pulses.d10 = us;
+  }
+  std::shared_ptr<proxy::ProxyClient> client_;
+  std::vector<std::uint32_t> pins_;
+  bool compat_;
+};
+
+class ElcanoWorkload final : public Workload {
+ public:
+  explicit ElcanoWorkload(std::shared_ptr<elcano::RingClient> client) : client_(std::move(client)) {}
+  std::string operation() const override { return "request D{s}{a} -> the drive node's S report"; }
+  Outcome run(unsigned i) override {
+    Outcome outcome;
+    elcano::Message drive;
+    drive.type = elcano::Type::drive;
+    drive.speed = static_cast<std::int32_t>((i * 97u) % 1600u) - 800;
+    drive.angle = static_cast<std::int32_t>((i * 7u) % 61u) - 30;
+    outcome.expected = {elcano::node::throttle_pulse_us(drive.speed), elcano::node::steering_pulse_us(drive.angle)};
+    error_code error;
+    const elcano::Message reply = client_->request(drive, elcano::Type::sensor, error);
+    if (error) {
+      outcome.error = error.message();
+    } else if (reply.speed != drive.speed || reply.angle != drive.angle) {
+      outcome.wrong = true;
+      outcome.error = "report s=" + std::to_string(reply.speed) + " a=" + std::to_string(reply.angle) +
+                      " for s=" + std::to_string(drive.speed) + " a=" + std::to_string(drive.angle);
+    } else {
+      outcome.ok = true;
+    }
+    return outcome;
+  }
+  LinkCounters link() const override { return client_->counters().link; }
+
+ private:
+  std::shared_ptr<elcano::RingClient> client_;
+};
+
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
+  switch (device.codec) {
+    case devices::Codec::romi:
+      return std::make_unique<RomiWorkload>(std::get<std::shared_ptr<romi::RomiClient>>(device.client));
+    case devices::Codec::proxy:
+    case devices::Codec::proxy_compat: {
+      std::vector<std::uint32_t> servos;
+      for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
+        if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init.pin);
+      }
+      return std::make_unique<ProxyWorkload>(std::get<std::shared_ptr<proxy::ProxyClient>>(device.client),
+                                             std::move(servos), device.codec == devices::Codec::proxy_compat);
+    }
+    case devices::Codec::elcano:
+      return std::make_unique<ElcanoWorkload>(std::get<std::shared_ptr<elcano::RingClient>>(device.client));
+  }
+  throw std::logic_error("unknown codec");
+}
+
+double percentile(std::vector<double> sorted, double fraction) {
+  if (sorted.empty()) return 0;
+  std::sort(sorted.begin(), sorted.end());
+  // Nearest rank: the smallest value with at least `fraction` of the samples at or below it.
+  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
+  return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
+}
+
+double pulse_us(transports::VirtualUno& board, int pin) {
+  return std::chrono::duration<double, std::micro>(board.pulse_timing(pin).high_time).count();
+}
+
+// Compares the pins with the last successful operation, once the servo period has passed (20 ms).
+void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::optional<Pulses>& last) {
+  if (!last) return;
+  const auto settled = Clock::now() + std::chrono::seconds(2);
+  bool match = false;
+  double d9 = 0;
+  double d10 = 0;
+  while (true) {
+    d9 = pulse_us(board, 9);
+    d10 = pulse_us(board, 10);
+    match = (last->d9 == 0 || std::abs(d9 - last->d9) < 2.0) && (last->d10 == 0 || std::abs(d10 - last->d10) < 2.0);
+    if (match || Clock::now() > settled) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  report.pins_match = match;
+  const auto describe = [](double measured, std::uint16_t expected) {
+    return std::to_string(static_cast<int>(std::lround(measured))) + "/" + std::to_string(expected) + " us";
+  };
+  report.pins_detail = "D9 " + (last->d9 == 0 ? std::string("-") : describe(d9, last->d9)) + ", D10 " +
+                       (last->d10 == 0 ? std::string("-") : describe(d10, last->d10));
+}
+
+// Runs the workload of one device; fills `report`.
+void run_device(const DemoOptions& options, const devices::RoverDevice& device, const devices::DeviceConfig& config,
+                const std::shared_ptr<transports::FaultInjectingStream>& link, DeviceReport& report) {
+  std::unique_ptr<Workload> workload = make_workload(device, config);
+  report.operation = workload->operation();
+  report.confirmed = workload->confirms();
+  transports::FaultConfig noise;
+  noise.bit_error_rate = options.bit_error_rate;
+  if (link) link->set_faults(noise, noise);
+  const LinkCounters before = workload->link();
+  const std::optional<std::uint32_t> resets_before = workload->resets_detected();
+
+  std::vector<double> latencies;
+  std::optional<Pulses> last_ok;
+  std::optional<Clock::time_point> reset_at;
+  const unsigned reset_index = options.iterations / 2;
+  auto next_start = Clock::now();
+  for (unsigned i = 0; i < options.iterations; ++i) {
+    std::this_thread::sleep_until(next_start);
+    next_start = std::max(next_start + options.period, Clock::now());
+    if (options.reset_halfway && i == reset_index && !device.boards.empty()) {
+      device.boards.back()->reset(transports::ResetKind::power_cycle, options.power_off);
+      reset_at = Clock::now();
+      ++report.resets_injected;
+    }
+    const auto start = Clock::now();
+    const Outcome outcome = workload->run(i);
+    const auto end = Clock::now();
+    latencies.push_back(std::chrono::duration<double, std::milli>(end - start).count());
+    ++report.operations;
+    if (outcome.ok) {
+      ++report.successes;
+      last_ok = outcome.expected;
+      if (reset_at && !report.recovery_ms && workload->confirms()) {
+        report.recovery_ms = std::chrono::duration<double, std::milli>(end - *reset_at).count();
+      }
+    } else {
+      if (outcome.wrong) {
+        ++report.wrong;
+      } else {
+        ++report.failures;
+      }
+      if (report.first_error.empty()) report.first_error = "operation " + std::to_string(i) + ": " + outcome.error;
+    }
+    if (options.progress) options.progress(device.name, i + 1, options.iterations);
+  }
+  if (link) link->set_faults({}, {});
+
+  const LinkCounters after = workload->link();
+  report.retries = after.retries - before.retries;
+  report.stale = after.stale - before.stale;
+  report.crc_errors = after.crc_errors - before.crc_errors;
+  report.framing_errors = after.framing_errors - before.framing_errors;
+  if (const auto resets = workload->resets_detected()) report.resets_detected = *resets - resets_before.value_or(0);
+  if (link) {
+    const transports::FaultCounts to = link->to_device_counts();
+    const transports::FaultCounts from = link->from_device_counts();
+    report.bytes_to_device = to.bytes_in;
+    report.bytes_from_device = from.bytes_in;
+    report.bits_flipped = to.bits_flipped + from.bits_flipped;
+  }
+  report.latency_p50_ms = percentile(latencies, 0.50);
+  report.latency_p99_ms = percentile(latencies, 0.99);
+  report.latency_max_ms = latencies.empty() ? 0 : *std::max_element(latencies.begin(), latencies.end());
+  if (!device.boards.empty()) check_pins(report, *device.boards.back(), last_ok);
+}
+
+}  // namespace
+
+DemoReport run_demo(const DemoOptions& options) {
+  const auto started = Clock::now();
+  devices::ParseOptions parse;
+  parse.firmware_dir = options.firmware_dir;
+  const devices::RoverConfig config =
+      options.config ? *options.config : devices::parse_config(devices::default_virtual_rover_config(), parse);
+
+  transports::IoThread io;
+  std::mutex links_mutex;
+  std::map<std::string, std::shared_ptr<transports::FaultInjectingStream>> links;
+  devices::OpenOptions open_options;
+  std::uint64_t stream_seed = options.seed;
+  open_options.wrap_stream = [&](const devices::DeviceConfig& device, std::shared_ptr<transports::ByteStream> stream) {
+    // Clean while opening (handshakes, inits); the workload turns the noise on.
+    auto wrapped = transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++);
+    std::lock_guard lock(links_mutex);
+    links[device.name] = wrapped;
+    return std::shared_ptr<transports::ByteStream>(wrapped);
+  };
+  devices::Rover rover = devices::open_rover(config, io.executor(), open_options);
+
+  DemoReport report;
+  report.rover = config.name;
+  report.iterations = options.iterations;
+  report.bit_error_rate = options.bit_error_rate;
+  report.reset_halfway = options.reset_halfway;
+  report.devices.resize(rover.devices().size());
+  std::vector<std::thread> threads;
+  std::mutex error_mutex;
+  std::exception_ptr first_exception;
+  for (std::size_t k = 0; k < rover.devices().size(); ++k) {
+    const devices::RoverDevice& device = rover.devices()[k];
+    DeviceReport& device_report = report.devices[k];
+    device_report.device = device.name;
+    device_report.codec = std::string(devices::to_string(device.codec));
+    device_report.transport = device.transport;
+    const devices::DeviceConfig& device_config = config.devices[k];
+    std::shared_ptr<transports::FaultInjectingStream> link;
+    {
+      std::lock_guard lock(links_mutex);
+      link = links[device.name];
+    }
+    threads.emplace_back([&, link, k] {
+      try {
+        run_device(options, rover.devices()[k], device_config, link, report.devices[k]);
+      } catch (...) {
+        std::lock_guard lock(error_mutex);
+        if (!first_exception) first_exception = std::current_exception();
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  rover.close();
+  if (first_exception) std::rethrow_exception(first_exception);
+  report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
+  return report;
+}
+
+}  // namespace tether::demo

@@ -1,0 +1,67 @@
+// The demo end to end on the embedded virtual rover (shortened): the table reports what the run did.
+#include "tether/demo/rover_demo.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "tether/testing/random_seed.hpp"
+
+namespace tether::demo {
+namespace {
+
+DemoOptions short_run() {
+  DemoOptions options;
+  options.firmware_dir = TETHER_FIRMWARE_DIR;
+  options.iterations = 40;
+  options.seed = testing::random_seed();
+  return options;
+}
+
+TEST(RoverDemo, EveryCodecRunsTheWorkloadThroughNoiseAndAReset) {
+  const DemoReport report = run_demo(short_run());
+  std::printf("%s", format_table(report).c_str());
+  ASSERT_EQ(report.devices.size(), 5u);
+  for (const DeviceReport& d : report.devices) {
+    SCOPED_TRACE(d.device);
+    EXPECT_EQ(d.operations, 40u);
+    EXPECT_EQ(d.successes + d.failures + d.wrong, d.operations);
+    EXPECT_GT(d.successes, 0u);
+    EXPECT_GT(d.bytes_to_device, 0u);
+    EXPECT_EQ(d.resets_injected, 1u);
+    if (d.confirmed) {
+      ASSERT_TRUE(d.recovery_ms.has_value()) << "no success after the reset: " << d.first_error;
+    } else {
+      EXPECT_FALSE(d.recovery_ms.has_value()) << "unconfirmed writes cannot show a recovery";
+    }
+    ASSERT_TRUE(d.pins_match.has_value());
+    EXPECT_TRUE(*d.pins_match) << d.pins_detail;
+    EXPECT_GT(d.latency_p99_ms, 0.0);
+    EXPECT_GE(d.latency_p99_ms, d.latency_p50_ms);
+  }
+  // The protocol that has sessions sees the reset.
+  EXPECT_EQ(report.devices[1].codec, "proxy");
+  ASSERT_TRUE(report.devices[1].resets_detected.has_value());
+  EXPECT_EQ(*report.devices[1].resets_detected, 1u);
+}
+
+TEST(RoverDemo, WithoutFaultsEveryOperationSucceedsAndTheJsonCarriesTheFigures) {
+  DemoOptions options = short_run();
+  options.iterations = 20;
+  options.bit_error_rate = 0;
+  options.reset_halfway = false;
+  const DemoReport report = run_demo(options);
+  const nlohmann::json json = to_json(report);
+  ASSERT_EQ(json["devices"].size(), 5u);
+  for (const auto& d : json["devices"]) {
+    SCOPED_TRACE(d["device"].get<std::string>());
+    EXPECT_EQ(d["successes"], 20);
+    EXPECT_EQ(d["retries"], 0);
+    EXPECT_EQ(d["bits_flipped"], 0);
+    EXPECT_TRUE(d["recovery_ms"].is_null());
+    EXPECT_GT(d["bytes_to_device"].get<std::uint64_t>(), 0u);
+  }
+}
+
+}  // namespace
+}  // namespace tether::demo
