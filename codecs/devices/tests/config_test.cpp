@@ -436,7 +436,7 @@ std::string read_file(const std::filesystem::path& path) {
 
 TEST(DevicesExamples, RoverJsonHasOneDevicePerCodecOnRealHardware) {
   const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / "rover.json");
-  ASSERT_EQ(config.devices.size(), 4u);
+  ASSERT_EQ(config.devices.size(), 5u);
   EXPECT_EQ(config.devices[0].codec, Codec::romi);
   EXPECT_EQ(std::get<SerialTransport>(config.devices[0].transport).path, "/dev/ttyACM0");
   EXPECT_EQ(config.devices[1].codec, Codec::proxy);
@@ -458,7 +458,7 @@ TEST(DevicesExamples, RoverVirtualJsonIsTheSameRoverOnVirtualUnos) {
     EXPECT_EQ(config.devices[i].codec, real.devices[i].codec);
   }
   const std::filesystem::path dir(TETHER_FIRMWARE_DIR);
-  EXPECT_EQ(std::get<VirtualTransport>(config.devices[0].transport).board.firmware, dir / "romi-test.elf");
+  EXPECT_EQ(std::get<VirtualTransport>(config.devices[0].transport).board.firmware, dir / "romi-rover.elf");
   EXPECT_EQ(std::get<VirtualTransport>(config.devices[1].transport).board.firmware, dir / "proxy.elf");
   EXPECT_EQ(std::get<VirtualTransport>(config.devices[2].transport).board.firmware, dir / "proxy-compat.elf");
   const auto& ring = std::get<VirtualRingTransport>(config.devices[3].transport);
