@@ -1,12 +1,19 @@
 // Host cost of each codec per message: encode a frame and decode it with the incremental decoder, for
-// messages of comparable content (a command with two small integers, and a 32-character string).
+// messages of comparable content (a command with two small integers, and a 32-character string); the
+// Elcano ring node's per-message work (forward, capture); and the wire bytes of one job, "drive both
+// servos", in each protocol (BM_DriveJob_*: counters computed from the encoders).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "tether/elcano/message.hpp"
+#include "tether/elcano/reader.hpp"
+#include "tether/elcano/ring_node.hpp"
 #include "tether/proxy/frame.hpp"
+#include "tether_proxy.pb.h"
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 #include "tether/romi/request_parser.hpp"
@@ -78,7 +85,7 @@ void BM_ProxyDecodeFrame(benchmark::State& state) {
 BENCHMARK(BM_ProxyDecodeFrame);
 
 void BM_RomiDecodeLongResponse(benchmark::State& state) {
-  // A 200-value response line as a host reads it (the reference host could not read past 57 chars).
+  // A 101-value response line as a host reads it (the reference host could not read past 57 chars).
   std::string body = "[0";
   for (int i = 0; i < 100; ++i) body += ",1234";
   body += "]";
@@ -90,7 +97,192 @@ void BM_RomiDecodeLongResponse(benchmark::State& state) {
     for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
   }
   state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(size));
+  state.counters["wire_bytes"] = static_cast<double>(size);
 }
 BENCHMARK(BM_RomiDecodeLongResponse);
+
+// --- Elcano ----------------------------------------------------------------------------------------------
+// A drive message D{s 50}{a 25} and a segment X{n 4}{s 160}{b 80}{p 3200,-64000} (docs/elcano.md), in
+// generation B (spaces, no check) and D (no spaces, CRC-8 trailer).
+
+elcano::Message elcano_drive() {
+  elcano::Message m;
+  m.type = elcano::Type::drive;
+  m.speed = 50;
+  m.angle = 25;
+  return m;
+}
+
+elcano::Message elcano_segment() {
+  elcano::Message m;
+  m.type = elcano::Type::segment;
+  m.number = 4;
+  m.speed = 160;
+  m.bearing = 80;
+  m.east = 3200;
+  m.north = -64000;
+  return m;
+}
+
+std::vector<uint8_t> elcano_bytes(const elcano::Message& message, elcano::Generation generation) {
+  uint8_t out[96];
+  const Result<size_t> size = elcano::write_message(message, generation, out);
+  return std::vector<uint8_t>(out, out + (size.ok() ? size.value() : 0));
+}
+
+void BM_ElcanoWrite(benchmark::State& state, elcano::Message message, elcano::Generation generation) {
+  uint8_t out[96];
+  for (auto _ : state) benchmark::DoNotOptimize(elcano::write_message(message, generation, out));
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["wire_bytes"] = static_cast<double>(elcano_bytes(message, generation).size());
+}
+BENCHMARK_CAPTURE(BM_ElcanoWrite, drive_gen_b, elcano_drive(), elcano::Generation::b);
+BENCHMARK_CAPTURE(BM_ElcanoWrite, drive_gen_d, elcano_drive(), elcano::Generation::d);
+BENCHMARK_CAPTURE(BM_ElcanoWrite, segment_gen_b, elcano_segment(), elcano::Generation::b);
+BENCHMARK_CAPTURE(BM_ElcanoWrite, segment_gen_d, elcano_segment(), elcano::Generation::d);
+
+// Byte by byte through the boards' reader (Reader<96>), one message per iteration.
+void BM_ElcanoRead(benchmark::State& state, elcano::Message message, elcano::Generation generation) {
+  const std::vector<uint8_t> bytes = elcano_bytes(message, generation);
+  LinkCounters counters;
+  elcano::Reader<96> reader(generation, counters);
+  for (auto _ : state) {
+    for (uint8_t byte : bytes) benchmark::DoNotOptimize(reader.feed(byte));
+  }
+  if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a message was not read");
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(bytes.size()));
+  state.counters["wire_bytes"] = static_cast<double>(bytes.size());
+}
+BENCHMARK_CAPTURE(BM_ElcanoRead, drive_gen_b, elcano_drive(), elcano::Generation::b);
+BENCHMARK_CAPTURE(BM_ElcanoRead, drive_gen_d, elcano_drive(), elcano::Generation::d);
+BENCHMARK_CAPTURE(BM_ElcanoRead, segment_gen_b, elcano_segment(), elcano::Generation::b);
+BENCHMARK_CAPTURE(BM_ElcanoRead, segment_gen_d, elcano_segment(), elcano::Generation::d);
+
+// One message through a ring node (the host's and the boards' RingNode<96, 256, 4>): feed its bytes, then
+// take_output. A node that does not capture the type forwards it; one that does captures it (no output).
+// The clock advances 10 ms per message, so the pacer (115200 baud, 64-byte receiver) never holds bytes back.
+void BM_ElcanoRingNode(benchmark::State& state, elcano::Message message, elcano::Generation generation,
+                       bool capture) {
+  const std::vector<uint8_t> bytes = elcano_bytes(message, generation);
+  elcano::RingNodeConfig config;
+  config.generation = generation;
+  if (capture) config.capture = elcano::TypeSet::of(message.type);
+  LinkCounters link;
+  elcano::RingCounters ring;
+  Millis now = 0;
+  elcano::RingNode<96, 256, 4> node(config, now, link, ring);
+  uint8_t out[256];
+  size_t output_bytes = 0;
+  for (auto _ : state) {
+    for (uint8_t byte : bytes) benchmark::DoNotOptimize(node.feed(byte, now));
+    output_bytes += node.take_output(out, now);
+    benchmark::DoNotOptimize(out);
+    now += 10;
+  }
+  // A forwarded message leaves whitespace-stripped (generation B) or byte-identical (generation D).
+  const auto stripped =
+      static_cast<uint64_t>(std::count_if(bytes.begin(), bytes.end(), [](uint8_t b) { return b != ' '; }));
+  const auto messages = static_cast<uint64_t>(state.iterations());
+  const bool whole = capture ? ring.captured == messages && output_bytes == 0
+                             : ring.forwarded == messages && output_bytes == messages * stripped;
+  if (!whole) state.SkipWithError("a message was not forwarded or captured whole");
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["wire_bytes"] = static_cast<double>(bytes.size());
+  state.counters["out_bytes"] = static_cast<double>(output_bytes) / static_cast<double>(messages);
+}
+BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_b, elcano_drive(), elcano::Generation::b, false);
+BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_d, elcano_drive(), elcano::Generation::d, false);
+BENCHMARK_CAPTURE(BM_ElcanoRingNode, capture_drive_gen_b, elcano_drive(), elcano::Generation::b, true);
+
+// --- One job in each protocol: drive both servos (throttle D9, steering D10) ---------------------------
+// Host cost of encoding the job and its bytes on the wire, computed from the encoders:
+//   to_device: what the host sends; to_host: what the device answers (romi: the response line; proxy: a
+//   PinState report and an Ack per ServoControl, as firmware/proxy sends them; elcano: nothing, the ring has
+//   no acknowledgement); frames: messages the host sends.
+// Romi: `S[1500,1500]` (romi-rover: pulses in us). Proxy: ServoControl{pin 9, 90} and {pin 10, 90} (degrees),
+// messageId 0x12345678 (the client's ids start at a random 32-bit value: a 5-byte varint is typical).
+// Elcano: D{s 50}{a 25}.
+
+void BM_DriveJob_Romi(benchmark::State& state) {
+  uint8_t frame[64];
+  size_t to_device = 0;
+  uint8_t id = 0x21;
+  for (auto _ : state) {
+    romi::RequestBuilder builder('S');
+    builder.add_int(1500).add_int(1500);
+    const Result<size_t> size = romi::encode_request(builder.payload(), id, frame);
+    to_device = size.ok() ? size.value() : 0;
+    benchmark::DoNotOptimize(frame);
+  }
+  const Result<size_t> response = romi::encode_response('S', ByteView::from_literal("[0]"), id, frame);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["to_device"] = static_cast<double>(to_device);
+  state.counters["to_host"] = static_cast<double>(response.ok() ? response.value() : 0);
+  state.counters["frames"] = 1;
+}
+BENCHMARK(BM_DriveJob_Romi);
+
+size_t proxy_frame_size(const google::protobuf::MessageLite& message, bool leading_delimiter) {
+  const std::string payload = message.SerializeAsString();
+  uint8_t frame[128];
+  const Result<size_t> size = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
+                                                  proxy::Integrity::crc16, leading_delimiter, frame);
+  return size.ok() ? size.value() : 0;
+}
+
+void BM_DriveJob_Proxy(benchmark::State& state) {
+  constexpr uint32_t kPins[2] = {9, 10};
+  constexpr int32_t kPosition = 90;
+  constexpr uint32_t kFirstId = 0x12345678;
+  proxy::ArduinoIn message;
+  std::string payload;
+  uint8_t frame[128];
+  size_t to_device = 0;
+  for (auto _ : state) {
+    to_device = 0;
+    for (uint32_t k = 0; k < 2; ++k) {
+      message.set_messageid(kFirstId + k);
+      message.mutable_servocontrol()->set_pin(kPins[k]);
+      message.mutable_servocontrol()->set_position(kPosition);
+      message.SerializeToString(&payload);
+      const Result<size_t> size = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
+                                                      proxy::Integrity::crc16, true, frame);
+      to_device += size.ok() ? size.value() : 0;
+      benchmark::DoNotOptimize(frame);
+    }
+  }
+  size_t to_host = 0;
+  for (uint32_t k = 0; k < 2; ++k) {
+    proxy::ArduinoOut pin_state;
+    pin_state.mutable_pinstate()->set_pin(kPins[k]);
+    pin_state.mutable_pinstate()->set_value(kPosition);
+    proxy::ArduinoOut ack;
+    ack.mutable_ack()->set_messageid(kFirstId + k);
+    to_host += proxy_frame_size(pin_state, false) + proxy_frame_size(ack, false);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["to_device"] = static_cast<double>(to_device);
+  state.counters["to_host"] = static_cast<double>(to_host);
+  state.counters["frames"] = 2;
+}
+BENCHMARK(BM_DriveJob_Proxy);
+
+void BM_DriveJob_Elcano(benchmark::State& state, elcano::Generation generation) {
+  const elcano::Message drive = elcano_drive();
+  uint8_t out[96];
+  size_t to_device = 0;
+  for (auto _ : state) {
+    const Result<size_t> size = elcano::write_message(drive, generation, out);
+    to_device = size.ok() ? size.value() : 0;
+    benchmark::DoNotOptimize(out);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["to_device"] = static_cast<double>(to_device);
+  state.counters["to_host"] = 0;
+  state.counters["frames"] = 1;
+}
+BENCHMARK_CAPTURE(BM_DriveJob_Elcano, gen_b, elcano::Generation::b);
+BENCHMARK_CAPTURE(BM_DriveJob_Elcano, gen_d, elcano::Generation::d);
 
 }  // namespace
