@@ -94,10 +94,9 @@ bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, 
   elcano::Reader<96> reader(generation, counters);
   bool read = false;
   for (uint8_t i = 0; i < size; ++i) {
-    const elcano::ReadEvent event = reader.feed(input[i]);
-    if (event.kind == elcano::ReadEvent::Kind::message) {
-      sink = static_cast<uint16_t>(event.message.speed + static_cast<int32_t>(event.forward.size()));
-      read = event.message.type == type;
+    if (reader.consume(input[i]) == elcano::ReadEvent::Kind::message) {  // the fast path, as the node uses
+      sink = static_cast<uint16_t>(reader.message().speed + static_cast<int32_t>(reader.forward().size()));
+      read = reader.message().type == type;
     }
   }
   return read;
@@ -107,8 +106,8 @@ bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, 
 // the last event the bytes produced. Returns the output's size.
 uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
   for (uint8_t i = 0; i < size; ++i) {
-    const elcano::RingEvent event = node.feed(input[i], 0);
-    if (event.kind != elcano::RingEvent::Kind::none) kind = event.kind;
+    const elcano::RingEvent::Kind event = node.consume(input[i], 0);  // the fast path, as elcano-node uses
+    if (event != elcano::RingEvent::Kind::none) kind = event;
   }
   return static_cast<uint8_t>(node.take_output(frame, 0));
 }

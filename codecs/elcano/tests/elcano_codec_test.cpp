@@ -170,6 +170,27 @@ TEST(ElcanoReader, OverflowingNumbersAreErrorsNotWraps) {
   ASSERT_EQ(edges.messages.size(), 1u);
   EXPECT_EQ(edges.messages[0].speed, 2147483646);
   EXPECT_EQ(edges.messages[0].angle, INT32_MIN);
+  EXPECT_EQ(read("D{s 1}{a -2147483649}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s 2147483650}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+}
+
+TEST(ElcanoReader, ConsumeIsTheSameReadingWithoutCopies) {
+  LinkCounters counters;
+  Reader<> reader(Generation::d, counters);
+  std::vector<ReadEvent::Kind> kinds;
+  for (char c : std::string("D{s50}{a25}74\nD{s50}{a25}75\n")) {
+    const ReadEvent::Kind kind = reader.consume(static_cast<uint8_t>(c));
+    if (kind == ReadEvent::Kind::message) {
+      EXPECT_EQ(reader.message().speed, 50);
+      EXPECT_EQ(std::string(reinterpret_cast<const char*>(reader.forward().data()), reader.forward().size()),
+                "D{s50}{a25}74\n");
+    }
+    if (kind == ReadEvent::Kind::error) {
+      EXPECT_EQ(reader.error(), ReadError::bad_crc);
+    }
+    if (kind != ReadEvent::Kind::none) kinds.push_back(kind);
+  }
+  EXPECT_EQ(kinds, (std::vector<ReadEvent::Kind>{ReadEvent::Kind::message, ReadEvent::Kind::error}));
 }
 
 TEST(ElcanoReader, AfterAnErrorItSkipsToTheNextHeader) {

@@ -117,9 +117,9 @@ void publish_config() {
   for (uint8_t i = 0; i < 4; ++i) stats.magic[i] = node::kStatsMagic[i];  // last: the rest is valid now
 }
 
-void handle(const tether::elcano::RingEvent& event, tether::Millis now) {
-  if (event.kind != tether::elcano::RingEvent::Kind::captured) return;
-  const node::Reaction reaction = g_behaviour.on_captured(event.message);
+void handle(tether::elcano::RingEvent::Kind kind, tether::Millis now) {
+  if (kind != tether::elcano::RingEvent::Kind::captured) return;
+  const node::Reaction reaction = g_behaviour.on_captured(g_node.message());
   node::NodeStats& stats = elcano_node_stats;
   if (reaction.drive) {
     servo_timer1::write(servo_timer1::Output::d9, reaction.throttle_us);
@@ -177,7 +177,7 @@ int main() {
       for (;;) {
         const size_t count = Serial::read(tether::MutableByteView(chunk));
         if (count == 0) break;
-        for (size_t i = 0; i < count; ++i) handle(g_node.feed(chunk[i], now), now);
+        for (size_t i = 0; i < count; ++i) handle(g_node.consume(chunk[i], now), now);  // no copy per byte
       }
     }
     while (g_node.poll(now).kind != tether::elcano::RingEvent::Kind::none) {

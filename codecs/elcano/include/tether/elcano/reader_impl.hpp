@@ -18,8 +18,14 @@ bool Reader<Capacity>::keep(uint8_t byte) {
 }
 
 template <size_t Capacity>
+int32_t Reader<Capacity>::signed_value() const {
+  // value_ <= 2^31 when negative, <= 2^31 - 2 otherwise: both fit once the sign is applied.
+  return negative_ ? static_cast<int32_t>(0u - value_) : static_cast<int32_t>(value_);
+}
+
+template <size_t Capacity>
 bool Reader<Capacity>::store_value() {
-  const int32_t value = static_cast<int32_t>(negative_ ? -value_ : value_);
+  const int32_t value = signed_value();
   switch (letter_) {
     case 'n': message_.number = value; return true;
     case 's': message_.speed = value; return true;
@@ -43,10 +49,8 @@ bool Reader<Capacity>::store_value() {
 }
 
 template <size_t Capacity>
-ReadEvent Reader<Capacity>::fail(ReadError error) {
-  ReadEvent event;
-  event.kind = ReadEvent::Kind::error;
-  event.error = error;
+ReadEvent::Kind Reader<Capacity>::fail(ReadError error) {
+  error_ = error;
   if (error == ReadError::bad_crc) {
     ++counters_->crc_errors;
   } else if (error == ReadError::too_long) {
@@ -56,56 +60,65 @@ ReadEvent Reader<Capacity>::fail(ReadError error) {
   }
   state_ = State::skip;
   size_ = 0;
-  return event;
+  return ReadEvent::Kind::error;
 }
 
 template <size_t Capacity>
-ReadEvent Reader<Capacity>::finish() {
+ReadEvent::Kind Reader<Capacity>::finish() {
   if (generation_ == Generation::d) {
     if (!trailer_digits_) return fail(ReadError::bad_crc);
     if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(ReadError::bad_crc);
   }
   if (!has_required_fields(message_)) return fail(ReadError::inval_comb);
   if (!keep('\n')) return fail(ReadError::too_long);
-  ReadEvent event;
-  event.kind = ReadEvent::Kind::message;
-  event.message = message_;
-  event.forward = ByteView(buffer_, size_);
   ++counters_->frames_ok;
   state_ = State::header;
-  return event;
+  return ReadEvent::Kind::message;
+}
+
+template <size_t Capacity>
+ReadEvent::Kind Reader<Capacity>::consume(uint8_t byte) {
+  const bool was_open = in_message();
+  const ReadEvent::Kind kind = step(byte);
+  // A header never appears inside a message: one arriving mid-message (the sender reset, bytes were
+  // lost) ends the broken message with its error AND starts the next message, which must not be lost.
+  if (kind == ReadEvent::Kind::error && was_open && detail::is_header(byte)) {
+    state_ = State::header;
+    ++counters_->resyncs;
+    step(byte);  // opens the message; cannot produce an event
+  }
+  return kind;
 }
 
 template <size_t Capacity>
 ReadEvent Reader<Capacity>::feed(uint8_t byte) {
-  const bool was_open = in_message();
-  const ReadEvent event = step(byte);
-  // A header never appears inside a message: one arriving mid-message (the sender reset, bytes were
-  // lost) ends the broken message with its error AND starts the next message, which must not be lost.
-  if (event.kind == ReadEvent::Kind::error && was_open && detail::is_header(byte)) {
-    state_ = State::header;
-    ++counters_->resyncs;
-    step(byte);  // opens the message; cannot produce an event
+  ReadEvent event;
+  event.kind = consume(byte);
+  if (event.kind == ReadEvent::Kind::message) {
+    event.message = message_;
+    event.forward = forward();
+  } else if (event.kind == ReadEvent::Kind::error) {
+    event.error = error_;
   }
   return event;
 }
 
 template <size_t Capacity>
-ReadEvent Reader<Capacity>::step(uint8_t byte) {
-  if (detail::is_ignored(byte)) return ReadEvent();
+ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
+  if (detail::is_ignored(byte)) return ReadEvent::Kind::none;
   if (state_ == State::skip) {
     if (byte == '\n') {
       state_ = State::header;
       ++counters_->resyncs;
-      return ReadEvent();
+      return ReadEvent::Kind::none;
     }
-    if (!detail::is_header(byte)) return ReadEvent();
+    if (!detail::is_header(byte)) return ReadEvent::Kind::none;
     ++counters_->resyncs;
     state_ = State::header;  // and read this byte as the header below
   }
   switch (state_) {
     case State::header:
-      if (byte == '\n') return ReadEvent();  // an empty line
+      if (byte == '\n') return ReadEvent::Kind::none;  // an empty line
       if (!detail::is_header(byte)) return fail(ReadError::bad_type);
       message_ = Message();
       message_.type = static_cast<Type>(byte);
@@ -114,13 +127,13 @@ ReadEvent Reader<Capacity>::step(uint8_t byte) {
       trailer_digits_ = false;
       keep(byte);
       state_ = State::lcurly;
-      return ReadEvent();
+      return ReadEvent::Kind::none;
     case State::lcurly:
       if (byte == '\n') return finish();
       if (byte == '{') {
         if (!keep(byte)) return fail(ReadError::too_long);
         state_ = State::letter;
-        return ReadEvent();
+        return ReadEvent::Kind::none;
       }
       if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
         crc_end_ = size_;
@@ -139,18 +152,22 @@ ReadEvent Reader<Capacity>::step(uint8_t byte) {
       digits_ = false;
       value_ = 0;
       state_ = State::number;
-      return ReadEvent();
+      return ReadEvent::Kind::none;
     }
     case State::number:
       if (byte == '-' && !digits_ && !negative_) {
         negative_ = true;
       } else if (byte >= '0' && byte <= '9') {
         digits_ = true;
-        value_ = value_ * 10 + (byte - '0');
-        // int32 range (the unset value itself is reserved): an error, never a wrap.
-        if (value_ > (negative_ ? 2147483648LL : 2147483646LL)) return fail(ReadError::bad_number);
+        // int32 range (the unset value 2147483647 itself is reserved): an error, never a wrap. Checked
+        // before multiplying, by comparison only (a 32-bit division costs hundreds of AVR cycles).
+        const uint8_t digit = static_cast<uint8_t>(byte - '0');
+        if (value_ > 214748364u || (value_ == 214748364u && digit > (negative_ ? 8u : 6u))) {
+          return fail(ReadError::bad_number);
+        }
+        value_ = value_ * 10u + digit;
       } else if (byte == ',' && letter_ == 'p' && generation_ == Generation::b && !second_ && digits_) {
-        first_ = static_cast<int32_t>(negative_ ? -value_ : value_);
+        first_ = signed_value();
         second_ = true;
         negative_ = false;
         digits_ = false;
@@ -159,23 +176,23 @@ ReadEvent Reader<Capacity>::step(uint8_t byte) {
         if (!store_value()) return fail(ReadError::bad_number);
         if (!keep(byte)) return fail(ReadError::too_long);
         state_ = State::lcurly;
-        return ReadEvent();
+        return ReadEvent::Kind::none;
       } else {
         return fail(ReadError::bad_number);
       }
       if (!keep(byte)) return fail(ReadError::too_long);
-      return ReadEvent();
+      return ReadEvent::Kind::none;
     case State::trailer:
       if (byte == '\n') return finish();
       if (byte < '0' || byte > '9' || trailer_ > 25) return fail(ReadError::bad_crc);
       trailer_ = static_cast<uint16_t>(trailer_ * 10u + static_cast<uint8_t>(byte - '0'));
       trailer_digits_ = true;
       if (!keep(byte)) return fail(ReadError::too_long);
-      return ReadEvent();
+      return ReadEvent::Kind::none;
     case State::skip:
       break;
   }
-  return ReadEvent();
+  return ReadEvent::Kind::none;
 }
 
 }  // namespace elcano

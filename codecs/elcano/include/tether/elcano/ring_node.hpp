@@ -123,7 +123,7 @@ struct RingEvent {
   };
   Kind kind = Kind::none;               ///< What happened.
   ReadError error = ReadError::success; ///< For `dropped`.
-  Message message;                      ///< For `captured`, `forwarded`, `undeliverable`.
+  Message message;                      ///< For `captured`, `forwarded`, `undeliverable`, `queue_full`.
 };
 
 /// Short name of an event kind.
@@ -148,8 +148,16 @@ class RingNode {
         pacer_(config.pacing, now),
         counters_(&ring) {}
 
-  /// Consumes one byte from the previous node.
+  /// Consumes one byte from the previous node; the whole event by value (copies the message).
   RingEvent feed(uint8_t byte, Millis now);
+  /// Consumes one byte; the fast path without a copy per byte (the firmware's): on `captured`,
+  /// `forwarded`, `undeliverable` and a `queue_full` drop read `message()`, on `dropped` read `error()`,
+  /// before the next byte.
+  RingEvent::Kind consume(uint8_t byte, Millis now);
+  /// The message of the last event that had one (valid until the next byte).
+  const Message& message() const { return reader_.message(); }
+  /// Why the last `dropped` event dropped.
+  ReadError error() const { return error_; }
   /// Queues `message` for the next node and remembers it (rule 2). `Status::invalid_argument` when it
   /// lacks a field its type requires, `Status::busy` when the output queue has no room for it beside the
   /// forwarding reserve (rule 4): try again after `take_output`.
@@ -191,6 +199,7 @@ class RingNode {
   session::PartialFrameDeadline partial_;
   session::WritePacer pacer_;
   RingCounters* counters_;
+  ReadError error_ = ReadError::success;
   uint8_t queue_[OutputCapacity];
   uint8_t head_ = 0;  // next write (mod OutputCapacity)
   uint8_t tail_ = 0;  // next read

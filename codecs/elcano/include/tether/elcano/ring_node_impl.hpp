@@ -31,40 +31,46 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView 
 }
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
-RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::feed(uint8_t byte, Millis now) {
-  ReadEvent read = reader_.feed(byte);
+RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::consume(uint8_t byte, Millis now) {
+  const ReadEvent::Kind read = reader_.consume(byte);
   // The partial-message deadline follows the reader: armed when a message starts, off when none is open.
   if (reader_.in_message()) {
     if (!partial_.in_frame()) partial_.on_frame_start(now);
   } else {
     partial_.on_frame_end();
   }
-  RingEvent event;
-  if (read.kind == ReadEvent::Kind::none) return event;
-  if (read.kind == ReadEvent::Kind::error) {
-    event.kind = RingEvent::Kind::dropped;
-    event.error = read.error;
-    return event;
+  if (read == ReadEvent::Kind::none) return RingEvent::Kind::none;
+  if (read == ReadEvent::Kind::error) {
+    error_ = reader_.error();
+    return RingEvent::Kind::dropped;
   }
-  event.message = read.message;
-  if (came_back(read.forward)) {
+  const ByteView forward = reader_.forward();
+  if (came_back(forward)) {
     ++counters_->undeliverable;
-    event.kind = RingEvent::Kind::undeliverable;
-    return event;
+    return RingEvent::Kind::undeliverable;
   }
-  if (config_.capture.contains(read.message.type)) {
+  if (config_.capture.contains(reader_.message().type)) {
     ++counters_->captured;
-    event.kind = RingEvent::Kind::captured;
-    return event;
+    return RingEvent::Kind::captured;
   }
-  if (!enqueue(read.forward)) {
+  if (!enqueue(forward)) {
     ++counters_->queue_full_drops;
-    event.kind = RingEvent::Kind::dropped;
-    event.error = ReadError::queue_full;
-    return event;
+    error_ = ReadError::queue_full;
+    return RingEvent::Kind::dropped;
   }
   ++counters_->forwarded;
-  event.kind = RingEvent::Kind::forwarded;
+  return RingEvent::Kind::forwarded;
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::feed(uint8_t byte, Millis now) {
+  RingEvent event;
+  event.kind = consume(byte, now);
+  if (event.kind == RingEvent::Kind::dropped) event.error = error_;
+  // A message dropped for a full queue was read whole: it is reported too.
+  const bool has_message = event.kind != RingEvent::Kind::none &&
+                           (event.kind != RingEvent::Kind::dropped || error_ == ReadError::queue_full);
+  if (has_message) event.message = reader_.message();
   return event;
 }
 
