@@ -25,5 +25,10 @@ int usage_error(std::string_view command, const std::string& message, const char
 // --- one declaration per subcommand (defined in <name>.cpp) ---
 int run_sim(int argc, char** argv);
 int run_call(int argc, char** argv);
+int run_send(int argc, char** argv);
+int run_shell(int argc, char** argv);
+int run_monitor(int argc, char** argv);
+int run_stats(int argc, char** argv);
+int run_demo(int argc, char** argv);
 
 }  // namespace tether::cli

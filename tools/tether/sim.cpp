@@ -1,15 +1,17 @@
-// `tether sim IMAGE.elf [--fast] [--link PATH] [--baud N]`: runs the image on a virtual Arduino Uno and
-// bridges its UART0 to a pseudo-terminal that picocom, screen, pyserial or a tether client can open.
+// `tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]`: runs the image on a virtual Arduino Uno
+// and bridges its UART0 to a pseudo-terminal that picocom, screen, pyserial or a tether client can open.
 //
-// Output contract (scripts rely on it): once the port is ready, exactly one line `PTY <slave path>` on
-// stdout, flushed; nothing else ever goes to stdout. Runs until SIGINT or SIGTERM, then stops the
-// simulation, closes the pty, removes the --link symlink it made, and exits 0. Errors: a message on
-// stderr and exit status 2.
+// Output contract (scripts rely on it): once the port is ready (the firmware has enabled its UART
+// receiver, or 5 s passed), exactly one line `PTY <slave path>` on stdout, flushed (with --json instead one
+// JSON object `{"pty":"<slave path>","firmware":"<image>"}`); nothing else ever goes to stdout. Runs until
+// SIGINT or SIGTERM, then stops the simulation, closes the pty, removes the --link symlink it made, and
+// exits 0. Errors: a message on stderr and exit status 2.
 #include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -17,7 +19,9 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <thread>
 
+#include "cli_support.hpp"
 #include "commands.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -26,7 +30,7 @@ namespace tether::cli {
 namespace {
 
 constexpr const char* kUsage =
-    "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N]\n"
+    "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]\n"
     "\n"
     "Runs IMAGE.elf on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
     "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
@@ -34,7 +38,10 @@ constexpr const char* kUsage =
     "  --fast       run as fast as possible instead of in real time\n"
     "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
     "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
-    "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n";
+    "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n"
+    "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"IMAGE.elf\"} instead of `PTY /dev/pts/N`\n"
+    "\n"
+    "Exit status: 0 after SIGINT/SIGTERM; 2 usage errors and an image that cannot run.\n";
 
 int usage_error(const std::string& message) { return tether::cli::usage_error("sim", message, kUsage); }
 
@@ -48,6 +55,7 @@ struct Arguments {
   bool fast = false;
   std::optional<std::filesystem::path> link;
   std::uint32_t baud = 115200;
+  bool json = false;
 };
 
 // Returns an exit status if parsing ends the program (help or error).
@@ -61,6 +69,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
     }
     if (argument == "--fast") {
       arguments.fast = true;
+    } else if (argument == "--json") {
+      arguments.json = true;
     } else if (argument == "--link" || argument == "--baud") {
       if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
@@ -156,8 +166,22 @@ int run_sim(int argc, char** argv) {
     if (arguments.link) remove_link(*arguments.link, path);
     return fail(failure.what());
   }
+  // "Ready" means the firmware listens: bytes a client writes before the firmware enables its UART
+  // receiver would be lost (a proxy client's opening Reset, a first Romi request), as on a booting board.
+  const auto boot_limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!uno->uart().rx_enabled && std::chrono::steady_clock::now() < boot_limit) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (!uno->uart().rx_enabled) {
+    std::fprintf(stderr, "tether sim: warning: the firmware did not enable its UART receiver within 5 s\n");
+  }
 
-  std::printf("PTY %s\n", path.c_str());
+  if (arguments.json) {
+    const nlohmann::ordered_json object = {{"pty", path}, {"firmware", arguments.image.string()}};
+    std::printf("%s\n", dump(object).c_str());
+  } else {
+    std::printf("PTY %s\n", path.c_str());
+  }
   std::fflush(stdout);
 
   bool baud_checked = false;

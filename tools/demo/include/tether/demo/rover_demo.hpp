@@ -48,7 +48,7 @@ struct DemoOptions {
   /// longer: every codec sees the same timeline, and the reset lands at the same moment for all.
   std::chrono::milliseconds period{20};
   /// Bit error rate on every host link (both directions); 0: no noise.
-  double bit_error_rate = 2e-5;
+  double bit_error_rate = 1e-4;
   /// Power-cycle each virtual device once, halfway.
   bool reset_halfway = true;
   /// How long a board stays powered off in the reset.

@@ -1,0 +1,130 @@
+// Helpers shared by the subcommands (see cli_support.hpp).
+#include "cli_support.hpp"
+
+#include <unistd.h>
+
+#include <charconv>
+#include <cmath>
+#include <ctime>
+
+namespace tether::cli {
+
+std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum) {
+  std::uint32_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < minimum || value > maximum) {
+    return std::nullopt;
+  }
+  return value;
+}
+
+std::optional<std::int64_t> parse_signed(std::string_view text, std::int64_t minimum, std::int64_t maximum) {
+  if (text.starts_with('+')) text.remove_prefix(1);
+  std::int64_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size() || value < minimum || value > maximum) {
+    return std::nullopt;
+  }
+  return value;
+}
+
+std::optional<std::uint32_t> parse_seconds(std::string_view text, double maximum) {
+  double value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size() || !std::isfinite(value) || value < 0 ||
+      value > maximum) {
+    return std::nullopt;
+  }
+  return static_cast<std::uint32_t>(std::llround(value * 1000.0));
+}
+
+std::string dump(const nlohmann::ordered_json& value) {
+  return value.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+
+bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
+
+Progress::Progress(std::string_view command) : command_(command), enabled_(stderr_is_terminal()) {}
+
+Progress::~Progress() { clear(); }
+
+void Progress::show(const std::string& text) {
+  if (!enabled_) return;
+  std::fprintf(stderr, "\r\033[Ktether %s: %s", command_.c_str(), text.c_str());
+  std::fflush(stderr);
+  shown_ = true;
+}
+
+void Progress::clear() {
+  if (!shown_) return;
+  std::fputs("\r\033[K", stderr);
+  std::fflush(stderr);
+  shown_ = false;
+}
+
+Timestamps::Timestamps(bool utc) : utc_(utc), start_(std::chrono::steady_clock::now()) {}
+
+std::string Timestamps::text() const {
+  char buffer[64];
+  if (utc_) {
+    const auto now = std::chrono::system_clock::now();
+    const auto since_epoch = now.time_since_epoch();
+    const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(since_epoch);
+    const auto millis = std::chrono::duration_cast<std::chrono::milliseconds>(since_epoch - seconds).count();
+    const std::time_t time = static_cast<std::time_t>(seconds.count());
+    std::tm parts{};
+    gmtime_r(&time, &parts);
+    const std::size_t length = std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%S", &parts);
+    std::snprintf(buffer + length, sizeof buffer - length, ".%03dZ", static_cast<int>(millis));
+    return buffer;
+  }
+  const auto elapsed = std::chrono::steady_clock::now() - start_;
+  const double ms = std::chrono::duration<double, std::milli>(elapsed).count();
+  std::snprintf(buffer, sizeof buffer, "%.3f", ms);
+  return buffer;
+}
+
+void Timestamps::add_to(nlohmann::ordered_json& object) const {
+  if (utc_) {
+    object["time"] = text();
+  } else {
+    const auto elapsed = std::chrono::steady_clock::now() - start_;
+    const auto micros = std::chrono::duration_cast<std::chrono::microseconds>(elapsed).count();
+    object["t_ms"] = static_cast<double>(micros) / 1000.0;
+  }
+}
+
+void LinePrinter::line(const std::string& text) {
+  const std::lock_guard lock(mutex_);
+  std::fputs(text.c_str(), stdout);
+  std::fputc('\n', stdout);
+  std::fflush(stdout);
+}
+
+void LinePrinter::raw(const std::string& text) {
+  const std::lock_guard lock(mutex_);
+  std::fputs(text.c_str(), stdout);
+  std::fflush(stdout);
+}
+
+void LinePrinter::async_line(const std::string& text) {
+  const std::lock_guard lock(mutex_);
+  if (prompt_shown_) std::fputs("\r\033[K", stdout);
+  std::fputs(text.c_str(), stdout);
+  std::fputc('\n', stdout);
+  if (prompt_shown_) std::fputs(prompt_.c_str(), stdout);
+  std::fflush(stdout);
+}
+
+void LinePrinter::set_prompt(std::string prompt, bool shown) {
+  const std::lock_guard lock(mutex_);
+  prompt_ = std::move(prompt);
+  prompt_shown_ = shown && !prompt_.empty();
+}
+
+LinePrinter& out() {
+  static LinePrinter printer;
+  return printer;
+}
+
+}  // namespace tether::cli

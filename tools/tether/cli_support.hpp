@@ -1,0 +1,89 @@
+// Small helpers shared by the subcommands: number parsing, JSON output, timestamps, progress on stderr,
+// and a line printer that several threads (the I/O thread's event handlers, the shell) share.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace tether::cli {
+
+/// Parses a decimal number in [minimum, maximum]; nothing when malformed or out of range.
+std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum);
+/// Parses a signed decimal number in [minimum, maximum].
+std::optional<std::int64_t> parse_signed(std::string_view text, std::int64_t minimum, std::int64_t maximum);
+/// Parses seconds (`10`, `0.5`) in [0, maximum] into milliseconds.
+std::optional<std::uint32_t> parse_seconds(std::string_view text, double maximum);
+
+/// Compact one-line JSON; invalid UTF-8 is replaced, never thrown.
+std::string dump(const nlohmann::ordered_json& value);
+
+/// True when stderr is a terminal (progress is shown only then).
+bool stderr_is_terminal();
+
+/// A status line on stderr, rewritten in place, shown only when stderr is a terminal; cleared by `clear()`
+/// and on destruction. Not thread-safe (the thread running the subcommand owns it).
+class Progress {
+ public:
+  /// Progress of `tether <command>`.
+  explicit Progress(std::string_view command);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+  /// Shows `text` (replacing what was shown).
+  void show(const std::string& text);
+  /// Removes the line.
+  void clear();
+
+ private:
+  std::string command_;
+  bool enabled_;
+  bool shown_ = false;
+};
+
+/// Timestamps of one run: milliseconds since `start`, or the wall clock in ISO 8601 UTC.
+class Timestamps {
+ public:
+  /// Relative to now; `utc` selects ISO 8601 wall-clock stamps instead.
+  explicit Timestamps(bool utc);
+  /// `12.345` (ms since the start, 3 decimals) or `2024-05-01T12:00:00.123Z`.
+  std::string text() const;
+  /// Adds the stamp to a JSON object: `"t_ms": 12.345` or `"time": "2024-...Z"`.
+  void add_to(nlohmann::ordered_json& object) const;
+
+ private:
+  bool utc_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+/// Writes whole lines to stdout under one lock and flushes each, so lines from the I/O thread (events) and
+/// from the main thread never interleave. `before_line`/`after_line` let the shell clear and redraw its
+/// prompt around asynchronous lines.
+class LinePrinter {
+ public:
+  /// Prints `line` + '\n' and flushes.
+  void line(const std::string& text);
+  /// Prints `text` as is (no newline) and flushes: prompts.
+  void raw(const std::string& text);
+  /// Prints an asynchronous line (an event while the user may be typing): the prompt, when one is shown,
+  /// is erased first and drawn again after.
+  void async_line(const std::string& text);
+  /// Sets the prompt redrawn after asynchronous lines (empty: none). `shown` says whether it is on screen.
+  void set_prompt(std::string prompt, bool shown);
+
+ private:
+  std::mutex mutex_;
+  std::string prompt_;
+  bool prompt_shown_ = false;
+};
+
+/// The process's stdout printer.
+LinePrinter& out();
+
+}  // namespace tether::cli

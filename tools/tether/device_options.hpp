@@ -1,0 +1,124 @@
+// Device selection shared by `send`, `shell`, `monitor` and `stats`: the options that name a device
+// (`--port PATH ...`, `--config FILE --device NAME`, `--virtual FIRMWARE`), turning them into a
+// `devices::DeviceConfig`, and opening it: as a raw byte stream (monitor) or with its codec's client.
+#pragma once
+
+#include <boost/asio/any_io_executor.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cli_support.hpp"
+#include "tether/devices/config.hpp"
+#include "tether/devices/rover.hpp"
+#include "tether/elcano/client.hpp"
+#include "tether/proxy/client.hpp"
+#include "tether/romi/client.hpp"
+#include "tether/transports/byte_stream.hpp"
+
+namespace tether::cli {
+
+/// The device options as given on the command line.
+struct DeviceOptions {
+  /// Which way the device was named.
+  enum class Source { none, port, config, virtual_board };
+  Source source = Source::none;
+  std::string port;                              ///< --port
+  std::optional<std::uint32_t> baud;             ///< --baud
+  std::optional<devices::Codec> codec;           ///< --codec
+  std::optional<std::uint32_t> boot_wait_ms;     ///< --boot-wait
+  std::string config_file;                       ///< --config
+  std::string device;                            ///< --device
+  std::string firmware;                          ///< --virtual
+  std::optional<elcano::Generation> generation;  ///< --generation (elcano)
+  std::optional<elcano::TypeSet> capture;        ///< --capture (elcano)
+};
+
+/// The usage text of the device options (for the subcommands' usage).
+extern const char* const kDeviceUsage;
+
+/// Result of `parse_device_option`.
+enum class OptionParse { not_mine, consumed, error };
+
+/// Looks at argv[index]: a device option (and its value, `index` advanced past it) is stored in `options`.
+/// `error` gets the message of a bad value.
+OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions& options, std::string& error);
+
+/// The device to open: its configuration (built from --port / --virtual, or read from --config) and a
+/// label for messages.
+struct DeviceTarget {
+  devices::DeviceConfig config;
+  std::string label;  ///< `serial /dev/pts/3 115200 (romi)`, `arm in rover.json (devices[0])`
+};
+
+/// Checks the options (exactly one way of naming a device, no option that does not apply) and builds the
+/// target. Nothing on failure, with `error` set (a usage error: exit status 2).
+/// `default_codec` is the codec of a `--port` without `--codec` (romi for most subcommands, proxy for send).
+std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices::Codec default_codec,
+                                           std::string& error);
+
+/// Callbacks installed when the client is created, so they see every event from the first byte on.
+struct ClientHooks {
+  romi::LogHandler romi_log;         ///< romi log lines
+  proxy::EventHandler proxy_events;  ///< proxy events
+  elcano::EventHandler ring_events;  ///< elcano ring events
+};
+
+/// An opened device with its codec's client.
+class OpenDevice {
+ public:
+  /// The codec.
+  devices::Codec codec() const { return codec_; }
+  /// One line: `serial /dev/pts/3 115200 (romi)`.
+  const std::string& description() const { return description_; }
+  /// The client of the codec (exactly one is set).
+  const std::shared_ptr<romi::RomiClient>& romi() const { return romi_; }
+  const std::shared_ptr<proxy::ProxyClient>& proxy() const { return proxy_; }
+  const std::shared_ptr<elcano::RingClient>& ring() const { return ring_; }
+  /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}`.
+  nlohmann::ordered_json counters() const;
+  /// Closes the client (and the device); idempotent.
+  void close();
+
+ private:
+  friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                               const ClientHooks& hooks, Progress& progress, std::string& error);
+  devices::Codec codec_ = devices::Codec::romi;
+  std::string description_;
+  std::shared_ptr<romi::RomiClient> romi_;
+  std::shared_ptr<proxy::ProxyClient> proxy_;
+  std::shared_ptr<elcano::RingClient> ring_;
+  std::shared_ptr<devices::Rover> rover_;  // devices opened through devices::open_rover (virtual rings)
+};
+
+/// Opens the device and creates its client: romi (random first id, like `tether call`), proxy (waits for
+/// the session handshake in primary mode and for the configured inits, within the device's open timeout),
+/// elcano (the host's ring node). Blocks; another thread must run `executor`. Nothing on failure, with
+/// `error` set (exit status 2).
+std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                      const ClientHooks& hooks, Progress& progress, std::string& error);
+
+/// Opens only the device's byte stream (no client: nothing is sent). Virtual rings are not supported.
+std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                                    Progress& progress, std::string& error);
+
+/// What `tether stats` and the shell's `:stats` print: `{"device": ..., "codec": ..., "seconds": ...}` plus
+/// the client's counters (`OpenDevice::counters()`) plus `extra`'s entries.
+nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds,
+                                    const nlohmann::ordered_json& extra = nlohmann::ordered_json::object());
+
+/// `{"frames_ok": 1, ...}` of every link counter.
+nlohmann::ordered_json link_counters_json(const LinkCounters& counters);
+
+/// Renders a counters report (nested JSON objects of numbers, strings and booleans) as an aligned table:
+/// top-level values as `key  value`, objects as a heading followed by their indented entries.
+std::string counters_table(const nlohmann::ordered_json& report);
+
+/// The firmware folder: $TETHER_FIRMWARE_DIR, else the build's.
+std::string firmware_dir();
+
+}  // namespace tether::cli

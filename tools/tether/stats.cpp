@@ -1,0 +1,201 @@
+// `tether stats DEVICE [--duration S] [--probe CMD | --passive] [--interval MS] [--json]`: opens a session
+// with the device, keeps it alive for a while, and prints the session's counters.
+//
+// Output contract: a table on stdout (`key  value`, sections indented), or with --json one JSON object:
+// {"device": ..., "codec": ..., "seconds": ..., "link": {LinkCounters}, "proxy"/"ring"/"calls": {...}}.
+// Exit status: 0 once the counters are printed (also after SIGINT/SIGTERM, with what was collected so far);
+// 2 usage errors and a device that cannot be opened.
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <thread>
+
+#include "cli_support.hpp"
+#include "commands.hpp"
+#include "device_options.hpp"
+#include "tether/transports/io_thread.hpp"
+
+namespace tether::cli {
+
+namespace {
+
+const std::string& usage_text() {
+  static const std::string text =
+      std::string(
+          "usage: tether stats DEVICE [--duration S] [--probe CMD | --passive] [--interval MS] [--json]\n"
+          "\n"
+          "Opens a session with the device, runs it for --duration seconds doing what keeps it alive, and\n"
+          "prints the session's counters: the link counters every codec keeps (frames_ok, crc_errors,\n"
+          "framing_errors, oversize_frames, resyncs, stale, retries, timeouts, resets, ...) and the codec's own.\n"
+          "What runs meanwhile:\n"
+          "  romi          the probe command every --interval ms (default '?', every 1000 ms; the first at once);\n"
+          "                its answers, errors included, count as traffic; --passive sends nothing\n"
+          "  proxy         the client's session: Reset handshake at the start, a Ping every second, acks\n"
+          "  proxy-compat  nothing is sent (the deployed protocol has no heartbeat); the device's reports count\n"
+          "  elcano        the host's ring node: messages it does not capture are forwarded\n"
+          "The same report is `:stats` in `tether shell`.\n"
+          "\n") +
+      kDeviceUsage +
+      "\n"
+      "  --duration S   how long to run (default 5; 0: open, probe once, print)\n"
+      "  --probe CMD    romi: the command sent every interval (default '?')\n"
+      "  --passive      romi: send nothing\n"
+      "  --interval MS  romi: time between probes (default 1000)\n"
+      "  --json         print one JSON object instead of the table\n"
+      "\n"
+      "SIGINT/SIGTERM stop early and print what was counted so far. Exit status: 0 counters printed;\n"
+      "2 usage errors, a device that cannot be opened.\n";
+  return text;
+}
+
+// Usage errors print the synopsis only; --help prints everything.
+int usage_error(const std::string& message) {
+  const std::string& text = usage_text();
+  const std::string synopsis = text.substr(0, text.find("\n\n") + 1) + "Run `tether stats --help` for the details.\n";
+  return tether::cli::usage_error("stats", message, synopsis.c_str());
+}
+
+int fail(const std::string& message) {
+  std::fprintf(stderr, "tether stats: %s\n", message.c_str());
+  return 2;
+}
+
+struct Arguments {
+  DeviceOptions device;
+  std::uint32_t duration_ms = 5000;
+  std::string probe = "?";
+  bool passive = false;
+  bool probe_given = false;
+  std::uint32_t interval_ms = 1000;
+  bool json = false;
+};
+
+std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view argument = argv[i];
+    if (argument == "--help" || argument == "-h") {
+      std::fputs(usage_text().c_str(), stdout);
+      return 0;
+    }
+    std::string error;
+    switch (parse_device_option(argc, argv, i, arguments.device, error)) {
+      case OptionParse::consumed:
+        continue;
+      case OptionParse::error:
+        return usage_error(error);
+      case OptionParse::not_mine:
+        break;
+    }
+    if (argument == "--json") {
+      arguments.json = true;
+    } else if (argument == "--passive") {
+      arguments.passive = true;
+    } else if (argument == "--duration" || argument == "--probe" || argument == "--interval") {
+      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      const std::string_view value = argv[++i];
+      if (argument == "--duration") {
+        const auto duration = parse_seconds(value, 30.0 * 24 * 3600);
+        if (!duration) return usage_error("--duration needs seconds, got '" + std::string(value) + "'");
+        arguments.duration_ms = *duration;
+      } else if (argument == "--interval") {
+        const auto interval = parse_number(value, 10, 3600000);
+        if (!interval)
+          return usage_error("--interval needs milliseconds (10..3600000), got '" + std::string(value) + "'");
+        arguments.interval_ms = *interval;
+      } else {
+        arguments.probe = value;
+        arguments.probe_given = true;
+      }
+    } else {
+      return usage_error(argument.starts_with("-") ? "unknown option " + std::string(argument)
+                                                   : "unexpected argument '" + std::string(argument) + "'");
+    }
+  }
+  if (arguments.passive && arguments.probe_given) return usage_error("--probe and --passive exclude each other");
+  return std::nullopt;
+}
+
+std::atomic<bool> g_stop{false};
+
+void on_stop_signal(int) { g_stop = true; }
+
+}  // namespace
+
+int run_stats(int argc, char** argv) {
+  Arguments arguments;
+  if (const auto status = parse(argc, argv, arguments)) return *status;
+  std::string error;
+  const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
+  if (!target) return usage_error(error);
+  const bool romi = target->config.codec == devices::Codec::romi;
+  if (!romi && (arguments.probe_given || arguments.passive)) {
+    return usage_error("--probe and --passive apply to the romi codec only");
+  }
+  const romi::Command probe(arguments.probe);
+  if (romi && !arguments.passive && !probe.valid()) {
+    return usage_error("--probe '" + arguments.probe + "': " + probe.error().message());
+  }
+
+  transports::IoThread io;
+  Progress progress("stats");
+  auto device = open_device(*target, io.executor(), ClientHooks(), progress, error);
+  if (!device) return fail(target->label + ": " + error);
+
+  g_stop = false;
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  const auto end = start + std::chrono::milliseconds(arguments.duration_ms);
+  std::uint32_t calls = 0;
+  std::uint32_t answered = 0;
+  std::uint32_t failed = 0;
+  auto next_probe = start;
+  for (bool first = true; !g_stop; first = false) {
+    const auto now = Clock::now();
+    if (!first && now >= end) break;
+    if (romi && !arguments.passive && now >= next_probe) {
+      romi::error_code call_error;
+      device->romi()->call(probe, call_error);
+      ++calls;
+      ++(call_error ? failed : answered);
+      next_probe += std::chrono::milliseconds(arguments.interval_ms);
+      continue;
+    }
+    if (first && arguments.duration_ms == 0) break;
+    const auto seconds_left = std::chrono::duration_cast<std::chrono::seconds>(end - now).count();
+    progress.show("counting, " + std::to_string(seconds_left + 1) + " s left...");
+    auto wake = std::min(end, now + std::chrono::milliseconds(100));
+    if (romi && !arguments.passive) wake = std::min(wake, next_probe);
+    std::this_thread::sleep_until(wake);
+  }
+  progress.clear();
+
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  nlohmann::ordered_json extra = nlohmann::ordered_json::object();
+  if (romi) {
+    extra["calls"] = {{"probe", arguments.passive ? nlohmann::ordered_json() : nlohmann::ordered_json(arguments.probe)},
+                      {"sent", calls},
+                      {"answered", answered},
+                      {"failed", failed}};
+  }
+  const nlohmann::ordered_json report = stats_report(*device, seconds, extra);
+  device->close();
+  if (arguments.json) {
+    out().line(dump(report));
+  } else {
+    out().raw(counters_table(report));
+  }
+  return 0;
+}
+
+}  // namespace tether::cli

@@ -1,0 +1,98 @@
+// `tether send` against the proxy firmware on virtual Unos: through the pty of `tether sim` (--port),
+// started by the command itself (--virtual), and from a rover configuration (--config).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "tether_process.hpp"
+
+namespace tether::cli::testing {
+namespace {
+
+using nlohmann::json;
+
+const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+
+TEST(TetherSend, MessagesAreAckedThroughTheSimPty) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  SimBoard board("proxy");
+  const Outcome run = run_tether({"send", "--port", board.pty(), "servo-init", "pin=9", "safe-position=90",
+                                  "servo-control", "pin=9", "position=120"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const auto lines = run.lines();
+  ASSERT_EQ(lines.size(), 2u) << run.out;
+  EXPECT_TRUE(matches(lines[0], "servo-init: acked, message id #, # attempt*; pin 9 = 90")) << lines[0];
+  EXPECT_TRUE(matches(lines[1], "servo-control: acked, message id #, # attempt*; pin 9 = 120")) << lines[1];
+}
+
+TEST(TetherSend, JsonPrintsOneObjectPerMessage) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  const Outcome run = run_tether({"send", "--virtual", "proxy", "--json", "digital-init", "pin=13", "safeState=false",
+                                  "digital-control", "pin=13", "state=on"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const auto lines = run.lines();
+  ASSERT_EQ(lines.size(), 2u) << run.out;
+  const json init = json::parse(lines[0]);
+  const json control = json::parse(lines[1]);
+  EXPECT_EQ(init["message"], "digital-init");
+  EXPECT_EQ(control["message"], "digital-control");
+  for (const json* result : {&init, &control}) {
+    EXPECT_EQ((*result)["acked"], true);
+    EXPECT_EQ((*result)["written"], true);
+    EXPECT_TRUE((*result)["message_id"].is_number_unsigned());
+    EXPECT_GE((*result)["attempts"].get<int>(), 1);
+    EXPECT_TRUE((*result)["error"].is_null());
+    EXPECT_EQ((*result)["device_errors"], json::array());
+  }
+  EXPECT_NE(control["message_id"], init["message_id"]);
+  EXPECT_EQ(control["pin_state"], json::parse(R"({"pin":13,"value":1,"failsafe":false})"));
+}
+
+TEST(TetherSend, DeviceErrorExitsOne) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  // A fresh session: pin 5 was never initialised (and a servo can only be on D9/D10).
+  const Outcome run = run_tether({"send", "--virtual", "proxy", "servo-control", "pin=5", "position=10"});
+  EXPECT_EQ(run.status, 1) << run.err;
+  EXPECT_NE(run.out.find("servo-control: acked"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("device error: pin 5 not initialised"), std::string::npos) << run.out;
+}
+
+TEST(TetherSend, ResetStartsANewSession) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  const Outcome run = run_tether({"send", "--virtual", "proxy", "--json", "reset"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json result = json::parse(run.out);
+  EXPECT_EQ(result["message"], "reset");
+  EXPECT_EQ(result["acked"], true);
+  EXPECT_TRUE(result["session_id"].is_number_unsigned());
+}
+
+TEST(TetherSend, CompatMessagesAreWrittenAndTheDeviceAnswerIsShown) {
+  TETHER_REQUIRE_FIRMWARE("proxy-compat");
+  // --settle only bounds the wait: the device's EventMessage ends it.
+  const Outcome run = run_tether(
+      {"send", "--virtual", "proxy-compat", "--settle", "20000", "--json", "servo-init", "pin=9", "safe-position=90"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json result = json::parse(run.out);
+  EXPECT_EQ(result["acked"], false);
+  EXPECT_EQ(result["written"], true);
+  // The device's answer; its boot announcement (RESET 0) may come along, depending on when the board booted.
+  const auto& events = result["device_events"];
+  EXPECT_NE(std::find(events.begin(), events.end(), "SERVO_INIT 9"), events.end()) << events;
+}
+
+TEST(TetherSend, ConfiguredInitsComeFirst) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  // The rover's "servos" device inits D9, D10 and D13 when it opens, so a control needs no init here.
+  const Outcome run =
+      run_tether({"send", "--config", kRover, "--device", "servos", "servo-control", "pin=10", "position=45"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_TRUE(matches(run.out, "servo-control: acked, message id #, # attempt*; pin 10 = 45\n")) << run.out;
+}
+
+}  // namespace
+}  // namespace tether::cli::testing

@@ -1,0 +1,107 @@
+// `tether shell` used the way a person uses it: on a terminal (a new pty is its controlling terminal, stdin,
+// stdout and stderr, in the default canonical echoing mode), typing lines and reading the screen.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "fake_port.hpp"
+#include "tether_process.hpp"
+
+namespace tether::cli::testing {
+namespace {
+
+TEST(TetherShell, RomiCommandsAnswersAndLogLines) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  Terminal terminal({"shell", "--virtual", "romi-test"});
+  ASSERT_TRUE(terminal.expect("connected to virtual romi-test.elf")) << terminal.screen();
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("e\n");
+  EXPECT_TRUE(terminal.expect("[0,1,2]")) << terminal.screen();
+  terminal.type("s[2,3]\n");
+  EXPECT_TRUE(terminal.expect("[0,5]")) << terminal.screen();
+  // `g n` logs n lines before it answers.
+  terminal.type("g[2]\n");
+  EXPECT_TRUE(terminal.expect("log: log 1")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("log: log 2")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("[0]")) << terminal.screen();
+  // Errors: the device's (unknown opcode) and the host's (rejected before sending).
+  terminal.type("z\n");
+  EXPECT_TRUE(terminal.expect("[-16]  error -16: unknown opcode")) << terminal.screen();
+  terminal.type("a[40000]\n");
+  EXPECT_TRUE(terminal.expect("error -10: value out of range")) << terminal.screen();
+  terminal.type(":stats\n");
+  EXPECT_TRUE(terminal.expect("frames_ok")) << terminal.screen();
+  terminal.type(":nonsense\n");
+  EXPECT_TRUE(terminal.expect("unknown shell command :nonsense")) << terminal.screen();
+  terminal.type(":help\n");
+  EXPECT_TRUE(terminal.expect("Shell commands: :help, :stats")) << terminal.screen();
+  terminal.type(":quit\n");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+TEST(TetherShell, LogLinesAppearWhileIdle) {
+  FakePort device;
+  Terminal terminal({"shell", "--port", device.path()});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  // Nobody types; the device speaks.
+  device.send("#!battery low: 11.1 V:xxxx\r\n");
+  EXPECT_TRUE(terminal.expect("log: battery low: 11.1 V")) << terminal.screen();
+  // The prompt is drawn again after the asynchronous line.
+  EXPECT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("\x04");  // Ctrl-D: end of input
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+TEST(TetherShell, ProxyMessagesAndDeviceEvents) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  Terminal terminal({"shell", "--virtual", "proxy"});
+  ASSERT_TRUE(terminal.expect("proxy> ")) << terminal.screen();
+  terminal.type("servo-init pin=9 safe-position=90\n");
+  // The device reports the pin's state before it acks.
+  EXPECT_TRUE(terminal.expect("servo 9 = 90")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("servo-init acked (message id ")) << terminal.screen();
+  terminal.type("servo-control pin=9 position=135\n");
+  EXPECT_TRUE(terminal.expect("servo 9 = 135")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("servo-control acked")) << terminal.screen();
+  terminal.type("digital-control pin=4 state=high\n");
+  EXPECT_TRUE(terminal.expect("device error: pin 4 not initialised")) << terminal.screen();
+  terminal.type("servo-control pin=9\n");
+  EXPECT_TRUE(terminal.expect("error: servo-control: missing position=N")) << terminal.screen();
+  terminal.type(":stats\n");
+  EXPECT_TRUE(terminal.expect("messages_sent")) << terminal.screen();
+  terminal.type("\x04");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+TEST(TetherShell, ElcanoMessagesGoRoundTheRing) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  // One elcano-node board with its default configuration captures nothing: what the host sends comes
+  // back to it, undelivered.
+  Terminal terminal({"shell", "--virtual", "elcano-node"});
+  ASSERT_TRUE(terminal.expect("elcano> ")) << terminal.screen();
+  terminal.type("D{s 50}{a 25}\n");
+  EXPECT_TRUE(terminal.expect("sent D{s 50}{a 25}")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("undeliverable D{s 50}{a 25}")) << terminal.screen();
+  terminal.type("D{s 50}\n");
+  EXPECT_TRUE(terminal.expect("error: not an Elcano message (inval_comb)")) << terminal.screen();
+  // Capturing drive messages: the next one comes back and is the host's.
+  terminal.type(":capture drive\n");
+  EXPECT_TRUE(terminal.expect("capturing drive")) << terminal.screen();
+  terminal.type(":quit\n");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  auto board = std::make_unique<SimBoard>("proxy");
+  Terminal terminal({"shell", "--port", board->pty(), "--codec", "proxy"});
+  ASSERT_TRUE(terminal.expect("proxy> ")) << terminal.screen();
+  board.reset();  // `tether sim` ends: the pty goes away
+  EXPECT_TRUE(terminal.expect("link failed")) << terminal.screen();
+  EXPECT_EQ(terminal.wait_exit(), 2) << terminal.screen();
+}
+
+}  // namespace
+}  // namespace tether::cli::testing

@@ -1,0 +1,87 @@
+// `tether stats`: the counters of a session with virtual boards, as a table and as JSON. Assertions are on
+// what the session certainly did (the probe answered, the handshake), never on how much time allowed.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "tether_process.hpp"
+
+namespace tether::cli::testing {
+namespace {
+
+using nlohmann::json;
+
+const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+
+void expect_link_counters(const json& link) {
+  for (const char* name : {"frames_ok", "crc_errors", "framing_errors", "oversize_frames", "resyncs",
+                           "partial_timeouts", "stale", "duplicates", "retries", "timeouts", "resets", "failsafes"}) {
+    EXPECT_TRUE(link.contains(name) && link[name].is_number_unsigned()) << name;
+  }
+}
+
+TEST(TetherStats, RomiProbeCountsAsTraffic) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  // --duration 0: open, one probe, print. romi-test has no '?' handler: its -16 answer is still a frame.
+  const Outcome run = run_tether({"stats", "--virtual", "romi-test", "--duration", "0", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["codec"], "romi");
+  EXPECT_NE(report["device"].get<std::string>().find("romi-test.elf"), std::string::npos);
+  expect_link_counters(report["link"]);
+  EXPECT_EQ(report["link"]["frames_ok"], 1);
+  EXPECT_EQ(report["link"]["crc_errors"], 0);
+  EXPECT_EQ(report["calls"], json::parse(R"({"probe":"?","sent":1,"answered":1,"failed":0})"));
+}
+
+TEST(TetherStats, ProbeCommandThroughTheSimPtyAsATable) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  SimBoard board("romi-test");
+  const Outcome run = run_tether({"stats", "--port", board.pty(), "--probe", "e", "--duration", "0"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  auto has = [&](const std::string& pattern) { return matches(run.out, "*" + pattern + "*"); };
+  EXPECT_TRUE(has("codec~romi\n")) << run.out;
+  EXPECT_TRUE(has("\nlink\n  frames_ok~1\n  crc_errors~0\n")) << run.out;
+  EXPECT_TRUE(has("\ncalls\n  probe~e\n  sent~1\n  answered~1\n  failed~0\n")) << run.out;
+}
+
+TEST(TetherStats, ProxySessionCounters) {
+  TETHER_REQUIRE_FIRMWARE("proxy");
+  const Outcome run = run_tether({"stats", "--virtual", "proxy", "--duration", "0", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["codec"], "proxy");
+  expect_link_counters(report["link"]);
+  // Opening waits for the handshake: our Reset went out and the device's ResetEvent came back.
+  EXPECT_GE(report["link"]["frames_ok"].get<int>(), 1);
+  EXPECT_GE(report["proxy"]["resets_sent"].get<int>(), 1);
+  EXPECT_EQ(report["session"]["established"], true);
+  EXPECT_TRUE(report["session"]["session_id"].is_number_unsigned());
+}
+
+TEST(TetherStats, ElcanoRingFromTheRoverConfiguration) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  const Outcome run = run_tether({"stats", "--config", kRover, "--device", "ring", "--duration", "0", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["codec"], "elcano");
+  expect_link_counters(report["link"]);
+  for (const char* name :
+       {"captured", "forwarded", "originated", "undeliverable", "queue_full_drops", "bytes_written"}) {
+    EXPECT_TRUE(report["ring"].contains(name)) << name;
+  }
+}
+
+TEST(TetherStats, PassiveRomiSendsNothing) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const Outcome run = run_tether({"stats", "--virtual", "romi-test", "--passive", "--duration", "0", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["calls"]["sent"], 0);
+  EXPECT_EQ(report["link"]["frames_ok"], 0);
+}
+
+}  // namespace
+}  // namespace tether::cli::testing

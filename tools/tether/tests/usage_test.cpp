@@ -1,0 +1,145 @@
+// `tether --help`, every subcommand's --help, and usage errors (exit status 2 and a message naming the
+// problem), device options included. Nothing here needs a device.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <csignal>
+#include <string>
+#include <vector>
+
+#include "tether_process.hpp"
+
+#ifndef TETHER_SOURCE_DIR
+#error "TETHER_SOURCE_DIR must name the source tree"
+#endif
+
+namespace tether::cli::testing {
+namespace {
+
+const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+
+void expect_usage_error(const std::vector<std::string>& arguments, const std::string& message) {
+  SCOPED_TRACE(::testing::PrintToString(arguments));
+  const Outcome run = run_tether(arguments);
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("usage: tether " + arguments[0]), std::string::npos) << run.err;
+}
+
+TEST(TetherUsage, HelpListsEverySubcommand) {
+  const Outcome run = run_tether({"--help"});
+  EXPECT_EQ(run.status, 0);
+  for (const char* name : {"sim", "call", "send", "shell", "monitor", "stats"}) {
+    EXPECT_NE(run.out.find(std::string("\n  ") + name + " "), std::string::npos) << name << "\n" << run.out;
+  }
+}
+
+TEST(TetherUsage, EverySubcommandHasHelpWithTheDeviceOptionsAndJson) {
+  for (const char* name : {"send", "shell", "monitor", "stats"}) {
+    SCOPED_TRACE(name);
+    const Outcome run = run_tether({name, "--help"});
+    EXPECT_EQ(run.status, 0);
+    EXPECT_EQ(run.out.rfind(std::string("usage: tether ") + name, 0), 0u) << run.out;
+    for (const char* option : {"--port PATH", "--config FILE --device NAME", "--virtual FIRMWARE", "--json"}) {
+      EXPECT_NE(run.out.find(option), std::string::npos) << option;
+    }
+  }
+  for (const char* name : {"sim", "call"}) {
+    const Outcome run = run_tether({name, "--help"});
+    EXPECT_EQ(run.status, 0);
+    EXPECT_NE(run.out.find("--json"), std::string::npos) << name;
+  }
+  // `tether help NAME` is `tether NAME --help`.
+  EXPECT_EQ(run_tether({"help", "monitor"}).out, run_tether({"monitor", "--help"}).out);
+}
+
+TEST(TetherUsage, SendHelpListsTheSchemasMessages) {
+  const Outcome run = run_tether({"send", "--help"});
+  EXPECT_NE(run.out.find("servo-control pin=N position=N"), std::string::npos);
+  EXPECT_NE(run.out.find("digital-init pin=N safe-state=BOOL"), std::string::npos);
+  EXPECT_NE(run.out.find("ping-failsafe-reset"), std::string::npos);
+  EXPECT_NE(run.out.find("dc-motor-control pin-forward=N pin-reverse=N position=N"), std::string::npos);  // compat
+}
+
+TEST(TetherUsage, DeviceSelectionErrors) {
+  expect_usage_error({"stats"}, "no device given");
+  expect_usage_error({"monitor", "--port", "/dev/null", "--virtual", "romi-test"}, "give only one of");
+  expect_usage_error({"shell", "--virtual", "romi-test", "--baud", "9600"}, "--baud does not apply to --virtual");
+  expect_usage_error({"stats", "--port", "/dev/null", "--capture", "drive"}, "--capture applies to the elcano codec");
+  expect_usage_error({"monitor", "--port", "/dev/null", "--codec", "mavlink"}, "--codec needs romi, proxy");
+  expect_usage_error({"monitor", "--port", "/dev/null", "--baud", "fast"}, "--baud needs a positive number");
+  expect_usage_error({"monitor", "--port"}, "--port needs a value");
+  expect_usage_error({"stats", "--config", kRover}, "--config needs --device NAME (devices in " + kRover + ": arm, ");
+  expect_usage_error({"stats", "--config", kRover, "--device", "wheels"}, "no device 'wheels'");
+  expect_usage_error({"stats", "--config", kRover, "--device", "arm", "--baud", "9600"},
+                     "--baud does not apply with --config");
+  expect_usage_error({"stats", "--device", "arm"}, "--device needs --config FILE");
+  expect_usage_error({"stats", "--config", "/nonexistent/rover.json", "--device", "arm"}, "/nonexistent/rover.json");
+}
+
+TEST(TetherUsage, SendRejectsUnknownMessagesFieldsAndValuesBeforeOpening) {
+  // /dev/null is never opened: every message is checked first.
+  const std::vector<std::string> device = {"send", "--port", "/dev/null"};
+  auto with = [&](std::vector<std::string> words) {
+    std::vector<std::string> arguments = device;
+    arguments.insert(arguments.end(), words.begin(), words.end());
+    return arguments;
+  };
+  expect_usage_error(with({"servo-move", "pin=9"}), "unknown message 'servo-move' (messages: ping, servo-init, ");
+  expect_usage_error(with({"servo-control", "pin=9", "angle=3"}),
+                     "servo-control: unknown field 'angle' (fields: pin, position)");
+  expect_usage_error(with({"servo-control", "pin=9", "position=up"}), "servo-control: position needs a number");
+  expect_usage_error(with({"servo-control", "pin=-1", "position=3"}),
+                     "servo-control: pin needs a number 0..4294967295");
+  expect_usage_error(with({"digital-control", "pin=13", "state=maybe"}), "digital-control: state needs true or false");
+  expect_usage_error(with({"servo-control", "pin=9"}), "servo-control: missing position=N");
+  expect_usage_error(with({"servo-control", "pin=9", "pin=10", "position=1"}), "servo-control: pin given twice");
+  expect_usage_error(with({}), "no message given");
+  // The compat schema has other messages and fields.
+  expect_usage_error(with({"--codec", "proxy-compat", "digital-control", "pin=7", "state=1"}),
+                     "digital-control: unknown field 'state' (fields: pin, activate)");
+  expect_usage_error(with({"--codec", "proxy-compat", "ping"}), "unknown message 'ping'");
+  expect_usage_error({"send", "--port", "/dev/null", "--codec", "romi", "ping"}, "speaks romi, not the proxy protocol");
+}
+
+TEST(TetherUsage, SubcommandOptionErrors) {
+  expect_usage_error({"monitor", "--port", "/dev/null", "--count", "0"}, "--count needs a positive number");
+  expect_usage_error({"monitor", "--port", "/dev/null", "--duration", "soon"}, "--duration needs seconds");
+  expect_usage_error({"monitor", "--port", "/dev/null", "--keepalive"}, "--keepalive applies to the proxy codec");
+  expect_usage_error({"stats", "--port", "/dev/null", "--codec", "proxy", "--probe", "?"},
+                     "--probe and --passive apply to the romi codec only");
+  expect_usage_error({"stats", "--port", "/dev/null", "--probe", "a[99999]"}, "--probe 'a[99999]'");
+  expect_usage_error({"shell", "--port", "/dev/null", "L[1]"}, "unexpected argument 'L[1]'");
+  expect_usage_error({"shell", "--port", "/dev/null", "--verbose"}, "unknown option --verbose");
+}
+
+TEST(TetherUsage, UnopenableDevicesExitTwoWithTheReason) {
+  Outcome run = run_tether({"stats", "--port", "/dev/tether-no-such-port", "--duration", "0"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("cannot open /dev/tether-no-such-port"), std::string::npos) << run.err;
+  run = run_tether({"monitor", "--virtual", "/nonexistent/image.elf", "--count", "1"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("cannot start a virtual Uno with /nonexistent/image.elf"), std::string::npos) << run.err;
+}
+
+TEST(TetherSim, JsonPrintsThePtyAsAnObject) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  ::tether::testing::ChildProcess sim({TETHER_BINARY, "sim", firmware("romi-test").string(), "--json"}, true);
+  const auto line = sim.read_line(std::chrono::seconds(30));
+  ASSERT_TRUE(line);
+  const nlohmann::json object = nlohmann::json::parse(*line);
+  EXPECT_EQ(object["firmware"], firmware("romi-test").string());
+  const std::string pty = object["pty"];
+  EXPECT_TRUE(pty.starts_with("/dev/pts/")) << pty;
+  // The port is ready when the line is printed: the first request is answered.
+  const Outcome run = run_tether({"call", "--port", pty, "--json", "e"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(nlohmann::json::parse(run.out)["values"], nlohmann::json::parse("[0,1,2]"));
+  sim.signal(SIGINT);
+  EXPECT_EQ(sim.wait(std::chrono::seconds(20)), 0);
+}
+
+}  // namespace
+}  // namespace tether::cli::testing
