@@ -490,7 +490,7 @@ TransportConfig parse_transport(const Node& node, Codec codec, const std::string
 
 // --- codec options --------------------------------------------------------------------------------------
 
-const Names kRomiKeys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout"};
+const Names kRomiKeys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
 const Names kProxyKeys = {"baud",           "bits_per_byte",     "processing_margin_ms", "send_budget_ms",
                               "max_sends",      "queue_timeout_ms",  "ping_period_ms",       "reset_timeout_ms",
                               "open_timeout_ms", "inits"};
@@ -537,6 +537,7 @@ RomiOptions parse_romi_options(const Object& object) {
   RomiOptions options;
   read_call_timing(object, options.timing);
   if (auto v = object.optional("retry_on_timeout")) options.timing.retry_on_timeout = read_bool(*v);
+  if (auto v = object.optional("first_id")) options.first_id = static_cast<std::uint8_t>(read_unsigned(*v, 0, 254));
   return options;
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <exception>
 #include <mutex>
+#include <random>
 #include <thread>
 #include <stdexcept>
 #include <utility>
@@ -72,6 +73,14 @@ std::shared_ptr<transports::VirtualUnoStream> open_virtual(const VirtualTranspor
   }
   // Everything else concerns the image: missing, unreadable, not an AVR ELF, too large.
   fail(path + ".firmware", virt.board.firmware.string() + ": " + error.message(), error);
+}
+
+// A random first Romi request id, 0..254 (see RomiOptions::first_id).
+std::uint8_t random_romi_id() {
+  static std::mutex mutex;
+  static std::mt19937 generator{std::random_device{}()};
+  std::lock_guard lock(mutex);
+  return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
 // --- virtual rings ------------------------------------------------------------------------------------------
@@ -179,6 +188,35 @@ std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTrans
   return stream;
 }
 
+// --- one device's transport -----------------------------------------------------------------------------------
+
+// Opens `device`'s transport; errors are ConfigErrors naming `transport_path` (devices[i].transport).
+OpenedTransport open_device_transport(const DeviceConfig& device, const std::string& transport_path,
+                                      const boost::asio::any_io_executor& executor) {
+  OpenedTransport opened;
+  try {
+    if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
+      opened.stream = open_serial(*serial, transport_path + ".serial", executor);
+    } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
+      opened.stream = open_tcp(*tcp, transport_path + ".tcp", executor);
+    } else if (const auto* virt = std::get_if<VirtualTransport>(&device.transport)) {
+      auto board_stream = open_virtual(*virt, transport_path + ".virtual", executor);
+      opened.boards.emplace_back(board_stream, &board_stream->board());  // shares the stream's ownership
+      opened.stream = std::move(board_stream);
+    } else {
+      const ElcanoOptions* elcano = std::get_if<ElcanoOptions>(&device.options);
+      opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
+                                        elcano != nullptr ? *elcano : ElcanoOptions(), device.name,
+                                        transport_path + ".virtual_ring", executor, opened.stop, opened.boards);
+    }
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::exception& error) {
+    fail(transport_path, error.what(), make_error_code(DevicesError::invalid_config));
+  }
+  return opened;
+}
+
 // --- proxy: inits and handshake ------------------------------------------------------------------------------
 
 // What opening a proxy device waits for, filled in from the client's completions and events.
@@ -282,28 +320,16 @@ class RoverOpener {
                           const boost::asio::any_io_executor& executor, const OpenOptions& hooks) {
     const std::string path = device_path(index);
     const std::string transport_path = path + ".transport";
-    std::shared_ptr<transports::ByteStream> stream;
-    std::function<void()> stop;  // for what the client's close does not stop (a virtual ring)
-    std::vector<std::shared_ptr<transports::VirtualUno>> boards;
+    OpenedTransport transport = open_device_transport(device, transport_path, executor);
+    std::shared_ptr<transports::ByteStream> stream = std::move(transport.stream);
+    std::function<void()> stop = std::move(transport.stop);  // what the client's close does not stop (a ring)
+    std::vector<std::shared_ptr<transports::VirtualUno>> boards = std::move(transport.boards);
     try {
-      if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
-        stream = open_serial(*serial, transport_path + ".serial", executor);
-      } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
-        stream = open_tcp(*tcp, transport_path + ".tcp", executor);
-      } else if (const auto* virt = std::get_if<VirtualTransport>(&device.transport)) {
-        auto board_stream = open_virtual(*virt, transport_path + ".virtual", executor);
-        boards.emplace_back(board_stream, &board_stream->board());  // shares the stream's ownership
-        stream = std::move(board_stream);
-      } else {
-        stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
-                                   std::get<ElcanoOptions>(device.options), device.name,
-                                   transport_path + ".virtual_ring", executor, stop, boards);
-      }
       if (hooks.wrap_stream) stream = hooks.wrap_stream(device, stream);
-    } catch (const ConfigError&) {
-      throw;
     } catch (const std::exception& error) {
-      fail(transport_path, error.what(), make_error_code(DevicesError::invalid_config));
+      stream->close();
+      if (stop) stop();
+      fail(transport_path, std::string("wrap_stream: ") + error.what(), make_error_code(DevicesError::invalid_config));
     }
 
     RoverDevice opened;
@@ -314,8 +340,12 @@ class RoverOpener {
     try {
       switch (device.codec) {
         case Codec::romi: {
+          const auto& romi_options = std::get<RomiOptions>(device.options);
           romi::ClientOptions client_options;
-          client_options.timing = std::get<RomiOptions>(device.options).timing;
+          client_options.timing = romi_options.timing;
+          // The client starts after `last_id`: first_id - 1 (255 for 0), or a random id 0..254.
+          const std::uint8_t first = romi_options.first_id ? *romi_options.first_id : random_romi_id();
+          client_options.last_id = static_cast<std::uint8_t>(first - 1u);
           opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));
@@ -476,6 +506,10 @@ void start_open(RoverConfig config, boost::asio::any_io_executor executor, OpenO
 Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, error_code& error,
                  std::string* message) {
   return open_rover(config, std::move(executor), OpenOptions(), error, message);
+}
+
+OpenedTransport open_transport(const DeviceConfig& device, boost::asio::any_io_executor executor) {
+  return detail::open_device_transport(device, "transport", executor);
 }
 
 }  // namespace tether::devices

@@ -59,7 +59,13 @@ TEST(DevicesConfig, MinimalSerialRomiDeviceGetsTheDefaults) {
   EXPECT_EQ(options.timing.call_budget, 2000u);
   EXPECT_EQ(options.timing.max_attempts, 3u);
   EXPECT_FALSE(options.timing.retry_on_timeout);
+  EXPECT_FALSE(options.first_id.has_value());  // random at open
   EXPECT_EQ(describe(device.transport), "serial /dev/ttyACM0 115200");
+}
+
+TEST(DevicesConfig, RomiFirstIdCanBeFixed) {
+  const RoverConfig config = parse_config(one_device("romi", kSerial, R"({"first_id": 7})"));
+  EXPECT_EQ(std::get<RomiOptions>(config.devices[0].options).first_id, std::optional<std::uint8_t>(7));
 }
 
 TEST(DevicesConfig, EverySerialAndRomiKeyIsRead) {
@@ -276,6 +282,8 @@ TEST(DevicesConfigErrors, OutOfRangeValues) {
             "230400, ...), got 12345");
   EXPECT_EQ(error_of(one_device("romi", kSerial, R"({"max_attempts": 0})")),
             "devices[0].options.max_attempts: expected an unsigned integer in 1..255, got 0");
+  EXPECT_EQ(error_of(one_device("romi", kSerial, R"({"first_id": 255})")),
+            "devices[0].options.first_id: expected an unsigned integer in 0..254, got 255");
   EXPECT_EQ(error_of(one_device("proxy", kSerial, R"({"inits": [{"kind": "servo", "pin": 9, "safe_position": 200}]})")),
             "devices[0].options.inits[0].safe_position: expected an unsigned integer in 0..180, got 200");
   EXPECT_EQ(error_of(one_device("romi", R"({"virtual": {"firmware": "x", "faults": {"to_mcu": {"drop_rate": 2}}}})")),
@@ -309,7 +317,7 @@ TEST(DevicesConfigErrors, MissingKeys) {
 TEST(DevicesConfigErrors, UnknownKeysAreErrorsWithDidYouMean) {
   EXPECT_EQ(error_of(one_device("romi", kSerial, R"({"retires": 3})")),
             R"(devices[0].options: unknown key "retires" (allowed: attempt_timeout_ms, call_budget_ms, max_attempts, )"
-            R"(retry_on_timeout))");
+            R"(retry_on_timeout, first_id))");
   EXPECT_EQ(error_of(one_device("romi", kSerial, R"({"atempt_timeout_ms": 3})")),
             R"(devices[0].options: unknown key "atempt_timeout_ms" (did you mean "attempt_timeout_ms"?))");
   EXPECT_EQ(error_of(one_device("romi", R"({"serial": {"path": "/dev/x", "bud": 9600}})")),

@@ -335,5 +335,45 @@ TEST(DevicesRover, AKeptRingHandleOutlivesTheRoverSafely) {
   ring.reset();
 }
 
+// A device's transport alone: the reference ring as a bare byte stream (what `tether monitor` reads).
+TEST(DevicesRover, OpenTransportGivesTheRingAsABareStream) {
+  IoThread io;
+  const RoverConfig config = parse_config(default_virtual_rover_config(), firmware());
+  const DeviceConfig* ring = nullptr;
+  for (const DeviceConfig& device : config.devices) {
+    if (device.name == "ring") ring = &device;
+  }
+  ASSERT_NE(ring, nullptr);
+  OpenedTransport opened = open_transport(*ring, io.executor());
+  ASSERT_NE(opened.stream, nullptr);
+  EXPECT_EQ(opened.boards.size(), 3u);
+  // A drive goes through boards 1 and 2 to board 3, which drives the servos and reports a sensor message.
+  const std::string drive = "D{s 50}{a 25}\n";
+  opened.stream->write(boost::asio::buffer(drive));
+  std::string received;
+  char buffer[128];
+  const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (received.find('\n') == std::string::npos && std::chrono::steady_clock::now() < limit) {
+    received.append(buffer, opened.stream->read_some(boost::asio::buffer(buffer), std::chrono::seconds(20)));
+  }
+  EXPECT_EQ(received.substr(0, 2), "S{") << received;
+  EXPECT_NE(received.find("{s 50}{a 25}"), std::string::npos) << received;
+  opened.stream->close();
+  if (opened.stop) opened.stop();
+}
+
+TEST(DevicesRover, OpenTransportErrorsNameTheTransport) {
+  IoThread io;
+  const RoverConfig config = parse_config(
+      R"({"devices": [{"name": "arm", "codec": "romi", "transport": {"serial": {"path": "/dev/tether-no-such-port"}}}]})");
+  try {
+    open_transport(config.devices[0], io.executor());
+    ADD_FAILURE() << "opened a port that does not exist";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(error.path(), "transport.serial.path");
+    EXPECT_NE(std::string(error.what()).find("/dev/tether-no-such-port"), std::string::npos) << error.what();
+  }
+}
+
 }  // namespace
 }  // namespace tether::devices

@@ -39,6 +39,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -179,6 +180,10 @@ std::string describe(const TransportConfig& transport);
 struct RomiOptions {
   /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::ClientOptions`).
   session::CallTiming timing = romi::default_call_timing();
+  /// Id of the first request (`first_id`, 0..254). Unset: random when the device opens. A fixed first id
+  /// would make the first request of a restarted service look, to a device that remembers the last id of
+  /// the previous session, like that request sent again (answered from its cache, or -15 by the reference).
+  std::optional<std::uint8_t> first_id;
 };
 
 /// One pin init a proxy device replays after every reset (`ProxyClient` registers it; see client.hpp).

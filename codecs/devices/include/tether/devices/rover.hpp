@@ -142,6 +142,21 @@ class Rover {
   std::vector<std::function<void()>> stops_;  // stop what the clients do not (virtual rings), after they closed
 };
 
+/// A device's transport opened on its own, without a client (`tether monitor` reads the raw bytes).
+struct OpenedTransport {
+  /// The byte stream; it keeps alive what it needs (a virtual board, a virtual ring's boards).
+  std::shared_ptr<transports::ByteStream> stream;
+  /// The simulated boards behind it (see `RoverDevice::boards`); empty for hardware.
+  std::vector<std::shared_ptr<transports::VirtualUno>> boards;
+  /// Stops what closing the stream does not (a virtual ring's simulation thread); empty when nothing.
+  std::function<void()> stop;
+};
+
+/// Opens only `device`'s transport, as `open_rover` does (serial port with its boot wait, TCP, a virtual
+/// board, a virtual ring with its EEPROMs written before the first boot). Throws `ConfigError` with the
+/// path `transport...`. Blocks; another thread must run `executor`.
+OpenedTransport open_transport(const DeviceConfig& device, boost::asio::any_io_executor executor);
+
 /// Opens every device of `config` (validated first). Throws `ConfigError`: its `path()` names the device's
 /// configuration, its `code()` is the cause (the transport's error, `DevicesError::device_not_ready`, ...).
 /// Blocks; another thread must run `executor`.
