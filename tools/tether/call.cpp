@@ -15,7 +15,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -24,6 +23,7 @@
 #include <string>
 #include <string_view>
 
+#include "cli_support.hpp"
 #include "commands.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/transports/io_thread.hpp"
@@ -35,37 +35,39 @@ namespace {
 
 namespace asio = boost::asio;
 
-constexpr const char* kUsage =
-    "usage: tether call --port PATH [--baud N] [--timeout MS] [--boot-wait MS] [--id N] [--manual] [--json]\n"
-    "                   'COMMAND'\n"
-    "\n"
-    "Sends one Romi command (e.g. 'L[1]', 'M[16,\"Shutdown\"]') to the device on PATH (a serial port or a\n"
-    "pty, e.g. the one `tether sim` prints) and prints the answer array as JSON on stdout.\n"
-    "\n"
-    "  --port PATH      serial device or pty (required)\n"
-    "  --baud N         line speed (default 115200)\n"
-    "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
-    "                   budget); each attempt waits at most min(MS, 1000) for the answer\n"
-    "  --boot-wait MS   wait after opening the port and drop what the board printed meanwhile (default 0;\n"
-    "                   use 2000 for an Arduino Uno, which resets when the port opens)\n"
-    "  --id N           request id 0..255 (default: random, never 255). Each run is a new session: a fixed\n"
-    "                   id would make two runs of one command look like a repeated request to a device\n"
-    "                   that filters repeated ids (it would answer -15, or its cached answer without\n"
-    "                   running the command again)\n"
-    "  --manual         send the terminal form `#COMMAND:xxxx` (no id, no CRC; the answer carries id 00)\n"
-    "  --json           print one JSON object for every outcome instead of the bare array:\n"
-    "                   {\"code\":0,\"message\":\"\",\"values\":[0,1,2],\"answered\":true,\"id\":7,\"attempts\":1,\n"
-    "                   \"raw\":\"e[0,1,2]\"} (raw: the answer as received, only when there was one)\n"
-    "\n"
-    "The command is checked before anything is sent (opcode [a-zA-Z0-9?], at most 12 int16 values and one\n"
-    "string of at most 32 characters, frame <= 64 bytes). Log lines the device sends during the call are\n"
-    "printed on stderr as `log: TEXT`. Errors are printed on stderr as `tether call: CODE MESSAGE`.\n"
-    "\n"
-    "Exit status: 0 the device answered code 0; 1 it answered an application error (code > 0);\n"
-    "2 a protocol or transport error (code < 0: the device's, or the host's such as -25 timed out,\n"
-    "-10 value out of range, -33 transport error) and usage errors.\n";
-
-int usage_error(const std::string& message) { return tether::cli::usage_error("call", message, kUsage); }
+const CommandText& command_text() {
+  static const CommandText text(
+      "call",
+      "usage: tether call --port PATH [--baud N] [--timeout MS] [--boot-wait MS] [--id N] [--manual] [--json]\n"
+      "                   'COMMAND'\n"
+      "\n"
+      "Sends one Romi command (e.g. 'L[1]', 'M[16,\"Shutdown\"]') to the device on PATH (a serial port or a\n"
+      "pty, e.g. the one `tether sim` prints) and prints the answer array as JSON on stdout.\n"
+      "\n"
+      "  --port PATH      serial device or pty (required)\n"
+      "  --baud N         line speed (default 115200)\n"
+      "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
+      "                   budget); each attempt waits at most min(MS, 1000) for the answer\n"
+      "  --boot-wait MS   wait after opening the port and drop what the board printed meanwhile (default 0;\n"
+      "                   use 2000 for an Arduino Uno, which resets when the port opens)\n"
+      "  --id N           request id 0..255 (default: random, never 255). Each run is a new session: a fixed\n"
+      "                   id would make two runs of one command look like a repeated request to a device\n"
+      "                   that filters repeated ids (it would answer -15, or its cached answer without\n"
+      "                   running the command again)\n"
+      "  --manual         send the terminal form `#COMMAND:xxxx` (no id, no CRC; the answer carries id 00)\n"
+      "  --json           print one JSON object for every outcome instead of the bare array:\n"
+      "                   {\"code\":0,\"message\":\"\",\"values\":[0,1,2],\"answered\":true,\"id\":7,\"attempts\":1,\n"
+      "                   \"raw\":\"e[0,1,2]\"} (raw: the answer as received, only when there was one)\n"
+      "\n"
+      "The command is checked before anything is sent (opcode [a-zA-Z0-9?], at most 12 int16 values and one\n"
+      "string of at most 32 characters, frame <= 64 bytes). Log lines the device sends during the call are\n"
+      "printed on stderr as `log: TEXT`. Errors are printed on stderr as `tether call: CODE MESSAGE`.\n"
+      "\n"
+      "Exit status: 0 the device answered code 0; 1 it answered an application error (code > 0);\n"
+      "2 a protocol or transport error (code < 0: the device's, or the host's such as -25 timed out,\n"
+      "-10 value out of range, -33 transport error) and usage errors.\n");
+  return text;
+}
 
 struct Arguments {
   std::string port;
@@ -78,25 +80,13 @@ struct Arguments {
   std::optional<std::string> command;
 };
 
-// Parses a decimal number in [minimum, maximum]; nothing when malformed or out of range.
-std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum) {
-  std::uint32_t value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || value < minimum || value > maximum) {
-    return std::nullopt;
-  }
-  return value;
-}
-
 // Returns an exit status if parsing ends the program (help or error).
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
+  const CommandText& text = command_text();
   bool options_done = false;
   for (int i = 1; i < argc; ++i) {
     const std::string_view argument = argv[i];
-    if (!options_done && (argument == "--help" || argument == "-h")) {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
+    if (!options_done && (argument == "--help" || argument == "-h")) return text.help();
     if (!options_done && argument == "--") {
       options_done = true;
     } else if (!options_done && argument == "--manual") {
@@ -105,38 +95,42 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       arguments.json = true;
     } else if (!options_done && (argument == "--port" || argument == "--baud" || argument == "--timeout" ||
                                  argument == "--boot-wait" || argument == "--id")) {
-      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (argument == "--port") {
-        if (value.empty()) return usage_error("--port needs a path");
+        if (value.empty()) return text.usage_error("--port needs a path");
         arguments.port = std::string(value);
       } else if (argument == "--baud") {
         const auto baud = parse_number(value, 1, 4000000);
-        if (!baud) return usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
+        if (!baud) return text.usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
         arguments.baud = *baud;
       } else if (argument == "--timeout") {
         const auto timeout = parse_number(value, 1, 3600000);
-        if (!timeout) return usage_error("--timeout needs milliseconds (1..3600000), got '" + std::string(value) + "'");
+        if (!timeout) {
+          return text.usage_error("--timeout needs milliseconds (1..3600000), got '" + std::string(value) + "'");
+        }
         arguments.timeout_ms = *timeout;
       } else if (argument == "--id") {
         const auto id = parse_number(value, 0, 255);
-        if (!id) return usage_error("--id needs a number 0..255, got '" + std::string(value) + "'");
+        if (!id) return text.usage_error("--id needs a number 0..255, got '" + std::string(value) + "'");
         arguments.id = static_cast<std::uint8_t>(*id);
       } else {
         const auto wait = parse_number(value, 0, 60000);
-        if (!wait) return usage_error("--boot-wait needs milliseconds (0..60000), got '" + std::string(value) + "'");
+        if (!wait) {
+          return text.usage_error("--boot-wait needs milliseconds (0..60000), got '" + std::string(value) + "'");
+        }
         arguments.boot_wait_ms = *wait;
       }
     } else if (!options_done && argument.size() > 1 && argument.starts_with("--")) {
-      return usage_error("unknown option " + std::string(argument));
+      return text.usage_error("unknown option " + std::string(argument));
     } else if (arguments.command) {
-      return usage_error("more than one command given (quote the command: 'M[16,\"Shutdown\"]')");
+      return text.usage_error("more than one command given (quote the command: 'M[16,\"Shutdown\"]')");
     } else {
       arguments.command = std::string(argument);
     }
   }
-  if (arguments.port.empty()) return usage_error("--port is required");
-  if (!arguments.command) return usage_error("no command given");
+  if (arguments.port.empty()) return text.usage_error("--port is required");
+  if (!arguments.command) return text.usage_error("no command given");
   return std::nullopt;
 }
 
@@ -168,10 +162,7 @@ int run_call(int argc, char** argv) {
     options.baud = arguments.baud;
     options.boot_wait = std::chrono::milliseconds(arguments.boot_wait_ms);
     auto port = transports::SerialPortStream::open(io.executor(), arguments.port, options, error);
-    if (!port) {
-      std::fprintf(stderr, "tether call: cannot open %s: %s\n", arguments.port.c_str(), error.message().c_str());
-      return 2;
-    }
+    if (!port) return command_text().fail("cannot open " + arguments.port + ": " + error.message());
     romi::ClientOptions client_options;
     // The client's ids start after last_id. A random first id, never 255 (a fresh reference firmware
     // takes 255 for its last id: defect B6).

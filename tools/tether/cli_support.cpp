@@ -1,13 +1,74 @@
 // Helpers shared by the subcommands (see cli_support.hpp).
 #include "cli_support.hpp"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <charconv>
 #include <cmath>
 #include <ctime>
+#include <utility>
 
 namespace tether::cli {
+
+CommandText::CommandText(std::string_view name, std::string usage, OnUsageError on_usage_error)
+    : name_(name), usage_(std::move(usage)) {
+  error_usage_ =
+      on_usage_error == OnUsageError::full_usage
+          ? usage_
+          : usage_.substr(0, usage_.find("\n\n") + 1) + "Run `tether " + name_ + " --help` for the details.\n";
+}
+
+int CommandText::help() const {
+  std::fputs(usage_.c_str(), stdout);
+  return 0;
+}
+
+int CommandText::usage_error(const std::string& message) const {
+  std::fprintf(stderr, "tether %s: %s\n\n%s", name_.c_str(), message.c_str(), error_usage_.c_str());
+  return 2;
+}
+
+int CommandText::unexpected_argument(std::string_view argument) const {
+  return usage_error(argument.starts_with("-") ? "unknown option " + std::string(argument)
+                                               : "unexpected argument '" + std::string(argument) + "'");
+}
+
+int CommandText::fail(const std::string& message) const {
+  std::fprintf(stderr, "tether %s: %s\n", name_.c_str(), message.c_str());
+  return 2;
+}
+
+std::optional<int> parse_arguments(int argc, char** argv, const CommandText& text, const ArgumentHandler& handle) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view argument = argv[i];
+    if (argument == "--help" || argument == "-h") return text.help();
+    if (const auto status = handle(argument, i)) return status;
+  }
+  return std::nullopt;
+}
+
+void handle_stop_signals(void (*handler)(int)) {
+  struct sigaction action {};
+  action.sa_handler = handler;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+namespace {
+
+std::atomic<bool> g_stop_requested{false};
+
+void request_stop(int) { g_stop_requested = true; }
+
+}  // namespace
+
+const std::atomic<bool>& catch_stop_signals() {
+  g_stop_requested = false;
+  handle_stop_signals(request_stop);
+  return g_stop_requested;
+}
 
 std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum) {
   std::uint32_t value = 0;

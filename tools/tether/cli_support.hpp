@@ -1,18 +1,62 @@
-// Small helpers shared by the subcommands: number parsing, JSON output, timestamps, progress on stderr,
-// and a line printer that several threads (the I/O thread's event handlers, the shell) share.
+// Small helpers shared by the subcommands: their usage text and error messages, the argument loop,
+// stopping on SIGINT/SIGTERM, number parsing, JSON output, timestamps, progress on stderr, and a line
+// printer that several threads (the I/O thread's event handlers, the shell) share.
 #pragma once
 
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
 
 namespace tether::cli {
+
+/// A subcommand's name and usage text, and the messages it ends with: `--help`, usage errors (exit
+/// status 2) and other failures (exit status 2).
+class CommandText {
+ public:
+  /// What a usage error shows after the message.
+  enum class OnUsageError {
+    full_usage,  ///< all of the usage text (short texts)
+    synopsis,    ///< its first paragraph and "Run `tether NAME --help` for the details." (long texts)
+  };
+  /// `tether name`, whose `--help` prints `usage`.
+  CommandText(std::string_view name, std::string usage, OnUsageError on_usage_error = OnUsageError::full_usage);
+  /// Prints the usage text on stdout; returns 0.
+  int help() const;
+  /// Prints `tether NAME: message`, a blank line and the usage (or its synopsis) on stderr; returns 2.
+  int usage_error(const std::string& message) const;
+  /// The usage error of an argument nobody took: `unknown option --x` or `unexpected argument 'x'`.
+  int unexpected_argument(std::string_view argument) const;
+  /// Prints `tether NAME: message` on stderr; returns 2.
+  int fail(const std::string& message) const;
+
+ private:
+  std::string name_;
+  std::string usage_;
+  std::string error_usage_;  // what usage errors show
+};
+
+/// Takes one argument, argv[index], of a subcommand (advancing `index` past a value it consumes): nothing to
+/// go on, or the exit status that ends the program (a usage error).
+using ArgumentHandler = std::function<std::optional<int>(std::string_view argument, int& index)>;
+
+/// Walks argv[1..]: `--help`/`-h` prints the usage (exit status 0); every other argument goes to `handle`.
+/// Nothing when all were taken, else the exit status.
+std::optional<int> parse_arguments(int argc, char** argv, const CommandText& text, const ArgumentHandler& handle);
+
+/// Calls `handler` on SIGINT and SIGTERM instead of ending the process: the subcommands that run until
+/// stopped end cleanly (counters printed, ptys closed).
+void handle_stop_signals(void (*handler)(int));
+
+/// `handle_stop_signals` with a handler that sets the returned flag (cleared first), for loops that poll it.
+const std::atomic<bool>& catch_stop_signals();
 
 /// Parses a decimal number in [minimum, maximum]; nothing when malformed or out of range.
 std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum);

@@ -1,8 +1,6 @@
 // The subcommand table: one row per subcommand (name, entry point, one-line help).
 #include "commands.hpp"
 
-#include <cstdio>
-
 namespace tether::cli {
 
 namespace {
@@ -20,11 +18,5 @@ constexpr Command kCommands[] = {
 }  // namespace
 
 std::span<const Command> commands() { return kCommands; }
-
-int usage_error(std::string_view command, const std::string& message, const char* usage) {
-  std::fprintf(stderr, "tether %.*s: %s\n\n%s", static_cast<int>(command.size()), command.data(), message.c_str(),
-               usage);
-  return 2;
-}
 
 }  // namespace tether::cli

@@ -2,7 +2,6 @@
 #pragma once
 
 #include <span>
-#include <string>
 #include <string_view>
 
 namespace tether::cli {
@@ -18,9 +17,6 @@ struct Command {
 
 /// Every subcommand, in the order `tether --help` lists them.
 std::span<const Command> commands();
-
-/// Prints `tether <command>: <message>`, a blank line and `usage` on stderr; returns 2 (usage error).
-int usage_error(std::string_view command, const std::string& message, const char* usage);
 
 // --- one declaration per subcommand (defined in <name>.cpp) ---
 int run_sim(int argc, char** argv);

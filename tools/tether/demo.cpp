@@ -10,7 +10,9 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "cli_support.hpp"
 #include "commands.hpp"
@@ -21,30 +23,32 @@ namespace tether::cli {
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: tether demo [--config FILE] [--iterations N] [--period MS] [--ber RATE] [--no-reset] [--seed N]\n"
-    "                   [--json]\n"
-    "\n"
-    "Runs the same workload through every device of a rover and prints a side-by-side table per codec:\n"
-    "operations, successes, wrong answers, wire bytes per operation, p50/p99 latency, retries, stale\n"
-    "replies, CRC/framing drops, resets injected/detected, recovery time, and whether the servo pins show\n"
-    "the last confirmed command. The workload: set the throttle (D9) and steering (D10) servos and get the\n"
-    "device's confirmation, N times at a fixed period; noise on every host link from the start; each\n"
-    "virtual device power-cycled once halfway.\n"
-    "\n"
-    "  --config FILE    a rover config (docs/config.md); default: the embedded virtual rover\n"
-    "                   (docs/examples/rover-virtual.json: simulated Unos, no hardware needed)\n"
-    "  --iterations N   operations per device (default 200)\n"
-    "  --period MS      one operation every MS milliseconds per device (default 20: a 50 Hz loop)\n"
-    "  --ber RATE       bit error rate injected on every host link, both directions (default 1e-4; 0: none)\n"
-    "  --no-reset       do not power-cycle the virtual devices halfway (hardware is never reset)\n"
-    "  --seed N         seed of the injected noise (default 1)\n"
-    "  --json           print the report as one JSON object instead of the table\n"
-    "\n"
-    "Exit status: 0 every device completed operations (after its reset, when one was injected); 1 a device\n"
-    "never did; 2 usage or configuration errors.\n";
-
-int usage_error(const std::string& message) { return tether::cli::usage_error("demo", message, kUsage); }
+const CommandText& command_text() {
+  static const CommandText text(
+      "demo",
+      "usage: tether demo [--config FILE] [--iterations N] [--period MS] [--ber RATE] [--no-reset] [--seed N]\n"
+      "                   [--json]\n"
+      "\n"
+      "Runs the same workload through every device of a rover and prints a side-by-side table per codec:\n"
+      "operations, successes, wrong answers, wire bytes per operation, p50/p99 latency, retries, stale\n"
+      "replies, CRC/framing drops, resets injected/detected, recovery time, and whether the servo pins show\n"
+      "the last confirmed command. The workload: set the throttle (D9) and steering (D10) servos and get the\n"
+      "device's confirmation, N times at a fixed period; noise on every host link from the start; each\n"
+      "virtual device power-cycled once halfway.\n"
+      "\n"
+      "  --config FILE    a rover config (docs/config.md); default: the embedded virtual rover\n"
+      "                   (docs/examples/rover-virtual.json: simulated Unos, no hardware needed)\n"
+      "  --iterations N   operations per device (default 200)\n"
+      "  --period MS      one operation every MS milliseconds per device (default 20: a 50 Hz loop)\n"
+      "  --ber RATE       bit error rate injected on every host link, both directions (default 1e-4; 0: none)\n"
+      "  --no-reset       do not power-cycle the virtual devices halfway (hardware is never reset)\n"
+      "  --seed N         seed of the injected noise (default 1)\n"
+      "  --json           print the report as one JSON object instead of the table\n"
+      "\n"
+      "Exit status: 0 every device completed operations (after its reset, when one was injected); 1 a device\n"
+      "never did; 2 usage or configuration errors.\n");
+  return text;
+}
 
 }  // namespace
 
@@ -53,47 +57,46 @@ int run_demo(int argc, char** argv) {
   options.firmware_dir = TETHER_FIRMWARE_DIR;
   std::string config_file;
   bool json = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
+    const std::string arg(argument);
     const auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (arg == "--help" || arg == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (arg == "--json") {
+    if (arg == "--json") {
       json = true;
     } else if (arg == "--no-reset") {
       options.reset_halfway = false;
     } else if (arg == "--config") {
       const char* file = value();
-      if (file == nullptr) return usage_error("--config needs a file");
+      if (file == nullptr) return command_text().usage_error("--config needs a file");
       config_file = file;
     } else if (arg == "--iterations") {
       const char* text = value();
       const auto n = text ? parse_number(text, 1, 100000) : std::nullopt;
-      if (!n) return usage_error("--iterations needs a number 1..100000");
+      if (!n) return command_text().usage_error("--iterations needs a number 1..100000");
       options.iterations = *n;
     } else if (arg == "--period") {
       const char* text = value();
       const auto n = text ? parse_number(text, 0, 60000) : std::nullopt;
-      if (!n) return usage_error("--period needs milliseconds 0..60000");
+      if (!n) return command_text().usage_error("--period needs milliseconds 0..60000");
       options.period = std::chrono::milliseconds(*n);
     } else if (arg == "--ber") {
       const char* text = value();
       char* end = nullptr;
       const double rate = text ? std::strtod(text, &end) : -1.0;
       if (text == nullptr || end == text || *end != '\0' || !(rate >= 0.0 && rate <= 0.01)) {
-        return usage_error("--ber needs a rate 0..0.01");
+        return command_text().usage_error("--ber needs a rate 0..0.01");
       }
       options.bit_error_rate = rate;
     } else if (arg == "--seed") {
       const char* text = value();
       const auto n = text ? parse_number(text, 0, 0xFFFFFFFFu) : std::nullopt;
-      if (!n) return usage_error("--seed needs a number");
+      if (!n) return command_text().usage_error("--seed needs a number");
       options.seed = *n;
     } else {
-      return usage_error("unknown argument " + arg);
+      return command_text().usage_error("unknown argument " + arg);
     }
-  }
+    return std::nullopt;
+  };
+  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
 
   try {
     if (!config_file.empty()) {
@@ -102,8 +105,7 @@ int run_demo(int argc, char** argv) {
       options.config = devices::load_config(config_file, parse);
     }
   } catch (const devices::ConfigError& error) {
-    std::fprintf(stderr, "tether demo: %s\n", error.what());
-    return 2;
+    return command_text().fail(error.what());
   }
 
   Progress progress("demo");
@@ -121,14 +123,9 @@ int run_demo(int argc, char** argv) {
   demo::DemoReport report;
   try {
     report = demo::run_demo(options);
-  } catch (const devices::ConfigError& error) {
+  } catch (const std::exception& error) {  // devices::ConfigError included
     progress.clear();
-    std::fprintf(stderr, "tether demo: %s\n", error.what());
-    return 2;
-  } catch (const std::exception& error) {
-    progress.clear();
-    std::fprintf(stderr, "tether demo: %s\n", error.what());
-    return 2;
+    return command_text().fail(error.what());
   }
   progress.clear();
 

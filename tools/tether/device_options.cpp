@@ -192,6 +192,12 @@ std::string firmware_dir() {
   return TETHER_FIRMWARE_DIR;
 }
 
+namespace {
+
+enum class OptionParse { not_mine, consumed, error };
+
+// Looks at argv[index]: a device option (and its value, `index` advanced past it) is stored in `options`;
+// `error` gets the message of a bad value.
 OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions& options, std::string& error) {
   const std::string_view argument = argv[index];
   static constexpr std::string_view kWithValue[] = {"--port",   "--baud",    "--codec",      "--boot-wait", "--config",
@@ -242,6 +248,24 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
     if (!options.capture) return bad("message types (drive,sensor,goal,segment)");
   }
   return OptionParse::consumed;
+}
+
+}  // namespace
+
+std::optional<int> parse_device_arguments(int argc, char** argv, const CommandText& text, DeviceOptions& options,
+                                          const ArgumentHandler& handle) {
+  return parse_arguments(argc, argv, text, [&](std::string_view argument, int& index) -> std::optional<int> {
+    std::string error;
+    switch (parse_device_option(argc, argv, index, options, error)) {
+      case OptionParse::consumed:
+        return std::nullopt;
+      case OptionParse::error:
+        return text.usage_error(error);
+      case OptionParse::not_mine:
+        break;
+    }
+    return handle(argument, index);
+  });
 }
 
 std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices::Codec default_codec,

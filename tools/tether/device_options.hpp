@@ -41,12 +41,10 @@ struct DeviceOptions {
 /// The usage text of the device options (for the subcommands' usage).
 extern const char* const kDeviceUsage;
 
-/// Result of `parse_device_option`.
-enum class OptionParse { not_mine, consumed, error };
-
-/// Looks at argv[index]: a device option (and its value, `index` advanced past it) is stored in `options`.
-/// `error` gets the message of a bad value.
-OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions& options, std::string& error);
+/// `parse_arguments` for a subcommand that names a device: `--help`, then the device options (stored in
+/// `options`; a bad value is a usage error), then `handle` for the subcommand's own arguments.
+std::optional<int> parse_device_arguments(int argc, char** argv, const CommandText& text, DeviceOptions& options,
+                                          const ArgumentHandler& handle);
 
 /// The device to open: its configuration (built from --port / --virtual, or read from --config) and a
 /// label for messages.

@@ -8,8 +8,6 @@
 // Output contract: one line per event on stdout, `<time> <kind> <detail>`; with --json one JSON object
 // per line instead. Exit status: 0 when --count or --duration is reached or on SIGINT/SIGTERM; 2 for usage
 // errors, a device that cannot be opened, or a link that fails (the device went away).
-#include <signal.h>
-
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -37,8 +35,9 @@ namespace {
 
 namespace asio = boost::asio;
 
-const std::string& usage_text() {
-  static const std::string text =
+const CommandText& command_text() {
+  static const CommandText text(
+      "monitor",
       std::string(
           "usage: tether monitor DEVICE [--utc] [--json] [--count N] [--duration S] [--keepalive]\n"
           "\n"
@@ -66,20 +65,9 @@ const std::string& usage_text() {
       "  --keepalive    proxy primary mode: send a Ping every second (the only thing monitor then sends)\n"
       "\n"
       "Runs until --count, --duration, SIGINT or SIGTERM (exit status 0). Exit status 2: usage errors, a\n"
-      "device that cannot be opened, a link that failed (the device went away).\n";
+      "device that cannot be opened, a link that failed (the device went away).\n",
+      CommandText::OnUsageError::synopsis);
   return text;
-}
-
-// Usage errors print the synopsis only; --help prints everything.
-int usage_error(const std::string& message) {
-  const std::string& text = usage_text();
-  const std::string synopsis = text.substr(0, text.find("\n\n") + 1) + "Run `tether monitor --help` for the details.\n";
-  return tether::cli::usage_error("monitor", message, synopsis.c_str());
-}
-
-int fail(const std::string& message) {
-  std::fprintf(stderr, "tether monitor: %s\n", message.c_str());
-  return 2;
 }
 
 struct Arguments {
@@ -92,21 +80,8 @@ struct Arguments {
 };
 
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (argument == "--help" || argument == "-h") {
-      std::fputs(usage_text().c_str(), stdout);
-      return 0;
-    }
-    std::string error;
-    switch (parse_device_option(argc, argv, i, arguments.device, error)) {
-      case OptionParse::consumed:
-        continue;
-      case OptionParse::error:
-        return usage_error(error);
-      case OptionParse::not_mine:
-        break;
-    }
+  const CommandText& text = command_text();
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       arguments.utc = true;
     } else if (argument == "--json") {
@@ -114,21 +89,23 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
     } else if (argument == "--keepalive") {
       arguments.keepalive = true;
     } else if (argument == "--count" || argument == "--duration") {
-      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (argument == "--count") {
         arguments.count = parse_number(value, 1, 0xFFFFFFFFu);
-        if (!arguments.count) return usage_error("--count needs a positive number, got '" + std::string(value) + "'");
+        if (!arguments.count)
+          return text.usage_error("--count needs a positive number, got '" + std::string(value) + "'");
       } else {
         arguments.duration_ms = parse_seconds(value, 30.0 * 24 * 3600);
-        if (!arguments.duration_ms) return usage_error("--duration needs seconds, got '" + std::string(value) + "'");
+        if (!arguments.duration_ms)
+          return text.usage_error("--duration needs seconds, got '" + std::string(value) + "'");
       }
     } else {
-      return usage_error(argument.starts_with("-") ? "unknown option " + std::string(argument)
-                                                   : "unexpected argument '" + std::string(argument) + "'");
+      return text.unexpected_argument(argument);
     }
-  }
-  return std::nullopt;
+    return std::nullopt;
+  };
+  return parse_device_arguments(argc, argv, text, arguments.device, own);
 }
 
 // One line of output.
@@ -357,10 +334,6 @@ class ElcanoDecoder final : public Decoder {
   elcano::RingNode<96, 256, 4> node_;
 };
 
-std::atomic<bool> g_stop{false};
-
-void on_stop_signal(int) { g_stop = true; }
-
 }  // namespace
 
 int run_monitor(int argc, char** argv) {
@@ -368,23 +341,18 @@ int run_monitor(int argc, char** argv) {
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
-  if (!target) return usage_error(error);
+  if (!target) return command_text().usage_error(error);
   const devices::Codec codec = target->config.codec;
   if (arguments.keepalive && codec != devices::Codec::proxy) {
-    return usage_error("--keepalive applies to the proxy codec (primary mode) only");
+    return command_text().usage_error("--keepalive applies to the proxy codec (primary mode) only");
   }
 
   transports::IoThread io;
   Progress progress("monitor");
   auto stream = open_stream(*target, io.executor(), progress, error);
-  if (!stream) return fail(target->label + ": " + error);
+  if (!stream) return command_text().fail(target->label + ": " + error);
 
-  g_stop = false;
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
+  const std::atomic<bool>& stop = catch_stop_signals();
 
   const auto start = std::chrono::steady_clock::now();
   auto now_ms = [&] {
@@ -426,7 +394,7 @@ int run_monitor(int argc, char** argv) {
   };
 
   bool done = false;
-  while (!done && !g_stop) {
+  while (!done && !stop) {
     const Millis now = now_ms();
     // Whatever the protocol requires us to send (elcano forwarding, keepalive pings).
     decoder->poll(now, records);

@@ -27,8 +27,9 @@ namespace tether::cli {
 
 namespace {
 
-const std::string& usage_text() {
-  static const std::string text =
+const CommandText& command_text() {
+  static const CommandText text(
+      "send",
       std::string(
           "usage: tether send DEVICE [--timeout MS] [--settle MS] [--json] MESSAGE [FIELD=VALUE ...] [MESSAGE ...]\n"
           "\n"
@@ -62,20 +63,9 @@ const std::string& usage_text() {
       "\n"
       "Exit status: 0 every message acked (compat: written) without a device error; 1 the device reported\n"
       "an error for a message (Error / ErrorMessage, e.g. an uninitialised pin); 2 usage errors, a device\n"
-      "that cannot be opened, a send that failed (timed out, link failure).\n";
+      "that cannot be opened, a send that failed (timed out, link failure).\n",
+      CommandText::OnUsageError::synopsis);
   return text;
-}
-
-// Usage errors print the synopsis only; --help prints everything.
-int usage_error(const std::string& message) {
-  const std::string& text = usage_text();
-  const std::string synopsis = text.substr(0, text.find("\n\n") + 1) + "Run `tether send --help` for the details.\n";
-  return tether::cli::usage_error("send", message, synopsis.c_str());
-}
-
-int fail(const std::string& message) {
-  std::fprintf(stderr, "tether send: %s\n", message.c_str());
-  return 2;
 }
 
 struct Arguments {
@@ -87,36 +77,25 @@ struct Arguments {
 };
 
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (argument == "--help" || argument == "-h") {
-      std::fputs(usage_text().c_str(), stdout);
-      return 0;
-    }
-    std::string error;
-    switch (parse_device_option(argc, argv, i, arguments.device, error)) {
-      case OptionParse::consumed:
-        continue;
-      case OptionParse::error:
-        return usage_error(error);
-      case OptionParse::not_mine:
-        break;
-    }
+  const CommandText& text = command_text();
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--json") {
       arguments.json = true;
     } else if (argument == "--timeout" || argument == "--settle") {
-      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       const auto ms = parse_number(value, argument == "--timeout" ? 1 : 0, 3600000);
-      if (!ms) return usage_error(std::string(argument) + " needs milliseconds, got '" + std::string(value) + "'");
+      if (!ms) return text.usage_error(std::string(argument) + " needs milliseconds, got '" + std::string(value) + "'");
       (argument == "--timeout" ? arguments.timeout_ms : arguments.settle_ms) = *ms;
     } else if (argument.starts_with("--")) {
-      return usage_error("unknown option " + std::string(argument));
+      return text.usage_error("unknown option " + std::string(argument));
     } else {
       arguments.words.emplace_back(argument);
     }
-  }
-  if (arguments.words.empty()) return usage_error("no message given");
+    return std::nullopt;
+  };
+  if (const auto status = parse_device_arguments(argc, argv, text, arguments.device, own)) return status;
+  if (arguments.words.empty()) return text.usage_error("no message given");
   return std::nullopt;
 }
 
@@ -178,11 +157,12 @@ int run_send(int argc, char** argv) {
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
   auto target = resolve_device(arguments.device, devices::Codec::proxy, error);
-  if (!target) return usage_error(error);
+  if (!target) return command_text().usage_error(error);
   if (target->config.codec != devices::Codec::proxy && target->config.codec != devices::Codec::proxy_compat) {
-    return usage_error(target->label + " speaks " + std::string(devices::to_string(target->config.codec)) +
-                       ", not the proxy protocol" +
-                       (target->config.codec == devices::Codec::romi ? " (use `tether call` or `tether shell`)" : ""));
+    const devices::Codec codec = target->config.codec;
+    return command_text().usage_error(target->label + " speaks " + std::string(devices::to_string(codec)) +
+                                      ", not the proxy protocol" +
+                                      (codec == devices::Codec::romi ? " (use `tether call` or `tether shell`)" : ""));
   }
   auto& proxy_options = std::get<devices::ProxyDeviceOptions>(target->config.options);
   const proxy::Mode mode = proxy_options.client.mode;
@@ -194,7 +174,7 @@ int run_send(int argc, char** argv) {
     std::size_t end = start + 1;
     while (end < arguments.words.size() && arguments.words[end].find('=') != std::string::npos) ++end;
     auto command = parse_proxy_command(mode, std::span(arguments.words).subspan(start, end - start), error);
-    if (!command) return usage_error(error);
+    if (!command) return command_text().usage_error(error);
     commands.push_back(std::move(*command));
     start = end;
   }
@@ -206,7 +186,7 @@ int run_send(int argc, char** argv) {
   ClientHooks hooks;
   hooks.proxy_events = [seen](const proxy::ProxyEvent& event) { observe(*seen, event); };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
-  if (!device) return fail(target->label + ": " + error);
+  if (!device) return command_text().fail(target->label + ": " + error);
   proxy::ProxyClient& client = *device->proxy();
 
   int status = 0;

@@ -13,7 +13,6 @@
 // cannot be opened, a link that failed (the device went away).
 #include <fcntl.h>
 #include <poll.h>
-#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -41,8 +40,9 @@ namespace tether::cli {
 
 namespace {
 
-const std::string& usage_text() {
-  static const std::string text =
+const CommandText& command_text() {
+  static const CommandText text(
+      "shell",
       std::string(
           "usage: tether shell DEVICE [--json]\n"
           "\n"
@@ -66,20 +66,9 @@ const std::string& usage_text() {
       "                 error, open\n"
       "\n"
       "Exit status: 0 :quit, end of input, SIGINT/SIGTERM; 2 usage errors, a device that cannot be opened,\n"
-      "a link that failed.\n";
+      "a link that failed.\n",
+      CommandText::OnUsageError::synopsis);
   return text;
-}
-
-// Usage errors print the synopsis only; --help prints everything.
-int usage_error(const std::string& message) {
-  const std::string& text = usage_text();
-  const std::string synopsis = text.substr(0, text.find("\n\n") + 1) + "Run `tether shell --help` for the details.\n";
-  return tether::cli::usage_error("shell", message, synopsis.c_str());
-}
-
-int fail(const std::string& message) {
-  std::fprintf(stderr, "tether shell: %s\n", message.c_str());
-  return 2;
 }
 
 struct Arguments {
@@ -88,29 +77,13 @@ struct Arguments {
 };
 
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (argument == "--help" || argument == "-h") {
-      std::fputs(usage_text().c_str(), stdout);
-      return 0;
-    }
-    std::string error;
-    switch (parse_device_option(argc, argv, i, arguments.device, error)) {
-      case OptionParse::consumed:
-        continue;
-      case OptionParse::error:
-        return usage_error(error);
-      case OptionParse::not_mine:
-        break;
-    }
-    if (argument == "--json") {
-      arguments.json = true;
-    } else {
-      return usage_error(argument.starts_with("-") ? "unknown option " + std::string(argument)
-                                                   : "unexpected argument '" + std::string(argument) + "'");
-    }
-  }
-  return std::nullopt;
+  const CommandText& text = command_text();
+  const auto own = [&](std::string_view argument, int&) -> std::optional<int> {
+    if (argument != "--json") return text.unexpected_argument(argument);
+    arguments.json = true;
+    return std::nullopt;
+  };
+  return parse_device_arguments(argc, argv, text, arguments.device, own);
 }
 
 // The write end of the pipe that wakes the reader (signals, link failure).
@@ -383,7 +356,7 @@ int run_shell(int argc, char** argv) {
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
-  if (!target) return usage_error(error);
+  if (!target) return command_text().usage_error(error);
   const devices::Codec codec = target->config.codec;
   const elcano::Generation generation = codec == devices::Codec::elcano
                                             ? std::get<devices::ElcanoOptions>(target->config.options).generation
@@ -420,7 +393,7 @@ int run_shell(int argc, char** argv) {
   transports::IoThread io;
   Progress progress("shell");
   auto device = open_device(*target, io.executor(), hooks, progress, error);
-  if (!device) return fail(target->label + ": " + error);
+  if (!device) return command_text().fail(target->label + ": " + error);
   if (device->ring()) receive_captured(device->ring(), printer, generation);
 
   const bool interactive = ::isatty(STDIN_FILENO) == 1 && ::isatty(STDOUT_FILENO) == 1;
@@ -433,11 +406,7 @@ int run_shell(int argc, char** argv) {
     const std::lock_guard lock(wake_target->mutex);
     wake_target->reader = reader.get();
   }
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
+  handle_stop_signals(on_stop_signal);
 
   const auto started = std::chrono::steady_clock::now();
   int status = 0;

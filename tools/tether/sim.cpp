@@ -10,7 +10,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -29,25 +28,22 @@ namespace tether::cli {
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]\n"
-    "\n"
-    "Runs IMAGE.elf on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
-    "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
-    "\n"
-    "  --fast       run as fast as possible instead of in real time\n"
-    "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
-    "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
-    "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n"
-    "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"IMAGE.elf\"} instead of `PTY /dev/pts/N`\n"
-    "\n"
-    "Exit status: 0 after SIGINT/SIGTERM; 2 usage errors and an image that cannot run.\n";
-
-int usage_error(const std::string& message) { return tether::cli::usage_error("sim", message, kUsage); }
-
-int fail(const std::string& message) {
-  std::fprintf(stderr, "tether sim: %s\n", message.c_str());
-  return 2;
+const CommandText& command_text() {
+  static const CommandText text(
+      "sim",
+      "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]\n"
+      "\n"
+      "Runs IMAGE.elf on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
+      "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
+      "\n"
+      "  --fast       run as fast as possible instead of in real time\n"
+      "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
+      "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
+      "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n"
+      "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"IMAGE.elf\"} instead of `PTY /dev/pts/N`\n"
+      "\n"
+      "Exit status: 0 after SIGINT/SIGTERM; 2 usage errors and an image that cannot run.\n");
+  return text;
 }
 
 struct Arguments {
@@ -60,41 +56,36 @@ struct Arguments {
 
 // Returns an exit status if parsing ends the program (help or error).
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
+  const CommandText& text = command_text();
   bool have_image = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (argument == "--help" || argument == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--fast") {
       arguments.fast = true;
     } else if (argument == "--json") {
       arguments.json = true;
     } else if (argument == "--link" || argument == "--baud") {
-      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (argument == "--link") {
-        if (value.empty()) return usage_error("--link needs a path");
+        if (value.empty()) return text.usage_error("--link needs a path");
         arguments.link = std::filesystem::path(value);
       } else {
-        std::uint32_t baud = 0;
-        const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), baud);
-        if (error != std::errc() || end != value.data() + value.size() || baud == 0) {
-          return usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
-        }
-        arguments.baud = baud;
+        const auto baud = parse_number(value, 1, 0xFFFFFFFFu);
+        if (!baud) return text.usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
+        arguments.baud = *baud;
       }
     } else if (argument.starts_with("-")) {
-      return usage_error("unknown option " + std::string(argument));
+      return text.usage_error("unknown option " + std::string(argument));
     } else if (have_image) {
-      return usage_error("more than one image given");
+      return text.usage_error("more than one image given");
     } else {
       arguments.image = std::filesystem::path(argument);
       have_image = true;
     }
-  }
-  if (!have_image) return usage_error("no image given");
+    return std::nullopt;
+  };
+  if (const auto status = parse_arguments(argc, argv, text, own)) return status;
+  if (!have_image) return text.usage_error("no image given");
   return std::nullopt;
 }
 
@@ -142,7 +133,7 @@ int run_sim(int argc, char** argv) {
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
   if (const int error = pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr); error != 0) {
-    return fail(std::string("cannot block signals: ") + std::strerror(error));
+    return command_text().fail(std::string("cannot block signals: ") + std::strerror(error));
   }
 
   transports::VirtualUnoOptions options;
@@ -152,19 +143,19 @@ int run_sim(int argc, char** argv) {
   std::error_code error;
   std::string message;
   auto uno = transports::VirtualUno::create(options, error, &message);
-  if (!uno) return fail(message.empty() ? error.message() : message);
+  if (!uno) return command_text().fail(message.empty() ? error.message() : message);
 
   // Open the pty before starting, so the boot output waits in it for the first client.
   const std::string path = uno->open_pty(error);
-  if (error) return fail("cannot open a pseudo-terminal: " + error.message());
+  if (error) return command_text().fail("cannot open a pseudo-terminal: " + error.message());
   if (arguments.link) {
-    if (make_link(*arguments.link, path, message)) return fail(message);
+    if (make_link(*arguments.link, path, message)) return command_text().fail(message);
   }
   try {
     uno->start();
   } catch (const std::exception& failure) {
     if (arguments.link) remove_link(*arguments.link, path);
-    return fail(failure.what());
+    return command_text().fail(failure.what());
   }
   // "Ready" means the firmware listens: bytes a client writes before the firmware enables its UART
   // receiver would be lost (a proxy client's opening Reset, a first Romi request), as on a booting board.

@@ -5,8 +5,6 @@
 // {"device": ..., "codec": ..., "seconds": ..., "link": {LinkCounters}, "proxy"/"ring"/"calls": {...}}.
 // Exit status: 0 once the counters are printed (also after SIGINT/SIGTERM, with what was collected so far);
 // 2 usage errors and a device that cannot be opened.
-#include <signal.h>
-
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -24,8 +22,9 @@ namespace tether::cli {
 
 namespace {
 
-const std::string& usage_text() {
-  static const std::string text =
+const CommandText& command_text() {
+  static const CommandText text(
+      "stats",
       std::string(
           "usage: tether stats DEVICE [--duration S] [--probe CMD | --passive] [--interval MS] [--json]\n"
           "\n"
@@ -49,20 +48,9 @@ const std::string& usage_text() {
       "  --json         print one JSON object instead of the table\n"
       "\n"
       "SIGINT/SIGTERM stop early and print what was counted so far. Exit status: 0 counters printed;\n"
-      "2 usage errors, a device that cannot be opened.\n";
+      "2 usage errors, a device that cannot be opened.\n",
+      CommandText::OnUsageError::synopsis);
   return text;
-}
-
-// Usage errors print the synopsis only; --help prints everything.
-int usage_error(const std::string& message) {
-  const std::string& text = usage_text();
-  const std::string synopsis = text.substr(0, text.find("\n\n") + 1) + "Run `tether stats --help` for the details.\n";
-  return tether::cli::usage_error("stats", message, synopsis.c_str());
-}
-
-int fail(const std::string& message) {
-  std::fprintf(stderr, "tether stats: %s\n", message.c_str());
-  return 2;
 }
 
 struct Arguments {
@@ -76,53 +64,37 @@ struct Arguments {
 };
 
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (argument == "--help" || argument == "-h") {
-      std::fputs(usage_text().c_str(), stdout);
-      return 0;
-    }
-    std::string error;
-    switch (parse_device_option(argc, argv, i, arguments.device, error)) {
-      case OptionParse::consumed:
-        continue;
-      case OptionParse::error:
-        return usage_error(error);
-      case OptionParse::not_mine:
-        break;
-    }
+  const CommandText& text = command_text();
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--json") {
       arguments.json = true;
     } else if (argument == "--passive") {
       arguments.passive = true;
     } else if (argument == "--duration" || argument == "--probe" || argument == "--interval") {
-      if (i + 1 >= argc) return usage_error(std::string(argument) + " needs a value");
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (argument == "--duration") {
         const auto duration = parse_seconds(value, 30.0 * 24 * 3600);
-        if (!duration) return usage_error("--duration needs seconds, got '" + std::string(value) + "'");
+        if (!duration) return text.usage_error("--duration needs seconds, got '" + std::string(value) + "'");
         arguments.duration_ms = *duration;
       } else if (argument == "--interval") {
         const auto interval = parse_number(value, 10, 3600000);
         if (!interval)
-          return usage_error("--interval needs milliseconds (10..3600000), got '" + std::string(value) + "'");
+          return text.usage_error("--interval needs milliseconds (10..3600000), got '" + std::string(value) + "'");
         arguments.interval_ms = *interval;
       } else {
         arguments.probe = value;
         arguments.probe_given = true;
       }
     } else {
-      return usage_error(argument.starts_with("-") ? "unknown option " + std::string(argument)
-                                                   : "unexpected argument '" + std::string(argument) + "'");
+      return text.unexpected_argument(argument);
     }
-  }
-  if (arguments.passive && arguments.probe_given) return usage_error("--probe and --passive exclude each other");
+    return std::nullopt;
+  };
+  if (const auto status = parse_device_arguments(argc, argv, text, arguments.device, own)) return status;
+  if (arguments.passive && arguments.probe_given) return text.usage_error("--probe and --passive exclude each other");
   return std::nullopt;
 }
-
-std::atomic<bool> g_stop{false};
-
-void on_stop_signal(int) { g_stop = true; }
 
 }  // namespace
 
@@ -131,27 +103,22 @@ int run_stats(int argc, char** argv) {
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
-  if (!target) return usage_error(error);
+  if (!target) return command_text().usage_error(error);
   const bool romi = target->config.codec == devices::Codec::romi;
   if (!romi && (arguments.probe_given || arguments.passive)) {
-    return usage_error("--probe and --passive apply to the romi codec only");
+    return command_text().usage_error("--probe and --passive apply to the romi codec only");
   }
   const romi::Command probe(arguments.probe);
   if (romi && !arguments.passive && !probe.valid()) {
-    return usage_error("--probe '" + arguments.probe + "': " + probe.error().message());
+    return command_text().usage_error("--probe '" + arguments.probe + "': " + probe.error().message());
   }
 
   transports::IoThread io;
   Progress progress("stats");
   auto device = open_device(*target, io.executor(), ClientHooks(), progress, error);
-  if (!device) return fail(target->label + ": " + error);
+  if (!device) return command_text().fail(target->label + ": " + error);
 
-  g_stop = false;
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
+  const std::atomic<bool>& stop = catch_stop_signals();
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
@@ -160,7 +127,7 @@ int run_stats(int argc, char** argv) {
   std::uint32_t answered = 0;
   std::uint32_t failed = 0;
   auto next_probe = start;
-  for (bool first = true; !g_stop; first = false) {
+  for (bool first = true; !stop; first = false) {
     const auto now = Clock::now();
     if (!first && now >= end) break;
     if (romi && !arguments.passive && now >= next_probe) {

@@ -2,60 +2,24 @@
 // messages and exit statuses (0 success, 1 application error, 2 protocol/transport/usage error).
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
-#include <atomic>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "fake_device.hpp"
-#include "tether/testing/child_process.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/pty_stream.hpp"
 #include "test_support.hpp"
-
-#ifndef TETHER_BINARY
-#error "TETHER_BINARY must name the built tether program"
-#endif
+#include "tether_process.hpp"
 
 namespace tether::romi::testing {
 namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-
-struct Outcome {
-  int status = -1000;
-  std::string out;  // stdout
-  std::string err;  // stderr
-};
-
-// Runs `tether ARGS...`, capturing stdout (pipe) and stderr (a temporary file, via sh).
-Outcome run_tether(const std::vector<std::string>& arguments) {
-  static std::atomic<int> counter{0};
-  const auto err_path = std::filesystem::temp_directory_path() /
-                        ("tether_call_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + ".err");
-  std::vector<std::string> argv = {"sh", "-c", "exec \"$@\" 2>\"$0\"", err_path.string(), TETHER_BINARY};
-  argv.insert(argv.end(), arguments.begin(), arguments.end());
-  Outcome run;
-  {
-    ::tether::testing::ChildProcess child(argv, /*capture_stdout=*/true);
-    while (const auto line = child.read_line(10s)) run.out += *line + "\n";
-    const auto status = child.wait(10s);
-    run.status = status ? *status : -1000;
-  }
-  std::ifstream err_file(err_path);
-  std::stringstream err;
-  err << err_file.rdbuf();
-  run.err = err.str();
-  std::filesystem::remove(err_path);
-  return run;
-}
+using ::tether::cli::testing::Outcome;
+using ::tether::cli::testing::run_tether;
 
 // A fake device on the master side of a new pty; the command opens the slave side.
 struct PtyDevice {
