@@ -4,11 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
-#include <mutex>
-#include <random>
 #include <string_view>
 #include <type_traits>
 #include <utility>
@@ -94,95 +91,6 @@ devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t 
     }
   }
   return devices::RomiOptions();
-}
-
-// --- opening ----------------------------------------------------------------------------------------------
-
-std::shared_ptr<transports::ByteStream> open_transport(const devices::TransportConfig& transport,
-                                                       const boost::asio::any_io_executor& executor, Progress& progress,
-                                                       std::string& message) {
-  boost::system::error_code error;
-  if (const auto* serial = std::get_if<devices::SerialTransport>(&transport)) {
-    std::string text = "opening " + serial->path;
-    if (serial->options.boot_wait.count() > 0) {
-      text += " (boot wait " + std::to_string(serial->options.boot_wait.count()) + " ms)";
-    }
-    progress.show(text + "...");
-    auto stream = transports::SerialPortStream::open(executor, serial->path, serial->options, error);
-    if (!stream) message = "cannot open " + serial->path + ": " + error.message();
-    return stream;
-  }
-  if (const auto* tcp = std::get_if<devices::TcpTransport>(&transport)) {
-    const std::string where = tcp->host + ":" + std::to_string(tcp->port);
-    progress.show("connecting to " + where + "...");
-    auto stream = transports::TcpStream::connect(executor, tcp->host, tcp->port, tcp->connect_timeout, error);
-    if (!stream) message = "cannot connect to " + where + ": " + error.message();
-    return stream;
-  }
-  if (const auto* virt = std::get_if<devices::VirtualTransport>(&transport)) {
-    progress.show("starting a virtual Uno with " + virt->board.firmware.string() + "...");
-    auto stream = transports::VirtualUnoStream::open(executor, virt->board, error);
-    if (!stream) {
-      if (error == transports::TransportError::boot_timeout) {
-        message = virt->board.firmware.string() + ": the firmware did not enable its UART receiver within " +
-                  std::to_string(transports::VirtualUnoStream::kBootLimit.count()) + " ms";
-      } else {
-        message = "cannot start a virtual Uno with " + virt->board.firmware.string() + ": " + error.message();
-      }
-    }
-    return stream;
-  }
-  message = "virtual rings are opened through the devices library only (not as a bare byte stream)";
-  return nullptr;
-}
-
-// What opening a proxy device waits for.
-struct ProxyReadiness {
-  std::mutex mutex;
-  std::condition_variable changed;
-  bool established = false;
-  std::size_t inits_pending = 0;
-  std::optional<std::string> failure;
-};
-
-bool wait_for_proxy(proxy::ProxyClient& client, const devices::ProxyDeviceOptions& options,
-                    const std::shared_ptr<ProxyReadiness>& ready, Progress& progress, std::string& message) {
-  const bool primary = options.client.mode == proxy::Mode::primary;
-  {
-    const std::lock_guard lock(ready->mutex);
-    ready->inits_pending = options.inits.size();
-  }
-  for (const devices::PinInit& init : options.inits) {
-    const std::string what =
-        std::string(init.kind == devices::PinInit::Kind::servo ? "servo " : "digital ") + std::to_string(init.pin);
-    auto done = [ready, what](proxy::error_code error, proxy::SendResult) {
-      const std::lock_guard lock(ready->mutex);
-      --ready->inits_pending;
-      if (error && !ready->failure) ready->failure = "init of " + what + ": " + error.message();
-      ready->changed.notify_all();
-    };
-    if (init.kind == devices::PinInit::Kind::servo) {
-      client.servo(init.pin).async_init(init.safe_value, done);
-    } else {
-      client.digital(init.pin).async_init(init.safe_value != 0, done);
-    }
-  }
-  progress.show(primary ? "waiting for the proxy session (Reset, ResetEvent, inits)..." : "sending the inits...");
-  std::unique_lock lock(ready->mutex);
-  const bool finished = ready->changed.wait_for(lock, options.open_timeout, [&] {
-    return ready->failure || (ready->inits_pending == 0 && (!primary || ready->established));
-  });
-  if (ready->failure) {
-    message = *ready->failure;
-    return false;
-  }
-  if (!finished) {
-    message = primary ? "the device did not complete the session handshake within " +
-                            std::to_string(options.open_timeout.count()) + " ms (is it a proxy device?)"
-                      : "the inits were not written within " + std::to_string(options.open_timeout.count()) + " ms";
-    return false;
-  }
-  return true;
 }
 
 }  // namespace
@@ -350,6 +258,16 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     serial.options.boot_wait = std::chrono::milliseconds(options.boot_wait_ms.value_or(0));
     target.config.name = options.port;
     target.config.transport = serial;
+  } else if (codec == devices::Codec::elcano) {
+    // The host and one board make a ring of one (host TX -> board -> host RX); the board keeps the image's
+    // build-time configuration (an erased EEPROM).
+    devices::VirtualRingTransport ring;
+    devices::RingBoardConfig node;
+    node.firmware = firmware;
+    ring.boards.push_back(node);
+    ring.pacing = transports::Pacing::real_time;
+    target.config.name = firmware.stem().string();
+    target.config.transport = ring;
   } else {
     devices::VirtualTransport virt;
     virt.board.firmware = firmware;
@@ -437,91 +355,35 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
   opened.codec_ = target.config.codec;
   opened.description_ = target.label;
 
-  if (std::holds_alternative<devices::VirtualRingTransport>(target.config.transport)) {
-    // A ring of virtual boards (EEPROMs, wiring) is the devices library's to build.
-    devices::RoverConfig rover_config;
-    rover_config.devices.push_back(target.config);
-    progress.show("starting " + devices::describe(target.config.transport) + "...");
-    boost::system::error_code code;
-    auto rover = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, code, &error));
-    if (code) return std::nullopt;
-    for (const devices::RoverDevice& device : rover->devices()) {
-      std::visit(
-          [&](const auto& client) {
-            using Client = std::decay_t<decltype(client)>;
-            if constexpr (std::is_same_v<Client, std::shared_ptr<romi::RomiClient>>) {
-              opened.romi_ = client;
-            } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::ProxyClient>>) {
-              opened.proxy_ = client;
-            } else if constexpr (std::is_same_v<Client, std::shared_ptr<elcano::RingClient>>) {
-              opened.ring_ = client;
-            }
-          },
-          device.client);
-    }
-    if (!opened.romi_ && !opened.proxy_ && !opened.ring_) {
-      error = "the devices library opened " + target.config.name + " with a client this command does not know";
-      return std::nullopt;
-    }
-    if (opened.romi_ && hooks.romi_log) opened.romi_->set_log_handler(hooks.romi_log);
-    if (opened.proxy_ && hooks.proxy_events) opened.proxy_->add_event_handler(hooks.proxy_events);
-    if (opened.ring_ && hooks.ring_events) opened.ring_->add_event_handler(hooks.ring_events);
-    opened.rover_ = std::move(rover);
-    return opened;
-  }
-
-  auto stream = open_transport(target.config.transport, executor, progress, error);
-  if (!stream) return std::nullopt;
-  try {
-    switch (target.config.codec) {
-      case devices::Codec::romi: {
-        romi::ClientOptions options;
-        options.timing = std::get<devices::RomiOptions>(target.config.options).timing;
-        // Each run is a new host session: a random first id, never 255 (see call.cpp).
-        const auto first_id = static_cast<std::uint8_t>(std::random_device()() % 255);
-        options.last_id = static_cast<std::uint8_t>(first_id - 1);
-        opened.romi_ = std::make_shared<romi::RomiClient>(stream, options);
-        if (hooks.romi_log) opened.romi_->set_log_handler(hooks.romi_log);
-        break;
-      }
-      case devices::Codec::proxy:
-      case devices::Codec::proxy_compat: {
-        const auto& options = std::get<devices::ProxyDeviceOptions>(target.config.options);
-        auto ready = std::make_shared<ProxyReadiness>();
-        proxy::EventHandler forward = hooks.proxy_events;
-        auto handler = [ready, forward](const proxy::ProxyEvent& event) {
-          if (std::holds_alternative<proxy::events::SessionEstablished>(event)) {
-            const std::lock_guard lock(ready->mutex);
-            ready->established = true;
-            ready->changed.notify_all();
-          } else if (const auto* failed = std::get_if<proxy::events::LinkFailed>(&event)) {
-            const std::lock_guard lock(ready->mutex);
-            if (!ready->failure) ready->failure = "the link failed: " + failed->error.message();
-            ready->changed.notify_all();
+  // The devices library opens it as a rover service would (boot wait, random first Romi id, proxy inits and
+  // handshake, rings); the hooks are attached as soon as the client exists, so no event is missed.
+  devices::RoverConfig rover_config;
+  rover_config.devices.push_back(target.config);
+  devices::OpenOptions open_options;
+  open_options.on_client = [&](const devices::RoverDevice& device) {
+    std::visit(
+        [&](const auto& client) {
+          using Client = std::decay_t<decltype(client)>;
+          if constexpr (std::is_same_v<Client, std::shared_ptr<romi::RomiClient>>) {
+            opened.romi_ = client;
+            if (hooks.romi_log) client->set_log_handler(hooks.romi_log);
+          } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::ProxyClient>>) {
+            opened.proxy_ = client;
+            if (hooks.proxy_events) client->add_event_handler(hooks.proxy_events);
+          } else {
+            opened.ring_ = client;
+            if (hooks.ring_events) client->add_event_handler(hooks.ring_events);
           }
-          if (forward) forward(event);
-        };
-        opened.proxy_ = std::make_shared<proxy::ProxyClient>(stream, options.client, handler);
-        if (!wait_for_proxy(*opened.proxy_, options, ready, progress, error)) {
-          opened.proxy_->close();
-          return std::nullopt;
-        }
-        break;
-      }
-      case devices::Codec::elcano: {
-        const auto& options = std::get<devices::ElcanoOptions>(target.config.options);
-        elcano::RingClientOptions ring_options;
-        ring_options.node.generation = options.generation;
-        ring_options.node.capture = options.capture;
-        ring_options.node.pacing = options.pacing;
-        ring_options.timing = options.timing;
-        opened.ring_ = std::make_shared<elcano::RingClient>(stream, ring_options, hooks.ring_events);
-        break;
-      }
-    }
-  } catch (const std::exception& failure) {
-    stream->close();
-    error = failure.what();
+        },
+        device.client);
+    const bool proxy = device.codec == devices::Codec::proxy || device.codec == devices::Codec::proxy_compat;
+    if (proxy) progress.show("waiting for the proxy session and inits...");
+  };
+  progress.show("opening " + devices::describe(target.config.transport) + "...");
+  try {
+    opened.rover_ = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, open_options));
+  } catch (const devices::ConfigError& failure) {
+    error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
     return std::nullopt;
   }
   return opened;
@@ -529,13 +391,14 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
 
 std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                     Progress& progress, std::string& error) {
-  if (std::holds_alternative<devices::VirtualRingTransport>(target.config.transport)) {
-    error =
-        "a virtual ring cannot be opened as a bare byte stream (the devices library builds rings for its "
-        "clients only); monitor a ring on its serial port";
-    return nullptr;
+  progress.show("opening " + devices::describe(target.config.transport) + "...");
+  std::shared_ptr<transports::ByteStream> stream;
+  try {
+    // A ring's boards live as long as its stream.
+    stream = devices::open_transport(target.config, std::move(executor)).stream;
+  } catch (const devices::ConfigError& failure) {
+    error = failure.detail();
   }
-  auto stream = open_transport(target.config.transport, executor, progress, error);
   progress.clear();  // also after a failure: the caller prints the error next
   return stream;
 }

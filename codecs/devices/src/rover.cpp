@@ -349,6 +349,7 @@ class RoverOpener {
           opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));
+          if (hooks.on_client) hooks.on_client(rover.devices_.back());
           return;
         }
         case Codec::elcano: {
@@ -361,6 +362,7 @@ class RoverOpener {
           opened.client = std::make_shared<elcano::RingClient>(stream, client_options);
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));
+          if (hooks.on_client) hooks.on_client(rover.devices_.back());
           return;
         }
         case Codec::proxy:
@@ -371,6 +373,7 @@ class RoverOpener {
           // Registered before waiting: a failure below closes it with the others.
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));
+          if (hooks.on_client) hooks.on_client(rover.devices_.back());
           await_proxy(*client, options, path);
           return;
         }

@@ -90,6 +90,10 @@ struct OpenOptions {
   /// Called after each device opened (its inits done), on the opening thread, before the next one opens
   /// (logging, progress). An exception it throws fails the open: the devices opened so far are closed.
   std::function<void(const RoverDevice& device)> on_opened;
+  /// Called with each device as soon as its client exists, before a proxy device's inits and handshake:
+  /// attach event handlers and log sinks here to see everything the device says from the start. Same
+  /// thread and exception rules as `on_opened`.
+  std::function<void(const RoverDevice& device)> on_client;
   /// Called with each device's transport stream before its client is created; returns the stream the
   /// client uses (e.g. a `transports::FaultInjectingStream` around it, for noise and byte counts). The
   /// returned stream owns the one it was given. Unset: the stream is used as it is.
