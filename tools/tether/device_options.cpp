@@ -367,6 +367,7 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
           if constexpr (std::is_same_v<Client, std::shared_ptr<romi::RomiClient>>) {
             opened.romi_ = client;
             if (hooks.romi_log) client->set_log_handler(hooks.romi_log);
+            if (hooks.romi_link_failed) client->set_link_failed_handler(hooks.romi_link_failed);
           } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::ProxyClient>>) {
             opened.proxy_ = client;
             if (hooks.proxy_events) client->add_event_handler(hooks.proxy_events);

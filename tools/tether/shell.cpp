@@ -381,6 +381,10 @@ int run_shell(int argc, char** argv) {
   hooks.romi_log = [printer](std::string_view text) {
     printer.event("log: " + std::string(text), {{"event", "log"}, {"text", std::string(text)}});
   };
+  hooks.romi_link_failed = [printer, on_failure](romi::error_code failure) {
+    printer.event("link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}});
+    on_failure();
+  };
   hooks.proxy_events = [printer, on_failure](const proxy::ProxyEvent& event) {
     print_proxy_event(printer, event);
     if (std::holds_alternative<proxy::events::LinkFailed>(event)) on_failure();

@@ -103,5 +103,16 @@ TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {
   EXPECT_EQ(terminal.wait_exit(), 2) << terminal.screen();
 }
 
+// Regression: a romi shell waiting for input used to notice a dead link only at the next command.
+TEST(TetherShell, IdleRomiShellHearsOfTheLinkFailure) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  auto board = std::make_unique<SimBoard>("romi-test");
+  Terminal terminal({"shell", "--port", board->pty()});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  board.reset();  // `tether sim` ends: the pty goes away while the shell waits for input
+  EXPECT_TRUE(terminal.expect("link failed")) << terminal.screen();
+  EXPECT_EQ(terminal.wait_exit(), 2) << terminal.screen();
+}
+
 }  // namespace
 }  // namespace tether::cli::testing

@@ -164,6 +164,12 @@ class ClientImpl final : public transports::ClientLink {
     log_handler_ = std::move(shared);
   }
 
+  void set_link_failed_handler(LinkFailedHandler handler) {
+    auto shared = handler ? std::make_shared<LinkFailedHandler>(std::move(handler)) : nullptr;
+    std::lock_guard lock(mutex_);
+    link_failed_handler_ = std::move(shared);
+  }
+
   void set_timing(const session::CallTiming& timing) {
     post_to_strand([this, timing] { table_.set_timing(timing); });
   }
@@ -293,6 +299,12 @@ class ClientImpl final : public transports::ClientLink {
   void on_link_failed(const error_code& error) override {
     fail_all(error);
     publish();
+    std::shared_ptr<LinkFailedHandler> handler;
+    {
+      std::lock_guard lock(mutex_);
+      handler = std::exchange(link_failed_handler_, nullptr);  // at most once
+    }
+    if (handler) (*handler)(error);
   }
 
   void on_closed() override {
@@ -421,8 +433,9 @@ class ClientImpl final : public transports::ClientLink {
 
   // Any thread.
   transports::Published<LinkCounters> published_;
-  mutable std::mutex mutex_;  // guards log_handler_
+  mutable std::mutex mutex_;  // guards log_handler_ and link_failed_handler_
   std::shared_ptr<LogHandler> log_handler_;
+  std::shared_ptr<LinkFailedHandler> link_failed_handler_;
 };
 
 void start_call(const std::shared_ptr<ClientImpl>& impl, Command command, bool manual, CallHandler handler) {
@@ -495,6 +508,9 @@ RomiResponse RomiClient::call_manual(const Command& command) {
 }
 
 void RomiClient::set_log_handler(LogHandler handler) { impl_->set_log_handler(std::move(handler)); }
+void RomiClient::set_link_failed_handler(LinkFailedHandler handler) {
+  impl_->set_link_failed_handler(std::move(handler));
+}
 
 void RomiClient::set_timing(const session::CallTiming& timing) { impl_->set_timing(timing); }
 

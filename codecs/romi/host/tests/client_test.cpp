@@ -690,6 +690,40 @@ TEST(RomiClient, VanishedDeviceFailsTheCallWithTheTransportError) {
   EXPECT_EQ(error, asio::error::eof);
 }
 
+TEST(RomiClient, AnIdleClientHearsOfTheLinkFailureOnce) {
+  IoThread io;
+  Link link(io.executor(), short_timing(60000, 60000));
+  std::mutex mutex;
+  std::vector<error_code> failures;
+  std::promise<void> first;
+  link.client->set_link_failed_handler([&](error_code error) {
+    std::lock_guard lock(mutex);
+    failures.push_back(error);
+    if (failures.size() == 1) first.set_value();
+  });
+  link.device->close();  // no call in flight: only the handler can tell the application
+  ASSERT_EQ(first.get_future().wait_for(kPrompt), std::future_status::ready);
+  error_code error;
+  link.client->call("a", error);  // fails at once with the same error, and does not report again
+  EXPECT_EQ(error, asio::error::eof);
+  link.client->close();
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0], asio::error::eof);
+}
+
+TEST(RomiClient, CloseIsNotALinkFailure) {
+  IoThread io;
+  Link link(io.executor(), short_timing(60000, 60000));
+  std::atomic<int> calls{0};
+  link.client->set_link_failed_handler([&](error_code) { ++calls; });
+  link.client->close();
+  error_code error;
+  link.client->call("a", error);
+  EXPECT_EQ(error, asio::error::operation_aborted);
+  EXPECT_EQ(calls.load(), 0);
+}
+
 // --- damaged answers (B3) ---------------------------------------------------------------------------------
 
 TEST(RomiClient, DamagedAnswerIsReSentAndTheCachedAnswerCompletesTheCall) {

@@ -185,6 +185,13 @@ struct ClientOptions {
 ///   4. Lines arriving between calls are delivered too. Without a handler, log lines are dropped.
 using LogHandler = std::function<void(std::string_view text)>;
 
+/// Link-failure sink: the stream failed (the device went away, the port was unplugged). Contract:
+///   1. Called at most once per client, on the client's strand, after every call in flight and queued
+///      completed with the same error.
+///   2. Not called for `close()` (the application knows it closed).
+///   3. Must not block and must not throw (same reasons as `LogHandler`).
+using LinkFailedHandler = std::function<void(error_code error)>;
+
 /// Completion signature of every asynchronous call.
 using CallSignature = void(error_code, RomiResponse);
 
@@ -245,6 +252,9 @@ class RomiClient {
 
   /// Sets the log sink (see `LogHandler`); an empty function drops log lines. Any thread.
   void set_log_handler(LogHandler handler);
+  /// Sets the link-failure sink (see `LinkFailedHandler`), so an idle client (a shell waiting for input)
+  /// learns that the device went away without making a call. Any thread.
+  void set_link_failed_handler(LinkFailedHandler handler);
   /// Changes the timing of calls that start from now on (calls in flight keep theirs). Any thread.
   void set_timing(const session::CallTiming& timing);
 
