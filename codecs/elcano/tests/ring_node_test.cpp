@@ -236,6 +236,12 @@ TEST(RingNode, OutputIsPacedForASlowReceiver) {
   ASSERT_TRUE(wake.armed());
   EXPECT_EQ(wake.at(), 20u);  // 32 more bytes after 20 ms
   EXPECT_EQ(output(node, 20).size(), 32u);
+  // Without the output (a write still in progress), only poll's deadlines count: the origin records',
+  ASSERT_TRUE(node.next_wakeup(20, false).armed());
+  EXPECT_EQ(node.next_wakeup(20, false).at(), node.config().return_timeout);
+  feed(node, "D{s 1", 21);  // and a partial message's, earlier
+  ASSERT_TRUE(node.next_wakeup(21, false).armed());
+  EXPECT_EQ(node.next_wakeup(21, false).at(), 21u + node.config().partial_message_timeout);
 }
 
 TEST(RingNode, FullQueueDropsForwardsWithAReportAndPushesBackOnOriginate) {

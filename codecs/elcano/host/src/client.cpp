@@ -357,10 +357,7 @@ class RingClientImpl final : public transports::ClientLink {
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
     const Millis now = now_ms();
     for (std::size_t i = 0; i < size && !unusable(); ++i) {
-      const bool was_in_message = node_.in_message();
-      const RingEvent event = node_.feed(data[i], now);
-      if (!was_in_message && node_.in_message()) partial_started_ = now;
-      on_ring_event(event, now);
+      on_ring_event(node_.feed(data[i], now), now);
     }
     pump(now);
   }
@@ -582,14 +579,9 @@ class RingClientImpl final : public transports::ClientLink {
 
   void arm_timer(Millis now) {
     Deadline wake = table_.next_wakeup();
-    const Deadline node_wake = node_.next_wakeup(now);
     // While a write is on the stream the pacer may already allow more: that is for the write's completion
-    // to take (it pumps), not for the timer, which would fire at once again and again. The other deadlines
-    // of the node are then not due yet (poll ran), except the partial message's, which the pacer's may hide.
-    if (!writing_ || tick_difference(node_wake.at(), now) > 0) consider(wake, node_wake);
-    if (writing_ && node_.in_message()) {
-      consider(wake, deadline_at(static_cast<Millis>(partial_started_ + options_.node.partial_message_timeout)));
-    }
+    // to take (it pumps), not for the timer, which would fire at once again and again.
+    consider(wake, node_.next_wakeup(now, !writing_));
     for (const auto& item : outgoing_) {
       if (!item->call) consider(wake, deadline_at(item->deadline));
     }
@@ -616,7 +608,6 @@ class RingClientImpl final : public transports::ClientLink {
   std::uint64_t taken_ = 0;          // bytes taken from the node's output queue
   std::uint64_t written_total_ = 0;  // of which written to the stream
   bool writing_ = false;
-  Millis partial_started_ = 0;       // when the message being read started (mirror of the node's deadline)
 
   // Any thread.
   transports::Published<RingClientCounters> published_;

@@ -166,8 +166,10 @@ class RingNode {
   size_t take_output(MutableByteView out, Millis now);
   /// Handles expired deadlines, one at a time (partial message, origin records). Call until `none`.
   RingEvent poll(Millis now);
-  /// When `poll` or `take_output` next has something to do (disarmed when nothing is pending).
-  Deadline next_wakeup(Millis now);
+  /// When `poll` or `take_output` next has something to do (disarmed when nothing is pending). Without
+  /// `include_output` only `poll`'s deadlines count: a caller whose write is still in progress takes the
+  /// output when the write completes, and a pacer deadline already due would wake it in a loop.
+  Deadline next_wakeup(Millis now, bool include_output = true);
 
   /// Replaces the capture set (e.g. a host awaiting a reply type).
   void set_capture(TypeSet capture) { config_.capture = capture; }

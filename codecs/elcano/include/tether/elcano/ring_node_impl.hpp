@@ -138,7 +138,7 @@ RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::poll(Millis no
 }
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
-Deadline RingNode<MessageCapacity, OutputCapacity, OriginSlots>::next_wakeup(Millis now) {
+Deadline RingNode<MessageCapacity, OutputCapacity, OriginSlots>::next_wakeup(Millis now, bool include_output) {
   Deadline earliest = partial_.deadline();
   const auto consider = [&earliest](Millis at) {
     if (!earliest.armed() || tick_difference(at, earliest.at()) < 0) earliest.arm_at(at);
@@ -146,7 +146,7 @@ Deadline RingNode<MessageCapacity, OutputCapacity, OriginSlots>::next_wakeup(Mil
   for (const Origin& origin : origins_) {
     if (origin.used) consider(origin.expires.at());
   }
-  const size_t pending = pending_output();
+  const size_t pending = include_output ? pending_output() : 0;
   if (pending != 0) {
     const uint16_t chunk = static_cast<uint16_t>(pending < pacer_.depth() ? pending : pacer_.depth());
     consider(pacer_.next_allowed(chunk, now));
