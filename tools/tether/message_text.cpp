@@ -305,7 +305,7 @@ std::string format_elcano(const elcano::Message& message, elcano::Generation gen
 }
 
 nlohmann::ordered_json elcano_json(const elcano::Message& message) {
-  nlohmann::ordered_json object = {{"type", elcano_type_name(message.type)}};
+  nlohmann::ordered_json object = {{"type", elcano::to_string(message.type)}};
   const std::pair<const char*, std::int32_t> fields[] = {
       {"n", message.number},  {"s", message.speed},       {"a", message.angle},   {"o", message.obstacle},
       {"b", message.bearing}, {"r", message.probability}, {"east", message.east}, {"north", message.north}};
@@ -321,35 +321,15 @@ std::optional<elcano::TypeSet> parse_elcano_types(std::string_view text) {
   while (!text.empty()) {
     const std::size_t comma = text.find(',');
     const std::string_view word = text.substr(0, comma);
-    if (word == "drive" || word == "D") {
-      set = set.with(elcano::Type::drive);
-    } else if (word == "sensor" || word == "S") {
-      set = set.with(elcano::Type::sensor);
-    } else if (word == "goal" || word == "G") {
-      set = set.with(elcano::Type::goal);
-    } else if (word == "segment" || word == "X") {
-      set = set.with(elcano::Type::segment);
-    } else {
+    elcano::Type type;
+    if (!elcano::type_from_name(ByteView::from_chars(word.data(), word.size()), type)) {
       return std::nullopt;
     }
+    set = set.with(type);
     if (comma == std::string_view::npos) break;
     text.remove_prefix(comma + 1);
   }
   return set;
-}
-
-const char* elcano_type_name(elcano::Type type) {
-  switch (type) {
-    case elcano::Type::drive:
-      return "drive";
-    case elcano::Type::sensor:
-      return "sensor";
-    case elcano::Type::goal:
-      return "goal";
-    case elcano::Type::segment:
-      return "segment";
-  }
-  return "unknown";
 }
 
 }  // namespace tether::cli

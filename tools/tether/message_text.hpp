@@ -59,7 +59,5 @@ std::string format_elcano(const elcano::Message& message, elcano::Generation gen
 nlohmann::ordered_json elcano_json(const elcano::Message& message);
 /// A set of message types: `drive,sensor` (also the header letters `D,S`; `none` or empty: no type).
 std::optional<elcano::TypeSet> parse_elcano_types(std::string_view text);
-/// `drive`, `sensor`, `goal`, `segment`.
-const char* elcano_type_name(elcano::Type type);
 
 }  // namespace tether::cli

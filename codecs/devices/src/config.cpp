@@ -360,15 +360,17 @@ VirtualTransport parse_virtual(const Node& node, const std::string& device_name,
   return virt;
 }
 
-const Names kElcanoTypes = {"drive", "sensor", "goal", "segment"};
+// The codec's names (elcano::to_string), in the order of kElcanoTypeValues.
+constexpr std::array<elcano::Type, 4> kElcanoTypeValues = {elcano::Type::drive, elcano::Type::sensor,
+                                                           elcano::Type::goal, elcano::Type::segment};
+const Names kElcanoTypes = {elcano::to_string(elcano::Type::drive), elcano::to_string(elcano::Type::sensor),
+                            elcano::to_string(elcano::Type::goal), elcano::to_string(elcano::Type::segment)};
 
 elcano::TypeSet read_types(const Node& node) {
   if (!node.value.is_array()) node.expected("an array of message types (" + join(kElcanoTypes) + ")");
   elcano::TypeSet set;
   for_each_element(node, [&](const Node& element, std::size_t) {
-    static constexpr std::array<elcano::Type, 4> kTypes = {elcano::Type::drive, elcano::Type::sensor,
-                                                           elcano::Type::goal, elcano::Type::segment};
-    const elcano::Type type = kTypes.at(read_choice(element, "message type", kElcanoTypes));
+    const elcano::Type type = kElcanoTypeValues.at(read_choice(element, "message type", kElcanoTypes));
     if (set.contains(type)) fail(element.path, "message type " + element.value.dump() + " is listed twice");
     set = set.with(type);
   });

@@ -75,6 +75,34 @@ const char* to_string(ReadError error) {
   return "unknown";
 }
 
+const char* to_string(Type type) {
+  switch (type) {
+    case Type::drive: return "drive";
+    case Type::sensor: return "sensor";
+    case Type::goal: return "goal";
+    case Type::segment: return "segment";
+  }
+  return "unknown";
+}
+
+bool type_from_name(ByteView name, Type& type) {
+  static const Type kTypes[] = {Type::drive, Type::sensor, Type::goal, Type::segment};
+  for (const Type candidate : kTypes) {
+    if (name.size() == 1 && name[0] == static_cast<uint8_t>(candidate)) {
+      type = candidate;
+      return true;
+    }
+    const char* text = to_string(candidate);
+    size_t i = 0;
+    while (i < name.size() && text[i] != '\0' && name[i] == static_cast<uint8_t>(text[i])) ++i;
+    if (i == name.size() && text[i] == '\0') {
+      type = candidate;
+      return true;
+    }
+  }
+  return false;
+}
+
 bool has_required_fields(const Message& m) {
   const bool position = set(m.east) && set(m.north);
   switch (m.type) {

@@ -241,5 +241,23 @@ TEST(ElcanoReader, HeaderInsideAMessageEndsItAndStartsTheNextOne) {
   EXPECT_EQ(read("D{s50}{a25}7D{s50}{a25}74\n", Generation::d).messages.size(), 1u);
 }
 
+TEST(ElcanoTypes, NamesAndHeaderLettersRoundTrip) {
+  for (const Type type : {Type::drive, Type::sensor, Type::goal, Type::segment}) {
+    const char* name = to_string(type);
+    Type parsed = Type::drive;
+    EXPECT_TRUE(type_from_name(ByteView::from_chars(name, std::string(name).size()), parsed)) << name;
+    EXPECT_EQ(parsed, type);
+    const char letter = static_cast<char>(type);
+    EXPECT_TRUE(type_from_name(ByteView::from_chars(&letter, 1), parsed));
+    EXPECT_EQ(parsed, type);
+  }
+  Type unchanged = Type::goal;
+  EXPECT_FALSE(type_from_name(ByteView::from_literal("driv"), unchanged));
+  EXPECT_FALSE(type_from_name(ByteView::from_literal("drives"), unchanged));
+  EXPECT_FALSE(type_from_name(ByteView::from_literal("d"), unchanged));
+  EXPECT_FALSE(type_from_name(ByteView(), unchanged));
+  EXPECT_EQ(unchanged, Type::goal);
+}
+
 }  // namespace
 }  // namespace tether::elcano

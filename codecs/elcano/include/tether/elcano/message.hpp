@@ -61,6 +61,11 @@ enum class ReadError : uint8_t {
 /// Short name of a read outcome (the reference's where it has one).
 const char* to_string(ReadError error);
 
+/// Name of a message type: `drive`, `sensor`, `goal`, `segment` (configs, tools, logs).
+const char* to_string(Type type);
+/// The type named `name` (its `to_string` name or its header letter D, S, G, X); false when none is.
+bool type_from_name(ByteView name, Type& type);
+
 /// True when `message` has every field its type requires: drive s a; sensor s a p b; goal n p b (r
 /// optional); segment n p b s. `p` means both east and north.
 bool has_required_fields(const Message& message);
