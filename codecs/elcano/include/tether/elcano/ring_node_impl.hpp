@@ -18,6 +18,10 @@ template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView stripped) {
   if (stripped.size() > 255) return false;
   const uint8_t length = static_cast<uint8_t>(stripped.size());
+  // The CRC only when a record of that length exists: most traffic through a node is not its own.
+  bool candidate = false;
+  for (const Origin& origin : origins_) candidate = candidate || (origin.used && origin.length == length);
+  if (!candidate) return false;
   const uint16_t crc = signature_crc(stripped);
   // The oldest matching record: the same bytes sent twice come back in order.
   Origin* oldest = nullptr;
