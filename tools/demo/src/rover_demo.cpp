@@ -7,7 +7,6 @@
 #include <atomic>
 #include <cmath>
 #include <future>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -295,16 +294,14 @@ DemoReport run_demo(const DemoOptions& options) {
       options.config ? *options.config : devices::parse_config(devices::default_virtual_rover_config(), parse);
 
   transports::IoThread io;
-  std::mutex links_mutex;
-  std::map<std::string, std::shared_ptr<transports::FaultInjectingStream>> links;
+  // wrap_stream runs on this thread, once per device in config order (open_rover blocks): links[k] is device k's.
+  std::vector<std::shared_ptr<transports::FaultInjectingStream>> links;
   devices::OpenOptions open_options;
   std::uint64_t stream_seed = options.seed;
-  open_options.wrap_stream = [&](const devices::DeviceConfig& device, std::shared_ptr<transports::ByteStream> stream) {
+  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
     // Clean while opening (handshakes, inits); the workload turns the noise on.
-    auto wrapped = transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++);
-    std::lock_guard lock(links_mutex);
-    links[device.name] = wrapped;
-    return std::shared_ptr<transports::ByteStream>(wrapped);
+    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
+    return std::shared_ptr<transports::ByteStream>(links.back());
   };
   devices::Rover rover = devices::open_rover(config, io.executor(), open_options);
 
@@ -323,15 +320,9 @@ DemoReport run_demo(const DemoOptions& options) {
     device_report.device = device.name;
     device_report.codec = std::string(devices::to_string(device.codec));
     device_report.transport = device.transport;
-    const devices::DeviceConfig& device_config = config.devices[k];
-    std::shared_ptr<transports::FaultInjectingStream> link;
-    {
-      std::lock_guard lock(links_mutex);
-      link = links[device.name];
-    }
-    threads.emplace_back([&, link, k] {
+    threads.emplace_back([&, k] {
       try {
-        run_device(options, rover.devices()[k], device_config, link, report.devices[k]);
+        run_device(options, rover.devices()[k], config.devices[k], links[k], report.devices[k]);
       } catch (...) {
         std::lock_guard lock(error_mutex);
         if (!first_exception) first_exception = std::current_exception();
