@@ -19,7 +19,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <optional>
-#include <random>
 #include <string>
 #include <string_view>
 
@@ -164,11 +163,7 @@ int run_call(int argc, char** argv) {
     auto port = transports::SerialPortStream::open(io.executor(), arguments.port, options, error);
     if (!port) return command_text().fail("cannot open " + arguments.port + ": " + error.message());
     romi::ClientOptions client_options;
-    // The client's ids start after last_id. A random first id, never 255 (a fresh reference firmware
-    // takes 255 for its last id: defect B6).
-    const std::uint8_t first_id =
-        arguments.id ? *arguments.id : static_cast<std::uint8_t>(std::random_device()() % 255);
-    client_options.last_id = static_cast<std::uint8_t>(first_id - 1);
+    client_options.first_id(arguments.id ? *arguments.id : romi::random_first_id());
     client_options.timing.call_budget = arguments.timeout_ms;
     client_options.timing.attempt_timeout = std::min<std::uint32_t>(arguments.timeout_ms, romi::kControllerDeadlineMs);
     romi::RomiClient client(port, client_options);

@@ -6,7 +6,6 @@
 #include <cstddef>
 #include <exception>
 #include <mutex>
-#include <random>
 #include <thread>
 #include <stdexcept>
 #include <utility>
@@ -73,14 +72,6 @@ std::shared_ptr<transports::VirtualUnoStream> open_virtual(const VirtualTranspor
   }
   // Everything else concerns the image: missing, unreadable, not an AVR ELF, too large.
   fail(path + ".firmware", virt.board.firmware.string() + ": " + error.message(), error);
-}
-
-// A random first Romi request id, 0..254 (see RomiOptions::first_id).
-std::uint8_t random_romi_id() {
-  static std::mutex mutex;
-  static std::mt19937 generator{std::random_device{}()};
-  std::lock_guard lock(mutex);
-  return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
 // --- virtual rings ------------------------------------------------------------------------------------------
@@ -343,9 +334,7 @@ class RoverOpener {
           const auto& romi_options = std::get<RomiOptions>(device.options);
           romi::ClientOptions client_options;
           client_options.timing = romi_options.timing;
-          // The client starts after `last_id`: first_id - 1 (255 for 0), or a random id 0..254.
-          const std::uint8_t first = romi_options.first_id ? *romi_options.first_id : random_romi_id();
-          client_options.last_id = static_cast<std::uint8_t>(first - 1u);
+          client_options.first_id(romi_options.first_id ? *romi_options.first_id : romi::random_first_id());
           opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));

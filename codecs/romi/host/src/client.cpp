@@ -12,6 +12,7 @@
 #include <limits>
 #include <mutex>
 #include <stdexcept>
+#include <random>
 #include <utility>
 
 #include "tether/core/time.hpp"
@@ -505,6 +506,13 @@ RomiResponse RomiClient::call(const Command& command) {
 RomiResponse RomiClient::call_manual(const Command& command) {
   return or_throw([&](error_code& error) { return blocking_call(command, true, error); },
                   "romi manual call " + command.payload());
+}
+
+std::uint8_t random_first_id() {
+  static std::mutex mutex;
+  static std::mt19937 generator{std::random_device{}()};
+  const std::lock_guard lock(mutex);
+  return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
 void RomiClient::set_log_handler(LogHandler handler) { impl_->set_log_handler(std::move(handler)); }

@@ -496,6 +496,25 @@ TEST(RomiClient, IdsWrapAfter255) {
   EXPECT_EQ(link.client->counters().stale, 0u);
 }
 
+TEST(RomiClient, FirstIdIsTheOneChosen) {
+  IoThread io;
+  ClientOptions options = short_timing();
+  Link link(io.executor(), options.first_id(0));  // 0 wraps: last_id 255
+  link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, "[0]", request.id));
+  });
+  EXPECT_EQ(link.client->call("a").id, 0);
+  const std::uint8_t random = random_first_id();
+  EXPECT_LE(random, 254);  // never 255 (defect B6)
+  ClientOptions seven = short_timing();
+  Link other(io.executor(), seven.first_id(7));
+  other.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
+    device.send(FakeDevice::response(request.opcode, "[0]", request.id));
+  });
+  EXPECT_EQ(other.client->call("a").id, 7);
+  EXPECT_EQ(other.client->call("a").id, 8);
+}
+
 // Echo device: `c[t,i]` is answered `[0,t,i]`.
 void echo_arguments(const DeviceRequest& request, FakeDevice& device) {
   if (request.error != ErrorCode::no_error) return;

@@ -174,7 +174,19 @@ struct ClientOptions {
   session::CallTiming timing = default_call_timing();
   /// Ids start after this one (255: the first call uses id 0, like the reference host).
   std::uint8_t last_id = 255;
+
+  /// Makes `id` the first call's id.
+  ClientOptions& first_id(std::uint8_t id) {
+    last_id = static_cast<std::uint8_t>(id - 1u);
+    return *this;
+  }
 };
+
+/// A random first id for a new host session, 0..254. A new session starting at a fixed id would make its
+/// first request look like the previous session's last one sent again to a device that remembers it
+/// (Tether firmware answers from its cache, the reference -15); 255 is left out because a fresh reference
+/// firmware takes 255 for its last id (defect B6).
+std::uint8_t random_first_id();
 
 /// Log sink: receives the text of every `#!text:xxxx` line. Contract:
 ///   1. Called on the client's strand, one line at a time, in arrival order, with a view valid only
