@@ -75,13 +75,7 @@ void SerialPortStream::await_banner(std::shared_ptr<std::string> seen, SteadyClo
 std::shared_ptr<SerialPortStream> SerialPortStream::open(executor_type executor, const std::string& path,
                                                          const SerialOptions& options, error_code& error) {
   auto result = async_open(std::move(executor), path, options, asio::use_future);
-  try {
-    error = error_code();
-    return result.get();
-  } catch (const boost::system::system_error& failure) {
-    error = failure.code();
-    return nullptr;
-  }
+  return get_or_error(result, error);
 }
 
 std::shared_ptr<SerialPortStream> SerialPortStream::open(executor_type executor, const std::string& path,

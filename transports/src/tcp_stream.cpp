@@ -56,13 +56,7 @@ void TcpStream::start_connect(executor_type executor, const std::string& host, u
 std::shared_ptr<TcpStream> TcpStream::connect(executor_type executor, const std::string& host, unsigned short port,
                                               std::chrono::milliseconds timeout, error_code& error) {
   auto result = async_connect(std::move(executor), host, port, timeout, asio::use_future);
-  try {
-    error = error_code();
-    return result.get();
-  } catch (const boost::system::system_error& failure) {
-    error = failure.code();
-    return nullptr;
-  }
+  return get_or_error(result, error);
 }
 
 std::shared_ptr<TcpStream> TcpStream::connect(executor_type executor, const std::string& host, unsigned short port,

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <boost/system/error_code.hpp>
+#include <boost/system/system_error.hpp>
 
+#include <future>
 #include <system_error>
 #include <type_traits>
 
@@ -32,6 +34,19 @@ boost::system::error_code make_error_code(TransportError error);
 /// The same error as a boost error_code (Boost 1.74 converts only the other way): std's system and
 /// generic categories map to boost's; any other category keeps its name and messages through an adapter.
 boost::system::error_code to_boost_error(const std::error_code& error);
+
+/// The value of a `use_future` operation, or a default value and its error in `error`: how the blocking
+/// `error_code` overloads (`SerialPortStream::open`, `TcpStream::connect`) wait for their async version.
+template <typename T>
+T get_or_error(std::future<T>& future, boost::system::error_code& error) {
+  try {
+    error = boost::system::error_code();
+    return future.get();
+  } catch (const boost::system::system_error& failure) {
+    error = failure.code();
+    return T();
+  }
+}
 
 }  // namespace tether::transports
 
