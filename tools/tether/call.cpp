@@ -1,78 +1,83 @@
-// `tether call --port PATH [options] 'COMMAND'`: sends one Romi command to a device and prints its answer.
+// `tether call DEVICE [options] 'COMMAND'`: sends one Romi command to a device and prints its answer.
 //
 // Output contract (scripts rely on it):
 //   - stdout: the device's answer array as compact JSON on one line (`[0,1,2]`), only when the device
-//     answered; with --json instead one JSON object for every outcome (see kUsage).
-//   - stderr: `tether call: <code> <message>` when the code is not 0, and `log: <text>` for each log line
-//     the device sent during the call.
+//     answered; with --json instead one JSON object for every outcome (see the usage text).
+//   - stderr: `tether call: <code> <message>` when the code is not 0 (the message is the client's, e.g.
+//     what timed out), and `log: <text>` for each log line the device sent during the call.
 //   - exit status: 0 code 0; 1 application error (code > 0); 2 protocol error (code < 0, from the device or
-//     the host: rejected command, timeout, transport), and usage or setup errors.
+//     the host: rejected command, timeout, transport), usage errors and a device that cannot be opened.
 //
-// Every run is a new host session. Starting each at id 0 would make two runs of the same command look like
-// one request sent twice to a device that filters repeated ids (reference firmware: -15 duplicate; Tether
-// firmware: the cached answer, without running the command again). So the id is random unless --id says.
+// The device is named like every device subcommand's (device_options.hpp): --port, --config/--device
+// (serial, TCP or virtual transports), --virtual. Every run is a new host session. Starting each at id 0
+// would make two runs of the same command look like one request sent twice to a device that filters repeated
+// ids (reference firmware: -15 duplicate; Tether firmware: the cached answer, without running the command
+// again). So the id is random unless --id (or the configuration's first_id) says.
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 
 #include "cli_support.hpp"
 #include "commands.hpp"
+#include "device_options.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/serial_port_stream.hpp"
 
 namespace tether::cli {
 
 namespace {
 
-namespace asio = boost::asio;
-
 const CommandText& command_text() {
   static const CommandText text(
       "call",
-      "usage: tether call --port PATH [--baud N] [--timeout MS] [--boot-wait MS] [--id N] [--manual] [--json]\n"
-      "                   'COMMAND'\n"
-      "\n"
-      "Sends one Romi command (e.g. 'L[1]', 'M[16,\"Shutdown\"]') to the device on PATH (a serial port or a\n"
-      "pty, e.g. the one `tether sim` prints) and prints the answer array as JSON on stdout.\n"
-      "\n"
-      "  --port PATH      serial device or pty (required)\n"
-      "  --baud N         line speed (default 115200)\n"
-      "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
-      "                   budget); each attempt waits at most min(MS, 1000) for the answer\n"
-      "  --boot-wait MS   wait after opening the port and drop what the board printed meanwhile (default 0;\n"
-      "                   use 2000 for an Arduino Uno, which resets when the port opens)\n"
-      "  --id N           request id 0..255 (default: random, never 255). Each run is a new session: a fixed\n"
-      "                   id would make two runs of one command look like a repeated request to a device\n"
-      "                   that filters repeated ids (it would answer -15, or its cached answer without\n"
-      "                   running the command again)\n"
-      "  --manual         send the terminal form `#COMMAND:xxxx` (no id, no CRC; the answer carries id 00)\n"
-      "  --json           print one JSON object for every outcome instead of the bare array:\n"
-      "                   {\"code\":0,\"message\":\"\",\"values\":[0,1,2],\"answered\":true,\"id\":7,\"attempts\":1,\n"
-      "                   \"raw\":\"e[0,1,2]\"} (raw: the answer as received, only when there was one)\n"
-      "\n"
-      "The command is checked before anything is sent (opcode [a-zA-Z0-9?], at most 12 int16 values and one\n"
-      "string of at most 32 characters, frame <= 64 bytes). Log lines the device sends during the call are\n"
-      "printed on stderr as `log: TEXT`. Errors are printed on stderr as `tether call: CODE MESSAGE`.\n"
-      "\n"
-      "Exit status: 0 the device answered code 0; 1 it answered an application error (code > 0);\n"
-      "2 a protocol or transport error (code < 0: the device's, or the host's such as -25 timed out,\n"
-      "-10 value out of range, -33 transport error) and usage errors.\n");
+      std::string(
+          "usage: tether call --port PATH [--baud N] [--boot-wait MS] [options] 'COMMAND'\n"
+          "       tether call --config FILE --device NAME [options] 'COMMAND'\n"
+          "       tether call --virtual FIRMWARE [options] 'COMMAND'\n"
+          "options: [--timeout MS] [--id N] [--manual] [--json]\n"
+          "\n"
+          "Sends one Romi command to the device and prints the answer array as JSON on stdout. Commands\n"
+          "are the device's own; on the romi-test image: 'e' -> [0,1,2], 's[2,3]' -> [0,5],\n"
+          "'t[\"hello\"]' -> [0,\"hello\"], 'f' -> [101,\"I will try again tomorrow\"] (exit status 1).\n"
+          "Try it: `tether call --virtual romi-test e`.\n"
+          "\n") +
+          kDeviceUsage +
+          "  (a device of another codec than romi is refused)\n"
+          "\n"
+          "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
+          "                   budget; with --config, the configuration's); each attempt waits at most\n"
+          "                   min(MS, 1000) for the answer\n"
+          "  --id N           request id 0..255 (default: random, never 255; with --config, its first_id if\n"
+          "                   set). Each run is a new session: a fixed id would make two runs of one command\n"
+          "                   look like a repeated request to a device that filters repeated ids (it would\n"
+          "                   answer -15, or its cached answer without running the command again)\n"
+          "  --manual         send the terminal form `#COMMAND:xxxx` (no id, no CRC; the answer carries id 00)\n"
+          "  --json           print one JSON object for every outcome instead of the bare array:\n"
+          "                   {\"code\":0,\"message\":\"\",\"values\":[0,1,2],\"answered\":true,\"id\":7,\"attempts\":1,\n"
+          "                   \"raw\":\"e[0,1,2]\"} (raw: the answer as received, only when there was one)\n"
+          "\n"
+          "The command is checked before anything is opened (opcode [a-zA-Z0-9?], at most 12 int16 values and\n"
+          "one string of at most 32 characters, frame <= 64 bytes). Log lines the device sends during the call\n"
+          "are printed on stderr as `log: TEXT`. Errors are printed on stderr as `tether call: CODE MESSAGE`,\n"
+          "with the client's message (e.g. which deadline passed without an answer).\n"
+          "\n"
+          "Exit status: 0 the device answered code 0; 1 it answered an application error (code > 0);\n"
+          "2 a protocol or transport error (code < 0: the device's, or the host's such as -25 no answer in\n"
+          "time, -10 value out of range, -33 transport error), usage errors and a device that cannot be opened.\n",
+      CommandText::OnUsageError::synopsis);
   return text;
 }
 
 struct Arguments {
-  std::string port;
-  unsigned baud = 115200;
-  std::uint32_t timeout_ms = romi::kHostCallBudgetMs;
-  std::uint32_t boot_wait_ms = 0;
+  DeviceOptions device;
+  std::optional<std::uint32_t> timeout_ms;
   std::optional<std::uint8_t> id;
   bool manual = false;
   bool json = false;
@@ -82,61 +87,55 @@ struct Arguments {
 // Returns an exit status if parsing ends the program (help or error).
 std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
   const CommandText& text = command_text();
-  bool options_done = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view argument = argv[i];
-    if (!options_done && (argument == "--help" || argument == "-h")) return text.help();
-    if (!options_done && argument == "--") {
-      options_done = true;
-    } else if (!options_done && argument == "--manual") {
+  const auto take_command = [&](std::string_view argument) -> std::optional<int> {
+    if (arguments.command) {
+      return text.usage_error("more than one command given (quote the command: 'M[16,\"Shutdown\"]')");
+    }
+    arguments.command = std::string(argument);
+    return std::nullopt;
+  };
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
+    if (argument == "--") {  // the next argument is the command, whatever it looks like
+      if (i + 1 >= argc) return text.usage_error("-- needs the command after it");
+      return take_command(argv[++i]);
+    }
+    if (argument == "--manual") {
       arguments.manual = true;
-    } else if (!options_done && argument == "--json") {
+    } else if (argument == "--json") {
       arguments.json = true;
-    } else if (!options_done && (argument == "--port" || argument == "--baud" || argument == "--timeout" ||
-                                 argument == "--boot-wait" || argument == "--id")) {
+    } else if (argument == "--timeout" || argument == "--id") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
-      if (argument == "--port") {
-        if (value.empty()) return text.usage_error("--port needs a path");
-        arguments.port = std::string(value);
-      } else if (argument == "--baud") {
-        const auto baud = parse_number(value, 1, 4000000);
-        if (!baud) return text.usage_error("--baud needs a positive number, got '" + std::string(value) + "'");
-        arguments.baud = *baud;
-      } else if (argument == "--timeout") {
-        const auto timeout = parse_number(value, 1, 3600000);
-        if (!timeout) {
+      if (argument == "--timeout") {
+        arguments.timeout_ms = parse_number(value, 1, 3600000);
+        if (!arguments.timeout_ms) {
           return text.usage_error("--timeout needs milliseconds (1..3600000), got '" + std::string(value) + "'");
         }
-        arguments.timeout_ms = *timeout;
-      } else if (argument == "--id") {
+      } else {
         const auto id = parse_number(value, 0, 255);
         if (!id) return text.usage_error("--id needs a number 0..255, got '" + std::string(value) + "'");
         arguments.id = static_cast<std::uint8_t>(*id);
-      } else {
-        const auto wait = parse_number(value, 0, 60000);
-        if (!wait) {
-          return text.usage_error("--boot-wait needs milliseconds (0..60000), got '" + std::string(value) + "'");
-        }
-        arguments.boot_wait_ms = *wait;
       }
-    } else if (!options_done && argument.size() > 1 && argument.starts_with("--")) {
+    } else if (argument.size() > 1 && argument.starts_with("-")) {
       return text.usage_error("unknown option " + std::string(argument));
-    } else if (arguments.command) {
-      return text.usage_error("more than one command given (quote the command: 'M[16,\"Shutdown\"]')");
     } else {
-      arguments.command = std::string(argument);
+      return take_command(argument);
     }
-  }
-  if (arguments.port.empty()) return text.usage_error("--port is required");
+    return std::nullopt;
+  };
+  if (const auto status = parse_device_arguments(argc, argv, text, arguments.device, own)) return status;
   if (!arguments.command) return text.usage_error("no command given");
   return std::nullopt;
 }
 
-
-template <typename Json>
-std::string dump(const Json& value) {
-  return value.dump(-1, ' ', false, Json::error_handler_t::replace);
+// The response of a command rejected before anything is sent.
+romi::RomiResponse rejected(const romi::Command& command) {
+  romi::RomiResponse response;
+  response.code = static_cast<std::int16_t>(command.error().value());
+  response.message = command.error().message();
+  response.values = nlohmann::json::array({response.code, response.message});
+  response.opcode = command.opcode();
+  return response;
 }
 
 }  // namespace
@@ -144,34 +143,40 @@ std::string dump(const Json& value) {
 int run_call(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
+  std::string error_text;
+  auto target = resolve_device(arguments.device, devices::Codec::romi, error_text);
+  if (!target) return command_text().usage_error(error_text);
+  if (target->config.codec != devices::Codec::romi) {
+    return command_text().usage_error(target->label + " speaks " +
+                                      std::string(devices::to_string(target->config.codec)) +
+                                      ", not romi (`tether send`, `shell` or `monitor` talk to it)");
+  }
+  auto& romi_options = std::get<devices::RomiOptions>(target->config.options);
+  if (arguments.timeout_ms) {
+    romi_options.timing.call_budget = *arguments.timeout_ms;
+    romi_options.timing.attempt_timeout = std::min<std::uint32_t>(*arguments.timeout_ms, romi::kControllerDeadlineMs);
+  }
+  if (arguments.id) romi_options.first_id = *arguments.id;
 
-  // Reject a bad command before touching the port.
+  // Reject a bad command before touching the device.
   const romi::Command command(*arguments.command);
   romi::RomiResponse response;
   boost::system::error_code error;
   if (!command.valid()) {
     error = command.error();
-    response.code = static_cast<std::int16_t>(error.value());
-    response.message = error.message();
-    response.values = nlohmann::json::array({response.code, response.message});
-    response.opcode = command.opcode();
+    response = rejected(command);
   } else {
-    tether::transports::IoThread io;
-    transports::SerialOptions options;
-    options.baud = arguments.baud;
-    options.boot_wait = std::chrono::milliseconds(arguments.boot_wait_ms);
-    auto port = transports::SerialPortStream::open(io.executor(), arguments.port, options, error);
-    if (!port) return command_text().fail("cannot open " + arguments.port + ": " + error.message());
-    romi::ClientOptions client_options;
-    client_options.first_id(arguments.id ? *arguments.id : romi::random_first_id());
-    client_options.timing.call_budget = arguments.timeout_ms;
-    client_options.timing.attempt_timeout = std::min<std::uint32_t>(arguments.timeout_ms, romi::kControllerDeadlineMs);
-    romi::RomiClient client(port, client_options);
-    client.set_log_handler([](std::string_view text) {
+    transports::IoThread io;
+    Progress progress("call");
+    ClientHooks hooks;
+    hooks.romi_log = [](std::string_view text) {
       std::fprintf(stderr, "log: %.*s\n", static_cast<int>(text.size()), text.data());
-    });
-    response = arguments.manual ? client.call_manual(command, error) : client.call(command, error);
-    client.close();
+    };
+    auto device = open_device(*target, io.executor(), hooks, progress, error_text);
+    if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");
+    const auto& client = device->romi();
+    response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
+    device->close();
   }
 
   if (arguments.json) {

@@ -1,4 +1,4 @@
-// Device selection shared by send, shell, monitor and stats (see device_options.hpp).
+// Device selection shared by call, send, shell, monitor and stats (see device_options.hpp).
 #include "device_options.hpp"
 
 #include <algorithm>
@@ -64,12 +64,6 @@ devices::Codec codec_of_image(const std::filesystem::path& firmware) {
   return devices::Codec::romi;
 }
 
-std::filesystem::path resolve_firmware(const std::string& firmware) {
-  if (firmware.find('/') != std::string::npos) return firmware;
-  const bool has_suffix = firmware.size() > 4 && firmware.ends_with(".elf");
-  return std::filesystem::path(firmware_dir()) / (has_suffix ? firmware : firmware + ".elf");
-}
-
 // Default options of `codec` for a device named on the command line.
 devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t baud, const DeviceOptions& options) {
   switch (codec) {
@@ -98,6 +92,12 @@ devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t 
 std::string firmware_dir() {
   if (const char* dir = std::getenv("TETHER_FIRMWARE_DIR"); dir != nullptr && *dir != '\0') return dir;
   return TETHER_FIRMWARE_DIR;
+}
+
+std::filesystem::path firmware_image(const std::string& name) {
+  if (name.find('/') != std::string::npos) return name;
+  const bool has_suffix = name.size() > 4 && name.ends_with(".elf");
+  return std::filesystem::path(firmware_dir()) / (has_suffix ? name : name + ".elf");
 }
 
 namespace {
@@ -241,7 +241,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
       return std::nullopt;
     }
   }
-  const std::filesystem::path firmware = board ? resolve_firmware(options.firmware) : std::filesystem::path();
+  const std::filesystem::path firmware = board ? firmware_image(options.firmware) : std::filesystem::path();
   const devices::Codec codec = options.codec ? *options.codec : (board ? codec_of_image(firmware) : default_codec);
   if (codec != devices::Codec::elcano && (options.generation || options.capture)) {
     error = std::string(options.generation ? "--generation" : "--capture") + " applies to the elcano codec only";

@@ -1,4 +1,4 @@
-// Device selection shared by `send`, `shell`, `monitor` and `stats`: the options that name a device
+// Device selection shared by `call`, `send`, `shell`, `monitor` and `stats`: the options that name a device
 // (`--port PATH ...`, `--config FILE --device NAME`, `--virtual FIRMWARE`), turning them into a
 // `devices::DeviceConfig`, and opening it: as a raw byte stream (monitor) or with its codec's client.
 #pragma once
@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,7 +95,7 @@ class OpenDevice {
   std::shared_ptr<devices::Rover> rover_;  // devices opened through devices::open_rover (virtual rings)
 };
 
-/// Opens the device and creates its client: romi (random first id, like `tether call`), proxy (waits for
+/// Opens the device and creates its client: romi (random first id unless the options set one), proxy (waits for
 /// the session handshake in primary mode and for the configured inits, within the device's open timeout),
 /// elcano (the host's ring node). Blocks; another thread must run `executor`. Nothing on failure, with
 /// `error` set (exit status 2).
@@ -119,5 +120,10 @@ std::string counters_table(const nlohmann::ordered_json& report);
 
 /// The firmware folder: $TETHER_FIRMWARE_DIR, else the build's.
 std::string firmware_dir();
+
+/// The image a command line names, for `--virtual` and `tether sim` alike: a path when it contains a `/`
+/// (`build/firmware/echo.elf`, `./mine.elf`), else an image name looked up in `firmware_dir()`, `.elf`
+/// optional (`romi-test`, `romi-test.elf`).
+std::filesystem::path firmware_image(const std::string& name);
 
 }  // namespace tether::cli

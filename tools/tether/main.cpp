@@ -6,12 +6,17 @@
 
 #include "commands.hpp"
 
+#ifndef TETHER_VERSION
+#error "TETHER_VERSION must be the project's version (top-level CMakeLists.txt)"
+#endif
+
 namespace {
 
 void print_usage(std::FILE* out) {
   std::fprintf(out,
                "usage: tether <command> [args...]\n"
-               "       tether <command> --help\n\n"
+               "       tether <command> --help\n"
+               "       tether --version\n\n"
                "commands:\n");
   std::size_t width = 0;
   for (const auto& command : tether::cli::commands()) width = std::max(width, command.name.size());
@@ -40,6 +45,10 @@ int main(int argc, char** argv) {
       }
     }
     print_usage(stdout);
+    return 0;
+  }
+  if (name == "--version") {
+    std::printf("tether %s\n", TETHER_VERSION);
     return 0;
   }
   for (const auto& command : tether::cli::commands()) {

@@ -1,5 +1,5 @@
 // `tether shell DEVICE [--json]`: an interactive terminal for a device. Lines typed are sent in the
-// device's protocol (romi `L[1]`, proxy `servo-control pin=9 position=90`, elcano `D{s 50}{a 25}`), and
+// device's protocol (romi `s[2,3]`, proxy `servo-control pin=9 position=90`, elcano `D{s 50}{a 25}`), and
 // what the device says on its own (romi log lines, proxy events, captured or undeliverable ring messages)
 // is printed as it arrives, also while nobody types.
 //
@@ -48,8 +48,9 @@ const CommandText& command_text() {
           "\n"
           "An interactive terminal for a device: type a message, press Enter, read the answer. What the device\n"
           "sends on its own is shown as it arrives, also while you are not typing.\n"
-          "  romi          type the command (`e`, `s[2,3]`, `t[\"hi\"]`, `L[1]`); the request id, CRC and framing\n"
-          "                are added, the answer array is printed. Log lines (`#!text`) appear as `log: text`.\n"
+          "  romi          type the command (on romi-test: `e`, `s[2,3]`, `t[\"hi\"]`, `g[2]`); the request id,\n"
+          "                CRC and framing are added, the answer array is printed. Log lines (`#!text`) appear\n"
+          "                as `log: text`.\n"
           "  proxy         type a message and its fields (`servo-init pin=9 safe-position=90`,\n"
           "                `servo-control pin=9 position=120`; names as in `tether send --help`); the ack is\n"
           "                printed, device errors, pin states, info and session changes appear as they arrive.\n"
@@ -219,8 +220,9 @@ std::string help_text(devices::Codec codec) {
   switch (codec) {
     case devices::Codec::romi:
       text =
-          "Type a Romi command: an opcode and its arguments, e.g. e, s[2,3], t[\"hello\"], L[1]. The id, CRC and\n"
-          "framing are added; the answer array is printed. Log lines from the device appear as `log: text`.\n";
+          "Type a Romi command: an opcode and its arguments, the device's own (romi-test: e, s[2,3], t[\"hello\"],\n"
+          "g[2]; romi-blink: L[1]; romi-rover: S[1500,1500], A[0]). The id, CRC and framing are added; the\n"
+          "answer array is printed. Log lines from the device appear as `log: text`.\n";
       break;
     case devices::Codec::proxy:
     case devices::Codec::proxy_compat: {

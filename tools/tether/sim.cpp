@@ -1,5 +1,6 @@
-// `tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]`: runs the image on a virtual Arduino Uno
-// and bridges its UART0 to a pseudo-terminal that picocom, screen, pyserial or a tether client can open.
+// `tether sim IMAGE [--fast] [--link PATH] [--baud N] [--json]`: runs the image (a path, or a name in the
+// firmware folder as `--virtual` takes it) on a virtual Arduino Uno and bridges its UART0 to a
+// pseudo-terminal that picocom, screen, pyserial or a tether client can open.
 //
 // Output contract (scripts rely on it): once the port is ready (the firmware has enabled its UART
 // receiver, or 5 s passed), exactly one line `PTY <slave path>` on stdout, flushed (with --json instead one
@@ -22,6 +23,7 @@
 
 #include "cli_support.hpp"
 #include "commands.hpp"
+#include "device_options.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace tether::cli {
@@ -31,16 +33,27 @@ namespace {
 const CommandText& command_text() {
   static const CommandText text(
       "sim",
-      "usage: tether sim IMAGE.elf [--fast] [--link PATH] [--baud N] [--json]\n"
+      "usage: tether sim IMAGE [--fast] [--link PATH] [--baud N] [--json]\n"
       "\n"
-      "Runs IMAGE.elf on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
+      "Runs IMAGE on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
       "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
+      "IMAGE is a path to an .elf (with a `/`: build/firmware/echo.elf) or an image name (echo, romi-test,\n"
+      "proxy, elcano-node, ...) in the firmware folder ($TETHER_FIRMWARE_DIR, default: the build's), as\n"
+      "`--virtual` takes it.\n"
+      "\n"
+      "Open the pty with a `tether` subcommand (`tether shell --port /dev/pts/N`) or a terminal program. With\n"
+      "picocom on a Romi image (romi-test, romi-blink, ...):\n"
+      "  picocom -b 115200 --omap crcrlf --echo /dev/pts/N\n"
+      "then type `#e:xxxx` and Enter (answer `#e[0,1,2]:00dc` on romi-test). --omap crcrlf: picocom's Enter\n"
+      "sends CR alone, and the firmware wants CR LF (without it, it answers -30 after 1 s); --echo shows what\n"
+      "you type. Ctrl-A Ctrl-X leaves picocom.\n"
       "\n"
       "  --fast       run as fast as possible instead of in real time\n"
       "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
       "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
       "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n"
-      "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"IMAGE.elf\"} instead of `PTY /dev/pts/N`\n"
+      "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"<path of the image>\"} instead of\n"
+      "               `PTY /dev/pts/N`\n"
       "\n"
       "Exit status: 0 after SIGINT/SIGTERM; 2 usage errors and an image that cannot run.\n");
   return text;
@@ -79,7 +92,7 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
     } else if (have_image) {
       return text.usage_error("more than one image given");
     } else {
-      arguments.image = std::filesystem::path(argument);
+      arguments.image = firmware_image(std::string(argument));
       have_image = true;
     }
     return std::nullopt;

@@ -13,6 +13,9 @@
 #ifndef TETHER_SOURCE_DIR
 #error "TETHER_SOURCE_DIR must name the source tree"
 #endif
+#ifndef TETHER_VERSION
+#error "TETHER_VERSION must be the project's version (top-level CMakeLists.txt)"
+#endif
 
 namespace tether::cli::testing {
 namespace {
@@ -36,8 +39,16 @@ TEST(TetherUsage, HelpListsEverySubcommand) {
   }
 }
 
+TEST(TetherUsage, VersionIsTheProjects) {
+  const Outcome run = run_tether({"--version"});
+  EXPECT_EQ(run.status, 0);
+  EXPECT_EQ(run.out, std::string("tether ") + TETHER_VERSION + "\n");
+  EXPECT_EQ(run.err, "");
+  EXPECT_NE(run_tether({"--help"}).out.find("tether --version"), std::string::npos);
+}
+
 TEST(TetherUsage, EverySubcommandHasHelpWithTheDeviceOptionsAndJson) {
-  for (const char* name : {"send", "shell", "monitor", "stats"}) {
+  for (const char* name : {"call", "send", "shell", "monitor", "stats"}) {
     SCOPED_TRACE(name);
     const Outcome run = run_tether({name, "--help"});
     EXPECT_EQ(run.status, 0);
@@ -46,7 +57,7 @@ TEST(TetherUsage, EverySubcommandHasHelpWithTheDeviceOptionsAndJson) {
       EXPECT_NE(run.out.find(option), std::string::npos) << option;
     }
   }
-  for (const char* name : {"sim", "call"}) {
+  for (const char* name : {"sim"}) {
     const Outcome run = run_tether({name, "--help"});
     EXPECT_EQ(run.status, 0);
     EXPECT_NE(run.out.find("--json"), std::string::npos) << name;
@@ -122,6 +133,33 @@ TEST(TetherUsage, UnopenableDevicesExitTwoWithTheReason) {
   run = run_tether({"monitor", "--virtual", "/nonexistent/image.elf", "--count", "1"});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("/nonexistent/image.elf: No such file or directory"), std::string::npos) << run.err;
+}
+
+// `tether sim` takes an image name like `--virtual` does (the same lookup in the firmware folder).
+TEST(TetherSim, ImageByNameLikeVirtual) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  for (const char* name : {"romi-test", "romi-test.elf"}) {
+    SCOPED_TRACE(name);
+    ::tether::testing::ChildProcess sim({TETHER_BINARY, "sim", name, "--json"}, true);
+    const auto line = sim.read_line(std::chrono::seconds(30));
+    ASSERT_TRUE(line);
+    const nlohmann::json object = nlohmann::json::parse(*line);
+    EXPECT_EQ(object["firmware"], firmware("romi-test").string());
+    const Outcome run = run_tether({"call", "--port", object["pty"], "e"});
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_EQ(run.out, "[0,1,2]\n");
+    sim.signal(SIGINT);
+    EXPECT_EQ(sim.wait(std::chrono::seconds(20)), 0);
+  }
+  const Outcome missing = run_tether({"sim", "no-such-image"});
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.err.find("no-such-image.elf"), std::string::npos) << missing.err;
+}
+
+// The picocom line of `tether sim --help` is one that works with a Romi image: Enter must send CR LF.
+TEST(TetherSim, HelpSuggestsPicocomWithCrLf) {
+  const Outcome run = run_tether({"sim", "--help"});
+  EXPECT_NE(run.out.find("picocom -b 115200 --omap crcrlf --echo /dev/pts/N"), std::string::npos) << run.out;
 }
 
 TEST(TetherSim, JsonPrintsThePtyAsAnObject) {

@@ -175,7 +175,7 @@ TEST(TetherCall, HelpAndUsageErrors) {
   EXPECT_NE(run.out.find("call"), std::string::npos);
   run = run_tether({"call", "a"});
   EXPECT_EQ(run.status, 2);
-  EXPECT_NE(run.err.find("--port is required"), std::string::npos);
+  EXPECT_NE(run.err.find("no device given"), std::string::npos);
   run = run_tether({"call", "--port", "/dev/tether-no-such-port", "a"});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("cannot open /dev/tether-no-such-port"), std::string::npos);

@@ -1,0 +1,145 @@
+// `tether call` naming its device like every device subcommand (--virtual, --config/--device with virtual
+// and TCP transports, --port), its short usage errors, and the examples of its help run as written on the
+// image they name. (Output format and exit statuses against a scripted device: codecs/romi/host/tests.)
+#include <gtest/gtest.h>
+
+#include <boost/asio/buffer.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/read_until.hpp>
+#include <boost/asio/streambuf.hpp>
+#include <boost/asio/write.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fake_port.hpp"
+#include "tether_process.hpp"
+
+namespace tether::cli::testing {
+namespace {
+
+using nlohmann::json;
+
+const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+
+TEST(TetherCall, VirtualBoardByImageName) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const Outcome run = run_tether({"call", "--virtual", "romi-test", "e"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "[0,1,2]\n");
+}
+
+TEST(TetherCall, DeviceOfARoverConfiguration) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const Outcome run = run_tether({"call", "--config", kRover, "--device", "arm", "--json", "S[1500,1500]"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json object = json::parse(run.out);
+  EXPECT_EQ(object["values"], json::array({0}));
+  EXPECT_EQ(object["answered"], true);
+}
+
+// A Romi device behind a TCP-serial bridge (ser2net), named by a configuration: the test plays the device
+// on the accepted connection, answering the spec's vector for `e` with id 0.
+TEST(TetherCall, DeviceBehindTcpFromAConfiguration) {
+  namespace asio = boost::asio;
+  asio::io_context io;
+  asio::ip::tcp::acceptor acceptor(io, asio::ip::tcp::endpoint(asio::ip::address_v4::loopback(), 0));
+  asio::ip::tcp::socket socket(io);
+  asio::streambuf request;
+  std::string received;
+  acceptor.async_accept(socket, [&](const boost::system::error_code& error) {
+    if (error) return;
+    asio::async_read_until(socket, request, "\r\n", [&](const boost::system::error_code& read_error, std::size_t size) {
+      if (read_error) return;
+      received.assign(asio::buffers_begin(request.data()), asio::buffers_begin(request.data()) + static_cast<long>(size));
+      static const std::string answer = "#e[0,1,2]:00dc\r\n";
+      asio::async_write(socket, asio::buffer(answer), [](const boost::system::error_code&, std::size_t) {});
+    });
+  });
+  std::thread device([&] { io.run_for(std::chrono::seconds(60)); });  // hang protection
+
+  const std::filesystem::path config =
+      std::filesystem::temp_directory_path() / ("tether-call-tcp-" + std::to_string(::getpid()) + ".json");
+  std::ofstream(config) << json{{"devices",
+                                 {{{"name", "arm"},
+                                   {"codec", "romi"},
+                                   {"transport",
+                                    {{"tcp", {{"host", "127.0.0.1"}, {"port", acceptor.local_endpoint().port()}}}}}}}}}
+                               .dump();
+  const Outcome run = run_tether({"call", "--config", config.string(), "--device", "arm", "--id", "0", "e"});
+  std::filesystem::remove(config);
+  io.stop();
+  device.join();
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "[0,1,2]\n");
+  EXPECT_EQ(received, "#e:00d6\r\n");
+}
+
+TEST(TetherCall, DeviceOfAnotherCodecIsAUsageError) {
+  const Outcome run = run_tether({"call", "--virtual", "proxy", "e"});  // refused before anything starts
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("speaks proxy, not romi"), std::string::npos) << run.err;
+}
+
+// Usage errors show the synopsis and where the details are, not the whole help.
+TEST(TetherCall, UsageErrorsPrintAShortUsage) {
+  for (const std::vector<std::string>& arguments :
+       {std::vector<std::string>{"call", "e"}, {"call", "--virtual", "romi-test"}, {"call", "--port", "/dev/null", "--id", "256", "e"},
+        {"call", "--port", "/dev/null", "--verbose", "e"}, {"call", "--port", "/dev/null", "e", "a"}}) {
+    SCOPED_TRACE(::testing::PrintToString(arguments));
+    const Outcome run = run_tether(arguments);
+    EXPECT_EQ(run.status, 2);
+    EXPECT_EQ(run.out, "");
+    EXPECT_EQ(run.err.rfind("tether call: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find("usage: tether call --port PATH"), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find("Run `tether call --help` for the details."), std::string::npos) << run.err;
+    EXPECT_EQ(run.err.find("--manual  "), std::string::npos) << run.err;  // the options' descriptions
+    EXPECT_LT(std::count(run.err.begin(), run.err.end(), '\n'), 10) << run.err;
+  }
+  EXPECT_NE(run_tether({"call", "e"}).err.find("no device given"), std::string::npos);
+  EXPECT_NE(run_tether({"call", "--virtual", "romi-test"}).err.find("no command given"), std::string::npos);
+}
+
+// The timeout message is the client's (it says what timed out); call prints it as it is.
+TEST(TetherCall, NoAnswerPrintsTheClientsMessage) {
+  FakePort port;  // a device that never answers
+  const Outcome run = run_tether({"call", "--port", port.path(), "--timeout", "300", "--json", "a"});
+  EXPECT_EQ(run.status, 2);
+  const json object = json::parse(run.out);
+  EXPECT_EQ(object["code"], -25);
+  const std::string message = object["message"];
+  EXPECT_FALSE(message.empty());
+  EXPECT_EQ(object["values"], json::array({-25, message}));
+  EXPECT_EQ(run.err, "tether call: -25 " + message + "\n");
+}
+
+// Every example of `tether call --help` runs as written on romi-test, the image it names.
+TEST(TetherCall, HelpExamplesRunOnTheImageTheyName) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string help = run_tether({"call", "--help"}).out;
+  struct Example {
+    std::string command;
+    std::string answer;
+    int status;
+  };
+  for (const Example& example : {Example{"e", "[0,1,2]", 0}, Example{"s[2,3]", "[0,5]", 0},
+                                 Example{"t[\"hello\"]", "[0,\"hello\"]", 0},
+                                 Example{"f", "[101,\"I will try again tomorrow\"]", 1}}) {
+    SCOPED_TRACE(example.command);
+    EXPECT_NE(help.find("'" + example.command + "' -> " + example.answer), std::string::npos) << help;
+    const Outcome run = run_tether({"call", "--virtual", "romi-test", example.command});
+    EXPECT_EQ(run.status, example.status) << run.err;
+    EXPECT_EQ(run.out, example.answer + "\n");
+  }
+  EXPECT_NE(help.find("Try it: `tether call --virtual romi-test e`"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tether::cli::testing
