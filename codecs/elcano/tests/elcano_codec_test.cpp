@@ -164,7 +164,6 @@ TEST(ElcanoReader, AnAttributeItsTypeDoesNotCarryIsReadAndForwardedUnchanged) {
 }
 
 TEST(ElcanoReader, OverflowingNumbersAreErrorsNotWraps) {
-  EXPECT_EQ(read("D{s 2147483647}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
   EXPECT_EQ(read("D{s 99999999999}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
   const Read edges = read("D{s 2147483646}{a -2147483648}\n", Generation::b);
   ASSERT_EQ(edges.messages.size(), 1u);
@@ -172,6 +171,81 @@ TEST(ElcanoReader, OverflowingNumbersAreErrorsNotWraps) {
   EXPECT_EQ(edges.messages[0].angle, INT32_MIN);
   EXPECT_EQ(read("D{s 1}{a -2147483649}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
   EXPECT_EQ(read("D{s 2147483650}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+}
+
+// docs/elcano.md, "Compatibility with the reference reader": one test per row, with the spec's inputs
+// (measured against the reference ElcanoSerial gen B).
+
+// Same as the reference: 2147483647 is its "unset" marker, so the field is unset (not a bad number).
+TEST(ElcanoReferenceCompatibility, TheUnsetMarkerLeavesTheFieldUnset) {
+  EXPECT_EQ(read("D{s 2147483647}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::inval_comb}));
+  EXPECT_EQ(read("D{s50}{a2147483647}43\n", Generation::d).errors, (std::vector<ReadError>{ReadError::inval_comb}));
+  // An optional field given as unset: the message is read, the field is unset, the writer leaves it out.
+  const Read goal = read("G{n 2}{b 679}{p 0,0}{r 2147483647}\n", Generation::b);
+  ASSERT_EQ(goal.messages.size(), 1u);
+  EXPECT_EQ(goal.messages[0].probability, kUnset);
+  EXPECT_EQ(written(goal.messages[0], Generation::b), "G{n 2}{b 679}{p 0,0}\n");
+}
+
+// Stricter: a value without digits is a damaged message (generation B has no checksum), not 0.
+TEST(ElcanoReferenceCompatibility, AValueWithoutDigitsIsABadNumberNotZero) {
+  EXPECT_EQ(read("D{s}{a 25}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s -}{a 25}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s 1}{a 2}{p ,4}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+}
+
+// Stricter: beyond int32 is an error; the reference wraps 2147483648 to -2147483648.
+TEST(ElcanoReferenceCompatibility, BeyondInt32IsABadNumberNotAWrap) {
+  EXPECT_EQ(read("D{s 2147483648}{a 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_TRUE(read("D{s 2147483648}{a 1}\n", Generation::b).messages.empty());
+}
+
+// Kinder: one error per damaged message (the reference: one bad_type per remaining byte of the line), and
+// the next message on the same line is read (the reference loses both).
+TEST(ElcanoReferenceCompatibility, TwoMessagesOnOneLineLoseOnlyTheFirst) {
+  LinkCounters counters;
+  Reader<> reader(Generation::b, counters);
+  std::vector<ReadError> errors;
+  std::vector<Message> messages;
+  for (char c : std::string("D{s 1}{a 2}D{s 3}{a 4}\n")) {
+    const ReadEvent event = reader.feed(static_cast<uint8_t>(c));
+    if (event.kind == ReadEvent::Kind::error) errors.push_back(event.error);
+    if (event.kind == ReadEvent::Kind::message) messages.push_back(event.message);
+  }
+  EXPECT_EQ(errors, (std::vector<ReadError>{ReadError::bad_lcurly}));
+  ASSERT_EQ(messages.size(), 1u);
+  EXPECT_EQ(messages[0].speed, 3);
+  EXPECT_EQ(counters.framing_errors, 1u);
+  // After an error, the rest of the line is skipped without an error per byte.
+  EXPECT_EQ(read("D{s 1x}{a 2}{b 3}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("Qwerty{s 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_type}));
+}
+
+// Kinder: an empty line is nothing (the reference: bad_type).
+TEST(ElcanoReferenceCompatibility, AnEmptyLineIsNotAnError) {
+  const Read result = read("\n\r\n \nD{s 1}{a 2}\n", Generation::b);
+  EXPECT_TRUE(result.errors.empty());
+  EXPECT_EQ(result.messages.size(), 1u);
+}
+
+// The same in both readers.
+TEST(ElcanoReferenceCompatibility, TheRestIsReadAsTheReferenceReadsIt) {
+  Read result = read("D{s 1 2}{a\t3}\r\n", Generation::b);  // spaces inside numbers, tabs, CRLF
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].speed, 12);
+  EXPECT_EQ(result.messages[0].angle, 3);
+  result = read("D{s 1}{a 2}{s 7}\n", Generation::b);  // a repeated attribute: the last value wins
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].speed, 7);
+  result = read("D{s -0}{a 2}{r 5}\n", Generation::b);  // -0 is 0; an extra attribute is read
+  ASSERT_EQ(result.messages.size(), 1u);
+  EXPECT_EQ(result.messages[0].speed, 0);
+  EXPECT_EQ(result.messages[0].probability, 5);
+  EXPECT_EQ(read("D{z 3}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_attrib}));
+  EXPECT_EQ(read("Q{s 1}{a 2}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_type}));
+  EXPECT_EQ(read("d{s 1}{a 2}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_type}));
+  EXPECT_EQ(read("D{s +1}{a 2}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::bad_number}));
+  EXPECT_EQ(read("D{s 1}\n", Generation::b).errors, (std::vector<ReadError>{ReadError::inval_comb}));
 }
 
 TEST(ElcanoReader, ConsumeIsTheSameReadingWithoutCopies) {

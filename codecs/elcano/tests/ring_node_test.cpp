@@ -304,6 +304,23 @@ TEST(RingNode, ReadErrorsAreReportedAndTheNextMessageGetsThrough) {
   EXPECT_EQ(link.crc_errors, 1u);
 }
 
+// docs/elcano.md, "Compatibility with the reference reader": the reference forwards a message of a type it
+// does not capture without reading it, malformed or not; a Tether node reads everything it forwards and
+// drops (and reports) what it cannot read, so a damaged message never goes round the ring.
+TEST(RingNode, AMalformedMessageOfAnUncapturedTypeIsDroppedNotForwarded) {
+  LinkCounters link;
+  RingCounters ring;
+  Node node(config(TypeSet::of(Type::drive)), 0, link, ring);
+  Fed fed = feed(node, "S{s 1}{a 2}{b 3}{p 4}\nS{s 1}{a 2}{b 3}{p 4,5}\n", 0);
+  ASSERT_EQ(fed.events.size(), 2u);
+  EXPECT_EQ(fed.events[0].kind, RingEvent::Kind::dropped);
+  EXPECT_EQ(fed.events[0].error, ReadError::bad_number);
+  EXPECT_EQ(fed.events[1].kind, RingEvent::Kind::forwarded);
+  EXPECT_EQ(output(node, 0), "S{s1}{a2}{b3}{p4,5}\n");  // only the well-formed one
+  EXPECT_EQ(ring.forwarded, 1u);
+  EXPECT_EQ(link.framing_errors, 1u);
+}
+
 // A ring under random traffic: everything originated is captured or comes back undeliverable exactly once.
 TEST(RingNode, RandomTrafficOnARingIsDeliveredOrReturnedExactlyOnce) {
   const uint64_t seed = testing::random_seed();

@@ -9,7 +9,10 @@
 ///   3. After an error the reader skips to the next header (or the end of the line). A header arriving
 ///      inside a message (the sender reset mid-message) ends that message with an error and starts the
 ///      next one: it is never swallowed.
-///   4. Numbers: optional `-`, decimal digits, int32; one that does not fit is bad_number (never wrapped).
+///   4. Numbers: optional `-`, at least one decimal digit, int32; one that does not fit is bad_number (never
+///      wrapped). 2147483647 is the "unset" marker: the field stays unset (inval_comb if required).
+///   Where this differs from the reference reader, and why: docs/elcano.md, "Compatibility with the
+///   reference reader".
 ///   5. Generation B `p` carries `E,N`; generation D carries `p` and `q` and a decimal CRC-8 trailer
 ///      (bad_crc when it does not match).
 ///   6. At `\n` the required fields of the type are checked (inval_comb).

@@ -19,7 +19,7 @@ bool Reader<Capacity>::keep(uint8_t byte) {
 
 template <size_t Capacity>
 int32_t Reader<Capacity>::signed_value() const {
-  // value_ <= 2^31 when negative, <= 2^31 - 2 otherwise: both fit once the sign is applied.
+  // value_ <= 2^31 when negative, <= 2^31 - 1 otherwise: both fit once the sign is applied.
   return negative_ ? static_cast<int32_t>(0u - value_) : static_cast<int32_t>(value_);
 }
 
@@ -159,10 +159,11 @@ ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
         negative_ = true;
       } else if (byte >= '0' && byte <= '9') {
         digits_ = true;
-        // int32 range (the unset value 2147483647 itself is reserved): an error, never a wrap. Checked
-        // before multiplying, by comparison only (a 32-bit division costs hundreds of AVR cycles).
+        // int32 range: beyond it an error, never a wrap (the reference wraps). 2147483647 is read: it is
+        // the "unset" marker, so the field stays unset, as in the reference (a required one: inval_comb).
+        // Checked before multiplying, by comparison only (a 32-bit division costs hundreds of AVR cycles).
         const uint8_t digit = static_cast<uint8_t>(byte - '0');
-        if (value_ > 214748364u || (value_ == 214748364u && digit > (negative_ ? 8u : 6u))) {
+        if (value_ > 214748364u || (value_ == 214748364u && digit > (negative_ ? 8u : 7u))) {
           return fail(ReadError::bad_number);
         }
         value_ = value_ * 10u + digit;
