@@ -55,7 +55,7 @@ std::filesystem::path firmware(const std::string& name);
     }                                                                                               \
   } while (false)
 
-/// `tether sim IMAGE.elf` in the background; `pty()` is the port it serves.
+/// `tether sim IMAGE` in the background; `pty()` is the port it serves.
 class SimBoard {
  public:
   explicit SimBoard(const std::string& image);
