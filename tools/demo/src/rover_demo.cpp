@@ -54,6 +54,10 @@ class Workload {
   virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
   /// False when a success only means "written" (nothing tells when the device works again).
   virtual bool confirms() const { return true; }
+  /// After the run (noise off): makes the device's final state deterministic when the protocol cannot
+  /// confirm, and returns the pulses it should show then (unset: nothing to do, the last success stands).
+  /// `rewrites` counts the writes it needed.
+  virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
 };
 
 // Values of operation i: spread over the range, different each time, deterministic.
@@ -101,9 +105,11 @@ class ProxyWorkload final : public Workload {
   Outcome run(unsigned i) override {
     Outcome outcome;
     std::vector<std::future<proxy::SendResult>> sends;
+    last_positions_.clear();
     for (std::size_t k = 0; k < pins_.size(); ++k) {
       const std::int32_t position = degrees(i, k == 0 ? 37u : 53u);
-      set_expected(outcome.expected, pins_[k], proxy::device::servo_pulse_us(position));
+      last_positions_.push_back(position);
+      set_expected(outcome.expected, pins_[k], pulse_us(position));
       sends.push_back(client_->servo(pins_[k]).async_set(position, boost::asio::use_future));
     }
     outcome.ok = true;
@@ -123,8 +129,45 @@ class ProxyWorkload final : public Workload {
     if (compat_) return std::nullopt;  // compat announces RESET, but has no session to tell restarts apart
     return client_->counters().link.resets;
   }
+  // Compat: nothing is acked, so a write lost in the reboot (or to noise) leaves a pin at an older value.
+  // Write the last positions again until the device's state stream (~50 ms) reports them -- the only
+  // witness this variant has. The deployed host does not do this; the demo does it so the pin check
+  // compares with a known command.
+  std::optional<Pulses> settle(std::uint32_t& rewrites) override {
+    if (!compat_ || last_positions_.empty()) return std::nullopt;
+    Pulses expected;
+    for (std::size_t k = 0; k < pins_.size(); ++k) set_expected(expected, pins_[k], pulse_us(last_positions_[k]));
+    const auto give_up = Clock::now() + std::chrono::seconds(5);
+    while (Clock::now() < give_up) {
+      const auto written = Clock::now();
+      for (std::size_t k = 0; k < pins_.size(); ++k) {
+        error_code error;
+        client_->servo(pins_[k]).set(last_positions_[k], error);
+        ++rewrites;
+      }
+      const auto wait_until = std::min(give_up, written + std::chrono::milliseconds(300));
+      while (Clock::now() < wait_until) {
+        if (reported_since(written)) return expected;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    return expected;  // never reported: the pin check shows what the pins do
+  }
 
  private:
+  bool reported_since(Clock::time_point written) const {
+    for (std::size_t k = 0; k < pins_.size(); ++k) {
+      const std::optional<proxy::PinStatus> state = client_->servo(pins_[k]).state();
+      if (!state || !state->has_value || state->updated <= written || state->value != last_positions_[k]) return false;
+    }
+    return true;
+  }
+  // The pulse a position gives: the primary image's 1000..2000 us, or the deployed Servo library's
+  // 544..2400 us that proxy-compat reproduces.
+  std::uint16_t pulse_us(std::int32_t position) const {
+    return compat_ ? proxy::device::arduino_servo_pulse_us(static_cast<std::int16_t>(position))
+                   : proxy::device::servo_pulse_us(position);
+  }
   static void set_expected(Pulses& pulses, std::uint32_t pin, std::uint16_t us) {
     if (pin == 9) pulses.d9 = us;
     if (pin == 10) pulses.d10 = us;
@@ -132,6 +175,7 @@ class ProxyWorkload final : public Workload {
   std::shared_ptr<proxy::ProxyClient> client_;
   std::vector<std::uint32_t> pins_;
   bool compat_;
+  std::vector<std::int32_t> last_positions_;  // of the last operation, one per pin
 };
 
 class ElcanoWorkload final : public Workload {
@@ -264,6 +308,7 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     if (options.progress) options.progress(device.name, i + 1, options.iterations);
   }
   if (link) link->set_faults({}, {});
+  if (const std::optional<Pulses> settled = workload->settle(report.final_rewrites)) last_ok = settled;
 
   const LinkCounters after = workload->link();
   report.retries = after.retries - before.retries;
