@@ -2,6 +2,8 @@
 // virtual Uno, checking the simulated pins (servo pulse on D9, level of D13), not only the messages.
 #include <gtest/gtest.h>
 
+#include <boost/asio/use_future.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <mutex>
@@ -82,6 +84,33 @@ TEST(ProxyInterop, InitAndControlDriveTheServoPulseAndTheDigitalPin) {
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1000.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_TRUE(client.session().established);
   EXPECT_EQ(client.counters().link.crc_errors, 0u);
+  client.close();
+}
+
+TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas) {
+  IoThread io;
+  auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
+  auto& uno = stream->board();
+  EventLog log;
+  ProxyClient client(stream, ProxyOptions{}, log.handler());
+  client.servo(9).init(90);
+  client.servo(9).set(180);
+  ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2000.0) < 5.0; })) << servo_pulse_us(uno);
+  ArduinoIn raw;  // what a host without tether send's checks can put on the wire
+  raw.mutable_servocontrol()->set_pin(9);
+  raw.mutable_servocontrol()->set_position(999);
+  const SendResult sent = client.async_send(raw, boost::asio::use_future).get();
+  EXPECT_TRUE(sent.acked);  // received and refused: acked, with the Error before the Ack
+  std::vector<events::DeviceError> errors = log.all<events::DeviceError>();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].text, "pin 9: position 999 not in 0..180");
+  // Three servo periods of simulated time after the device refused it: a new width would show by now.
+  const auto refused_at = uno.simulated_time();
+  ASSERT_TRUE(wait_for([&] { return uno.simulated_time() - refused_at > 60ms; }));
+  EXPECT_NEAR(servo_pulse_us(uno), 2000.0, 5.0);
+  const auto state = client.pin_state(PinKind::servo, 9);
+  ASSERT_TRUE(state && state->has_value);
+  EXPECT_EQ(state->value, 180);
   client.close();
 }
 
