@@ -139,8 +139,7 @@ void CompatDevice::handle_payload(ByteView payload) {
 void CompatDevice::init_servo(uint32_t pin) {
   if (is_servo(pin)) return;  // deployed: a second ServoInit is ignored silently
   if (!compat_output_pin(pin) || !hardware::any_pin_servo_attach(static_cast<uint8_t>(pin), kArduinoServoAttachPulseUs)) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
+    refuse_pin(pin);
     return;
   }
   servos_ |= bit(pin);
@@ -150,8 +149,7 @@ void CompatDevice::init_servo(uint32_t pin) {
 
 void CompatDevice::control_servo(uint32_t pin, int32_t position) {
   if (!is_servo(pin)) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
+    refuse_pin(pin);
     return;
   }
   send_event(RocketryProto_EventTypes_SERVO_CONTROL, pin);
@@ -163,28 +161,26 @@ void CompatDevice::control_servo(uint32_t pin, int32_t position) {
 void CompatDevice::init_digital(uint32_t pin, bool safe_high) {
   if (is_digital(pin)) return;  // ignored silently, as a second ServoInit
   if (!compat_output_pin(pin)) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
+    refuse_pin(pin);
     return;
   }
   if (drives_pin(pin)) hardware::digital_init(static_cast<uint8_t>(pin), safe_high);
   digitals_ |= bit(pin);
-  if (safe_high) {
-    levels_ |= bit(pin);
-  } else {
-    levels_ &= ~bit(pin);
-  }
+  set_level(pin, safe_high);
   send_event(RocketryProto_EventTypes_DIGITAL_INIT, pin);
 }
 
 void CompatDevice::control_digital(uint32_t pin, bool high) {
   if (!is_digital(pin)) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
+    refuse_pin(pin);
     return;
   }
   send_event(RocketryProto_EventTypes_DIGITAL_CONTROL, pin);
   if (drives_pin(pin)) hardware::digital_write(static_cast<uint8_t>(pin), high);
+  set_level(pin, high);
+}
+
+void CompatDevice::set_level(uint32_t pin, bool high) {
   if (high) {
     levels_ |= bit(pin);
   } else {
@@ -210,8 +206,7 @@ void CompatDevice::init_dc_motor(const void* message) {
                       drives_pin(init.limitSwitchMaxPin) && compat_output_pin(init.potentiometerPin) &&
                       adc_channel(init.potentiometerPin, channel);
   if (!usable) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(init.motorForwardPin));
+    refuse_pin(init.motorForwardPin);
     return;
   }
   DcMotor& motor = motors_[motor_count_++];
@@ -244,8 +239,7 @@ void CompatDevice::drive_dc_motor(DcMotor& motor, int8_t direction) {
 void CompatDevice::control_dc_motor(uint32_t forward, uint32_t reverse, int32_t position) {
   DcMotor* motor = find_dc_motor(forward, reverse);
   if (motor == nullptr) {
-    ++counters_.refused;
-    send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(forward));
+    refuse_pin(forward);
     return;
   }
   send_event(RocketryProto_EventTypes_DC_MOTOR_CONTROL, forward);
@@ -283,6 +277,11 @@ void CompatDevice::send_event(uint8_t type, uint32_t pin) {
   out.data.eventMessage.type = static_cast<RocketryProto_EventTypes>(type);
   out.data.eventMessage.data = static_cast<int32_t>(pin);
   send(&out);
+}
+
+void CompatDevice::refuse_pin(uint32_t pin) {
+  ++counters_.refused;
+  send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
 }
 
 void CompatDevice::send_error(uint8_t type, int32_t data) {

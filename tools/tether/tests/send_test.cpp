@@ -19,6 +19,13 @@ using nlohmann::json;
 
 const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
 
+// One JSON object per output line.
+std::vector<json> json_lines(const Outcome& run) {
+  std::vector<json> results;
+  for (const std::string& line : run.lines()) results.push_back(json::parse(line));
+  return results;
+}
+
 TEST(TetherSend, MessagesAreAckedThroughTheSimPty) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   SimBoard board("proxy");
@@ -93,10 +100,10 @@ TEST(TetherSend, CompatListsEachEventUnderTheMessageItAnswers) {
   const Outcome run = run_tether({"send", "--virtual", "proxy-compat", "--settle", "20000", "--json", "servo-init",
                                   "pin=3", "safe-position=90", "servo-control", "pin=3", "position=120"});
   EXPECT_EQ(run.status, 0) << run.err;
-  const auto lines = run.lines();
-  ASSERT_EQ(lines.size(), 2u) << run.out;
-  const json init = json::parse(lines[0]);
-  const json control = json::parse(lines[1]);
+  const std::vector<json> results = json_lines(run);
+  ASSERT_EQ(results.size(), 2u) << run.out;
+  const json& init = results[0];
+  const json& control = results[1];
   EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
   EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
   for (const auto& event : control["other_device_events"]) EXPECT_NE(event, "SERVO_INIT 3") << control;
@@ -128,10 +135,10 @@ TEST(TetherSend, CompatEventsThatDoNotAnswerTheMessageAreListedApart) {
                                   "position=120"});
   device.join();
   EXPECT_EQ(run.status, 0) << run.err;
-  const auto lines = run.lines();
-  ASSERT_EQ(lines.size(), 2u) << run.out;
-  const json init = json::parse(lines[0]);
-  const json control = json::parse(lines[1]);
+  const std::vector<json> results = json_lines(run);
+  ASSERT_EQ(results.size(), 2u) << run.out;
+  const json& init = results[0];
+  const json& control = results[1];
   EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
   EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
   EXPECT_EQ(control["other_device_events"], json::array({"SERVO_INIT 3"})) << control;

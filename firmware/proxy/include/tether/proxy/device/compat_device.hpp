@@ -136,6 +136,7 @@ class CompatDevice {
   void control_servo(uint32_t pin, int32_t position);
   void init_digital(uint32_t pin, bool safe_high);
   void control_digital(uint32_t pin, bool high);
+  void set_level(uint32_t pin, bool high);
   void init_dc_motor(const void* init);
   void control_dc_motor(uint32_t forward, uint32_t reverse, int32_t position);
   DcMotor* find_dc_motor(uint32_t forward, uint32_t reverse);
@@ -144,6 +145,7 @@ class CompatDevice {
   bool send(const void* out_message);
   void send_event(uint8_t type, uint32_t pin);
   void send_error(uint8_t type, int32_t data);
+  void refuse_pin(uint32_t pin);  // ErrorMessage{PIN_NOT_INITIALIZED, pin}, counted
 
   FrameSink sink_;
   RestartFunction restart_;
