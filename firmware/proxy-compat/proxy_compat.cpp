@@ -1,11 +1,12 @@
 // The `proxy-compat` image: an Arduino Uno speaking the DEPLOYED variant of the proxy protocol, so existing
 // rocketry hosts can drive it. UART0 at 57600 8N1; host to device `00 ‖ COBS(RocketryProto.ArduinoIn) ‖ 00`,
-// device to host `COBS(RocketryProto.ArduinoOut) ‖ 00`; no CRC, ids, acks or ping. Servos on D9/D10
-// (positions in degrees), digital outputs on 2..19, a ServoState/DigitalState for each initialised pin
-// every 50 ms, Reset through the watchdog. Wire behaviour: tether/proxy/device/compat_device.hpp.
+// device to host `COBS(RocketryProto.ArduinoOut) ‖ 00`; no CRC, ids, acks or ping. Servos on any pin with
+// Arduino Servo timing (Timer1 interrupt), digital outputs, two DC motors (PWM on D5/D6), the HX711 load
+// cell on A4/A5, a state stream every 50 ms, Reset through the watchdog. Behaviour:
+// tether/proxy/device/compat_device.hpp.
 //
-// Buffers: the state stream sends up to ~9 bytes per initialised pin every 50 ms (20 pins: ~180 bytes,
-// ~35 ms of the line at 57600), and `write` sleeps while the 128-byte TX ring is full; the 128-byte RX
+// Buffers: the state stream sends up to ~9 bytes per initialised pin every 50 ms (18 pins, 2 motors and the
+// load cell: ~220 bytes, ~40 ms of the line at 57600), and `write` sleeps while the 128-byte TX ring is full; the 128-byte RX
 // ring holds ~25 ms of host input at line rate meanwhile, far more than the deployed host sends.
 #include "tether/core/bytes.hpp"
 #include "tether/firmware/runtime.hpp"
@@ -23,8 +24,7 @@ void restart(void*) {
   tether::firmware::system_reset();
 }
 
-tether::proxy::device::OutputTable outputs;
-tether::proxy::device::CompatDevice device(outputs, tether::proxy::device::FrameSink{write_frame, nullptr}, restart);
+tether::proxy::device::CompatDevice device(tether::proxy::device::FrameSink{write_frame, nullptr}, restart);
 
 }  // namespace
 

@@ -10,5 +10,6 @@ set(TETHER_PROXY_DEVICE_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/src/compat_device.cpp)
 set(TETHER_PROXY_DEVICE_AVR_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/src/hardware_avr.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/src/hardware_compat_avr.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/session_id_avr.cpp)
 set(TETHER_PROXY_DEVICE_INCLUDE_DIR ${CMAKE_CURRENT_LIST_DIR}/include)

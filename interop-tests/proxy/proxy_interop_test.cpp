@@ -2,6 +2,9 @@
 // virtual Uno, checking the simulated pins (servo pulse on D9, level of D13), not only the messages.
 #include <gtest/gtest.h>
 
+#include <boost/asio/use_future.hpp>
+
+#include <algorithm>
 #include <chrono>
 #include <mutex>
 #include <set>
@@ -81,6 +84,33 @@ TEST(ProxyInterop, InitAndControlDriveTheServoPulseAndTheDigitalPin) {
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1000.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_TRUE(client.session().established);
   EXPECT_EQ(client.counters().link.crc_errors, 0u);
+  client.close();
+}
+
+TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas) {
+  IoThread io;
+  auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
+  auto& uno = stream->board();
+  EventLog log;
+  ProxyClient client(stream, ProxyOptions{}, log.handler());
+  client.servo(9).init(90);
+  client.servo(9).set(180);
+  ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2000.0) < 5.0; })) << servo_pulse_us(uno);
+  ArduinoIn raw;  // what a host without tether send's checks can put on the wire
+  raw.mutable_servocontrol()->set_pin(9);
+  raw.mutable_servocontrol()->set_position(999);
+  const SendResult sent = client.async_send(raw, boost::asio::use_future).get();
+  EXPECT_TRUE(sent.acked);  // received and refused: acked, with the Error before the Ack
+  std::vector<events::DeviceError> errors = log.all<events::DeviceError>();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].text, "pin 9: position 999 not in 0..180");
+  // Three servo periods of simulated time after the device refused it: a new width would show by now.
+  const auto refused_at = uno.simulated_time();
+  ASSERT_TRUE(wait_for([&] { return uno.simulated_time() - refused_at > 60ms; }));
+  EXPECT_NEAR(servo_pulse_us(uno), 2000.0, 5.0);
+  const auto state = client.pin_state(PinKind::servo, 9);
+  ASSERT_TRUE(state && state->has_value);
+  EXPECT_EQ(state->value, 180);
   client.close();
 }
 
@@ -201,7 +231,8 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
   client.digital(13).init(false);
   client.servo(9).set(180);
   client.digital(13).set(true);
-  EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2000.0) < 5.0; })) << servo_pulse_us(uno);
+  // The deployed Servo library's 544..2400 us: 180 degrees is 2400 us.
+  EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2400.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_TRUE(wait_for([&] { return uno.digital_level(13); }));
   // The deployed device streams its pin states; and a control of an uninitialised pin is an error.
   EXPECT_TRUE(wait_for([&] {
@@ -216,6 +247,254 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
     return false;
   }));
   client.close();
+}
+
+// --- proxy-compat on the virtual pins, in simulated time (run_for: deterministic, no wall-clock waits) ---
+
+// A proxy-compat board driven like the deployed host drives it: `00 COBS(pb) 00` frames in, every
+// `COBS(pb) 00` frame out decoded with libprotobuf.
+class CompatBoard {
+ public:
+  CompatBoard() : uno_(board("proxy-compat.elf", Pacing::fast)) {
+    run(300);  // boot: EventMessage{RESET}
+  }
+  transports::VirtualUno& uno() { return uno_; }
+  void run(int ms) { uno_.run_for(std::chrono::milliseconds(ms)); }
+  void send(const RocketryProto::ArduinoIn& in) {
+    const std::string payload = in.SerializeAsString();
+    std::uint8_t frame[128];
+    const auto framed = encode_frame(ByteView(reinterpret_cast<const std::uint8_t*>(payload.data()), payload.size()),
+                                     Integrity::none, true, MutableByteView(frame));
+    ASSERT_TRUE(framed.ok());
+    uno_.write(std::span<const std::uint8_t>(frame, framed.value()));
+    std::uint8_t end = 0;
+    uno_.write(std::span<const std::uint8_t>(&end, 1));
+  }
+  // Every message the device sent since the last call.
+  std::vector<RocketryProto::ArduinoOut> received() {
+    std::vector<RocketryProto::ArduinoOut> messages;
+    std::uint8_t buffer[512];
+    while (std::size_t count = uno_.read(buffer, 0ms)) {
+      for (std::size_t i = 0; i < count; ++i) {
+        const FrameEvent event = decoder_.feed(buffer[i]);
+        if (event.kind != FrameEvent::Kind::payload) continue;
+        RocketryProto::ArduinoOut out;
+        EXPECT_TRUE(out.ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size())));
+        messages.push_back(out);
+      }
+    }
+    return messages;
+  }
+  // Microseconds of `pin`'s last complete high pulse.
+  double pulse_us(int pin) { return std::chrono::duration<double, std::micro>(uno_.pulse_timing(pin).high_time).count(); }
+
+ private:
+  transports::VirtualUno uno_;
+  LinkCounters counters_;
+  FrameDecoder<128> decoder_{Integrity::none, counters_};
+};
+
+double microseconds(transports::SimDuration duration) {
+  return std::chrono::duration<double, std::micro>(duration).count();
+}
+
+double period_ms(transports::VirtualUno& uno, int pin) { return microseconds(uno.pulse_timing(pin).period) / 1000.0; }
+
+RocketryProto::ArduinoIn servo_init(std::uint32_t pin) {
+  RocketryProto::ArduinoIn in;
+  in.mutable_servoinit()->set_pin(pin);
+  in.mutable_servoinit()->set_safeposition(90);
+  return in;
+}
+
+RocketryProto::ArduinoIn servo_control(std::uint32_t pin, std::int32_t position) {
+  RocketryProto::ArduinoIn in;
+  in.mutable_servocontrol()->set_pin(pin);
+  in.mutable_servocontrol()->set_position(position);
+  return in;
+}
+
+template <typename Predicate>
+std::size_t count_if(const std::vector<RocketryProto::ArduinoOut>& messages, Predicate predicate) {
+  return static_cast<std::size_t>(std::count_if(messages.begin(), messages.end(), predicate));
+}
+
+TEST(ProxyCompatPins, AServoOnD3ReachesTheServoLibraryPulseBesideOneOnD9) {
+  CompatBoard board;
+  board.received();
+  board.send(servo_init(3));
+  board.send(servo_init(9));
+  board.run(100);
+  // Attached at 1500 us (Servo::attach), safePosition not applied; position -1 until the first control.
+  EXPECT_NEAR(board.pulse_us(3), 1500.0, 2.0);
+  EXPECT_NEAR(board.pulse_us(9), 1500.0, 2.0);
+  const auto before = board.received();
+  for (const std::uint32_t pin : {3u, 9u}) {
+    EXPECT_GT(count_if(before, [&](const auto& m) { return m.has_servostate() && m.servostate().pin() == pin; }), 0u);
+  }
+  EXPECT_EQ(count_if(before, [](const auto& m) { return m.has_servostate() && m.servostate().position() != -1; }), 0u);
+  board.send(servo_control(3, 120));
+  board.send(servo_control(9, 45));
+  board.run(100);
+  EXPECT_NEAR(board.pulse_us(3), 1781.0, 2.0);  // measured on the deployed firmware: 120 -> 1781 us
+  EXPECT_NEAR(board.pulse_us(9), 1008.0, 2.0);  // 45 -> 1008 us
+  EXPECT_NEAR(period_ms(board.uno(), 3), 20.0, 0.05);
+  board.send(servo_control(9, 999));  // Servo::write: 544 and more are microseconds
+  board.send(servo_control(3, -5));   // a negative angle is 0 degrees
+  board.run(100);
+  EXPECT_NEAR(board.pulse_us(9), 999.0, 2.0);
+  EXPECT_NEAR(board.pulse_us(3), 544.0, 2.0);
+  const auto states = board.received();
+  EXPECT_GT(count_if(states, [](const auto& m) { return m.has_servostate() && m.servostate().pin() == 9 &&
+                                                        m.servostate().position() == 999; }),
+            0u);
+}
+
+TEST(ProxyCompatPins, ASecondServoInitIsIgnoredAndAnUninitialisedControlIsOnlyAnError) {
+  CompatBoard board;
+  board.send(servo_init(3));
+  board.send(servo_control(3, 120));
+  board.run(60);
+  board.received();
+  board.send(servo_init(3));  // ignored: no event, the servo stays at 120
+  board.send(servo_control(4, 10));
+  board.run(100);
+  EXPECT_NEAR(board.pulse_us(3), 1781.0, 2.0);
+  const auto messages = board.received();
+  EXPECT_EQ(count_if(messages, [](const auto& m) { return m.has_eventmessage(); }), 0u);
+  ASSERT_EQ(count_if(messages, [](const auto& m) { return m.has_errormessage(); }), 1u);
+  for (const auto& m : messages) {
+    if (!m.has_errormessage()) continue;
+    EXPECT_EQ(m.errormessage().type(), RocketryProto::PIN_NOT_INITIALIZED);
+    EXPECT_EQ(m.errormessage().data(), 4);
+  }
+}
+
+TEST(ProxyCompatPins, DigitalOutputOnD1KeepsTheUartWorking) {
+  CompatBoard board;
+  board.received();
+  RocketryProto::ArduinoIn in;
+  in.mutable_digitalinit()->set_pin(1);
+  board.send(in);
+  RocketryProto::ArduinoIn control;
+  control.mutable_digitalcontrol()->set_pin(1);
+  control.mutable_digitalcontrol()->set_activate(true);
+  board.send(control);
+  board.run(100);
+  const auto messages = board.received();
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_digitalstate() && m.digitalstate().pin() == 1 &&
+                                                          m.digitalstate().activated(); }),
+            0u);
+  EXPECT_TRUE(board.uno().pin(1).uart);
+}
+
+TEST(ProxyCompatPins, ADcMotorDrivesItsPinsTowardsThePotentiometerTargetAndStreamsItsState) {
+  CompatBoard board;
+  board.uno().set_analog_input(0, 1.0);  // potentiometer on A0: ~205 counts
+  RocketryProto::ArduinoIn init;
+  auto* motor = init.mutable_dcmotorinit();
+  motor->set_limitswitchminpin(2);
+  motor->set_limitswitchmaxpin(4);
+  motor->set_potentiometerpin(14);
+  motor->set_motorforwardpin(7);
+  motor->set_motorreversepin(8);
+  motor->set_motorpower(255);  // full power: a steady level on any pin
+  board.send(init);
+  board.run(60);
+  board.received();
+  EXPECT_TRUE(board.uno().pin(7).output);
+  EXPECT_FALSE(board.uno().digital_level(7));
+  EXPECT_FALSE(board.uno().digital_level(8));
+  RocketryProto::ArduinoIn control;
+  control.mutable_dcmotorcontrol()->set_pinforward(7);
+  control.mutable_dcmotorcontrol()->set_pinreverse(8);
+  control.mutable_dcmotorcontrol()->set_position(800);
+  board.send(control);
+  board.run(60);
+  EXPECT_TRUE(board.uno().digital_level(7));  // forward
+  EXPECT_FALSE(board.uno().digital_level(8));
+  auto messages = board.received();
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_eventmessage() &&
+                                                          m.eventmessage().type() == RocketryProto::DC_MOTOR_CONTROL &&
+                                                          m.eventmessage().data() == 7; }),
+            0u);
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_dcmotorstate() && m.dcmotorstate().direction() == 1 &&
+                                                          m.dcmotorstate().position() > 150 &&
+                                                          m.dcmotorstate().position() < 260; }),
+            0u);
+  board.uno().set_analog_input(0, 4.5);  // past the target: stops
+  board.run(60);
+  EXPECT_FALSE(board.uno().digital_level(7));
+  control.mutable_dcmotorcontrol()->set_position(100);
+  board.send(control);
+  board.run(20);
+  EXPECT_TRUE(board.uno().digital_level(8));  // reverse
+  board.uno().set_input_level(2, true);       // the min limit switch closes
+  board.run(60);
+  EXPECT_FALSE(board.uno().digital_level(8));
+  messages = board.received();
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_dcmotorstate() && m.dcmotorstate().direction() == 0 &&
+                                                          m.dcmotorstate().minlimitswitch(); }),
+            0u);
+}
+
+TEST(ProxyCompatPins, ADcMotorBelowFullPowerIsPwmOnD5) {
+  CompatBoard board;
+  RocketryProto::ArduinoIn init;
+  auto* motor = init.mutable_dcmotorinit();
+  motor->set_limitswitchminpin(2);
+  motor->set_limitswitchmaxpin(4);
+  motor->set_potentiometerpin(14);  // A0 reads 0 V: 0 counts
+  motor->set_motorforwardpin(5);
+  motor->set_motorreversepin(6);
+  motor->set_motorpower(64);
+  board.send(init);
+  RocketryProto::ArduinoIn control;
+  control.mutable_dcmotorcontrol()->set_pinforward(5);
+  control.mutable_dcmotorcontrol()->set_pinreverse(6);
+  control.mutable_dcmotorcontrol()->set_position(500);
+  board.send(control);
+  board.run(50);
+  // Timer0 fast PWM at clk/64: 1024 us period, high for (64 + 1) / 256 of it.
+  const auto timing = board.uno().pulse_timing(5);
+  EXPECT_NEAR(microseconds(timing.period), 1024.0, 1.0);
+  EXPECT_NEAR(microseconds(timing.high_time), 260.0, 2.0);
+  EXPECT_FALSE(board.uno().digital_level(6));
+}
+
+TEST(ProxyCompatPins, LoadCellStateStreamsEveryFiftyMilliseconds) {
+  CompatBoard board;
+  board.received();
+  board.run(1000);
+  // The HX711's DOUT (A4) floats and reads low: a conversion of 0, every 50 ms (02 3a 01 00).
+  const auto messages = board.received();
+  const std::size_t load = count_if(messages, [](const auto& m) { return m.has_loadcellstate(); });
+  EXPECT_GE(load, 19u);
+  EXPECT_LE(load, 21u);
+  for (const auto& m : messages) {
+    if (m.has_loadcellstate()) {
+      EXPECT_EQ(m.loadcellstate().value(), 0u);
+    }
+  }
+  // PD_SCK (A5) clocked 25 times per reading, and left low (high for 60 us would power the HX711 down).
+  EXPECT_GE(board.uno().pulse_timing(19).edges, 2u * 25u * 19u);
+  EXPECT_FALSE(board.uno().digital_level(19));
+}
+
+TEST(ProxyCompatPins, StepperMotorControlIsAnsweredWithData0) {
+  CompatBoard board;
+  board.received();
+  RocketryProto::ArduinoIn in;
+  in.mutable_steppermotorcontrol()->set_speed(100);
+  board.send(in);
+  board.run(20);
+  const auto messages = board.received();
+  ASSERT_EQ(count_if(messages, [](const auto& m) { return m.has_errormessage(); }), 1u);
+  for (const auto& m : messages) {
+    if (!m.has_errormessage()) continue;
+    EXPECT_EQ(m.errormessage().type(), RocketryProto::UNKNOWN_MESSAGE);
+    EXPECT_EQ(m.errormessage().data(), 0);
+  }
 }
 
 }  // namespace

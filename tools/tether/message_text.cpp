@@ -133,6 +133,14 @@ bool set_field(pb::Message& message, const pb::FieldDescriptor* field, std::stri
   }
 }
 
+// Servo positions are degrees 0..180 in both schemas (the deployed host sends degrees; Servo::write would
+// take 544 and more as microseconds, a unit this command does not offer): a value outside is a typo.
+bool is_servo_degrees_field(const pb::FieldDescriptor* field) {
+  const std::string& message = field->containing_type()->name();
+  return (message == "ServoInit" && field->name() == "safePosition") ||
+         (message == "ServoControl" && field->name() == "position");
+}
+
 // Fills `root` (an ArduinoIn of either schema) from the words; see parse_proxy_command.
 bool fill(pb::Message& root, std::span<const std::string> words, ProxyCommand& command, std::string& error) {
   const pb::OneofDescriptor* oneof = data_oneof(root.GetDescriptor());
@@ -169,7 +177,16 @@ bool fill(pb::Message& root, std::span<const std::string> words, ProxyCommand& c
       error = command.name + ": " + kebab_case(field->name()) + " given twice";
       return false;
     }
-    if (!set_field(*body, field, std::string_view(word).substr(equals + 1), command.name, error)) return false;
+    const std::string_view value = std::string_view(word).substr(equals + 1);
+    if (!set_field(*body, field, value, command.name, error)) return false;
+    if (is_servo_degrees_field(field)) {
+      const std::int32_t degrees = body->GetReflection()->GetInt32(*body, field);
+      if (degrees < 0 || degrees > 180) {
+        error = command.name + ": " + kebab_case(field->name()) + " needs degrees 0..180, got '" + std::string(value) +
+                "'";
+        return false;
+      }
+    }
     if (field->name() == "pin" && field->cpp_type() == pb::FieldDescriptor::CPPTYPE_UINT32) {
       command.pin = body->GetReflection()->GetUInt32(*body, field);
     }

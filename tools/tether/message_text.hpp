@@ -36,7 +36,8 @@ struct ProxyCommand {
 
 /// Parses `NAME [FIELD=VALUE ...]` (`words[0]` is the name) into a message of `mode`'s schema. Field names
 /// may be kebab-case, camelCase or snake_case; every field of the message must be given once. Values:
-/// decimal integers in the field's range; booleans true/false, 1/0, on/off, high/low. On failure nothing,
+/// decimal integers in the field's range (servo positions and safe positions: degrees 0..180, in both
+/// modes); booleans true/false, 1/0, on/off, high/low. On failure nothing,
 /// and `error` names the unknown message, field or bad value.
 std::optional<ProxyCommand> parse_proxy_command(proxy::Mode mode, std::span<const std::string> words,
                                                 std::string& error);

@@ -47,6 +47,8 @@ const CommandText& command_text() {
       "ResetEvent), so pins must be initialised in the same run (or by the configuration's inits, --config).\n"
       "`reset` restarts the session (Reset, ResetEvent, inits replayed). In compatibility mode a message is\n"
       "done when written; the device's answer (its EventMessage or ErrorMessage) is awaited for --settle ms.\n"
+      "Servo positions are degrees 0..180 in both modes (others are usage errors). A compat device ignores\n"
+      "an init of a pin it already has, silently, as the deployed firmware does: no answer comes.\n"
       "\n" +
       kDeviceUsage +
       "  (send speaks the proxy protocol: --port defaults to --codec proxy)\n"
@@ -59,7 +61,8 @@ const CommandText& command_text() {
       "                 \"written\":true,\"message_id\":7,\"attempts\":1,\"error\":null,\"device_errors\":[],\n"
       "                 \"pin_state\":{\"pin\":9,\"value\":120,\"failsafe\":false}} (pin_state: the device's report\n"
       "                 of the message's pin, when one came with the ack; reset: \"session_id\"; compat:\n"
-      "                 \"device_events\" [\"SERVO_INIT 9\", ...] and \"device_answered\")\n"
+      "                 \"device_events\" [\"SERVO_INIT 9\"] (the events answering this message),\n"
+      "                 \"other_device_events\" (others meanwhile, e.g. a boot's RESET) and \"device_answered\")\n"
       "\n"
       "Exit status: 0 every message acked (compat: written) without a device error; 1 the device reported\n"
       "an error for a message (Error / ErrorMessage, e.g. an uninitialised pin); 2 usage errors, a device\n"
@@ -105,8 +108,10 @@ struct Observed {
   std::condition_variable changed;
   std::vector<std::string> device_errors;
   std::vector<proxy::events::PinReport> pin_reports;
-  std::vector<std::string> compat_events;
+  std::vector<std::string> compat_events;  // the EventMessages that answer the message being sent
+  std::vector<std::string> other_events;   // the others meanwhile (a boot's RESET, an init replayed on it)
   std::string compat_expected;  // the EventMessage type that answers the message being sent (compat)
+  std::optional<std::uint32_t> compat_pin;  // and its data, for messages with a pin
   std::size_t compat_answers = 0;
   std::size_t sessions = 0;
   std::uint32_t session_id = 0;
@@ -117,8 +122,10 @@ struct Observed {
     device_errors.clear();
     pin_reports.clear();
     compat_events.clear();
+    other_events.clear();
     compat_answers = 0;
     compat_expected.clear();
+    compat_pin.reset();
   }
 };
 
@@ -133,9 +140,13 @@ void observe(Observed& observed, const proxy::ProxyEvent& event) {
     observed.session_id = established->session_id;
   } else if (const auto* compat = std::get_if<proxy::events::CompatEvent>(&event)) {
     const std::string name = RocketryProto::EventTypes_Name(compat->type);
-    observed.compat_events.push_back(name + " " + std::to_string(compat->data));
-    // Other events (the boot announcement RESET, a replayed init's) do not answer this message.
-    if (observed.compat_expected.empty() || name == observed.compat_expected) ++observed.compat_answers;
+    // Only the event of this message's type and pin answers it; others (the boot announcement RESET, the
+    // SERVO_INIT of an init the client replays on it) are listed apart, never under this message.
+    const bool answer = observed.compat_expected.empty() ||
+                        (name == observed.compat_expected &&
+                         (!observed.compat_pin || compat->data == static_cast<std::int32_t>(*observed.compat_pin)));
+    (answer ? observed.compat_events : observed.other_events).push_back(name + " " + std::to_string(compat->data));
+    if (answer) ++observed.compat_answers;
   } else if (const auto* compat_error = std::get_if<proxy::events::CompatError>(&event)) {
     observed.device_errors.push_back(RocketryProto::ErrorTypes_Name(compat_error->type) + " " +
                                      std::to_string(compat_error->data));
@@ -199,7 +210,10 @@ int run_send(int argc, char** argv) {
         expected += c == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
       RocketryProto::EventTypes type{};
       const std::lock_guard lock(seen->mutex);
-      if (RocketryProto::EventTypes_Parse(expected, &type)) seen->compat_expected = expected;
+      if (RocketryProto::EventTypes_Parse(expected, &type)) {
+        seen->compat_expected = expected;
+        seen->compat_pin = command.pin;
+      }
     }
     progress.show("sending " + command.name + "...");
     nlohmann::ordered_json result = {{"message", command.name},
@@ -262,6 +276,7 @@ int run_send(int argc, char** argv) {
       }
       if (mode == proxy::Mode::compat) {
         result["device_events"] = seen->compat_events;
+        result["other_device_events"] = seen->other_events;
         result["device_answered"] = seen->compat_answers > 0;
       }
     }

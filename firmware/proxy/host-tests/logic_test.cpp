@@ -153,12 +153,20 @@ TEST_F(OutputsTest, ServoInitDrivesTheSafePositionAtOnce) {
   EXPECT_EQ(hw().pins[9].pulse_us, 2000);
   EXPECT_EQ(outputs.control_servo(9, 0), PinResult::ok);
   EXPECT_EQ(hw().pins[9].pulse_us, 1000);
-  EXPECT_EQ(outputs.control_servo(9, 500), PinResult::ok);  // clamped
-  EXPECT_EQ(outputs.value(9), 180);
-  EXPECT_EQ(outputs.control_servo(9, -20), PinResult::ok);
-  EXPECT_EQ(outputs.value(9), 0);
-  EXPECT_EQ(hw().calls, (std::vector<std::string>{"attach 9 1500", "write 9 2000", "write 9 1000", "write 9 2000",
-                                                  "write 9 1000"}));
+  EXPECT_EQ(hw().calls, (std::vector<std::string>{"attach 9 1500", "write 9 2000", "write 9 1000"}));
+}
+
+TEST_F(OutputsTest, ServoPositionsOutsideTheRangeAreRefusedNotClamped) {
+  EXPECT_EQ(outputs.init_servo(9, 181), PinResult::out_of_range);
+  EXPECT_EQ(outputs.init_servo(9, -1), PinResult::out_of_range);
+  EXPECT_FALSE(outputs.initialised(9));
+  EXPECT_EQ(outputs.init_servo(9, 90), PinResult::ok);
+  EXPECT_EQ(outputs.control_servo(9, 999), PinResult::out_of_range);
+  EXPECT_EQ(outputs.control_servo(9, -5), PinResult::out_of_range);
+  EXPECT_EQ(outputs.value(9), 90);  // unchanged
+  EXPECT_EQ(hw().calls, (std::vector<std::string>{"attach 9 1500"}));
+  EXPECT_EQ(outputs.control_servo(9, 180), PinResult::ok);
+  EXPECT_EQ(outputs.control_servo(9, 0), PinResult::ok);
 }
 
 TEST_F(OutputsTest, ServoOnlyOnTimer1Pins) {

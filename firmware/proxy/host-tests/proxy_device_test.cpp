@@ -133,8 +133,13 @@ TEST_F(ProxyDeviceTest, EveryMessageIsAckedAfterWhatItCauses) {
   send(servo_control(3, 9, 180));
   EXPECT_EQ(take(), (Lines{"pin 9 = 180", "ack 3"}));
   EXPECT_EQ(hw.pins[9].pulse_us, 2000);
-  send(servo_control(4, 9, 400));
-  EXPECT_EQ(take(), (Lines{"pin 9 = 180", "ack 4"}));  // clamped
+  send(servo_control(4, 9, 999));  // out of range: refused (acked: it was received), the servo stays
+  EXPECT_EQ(take(), (Lines{"warning pin 9: position 999 not in 0..180", "ack 4"}));
+  EXPECT_EQ(hw.pins[9].pulse_us, 2000);
+  send(servo_control(40, 9, -5));
+  EXPECT_EQ(take(), (Lines{"warning pin 9: position -5 not in 0..180", "ack 40"}));
+  send(servo_init(41, 10, 200));
+  EXPECT_EQ(take(), (Lines{"warning pin 10: position 200 not in 0..180", "ack 41"}));
   send(digital_init(5, 13, false));
   EXPECT_EQ(take(), (Lines{"pin 13 = 0", "ack 5"}));
   send(digital_control(6, 13, true));
@@ -144,7 +149,8 @@ TEST_F(ProxyDeviceTest, EveryMessageIsAckedAfterWhatItCauses) {
   EXPECT_EQ(take(), (Lines{"ack 7"}));
   send(message(8, tether_proxy_ArduinoIn_pingFailsafeReset_tag));
   EXPECT_EQ(take(), (Lines{"ack 8"}));
-  EXPECT_EQ(device.counters().executed, 8u);
+  EXPECT_EQ(device.counters().executed, 10u);
+  EXPECT_EQ(device.counters().refused, 3u);  // the out-of-range positions
 }
 
 TEST_F(ProxyDeviceTest, ARepeatedMessageIsAckedButNotExecutedAgain) {

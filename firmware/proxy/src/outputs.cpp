@@ -21,6 +21,7 @@ PinResult OutputTable::init_servo(uint32_t pin, int32_t safe_degrees) {
   const PinResult checked = check_pin(pin);
   if (checked != PinResult::ok) return checked;
   if (!can_drive_servo(pin)) return PinResult::not_servo_pin;
+  if (!is_servo_degrees(safe_degrees)) return PinResult::out_of_range;
   Slot& slot = slots_[pin];
   const uint8_t safe = clamp_degrees(safe_degrees);
   slot.safe = safe;
@@ -61,6 +62,7 @@ PinResult OutputTable::check_control(uint32_t pin, OutputKind expected) const {
 PinResult OutputTable::control_servo(uint32_t pin, int32_t degrees) {
   const PinResult checked = check_control(pin, OutputKind::servo);
   if (checked != PinResult::ok) return checked;
+  if (!is_servo_degrees(degrees)) return PinResult::out_of_range;
   drive(static_cast<uint8_t>(pin), clamp_degrees(degrees));
   return PinResult::ok;
 }

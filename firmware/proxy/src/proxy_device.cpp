@@ -103,22 +103,22 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
       break;
     case tether_proxy_ArduinoIn_servoInit_tag: {
       const tether_proxy_ServoInit& init = in.data.servoInit;
-      report_pin_result(outputs_->init_servo(init.pin, init.safePosition), init.pin, true);
+      report_pin_result(outputs_->init_servo(init.pin, init.safePosition), init.pin, true, init.safePosition);
       break;
     }
     case tether_proxy_ArduinoIn_servoControl_tag: {
       const tether_proxy_ServoControl& control = in.data.servoControl;
-      report_pin_result(outputs_->control_servo(control.pin, control.position), control.pin, true);
+      report_pin_result(outputs_->control_servo(control.pin, control.position), control.pin, true, control.position);
       break;
     }
     case tether_proxy_ArduinoIn_digitalInit_tag: {
       const tether_proxy_DigitalInit& init = in.data.digitalInit;
-      report_pin_result(outputs_->init_digital(init.pin, init.safeState), init.pin, false);
+      report_pin_result(outputs_->init_digital(init.pin, init.safeState), init.pin, false, 0);
       break;
     }
     case tether_proxy_ArduinoIn_digitalControl_tag: {
       const tether_proxy_DigitalControl& control = in.data.digitalControl;
-      report_pin_result(outputs_->control_digital(control.pin, control.state), control.pin, false);
+      report_pin_result(outputs_->control_digital(control.pin, control.state), control.pin, false, 0);
       break;
     }
     case tether_proxy_ArduinoIn_reset_tag:
@@ -180,7 +180,7 @@ void ProxyDevice::send_info() {
   send(&out);
 }
 
-void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo) {
+void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo, int32_t value) {
   if (result == PinResult::ok) {
     send_pin_state(static_cast<uint8_t>(pin), false);
     return;
@@ -189,6 +189,11 @@ void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo) 
   ErrorOut error;
   if (result == PinResult::not_servo_pin) {
     error.text.text("servo on pin ").number(pin).text(": D9/D10 only");
+  } else if (result == PinResult::out_of_range) {
+    error.text.text("pin ").number(pin).text(": position ");
+    if (value < 0) error.text.text("-");
+    error.text.number(value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value))
+        .text(" not in 0..180");
   } else {
     error.text.text("pin ").number(pin);
     switch (result) {

@@ -94,6 +94,10 @@ std::string format_table(const DemoReport& report) {
   out << '\n';
   for (const DeviceReport& d : report.devices) {
     out << d.device << ": " << d.operation << "; " << d.transport << '\n';
+    if (d.final_rewrites > 0) {
+      out << "  last positions written again " << d.final_rewrites
+          << " time(s) after the run, until the state stream showed them (the deployed host would not)\n";
+    }
     if (!d.pins_detail.empty()) out << "  pins measured/expected: " << d.pins_detail << '\n';
     if (!d.first_error.empty()) out << "  first error: " << d.first_error << '\n';
   }
@@ -124,6 +128,7 @@ nlohmann::json to_json(const DemoReport& report) {
         {"resets_injected", d.resets_injected},
         {"resets_detected", d.resets_detected ? nlohmann::json(*d.resets_detected) : nlohmann::json(nullptr)},
         {"recovery_ms", d.recovery_ms ? nlohmann::json(*d.recovery_ms) : nlohmann::json(nullptr)},
+        {"final_rewrites", d.final_rewrites},
         {"pins_match", d.pins_match ? nlohmann::json(*d.pins_match) : nlohmann::json(nullptr)},
         {"pins_detail", d.pins_detail},
         {"first_error", d.first_error},

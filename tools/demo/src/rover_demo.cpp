@@ -54,6 +54,10 @@ class Workload {
   virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
   /// False when a success only means "written" (nothing tells when the device works again).
   virtual bool confirms() const { return true; }
+  /// After the run (noise off): makes the device's final state deterministic when the protocol cannot
+  /// confirm, and returns the pulses it should show then (unset: nothing to do, the last success stands).
+  /// `rewrites` counts the writes it needed.
+  virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
 };
 
 // Values of operation i: spread over the range, different each time, deterministic.
@@ -89,10 +93,11 @@ class RomiWorkload final : public Workload {
 
 class ProxyWorkload final : public Workload {
  public:
-  ProxyWorkload(std::shared_ptr<proxy::ProxyClient> client, std::vector<std::uint32_t> servo_pins, bool compat)
-      : client_(std::move(client)), pins_(std::move(servo_pins)), compat_(compat) {
-    if (pins_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
-    if (pins_.size() > 2) pins_.resize(2);
+  ProxyWorkload(std::shared_ptr<proxy::ProxyClient> client, std::vector<devices::PinInit> servo_inits, bool compat)
+      : client_(std::move(client)), inits_(std::move(servo_inits)), compat_(compat) {
+    if (inits_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
+    if (inits_.size() > 2) inits_.resize(2);
+    for (const devices::PinInit& init : inits_) pins_.push_back(init.pin);
   }
   std::string operation() const override {
     std::string text = std::to_string(pins_.size()) + " x ServoControl";
@@ -101,9 +106,11 @@ class ProxyWorkload final : public Workload {
   Outcome run(unsigned i) override {
     Outcome outcome;
     std::vector<std::future<proxy::SendResult>> sends;
+    last_positions_.clear();
     for (std::size_t k = 0; k < pins_.size(); ++k) {
       const std::int32_t position = degrees(i, k == 0 ? 37u : 53u);
-      set_expected(outcome.expected, pins_[k], proxy::device::servo_pulse_us(position));
+      last_positions_.push_back(position);
+      set_expected(outcome.expected, pins_[k], pulse_us(position));
       sends.push_back(client_->servo(pins_[k]).async_set(position, boost::asio::use_future));
     }
     outcome.ok = true;
@@ -123,15 +130,57 @@ class ProxyWorkload final : public Workload {
     if (compat_) return std::nullopt;  // compat announces RESET, but has no session to tell restarts apart
     return client_->counters().link.resets;
   }
+  // Compat: nothing is acked, so a write lost in the reboot (or to noise) leaves a pin at an older value,
+  // and a RESET announcement lost to noise leaves the rebooted device without its inits (the client
+  // replays them on that announcement). Write each servo's init and last position again until the
+  // device's state stream (~50 ms) reports the position -- the only witness this variant has; the device
+  // ignores an init of a pin it already has. The deployed host does none of this; the demo does it so the
+  // pin check compares with a known command.
+  std::optional<Pulses> settle(std::uint32_t& rewrites) override {
+    if (!compat_ || last_positions_.empty()) return std::nullopt;
+    Pulses expected;
+    for (std::size_t k = 0; k < pins_.size(); ++k) set_expected(expected, pins_[k], pulse_us(last_positions_[k]));
+    const auto give_up = Clock::now() + std::chrono::seconds(5);
+    while (Clock::now() < give_up) {
+      const auto written = Clock::now();
+      for (std::size_t k = 0; k < pins_.size(); ++k) {
+        error_code error;
+        client_->servo(pins_[k]).init(inits_[k].safe_value, error);
+        client_->servo(pins_[k]).set(last_positions_[k], error);
+        ++rewrites;
+      }
+      const auto wait_until = std::min(give_up, written + std::chrono::milliseconds(300));
+      while (Clock::now() < wait_until) {
+        if (reported_since(written)) return expected;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    return expected;  // never reported: the pin check shows what the pins do
+  }
 
  private:
+  bool reported_since(Clock::time_point written) const {
+    for (std::size_t k = 0; k < pins_.size(); ++k) {
+      const std::optional<proxy::PinStatus> state = client_->servo(pins_[k]).state();
+      if (!state || !state->has_value || state->updated <= written || state->value != last_positions_[k]) return false;
+    }
+    return true;
+  }
+  // The pulse a position gives: the primary image's 1000..2000 us, or the deployed Servo library's
+  // 544..2400 us that proxy-compat reproduces.
+  std::uint16_t pulse_us(std::int32_t position) const {
+    return compat_ ? proxy::device::arduino_servo_pulse_us(static_cast<std::int16_t>(position))
+                   : proxy::device::servo_pulse_us(position);
+  }
   static void set_expected(Pulses& pulses, std::uint32_t pin, std::uint16_t us) {
     if (pin == 9) pulses.d9 = us;
     if (pin == 10) pulses.d10 = us;
   }
   std::shared_ptr<proxy::ProxyClient> client_;
-  std::vector<std::uint32_t> pins_;
+  std::vector<devices::PinInit> inits_;  // the servo inits of the config (at most two)
+  std::vector<std::uint32_t> pins_;      // their pins
   bool compat_;
+  std::vector<std::int32_t> last_positions_;  // of the last operation, one per pin
 };
 
 class ElcanoWorkload final : public Workload {
@@ -170,9 +219,9 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
       return std::make_unique<RomiWorkload>(std::get<std::shared_ptr<romi::RomiClient>>(device.client));
     case devices::Codec::proxy:
     case devices::Codec::proxy_compat: {
-      std::vector<std::uint32_t> servos;
+      std::vector<devices::PinInit> servos;
       for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
-        if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init.pin);
+        if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
       }
       return std::make_unique<ProxyWorkload>(std::get<std::shared_ptr<proxy::ProxyClient>>(device.client),
                                              std::move(servos), device.codec == devices::Codec::proxy_compat);
@@ -191,8 +240,12 @@ double percentile(std::vector<double> sorted, double fraction) {
   return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
 }
 
+// The last complete pulse of `pin` (us), or 0 when the pin stopped pulsing: no edge for a servo period and
+// more (a rebooted board that never got its init back still shows its last pulse from before the reset).
 double pulse_us(transports::VirtualUno& board, int pin) {
-  return std::chrono::duration<double, std::micro>(board.pulse_timing(pin).high_time).count();
+  const transports::PulseTiming timing = board.pulse_timing(pin);
+  if (board.simulated_time() - timing.last_edge > std::chrono::milliseconds(25)) return 0;
+  return std::chrono::duration<double, std::micro>(timing.high_time).count();
 }
 
 // Compares the pins with the last successful operation, once the servo period has passed (20 ms).
@@ -264,6 +317,7 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     if (options.progress) options.progress(device.name, i + 1, options.iterations);
   }
   if (link) link->set_faults({}, {});
+  if (const std::optional<Pulses> settled = workload->settle(report.final_rewrites)) last_ok = settled;
 
   const LinkCounters after = workload->link();
   report.retries = after.retries - before.retries;

@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "fake_port.hpp"
 #include "tether_process.hpp"
 
 namespace tether::cli::testing {
@@ -16,6 +18,13 @@ namespace {
 using nlohmann::json;
 
 const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+
+// One JSON object per output line.
+std::vector<json> json_lines(const Outcome& run) {
+  std::vector<json> results;
+  for (const std::string& line : run.lines()) results.push_back(json::parse(line));
+  return results;
+}
 
 TEST(TetherSend, MessagesAreAckedThroughTheSimPty) {
   TETHER_REQUIRE_FIRMWARE("proxy");
@@ -83,6 +92,56 @@ TEST(TetherSend, CompatMessagesAreWrittenAndTheDeviceAnswerIsShown) {
   // The device's answer; its boot announcement (RESET 0) may come along, depending on when the board booted.
   const auto& events = result["device_events"];
   EXPECT_NE(std::find(events.begin(), events.end(), "SERVO_INIT 9"), events.end()) << events;
+}
+
+TEST(TetherSend, CompatListsEachEventUnderTheMessageItAnswers) {
+  TETHER_REQUIRE_FIRMWARE("proxy-compat");
+  // A servo on D3 (any pin, as the deployed firmware); each event under the message it answers.
+  const Outcome run = run_tether({"send", "--virtual", "proxy-compat", "--settle", "20000", "--json", "servo-init",
+                                  "pin=3", "safe-position=90", "servo-control", "pin=3", "position=120"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<json> results = json_lines(run);
+  ASSERT_EQ(results.size(), 2u) << run.out;
+  const json& init = results[0];
+  const json& control = results[1];
+  EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
+  EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
+  for (const auto& event : control["other_device_events"]) EXPECT_NE(event, "SERVO_INIT 3") << control;
+}
+
+TEST(TetherSend, CompatEventsThatDoNotAnswerTheMessageAreListedApart) {
+  // A scripted device: SERVO_INIT 3 answers the init; during the control a stray SERVO_INIT 3 (what an init
+  // replayed on the device's RESET got from the old image) comes before SERVO_CONTROL 3. It used to be
+  // listed as the control's answer.
+  FakePort port;
+  const std::string servo_init_3 = {0x07, 0x0a, 0x04, 0x08, 0x01, 0x10, 0x03, 0x00};
+  const std::string servo_control_3 = {0x07, 0x0a, 0x04, 0x08, 0x02, 0x10, 0x03, 0x00};
+  std::thread device([&] {
+    const auto read_frame = [&] {  // the host writes 00 COBS(pb) 00
+      std::string got;
+      while (std::count(got.begin(), got.end(), '\0') < 2) {
+        const std::string more = port.read_until('\0');
+        if (more.empty()) return;
+        got += more;
+      }
+    };
+    read_frame();
+    port.send(servo_init_3);
+    read_frame();
+    port.send(servo_init_3 + servo_control_3);
+  });
+  const Outcome run = run_tether({"send", "--port", port.path(), "--codec", "proxy-compat", "--settle", "20000",
+                                  "--json", "servo-init", "pin=3", "safe-position=90", "servo-control", "pin=3",
+                                  "position=120"});
+  device.join();
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<json> results = json_lines(run);
+  ASSERT_EQ(results.size(), 2u) << run.out;
+  const json& init = results[0];
+  const json& control = results[1];
+  EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
+  EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
+  EXPECT_EQ(control["other_device_events"], json::array({"SERVO_INIT 3"})) << control;
 }
 
 TEST(TetherSend, ConfiguredInitsComeFirst) {

@@ -106,6 +106,13 @@ TEST(TetherUsage, SendRejectsUnknownMessagesFieldsAndValuesBeforeOpening) {
                      "servo-control: pin needs a number 0..4294967295");
   expect_usage_error(with({"digital-control", "pin=13", "state=maybe"}), "digital-control: state needs true or false");
   expect_usage_error(with({"servo-control", "pin=9"}), "servo-control: missing position=N");
+  // Servo positions are degrees, in both modes: 999 or -5 is a typo, not something to clamp.
+  expect_usage_error(with({"servo-control", "pin=9", "position=999"}),
+                     "servo-control: position needs degrees 0..180, got '999'");
+  expect_usage_error(with({"servo-init", "pin=9", "safe-position=-5"}),
+                     "servo-init: safe-position needs degrees 0..180, got '-5'");
+  expect_usage_error(with({"--codec", "proxy-compat", "servo-control", "pin=9", "position=181"}),
+                     "servo-control: position needs degrees 0..180, got '181'");
   expect_usage_error(with({"servo-control", "pin=9", "pin=10", "position=1"}), "servo-control: pin given twice");
   expect_usage_error(with({}), "no message given");
   // The compat schema has other messages and fields.

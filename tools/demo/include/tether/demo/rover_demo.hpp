@@ -8,7 +8,10 @@
 ///   - proxy: two `ServoControl` messages (D9, D10) sent together, each acknowledged;
 ///   - proxy-compat: ServoControl for the servos its config inits; the deployed variant has no acks, so an
 ///     operation "succeeds" when written (its latency is the write time, not a round trip, and what the
-///     device lost while rebooting is only visible on the pins);
+///     device lost while rebooting is only visible on the pins). After the run (noise off) the demo writes
+///     the last positions again until the device's 50 ms state stream reports them (`final_rewrites`),
+///     which the deployed host never does: only then is the pins' final state a known command. Expected
+///     pulses follow the deployed Servo library's 544..2400 us;
 ///   - elcano: one request `D{s speed}{a angle}` into the ring, answered by the `S` report of the node
 ///     that drives the servos (the reply's speed and angle must match: a mismatch is a wrong answer).
 /// Each device runs on its own thread, so the devices run at the same time and the total is the slowest.
@@ -86,7 +89,11 @@ struct DeviceReport {
   /// Wall time from the reset to the next confirmed operation. Unset: no reset, never recovered, or the
   /// protocol does not confirm.
   std::optional<double> recovery_ms;
-  /// Virtual devices: the D9/D10 pulses match the last successful operation. Unset: not checkable.
+  /// Unconfirmed protocols (proxy-compat): writes of the last positions after the run, until the device's
+  /// state stream showed them (the deployed host does not re-write; see the file overview).
+  std::uint32_t final_rewrites = 0;
+  /// Virtual devices: the D9/D10 pulses match the last successful operation (compat: the re-written
+  /// last positions). Unset: not checkable.
   std::optional<bool> pins_match;
   std::string pins_detail;  ///< Measured vs expected pulses.
   std::string first_error;  ///< The first error seen, for the notes.

@@ -78,7 +78,9 @@
 /// its init through this client or its last report -- is reported once with `events::PinLost`, and its
 /// `PinStatus::stale` is set until it reports again. With `compat_replay_on_reset` (default) the client
 /// re-sends every registered init, in order, when the device announces `EventMessage{RESET}` (its setup
-/// ended: a boot, maybe behind the host's back).
+/// ended: a boot, maybe behind the host's back). The deployed host never does this (docs/proxy.md,
+/// compatibility table); the deployed firmware ignores an init of a pin it already has, so a replay that
+/// races the application's own init changes nothing.
 ///
 /// ## What a send returns
 /// Every send completes exactly once with `void(error_code, SendResult)`:

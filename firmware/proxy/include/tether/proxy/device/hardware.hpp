@@ -16,6 +16,16 @@
 ///     pulse is never cut short. The CPU does no work per pulse (no interrupt).
 ///   - `servo_detach` disconnects OC1x from the pin, which then follows its PORT bit: low, or the level a
 ///     `digital_init` wrote while the servo was still attached (how OutputTable switches a pin to digital).
+///
+/// Compatibility-mode back end (src/hardware_compat_avr.cpp, used by `proxy-compat` only):
+///   - Servos on any pin through the runtime's `servo_interrupt` driver (Timer1 compare-A interrupt, up
+///     to 12 servos, Arduino Servo library timing). Timer1 is that driver's: an image uses `servo_*` or
+///     `any_pin_servo_*`, never both.
+///   - DC motor outputs: `analog_write` as Arduino's analogWrite: PWM on D5/D6 (Timer0, fast PWM, clk/64,
+///     976 Hz), 0 -> low and 255 -> high everywhere; other pins: low below 128, high from 128 (Timer1 is
+///     the servos', Timer2 the millisecond clock, so D3/D9/D10/D11 have no PWM here).
+///   - Inputs: `input_init` / `input_read`, `analog_read` (A0..A5), the HX711 on A4/A5.
+/// D0/D1 belong to the UART: compat callers never pass them to these functions.
 #pragma once
 
 #include <stdint.h>
@@ -35,6 +45,24 @@ void servo_detach(uint8_t pin);
 void digital_init(uint8_t pin, bool high);
 /// Sets the level of a digital output pin.
 void digital_write(uint8_t pin, bool high);
+
+/// Compat: makes `pin` (0..19) a servo at `pulse_us`; false when every channel is taken.
+bool any_pin_servo_attach(uint8_t pin, uint16_t pulse_us);
+/// Compat: new width of an `any_pin_servo_attach`ed pin, from its next pulse.
+void any_pin_servo_write(uint8_t pin, uint16_t pulse_us);
+/// Compat: makes `pin` (2..19) an input, with the pull-up when `pull_up`.
+void input_init(uint8_t pin, bool pull_up);
+/// Compat: level of `pin` (2..19).
+bool input_read(uint8_t pin);
+/// Compat: 10-bit conversion of ADC channel `channel` (0..5 = A0..A5).
+uint16_t analog_read(uint8_t channel);
+/// Compat: makes `pin` (2..19) an output driven as Arduino's analogWrite(pin, value) does (see above).
+void analog_write(uint8_t pin, uint8_t value);
+/// Compat: prepares the HX711 on A4 (DOUT) / A5 (PD_SCK).
+void load_cell_begin();
+/// Compat: a ready HX711 conversion into `value` (24-bit two's complement sign-extended); false while
+/// it converts (DOUT high).
+bool load_cell_read(uint32_t& value);
 
 }  // namespace hardware
 }  // namespace device

@@ -1,15 +1,16 @@
 /// @file outputs.hpp
 /// The registry of a proxy device's outputs: which pins the host initialised, as what, their safe values
-/// and what they are driven to now. Shared by both images (primary `proxy` and deployed `proxy-compat`).
+/// and what they are driven to now. Used by the primary `proxy` image (`proxy-compat` keeps the deployed firmware's own pin model, compat_device.hpp).
 ///
-/// Rules (the same for both protocols; the engines turn the results into their protocol's errors):
+/// Rules (ProxyDevice turns the results into Error messages):
 ///   - An init names the pin and its safe value and drives the pin to that safe value at once; it stays
 ///     there until the first control. Initialising a pin again is allowed: the new safe value replaces the
 ///     old one and the pin goes to it again; a servo pin re-initialised as digital stops its pulses first.
 ///   - Servo inits: D9/D10 only (`not_servo_pin` otherwise: nothing changes). Digital inits: 2..19.
 ///     D0/D1 are the UART (`uart_pin`), 20 and above do not exist (`no_such_pin`).
 ///   - A control needs the pin initialised as the same kind (`not_initialised`, `wrong_kind`). Servo
-///     positions are clamped to 0..180 degrees; the stored value is the clamped one.
+///     positions (controls and safe values) outside 0..180 degrees are refused (`out_of_range`: nothing
+///     changes), never clamped: a host that sends 999 has a bug the device must not hide.
 ///   - `drive_safe` (the ping failsafe) puts every initialised pin at its safe value.
 /// Pins are driven through hardware.hpp (registers on the AVR, a fake in the host tests).
 ///
@@ -39,6 +40,7 @@ enum class PinResult : uint8_t {
   not_servo_pin,    ///< A servo init on a pin other than D9/D10.
   not_initialised,  ///< A control of a pin never initialised.
   wrong_kind,       ///< A servo control of a digital pin, or the other way round.
+  out_of_range,     ///< A servo position (or safe position) outside 0..180 degrees.
 };
 
 /// The outputs of one board. Not copyable (it mirrors hardware state).
@@ -49,11 +51,11 @@ class OutputTable {
   OutputTable(const OutputTable&) = delete;
   OutputTable& operator=(const OutputTable&) = delete;
 
-  /// Claims `pin` as a servo with `safe_degrees` (clamped) and drives it there.
+  /// Claims `pin` as a servo with `safe_degrees` (0..180) and drives it there.
   PinResult init_servo(uint32_t pin, int32_t safe_degrees);
   /// Claims `pin` as a digital output with `safe_high` and drives it there.
   PinResult init_digital(uint32_t pin, bool safe_high);
-  /// Moves an initialised servo to `degrees` (clamped).
+  /// Moves an initialised servo to `degrees` (0..180).
   PinResult control_servo(uint32_t pin, int32_t degrees);
   /// Sets an initialised digital output.
   PinResult control_digital(uint32_t pin, bool high);

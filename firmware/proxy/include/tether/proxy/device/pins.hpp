@@ -7,8 +7,13 @@
 ///   - Servo outputs: D9 (OC1A) and D10 (OC1B) only, on Timer1's hardware PWM (hardware.hpp, AVR
 ///     back end): fast PWM mode 14, TOP = ICR1 = 39999, clk/8 -> 0.5 us per tick, 20 ms period (50 Hz).
 ///
-/// Servo positions are degrees 0..180 (values outside are clamped), driven as a pulse of
-/// `1000 + degrees * 1000 / 180` us (integer division): 0 -> 1000 us, 90 -> 1500 us, 180 -> 2000 us.
+/// Primary mode (`proxy`): servo positions are degrees 0..180 (the device refuses others; `clamp_degrees`
+/// bounds what reaches the driver), driven as a pulse of `1000 + degrees * 1000 / 180` us (integer
+/// division): 0 -> 1000 us, 90 -> 1500 us, 180 -> 2000 us.
+///
+/// Compatibility mode (`proxy-compat`): the deployed firmware's Arduino Servo library arithmetic,
+/// `arduino_servo_pulse_us`: 0..180 degrees -> 544..2400 us (90 -> 1472, 120 -> 1781, 45 -> 1008), any
+/// pin (interrupt-driven pulses), the HX711 load cell on A4 (DOUT) / A5 (PD_SCK).
 #pragma once
 
 #include <stdint.h>
@@ -52,6 +57,39 @@ constexpr uint16_t servo_pulse_us(int32_t degrees) {
                                static_cast<uint32_t>(clamp_degrees(degrees)) *
                                    static_cast<uint32_t>(kServoMaxPulseUs - kServoMinPulseUs) /
                                    static_cast<uint32_t>(kServoMaxDegrees));
+}
+
+/// True when `degrees` is a primary-mode servo position (0..180): the device refuses others.
+constexpr bool is_servo_degrees(int32_t degrees) { return degrees >= 0 && degrees <= kServoMaxDegrees; }
+
+/// Arduino Servo library: pulse at 0 degrees, and the narrowest width `write` accepts (us).
+constexpr int32_t kArduinoServoMinPulseUs = 544;
+/// Arduino Servo library: pulse at 180 degrees, and the widest width (us).
+constexpr int32_t kArduinoServoMaxPulseUs = 2400;
+/// Arduino Servo library: the width `attach` starts with, before any `write` (us).
+constexpr uint16_t kArduinoServoAttachPulseUs = 1500;
+
+/// The pulse Arduino's `Servo::write(value)` produces (the deployed firmware's servo arithmetic), `value`
+/// being what it receives: the position as an AVR `int` (16 bits; the deployed firmware narrows the
+/// protobuf int32 the same way). Below 544 it is an angle, clamped to 0..180 and mapped to
+/// `544 + angle * 1856 / 180` us (integer division: 90 -> 1472, 120 -> 1781, 45 -> 1008, 180 -> 2400);
+/// from 544 on it is a width in microseconds, at most 2400 (999 -> 999 us, 5000 -> 2400 us).
+constexpr uint16_t arduino_servo_pulse_us(int16_t value) {
+  int32_t us = value;
+  if (us < kArduinoServoMinPulseUs) {
+    const int32_t angle = us < 0 ? 0 : (us > kServoMaxDegrees ? kServoMaxDegrees : us);
+    us = kArduinoServoMinPulseUs + angle * (kArduinoServoMaxPulseUs - kArduinoServoMinPulseUs) / kServoMaxDegrees;
+  }
+  return static_cast<uint16_t>(us > kArduinoServoMaxPulseUs ? kArduinoServoMaxPulseUs : us);
+}
+
+/// Compatibility mode: the HX711 load cell's data pin (A4) and clock pin (A5); no output may use them.
+constexpr uint8_t kLoadCellDataPin = 18;
+constexpr uint8_t kLoadCellClockPin = 19;  ///< See kLoadCellDataPin.
+/// Compatibility mode: true for a pin an output may use (0..19 but the load cell's A4/A5). D0/D1 are
+/// accepted as the deployed firmware does; the UART keeps driving them (see compat_device.hpp).
+constexpr bool compat_output_pin(uint32_t pin) {
+  return pin < kPinCount && pin != kLoadCellDataPin && pin != kLoadCellClockPin;
 }
 
 }  // namespace device

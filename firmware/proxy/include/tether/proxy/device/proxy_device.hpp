@@ -27,10 +27,11 @@
 ///      - Ping: feeds the failsafe watchdog (nothing else does).
 ///      - ServoInit / DigitalInit: drives the pin to its safe value (outputs.hpp), then `PinState{pin,
 ///        value, failsafe=false}`. ServoControl / DigitalControl: drives it, then `PinState`. Servo values
-///        are degrees 0..180 (clamped; PinState shows the clamped value), digital values 0/1.
+///        are degrees 0..180, digital values 0/1.
 ///        Refusals, each `Error{WARNING, text}` naming the pin, nothing driven:
 ///          "servo on pin N: D9/D10 only", "pin N is the UART" (0/1), "pin N does not exist" (>= 20),
-///          "pin N not initialised", "pin N is not a servo", "pin N is not digital".
+///          "pin N not initialised", "pin N is not a servo", "pin N is not digital",
+///          "pin N: position P not in 0..180" (a ServoInit's safePosition or a ServoControl's position).
 ///      - Reset: the Ack is sent, then the restart hook (flush the UART, watchdog reset). The next boot
 ///        sends ResetEvent with a new sessionId.
 ///      - PingFailsafeReset: clears the sticky pingFailsafeTriggered flag.
@@ -124,7 +125,7 @@ class ProxyDevice {
   void send_error(const char* text);
   void send_pin_state(uint8_t pin, bool failsafe);
   void send_info();
-  void report_pin_result(PinResult result, uint32_t pin, bool servo);
+  void report_pin_result(PinResult result, uint32_t pin, bool servo, int32_t value);
   void report_drops();
 
   OutputTable* outputs_;
