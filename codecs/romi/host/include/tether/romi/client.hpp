@@ -28,7 +28,7 @@
 ///       |---|---|---|
 ///       | tether.romi -24, -14, -8..-13, -22, -32 | same | command rejected before anything was written |
 ///       | tether.romi -25 (`errc::timed_out`) | -25 | the attempt window or the call budget ran out; `message` says how long the call waited: `client: no reply from the device within 1000 ms` |
-///       | tether.romi -1..-6 | same | every answer arrived damaged (host decoder: CRC mismatch, ...), or the sends ran out on the device's envelope errors under another id |
+///       | tether.romi -1..-6 | same | every answer arrived damaged (host decoder: CRC mismatch, ...) |
 ///       | `asio::error::operation_aborted` | -33 | `close()` (or the client's destruction) |
 ///       | the transport's own error (eof, EIO, broken_pipe, ...) | -33 | the link failed |
 ///
