@@ -261,73 +261,73 @@ class FaultyWire {
   std::thread downstream_;
 };
 
-TEST(RomiInterop, ExactlyOnceWhenTheAnswerIsDamagedInTransit) {
-  // Reference defect B3: the retry of a request whose answer was damaged got -15 and the caller could
-  // not know the command ran. Tether firmware answers the repeated id from its reply cache.
+// What became of one `g[1]` call (romi-test logs "log 1" once per execution, then answers [0]) sent
+// through a FaultyWire armed with a fault, after a clean first call: the faulted call's id is 1, not the
+// 00 an error carries when the device could not read the id.
+struct FaultedCall {
+  RomiResponse response;
+  error_code error;
+  std::vector<std::string> logs;  // log lines of the faulted call
+  LinkCounters counters;
+  bool fault_done = false;  // the wire did what it was armed for
+};
+
+FaultedCall call_through_fault(FaultyWire::Fault fault, const ClientOptions& options = ClientOptions()) {
   IoThread io;
   auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
   auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
   FaultyWire wire(wire_end, board);
-  RomiClient client(client_end);
+  RomiClient client(client_end, options);
   LogRecorder logs;
   client.set_log_handler(logs.handler());
-  ASSERT_EQ(client.call("a").code, 0);
-  wire.arm(FaultyWire::Fault::damage_answer);
-  const RomiResponse response = client.call("g[1]");  // logs "log 1" once per execution, then [0]
-  EXPECT_EQ(response.code, 0);
-  EXPECT_EQ(response.attempts, 2);           // the damaged answer made the client send the same bytes again
-  EXPECT_EQ(logs.take(), (std::vector<std::string>{"log 1"}));  // ... and the handler ran once
-  EXPECT_GE(client.counters().crc_errors, 1u);
+  FaultedCall result;
+  if (client.call("a", result.error).code != 0) return result;
+  wire.arm(fault);
+  result.response = client.call("g[1]", result.error);
+  result.logs = logs.take();
+  result.counters = client.counters();
+  result.fault_done = wire.done();
   client.close();
+  return result;
+}
+
+TEST(RomiInterop, ExactlyOnceWhenTheAnswerIsDamagedInTransit) {
+  // Reference defect B3: the retry of a request whose answer was damaged got -15 and the caller could
+  // not know the command ran. Tether firmware answers the repeated id from its reply cache.
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::damage_answer);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.attempts, 2);  // the damaged answer made the client send the same bytes again
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // ... and the handler ran once
+  EXPECT_GE(call.counters.crc_errors, 1u);
 }
 
 TEST(RomiInterop, RequestWhoseIdDigitsAreDamagedIsSentAgain) {
   // `#g[1]:01xx` arrives as `#g[1]:0oxx`: the firmware answers -2 with id 00 (it could not read ours). It
   // executed nothing, so the client sends the same bytes again instead of timing out.
-  IoThread io;
-  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
-  FaultyWire wire(wire_end, board);
-  RomiClient client(client_end);
-  LogRecorder logs;
-  client.set_log_handler(logs.handler());
-  ASSERT_EQ(client.call("a").code, 0);  // id 0: the damaged call's id is not the error's 00
-  wire.arm(FaultyWire::Fault::damage_request_id);
-  error_code error;
-  const RomiResponse response = client.call("g[1]", error);
-  ASSERT_FALSE(error) << error.message();
-  EXPECT_TRUE(wire.done());
-  EXPECT_EQ(response.code, 0);
-  EXPECT_EQ(response.id, 1);
-  EXPECT_EQ(response.attempts, 2);
-  EXPECT_EQ(logs.take(), (std::vector<std::string>{"log 1"}));  // ran once, on the intact copy
-  client.close();
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::damage_request_id);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.id, 1);
+  EXPECT_EQ(call.response.attempts, 2);
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // ran once, on the intact copy
 }
 
 TEST(RomiInterop, LostAnswerIsSentAgainWithRetryOnTimeoutAndAnsweredFromTheCache) {
   // The answer vanishes on the line; with retry_on_timeout the client sends the same bytes after the
   // attempt window and the firmware answers from its reply cache without running the handler again.
-  IoThread io;
-  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
-  FaultyWire wire(wire_end, board);
   ClientOptions options;
   options.timing.attempt_timeout = 300;
   options.timing.retry_on_timeout = true;
-  RomiClient client(client_end, options);
-  LogRecorder logs;
-  client.set_log_handler(logs.handler());
-  ASSERT_EQ(client.call("a").code, 0);
-  wire.arm(FaultyWire::Fault::drop_answer);
-  error_code error;
-  const RomiResponse response = client.call("g[1]", error);
-  ASSERT_FALSE(error) << error.message();
-  EXPECT_TRUE(wire.done());
-  EXPECT_EQ(response.code, 0);
-  EXPECT_EQ(response.attempts, 2);
-  EXPECT_EQ(logs.take(), (std::vector<std::string>{"log 1"}));  // exactly once
-  EXPECT_EQ(client.counters().timeouts, 0u);
-  client.close();
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::drop_answer, options);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.attempts, 2);
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // exactly once
+  EXPECT_EQ(call.counters.timeouts, 0u);
 }
 
 TEST(RomiInterop, McuResetMidSessionThenTheNextCallsSucceed) {
