@@ -37,12 +37,21 @@ std::string ReferenceFirmwareDouble::reply(int16_t code, uint8_t id) {
   return respond("[" + std::to_string(code) + "]", last_opcode_, id);
 }
 
-void ReferenceFirmwareDouble::error(int16_t code, std::string& out) {
+std::string ReferenceFirmwareDouble::diagnostics(const std::string& detail, int16_t code) const {
+  std::string lines;
+  for (const std::string& text : {std::string("error"), detail, std::to_string(code), payload_}) {
+    lines += "#!" + text + ":xxxx\r\n";
+  }
+  return lines;
+}
+
+void ReferenceFirmwareDouble::error(int16_t code, std::string& out, char offending) {
   // The id parsed so far: both digits when they were valid, else 0.
   uint8_t id = 0;
   if (metadata_.size() >= 2 && hex(metadata_[0]) >= 0 && hex(metadata_[1]) >= 0) {
     id = static_cast<uint8_t>(hex(metadata_[0]) * 16 + hex(metadata_[1]));
   }
+  out += diagnostics(std::string(1, offending), code);
   out += reply(code, id);
   state_ = State::wait_start;  // the offending byte is consumed
 }
@@ -68,11 +77,11 @@ std::string ReferenceFirmwareDouble::feed(std::string_view bytes) {
         if (c == ':') {
           state_ = State::metadata;
         } else if (c == '\r' || c == '\n') {
-          error(-6, out);
+          error(-6, out, c);
         } else if (payload_.size() == kReferencePayload) {
           // B1: reported, but parsing goes on, and the frame "completes" later without its last character.
           if (!overflowed_) {
-            error(-1, out);
+            error(-1, out, c);
             state_ = State::payload;  // unlike other errors, the reference keeps parsing this frame
           }
           overflowed_ = true;
@@ -85,11 +94,11 @@ std::string ReferenceFirmwareDouble::feed(std::string_view bytes) {
         if (metadata_.size() <= 2) running_crc_.update(static_cast<uint8_t>(c));
         if (metadata_.size() == 1 && c == 'x') break;
         if (metadata_[0] == 'x') {
-          if (c != 'x') error(-7, out);
+          if (c != 'x') error(-7, out, c);
         } else if (metadata_.size() <= 2 ? hex(c) < 0 : false) {
-          error(-2, out);
+          error(-2, out, c);
         } else if (metadata_.size() > 2 && hex(c) < 0) {
-          error(-3, out);
+          error(-3, out, c);
         }
         if (state_ == State::metadata && metadata_.size() == 4) state_ = State::expect_cr;
         break;
@@ -97,7 +106,7 @@ std::string ReferenceFirmwareDouble::feed(std::string_view bytes) {
         if (c == '\r') {
           state_ = State::expect_lf;
         } else {
-          error(-5, out);
+          error(-5, out, c);
         }
         break;
       case State::expect_lf:
@@ -105,7 +114,7 @@ std::string ReferenceFirmwareDouble::feed(std::string_view bytes) {
           complete(out);
           state_ = State::wait_start;
         } else {
-          error(-5, out);
+          error(-5, out, c);
         }
         break;
     }
@@ -119,6 +128,9 @@ void ReferenceFirmwareDouble::complete(std::string& out) {
   if (!manual) {
     id = static_cast<uint8_t>(hex(metadata_[0]) * 16 + hex(metadata_[1]));
     if (running_crc_.value() != hex(metadata_[2]) * 16 + hex(metadata_[3])) {
+      char crc[8];
+      std::snprintf(crc, sizeof crc, "crc=%02X", running_crc_.value());
+      out += diagnostics(crc, -4);
       out += reply(-4, id);
       return;
     }
@@ -130,6 +142,7 @@ void ReferenceFirmwareDouble::complete(std::string& out) {
   Request request;
   const ErrorCode parsed = parse_request(ByteView::from_chars(payload_.data(), payload_.size()), request);
   if (parsed != ErrorCode::no_error) {
+    out += diagnostics(std::string(1, payload_.empty() ? '_' : payload_.back()), static_cast<int16_t>(parsed));
     out += reply(static_cast<int16_t>(parsed), id);
     return;
   }

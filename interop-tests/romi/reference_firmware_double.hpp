@@ -8,7 +8,11 @@
 ///   - error replies echo the opcode of the last successfully parsed message (`_` if none) and the id
 ///     parsed so far;
 ///   - dispatch order: -16 unknown opcode, -17 argument count, -18 missing string, -19 unexpected string,
-///     handler, -20 when the handler sent nothing.
+///     handler, -20 when the handler sent nothing;
+///   - four diagnostic log lines before every envelope or parse error reply, in the shape measured on the
+///     reference (../shared/specs/romi.md): `#!error:xxxx`, `#!<offending byte>:xxxx` (which can be a
+///     `#` or a CR; `#!crc=FC:xxxx` for a CRC mismatch), `#!<code>:xxxx`, `#!<payload so far>:xxxx`.
+///     The exact texts are the double's; a host must take any such lines in its stride.
 /// Sans-I/O: `feed` takes bytes from the host and returns the bytes the firmware would send.
 #pragma once
 
@@ -46,8 +50,9 @@ class ReferenceFirmwareDouble {
  private:
   enum class State { wait_start, payload, metadata, expect_cr, expect_lf };
   std::string reply(int16_t code, uint8_t id);
+  std::string diagnostics(const std::string& detail, int16_t code) const;
   std::string respond(const std::string& body, char opcode, uint8_t id);
-  void error(int16_t code, std::string& out);
+  void error(int16_t code, std::string& out, char offending);
   void complete(std::string& out);
 
   std::vector<Handler> handlers_;

@@ -54,11 +54,28 @@ TEST(ReferenceFirmwareDouble, FiftyEightCharacterPayloadIsAnsweredTwice) {
   EXPECT_EQ(firmware.executions('c'), 0);
 }
 
+// The last frame of what the firmware sent (after its diagnostic lines).
+std::string last_frame(const std::string& out) {
+  const std::size_t end_of_previous = out.rfind("\r\n#");
+  return end_of_previous == std::string::npos ? out : out.substr(end_of_previous + 2);
+}
+
 TEST(ReferenceFirmwareDouble, ErrorRepliesEchoTheLastGoodOpcode) {
   auto firmware = reference_test_firmware();
   firmware.feed("#e:xxxx\r\n");
-  EXPECT_EQ(firmware.feed("#a\r\n").substr(0, 6), "#e[-6]");
+  EXPECT_EQ(last_frame(firmware.feed("#a\r\n")).substr(0, 6), "#e[-6]");
   EXPECT_EQ(firmware.feed("#b:xxxx\r\n").substr(0, 7), "#b[-20]");
+}
+
+TEST(ReferenceFirmwareDouble, DamagedIdIsAnsweredWithIdZeroAfterDiagnosticLines) {
+  auto firmware = reference_test_firmware();
+  firmware.feed("#e:xxxx\r\n");
+  // `#e:5097` arriving as `#e:5o97`: four log lines (the offending byte among them), then -2 with id 00.
+  const std::string out = firmware.feed("#e:5o97\r\n");
+  EXPECT_EQ(out.substr(0, out.rfind("#e[-2]:00")), "#!error:xxxx\r\n#!o:xxxx\r\n#!-2:xxxx\r\n#!e:xxxx\r\n");
+  EXPECT_EQ(last_frame(out).substr(0, 9), "#e[-2]:00");
+  EXPECT_EQ(firmware.feed("#e:\r\n").find("#!\r:xxxx\r\n"), 14u);  // a CR as the offending byte
+  EXPECT_EQ(firmware.executions('e'), 1);
 }
 
 }  // namespace

@@ -194,69 +194,140 @@ TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinI
   client.close();
 }
 
-// Sits between the client (an in-memory pair) and the board, and flips one byte of the first answer frame
-// the device sends after `arm()`: a success answer damaged in transit, deterministically.
-class CorruptingProxy {
+// Sits between the client (an in-memory pair) and a device, and damages the next frame on purpose once
+// armed, deterministically: it acts on the byte in hand, so it never depends on how the bytes were chunked.
+class FaultyWire {
  public:
-  CorruptingProxy(std::shared_ptr<transports::ByteStream> host_side, std::shared_ptr<transports::ByteStream> device)
+  enum class Fault {
+    none,
+    damage_answer,      ///< flip a bit of the next answer's first body character ("#g[0" -> "#g[1"): CRC fails
+    drop_answer,        ///< the next answer vanishes (all but its '#'), as if its bytes were lost on the line
+    damage_request_id,  ///< the next request's second id digit becomes 'o' (`#e:5097` -> `#e:5o97`)
+  };
+  FaultyWire(std::shared_ptr<transports::ByteStream> host_side, std::shared_ptr<transports::ByteStream> device)
       : host_side_(std::move(host_side)), device_(std::move(device)) {
     upstream_ = std::thread([this] { pump(*host_side_, *device_, false); });
     downstream_ = std::thread([this] { pump(*device_, *host_side_, true); });
   }
-  ~CorruptingProxy() {
+  ~FaultyWire() {
     running_ = false;
     upstream_.join();
     downstream_.join();
   }
-  void arm() { armed_ = true; }
+  void arm(Fault fault) { armed_ = fault; }
+  bool done() const { return armed_ == Fault::none; }
 
  private:
-  void pump(transports::ByteStream& from, transports::ByteStream& to, bool corrupt) {
+  void pump(transports::ByteStream& from, transports::ByteStream& to, bool from_device) {
     std::vector<uint8_t> buffer(256);
+    std::vector<uint8_t> out;
     std::string line;
+    bool dropping = false;
     while (running_) {
       boost::system::error_code error;
       const std::size_t got = from.read_some(boost::asio::buffer(buffer), 20ms, error);
-      for (std::size_t i = 0; i < got && corrupt; ++i) {
-        if (buffer[i] == '#') line.clear();
-        line.push_back(static_cast<char>(buffer[i]));
-        // The answer frame (not a log line): flip a bit of its first body character ("#g[0" -> "#g[1"),
-        // the byte in hand, so it never depends on how the bytes were chunked. The CRC then fails.
-        if (armed_ && line.size() == 4 && line[1] != '!') {
-          buffer[i] = static_cast<uint8_t>(buffer[i] ^ 1u);
-          armed_ = false;
+      out.clear();
+      for (std::size_t i = 0; i < got; ++i) {
+        uint8_t byte = buffer[i];
+        if (byte == '#') line.clear();
+        line.push_back(static_cast<char>(byte));
+        const Fault fault = armed_;
+        const bool answer = line.size() >= 2 && line[1] != '!';  // not a log line
+        if (from_device && fault == Fault::damage_answer && answer && line.size() == 4) {
+          byte = static_cast<uint8_t>(byte ^ 1u);
+          armed_ = Fault::none;
+        } else if (from_device && fault == Fault::drop_answer && answer && line.size() == 2) {
+          dropping = true;
+        } else if (!from_device && fault == Fault::damage_request_id && line.size() >= 3 &&
+                   line[line.size() - 3] == ':') {
+          byte = 'o';
+          armed_ = Fault::none;
+        }
+        if (!dropping) out.push_back(byte);
+        if (dropping && byte == '\n') {
+          dropping = false;
+          armed_ = Fault::none;
         }
       }
-      if (got > 0) to.write(boost::asio::buffer(buffer.data(), got), error);
+      if (!out.empty()) to.write(boost::asio::buffer(out), error);
     }
   }
 
   std::shared_ptr<transports::ByteStream> host_side_;
   std::shared_ptr<transports::ByteStream> device_;
   std::atomic<bool> running_{true};
-  std::atomic<bool> armed_{false};
+  std::atomic<Fault> armed_{Fault::none};
   std::thread upstream_;
   std::thread downstream_;
 };
 
+// What became of one `g[1]` call (romi-test logs "log 1" once per execution, then answers [0]) sent
+// through a FaultyWire armed with a fault, after a clean first call: the faulted call's id is 1, not the
+// 00 an error carries when the device could not read the id.
+struct FaultedCall {
+  RomiResponse response;
+  error_code error;
+  std::vector<std::string> logs;  // log lines of the faulted call
+  LinkCounters counters;
+  bool fault_done = false;  // the wire did what it was armed for
+};
+
+FaultedCall call_through_fault(FaultyWire::Fault fault, const ClientOptions& options = ClientOptions()) {
+  IoThread io;
+  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
+  auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
+  FaultyWire wire(wire_end, board);
+  RomiClient client(client_end, options);
+  LogRecorder logs;
+  client.set_log_handler(logs.handler());
+  FaultedCall result;
+  if (client.call("a", result.error).code != 0) return result;
+  wire.arm(fault);
+  result.response = client.call("g[1]", result.error);
+  result.logs = logs.take();
+  result.counters = client.counters();
+  result.fault_done = wire.done();
+  client.close();
+  return result;
+}
+
 TEST(RomiInterop, ExactlyOnceWhenTheAnswerIsDamagedInTransit) {
   // Reference defect B3: the retry of a request whose answer was damaged got -15 and the caller could
   // not know the command ran. Tether firmware answers the repeated id from its reply cache.
-  IoThread io;
-  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  auto [client_end, proxy_end] = transports::InMemoryStream::make_pair(io.executor());
-  CorruptingProxy proxy(proxy_end, board);
-  RomiClient client(client_end);
-  LogRecorder logs;
-  client.set_log_handler(logs.handler());
-  ASSERT_EQ(client.call("a").code, 0);
-  proxy.arm();
-  const RomiResponse response = client.call("g[1]");  // logs "log 1" once per execution, then [0]
-  EXPECT_EQ(response.code, 0);
-  EXPECT_EQ(response.attempts, 2);           // the damaged answer made the client send the same bytes again
-  EXPECT_EQ(logs.take(), (std::vector<std::string>{"log 1"}));  // ... and the handler ran once
-  EXPECT_GE(client.counters().crc_errors, 1u);
-  client.close();
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::damage_answer);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.attempts, 2);  // the damaged answer made the client send the same bytes again
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // ... and the handler ran once
+  EXPECT_GE(call.counters.crc_errors, 1u);
+}
+
+TEST(RomiInterop, RequestWhoseIdDigitsAreDamagedIsSentAgain) {
+  // `#g[1]:01xx` arrives as `#g[1]:0oxx`: the firmware answers -2 with id 00 (it could not read ours). It
+  // executed nothing, so the client sends the same bytes again instead of timing out.
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::damage_request_id);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.id, 1);
+  EXPECT_EQ(call.response.attempts, 2);
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // ran once, on the intact copy
+}
+
+TEST(RomiInterop, LostAnswerIsSentAgainWithRetryOnTimeoutAndAnsweredFromTheCache) {
+  // The answer vanishes on the line; with retry_on_timeout the client sends the same bytes after the
+  // attempt window and the firmware answers from its reply cache without running the handler again.
+  ClientOptions options;
+  options.timing.attempt_timeout = 300;
+  options.timing.retry_on_timeout = true;
+  const FaultedCall call = call_through_fault(FaultyWire::Fault::drop_answer, options);
+  ASSERT_FALSE(call.error) << call.error.message();
+  EXPECT_TRUE(call.fault_done);
+  EXPECT_EQ(call.response.code, 0);
+  EXPECT_EQ(call.response.attempts, 2);
+  EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // exactly once
+  EXPECT_EQ(call.counters.timeouts, 0u);
 }
 
 TEST(RomiInterop, McuResetMidSessionThenTheNextCallsSucceed) {
@@ -379,6 +450,29 @@ TEST(RomiReferenceCrossCheck, TetherClientDrivesReferenceFirmware) {
     ASSERT_EQ(response.values, json::array({0, i + 1})) << "call " << i;
   }
   EXPECT_EQ(device.executions('s'), 300);
+  client.close();
+}
+
+TEST(RomiReferenceCrossCheck, TetherClientRecoversFromADamagedIdLikeTheReferenceHost) {
+  // The reference firmware answers a request whose id it could not read with diagnostic log lines and
+  // `#s[-2]:00..`; the reference host re-sends, and so does Tether's (same id, executed once).
+  IoThread io;
+  auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
+  auto [device_side, device_end] = transports::InMemoryStream::make_pair(io.executor());
+  ReferenceDevice device(device_end, reference_romi_test());
+  FaultyWire wire(wire_end, device_side);
+  RomiClient client(client_end);
+  LogRecorder logs;
+  client.set_log_handler(logs.handler());
+  ASSERT_EQ(client.call("s[1,1]").values, json::parse("[0,2]"));
+  wire.arm(FaultyWire::Fault::damage_request_id);
+  error_code error;
+  const RomiResponse response = client.call("s[20,22]", error);
+  ASSERT_FALSE(error) << error.message();
+  EXPECT_EQ(response.values, json::parse("[0,42]"));
+  EXPECT_EQ(response.attempts, 2);
+  EXPECT_EQ(device.executions('s'), 2);
+  EXPECT_EQ(logs.take(), (std::vector<std::string>{"error", "o", "-2", "s[20,22]"}));
   client.close();
 }
 

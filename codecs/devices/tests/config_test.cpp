@@ -474,6 +474,20 @@ TEST(DevicesExamples, RoverVirtualJsonIsTheSameRoverOnVirtualUnos) {
   for (const auto& board : ring.boards) EXPECT_EQ(board.firmware, dir / "elcano-node.elf");
 }
 
+TEST(DevicesExamples, RomiDevicesOfTheExamplesRunTetherFirmwareSoSilentAttemptsAreSentAgain) {
+  // The arm runs romi-rover (Tether firmware: a repeated id is answered from its reply cache), so a lost
+  // answer costs one attempt window instead of the call; the option stays off for unknown firmware.
+  ParseOptions options;
+  options.firmware_dir = TETHER_FIRMWARE_DIR;
+  for (const char* file : {"rover.json", "rover-virtual.json"}) {
+    SCOPED_TRACE(file);
+    const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / file, options);
+    ASSERT_EQ(config.devices[0].codec, Codec::romi);
+    EXPECT_TRUE(std::get<RomiOptions>(config.devices[0].options).timing.retry_on_timeout);
+  }
+  EXPECT_FALSE(RomiOptions().timing.retry_on_timeout);
+}
+
 TEST(DevicesExamples, TheEmbeddedVirtualConfigIsTheExampleFile) {
   const std::string file = read_file(std::filesystem::path(TETHER_EXAMPLES_DIR) / "rover-virtual.json");
   EXPECT_EQ(nlohmann::json::parse(default_virtual_rover_config()), nlohmann::json::parse(file));

@@ -31,7 +31,7 @@ const char* message(int16_t code) {
     case ErrorCode::client_request_too_long: return "client: request too long";
     case ErrorCode::client_empty_response: return "client: empty response";
     case ErrorCode::client_empty_request: return "client: empty request";
-    case ErrorCode::client_timeout: return "client: connection timed out";
+    case ErrorCode::client_timeout: return "client: no reply from the device";
     case ErrorCode::client_invalid_json: return "client: invalid JSON";
     case ErrorCode::client_bad_response: return "client: badly formed response";
     case ErrorCode::client_invalid_error_response: return "client: invalid error response";

@@ -7,6 +7,7 @@
 #include <boost/asio/error.hpp>
 #include <boost/system/system_error.hpp>
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <limits>
@@ -112,6 +113,14 @@ RomiResponse parse_answer(ByteView payload, char opcode) {
   return response;
 }
 
+// What a timed-out call says: how long it waited for an answer from its first send (to the deadline
+// that ended it, so a late timer does not change the figure), and the sends when there were several.
+std::string timeout_message(Duration waited, std::uint8_t sends) {
+  std::string text = "client: no reply from the device within " + std::to_string(waited) + " ms";
+  if (sends > 1) text += " (" + std::to_string(sends) + " sends)";
+  return text;
+}
+
 // Whether an answer carrying `answer_opcode` and `code` may belong to a call with `call_opcode`: success
 // and application answers mirror the opcode; error answers may echo another one (rule 6 of the header).
 bool opcode_matches(char call_opcode, char answer_opcode, std::int16_t code) {
@@ -185,9 +194,12 @@ class ClientImpl final : public transports::ClientLink {
     CallHandler handler;
     std::shared_ptr<const std::string> frame;  // the encoded bytes, re-sent as they are
     std::uint8_t id = 0;
-    // The last failure reported to the engine came from our own decoder (the answer arrived damaged),
-    // not from the device: if it ends the call, it is an error_code, not an answer.
-    bool last_failure_local = false;
+    Millis sent_at = 0;     // first send: a timeout says how long the call waited from here
+    Millis budget_end = 0;  // where the call budget ends (the engine's, fixed at the first send)
+    // The last failure reported to the engine was no answer of this request (our decoder found a frame
+    // damaged, or the device reported a damaged envelope under another id): if it ends the call, it is an
+    // error_code, not an answer.
+    bool failed_without_answer = false;
     RomiResponse answer;  // the intact answer that completed the call
   };
   using Table = RequestTable;
@@ -227,14 +239,16 @@ class ClientImpl final : public transports::ClientLink {
       // Validation bounds the payload to 56 characters, so the frame always fits 64 bytes.
       call->frame = std::make_shared<const std::string>(reinterpret_cast<const char*>(buffer.data()),
                                                         size.ok() ? size.value() : 0);
+      call->sent_at = started;
+      call->budget_end = static_cast<Millis>(started + table_.timing().call_budget);
       current_ = std::move(call);
       write(current_->frame);
       arm_timer();
     }
   }
 
-  // Ends the current call with the engine's verdict.
-  void finish(const Table::Completion& completion) {
+  // Ends the current call with the engine's verdict; `waited` is how long a timed-out call waited.
+  void finish(const Table::Completion& completion, Duration waited = 0) {
     std::unique_ptr<Call> call = std::move(current_);
     error_code error;
     RomiResponse response;
@@ -243,7 +257,7 @@ class ClientImpl final : public transports::ClientLink {
         response = std::move(call->answer);
         break;
       case session::CallOutcome::remote_error:
-        if (call->last_failure_local) {
+        if (call->failed_without_answer) {
           error = make_romi_error_code(completion.code);  // every answer arrived damaged
           response = failure(error, call->opcode);
         } else {
@@ -253,6 +267,7 @@ class ClientImpl final : public transports::ClientLink {
       case session::CallOutcome::timeout:
         error = make_error_code(ErrorCode::client_timeout);
         response = failure(error, call->opcode);
+        describe_failure(response, response.code, timeout_message(waited, completion.attempts));
         break;
       case session::CallOutcome::cancelled:
         error = asio::error::operation_aborted;
@@ -325,7 +340,7 @@ class ClientImpl final : public transports::ClientLink {
         on_frame(event);
         return;
       case EnvelopeEvent::Kind::error:
-        on_damaged_frame(event.error);
+        on_damaged_frame(event);
         return;
     }
   }
@@ -342,13 +357,20 @@ class ClientImpl final : public transports::ClientLink {
                                           : event.id == current_->id &&
                                                 opcode_matches(current_->opcode, event.opcode, answer.code);
     if (!matches) {
+      // An envelope error under another id (`#e[-2]:00..`: the device could not read our id) means the
+      // device executed nothing, so the same bytes may go again. It never completes the call: only this
+      // request's own answer does, so once the sends are used up it is stale like any other frame.
+      if (is_envelope_error(answer.code) && table_.attempts(current_->id) < table_.timing().max_attempts) {
+        on_exchange_damaged(answer.code, at);
+        return;
+      }
       stale(at, event);
       return;
     }
     const Table::ReplyResult result = table_.on_reply(current_->id, answer.code, at);
     switch (result.verdict) {
       case Table::Verdict::completed:
-        current_->last_failure_local = false;
+        current_->failed_without_answer = false;
         current_->answer = std::move(answer);
         finish(result.completion);
         return;
@@ -373,18 +395,26 @@ class ClientImpl final : public transports::ClientLink {
 
   // Our decoder rejected a frame (CRC mismatch, bad metadata, too long, ...) while a call waits: its
   // answer was probably lost, so the call fails retryably (same bytes again; Tether firmware answers a
-  // repeated id from its cache). -7 (bad `xxxx`) is a damaged log line: answers carry hex metadata.
-  void on_damaged_frame(ErrorCode code) {
+  // repeated id from its cache). A damaged log line (`#!...`, or -7: bad `xxxx`, which only log lines
+  // carry) is no lost answer: it only re-arms the window.
+  void on_damaged_frame(const EnvelopeEvent& event) {
     const Millis at = now();
     if (!current_) return;
-    if (!is_envelope_error(static_cast<std::int16_t>(code))) {
+    const auto code = static_cast<std::int16_t>(event.error);
+    if (!is_envelope_error(code) || event.log_line) {
       table_.on_activity(at);
       return;
     }
-    const Table::ReplyResult result = table_.on_reply(current_->id, static_cast<std::int16_t>(code), at);
+    on_exchange_damaged(code, at);
+  }
+
+  // The request or its answer was damaged on the way and no answer of this request is in hand: the same
+  // bytes go again while the engine allows; otherwise the call fails with `code` as its error_code.
+  void on_exchange_damaged(std::int16_t code, Millis at) {
+    const Table::ReplyResult result = table_.on_reply(current_->id, code, at);
     switch (result.verdict) {
       case Table::Verdict::completed:
-        current_->last_failure_local = true;
+        current_->failed_without_answer = true;
         finish(result.completion);
         return;
       case Table::Verdict::resend:
@@ -410,16 +440,25 @@ class ClientImpl final : public transports::ClientLink {
 
   void on_timer() override {
     for (;;) {
-      const Table::Step step = table_.poll(now());
+      const Millis at = now();
+      const Deadline due = table_.next_wakeup();  // the deadline poll acts on, however late the timer fired
+      const Table::Step step = table_.poll(at);
       if (step.action == Table::Action::idle) break;
       if (step.action == Table::Action::resend) {
         if (current_) write(current_->frame);
       } else if (current_ && current_->id == step.id) {
-        finish(step.completion);
+        finish(step.completion, waited_until(due, at));
       }
     }
     arm_timer();
     publish();
+  }
+
+  // How long the current call waited when its deadline `due` passed, seen at `at`: to its budget's end
+  // when that passed too (the engine checks the budget first), else to the attempt window's end.
+  Duration waited_until(const Deadline& due, Millis at) const {
+    const Millis end = tick_reached(at, current_->budget_end) || !due.armed() ? current_->budget_end : due.at();
+    return static_cast<Duration>(std::max<std::int32_t>(tick_difference(end, current_->sent_at), 0));
   }
 
   void publish() { published_.set(counters_); }

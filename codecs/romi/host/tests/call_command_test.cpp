@@ -74,7 +74,7 @@ TEST(TetherCall, SilentDeviceTimesOutAndExitsTwo) {
   const Outcome run = link.call({"--timeout", "300", "a"});
   EXPECT_EQ(run.status, 2);
   EXPECT_EQ(run.out, "");
-  EXPECT_EQ(run.err, "tether call: -25 client: connection timed out\n");
+  EXPECT_EQ(run.err, "tether call: -25 client: no reply from the device within 300 ms\n");
   EXPECT_EQ(link.device->requests().size(), 1u);
 }
 
@@ -132,7 +132,7 @@ TEST(TetherCall, JsonPrintsAnObjectForEveryOutcome) {
   const json object = json::parse(run.out);
   EXPECT_EQ(object["code"], -25);
   EXPECT_EQ(object["answered"], false);
-  EXPECT_EQ(object["values"], json::array({-25, "client: connection timed out"}));
+  EXPECT_EQ(object["values"], json::array({-25, "client: no reply from the device within 200 ms"}));
 }
 
 TEST(TetherCall, LogLinesDuringTheCallGoToStderr) {

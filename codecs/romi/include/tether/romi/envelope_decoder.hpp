@@ -44,6 +44,9 @@ struct EnvelopeEvent {
   bool has_id = false;              ///< `id` is valid (always for a non-manual frame).
   uint8_t id = 0;                   ///< The frame's id.
   char opcode = '_';                ///< First payload character, or '_' when the frame had none.
+  /// For `error`: the damaged frame began `#!`: a log line, not an answer, so a host waiting for an
+  /// answer does not take it for a lost one.
+  bool log_line = false;
 };
 
 /// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`.

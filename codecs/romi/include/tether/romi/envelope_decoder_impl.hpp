@@ -99,6 +99,7 @@ EnvelopeEvent EnvelopeDecoder<Capacity>::fail(ErrorCode code) {
   event.kind = EnvelopeEvent::Kind::error;
   event.error = code;
   event.opcode = size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
+  event.log_line = size_ > 0 && buffer_[0] == '!';
   if (state_ == State::expect_lf || pending_.has_id) {
     event.has_id = pending_.has_id;
     event.id = pending_.id;

@@ -56,8 +56,9 @@ enum class ErrorCode : int16_t {
   transport_error = -33,
 };
 
-/// English message of `code` (the reference's wording where it has one); "application error" for
-/// positive codes, "unknown error" for unassigned negative ones. Never null.
+/// English message of `code` (the reference's wording where it has one, except -25: "client: no reply
+/// from the device", which says what timed out, where the reference says "connection timed out");
+/// "application error" for positive codes, "unknown error" for unassigned negative ones. Never null.
 const char* message(int16_t code);
 
 /// Envelope errors -1..-6: the frame was damaged on the way, so re-sending the same bytes can help.

@@ -3,9 +3,10 @@
 ///
 /// Romi is synchronous: one request in flight, 8-bit ids that wrap (the reference host starts after 255,
 /// so the first id is 0). A reply with code 0 succeeds; envelope errors -1..-6 ask for the same bytes
-/// again (at most 3 sends); any other code is delivered. A silent attempt is not re-sent (the device may
-/// have executed it: re-sending would give the reference firmware's -15), it times out. Log lines and
-/// stale frames restart the 1 s read window, but one call never exceeds the 2 s budget.
+/// again (at most 3 sends); any other code is delivered. By default a silent attempt is not re-sent (the
+/// device may have executed it: re-sending would give the reference firmware's -15), it times out;
+/// `retry_on_timeout` re-sends it, for Tether firmware (it answers a repeated id from its reply cache).
+/// Log lines and stale frames restart the 1 s read window, but one call never exceeds the 2 s budget.
 #pragma once
 
 #include <stdint.h>

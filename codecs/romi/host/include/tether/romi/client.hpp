@@ -27,7 +27,7 @@
 ///       | error_code | response.code | when |
 ///       |---|---|---|
 ///       | tether.romi -24, -14, -8..-13, -22, -32 | same | command rejected before anything was written |
-///       | tether.romi -25 (`errc::timed_out`) | -25 | the attempt window or the call budget ran out |
+///       | tether.romi -25 (`errc::timed_out`) | -25 | the attempt window or the call budget ran out; `message` says how long the call waited: `client: no reply from the device within 1000 ms` |
 ///       | tether.romi -1..-6 | same | every answer arrived damaged (host decoder: CRC mismatch, ...) |
 ///       | `asio::error::operation_aborted` | -33 | `close()` (or the client's destruction) |
 ///       | the transport's own error (eof, EIO, broken_pipe, ...) | -33 | the link failed |
@@ -41,14 +41,21 @@
 ///   3. An attempt waits `timing.attempt_timeout` (1 s) for the answer; the whole call never exceeds
 ///      `timing.call_budget` (2 s), queueing excluded: the budget starts when the frame is sent.
 ///   4. The same bytes (same id) are sent again, at most `timing.max_attempts` (3) sends in all, only when
-///      (a) the device answers an envelope error -1..-6 (it received our frame damaged), or (b) a frame
-///      from the device arrives damaged while the call is in flight (host decoder error -1..-6: the answer
-///      was probably lost; Tether firmware answers a repeated id from its reply cache, defect B3). A silent
-///      attempt is NOT re-sent (the device may have run it): it times out with -25. A frame with damaged
-///      `xxxx` metadata (-7) is a damaged log line (answers carry hex metadata): it only re-arms the window.
+///      (a) the device answers an envelope error -1..-6 (it received our frame damaged). Its id may differ
+///      from the call's: a request whose id digits were damaged (`#e:5o97`) is answered `#e[-2]:0017`.
+///      An envelope error means the device executed nothing, so the re-send is safe whatever the id; but
+///      only the call's own answer completes it: once the sends are used up, such an error is stale;
+///      (b) a frame from the device arrives damaged while the call is in flight (host decoder error
+///      -1..-6: the answer was probably lost; Tether firmware answers a repeated id from its reply cache,
+///      defect B3). A damaged log line (`#!...`, or `xxxx` metadata damaged: -7) only re-arms the window;
+///      (c) an attempt stays silent and `timing.retry_on_timeout` is set (default off: against the
+///      reference firmware a re-send of a request that ran answers -15, and unknown firmware may run it
+///      twice; Tether firmware answers it from its reply cache, so configs of Tether devices turn it on).
+///      Otherwise a silent attempt times out with -25.
 ///   5. Log lines (`#!text:xxxx`) go to the log handler; frames whose id is not the call's are stale
-///      (counted in `LinkCounters::stale`, dropped), whatever their code, so a late error is never pinned
-///      on the wrong request (defect B4). Both re-arm the attempt window, never past the call budget.
+///      (counted in `LinkCounters::stale`, dropped; envelope errors first re-send, rule 4a), so a late
+///      answer or error is never pinned on the wrong request (defect B4). Both re-arm the attempt window,
+///      never past the call budget.
 ///   6. A success or application answer (code >= 0) must also carry the request's opcode; one that does
 ///      not is stale. Error answers (< 0) may carry another opcode: the reference firmware echoes the last
 ///      opcode it parsed.
@@ -170,7 +177,8 @@ struct RomiResponse {
 /// How a client behaves; every field has the spec's value by default.
 struct ClientOptions {
   /// Attempt window (1 s), call budget (2 s), sends per call (3), log lines re-arm the window. Tests and
-  /// slow links may change them; `retry_on_timeout` should stay false for reference firmware.
+  /// slow links may change them. `retry_on_timeout` (re-send a silent attempt, rule 4c of the overview):
+  /// off by default; turn it on for Tether firmware only (the reference answers a re-send -15).
   session::CallTiming timing = default_call_timing();
   /// Ids start after this one (255: the first call uses id 0, like the reference host).
   std::uint8_t last_id = 255;

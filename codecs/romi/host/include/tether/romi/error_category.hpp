@@ -3,7 +3,7 @@
 ///
 /// The category's values are the Romi wire codes themselves (negative for the protocol, positive for the
 /// application; 0 is never an error) and its messages are `romi::message(code)`, so
-/// `make_error_code(ErrorCode::client_timeout).message()` is "client: connection timed out" and
+/// `make_error_code(ErrorCode::client_timeout).message()` is "client: no reply from the device" and
 /// `error.value()` is -25. `romi::ErrorCode` is registered as an error-code enum, so an `ErrorCode`
 /// compares equal to an `error_code` of this category:
 /// @code
