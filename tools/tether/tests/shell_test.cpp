@@ -92,6 +92,17 @@ TEST(TetherShell, AsynchronousLineRedrawsThePromptAndTheTypedText) {
   EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
 }
 
+// Ctrl-C while a line is being edited ends the shell cleanly (libedit does not take the signal over).
+TEST(TetherShell, CtrlCWhileEditingEndsTheShell) {
+  FakePort device;
+  Terminal terminal({"shell", "--port", device.path()});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("t[\"half");
+  ASSERT_TRUE(terminal.expect("t[\"half")) << terminal.screen();
+  terminal.type("\x03");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
 TEST(TetherShell, ProxyMessagesAndDeviceEvents) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   Terminal terminal({"shell", "--virtual", "proxy"});
