@@ -132,7 +132,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 // Prints records, one line each, and counts them towards --count (from any thread).
 class RecordPrinter {
  public:
-  RecordPrinter(const Arguments& arguments) : json_(arguments.json), count_(arguments.count), stamps_(arguments.utc) {}
+  explicit RecordPrinter(const Arguments& arguments)
+      : json_(arguments.json), count_(arguments.count), stamps_(arguments.utc) {}
 
   /// Prints `record` (with its direction when `direction` is set); true once --count is reached.
   bool print(const MonitorRecord& record, std::optional<Direction> direction = std::nullopt) {
@@ -235,8 +236,8 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
                                                  : std::chrono::steady_clock::time_point::max();
     // Woken by the pumps; the 100 ms steps notice a stop signal (a handler cannot notify).
     while (!done && !stop && std::chrono::steady_clock::now() < deadline) {
-      finished.wait_for(lock, std::min<std::chrono::steady_clock::duration>(std::chrono::milliseconds(100),
-                                                                            deadline - std::chrono::steady_clock::now()));
+      const std::chrono::steady_clock::duration left = deadline - std::chrono::steady_clock::now();
+      finished.wait_for(lock, std::min<std::chrono::steady_clock::duration>(std::chrono::milliseconds(100), left));
     }
     done = true;
   }

@@ -250,13 +250,16 @@ class ElcanoRingNodeDecoder final : public MonitorDecoder {
 // Elcano messages seen on a tapped link: decoded only (the tap passes the bytes on itself).
 class ElcanoReaderDecoder final : public MonitorDecoder {
  public:
-  explicit ElcanoReaderDecoder(elcano::Generation generation) : generation_(generation), reader_(generation, counters_) {}
+  explicit ElcanoReaderDecoder(elcano::Generation generation)
+      : generation_(generation), reader_(generation, counters_) {}
 
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
     const std::uint32_t resyncs = counters_.resyncs;
     const elcano::ReadEvent event = reader_.feed(byte);
     if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (event.kind == elcano::ReadEvent::Kind::message) records.push_back(elcano_record("message", event.message, generation_));
+    if (event.kind == elcano::ReadEvent::Kind::message) {
+      records.push_back(elcano_record("message", event.message, generation_));
+    }
     if (event.kind == elcano::ReadEvent::Kind::error) records.push_back(elcano_error_record(event.error));
   }
 

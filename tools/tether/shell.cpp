@@ -113,9 +113,10 @@ void on_stop_signal(int) {
 // On a terminal (a non-empty prompt) the line is edited with libedit: Left/Right, Home/End, history on
 // Up/Down, Ctrl-R search, the user's ~/.editrc. libedit's readline interface has one global state and is
 // not thread-safe, so only this thread touches it: while it edits, every output line of the process is
-// handed to it (LinePrinter::set_line_editor is not enough: a key sequence in progress blocks inside
-// libedit) and printed between keystrokes above the edited line, which is then drawn again, prompt and
-// typed text included. From a pipe or a file: plain reads, split at newlines.
+// handed to it (LinePrinter::set_output_handler; printing from the other threads under a lock would not
+// do: a key sequence in progress blocks inside libedit, and the I/O thread must never wait for a key) and
+// printed between keystrokes above the edited line, which is then drawn again, prompt and typed text
+// included. From a pipe or a file: plain reads, split at newlines.
 class LineReader {
  public:
   explicit LineReader(std::string prompt) : prompt_(std::move(prompt)) {
@@ -515,7 +516,8 @@ int run_shell(int argc, char** argv) {
       }
       if (command->reset && client->mode() == proxy::Mode::primary) {
         client->restart_session();
-        printer.answer({"restarting the session (Reset, ResetEvent, inits)", {{"message", "reset"}, {"restarting", true}}});
+        printer.answer(
+            {"restarting the session (Reset, ResetEvent, inits)", {{"message", "reset"}, {"restarting", true}}});
         continue;
       }
       proxy::error_code send_error;

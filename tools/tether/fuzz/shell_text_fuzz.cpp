@@ -71,7 +71,8 @@ proxy::ProxyEvent proxy_event(std::uint8_t which, FuzzedDataProvider& input) {
       return lost;
     }
     case 5:
-      return ev::SessionEstablished{input.ConsumeIntegral<std::uint32_t>(), input.ConsumeIntegral<std::uint16_t>(), input.ConsumeBool()};
+      return ev::SessionEstablished{input.ConsumeIntegral<std::uint32_t>(), input.ConsumeIntegral<std::uint16_t>(),
+                                    input.ConsumeBool()};
     case 6:
       return ev::ResetDetected{input.ConsumeIntegral<std::uint32_t>(), input.ConsumeIntegral<std::uint32_t>()};
     case 7:
