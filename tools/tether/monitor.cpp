@@ -8,7 +8,7 @@
 // With --tap it sits between an application and the device instead: it opens the device, makes a new pty
 // for the application (printed as `PTY /dev/pts/N`, like `tether sim`), passes every byte both ways
 // unchanged and decodes both directions. Two pump threads (one per direction) read with a short deadline,
-// write the bytes on, then decode and print them; the main thread waits for the end.
+// decode and print, then write the bytes on; the main thread waits for the end.
 //
 // Output contract: one line per event on stdout, `<time> <kind> <detail>` (tap: `<time> <direction> <kind>
 // <detail>`); with --json one JSON object per line instead. Exit status: 0 when --count or --duration is
@@ -211,6 +211,14 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
         return;
       }
       if (size == 0) continue;
+      // Printed before passed on: the other side cannot answer a frame before its line is out, so the lines
+      // of the two pumps come in the order things happened.
+      const Millis now = elapsed_ms(start);
+      for (std::size_t i = 0; i < size; ++i) decoder->feed(buffer[i], now, records);
+      for (const MonitorRecord& record : records) {
+        if (printer.print(record, direction)) finish(0);
+      }
+      records.clear();
       boost::system::error_code write_error;
       to.write(asio::buffer(buffer.data(), size), write_error);
       if (write_error) {
@@ -220,12 +228,6 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
         finish(2);
         return;
       }
-      const Millis now = elapsed_ms(start);
-      for (std::size_t i = 0; i < size; ++i) decoder->feed(buffer[i], now, records);
-      for (const MonitorRecord& record : records) {
-        if (printer.print(record, direction)) finish(0);
-      }
-      records.clear();
     }
   };
   std::thread to_host([&] { pump(device, *application, Direction::device_to_host); });
