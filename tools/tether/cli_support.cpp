@@ -157,6 +157,10 @@ void Timestamps::add_to(nlohmann::ordered_json& object) const {
 
 void LinePrinter::line(const std::string& text) {
   const std::lock_guard lock(mutex_);
+  if (handler_) {
+    handler_(text);
+    return;
+  }
   std::fputs(text.c_str(), stdout);
   std::fputc('\n', stdout);
   std::fflush(stdout);
@@ -168,19 +172,9 @@ void LinePrinter::raw(const std::string& text) {
   std::fflush(stdout);
 }
 
-void LinePrinter::async_line(const std::string& text) {
+void LinePrinter::set_output_handler(std::function<void(const std::string&)> handler) {
   const std::lock_guard lock(mutex_);
-  if (prompt_shown_) std::fputs("\r\033[K", stdout);
-  std::fputs(text.c_str(), stdout);
-  std::fputc('\n', stdout);
-  if (prompt_shown_) std::fputs(prompt_.c_str(), stdout);
-  std::fflush(stdout);
-}
-
-void LinePrinter::set_prompt(std::string prompt, bool shown) {
-  const std::lock_guard lock(mutex_);
-  prompt_ = std::move(prompt);
-  prompt_shown_ = shown && !prompt_.empty();
+  handler_ = std::move(handler);
 }
 
 LinePrinter& out() {

@@ -107,24 +107,21 @@ class Timestamps {
 };
 
 /// Writes whole lines to stdout under one lock and flushes each, so lines from the I/O thread (events) and
-/// from the main thread never interleave. `before_line`/`after_line` let the shell clear and redraw its
-/// prompt around asynchronous lines.
+/// from the main thread never interleave. The shell's line editor takes the lines over while it edits (it
+/// prints them above the line being edited).
 class LinePrinter {
  public:
-  /// Prints `line` + '\n' and flushes.
+  /// Prints `line` + '\n' and flushes (or hands `line` to the output handler).
   void line(const std::string& text);
-  /// Prints `text` as is (no newline) and flushes: prompts.
+  /// Prints `text` as is (no newline) and flushes.
   void raw(const std::string& text);
-  /// Prints an asynchronous line (an event while the user may be typing): the prompt, when one is shown,
-  /// is erased first and drawn again after.
-  void async_line(const std::string& text);
-  /// Sets the prompt redrawn after asynchronous lines (empty: none). `shown` says whether it is on screen.
-  void set_prompt(std::string prompt, bool shown);
+  /// Hands every line (without its newline) to `handler` instead of printing it; called under the printer's
+  /// lock, so it must not print. An empty function prints directly again.
+  void set_output_handler(std::function<void(const std::string&)> handler);
 
  private:
   std::mutex mutex_;
-  std::string prompt_;
-  bool prompt_shown_ = false;
+  std::function<void(const std::string&)> handler_;
 };
 
 /// The process's stdout printer.

@@ -130,7 +130,7 @@ int run_demo(int argc, char** argv) {
   progress.clear();
 
   if (json) {
-    std::printf("%s\n", demo::to_json(report).dump().c_str());
+    std::printf("%s\n", demo::format_json(report).c_str());
   } else {
     std::fputs(demo::format_table(report).c_str(), stdout);
   }

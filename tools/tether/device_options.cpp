@@ -41,7 +41,9 @@ const char* const kDeviceUsage =
     "  elcano only, with --port or --virtual:\n"
     "    --generation B|D  the ring's wire generation (default B)\n"
     "    --capture TYPES   message types the host consumes: a comma-separated list of drive, sensor, goal,\n"
-    "                      segment (default: none; everything else is forwarded round the ring)\n";
+    "                      segment (default: none; everything else is forwarded round the ring)\n"
+    "  --virtual with an elcano image is a ring of one board that captures drive messages and answers each\n"
+    "  with a sensor report S{s}{a}{b 0}{p 0,0}, which the host captures (default --capture sensor).\n";
 
 namespace {
 
@@ -259,11 +261,20 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     target.config.name = options.port;
     target.config.transport = serial;
   } else if (codec == devices::Codec::elcano) {
-    // The host and one board make a ring of one (host TX -> board -> host RX); the board keeps the image's
-    // build-time configuration (an erased EEPROM).
+    // The host and one board make a ring of one (host TX -> board -> host RX). An unconfigured board
+    // captures nothing, so everything would come back undelivered: the board drives the servos from drive
+    // messages and answers each with a sensor report (`kLoneVirtualNodeBehaviour`).
     devices::VirtualRingTransport ring;
     devices::RingBoardConfig node;
     node.firmware = firmware;
+    devices::RingNodeSettings settings;
+    settings.capture = elcano::TypeSet::of(elcano::Type::drive);
+    settings.behaviour_bits = kLoneVirtualNodeBehaviour;
+    node.eeprom = settings;
+    // ... which the host captures (unless --capture says otherwise).
+    if (!options.capture) {
+      std::get<devices::ElcanoOptions>(target.config.options).capture = elcano::TypeSet::of(elcano::Type::sensor);
+    }
     ring.boards.push_back(node);
     ring.pacing = transports::Pacing::real_time;
     target.config.name = firmware.stem().string();

@@ -54,6 +54,10 @@ struct DeviceTarget {
   std::string label;  ///< `serial /dev/pts/3 115200 (romi)`, `arm in rover.json (devices[0])`
 };
 
+/// Behaviour bits of the board of a lone `--virtual elcano-node` (a ring of one, which captures drive
+/// messages): drive the servos (0x08) and report each drive as a sensor message `S{s}{a}{b 0}{p 0,0}` (0x10).
+inline constexpr std::uint8_t kLoneVirtualNodeBehaviour = 0x08 | 0x10;
+
 /// Checks the options (exactly one way of naming a device, no option that does not apply) and builds the
 /// target. Nothing on failure, with `error` set (a usage error: exit status 2).
 /// `default_codec` is the codec of a `--port` without `--codec` (romi for most subcommands, proxy for send).

@@ -5,14 +5,23 @@
 // no pings), so it is passive: romi and proxy devices get nothing at all (proxy: unless --keepalive); an
 // Elcano ring gets what a ring node must send, every message the host does not capture, forwarded.
 //
-// Output contract: one line per event on stdout, `<time> <kind> <detail>`; with --json one JSON object
-// per line instead. Exit status: 0 when --count or --duration is reached or on SIGINT/SIGTERM; 2 for usage
-// errors, a device that cannot be opened, or a link that fails (the device went away).
+// With --tap it sits between an application and the device instead: it opens the device, makes a new pty
+// for the application (printed as `PTY /dev/pts/N`, like `tether sim`), passes every byte both ways
+// unchanged and decodes both directions. Two pump threads (one per direction) read with a short deadline,
+// decode and print, then write the bytes on; the main thread waits for the end.
+//
+// Output contract: one line per event on stdout, `<time> <kind> <detail>` (tap: `<time> <direction> <kind>
+// <detail>`); with --json one JSON object per line instead. Exit status: 0 when --count or --duration is
+// reached or on SIGINT/SIGTERM; 2 for usage errors, a device that cannot be opened, or a link that fails
+// (the device went away).
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -22,11 +31,9 @@
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
-#include "tether/elcano/ring_node.hpp"
-#include "tether/proxy/frame.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "monitor_decoding.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/pty_stream.hpp"
 #include "tether/transports/transport_error.hpp"
 
 namespace tether::cli {
@@ -39,7 +46,7 @@ const CommandText& command_text() {
   static const CommandText text(
       "monitor",
       std::string(
-          "usage: tether monitor DEVICE [--utc] [--json] [--count N] [--duration S] [--keepalive]\n"
+          "usage: tether monitor DEVICE [--tap] [--utc] [--json] [--count N] [--duration S] [--keepalive]\n"
           "\n"
           "Decodes and prints everything the device sends, one line per frame or message, with a timestamp\n"
           "(milliseconds since the start, or ISO 8601 UTC with --utc): romi responses and log lines, proxy\n"
@@ -55,6 +62,16 @@ const CommandText& command_text() {
           "Ping every second, whose acks then show up). An Elcano ring receives what the protocol requires of\n"
           "the host's node: every message it does not capture (--capture; default none) is forwarded to the\n"
           "next board, paced, exactly as `RingClient` would, and shown as `forwarded`.\n"
+          "\n"
+          "Watching a live session: the monitor must not read the port an application reads (both would get\n"
+          "a share of the bytes). Use --tap: it opens the device, creates a pseudo-terminal for the application\n"
+          "and prints `PTY /dev/pts/N` (with --json {\"pty\":\"/dev/pts/N\"}) once ready; point the application\n"
+          "at that path. Every byte passes through unchanged, both directions are decoded, and each line says\n"
+          "which way it went:\n"
+          "  12.345 host->device frame    e id 07\n"
+          "  12.351 device->host frame    e[0,1,2] id 07\n"
+          "(JSON: \"direction\":\"host->device\"). On an Elcano ring the tap only decodes: the application is\n"
+          "the host's node.\n"
           "\n") +
       kDeviceUsage +
       "\n"
@@ -63,6 +80,7 @@ const CommandText& command_text() {
       "  --count N      stop after N frames or messages (log lines included; errors and resyncs not counted)\n"
       "  --duration S   stop after S seconds (decimals allowed)\n"
       "  --keepalive    proxy primary mode: send a Ping every second (the only thing monitor then sends)\n"
+      "  --tap          pass an application's session through a new pty and decode both directions\n"
       "\n"
       "Runs until --count, --duration, SIGINT or SIGTERM (exit status 0). Exit status 2: usage errors, a\n"
       "device that cannot be opened, a link that failed (the device went away).\n",
@@ -75,6 +93,7 @@ struct Arguments {
   bool utc = false;
   bool json = false;
   bool keepalive = false;
+  bool tap = false;
   std::optional<std::uint32_t> count;
   std::optional<std::uint32_t> duration_ms;
 };
@@ -88,6 +107,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       arguments.json = true;
     } else if (argument == "--keepalive") {
       arguments.keepalive = true;
+    } else if (argument == "--tap") {
+      arguments.tap = true;
     } else if (argument == "--count" || argument == "--duration") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
@@ -108,231 +129,126 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
   return parse_device_arguments(argc, argv, text, arguments.device, own);
 }
 
-// One line of output.
-struct Record {
-  std::string kind;             // frame, log, message, forwarded, captured, undecodable, error, resync
-  std::string detail;           // the text after the kind
-  nlohmann::ordered_json json;  // the fields after "kind"
-  bool counted = false;         // counts towards --count
-};
-
-std::string hex(ByteView bytes) {
-  static constexpr char kDigits[] = "0123456789abcdef";
-  std::string text;
-  for (const std::uint8_t byte : bytes) {
-    if (!text.empty()) text += ' ';
-    text += kDigits[byte >> 4];
-    text += kDigits[byte & 0x0F];
-  }
-  return text;
-}
-
-Record resync_record() {
-  return {"resync", "skipped bytes to the next frame start", nlohmann::ordered_json::object(), false};
-}
-
-// A codec's receiving side, fed with the device's bytes.
-class Decoder {
+// Prints records, one line each, and counts them towards --count (from any thread).
+class RecordPrinter {
  public:
-  virtual ~Decoder() = default;
-  /// Decodes `byte`, appending what it produced.
-  virtual void feed(std::uint8_t byte, Millis now, std::vector<Record>& records) = 0;
-  /// Handles deadlines (elcano).
-  virtual void poll(Millis, std::vector<Record>&) {}
-  /// Bytes the protocol requires the host to send now (elcano forwarding, proxy keepalive pings).
-  virtual std::string output(Millis) { return {}; }
-  /// True while output is waiting for its pacing (what `output` will still return).
-  virtual bool output_pending() const { return false; }
-  /// When `poll`/`output` next has something to do, in ms from `now` (nothing: no deadline).
-  virtual std::optional<Duration> next_wakeup(Millis) { return std::nullopt; }
-  /// The decoder's counters.
-  virtual LinkCounters counters() const = 0;
-};
+  explicit RecordPrinter(const Arguments& arguments)
+      : json_(arguments.json), count_(arguments.count), stamps_(arguments.utc) {}
 
-class RomiDecoder final : public Decoder {
- public:
-  void feed(std::uint8_t byte, Millis, std::vector<Record>& records) override {
-    const std::uint32_t resyncs = counters_.resyncs;
-    const romi::EnvelopeEvent event = decoder_.feed(byte);
-    if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    const std::string payload(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
-    char id[4];
-    std::snprintf(id, sizeof id, "%02x", event.id);
-    switch (event.kind) {
-      case romi::EnvelopeEvent::Kind::none:
-        break;
-      case romi::EnvelopeEvent::Kind::log:
-        records.push_back({"log", payload, {{"text", payload}}, true});
-        break;
-      case romi::EnvelopeEvent::Kind::frame: {
-        nlohmann::ordered_json json = {
-            {"opcode", std::string(1, event.opcode)},
-            {"id", event.manual ? nlohmann::ordered_json() : nlohmann::ordered_json(event.id)},
-            {"manual", event.manual},
-            {"payload", payload}};
-        const auto values = nlohmann::ordered_json::parse(payload.substr(1), nullptr, false);
-        if (!values.is_discarded()) json["values"] = values;
-        records.push_back({"frame", payload + (event.manual ? " (manual)" : " id " + std::string(id)), json, true});
-        break;
-      }
-      case romi::EnvelopeEvent::Kind::error: {
-        const auto code = static_cast<std::int16_t>(event.error);
-        std::string detail = std::to_string(code) + " " + romi::message(code);
-        nlohmann::ordered_json json = {{"code", code}, {"message", romi::message(code)}};
-        if (event.opcode != '_') {
-          detail += " (opcode " + std::string(1, event.opcode);
-          json["opcode"] = std::string(1, event.opcode);
-          if (event.has_id) {
-            detail += ", id " + std::string(id);
-            json["id"] = event.id;
-          }
-          detail += ")";
-        }
-        records.push_back({"error", detail, json, false});
-        break;
-      }
-    }
-  }
-  LinkCounters counters() const override { return counters_; }
-
- private:
-  LinkCounters counters_;
-  romi::EnvelopeDecoder<1030> decoder_{counters_};  // responses and log lines up to 1024 bytes, like the client
-};
-
-class ProxyDecoder final : public Decoder {
- public:
-  ProxyDecoder(proxy::Mode mode, bool keepalive, Millis now)
-      : mode_(mode),
-        keepalive_(keepalive && mode == proxy::Mode::primary),
-        decoder_(mode == proxy::Mode::primary ? proxy::Integrity::crc16 : proxy::Integrity::none, counters_),
-        next_ping_(now) {}
-
-  void feed(std::uint8_t byte, Millis, std::vector<Record>& records) override {
-    const std::uint32_t resyncs = counters_.resyncs;
-    const proxy::FrameEvent event = decoder_.feed(byte);
-    if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (event.kind == proxy::FrameEvent::Kind::error) {
-      records.push_back({"error", to_string(event.status), {{"status", to_string(event.status)}}, false});
-      return;
-    }
-    if (event.kind != proxy::FrameEvent::Kind::payload) return;
-    std::unique_ptr<google::protobuf::Message> message;
-    if (mode_ == proxy::Mode::primary) {
-      message = std::make_unique<proxy::ArduinoOut>();
+  /// Prints `record` (with its direction when `direction` is set); true once --count is reached.
+  bool print(const MonitorRecord& record, std::optional<Direction> direction = std::nullopt) {
+    if (json_) {
+      nlohmann::ordered_json object;
+      stamps_.add_to(object);
+      if (direction) object["direction"] = to_string(*direction);
+      const nlohmann::ordered_json fields = record_json(record);
+      for (const auto& [key, value] : fields.items()) object[key] = value;
+      out().line(dump(object));
     } else {
-      message = std::make_unique<RocketryProto::ArduinoOut>();
+      out().line(stamps_.text() + " " + (direction ? std::string(to_string(*direction)) + " " : std::string()) +
+                 record_text(record));
     }
-    if (!message->ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size()))) {
-      const std::string bytes = hex(event.payload);
-      records.push_back({"undecodable", bytes, {{"payload_hex", bytes}}, false});
-      return;
-    }
-    nlohmann::ordered_json json = proxy_message_json(*message);
-    records.push_back({"message", describe_proxy_message(*message), json, true});
+    return record.counted && count_ && ++counted_ >= *count_;
   }
-
-  std::string output(Millis now) override {
-    if (!keepalive_ || !tick_reached(now, next_ping_)) return {};
-    next_ping_ = static_cast<Millis>(now + 1000);
-    proxy::ArduinoIn ping;
-    ping.set_messageid(++message_id_);
-    ping.mutable_ping();
-    const std::string payload = ping.SerializeAsString();
-    std::uint8_t frame[proxy::max_frame_size(32)];
-    const Result<std::size_t> written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
-                                                            proxy::Integrity::crc16, true, MutableByteView(frame));
-    if (!written.ok()) return {};
-    return std::string(reinterpret_cast<const char*>(frame), written.value());
-  }
-
-  std::optional<Duration> next_wakeup(Millis now) override {
-    if (!keepalive_) return std::nullopt;
-    const std::int32_t left = tick_difference(next_ping_, now);
-    return left > 0 ? static_cast<Duration>(left) : 0;
-  }
-
-  LinkCounters counters() const override { return counters_; }
 
  private:
-  proxy::Mode mode_;
-  bool keepalive_;
-  LinkCounters counters_;
-  proxy::FrameDecoder<proxy::kMaxPayload> decoder_;
-  Millis next_ping_;
-  std::uint32_t message_id_ = 0x4d4f4e00;  // "MON": far from a client's ids
+  bool json_;
+  std::optional<std::uint32_t> count_;
+  Timestamps stamps_;
+  std::atomic<std::uint32_t> counted_{0};
 };
 
-class ElcanoDecoder final : public Decoder {
- public:
-  ElcanoDecoder(const devices::ElcanoOptions& options, Millis now)
-      : generation_(options.generation), node_(config(options), now, counters_, ring_) {}
+Millis elapsed_ms(std::chrono::steady_clock::time_point start) {
+  return static_cast<Millis>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count());
+}
 
-  void feed(std::uint8_t byte, Millis now, std::vector<Record>& records) override {
-    const std::uint32_t resyncs = counters_.resyncs;
-    const elcano::RingEvent event = node_.feed(byte, now);
-    if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    add(event, records);
+// --tap: the application's pty on one side, the device on the other.
+int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::ByteStream& device,
+            transports::IoThread& io) {
+  boost::system::error_code error;
+  const auto application = transports::PtyStream::open(io.executor(), error);
+  if (!application) return command_text().fail("cannot open a pseudo-terminal: " + error.message());
+  if (arguments.json) {
+    out().line(dump({{"pty", application->slave_path()}, {"device", target.label}}));
+  } else {
+    out().line("PTY " + application->slave_path());
   }
 
-  void poll(Millis now, std::vector<Record>& records) override {
-    for (;;) {
-      const elcano::RingEvent event = node_.poll(now);
-      if (event.kind == elcano::RingEvent::Kind::none) break;
-      add(event, records);
-    }
-  }
-
-  std::string output(Millis now) override {
-    std::uint8_t bytes[256];
-    const std::size_t size = node_.take_output(MutableByteView(bytes), now);
-    return std::string(reinterpret_cast<const char*>(bytes), size);
-  }
-
-  bool output_pending() const override { return node_.pending_output() > 0; }
-
-  std::optional<Duration> next_wakeup(Millis now) override {
-    const Deadline deadline = node_.next_wakeup(now);
-    if (!deadline.armed()) return std::nullopt;
-    return deadline.remaining(now);
-  }
-
-  LinkCounters counters() const override { return counters_; }
-
- private:
-  static elcano::RingNodeConfig config(const devices::ElcanoOptions& options) {
-    elcano::RingNodeConfig node;
-    node.generation = options.generation;
-    node.capture = options.capture;
-    node.pacing = options.pacing;
-    return node;
-  }
-
-  void add(const elcano::RingEvent& event, std::vector<Record>& records) const {
-    switch (event.kind) {
-      case elcano::RingEvent::Kind::none:
-        return;
-      case elcano::RingEvent::Kind::captured:
-      case elcano::RingEvent::Kind::forwarded:
-      case elcano::RingEvent::Kind::undeliverable: {
-        const char* kind = elcano::to_string(event.kind);
-        const std::string text = format_elcano(event.message, generation_);
-        nlohmann::ordered_json json = {{"text", text}, {"message", elcano_json(event.message)}};
-        records.push_back({kind, text, json, true});
+  const std::atomic<bool>& stop = catch_stop_signals();
+  const auto start = std::chrono::steady_clock::now();
+  RecordPrinter printer(arguments);
+  std::mutex mutex;
+  std::condition_variable finished;
+  bool done = false;
+  int status = 0;
+  auto finish = [&](int exit_status) {
+    const std::lock_guard lock(mutex);
+    if (!done) status = exit_status;
+    done = true;
+    finished.notify_all();
+  };
+  auto is_done = [&] {
+    const std::lock_guard lock(mutex);
+    return done;
+  };
+  // Moves bytes from `from` to `to`, then decodes them as `direction`.
+  auto pump = [&](transports::ByteStream& from, transports::ByteStream& to, Direction direction) {
+    DecoderRole role;
+    role.direction = direction;
+    role.ring_node = false;
+    const auto decoder = make_monitor_decoder(target.config, role, elapsed_ms(start));
+    std::array<std::uint8_t, 1024> buffer{};
+    std::vector<MonitorRecord> records;
+    while (!is_done() && !stop) {
+      boost::system::error_code read_error;
+      const std::size_t size = from.read_some(asio::buffer(buffer), std::chrono::milliseconds(100), read_error);
+      if (read_error && read_error != transports::TransportError::timed_out) {
+        std::fprintf(stderr, "tether monitor: the link to %s failed: %s\n",
+                     direction == Direction::device_to_host ? "the device" : "the application",
+                     read_error.message().c_str());
+        finish(2);
         return;
       }
-      case elcano::RingEvent::Kind::dropped:
-        records.push_back(
-            {"error", elcano::to_string(event.error), {{"reason", elcano::to_string(event.error)}}, false});
+      if (size == 0) continue;
+      // Printed before passed on: the other side cannot answer a frame before its line is out, so the lines
+      // of the two pumps come in the order things happened.
+      const Millis now = elapsed_ms(start);
+      for (std::size_t i = 0; i < size; ++i) decoder->feed(buffer[i], now, records);
+      for (const MonitorRecord& record : records) {
+        if (printer.print(record, direction)) finish(0);
+      }
+      records.clear();
+      boost::system::error_code write_error;
+      to.write(asio::buffer(buffer.data(), size), write_error);
+      if (write_error) {
+        std::fprintf(stderr, "tether monitor: the link to %s failed: %s\n",
+                     direction == Direction::device_to_host ? "the application" : "the device",
+                     write_error.message().c_str());
+        finish(2);
         return;
+      }
     }
+  };
+  std::thread to_host([&] { pump(device, *application, Direction::device_to_host); });
+  std::thread to_device([&] { pump(*application, device, Direction::host_to_device); });
+  {
+    std::unique_lock lock(mutex);
+    const auto deadline = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
+                                                 : std::chrono::steady_clock::time_point::max();
+    // Woken by the pumps; the 100 ms steps notice a stop signal (a handler cannot notify).
+    while (!done && !stop && std::chrono::steady_clock::now() < deadline) {
+      const std::chrono::steady_clock::duration left = deadline - std::chrono::steady_clock::now();
+      finished.wait_for(lock, std::min<std::chrono::steady_clock::duration>(std::chrono::milliseconds(100), left));
+    }
+    done = true;
   }
-
-  elcano::Generation generation_;
-  LinkCounters counters_;
-  elcano::RingCounters ring_;
-  elcano::RingNode<96, 256, 4> node_;
-};
+  to_host.join();
+  to_device.join();
+  application->close();
+  device.close();
+  return status;
+}
 
 }  // namespace
 
@@ -346,52 +262,28 @@ int run_monitor(int argc, char** argv) {
   if (arguments.keepalive && codec != devices::Codec::proxy) {
     return command_text().usage_error("--keepalive applies to the proxy codec (primary mode) only");
   }
+  if (arguments.keepalive && arguments.tap) {
+    return command_text().usage_error("--keepalive and --tap exclude each other (the application pings)");
+  }
 
   transports::IoThread io;
   Progress progress("monitor");
   auto stream = open_stream(*target, io.executor(), progress, error);
   if (!stream) return command_text().fail(target->label + ": " + error);
+  if (arguments.tap) return run_tap(arguments, *target, *stream, io);
 
   const std::atomic<bool>& stop = catch_stop_signals();
 
   const auto start = std::chrono::steady_clock::now();
-  auto now_ms = [&] {
-    return static_cast<Millis>(
-        std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count());
-  };
-  std::unique_ptr<Decoder> decoder;
-  switch (codec) {
-    case devices::Codec::romi:
-      decoder = std::make_unique<RomiDecoder>();
-      break;
-    case devices::Codec::proxy:
-    case devices::Codec::proxy_compat:
-      decoder = std::make_unique<ProxyDecoder>(
-          std::get<devices::ProxyDeviceOptions>(target->config.options).client.mode, arguments.keepalive, now_ms());
-      break;
-    case devices::Codec::elcano:
-      decoder = std::make_unique<ElcanoDecoder>(std::get<devices::ElcanoOptions>(target->config.options), now_ms());
-      break;
-  }
+  auto now_ms = [&] { return elapsed_ms(start); };
+  DecoderRole role;
+  role.keepalive = arguments.keepalive;
+  const std::unique_ptr<MonitorDecoder> decoder = make_monitor_decoder(target->config, role, now_ms());
 
-  const Timestamps stamps(arguments.utc);
-  std::uint32_t counted = 0;
+  RecordPrinter printer(arguments);
   int status = 0;
   std::array<std::uint8_t, 1024> buffer{};
-  std::vector<Record> records;
-  auto print = [&](const Record& record) {
-    if (arguments.json) {
-      nlohmann::ordered_json object;
-      stamps.add_to(object);
-      object["kind"] = record.kind;
-      for (const auto& [key, value] : record.json.items()) object[key] = value;
-      out().line(dump(object));
-    } else {
-      std::string line = stamps.text() + " " + record.kind;
-      line.append(record.kind.size() < 8 ? 8 - record.kind.size() : 0, ' ');
-      out().line(line + " " + record.detail);
-    }
-  };
+  std::vector<MonitorRecord> records;
 
   bool done = false;
   while (!done && !stop) {
@@ -430,9 +322,8 @@ int run_monitor(int argc, char** argv) {
     }
     const Millis fed_at = now_ms();
     for (std::size_t i = 0; i < size; ++i) decoder->feed(buffer[i], fed_at, records);
-    for (const Record& record : records) {
-      print(record);
-      if (record.counted && arguments.count && ++counted >= *arguments.count) {
+    for (const MonitorRecord& record : records) {
+      if (printer.print(record)) {
         done = true;
         break;
       }

@@ -3,14 +3,18 @@
 // what the device says on its own (romi log lines, proxy events, captured or undeliverable ring messages)
 // is printed as it arrives, also while nobody types.
 //
-// Threads: a reader thread reads stdin (poll + read, line by line, so a terminal in canonical mode, a pipe
-// and a file all work) and hands lines to the main thread, which runs each line with the client's
-// blocking API; the I/O thread runs the client and prints its events. So stdin never blocks the asio loop
-// and device events appear while the user is idle. Lines are printed whole (cli_support's LinePrinter);
-// on a terminal an asynchronous line erases the prompt and draws it again.
+// Threads: a reader thread reads stdin and hands lines to the main thread, which runs each line with the
+// client's blocking API; the I/O thread runs the client and prints its events. So stdin never blocks the
+// asio loop and device events appear while the user is idle. On a terminal the reader edits the line with
+// libedit (history, cursor keys) and prints every output line above the line being edited, which it then
+// draws again; from a pipe or a file it reads plain lines.
+//
+// End of input waits (at most RingReplies::kWait) for what Elcano messages sent still owe: the captured
+// answer, or the message back undelivered.
 //
 // Exit status: 0 on `:quit` or end of input (Ctrl-D) or SIGINT/SIGTERM; 2 usage errors, a device that
 // cannot be opened, a link that failed (the device went away).
+#include <editline/readline.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <unistd.h>
@@ -20,6 +24,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -34,6 +39,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "message_text.hpp"
+#include "shell_text.hpp"
 #include "tether/transports/io_thread.hpp"
 
 namespace tether::cli {
@@ -58,8 +64,10 @@ const CommandText& command_text() {
           "                Captured messages (--capture) and messages that came back undelivered appear as they\n"
           "                arrive; `:capture TYPES` changes the capture set.\n"
           "Shell commands: :help, :stats (the session's counters, as `tether stats` prints them), :quit. End of\n"
-          "input (Ctrl-D) quits too. Works on a terminal (the line is edited by the terminal) and with stdin\n"
-          "from a pipe or a file (one message per line).\n"
+          "input (Ctrl-D) quits too. On a terminal the line is edited with libedit: cursor keys, Up/Down for\n"
+          "the history, Ctrl-R to search it (~/.editrc applies); what the device says meanwhile is printed\n"
+          "above the line being typed. With stdin from a pipe or a file: one message per line; at the end of\n"
+          "the input an elcano shell waits up to 3 s for the answers to the messages it sent.\n"
           "\n") +
       kDeviceUsage +
       "\n"
@@ -87,10 +95,12 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
   return parse_device_arguments(argc, argv, text, arguments.device, own);
 }
 
-// The write end of the pipe that wakes the reader (signals, link failure).
+// The write end of the pipe that wakes the reader (signals, link failure), and what a signal asked.
 std::atomic<int> g_wake_fd{-1};
+std::atomic<bool> g_stop_signalled{false};
 
 void on_stop_signal(int) {
+  g_stop_signalled = true;
   const int fd = g_wake_fd.load();
   if (fd >= 0) {
     const char byte = 's';
@@ -99,12 +109,23 @@ void on_stop_signal(int) {
 }
 
 // Reads stdin on its own thread and hands out whole lines.
+//
+// On a terminal (a non-empty prompt) the line is edited with libedit: Left/Right, Home/End, history on
+// Up/Down, Ctrl-R search, the user's ~/.editrc. libedit's readline interface has one global state and is
+// not thread-safe, so only this thread touches it: while it edits, every output line of the process is
+// handed to it (LinePrinter::set_output_handler; printing from the other threads under a lock would not
+// do: a key sequence in progress blocks inside libedit, and the I/O thread must never wait for a key) and
+// printed between keystrokes above the edited line, which is then drawn again, prompt and typed text
+// included. From a pipe or a file: plain reads, split at newlines.
 class LineReader {
  public:
-  LineReader() {
+  explicit LineReader(std::string prompt) : prompt_(std::move(prompt)) {
     if (::pipe(wake_) != 0) throw std::system_error(errno, std::generic_category(), "pipe");
     ::fcntl(wake_[1], F_SETFL, O_NONBLOCK);
     g_wake_fd = wake_[1];
+    if (editing()) {
+      out().set_output_handler([this](const std::string& text) { print_later(text); });
+    }
     thread_ = std::thread([this] { run(); });
   }
   ~LineReader() {
@@ -129,23 +150,97 @@ class LineReader {
 
   /// Ends the input (the reader stops; `next()` returns nothing once the lines read are taken).
   void wake() {
+    stop_ = true;
+    poke();
+  }
+
+ private:
+  bool editing() const { return !prompt_.empty(); }
+
+  void poke() {
     const char byte = 'w';
     [[maybe_unused]] const ssize_t written = ::write(wake_[1], &byte, 1);
   }
 
- private:
+  void print_later(const std::string& text) {
+    {
+      const std::lock_guard lock(mutex_);
+      output_.push_back(text);
+    }
+    poke();
+  }
+
+  // Prints the lines handed over, above the edited line (reader thread only).
+  void print_pending() {
+    std::deque<std::string> output;
+    {
+      const std::lock_guard lock(mutex_);
+      output.swap(output_);
+    }
+    if (output.empty()) return;
+    std::fputs("\r\033[K", stdout);  // the prompt and the typed text go, the lines take their place...
+    for (const std::string& text : output) {
+      std::fputs(text.c_str(), stdout);
+      std::fputc('\n', stdout);
+    }
+    std::fflush(stdout);
+    rl_forced_update_display();  // ...and are drawn again below them
+  }
+
+  void add_line(std::string line) {
+    const std::lock_guard lock(mutex_);
+    lines_.push_back(std::move(line));
+    changed_.notify_all();
+  }
+
+  // libedit's line handler: a whole line, or nullptr at end of input (Ctrl-D on an empty line).
+  static void on_edited_line(char* line) {
+    LineReader* reader = editing_reader_;
+    if (line == nullptr) {
+      reader->end_of_input_ = true;
+      return;
+    }
+    if (*line != '\0') add_history(line);
+    reader->add_line(line);
+    reader->line_completed_ = true;
+    std::free(line);
+  }
+
   void run() {
+    if (editing()) {
+      editing_reader_ = this;
+      rl_readline_name = const_cast<char*>("tether");
+      rl_catch_signals = 0;  // SIGINT/SIGTERM are the shell's (they end it cleanly, terminal restored)
+      rl_callback_handler_install(prompt_.c_str(), &LineReader::on_edited_line);
+    }
     std::string pending;
     char buffer[4096];
-    for (;;) {
+    while (!stop_ && !end_of_input_) {
       pollfd fds[2] = {{STDIN_FILENO, POLLIN, 0}, {wake_[0], POLLIN, 0}};
       const int ready = ::poll(fds, 2, -1);
       if (ready < 0) {
         if (errno == EINTR) continue;
         break;
       }
-      if (fds[1].revents != 0) break;
+      if (fds[1].revents != 0) {
+        [[maybe_unused]] const ssize_t drained = ::read(wake_[0], buffer, sizeof buffer);
+        if (g_stop_signalled) break;
+        if (editing()) print_pending();
+        continue;
+      }
       if (fds[0].revents == 0) continue;
+      if (editing()) {
+        if ((fds[0].revents & POLLIN) == 0) break;  // the terminal went away
+        rl_callback_read_char();                     // one key; a finished line arrives in on_edited_line
+        if (line_completed_) {
+          // Start the next line now: prompt drawn, buffer empty. (libedit 3.1-20221030 leaves its unbuffered
+          // mode after a line, so the next key would start a blocking read of a whole line, and a redraw
+          // meanwhile would show the old text.)
+          line_completed_ = false;
+          rl_callback_handler_install(prompt_.c_str(), &LineReader::on_edited_line);
+        }
+        continue;
+      }
       const ssize_t size = ::read(STDIN_FILENO, buffer, sizeof buffer);
       if (size < 0 && (errno == EINTR || errno == EAGAIN)) continue;
       if (size <= 0) break;  // end of input (or a vanished terminal)
@@ -154,10 +249,16 @@ class LineReader {
         std::string line = pending.substr(0, newline);
         pending.erase(0, newline + 1);
         if (!line.empty() && line.back() == '\r') line.pop_back();
-        const std::lock_guard lock(mutex_);
-        lines_.push_back(std::move(line));
-        changed_.notify_all();
+        add_line(std::move(line));
       }
+    }
+    if (editing()) {
+      out().set_output_handler({});  // lines print directly again (in order: the held ones first)
+      print_pending();
+      std::fputs("\r\033[K", stdout);  // no prompt left behind
+      std::fflush(stdout);
+      rl_callback_handler_remove();  // the terminal's own mode again
+      editing_reader_ = nullptr;
     }
     const std::lock_guard lock(mutex_);
     if (!pending.empty()) lines_.push_back(std::move(pending));
@@ -165,10 +266,16 @@ class LineReader {
     changed_.notify_all();
   }
 
+  static inline LineReader* editing_reader_ = nullptr;  // whose lines libedit's callback delivers
+  std::string prompt_;
   int wake_[2] = {-1, -1};
+  std::atomic<bool> stop_{false};
+  bool end_of_input_ = false;   // reader thread only
+  bool line_completed_ = false;  // reader thread only
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::string> lines_;
+  std::deque<std::string> output_;
   bool finished_ = false;
   std::thread thread_;
 };
@@ -190,28 +297,12 @@ std::vector<std::string> split_words(const std::string& line) {
 struct Printer {
   bool json = false;
 
-  void answer(const std::string& text, const nlohmann::ordered_json& object) const {
-    emit("answer", text, object, false);
-  }
-  void event(const std::string& text, const nlohmann::ordered_json& object) const { emit("event", text, object, true); }
-  void error(const std::string& text) const { emit("error", "error: " + text, {{"message", text}}, false); }
+  void print(std::string_view type, const ShellLine& line) const { out().line(shell_output(type, line, json)); }
+  void answer(const ShellLine& line) const { print("answer", line); }
+  void event(const ShellLine& line) const { print("event", line); }
+  void error(const std::string& text) const { print("error", {"error: " + text, {{"message", text}}}); }
   void info(const std::string& type, const std::string& text, const nlohmann::ordered_json& object) const {
-    emit(type, text, object, false);
-  }
-
-  void emit(const std::string& type, const std::string& text, const nlohmann::ordered_json& object,
-            bool asynchronous) const {
-    std::string line = text;
-    if (json) {
-      nlohmann::ordered_json full = {{"type", type}};
-      for (const auto& [key, value] : object.items()) full[key] = value;
-      line = dump(full);
-    }
-    if (asynchronous) {
-      out().async_line(line);
-    } else {
-      out().line(line);
-    }
+    print(type, {text, object});
   }
 };
 
@@ -242,112 +333,50 @@ std::string help_text(devices::Codec codec) {
   return text + "Shell commands: :help, :stats (the session's counters), :quit (or Ctrl-D).";
 }
 
-// --- event formatting ----------------------------------------------------------------------------------
+// What became of the messages sent into an Elcano ring: each one ends captured somewhere (what the host
+// sees is the answer it captures) or back at the host undelivered. End of input waits for these (bounded),
+// so `echo 'D{s 50}{a 25}' | tether shell ...` prints the answer before it exits.
+class RingReplies {
+ public:
+  /// How long end of input waits, at most, for the replies still outstanding.
+  static constexpr std::chrono::seconds kWait{3};
 
-void print_proxy_event(const Printer& printer, const proxy::ProxyEvent& event) {
-  namespace ev = proxy::events;
-  if (const auto* error = std::get_if<ev::DeviceError>(&event)) {
-    printer.event(
-        std::string("device ") + (error->level == proxy::ErrorLevel::fatal ? "FATAL" : "error") + ": " + error->text,
-        {{"event", "device_error"},
-         {"text", error->text},
-         {"level", error->level == proxy::ErrorLevel::fatal ? "fatal" : "warning"}});
-  } else if (const auto* info = std::get_if<ev::DeviceInfo>(&event)) {
-    printer.event("info: session " + std::to_string(info->session_id) +
-                      (info->ping_failsafe_triggered ? ", failsafe triggered" : ""),
-                  {{"event", "info"},
-                   {"session_id", info->session_id},
-                   {"ping_failsafe_triggered", info->ping_failsafe_triggered}});
-  } else if (const auto* failsafe = std::get_if<ev::FailsafeTriggered>(&event)) {
-    printer.event("FAILSAFE triggered (no ping for 10 s)",
-                  {{"event", "failsafe"}, {"session_id", failsafe->session_id}});
-  } else if (const auto* report = std::get_if<ev::PinReport>(&event)) {
-    const char* kind = report->kind == proxy::PinKind::servo     ? "servo"
-                       : report->kind == proxy::PinKind::digital ? "digital"
-                                                                 : "pin";
-    printer.event(std::string(kind) + " " + std::to_string(report->pin) + " = " + std::to_string(report->value) +
-                      (report->failsafe ? " (failsafe)" : ""),
-                  {{"event", "pin"},
-                   {"kind", kind},
-                   {"pin", report->pin},
-                   {"value", report->value},
-                   {"failsafe", report->failsafe}});
-  } else if (const auto* lost = std::get_if<ev::PinLost>(&event)) {
-    printer.event("pin " + std::to_string(lost->pin) + " lost (silent " + std::to_string(lost->silent_ms) + " ms)",
-                  {{"event", "pin_lost"}, {"pin", lost->pin}, {"silent_ms", lost->silent_ms}});
-  } else if (const auto* established = std::get_if<ev::SessionEstablished>(&event)) {
-    printer.event("session " + std::to_string(established->session_id) + " established" +
-                      (established->inits > 0 ? " (" + std::to_string(established->inits) + " inits replayed)" : ""),
-                  {{"event", "session"},
-                   {"session_id", established->session_id},
-                   {"inits", established->inits},
-                   {"first", established->first}});
-  } else if (const auto* reset = std::get_if<ev::ResetDetected>(&event)) {
-    printer.event("device reset detected (session " + std::to_string(reset->previous_session_id) + " -> " +
-                      std::to_string(reset->reported_session_id) + "); recovering",
-                  {{"event", "reset_detected"},
-                   {"previous_session_id", reset->previous_session_id},
-                   {"reported_session_id", reset->reported_session_id}});
-  } else if (const auto* compat = std::get_if<ev::CompatEvent>(&event)) {
-    const std::string name = RocketryProto::EventTypes_Name(compat->type);
-    printer.event("device event " + name + " " + std::to_string(compat->data),
-                  {{"event", "compat_event"}, {"name", name}, {"data", compat->data}});
-  } else if (const auto* compat_error = std::get_if<ev::CompatError>(&event)) {
-    const std::string name = RocketryProto::ErrorTypes_Name(compat_error->type);
-    printer.event("device error " + name + " " + std::to_string(compat_error->data),
-                  {{"event", "compat_error"}, {"name", name}, {"data", compat_error->data}});
-  } else if (const auto* state = std::get_if<ev::CompatState>(&event)) {
-    printer.event("device state " + describe_proxy_message(state->message),
-                  {{"event", "compat_state"}, {"message", proxy_message_json(state->message)}});
-  } else if (const auto* undecodable = std::get_if<ev::UndecodableMessage>(&event)) {
-    printer.event(std::string(undecodable->malformed ? "undecodable" : "unknown") + " message (" +
-                      std::to_string(undecodable->payload.size()) + " bytes)",
-                  {{"event", "undecodable"}, {"malformed", undecodable->malformed}});
-  } else if (const auto* failed = std::get_if<ev::LinkFailed>(&event)) {
-    printer.event("link failed: " + failed->error.message(),
-                  {{"event", "link_failed"}, {"message", failed->error.message()}});
+  void sent() {
+    const std::lock_guard lock(mutex_);
+    ++sent_;
   }
-}
+  /// A captured message or an undelivered one came back.
+  void settled() {
+    const std::lock_guard lock(mutex_);
+    ++settled_;
+    changed_.notify_all();
+  }
+  /// Waits until every message sent has settled or `kWait` passed (or `stop` is set).
+  void wait(const std::atomic<bool>& stop) {
+    std::unique_lock lock(mutex_);
+    const auto deadline = std::chrono::steady_clock::now() + kWait;
+    while (settled_ < sent_ && !stop && std::chrono::steady_clock::now() < deadline) {
+      changed_.wait_for(lock, std::chrono::milliseconds(50));  // 50 ms steps: notices a stop signal
+    }
+  }
 
-void print_ring_event(const Printer& printer, elcano::Generation generation, const elcano::ClientEvent& event) {
-  using Kind = elcano::ClientEvent::Kind;
-  switch (event.kind) {
-    case Kind::undeliverable: {
-      const std::string text = format_elcano(event.message, generation);
-      printer.event("undeliverable " + text + " (came back round the ring: nobody captured it)",
-                    {{"event", "undeliverable"}, {"text", text}, {"message", elcano_json(event.message)}});
-      break;
-    }
-    case Kind::read_error:
-      printer.event(std::string("read error: ") + elcano::to_string(event.error),
-                    {{"event", "read_error"}, {"reason", elcano::to_string(event.error)}});
-      break;
-    case Kind::forward_dropped: {
-      const std::string text = format_elcano(event.message, generation);
-      printer.event("forward dropped " + text + " (output queue full)", {{"event", "forward_dropped"}, {"text", text}});
-      break;
-    }
-    case Kind::receive_overflow: {
-      const std::string text = format_elcano(event.message, generation);
-      printer.event("receive overflow, dropped " + text, {{"event", "receive_overflow"}, {"text", text}});
-      break;
-    }
-    case Kind::link_failed:
-      printer.event("link failed: " + event.link_error.message(),
-                    {{"event", "link_failed"}, {"message", event.link_error.message()}});
-      break;
-  }
-}
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::uint64_t sent_ = 0;
+  std::uint64_t settled_ = 0;
+};
 
 // Prints every captured message: one receive at a time, re-armed from its completion.
-void receive_captured(std::weak_ptr<elcano::RingClient> weak, Printer printer, elcano::Generation generation) {
+void receive_captured(std::weak_ptr<elcano::RingClient> weak, Printer printer, elcano::Generation generation,
+                      std::shared_ptr<RingReplies> replies) {
   const auto ring = weak.lock();
   if (!ring || !ring->is_open()) return;
-  ring->async_receive([weak, printer, generation](elcano::error_code error, elcano::Message message) {
+  ring->async_receive([weak, printer, generation, replies](elcano::error_code error, elcano::Message message) {
     if (error) return;  // closed, or the link failed (reported as an event)
-    const std::string text = format_elcano(message, generation);
-    printer.event("captured " + text, {{"event", "captured"}, {"text", text}, {"message", elcano_json(message)}});
-    receive_captured(weak, printer, generation);
+    printer.event(captured_line(message, generation));
+    replies->settled();
+    receive_captured(weak, printer, generation, replies);
   });
 }
 
@@ -379,20 +408,20 @@ int run_shell(int argc, char** argv) {
     if (wake_target->reader != nullptr) wake_target->reader->wake();
   };
 
+  auto ring_replies = std::make_shared<RingReplies>();
   ClientHooks hooks;
-  hooks.romi_log = [printer](std::string_view text) {
-    printer.event("log: " + std::string(text), {{"event", "log"}, {"text", std::string(text)}});
-  };
+  hooks.romi_log = [printer](std::string_view text) { printer.event(romi_log_line(text)); };
   hooks.romi_link_failed = [printer, on_failure](romi::error_code failure) {
-    printer.event("link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}});
+    printer.event({"link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}}});
     on_failure();
   };
   hooks.proxy_events = [printer, on_failure](const proxy::ProxyEvent& event) {
-    print_proxy_event(printer, event);
+    printer.event(proxy_event_line(event));
     if (std::holds_alternative<proxy::events::LinkFailed>(event)) on_failure();
   };
-  hooks.ring_events = [printer, generation, on_failure](const elcano::ClientEvent& event) {
-    print_ring_event(printer, generation, event);
+  hooks.ring_events = [printer, generation, on_failure, ring_replies](const elcano::ClientEvent& event) {
+    printer.event(ring_event_line(event, generation));
+    if (event.kind == elcano::ClientEvent::Kind::undeliverable) ring_replies->settled();
     if (event.kind == elcano::ClientEvent::Kind::link_failed) on_failure();
   };
 
@@ -400,14 +429,22 @@ int run_shell(int argc, char** argv) {
   Progress progress("shell");
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);
-  if (device->ring()) receive_captured(device->ring(), printer, generation);
+  if (device->ring()) receive_captured(device->ring(), printer, generation, ring_replies);
 
   const bool interactive = ::isatty(STDIN_FILENO) == 1 && ::isatty(STDOUT_FILENO) == 1;
   const std::string prompt = interactive ? std::string(devices::to_string(codec)) + "> " : std::string();
   printer.info("open", "connected to " + device->description() + "; :help for help, :quit to leave",
                {{"device", device->description()}, {"codec", std::string(devices::to_string(codec))}});
+  if (codec == devices::Codec::elcano && !arguments.device.firmware.empty()) {  // --virtual: a ring of one
+    const std::string capture = arguments.device.capture ? "as --capture says" : "sensor messages";
+    printer.info("note",
+                 "the virtual board captures drive messages and answers each with a sensor report; the host "
+                 "captures " + capture + "; other messages come back undelivered",
+                 {{"board_captures", "drive"}});
+  }
 
-  auto reader = std::make_unique<LineReader>();
+  g_stop_signalled = false;
+  auto reader = std::make_unique<LineReader>(prompt);
   {
     const std::lock_guard lock(wake_target->mutex);
     wake_target->reader = reader.get();
@@ -421,17 +458,15 @@ int run_shell(int argc, char** argv) {
       status = 2;
       break;
     }
-    if (!prompt.empty()) {
-      out().set_prompt(prompt, true);
-      out().raw(prompt);
-    }
     const std::optional<std::string> read = reader->next();
-    out().set_prompt(prompt, false);
     if (*link_failed) {
       status = 2;
       break;
     }
-    if (!read) break;
+    if (!read) {
+      if (device->ring()) ring_replies->wait(g_stop_signalled);
+      break;
+    }
     const std::string line = trim(*read);
     if (line.empty()) continue;
 
@@ -471,19 +506,7 @@ int run_shell(int argc, char** argv) {
       const romi::Command command(line);
       romi::error_code call_error;
       const romi::RomiResponse response = romi->call(command, call_error);
-      nlohmann::ordered_json object = {{"command", line},
-                                       {"code", response.code},
-                                       {"values", response.values},
-                                       {"answered", response.answered},
-                                       {"message", response.message},
-                                       {"id", response.id},
-                                       {"attempts", response.attempts}};
-      std::string text = response.answered ? dump(response.values) : std::string();
-      if (response.code != 0) {
-        text +=
-            std::string(text.empty() ? "" : "  ") + "error " + std::to_string(response.code) + ": " + response.message;
-      }
-      printer.answer(text, object);
+      printer.answer(romi_answer_line(line, response));
     } else if (const auto& client = device->proxy()) {
       const std::vector<std::string> words = split_words(line);
       auto command = parse_proxy_command(client->mode(), words, error);
@@ -493,8 +516,8 @@ int run_shell(int argc, char** argv) {
       }
       if (command->reset && client->mode() == proxy::Mode::primary) {
         client->restart_session();
-        printer.answer("restarting the session (Reset, ResetEvent, inits)",
-                       {{"message", "reset"}, {"restarting", true}});
+        printer.answer(
+            {"restarting the session (Reset, ResetEvent, inits)", {{"message", "reset"}, {"restarting", true}}});
         continue;
       }
       proxy::error_code send_error;
@@ -520,7 +543,7 @@ int run_shell(int argc, char** argv) {
       } else {
         text = command->name + " written";
       }
-      printer.answer(text, object);
+      printer.answer({text, object});
     } else if (const auto& ring = device->ring()) {
       const auto message = parse_elcano(line, error);
       if (!message) {
@@ -528,13 +551,15 @@ int run_shell(int argc, char** argv) {
         continue;
       }
       elcano::error_code send_error;
+      ring_replies->sent();  // before sending: the reply can come back before `send` returns
       ring->send(*message, send_error);
       const std::string text = format_elcano(*message, generation);
       if (send_error) {
-        printer.answer("send failed: " + send_error.message(),
-                       {{"text", text}, {"sent", false}, {"error", send_error.message()}});
+        ring_replies->settled();  // nothing will come of it
+        printer.answer({"send failed: " + send_error.message(),
+                        {{"text", text}, {"sent", false}, {"error", send_error.message()}}});
       } else {
-        printer.answer("sent " + text, {{"text", text}, {"sent", true}, {"message", elcano_json(*message)}});
+        printer.answer({"sent " + text, {{"text", text}, {"sent", true}, {"message", elcano_json(*message)}}});
       }
     }
   }

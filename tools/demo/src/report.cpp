@@ -143,4 +143,8 @@ nlohmann::json to_json(const DemoReport& report) {
           {"devices", std::move(devices)}};
 }
 
+std::string format_json(const DemoReport& report) {
+  return to_json(report).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 }  // namespace tether::demo

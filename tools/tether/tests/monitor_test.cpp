@@ -4,11 +4,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include <signal.h>
+
 #include <string>
 #include <vector>
 
 #include "fake_port.hpp"
 #include "tether/proxy/frame.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
 
@@ -77,6 +80,46 @@ TEST(TetherMonitor, RomiJsonLines) {
   const json log = json::parse(lines[1]);
   EXPECT_EQ(log["kind"], "log");
   EXPECT_EQ(log["text"], "motor: ready");
+}
+
+// Regression: a frame with an empty payload made the monitor abort (std::out_of_range from substr). The
+// reference firmware sends `#!#:xxxx`: it logs the offending byte before an envelope error, and `#`
+// restarts the frame.
+constexpr std::string_view kEmptyPayloadTraffic =
+    "#:xxxx\r\n"
+    "#!#:xxxx\r\n"
+    "#a[0]:00e7\r\n";
+
+TEST(TetherMonitor, RomiFrameWithAnEmptyPayload) {
+  FakePort device;
+  device.send(kEmptyPayloadTraffic);
+  const Outcome run = run_tether({"monitor", "--port", device.path(), "--count", "3"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<std::string> expected = {
+      "frame    (empty) (manual)",
+      "resync   skipped bytes to the next frame start",
+      "frame    (empty) (manual)",
+      "frame    a[0] id 00",
+  };
+  EXPECT_EQ(without_stamps(run.lines()), expected) << run.out;
+}
+
+TEST(TetherMonitor, RomiFrameWithAnEmptyPayloadAsJson) {
+  FakePort device;
+  device.send(kEmptyPayloadTraffic);
+  const Outcome run = run_tether({"monitor", "--port", device.path(), "--count", "3", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  std::vector<json> frames;
+  for (const std::string& line : run.lines()) {
+    const json object = json::parse(line);
+    if (object["kind"] == "frame") frames.push_back(object);
+  }
+  ASSERT_EQ(frames.size(), 3u) << run.out;
+  EXPECT_EQ(frames[0]["payload"], "");
+  EXPECT_EQ(frames[0]["manual"], true);
+  EXPECT_FALSE(frames[0].contains("values"));
+  EXPECT_EQ(frames[1]["payload"], "");
+  EXPECT_EQ(frames[2]["values"], json::parse("[0]"));
 }
 
 TEST(TetherMonitor, UtcTimestamps) {
@@ -165,6 +208,81 @@ TEST(TetherMonitor, LinkFailureExitsTwo) {
   EXPECT_EQ(json::parse(*line)["payload"], "a[0]");
   device.reset();  // the device goes away (the pty closes)
   EXPECT_EQ(monitor.wait(std::chrono::seconds(20)), 2);
+}
+
+// `monitor --tap`: a romi client (`tether call`) talks to a virtual romi-test through the tap's pty; the
+// calls succeed and both directions are decoded, each line with its direction.
+TEST(TetherMonitor, TapPassesASessionThroughAndDecodesBothDirections) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  ::tether::testing::ChildProcess tap({TETHER_BINARY, "monitor", "--virtual", "romi-test", "--tap"}, true);
+  const auto ready = tap.read_line(std::chrono::seconds(30));
+  ASSERT_TRUE(ready && ready->starts_with("PTY /dev/")) << ready.value_or("(nothing)");
+  const std::string pty = ready->substr(4);
+
+  const Outcome first = run_tether({"call", "--port", pty, "e"});
+  EXPECT_EQ(first.status, 0) << first.err;
+  EXPECT_EQ(first.out, "[0,1,2]\n");
+  const Outcome second = run_tether({"call", "--port", pty, "s[2,3]"});
+  EXPECT_EQ(second.status, 0) << second.err;
+  EXPECT_EQ(second.out, "[0,5]\n");
+
+  // Each call: its request host->device, then the answer device->host.
+  const std::vector<std::string> patterns = {
+      "#.# host->device frame    e id *",
+      "#.# device->host frame    e[0,1,2] id *",
+      "#.# host->device frame    s[2,3] id *",
+      "#.# device->host frame    s[0,5] id *",
+  };
+  std::vector<std::string> lines;
+  for (std::size_t i = 0; i < patterns.size(); ++i) {
+    const auto line = tap.read_line(std::chrono::seconds(20));
+    ASSERT_TRUE(line) << "after " << lines.size() << " lines";
+    lines.push_back(*line);
+    EXPECT_TRUE(matches(*line, patterns[i])) << *line;
+  }
+  tap.signal(SIGTERM);
+  EXPECT_EQ(tap.wait(std::chrono::seconds(20)), 0);
+}
+
+TEST(TetherMonitor, TapJsonLinesCarryTheDirection) {
+  FakePort device;
+  ::tether::testing::ChildProcess tap({TETHER_BINARY, "monitor", "--port", device.path(), "--tap", "--json"}, true);
+  const auto ready = tap.read_line(std::chrono::seconds(30));
+  ASSERT_TRUE(ready);
+  const std::string pty = json::parse(*ready)["pty"];
+  // The application's side: the test opens the tap's pty like a serial port.
+  transports::IoThread io;
+  const auto application = transports::SerialPortStream::open(io.executor(), pty, transports::SerialOptions());
+  const std::string request = "#e:xxxx\r\n";
+  application->write(boost::asio::buffer(request));
+  EXPECT_EQ(device.read_until('\n'), request);  // passed on unchanged
+  device.send("#e[0,1,2]:00dc\r\n");
+  std::string answer;
+  while (answer.find('\n') == std::string::npos) {
+    char buffer[64];
+    boost::system::error_code error;
+    const std::size_t size =
+        application->read_some(boost::asio::buffer(buffer), std::chrono::seconds(20), error);
+    ASSERT_FALSE(error) << error.message();
+    answer.append(buffer, size);
+  }
+  EXPECT_EQ(answer, "#e[0,1,2]:00dc\r\n");
+  const auto to_device = tap.read_line(std::chrono::seconds(20));
+  ASSERT_TRUE(to_device);
+  const json request_line = json::parse(*to_device);
+  EXPECT_EQ(request_line["direction"], "host->device");
+  EXPECT_EQ(request_line["kind"], "frame");
+  EXPECT_EQ(request_line["payload"], "e");
+  EXPECT_EQ(request_line["manual"], true);
+  const auto to_host = tap.read_line(std::chrono::seconds(20));
+  ASSERT_TRUE(to_host);
+  const json answer_line = json::parse(*to_host);
+  EXPECT_EQ(answer_line["direction"], "device->host");
+  EXPECT_EQ(answer_line["kind"], "frame");
+  EXPECT_EQ(answer_line["values"], json::parse("[0,1,2]"));
+  application->close();
+  tap.signal(SIGTERM);
+  EXPECT_EQ(tap.wait(std::chrono::seconds(20)), 0);
 }
 
 }  // namespace

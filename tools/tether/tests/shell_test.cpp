@@ -55,6 +55,54 @@ TEST(TetherShell, LogLinesAppearWhileIdle) {
   EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
 }
 
+// Regression: the shell had no line editing (Up sent `^[[A` as a command). On a terminal it edits with
+// libedit: history on Up, cursor movement.
+TEST(TetherShell, LineEditingAndHistory) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  Terminal terminal({"shell", "--virtual", "romi-test"});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("s[2,3]\n");
+  ASSERT_TRUE(terminal.expect("[0,5]")) << terminal.screen();
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("\x1b[A");  // Up: the previous line again
+  EXPECT_TRUE(terminal.expect("s[2,3]")) << terminal.screen();
+  terminal.type("\n");
+  EXPECT_TRUE(terminal.expect("[0,5]")) << terminal.screen();
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  // Editing inside the line: the opcode typed last, at the start (Ctrl-A, then Right past it, ...).
+  terminal.type("[4,5]\x01s\n");
+  EXPECT_TRUE(terminal.expect("[0,9]")) << terminal.screen();
+  EXPECT_EQ(terminal.screen().find("^["), std::string::npos) << terminal.screen();
+  terminal.type(":quit\n");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+// Regression: a line arriving while the user was typing wiped the typed text from the screen. It is printed
+// above, and the prompt with the text typed so far is drawn again; the line still works.
+TEST(TetherShell, AsynchronousLineRedrawsThePromptAndTheTypedText) {
+  FakePort device;
+  Terminal terminal({"shell", "--port", device.path()});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("t[\"half");
+  ASSERT_TRUE(terminal.expect("t[\"half")) << terminal.screen();  // echoed
+  device.send("#!battery low: 11.1 V:xxxx\r\n");
+  EXPECT_TRUE(terminal.expect("log: battery low: 11.1 V")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("romi> t[\"half")) << terminal.screen();
+  terminal.type("\x15:quit\n");  // Ctrl-U: the line goes; :quit
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+// Ctrl-C while a line is being edited ends the shell cleanly (libedit does not take the signal over).
+TEST(TetherShell, CtrlCWhileEditingEndsTheShell) {
+  FakePort device;
+  Terminal terminal({"shell", "--port", device.path()});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("t[\"half");
+  ASSERT_TRUE(terminal.expect("t[\"half")) << terminal.screen();
+  terminal.type("\x03");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
 TEST(TetherShell, ProxyMessagesAndDeviceEvents) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   Terminal terminal({"shell", "--virtual", "proxy"});
@@ -76,26 +124,44 @@ TEST(TetherShell, ProxyMessagesAndDeviceEvents) {
   EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
 }
 
+// Regression: a lone virtual elcano-node used to capture nothing, so every message came back undelivered.
+// Now the board captures drive messages and answers each with a sensor report, which the host captures.
 TEST(TetherShell, ElcanoMessagesGoRoundTheRing) {
   TETHER_REQUIRE_FIRMWARE("elcano-node");
-  // One elcano-node board with its default configuration captures nothing: what the host sends comes
-  // back to it, undelivered.
   Terminal terminal({"shell", "--virtual", "elcano-node"});
+  ASSERT_TRUE(terminal.expect("the virtual board captures drive messages")) << terminal.screen();
   ASSERT_TRUE(terminal.expect("elcano> ")) << terminal.screen();
   terminal.type("D{s 50}{a 25}\n");
-  // Regression (seen once under load): the message can come back round the ring before the send's
-  // completion prints "sent": the two lines are checked in either order.
-  EXPECT_TRUE(terminal.expect("undeliverable D{s 50}{a 25}")) << terminal.screen();
+  // The answer can come back round the ring before the send's completion prints "sent": the two lines are
+  // checked in either order.
+  EXPECT_TRUE(terminal.expect("captured S{s 50}{a 25}{b 0}{p 0,0}")) << terminal.screen();
   EXPECT_TRUE(::tether::testing::eventually(
       [&] { return terminal.screen().find("sent D{s 50}{a 25}") != std::string::npos; }, std::chrono::seconds(20)))
       << terminal.screen();
+  // Nobody captures a goal: it comes back to the host.
+  terminal.type("G{n 1}{p 0,0}{b 90}\n");
+  EXPECT_TRUE(terminal.expect("undeliverable G{n 1}{b 90}{p 0,0}")) << terminal.screen();
   terminal.type("D{s 50}\n");
   EXPECT_TRUE(terminal.expect("error: not an Elcano message (inval_comb)")) << terminal.screen();
-  // Capturing drive messages: the next one comes back and is the host's.
   terminal.type(":capture drive\n");
   EXPECT_TRUE(terminal.expect("capturing drive")) << terminal.screen();
   terminal.type(":quit\n");
   EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+// Regression: with piped input the elcano shell exited at the end of the input, before the answer to
+// what it had sent came back round the ring.
+TEST(TetherShell, PipedElcanoShellWaitsForTheAnswers) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  ::tether::testing::ChildProcess shell(
+      {"sh", "-c", "printf 'D{s 50}{a 25}\\nD{s -20}{a 5}\\n' | exec \"$0\" shell --virtual elcano-node",
+       TETHER_BINARY},
+      /*capture_stdout=*/true);
+  std::string out;
+  while (const auto line = shell.read_line(std::chrono::seconds(60))) out += *line + "\n";
+  EXPECT_EQ(shell.wait(std::chrono::seconds(20)), 0);
+  EXPECT_NE(out.find("captured S{s 50}{a 25}{b 0}{p 0,0}"), std::string::npos) << out;
+  EXPECT_NE(out.find("captured S{s -20}{a 5}{b 0}{p 0,0}"), std::string::npos) << out;
 }
 
 TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {

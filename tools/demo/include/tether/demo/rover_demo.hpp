@@ -117,5 +117,8 @@ DemoReport run_demo(const DemoOptions& options);
 std::string format_table(const DemoReport& report);
 /// The report as JSON (`tether demo --json`).
 nlohmann::json to_json(const DemoReport& report);
+/// `to_json` as one line of text. Device texts that are not valid UTF-8 (names, first errors quoting what a
+/// device sent) are replaced with U+FFFD rather than thrown on.
+std::string format_json(const DemoReport& report);
 
 }  // namespace tether::demo

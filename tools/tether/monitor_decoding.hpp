@@ -1,0 +1,72 @@
+// What `tether monitor` makes of a byte stream: each codec's decoder turning bytes into records (one output
+// line each: frames, log lines, messages, errors, resyncs) and their text and JSON forms. Separate from the
+// command so the fuzz target `monitor_decoding` runs exactly this path on random bytes.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tether/core/time.hpp"
+#include "tether/devices/config.hpp"
+
+namespace tether::cli {
+
+/// Which way the decoded bytes travel. `monitor` sees the device's side only; `monitor --tap` both.
+enum class Direction {
+  device_to_host,  ///< what the device sends
+  host_to_device,  ///< what the application sends (tap only)
+};
+
+/// `device->host` or `host->device`.
+const char* to_string(Direction direction);
+
+/// One line of output.
+struct MonitorRecord {
+  std::string kind;             ///< frame, log, message, forwarded, captured, undecodable, error, resync
+  std::string detail;           ///< the text after the kind
+  nlohmann::ordered_json json;  ///< the JSON fields after "kind"
+  bool counted = false;         ///< counts towards --count (errors and resyncs do not)
+};
+
+/// `kind     detail`: the kind padded to 8 columns (the text line after the timestamp).
+std::string record_text(const MonitorRecord& record);
+/// `{"kind": ..., <fields>}` (the JSON line after the timestamp).
+nlohmann::ordered_json record_json(const MonitorRecord& record);
+
+/// A codec's receiving side, fed with one direction's bytes.
+class MonitorDecoder {
+ public:
+  virtual ~MonitorDecoder() = default;
+  /// Decodes `byte`, appending what it produced.
+  virtual void feed(std::uint8_t byte, Millis now, std::vector<MonitorRecord>& records) = 0;
+  /// Handles deadlines (elcano ring node).
+  virtual void poll(Millis, std::vector<MonitorRecord>&) {}
+  /// Bytes the protocol requires the host to send now (elcano forwarding, proxy keepalive pings).
+  virtual std::string output(Millis) { return {}; }
+  /// True while output is waiting for its pacing (what `output` will still return).
+  virtual bool output_pending() const { return false; }
+  /// When `poll`/`output` next has something to do, in ms from `now` (nothing: no deadline).
+  virtual std::optional<Duration> next_wakeup(Millis) { return std::nullopt; }
+  /// The decoder's counters.
+  virtual LinkCounters counters() const = 0;
+};
+
+/// How a decoder takes part in the link.
+struct DecoderRole {
+  Direction direction = Direction::device_to_host;  ///< whose bytes it decodes (proxy: the schema side)
+  /// Elcano: act as the host's ring node (capture, forward what is not captured). False: only decode (a tap
+  /// forwards the bytes themselves).
+  bool ring_node = true;
+  /// Proxy primary mode: produce a Ping every second as output.
+  bool keepalive = false;
+};
+
+/// The decoder of `config`'s codec (and its options: proxy mode, elcano generation and capture) for `role`.
+std::unique_ptr<MonitorDecoder> make_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                     Millis now);
+
+}  // namespace tether::cli
