@@ -43,7 +43,7 @@ namespace {
 const CommandText& command_text() {
   static const CommandText text(
       "flash",
-      "usage: tether flash --port PATH IMAGE [--baud N] [--avrdude PATH] [--timeout S] [--json]\n"
+      "usage: tether flash --port PATH IMAGE [--baud N] [--attempts N] [--avrdude PATH] [--timeout S] [--json]\n"
       "\n"
       "Uploads IMAGE to the board on PATH through its bootloader with avrdude (Debian's; `-c arduino -p\n"
       "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
@@ -56,6 +56,8 @@ const CommandText& command_text() {
       "\n"
       "  --port PATH     the board's serial port (/dev/ttyACM0) or a `tether sim --bootloader` pty\n"
       "  --baud N        the bootloader's speed (default 115200: an Uno's optiboot; 57600 for older boards)\n"
+      "  --attempts N    how often avrdude tries to get in sync with the bootloader (default 10, avrdude's;\n"
+      "                  each failed try costs avrdude about 5 s)\n"
       "  --avrdude PATH  the avrdude program (default: `avrdude` on PATH)\n"
       "  --timeout S     give up when avrdude has not finished after S seconds (default 120)\n"
       "  --json          print {\"port\",\"image\",\"bytes\",\"verified\"} on success\n"
@@ -76,6 +78,7 @@ struct Arguments {
   std::uint32_t baud = 115200;
   std::string avrdude = "avrdude";
   std::uint32_t timeout_ms = 120'000;
+  std::uint32_t attempts = 10;
   bool json = false;
 };
 
@@ -87,7 +90,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       arguments.json = true;
       return std::nullopt;
     }
-    if (argument == "--port" || argument == "--baud" || argument == "--avrdude" || argument == "--timeout") {
+    if (argument == "--port" || argument == "--baud" || argument == "--avrdude" || argument == "--timeout" ||
+        argument == "--attempts") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (value.empty()) return text.usage_error(std::string(argument) + " needs a value");
@@ -95,6 +99,10 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
         arguments.port = value;
       } else if (argument == "--avrdude") {
         arguments.avrdude = value;
+      } else if (argument == "--attempts") {
+        const auto attempts = parse_number(value, 1, 99);
+        if (!attempts) return text.usage_error("--attempts needs a number in 1..99, got '" + std::string(value) + "'");
+        arguments.attempts = *attempts;
       } else if (argument == "--baud") {
         const auto baud = parse_number(value, 300, 2'000'000);
         if (!baud) return text.usage_error("--baud needs a speed in 300..2000000, got '" + std::string(value) + "'");
@@ -301,6 +309,7 @@ int run_flash(int argc, char** argv) {
   }
   const std::vector<std::string> command = {*avrdude, "-c", "arduino", "-p", "atmega328p", "-P", arguments.port,
                                             "-b", std::to_string(arguments.baud), "-D",
+                                            "-x", "attempts=" + std::to_string(arguments.attempts),
                                             "-U", "flash:w:" + hex.string() + ":i"};
   const bool show = !arguments.json || stderr_is_terminal();
   const auto run = run_avrdude(command, show, std::chrono::milliseconds(arguments.timeout_ms), problem);
