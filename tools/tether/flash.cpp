@@ -49,7 +49,8 @@ const CommandText& command_text() {
       "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
       "or an image name looked up like `--virtual` (romi-test: its .hex in the firmware folder).\n"
       "An Uno resets when the port opens (DTR) and optiboot waits about 1 s for avrdude; a board without\n"
-      "auto-reset needs its reset button pressed just before. avrdude's progress is shown on stderr.\n"
+      "auto-reset needs its reset button pressed just before. avrdude's progress is shown on stderr. When the\n"
+      "bootloader stops answering (it gives up after 1 s of silence), avrdude runs once more.\n"
       "\n"
       "Checked before anything is sent: the image is for an ATmega328P (ELF: AVR machine, avr5; all bytes below\n"
       "0x7E00, where optiboot lives), avrdude is on PATH, the port exists and no program holds it exclusively.\n"
@@ -245,6 +246,11 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
 
 bool contains(const std::string& text, std::string_view what) { return text.find(what) != std::string::npos; }
 
+// avrdude got no STK500 answer (at the start or in the middle of the upload).
+bool lost_bootloader(const AvrdudeRun& run) {
+  return run.status > 0 && (contains(run.output, "not in sync") || contains(run.output, "not responding"));
+}
+
 // What went wrong, from avrdude's words (avrdude 7.1).
 std::string explain_failure(const AvrdudeRun& run, const Arguments& arguments) {
   const std::string& out = run.output;
@@ -252,7 +258,7 @@ std::string explain_failure(const AvrdudeRun& run, const Arguments& arguments) {
     return "avrdude did not finish within " + std::to_string(arguments.timeout_ms / 1000) + " s (stopped)";
   }
   if (contains(out, "Device or resource busy")) return arguments.port + ": port busy (avrdude could not open it)";
-  if (contains(out, "not in sync") || contains(out, "not responding") || contains(out, "stk500_getsync")) {
+  if (lost_bootloader(run)) {
     return arguments.port + ": no bootloader answer: the board did not talk STK500 at " + std::to_string(arguments.baud) +
            " baud (an application is running, or it has no optiboot; an Uno resets into it when the port opens, "
            "other boards need the reset button pressed just before flashing)";
@@ -312,7 +318,16 @@ int run_flash(int argc, char** argv) {
                                             "-x", "attempts=" + std::to_string(arguments.attempts),
                                             "-U", "flash:w:" + hex.string() + ":i"};
   const bool show = !arguments.json || stderr_is_terminal();
-  const auto run = run_avrdude(command, show, std::chrono::milliseconds(arguments.timeout_ms), problem);
+  // The bootloader gives up after 1 s without a command (optiboot's watchdog): a host that stalls that
+  // long (a loaded machine, a USB hiccup) loses it, before the first sync or between two pages. Opening
+  // the port again resets an Uno into its bootloader, so a lost bootloader is worth one more run: the
+  // upload is idempotent and verified either way.
+  std::optional<AvrdudeRun> run;
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    run = run_avrdude(command, show, std::chrono::milliseconds(arguments.timeout_ms), problem);
+    if (!run || run->status == 0 || !lost_bootloader(*run) || attempt == 2) break;
+    std::fprintf(stderr, "tether flash: the bootloader stopped answering; opening the port again (it resets an Uno)\n");
+  }
   std::filesystem::remove(hex);
   if (!run) return text.fail(problem);
   if (run->status != 0) {
