@@ -24,6 +24,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -33,6 +34,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "flash_image.hpp"
+#include "tether/devices/config.hpp"
 
 extern char** environ;
 
@@ -43,7 +45,8 @@ namespace {
 const CommandText& command_text() {
   static const CommandText text(
       "flash",
-      "usage: tether flash --port PATH IMAGE [--baud N] [--attempts N] [--avrdude PATH] [--timeout S] [--json]\n"
+      "usage: tether flash --port PATH IMAGE [--eeprom NODE.json] [--baud N] [--attempts N] [--avrdude PATH]\n"
+      "                    [--timeout S] [--json]\n"
       "\n"
       "Uploads IMAGE to the board on PATH through its bootloader with avrdude (Debian's; `-c arduino -p\n"
       "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
@@ -56,6 +59,11 @@ const CommandText& command_text() {
       "0x7E00, where optiboot lives), avrdude is on PATH, the port exists and no program holds it exclusively.\n"
       "\n"
       "  --port PATH     the board's serial port (/dev/ttyACM0) or a `tether sim --bootloader` pty\n"
+      "  --eeprom NODE.json\n"
+      "                  an elcano-node's configuration (capture, behaviours, pacing; the keys of a virtual\n"
+      "                  ring board's `eeprom` in a rover configuration, plus `generation` and `baud`), uploaded\n"
+      "                  with the image: optiboot cannot write EEPROM, so the block goes into the flash page at\n"
+      "                  0x7D80 and the node copies it into EEPROM at boot (firmware/elcano-node/README.md)\n"
       "  --baud N        the bootloader's speed (default 115200: an Uno's optiboot; 57600 for older boards)\n"
       "  --attempts N    how often avrdude tries to get in sync with the bootloader (default 10, avrdude's;\n"
       "                  each failed try costs avrdude about 5 s)\n"
@@ -80,6 +88,7 @@ struct Arguments {
   std::string avrdude = "avrdude";
   std::uint32_t timeout_ms = 120'000;
   std::uint32_t attempts = 10;
+  std::optional<std::filesystem::path> eeprom;  // an elcano-node's configuration (JSON)
   bool json = false;
 };
 
@@ -92,7 +101,7 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       return std::nullopt;
     }
     if (argument == "--port" || argument == "--baud" || argument == "--avrdude" || argument == "--timeout" ||
-        argument == "--attempts") {
+        argument == "--attempts" || argument == "--eeprom") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (value.empty()) return text.usage_error(std::string(argument) + " needs a value");
@@ -100,6 +109,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
         arguments.port = value;
       } else if (argument == "--avrdude") {
         arguments.avrdude = value;
+      } else if (argument == "--eeprom") {
+        arguments.eeprom = std::filesystem::path(value);
       } else if (argument == "--attempts") {
         const auto attempts = parse_number(value, 1, 99);
         if (!attempts) return text.usage_error("--attempts needs a number in 1..99, got '" + std::string(value) + "'");
@@ -244,6 +255,33 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
   return run;
 }
 
+// Puts an elcano-node configuration block (from the JSON file at `path`) into the flash page the node copies
+// into EEPROM at boot. False with `error` for a bad file or an image that reaches that page.
+bool add_node_configuration(transports::HexImage& image, const std::filesystem::path& path, std::string& error) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) {
+    error = path.string() + ": " + std::strerror(errno);
+    return false;
+  }
+  const std::string json_text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  std::vector<std::uint8_t> block;
+  try {
+    const devices::NodeFile node = devices::parse_node_file(json_text);
+    block = devices::encode_node_block(node.settings, node.generation, node.baud);
+  } catch (const devices::ConfigError& failure) {
+    error = path.string() + ": " + failure.what();
+    return false;
+  }
+  const std::uint32_t page = devices::node_upload_address();
+  if (image.end() > page) {
+    error = "the image reaches the configuration page at " + std::to_string(page) + " (it ends at " +
+            std::to_string(image.end()) + "): --eeprom needs an image below it, such as elcano-node";
+    return false;
+  }
+  image.segments.push_back({page, std::move(block)});
+  return true;
+}
+
 bool contains(const std::string& text, std::string_view what) { return text.find(what) != std::string::npos; }
 
 // avrdude got no STK500 answer (at the start or in the middle of the upload).
@@ -294,8 +332,9 @@ int run_flash(int argc, char** argv) {
   const CommandText& text = command_text();
 
   std::string problem;
-  const auto image = read_flash_image(arguments.image, problem);
+  auto image = read_flash_image(arguments.image, problem);
   if (!image) return text.fail(problem);
+  if (arguments.eeprom && !add_node_configuration(*image, *arguments.eeprom, problem)) return text.fail(problem);
   const auto avrdude = find_program(arguments.avrdude);
   if (!avrdude) {
     return text.fail(arguments.avrdude == "avrdude"

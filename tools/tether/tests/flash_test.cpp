@@ -6,20 +6,25 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "tether/transports/intel_hex.hpp"
 #include "tether_process.hpp"
 
 namespace tether::cli::testing {
 namespace {
+
+using namespace std::chrono_literals;
 
 const std::filesystem::path kOptiboot = std::filesystem::path(TETHER_FIRMWARE_DIR) / "optiboot-atmega328.hex";
 const std::filesystem::path kRomiTestHex = std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-test.hex";
@@ -126,6 +131,53 @@ TEST(TetherFlash, PortBusy) {
   ::close(holder);
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find(board.pty() + ": port busy"), std::string::npos) << run.err;
+}
+
+// Opens `port` (which resets a `--bootloader` board: optiboot hands over after its 1 s timeout), waits
+// `boot`, writes `request` and returns what comes back within `listen`.
+std::string exchange(const std::string& port, std::chrono::milliseconds boot, const std::string& request,
+                     std::chrono::milliseconds listen) {
+  const int fd = ::open(port.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) return "(cannot open " + port + ")";
+  std::this_thread::sleep_for(boot);
+  std::string answer;
+  if (::write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
+    const auto end = std::chrono::steady_clock::now() + listen;
+    while (std::chrono::steady_clock::now() < end && answer.find('\n') == std::string::npos) {
+      pollfd readable{fd, POLLIN, 0};
+      if (::poll(&readable, 1, 50) <= 0) continue;
+      char buffer[256];
+      const ssize_t got = ::read(fd, buffer, sizeof buffer);
+      if (got > 0) answer.append(buffer, static_cast<std::size_t>(got));
+    }
+  }
+  ::close(fd);
+  return answer;
+}
+
+// `--eeprom`: the node's configuration travels in the image's flash (optiboot writes no EEPROM) and the node
+// adopts it at boot. The same board before and after: unconfigured it forwards a drive message; configured to
+// capture drives and report them as sensor messages, it answers with one.
+TEST(TetherFlash, ElcanoNodeConfigurationFromJson) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
+  Outcome flash = run_tether({"flash", "--port", board.pty(), "elcano-node"});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "D{s50}{a25}\n");  // forwarded (whitespace-stripped)
+
+  const auto node = temp_file("node.json");
+  std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["report_drive_as_sensor"], "node_number": 7})";
+  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "S{s 50}{a 25}{b 0}{p 0,0}\n");
+
+  // A bad file is refused, naming the key, before anything is sent.
+  std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["fly"]})";
+  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  EXPECT_EQ(flash.status, 2);
+  EXPECT_NE(flash.err.find("behaviours[0]"), std::string::npos) << flash.err;
+  std::filesystem::remove(node);
 }
 
 }  // namespace
