@@ -274,8 +274,10 @@ bool add_node_configuration(transports::HexImage& image, const std::filesystem::
   }
   const std::uint32_t page = devices::node_upload_address();
   if (image.end() > page) {
-    error = "the image reaches the configuration page at " + std::to_string(page) + " (it ends at " +
-            std::to_string(image.end()) + "): --eeprom needs an image below it, such as elcano-node";
+    char where[96];
+    std::snprintf(where, sizeof where, "the image reaches the configuration page at 0x%04X (it ends at 0x%04X)",
+                  static_cast<unsigned>(page), static_cast<unsigned>(image.end()));
+    error = std::string(where) + ": --eeprom needs an image below it, such as elcano-node";
     return false;
   }
   image.segments.push_back({page, std::move(block)});

@@ -276,7 +276,7 @@ struct VirtualUnoStats {
   std::uint64_t injected_watchdog_resets = 0;
   std::uint64_t injected_external_resets = 0;
   std::uint64_t power_cycles = 0;
-  std::uint64_t port_open_resets = 0;          ///< external resets from `reset_on_open`
+  std::uint64_t port_open_resets = 0;          ///< resets by `reset_on_open` (also in injected_external_resets)
   std::uint64_t rx_bytes = 0;        ///< bytes that entered the UART (after to_mcu faults)
   std::uint64_t rx_bytes_lost = 0;   ///< bytes that arrived while the receiver was disabled or off
   std::uint64_t tx_bytes = 0;        ///< bytes the firmware wrote to UDR0 (before from_mcu faults)
