@@ -24,6 +24,7 @@
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
+#include "flash_image.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace tether::cli {
@@ -34,6 +35,7 @@ const CommandText& command_text() {
   static const CommandText text(
       "sim",
       "usage: tether sim IMAGE [--fast] [--link PATH] [--baud N] [--json]\n"
+      "       tether sim [IMAGE] --bootloader optiboot|HEX [--link PATH] [--json]\n"
       "\n"
       "Runs IMAGE on a virtual Arduino Uno (ATmega328P, 16 MHz, libsimavr) and bridges its UART0 to a\n"
       "pseudo-terminal. Prints `PTY <path>` once the port is ready; runs until SIGINT/SIGTERM.\n"
@@ -52,6 +54,13 @@ const CommandText& command_text() {
       "  --link PATH  also make PATH a symlink to the pty (replaces a stale symlink; removed at exit)\n"
       "  --baud N     the host's line speed (default 115200): reported to pty clients, and a warning is\n"
       "               printed if the firmware's UART runs more than 5% off it (a real board would garble)\n"
+      "  --bootloader optiboot|HEX\n"
+      "               an Uno with a bootloader: HEX (Intel HEX) in the boot section and the reset vector\n"
+      "               there; `optiboot` is the build's (firmware/optiboot-atmega328.hex, from Debian's\n"
+      "               arduino-core-avr source). Like an Uno, the board resets when a\n"
+      "               client opens the pty (the open stands for DTR) and on SIGUSR1 (the reset button), so\n"
+      "               `tether flash --port PTY IMAGE` uploads through it. Without IMAGE the application flash\n"
+      "               starts blank. Real-time only (the bootloader's 1 s timeout races avrdude's wall clock)\n"
       "  --json       print {\"pty\":\"/dev/pts/N\",\"firmware\":\"<path of the image>\"} instead of\n"
       "               `PTY /dev/pts/N`\n"
       "\n"
@@ -65,6 +74,7 @@ struct Arguments {
   std::optional<std::filesystem::path> link;
   std::uint32_t baud = 115200;
   bool json = false;
+  std::filesystem::path bootloader;
 };
 
 // Returns an exit status if parsing ends the program (help or error).
@@ -76,6 +86,10 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       arguments.fast = true;
     } else if (argument == "--json") {
       arguments.json = true;
+    } else if (argument == "--bootloader") {
+      if (i + 1 >= argc) return text.usage_error("--bootloader needs `optiboot` or a path to an Intel HEX file");
+      const std::string_view value = argv[++i];
+      arguments.bootloader = value == "optiboot" ? std::filesystem::path(firmware_dir()) / kOptibootImage : std::filesystem::path(value);
     } else if (argument == "--link" || argument == "--baud") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
@@ -98,7 +112,10 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
     return std::nullopt;
   };
   if (const auto status = parse_arguments(argc, argv, text, own)) return status;
-  if (!have_image) return text.usage_error("no image given");
+  if (!have_image && arguments.bootloader.empty()) return text.usage_error("no image given");
+  if (arguments.fast && !arguments.bootloader.empty()) {
+    return text.usage_error("--fast and --bootloader: the bootloader's timeout must run in real time");
+  }
   return std::nullopt;
 }
 
@@ -145,6 +162,7 @@ int run_sim(int argc, char** argv) {
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGUSR1);  // the reset button (taken only with --bootloader, ignored otherwise)
   if (const int error = pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr); error != 0) {
     return command_text().fail(std::string("cannot block signals: ") + std::strerror(error));
   }
@@ -153,6 +171,8 @@ int run_sim(int argc, char** argv) {
   options.firmware = arguments.image;
   options.pacing = arguments.fast ? transports::Pacing::fast : transports::Pacing::real_time;
   options.pty_baud = arguments.baud;
+  options.bootloader = arguments.bootloader;
+  options.reset_on_open = !arguments.bootloader.empty();
   std::error_code error;
   std::string message;
   auto uno = transports::VirtualUno::create(options, error, &message);
@@ -172,11 +192,12 @@ int run_sim(int argc, char** argv) {
   }
   // "Ready" means the firmware listens: bytes a client writes before the firmware enables its UART
   // receiver would be lost (a proxy client's opening Reset, a first Romi request), as on a booting board.
+  // With a bootloader the port is ready at once: opening it resets the board into the bootloader.
   const auto boot_limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (!uno->uart().rx_enabled && std::chrono::steady_clock::now() < boot_limit) {
+  while (arguments.bootloader.empty() && !uno->uart().rx_enabled && std::chrono::steady_clock::now() < boot_limit) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  if (!uno->uart().rx_enabled) {
+  if (arguments.bootloader.empty() && !uno->uart().rx_enabled) {
     std::fprintf(stderr, "tether sim: warning: the firmware did not enable its UART receiver within 5 s\n");
   }
 
@@ -193,6 +214,10 @@ int run_sim(int argc, char** argv) {
   for (;;) {
     const int signal = sigtimedwait(&stop_signals, nullptr, &poll_interval);
     if (signal == SIGINT || signal == SIGTERM) break;
+    if (signal == SIGUSR1) {
+      if (!arguments.bootloader.empty()) uno->reset(transports::ResetKind::external);
+      continue;
+    }
     if (signal < 0 && errno != EAGAIN && errno != EINTR) {
       std::fprintf(stderr, "tether sim: sigtimedwait: %s\n", std::strerror(errno));
       break;

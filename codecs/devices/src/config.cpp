@@ -383,6 +383,45 @@ constexpr std::size_t kEepromBytes = 1024;  // ATmega328P
 const Names kBehaviours = {"answer_goal_with_segment", "answer_segment_with_drive", "answer_sensor_with_drive",
                                "drive_servos", "report_drive_as_sensor"};
 
+// An elcano-node's settings object (`boards[i].eeprom`); a node file (`with_link`) also has the ring's
+// `generation` and `baud`, which its caller reads.
+RingNodeSettings parse_node_settings(const Node& node, bool with_link, std::uint8_t default_node_number) {
+  const Object settings(node);
+  if (with_link) {
+    settings.allow_only({"capture", "behaviours", "next_receiver_buffer", "next_poll_interval_ms", "loop_period_ms",
+                         "node_number", "generation", "baud"});
+  } else {
+    settings.allow_only({"capture", "behaviours", "next_receiver_buffer", "next_poll_interval_ms", "loop_period_ms",
+                         "node_number"});
+  }
+  RingNodeSettings node_settings;
+  node_settings.node_number = default_node_number;
+  if (auto c = settings.optional("capture")) node_settings.capture = read_types(*c);
+  if (auto b = settings.optional("behaviours")) {
+    if (!b->value.is_array()) b->expected("an array of behaviours (" + join(kBehaviours) + ")");
+    for_each_element(*b, [&](const Node& element, std::size_t) {
+      const auto bit = static_cast<std::uint8_t>(1u << read_choice(element, "behaviour", kBehaviours));
+      if ((node_settings.behaviour_bits & bit) != 0) {
+        fail(element.path, "behaviour " + element.value.dump() + " is listed twice");
+      }
+      node_settings.behaviour_bits = static_cast<std::uint8_t>(node_settings.behaviour_bits | bit);
+    });
+  }
+  if (auto n = settings.optional("next_receiver_buffer")) {
+    node_settings.next_receiver_buffer = static_cast<std::uint16_t>(read_unsigned(*n, 2, 65535));
+  }
+  if (auto n = settings.optional("next_poll_interval_ms")) {
+    node_settings.next_poll_interval = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
+  }
+  if (auto n = settings.optional("loop_period_ms")) {
+    node_settings.loop_period = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
+  }
+  if (auto n = settings.optional("node_number")) {
+    node_settings.node_number = static_cast<std::uint8_t>(read_unsigned(*n, 0, 255));
+  }
+  return node_settings;
+}
+
 RingBoardConfig parse_ring_board(const Node& node, std::size_t index, const ParseOptions& options) {
   const Object object(node);
   object.allow_only({"firmware", "eeprom"});
@@ -404,35 +443,7 @@ RingBoardConfig parse_ring_board(const Node& node, std::size_t index, const Pars
       });
       board.eeprom = std::move(bytes);
     } else if (v->value.is_object()) {
-      const Object settings(*v);
-      settings.allow_only({"capture", "behaviours", "next_receiver_buffer", "next_poll_interval_ms", "loop_period_ms",
-                           "node_number"});
-      RingNodeSettings node_settings;
-      node_settings.node_number = static_cast<std::uint8_t>(index);
-      if (auto c = settings.optional("capture")) node_settings.capture = read_types(*c);
-      if (auto b = settings.optional("behaviours")) {
-        if (!b->value.is_array()) b->expected("an array of behaviours (" + join(kBehaviours) + ")");
-        for_each_element(*b, [&](const Node& element, std::size_t) {
-          const auto bit = static_cast<std::uint8_t>(1u << read_choice(element, "behaviour", kBehaviours));
-          if ((node_settings.behaviour_bits & bit) != 0) {
-            fail(element.path, "behaviour " + element.value.dump() + " is listed twice");
-          }
-          node_settings.behaviour_bits = static_cast<std::uint8_t>(node_settings.behaviour_bits | bit);
-        });
-      }
-      if (auto n = settings.optional("next_receiver_buffer")) {
-        node_settings.next_receiver_buffer = static_cast<std::uint16_t>(read_unsigned(*n, 2, 65535));
-      }
-      if (auto n = settings.optional("next_poll_interval_ms")) {
-        node_settings.next_poll_interval = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
-      }
-      if (auto n = settings.optional("loop_period_ms")) {
-        node_settings.loop_period = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
-      }
-      if (auto n = settings.optional("node_number")) {
-        node_settings.node_number = static_cast<std::uint8_t>(read_unsigned(*n, 0, 255));
-      }
-      board.eeprom = node_settings;
+      board.eeprom = parse_node_settings(*v, false, static_cast<std::uint8_t>(index));
     } else {
       v->expected("an array of bytes or an object of node settings");
     }
@@ -778,11 +789,13 @@ RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& o
   return config;
 }
 
-RoverConfig parse_config(std::string_view json_text, const ParseOptions& options) {
-  json document;
+namespace {
+
+// JSON text (comments allowed) into a document; ConfigError "invalid JSON: parse error at line L, column C: ...".
+json parse_json_text(std::string_view json_text) {
   try {
-    document = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
-                           /*ignore_comments=*/true);
+    return json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
+                       /*ignore_comments=*/true);
   } catch (const json::parse_error& error) {
     std::string text = error.what();
     // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep "parse error at line L, column C: ...".
@@ -791,7 +804,26 @@ RoverConfig parse_config(std::string_view json_text, const ParseOptions& options
     }
     throw ConfigError("", "invalid JSON: " + text);
   }
-  return parse_document(document, options);
+}
+
+}  // namespace
+
+RoverConfig parse_config(std::string_view json_text, const ParseOptions& options) {
+  return parse_document(parse_json_text(json_text), options);
+}
+
+NodeFile parse_node_file(std::string_view json_text) {
+  const json document = parse_json_text(json_text);
+  const Node root{document, ""};
+  if (!document.is_object()) root.expected("an object of node settings");
+  NodeFile file;
+  file.settings = parse_node_settings(root, true, 0);
+  const Object object(root);
+  if (auto v = object.optional("generation")) {
+    file.generation = read_choice(*v, "generation", {"B", "D"}) == 0 ? elcano::Generation::b : elcano::Generation::d;
+  }
+  if (auto v = object.optional("baud")) file.baud = static_cast<std::uint32_t>(read_unsigned(*v, 1, 0xFFFFFFFFu));
+  return file;
 }
 
 RoverConfig load_config(const std::filesystem::path& file, ParseOptions options) {

@@ -30,11 +30,6 @@ std::string device_path(std::size_t index) { return "devices[" + std::to_string(
   throw ConfigError(std::move(path), std::move(detail), code);
 }
 
-// An elcano-node EEPROM block.
-struct NodeBlock {
-  std::uint8_t bytes[elcano::node::kConfigBlockSize];
-};
-
 // --- transports ---------------------------------------------------------------------------------------------
 
 std::shared_ptr<transports::ByteStream> open_serial(const SerialTransport& serial, const std::string& path,
@@ -92,27 +87,6 @@ struct VirtualRing {
 };
 
 // The configuration block of an elcano-node board (firmware/elcano-node/README.md).
-NodeBlock encode_node(const RingNodeSettings& settings, const ElcanoOptions& options,
-                                const std::string& path) {
-  elcano::node::NodeConfig config;
-  config.generation = options.generation;
-  config.baud = options.pacing.baud;
-  config.capture_bits = settings.capture.bits();
-  config.behaviour_bits = settings.behaviour_bits;
-  config.next_receiver_buffer = settings.next_receiver_buffer;
-  config.next_poll_interval = settings.next_poll_interval;
-  config.loop_period = settings.loop_period;
-  config.node_number = settings.node_number;
-  if (!elcano::node::config_is_valid(config)) {
-    fail(path, "not a valid elcano-node configuration (baud " + std::to_string(config.baud) + " outside " +
-                   std::to_string(elcano::node::kMinBaud) + ".." + std::to_string(elcano::node::kMaxBaud) +
-                   ", unknown behaviour bits, or a next receiver buffer under 2)",
-         make_error_code(DevicesError::invalid_config));
-  }
-  NodeBlock block{};
-  elcano::node::encode_config(config, block.bytes);
-  return block;
-}
 
 std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const ElcanoOptions& options,
                                                           const std::string& device_name, const std::string& path,
@@ -143,9 +117,10 @@ std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTrans
       }
       if (!bytes->empty()) uno->write_eeprom(0, *bytes);
     } else {
-      const NodeBlock block =
-          encode_node(std::get<RingNodeSettings>(board.eeprom), options, board_path + ".eeprom");
-      uno->write_eeprom(elcano::node::kConfigAddress, block.bytes);
+      const std::vector<std::uint8_t> block = encode_node_block(std::get<RingNodeSettings>(board.eeprom),
+                                                                options.generation, options.pacing.baud,
+                                                                board_path + ".eeprom");
+      uno->write_eeprom(elcano::node::kConfigAddress, block);
     }
     owned->group->add(*uno);
     owned->boards.push_back(std::move(uno));
@@ -502,6 +477,31 @@ Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executo
 
 OpenedTransport open_transport(const DeviceConfig& device, boost::asio::any_io_executor executor) {
   return detail::open_device_transport(device, "transport", executor);
+}
+
+std::uint32_t node_upload_address() { return elcano::node::kUploadedConfigAddress; }
+
+std::vector<std::uint8_t> encode_node_block(const RingNodeSettings& settings, elcano::Generation generation,
+                                            std::uint32_t baud, const std::string& path) {
+  elcano::node::NodeConfig config;
+  config.generation = generation;
+  config.baud = baud;
+  config.capture_bits = settings.capture.bits();
+  config.behaviour_bits = settings.behaviour_bits;
+  config.next_receiver_buffer = settings.next_receiver_buffer;
+  config.next_poll_interval = settings.next_poll_interval;
+  config.loop_period = settings.loop_period;
+  config.node_number = settings.node_number;
+  if (!elcano::node::config_is_valid(config)) {
+    throw ConfigError(path,
+                      "not a valid elcano-node configuration (baud " + std::to_string(config.baud) + " outside " +
+                          std::to_string(elcano::node::kMinBaud) + ".." + std::to_string(elcano::node::kMaxBaud) +
+                          ", unknown behaviour bits, or a next receiver buffer under 2)",
+                      make_error_code(DevicesError::invalid_config));
+  }
+  std::uint8_t block[elcano::node::kConfigBlockSize];
+  elcano::node::encode_config(config, block);
+  return std::vector<std::uint8_t>(std::begin(block), std::end(block));
 }
 
 }  // namespace tether::devices

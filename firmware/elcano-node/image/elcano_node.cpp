@@ -12,6 +12,7 @@
 // exactly when a real one would, unless its upstream paces for it; TX ring 64 bytes, filled only with
 // what fits (never blocks); RingNode output queue 256 bytes (a burst of ~8 messages).
 #include <avr/eeprom.h>
+#include <avr/pgmspace.h>
 
 #include "tether/core/bytes.hpp"
 #include "tether/elcano/node/behaviour.hpp"
@@ -64,6 +65,13 @@ node::ConfigSource g_source = node::ConfigSource::defaults;
 node::NodeConfig load_config() {
   node::NodeConfig config = build_defaults();
   uint8_t block[node::kConfigBlockSize];
+  // A valid block uploaded with the image (through a bootloader that cannot write EEPROM) becomes the EEPROM
+  // block; eeprom_update_block writes only the bytes that differ, so later boots cost no EEPROM wear.
+  memcpy_P(block, reinterpret_cast<const void*>(node::kUploadedConfigAddress), sizeof block);
+  node::NodeConfig uploaded;
+  if (node::decode_config(block, uploaded) == node::ConfigSource::eeprom) {
+    eeprom_update_block(block, reinterpret_cast<void*>(node::kConfigAddress), sizeof block);
+  }
   eeprom_read_block(block, reinterpret_cast<const void*>(node::kConfigAddress), sizeof block);
   g_source = node::decode_config(block, config);
   return config;

@@ -47,11 +47,16 @@ bool matches(std::string_view text, std::string_view pattern) {
   return !text.empty() && text.front() == token && matches(text.substr(1), rest);
 }
 
-Outcome run_tether(const std::vector<std::string>& arguments) {
+Outcome run_tether(const std::vector<std::string>& arguments, const std::vector<std::string>& environment) {
   static std::atomic<int> counter{0};
   const auto err_path = std::filesystem::temp_directory_path() / ("tether_command_test_" + std::to_string(::getpid()) +
                                                                   "_" + std::to_string(counter++) + ".err");
-  std::vector<std::string> argv = {"sh", "-c", "exec \"$@\" 2>\"$0\" </dev/null", err_path.string(), TETHER_BINARY};
+  std::vector<std::string> argv = {"sh", "-c", "exec \"$@\" 2>\"$0\" </dev/null", err_path.string()};
+  if (!environment.empty()) {
+    argv.push_back("/usr/bin/env");
+    argv.insert(argv.end(), environment.begin(), environment.end());
+  }
+  argv.push_back(TETHER_BINARY);
   argv.insert(argv.end(), arguments.begin(), arguments.end());
   Outcome run;
   {
@@ -72,8 +77,20 @@ std::filesystem::path firmware(const std::string& name) {
   return std::filesystem::path(TETHER_FIRMWARE_DIR) / (name + ".elf");
 }
 
-SimBoard::SimBoard(const std::string& image)
-    : process_({TETHER_BINARY, "sim", firmware(image).string()}, /*capture_stdout=*/true) {
+namespace {
+
+std::vector<std::string> sim_command(const std::vector<std::string>& arguments) {
+  std::vector<std::string> command = {TETHER_BINARY, "sim"};
+  command.insert(command.end(), arguments.begin(), arguments.end());
+  return command;
+}
+
+}  // namespace
+
+SimBoard::SimBoard(const std::string& image) : SimBoard(std::vector<std::string>{firmware(image).string()}) {}
+
+SimBoard::SimBoard(const std::vector<std::string>& arguments)
+    : process_(sim_command(arguments), /*capture_stdout=*/true) {
   const auto line = process_.read_line(30s);
   if (!line || !line->starts_with("PTY ")) throw std::runtime_error("tether sim did not print its pty");
   pty_ = line->substr(4);

@@ -41,8 +41,9 @@ struct Outcome {
 /// warns inside it under the sanitizers.)
 bool matches(std::string_view text, std::string_view pattern);
 
-/// Runs `tether ARGS...` to completion (hang protection: 60 s), stdin from /dev/null.
-Outcome run_tether(const std::vector<std::string>& arguments);
+/// Runs `tether ARGS...` to completion (hang protection: 60 s), stdin from /dev/null; `environment`
+/// (`NAME=VALUE` entries) is added to its environment.
+Outcome run_tether(const std::vector<std::string>& arguments, const std::vector<std::string>& environment = {});
 
 /// `build/firmware/<name>.elf`.
 std::filesystem::path firmware(const std::string& name);
@@ -59,6 +60,8 @@ std::filesystem::path firmware(const std::string& name);
 class SimBoard {
  public:
   explicit SimBoard(const std::string& image);
+  /// `tether sim ARGUMENTS...` (e.g. `--bootloader`).
+  explicit SimBoard(const std::vector<std::string>& arguments);
   const std::string& pty() const { return pty_; }
 
  private:

@@ -1,12 +1,14 @@
 #include "pty.hpp"
 
 #include <fcntl.h>
+#include <sys/inotify.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <vector>
 
 namespace tether::transports::detail {
@@ -58,7 +60,38 @@ std::unique_ptr<Pty> Pty::open(std::uint32_t baud, std::error_code& error) {
   return pty;
 }
 
+bool Pty::watch_opens(std::error_code& error) {
+  error.clear();
+  if (inotify_ >= 0) return true;
+  inotify_ = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+  if (inotify_ < 0 || ::inotify_add_watch(inotify_, path_.c_str(), IN_OPEN) < 0) {
+    error = std::error_code(errno, std::generic_category());
+    if (inotify_ >= 0) ::close(inotify_);
+    inotify_ = -1;
+    return false;
+  }
+  return true;
+}
+
+bool Pty::client_opened() {
+  if (inotify_ < 0) return false;
+  bool opened = false;
+  alignas(inotify_event) char buffer[1024];
+  for (;;) {
+    const ssize_t got = ::read(inotify_, buffer, sizeof buffer);
+    if (got <= 0) break;
+    for (ssize_t at = 0; at + static_cast<ssize_t>(sizeof(inotify_event)) <= got;) {
+      inotify_event event;
+      std::memcpy(&event, buffer + at, sizeof event);
+      if ((event.mask & IN_OPEN) != 0) opened = true;
+      at += static_cast<ssize_t>(sizeof(inotify_event) + event.len);
+    }
+  }
+  return opened;
+}
+
 Pty::~Pty() {
+  if (inotify_ >= 0) ::close(inotify_);
   if (slave_ >= 0) ::close(slave_);
   if (master_ >= 0) ::close(master_);
 }

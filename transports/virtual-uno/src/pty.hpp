@@ -32,6 +32,11 @@ class Pty {
   void write_output(const std::uint8_t* data, std::size_t size);
   void flush();
   std::uint64_t discarded() const { return discarded_; }
+  /// Starts noticing clients opening the slave (inotify IN_OPEN on its path; the harness's own descriptor
+  /// was opened before). Returns false with `error` set when inotify is unavailable.
+  bool watch_opens(std::error_code& error);
+  /// True when a client opened the slave since the last call (non-blocking; false without watch_opens()).
+  bool client_opened();
 
   static constexpr std::size_t kPendingLimit = std::size_t{1} << 20;
 
@@ -39,6 +44,7 @@ class Pty {
   Pty() = default;
   int master_ = -1;
   int slave_ = -1;
+  int inotify_ = -1;
   std::string path_;
   std::deque<std::uint8_t> pending_;
   std::uint64_t discarded_ = 0;

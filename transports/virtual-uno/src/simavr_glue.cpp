@@ -14,6 +14,7 @@
 #include <string>
 #include <system_error>
 
+#include "tether/transports/intel_hex.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace tether::transports {
@@ -31,6 +32,8 @@ class VirtualUnoCategory final : public std::error_category {
         return "image does not fit the ATmega328P's 32 KiB flash";
       case VirtualUnoError::simulator_failed:
         return "libsimavr could not create the MCU";
+      case VirtualUnoError::bad_bootloader:
+        return "not a bootloader for the ATmega328P's boot section";
     }
     return "unknown virtual_uno error";
   }
@@ -42,6 +45,8 @@ class VirtualUnoCategory final : public std::error_category {
         return std::errc::file_too_large;
       case VirtualUnoError::simulator_failed:
         return std::errc::not_enough_memory;
+      case VirtualUnoError::bad_bootloader:
+        return std::errc::executable_format_error;
     }
     return std::error_condition(code, *this);
   }
@@ -215,6 +220,17 @@ void install_quiet_logger() {
 avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz, SymbolTable* symbols) {
   install_quiet_logger();
   std::lock_guard lock(loader_mutex());
+  if (path.empty()) {  // a blank application flash (a board that only has a bootloader)
+    avr_t* avr = avr_make_mcu_by_name("atmega328p");
+    if (avr == nullptr) fail(make_error_code(VirtualUnoError::simulator_failed), "(no image)", "no atmega328p in libsimavr");
+    if (avr_init(avr) != 0) {
+      std::free(avr);
+      fail(make_error_code(VirtualUnoError::simulator_failed), "(no image)", "avr_init failed");
+    }
+    avr->frequency = frequency_hz;
+    avr->vcc = avr->avcc = avr->aref = 5000;
+    return avr;
+  }
   if (elf_version(EV_CURRENT) == EV_NONE) fail(make_error_code(VirtualUnoError::simulator_failed), path, "libelf is out of date");
   validate_elf(path, symbols);
 
@@ -245,6 +261,32 @@ avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz, S
   if (avr->avcc == 0) avr->avcc = 5000;
   if (avr->aref == 0) avr->aref = 5000;
   return avr;
+}
+
+void load_bootloader(avr_t* avr, const std::filesystem::path& path) {
+  const std::error_code bad = make_error_code(VirtualUnoError::bad_bootloader);
+  if (::access(path.c_str(), R_OK) != 0) fail(std::error_code(errno, std::generic_category()), path, "cannot read the bootloader");
+  std::string problem;
+  const auto image = read_intel_hex(path, problem);
+  if (!image) throw std::system_error(bad, "virtual Uno: " + problem);
+  if (image->size() == 0) fail(bad, path, "no data");
+  const std::uint32_t flash_size = avr->flashend + 1;
+  if (image->end() > flash_size) {
+    char where[64];
+    std::snprintf(where, sizeof where, "data up to 0x%X", static_cast<unsigned>(image->end() - 1));
+    fail(bad, path, std::string(where) + " lies outside the 32 KiB flash");
+  }
+  for (const auto& segment : image->segments) std::memcpy(avr->flash + segment.address, segment.bytes.data(), segment.bytes.size());
+  const std::uint32_t start = image->begin();
+  // The boot section of the ATmega328P starts at 0x3800, 0x3C00, 0x3E00 or 0x3F00 (words): BOOTSZ.
+  if (start != 0x7000 && start != 0x7800 && start != 0x7C00 && start != 0x7E00) {
+    fail(bad, path, "does not start at a boot section address (0x7000, 0x7800, 0x7C00 or 0x7E00)");
+  }
+  // BOOTRST programmed: every reset starts the bootloader; the whole flash is code (the application the
+  // bootloader writes with SPM included).
+  avr->reset_pc = start;
+  avr->pc = start;
+  avr->codeend = avr->flashend;
 }
 
 void destroy_avr(avr_t* avr) {

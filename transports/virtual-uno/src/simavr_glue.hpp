@@ -26,11 +26,16 @@ void install_quiet_logger();
 /// The image's named symbols (section symbols and file names left out), by name.
 using SymbolTable = std::unordered_map<std::string, FirmwareSymbol>;
 
-/// Validates `path` as an AVR ELF that fits the ATmega328P, creates an atmega328p, initialises it at
+/// An empty `path` gives a blank flash (erased: 0xFF). Otherwise validates `path` as an AVR ELF that fits the ATmega328P, creates an atmega328p, initialises it at
 /// `frequency_hz` and loads the image; `symbols` (when given) receives its symbol table. Throws
 /// std::system_error (OS errors from open/read, VirtualUnoError otherwise) with a message naming the
 /// file. The result is released with `destroy_avr`.
 avr_t* load_avr(const std::filesystem::path& path, std::uint32_t frequency_hz, SymbolTable* symbols = nullptr);
+
+/// Writes the Intel HEX bootloader at `path` into `avr`'s flash and points the reset vector at its first
+/// address (the BOOTRST fuse programmed). Throws std::system_error (VirtualUnoError::bad_bootloader for data
+/// outside the flash or not at a boot-section start).
+void load_bootloader(avr_t* avr, const std::filesystem::path& path);
 
 /// avr_terminate + free.
 void destroy_avr(avr_t* avr);

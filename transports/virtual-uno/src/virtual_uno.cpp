@@ -96,9 +96,15 @@ Board::Impl(VirtualUnoOptions board_options)
       power_up_random(FaultRandom::mix(options.seed, 3)) {
   if (options.frequency_hz == 0) throw std::invalid_argument("virtual Uno: frequency_hz must not be 0");
   if (options.quantum.count() <= 0) throw std::invalid_argument("virtual Uno: quantum must be positive");
-  if (options.name.empty()) options.name = options.firmware.filename().string();
+  if (options.name.empty()) {
+    options.name = options.firmware.empty() ? options.bootloader.filename().string() : options.firmware.filename().string();
+  }
+  if (options.firmware.empty() && options.bootloader.empty()) {
+    throw std::invalid_argument("virtual Uno: no firmware image (only a board with a bootloader may start blank)");
+  }
   avr = detail::load_avr(options.firmware, options.frequency_hz, &symbols);
   try {
+    if (!options.bootloader.empty()) detail::load_bootloader(avr, options.bootloader);
     for (avr_io_t* io = avr->io_port; io != nullptr; io = io->next) {
       if (io->kind != nullptr && std::strcmp(io->kind, "uart") == 0 && reinterpret_cast<avr_uart_t*>(io)->name == '0') {
         uart = reinterpret_cast<avr_uart_t*>(io);
@@ -188,6 +194,11 @@ void Board::begin_quantum(bool poll_pty) {
   }
   if (pty && (poll_pty || pty_poll_due)) {
     pty_poll_due = false;
+    // A client opened the port: the Uno's DTR edge resets the MCU before the client's first byte arrives.
+    if (options.reset_on_open && pty->client_opened()) {
+      ++stats.port_open_resets;
+      do_reset(ResetKind::external, 0);
+    }
     std::deque<std::uint8_t> input;
     pty->read_input(input, 64 * 1024);
     for (const std::uint8_t byte : input) accept_rx(byte, now());
@@ -745,6 +756,7 @@ std::string VirtualUno::open_pty(std::error_code& error) {
     if (impl_->pty) return impl_->pty->path();
     auto pty = detail::Pty::open(impl_->options.pty_baud, error);
     if (!pty) return {};
+    if (impl_->options.reset_on_open && !pty->watch_opens(error)) return {};
     std::string path = pty->path();
     impl_->pty = std::move(pty);
     return path;

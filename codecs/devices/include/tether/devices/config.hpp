@@ -152,6 +152,28 @@ struct RingNodeSettings {
   std::uint8_t node_number = 0;           ///< Free label (diagnostics); default: its index in the ring.
 };
 
+/// One `elcano-node`'s configuration in a file of its own (`tether flash --eeprom node.json`): the keys of
+/// a virtual ring board's `eeprom` settings plus the ring's `generation` and `baud`, which a rover
+/// configuration takes from the device's options.
+struct NodeFile {
+  RingNodeSettings settings;                          ///< `node_number` defaults to 0.
+  elcano::Generation generation = elcano::Generation::b;  ///< `"generation"`: `"B"` (default) or `"D"`.
+  std::uint32_t baud = 115200;                        ///< `"baud"`: the ring's line speed.
+};
+
+/// Parses a node file's JSON text (comments allowed). Throws ConfigError naming the key.
+NodeFile parse_node_file(std::string_view json_text);
+
+/// The `elcano-node` configuration block (firmware/elcano-node/README.md) for `settings` on a ring of that
+/// generation and baud: the one encoder, for virtual rings (written into EEPROM) and `tether flash --eeprom`
+/// alike. Throws ConfigError at `path` when the values do not make a block the node accepts.
+std::vector<std::uint8_t> encode_node_block(const RingNodeSettings& settings, elcano::Generation generation,
+                                            std::uint32_t baud, const std::string& path = "");
+
+/// Flash address where an `elcano-node` image looks for a block uploaded with it (through a bootloader
+/// that cannot write EEPROM) and copies it into EEPROM at boot.
+std::uint32_t node_upload_address();
+
 /// One board of a virtual ring.
 struct RingBoardConfig {
   /// Resolved image path (default image: `elcano-node`).

@@ -180,13 +180,24 @@ enum class VirtualUnoError {
   not_an_avr_elf = 1,   ///< the file is not a 32-bit little-endian ELF for the AVR
   firmware_too_large,   ///< .text + .data do not fit the 32 KiB flash
   simulator_failed,     ///< libsimavr could not create or initialise the MCU
+  bad_bootloader,       ///< VirtualUnoOptions::bootloader is not Intel HEX for a boot section of the part
 };
 const std::error_category& virtual_uno_category();
 std::error_code make_error_code(VirtualUnoError error);
 
 struct VirtualUnoOptions {
-  /// The ELF image to run (avr-gcc output for the ATmega328P).
+  /// The ELF image to run (avr-gcc output for the ATmega328P). May be empty when `bootloader` is set: a
+  /// board whose application flash is blank until something is uploaded through the bootloader.
   std::filesystem::path firmware{};
+  /// Intel HEX of a bootloader (Debian's arduino-core-avr: `bootloaders/optiboot/optiboot_atmega328.hex`)
+  /// written into the boot section, with the reset vector there (BOOTRST programmed, as on an Uno): every
+  /// reset starts it. What it writes with SPM (an uploaded application) stays in flash across resets, so
+  /// optiboot's watchdog reset into the new application works. Empty: resets start the image at 0.
+  std::filesystem::path bootloader{};
+  /// Reset the board (ResetKind::external, MCUSR EXTRF) whenever a client opens its pty, as an Uno's DTR
+  /// line does through its auto-reset capacitor (a pty carries no modem lines, so the open stands for the
+  /// DTR edge). With optiboot this is what makes avrdude find the bootloader. Needs `open_pty()`.
+  bool reset_on_open = false;
   /// Pacing when the board runs on its own thread (a group has its own).
   Pacing pacing = Pacing::real_time;
   /// Quantum when the board runs on its own thread or through its own `run_for()`.
@@ -265,6 +276,7 @@ struct VirtualUnoStats {
   std::uint64_t injected_watchdog_resets = 0;
   std::uint64_t injected_external_resets = 0;
   std::uint64_t power_cycles = 0;
+  std::uint64_t port_open_resets = 0;          ///< resets by `reset_on_open` (also in injected_external_resets)
   std::uint64_t rx_bytes = 0;        ///< bytes that entered the UART (after to_mcu faults)
   std::uint64_t rx_bytes_lost = 0;   ///< bytes that arrived while the receiver was disabled or off
   std::uint64_t tx_bytes = 0;        ///< bytes the firmware wrote to UDR0 (before from_mcu faults)

@@ -45,6 +45,10 @@ struct NodeConfig {
 
 /// EEPROM address of the block.
 constexpr uint16_t kConfigAddress = 0;
+/// Flash address of a block uploaded with the image (`tether flash --eeprom`): the first bytes of the last
+/// 128-byte page below optiboot's boot section. Optiboot writes flash only, never EEPROM, so a block sent
+/// with the image is copied into EEPROM by the node at boot when valid (erased flash, 0xFF, has no magic).
+constexpr uint16_t kUploadedConfigAddress = 0x7D80;
 /// Layout version this firmware reads.
 constexpr uint8_t kConfigVersion = 1;
 /// Bytes in the block, CRC included.

@@ -1,0 +1,184 @@
+// `tether flash` for real: avrdude talks STK500 to optiboot on a virtual Uno (`tether sim --bootloader`),
+// writes and verifies romi-test, and the image then answers; and each error the command promises: no
+// bootloader answer, an image not for an ATmega328P, no avrdude, a busy port. Skipped (with the reason)
+// only where avrdude, the optiboot build (arduino-core-avr) or the AVR images are missing; tools/setup
+// installs them all.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include "tether/transports/intel_hex.hpp"
+#include "tether_process.hpp"
+
+namespace tether::cli::testing {
+namespace {
+
+using namespace std::chrono_literals;
+
+const std::filesystem::path kOptiboot = std::filesystem::path(TETHER_FIRMWARE_DIR) / "optiboot-atmega328.hex";
+const std::filesystem::path kRomiTestHex = std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-test.hex";
+
+bool have_avrdude() { return std::system("command -v avrdude >/dev/null 2>&1") == 0; }
+
+#define TETHER_REQUIRE_FLASH_TOOLS()                                                                  \
+  do {                                                                                                \
+    if (!have_avrdude()) GTEST_SKIP() << "avrdude is not installed (tools/setup installs it)";        \
+    if (!std::filesystem::exists(kOptiboot)) {                                                        \
+      GTEST_SKIP() << kOptiboot << " is not built (arduino-core-avr missing; tools/setup installs it)"; \
+    }                                                                                                 \
+    if (!std::filesystem::exists(kRomiTestHex)) GTEST_SKIP() << kRomiTestHex << " is not built";       \
+  } while (false)
+
+std::filesystem::path temp_file(const std::string& name) {
+  return std::filesystem::temp_directory_path() / ("tether-flash-test-" + std::to_string(::getpid()) + "-" + name);
+}
+
+// The issue's "done when": a blank Uno with optiboot; `tether flash` writes romi-test.hex through it; after
+// the bootloader hands over the image answers `e` with [0,1,2].
+TEST(TetherFlash, WritesRomiTestThroughOptibootAndTheImageAnswers) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "romi-test"});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  EXPECT_TRUE(matches(flash.out, "flashed *romi-test.hex (# bytes) to " + board.pty() + ", verified\n")) << flash.out;
+  EXPECT_NE(flash.err.find("bytes of flash verified"), std::string::npos) << flash.err;  // avrdude's own report
+
+  // Opening the port resets the board into optiboot again, which starts the image after its 1 s timeout.
+  const Outcome call = run_tether({"call", "--port", board.pty(), "--boot-wait", "2000", "e"});
+  EXPECT_EQ(call.status, 0) << call.err;
+  EXPECT_EQ(call.out, "[0,1,2]\n");
+}
+
+TEST(TetherFlash, JsonReportsTheWrittenImage) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  SimBoard board(std::vector<std::string>{"--bootloader", "optiboot", "echo"});
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--json", kRomiTestHex.string()});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  std::string error;
+  const auto image = transports::read_intel_hex(kRomiTestHex, error);
+  ASSERT_TRUE(image) << error;
+  EXPECT_EQ(flash.out, "{\"port\":\"" + board.pty() + "\",\"image\":\"" + kRomiTestHex.string() +
+                           "\",\"bytes\":" + std::to_string(image->size()) + ",\"verified\":true}\n");
+}
+
+// A board running an application and no bootloader: avrdude never gets in sync.
+TEST(TetherFlash, NoBootloaderAnswer) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  SimBoard board("romi-test");
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--attempts", "1", "romi-test"});
+  EXPECT_EQ(flash.status, 2);
+  EXPECT_NE(flash.err.find("tether flash: " + board.pty() + ": no bootloader answer"), std::string::npos) << flash.err;
+}
+
+// Refused before any port or program is touched (the port given does not even exist).
+TEST(TetherFlash, ImageNotForAnAtmega328p) {
+  // An ELF for another machine: the tether program itself.
+  Outcome run = run_tether({"flash", "--port", "/dev/null-no-port", TETHER_BINARY});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("not an image for an ATmega328P: built for ELF machine 62, not the AVR (83)"), std::string::npos)
+      << run.err;
+
+  // Intel HEX with bytes where the bootloader lives (an image for a larger part, or one that would
+  // overwrite optiboot).
+  const auto big = temp_file("big.hex");
+  transports::HexImage image;
+  image.segments.push_back({0x7DF0, std::vector<std::uint8_t>(32, 0x00)});
+  std::ofstream(big) << transports::to_intel_hex(image);
+  run = run_tether({"flash", "--port", "/dev/null-no-port", big.string()});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("not an image for an ATmega328P with optiboot: bytes at 0x7DF0..0x7E0F reach past 0x7DFF"),
+            std::string::npos)
+      << run.err;
+
+  // Neither ELF nor HEX; HEX with a bad checksum.
+  std::ofstream(big) << "hello\n";
+  run = run_tether({"flash", "--port", "/dev/null-no-port", big.string()});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("neither an ELF image nor Intel HEX"), std::string::npos) << run.err;
+  std::ofstream(big) << ":020000000102FA\n:00000001FF\n";
+  run = run_tether({"flash", "--port", "/dev/null-no-port", big.string()});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("line 1: bad checksum"), std::string::npos) << run.err;
+  std::filesystem::remove(big);
+}
+
+TEST(TetherFlash, MissingAvrdude) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const Outcome run = run_tether({"flash", "--port", "/dev/null", "romi-test"}, {"PATH=/nonexistent"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("avrdude not found on PATH: install Debian's avrdude"), std::string::npos) << run.err;
+}
+
+// Another program holds the port exclusively (TIOCEXCL, as Tether's serial transport and pyserial set it).
+TEST(TetherFlash, PortBusy) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
+  const int holder = ::open(board.pty().c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+  ASSERT_GE(holder, 0);
+  ASSERT_EQ(::ioctl(holder, TIOCEXCL), 0);
+  const Outcome run = run_tether({"flash", "--port", board.pty(), "romi-test"});
+  ::close(holder);
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find(board.pty() + ": port busy"), std::string::npos) << run.err;
+}
+
+// Opens `port` (which resets a `--bootloader` board: optiboot hands over after its 1 s timeout), waits
+// `boot`, writes `request` and returns what comes back within `listen`.
+std::string exchange(const std::string& port, std::chrono::milliseconds boot, const std::string& request,
+                     std::chrono::milliseconds listen) {
+  const int fd = ::open(port.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) return "(cannot open " + port + ")";
+  std::this_thread::sleep_for(boot);
+  std::string answer;
+  if (::write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
+    const auto end = std::chrono::steady_clock::now() + listen;
+    while (std::chrono::steady_clock::now() < end && answer.find('\n') == std::string::npos) {
+      pollfd readable{fd, POLLIN, 0};
+      if (::poll(&readable, 1, 50) <= 0) continue;
+      char buffer[256];
+      const ssize_t got = ::read(fd, buffer, sizeof buffer);
+      if (got > 0) answer.append(buffer, static_cast<std::size_t>(got));
+    }
+  }
+  ::close(fd);
+  return answer;
+}
+
+// `--eeprom`: the node's configuration travels in the image's flash (optiboot writes no EEPROM) and the node
+// adopts it at boot. The same board before and after: unconfigured it forwards a drive message; configured to
+// capture drives and report them as sensor messages, it answers with one.
+TEST(TetherFlash, ElcanoNodeConfigurationFromJson) {
+  TETHER_REQUIRE_FLASH_TOOLS();
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
+  Outcome flash = run_tether({"flash", "--port", board.pty(), "elcano-node"});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "D{s50}{a25}\n");  // forwarded (whitespace-stripped)
+
+  const auto node = temp_file("node.json");
+  std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["report_drive_as_sensor"], "node_number": 7})";
+  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  ASSERT_EQ(flash.status, 0) << flash.err;
+  EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "S{s 50}{a 25}{b 0}{p 0,0}\n");
+
+  // A bad file is refused, naming the key, before anything is sent.
+  std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["fly"]})";
+  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  EXPECT_EQ(flash.status, 2);
+  EXPECT_NE(flash.err.find("behaviours[0]"), std::string::npos) << flash.err;
+  std::filesystem::remove(node);
+}
+
+}  // namespace
+}  // namespace tether::cli::testing
