@@ -45,15 +45,15 @@ namespace {
 const CommandText& command_text() {
   static const CommandText text(
       "flash",
-      "usage: tether flash --port PATH IMAGE [--eeprom NODE.json] [--baud N] [--attempts N] [--avrdude PATH]\n"
-      "                    [--timeout S] [--json]\n"
+      "usage: tether flash --port PATH IMAGE [--eeprom NODE.json] [--baud N] [--attempts N] [--reopen N]\n"
+      "                    [--avrdude PATH] [--timeout S] [--json]\n"
       "\n"
       "Uploads IMAGE to the board on PATH through its bootloader with avrdude (Debian's; `-c arduino -p\n"
       "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
       "or an image name looked up like `--virtual` (romi-test: its .hex in the firmware folder).\n"
       "An Uno resets when the port opens (DTR) and optiboot waits about 1 s for avrdude; a board without\n"
       "auto-reset needs its reset button pressed just before. avrdude's progress is shown on stderr. When the\n"
-      "bootloader stops answering (it gives up after 1 s of silence), avrdude runs once more.\n"
+      "bootloader stops answering (it gives up after 1 s of silence), avrdude runs again (--reopen).\n"
       "\n"
       "Checked before anything is sent: the image is for an ATmega328P (ELF: AVR machine, avr5; all bytes below\n"
       "0x7E00, where optiboot lives), avrdude is on PATH, the port exists and no program holds it exclusively.\n"
@@ -67,6 +67,8 @@ const CommandText& command_text() {
       "  --baud N        the bootloader's speed (default 115200: an Uno's optiboot; 57600 for older boards)\n"
       "  --attempts N    how often avrdude tries to get in sync with the bootloader (default 10, avrdude's;\n"
       "                  each failed try costs avrdude about 5 s)\n"
+      "  --reopen N      when the bootloader stops answering mid-upload, open the port again (which resets an\n"
+      "                  Uno into it) and run avrdude again, up to N times (default 1; 0..9)\n"
       "  --avrdude PATH  the avrdude program (default: `avrdude` on PATH)\n"
       "  --timeout S     give up when avrdude has not finished after S seconds (default 120)\n"
       "  --json          print {\"port\",\"image\",\"bytes\",\"verified\"} on success\n"
@@ -88,6 +90,7 @@ struct Arguments {
   std::string avrdude = "avrdude";
   std::uint32_t timeout_ms = 120'000;
   std::uint32_t attempts = 10;
+  std::uint32_t reopen = 1;  // avrdude runs after the first one when the bootloader stopped answering
   std::optional<std::filesystem::path> eeprom;  // an elcano-node's configuration (JSON)
   bool json = false;
 };
@@ -101,7 +104,7 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       return std::nullopt;
     }
     if (argument == "--port" || argument == "--baud" || argument == "--avrdude" || argument == "--timeout" ||
-        argument == "--attempts" || argument == "--eeprom") {
+        argument == "--attempts" || argument == "--reopen" || argument == "--eeprom") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
       if (value.empty()) return text.usage_error(std::string(argument) + " needs a value");
@@ -115,6 +118,10 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
         const auto attempts = parse_number(value, 1, 99);
         if (!attempts) return text.usage_error("--attempts needs a number in 1..99, got '" + std::string(value) + "'");
         arguments.attempts = *attempts;
+      } else if (argument == "--reopen") {
+        const auto reopen = parse_number(value, 0, 9);
+        if (!reopen) return text.usage_error("--reopen needs a number in 0..9, got '" + std::string(value) + "'");
+        arguments.reopen = *reopen;
       } else if (argument == "--baud") {
         const auto baud = parse_number(value, 300, 2'000'000);
         if (!baud) return text.usage_error("--baud needs a speed in 300..2000000, got '" + std::string(value) + "'");
@@ -361,12 +368,12 @@ int run_flash(int argc, char** argv) {
   const bool show = !arguments.json || stderr_is_terminal();
   // The bootloader gives up after 1 s without a command (optiboot's watchdog): a host that stalls that
   // long (a loaded machine, a USB hiccup) loses it, before the first sync or between two pages. Opening
-  // the port again resets an Uno into its bootloader, so a lost bootloader is worth one more run: the
-  // upload is idempotent and verified either way.
+  // the port again resets an Uno into its bootloader, so a lost bootloader is worth another run (--reopen):
+  // the upload is idempotent and verified either way.
   std::optional<AvrdudeRun> run;
-  for (int attempt = 1; attempt <= 2; ++attempt) {
+  for (std::uint32_t reopened = 0;; ++reopened) {
     run = run_avrdude(command, show, std::chrono::milliseconds(arguments.timeout_ms), problem);
-    if (!run || run->status == 0 || !lost_bootloader(*run) || attempt == 2) break;
+    if (!run || run->status == 0 || !lost_bootloader(*run) || reopened == arguments.reopen) break;
     std::fprintf(stderr, "tether flash: the bootloader stopped answering; opening the port again (it resets an Uno)\n");
   }
   std::filesystem::remove(hex);

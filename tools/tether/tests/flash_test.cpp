@@ -49,13 +49,13 @@ std::filesystem::path temp_file(const std::string& name) {
 TEST(TetherFlash, WritesRomiTestThroughOptibootAndTheImageAnswers) {
   TETHER_REQUIRE_FLASH_TOOLS();
   SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
-  const Outcome flash = run_tether({"flash", "--port", board.pty(), "romi-test"});
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "romi-test"});
   ASSERT_EQ(flash.status, 0) << flash.err;
   EXPECT_TRUE(matches(flash.out, "flashed *romi-test.hex (# bytes) to " + board.pty() + ", verified\n")) << flash.out;
   EXPECT_NE(flash.err.find("bytes of flash verified"), std::string::npos) << flash.err;  // avrdude's own report
 
   // Opening the port resets the board into optiboot again, which starts the image after its 1 s timeout.
-  const Outcome call = run_tether({"call", "--port", board.pty(), "--boot-wait", "2000", "e"});
+  const Outcome call = run_tether({"call", "--port", board.pty(), "--boot-wait", "3000", "e"});
   EXPECT_EQ(call.status, 0) << call.err;
   EXPECT_EQ(call.out, "[0,1,2]\n");
 }
@@ -63,7 +63,7 @@ TEST(TetherFlash, WritesRomiTestThroughOptibootAndTheImageAnswers) {
 TEST(TetherFlash, JsonReportsTheWrittenImage) {
   TETHER_REQUIRE_FLASH_TOOLS();
   SimBoard board(std::vector<std::string>{"--bootloader", "optiboot", "echo"});
-  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--json", kRomiTestHex.string()});
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "--json", kRomiTestHex.string()});
   ASSERT_EQ(flash.status, 0) << flash.err;
   std::string error;
   const auto image = transports::read_intel_hex(kRomiTestHex, error);
@@ -162,19 +162,19 @@ TEST(TetherFlash, ElcanoNodeConfigurationFromJson) {
   TETHER_REQUIRE_FLASH_TOOLS();
   TETHER_REQUIRE_FIRMWARE("elcano-node");
   SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
-  Outcome flash = run_tether({"flash", "--port", board.pty(), "elcano-node"});
+  Outcome flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "elcano-node"});
   ASSERT_EQ(flash.status, 0) << flash.err;
   EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "D{s50}{a25}\n");  // forwarded (whitespace-stripped)
 
   const auto node = temp_file("node.json");
   std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["report_drive_as_sensor"], "node_number": 7})";
-  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "elcano-node", "--eeprom", node.string()});
   ASSERT_EQ(flash.status, 0) << flash.err;
   EXPECT_EQ(exchange(board.pty(), 2s, "D{s 50}{a 25}\n", 3s), "S{s 50}{a 25}{b 0}{p 0,0}\n");
 
   // A bad file is refused, naming the key, before anything is sent.
   std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["fly"]})";
-  flash = run_tether({"flash", "--port", board.pty(), "elcano-node", "--eeprom", node.string()});
+  flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "elcano-node", "--eeprom", node.string()});
   EXPECT_EQ(flash.status, 2);
   EXPECT_NE(flash.err.find("behaviours[0]"), std::string::npos) << flash.err;
   std::filesystem::remove(node);

@@ -421,8 +421,10 @@ TEST(RomiClient, LongAnswersAndLogLinesAreRead) {
 
 TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
   IoThread io;
-  // Six log lines 100 ms apart, then the answer: 600 ms after the request, twice the attempt window.
-  Link link(io.executor(), short_timing(300, 5000));
+  // Six log lines 300 ms apart, then the answer: 1950 ms after the request, twice the attempt window. Wall
+  // clock (the client has no injectable clock yet): the gaps leave 700 ms for a loaded machine's stalls
+  // (100 ms gaps in a 300 ms window failed 1 in ~300 runs under load).
+  Link link(io.executor(), short_timing(1000, 5000));
   std::mutex mutex;
   std::vector<std::string> logs;
   link.client->set_log_handler([&](std::string_view text) {
@@ -430,8 +432,8 @@ TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
     logs.emplace_back(text);
   });
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
-    for (int i = 1; i <= 6; ++i) device.send_after(i * 100ms, FakeDevice::log("step " + std::to_string(i)));
-    device.send_after(650ms, FakeDevice::response(request.opcode, "[0]", request.id));
+    for (int i = 1; i <= 6; ++i) device.send_after(i * 300ms, FakeDevice::log("step " + std::to_string(i)));
+    device.send_after(1950ms, FakeDevice::response(request.opcode, "[0]", request.id));
   });
   error_code error;
   const RomiResponse response = link.client->call("a", error);
