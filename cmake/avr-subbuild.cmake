@@ -8,7 +8,7 @@ endif()
 # nanopb runtime sources for the AVR (see tools/fetch-nanopb-source). tools/setup passes the directory;
 # a hand-run configure finds what a previous setup unpacked under .deps/.
 if(NOT TETHER_NANOPB_SOURCE_DIR)
-  file(GLOB _nanopb_dirs LIST_DIRECTORIES true ${CMAKE_SOURCE_DIR}/.deps/nanopb-*)
+  file(GLOB _nanopb_dirs LIST_DIRECTORIES true ${PROJECT_SOURCE_DIR}/.deps/nanopb-*)
   if(_nanopb_dirs)
     list(SORT _nanopb_dirs)
     list(GET _nanopb_dirs -1 _nanopb_dir)
@@ -20,12 +20,12 @@ endif()
 
 include(ExternalProject)
 ExternalProject_Add(avr-firmware
-  SOURCE_DIR ${CMAKE_SOURCE_DIR}/firmware
-  BINARY_DIR ${CMAKE_BINARY_DIR}/avr-build
+  SOURCE_DIR ${PROJECT_SOURCE_DIR}/firmware
+  BINARY_DIR ${PROJECT_BINARY_DIR}/avr-build
   CMAKE_ARGS
-    -DCMAKE_TOOLCHAIN_FILE=${CMAKE_SOURCE_DIR}/cmake/avr-gcc.cmake
+    -DCMAKE_TOOLCHAIN_FILE=${PROJECT_SOURCE_DIR}/cmake/avr-gcc.cmake
     -DCMAKE_BUILD_TYPE=MinSizeRel
-    -DTETHER_ROOT=${CMAKE_SOURCE_DIR}
+    -DTETHER_ROOT=${PROJECT_SOURCE_DIR}
     -DTETHER_FIRMWARE_OUTPUT_DIR=${TETHER_FIRMWARE_DIR}
     -DTETHER_NANOPB_SOURCE_DIR=${TETHER_NANOPB_SOURCE_DIR}
   BUILD_ALWAYS ON

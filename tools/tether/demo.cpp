@@ -16,6 +16,7 @@
 
 #include "cli_support.hpp"
 #include "commands.hpp"
+#include "device_options.hpp"
 #include "tether/demo/rover_demo.hpp"
 #include "tether/devices/config.hpp"
 
@@ -54,7 +55,7 @@ const CommandText& command_text() {
 
 int run_demo(int argc, char** argv) {
   demo::DemoOptions options;
-  options.firmware_dir = TETHER_FIRMWARE_DIR;
+  options.firmware_dir = firmware_dir();
   std::string config_file;
   bool json = false;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {

@@ -18,8 +18,8 @@
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
-#ifndef TETHER_FIRMWARE_DIR
-#error "TETHER_FIRMWARE_DIR must name the build's firmware folder"
+#if !defined(TETHER_FIRMWARE_DIR) || !defined(TETHER_INSTALLED_FIRMWARE_DIR)
+#error "TETHER_FIRMWARE_DIR must name the build's firmware folder, TETHER_INSTALLED_FIRMWARE_DIR the installed one"
 #endif
 
 namespace tether::cli {
@@ -36,8 +36,9 @@ const char* const kDeviceUsage =
     "                      and options come from the file (bare firmware names resolve in the firmware folder)\n"
     "  --virtual FIRMWARE  starts a virtual Arduino Uno running FIRMWARE: a path to an .elf, or an image name\n"
     "                      (romi-test, proxy, proxy-compat, elcano-node) in the firmware folder\n"
-    "                      ($TETHER_FIRMWARE_DIR, default: the build's). The codec follows the name\n"
-    "                      (proxy-compat*, proxy*, elcano*, else romi) unless --codec says\n"
+    "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
+    "                      The codec follows the name (proxy-compat*, proxy*, elcano*, else romi)\n"
+    "                      unless --codec says\n"
     "  elcano only, with --port or --virtual:\n"
     "    --generation B|D  the ring's wire generation (default B)\n"
     "    --capture TYPES   message types the host consumes: a comma-separated list of drive, sensor, goal,\n"
@@ -93,6 +94,14 @@ devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t 
 
 std::string firmware_dir() {
   if (const char* dir = std::getenv("TETHER_FIRMWARE_DIR"); dir != nullptr && *dir != '\0') return dir;
+  // An installed or unpacked `tether` uses the images installed with it (relative to the binary, so a
+  // prefix works wherever it is); the build tree's binary has none beside it and uses the build's.
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const auto installed = (self.parent_path() / TETHER_INSTALLED_FIRMWARE_DIR).lexically_normal();
+    if (std::filesystem::is_directory(installed, error)) return installed.string();
+  }
   return TETHER_FIRMWARE_DIR;
 }
 

@@ -122,7 +122,8 @@ nlohmann::ordered_json link_counters_json(const LinkCounters& counters);
 /// top-level values as `key  value`, objects as a heading followed by their indented entries.
 std::string counters_table(const nlohmann::ordered_json& report);
 
-/// The firmware folder: $TETHER_FIRMWARE_DIR, else the build's.
+/// The firmware folder: $TETHER_FIRMWARE_DIR, else the images installed with this binary
+/// (`<prefix>/share/tether/firmware`), else the build's.
 std::string firmware_dir();
 
 /// The image a command line names, for `--virtual` and `tether sim` alike: a path when it contains a `/`

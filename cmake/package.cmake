@@ -1,0 +1,73 @@
+# Tether as an installable package: `cmake --install build --prefix P` puts the host libraries, their
+# headers, the `tether` command, the AVR images, docs and examples under P; consumers use
+# `find_package(Tether CONFIG REQUIRED COMPONENTS ...)` (cmake/TetherConfig.cmake.in) or pkg-config.
+include_guard(GLOBAL)
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(TETHER_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/Tether)
+set(TETHER_INSTALL_FIRMWAREDIR ${CMAKE_INSTALL_DATADIR}/tether/firmware)
+set(TETHER_INSTALL_EXAMPLESDIR ${CMAKE_INSTALL_DATADIR}/tether/examples)
+
+# tether_library(TARGET NAME <exported name> [HEADERS <dir>]): makes TARGET a public library of the package:
+# exported as Tether::<name> (also the in-tree alias, so add_subdirectory users write the same names), C++20
+# as a usage requirement, HEADERS (its one include root) on the include path in the build tree and
+# installed under include/.
+function(tether_library target)
+  cmake_parse_arguments(LIB "" "NAME;HEADERS" "" ${ARGN})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${LIB_NAME})
+  get_target_property(_type ${target} TYPE)
+  set(_scope PUBLIC)
+  if(_type STREQUAL "INTERFACE_LIBRARY")
+    set(_scope INTERFACE)
+  endif()
+  target_compile_features(${target} ${_scope} cxx_std_20)
+  if(LIB_HEADERS)
+    cmake_path(ABSOLUTE_PATH LIB_HEADERS BASE_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} NORMALIZE)
+    target_include_directories(${target} ${_scope} $<BUILD_INTERFACE:${LIB_HEADERS}>
+      $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+    install(DIRECTORY ${LIB_HEADERS}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  endif()
+  install(TARGETS ${target} EXPORT TetherTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  add_library(Tether::${LIB_NAME} ALIAS ${target})
+endfunction()
+
+# tether_pkg_config(NAME DESCRIPTION text LIBS -l... [CFLAGS ...] [REQUIRES ...]): lib/pkgconfig/NAME.pc for
+# non-CMake users, relocatable (paths relative to the .pc file, so an unpacked prefix works too).
+function(tether_pkg_config name)
+  cmake_parse_arguments(PC "" "DESCRIPTION" "LIBS;CFLAGS;REQUIRES" ${ARGN})
+  file(RELATIVE_PATH _up /root/${CMAKE_INSTALL_LIBDIR}/pkgconfig /root)
+  list(JOIN PC_LIBS " " _libs)
+  list(JOIN PC_CFLAGS " " _cflags)
+  list(JOIN PC_REQUIRES ", " _requires)
+  set(_pc ${PROJECT_BINARY_DIR}/pkgconfig/${name}.pc)
+  file(CONFIGURE OUTPUT ${_pc} @ONLY CONTENT [[
+prefix=${pcfiledir}/@_up@
+includedir=${prefix}/@CMAKE_INSTALL_INCLUDEDIR@
+libdir=${prefix}/@CMAKE_INSTALL_LIBDIR@
+
+Name: @name@
+Description: @PC_DESCRIPTION@
+Version: @PROJECT_VERSION@
+Requires: @_requires@
+Cflags: -std=c++20 -I${includedir} @_cflags@
+Libs: -L${libdir} @_libs@
+]])
+  install(FILES ${_pc} DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+endfunction()
+
+# The export set, TetherConfig.cmake and TetherConfigVersion.cmake. Called once every library is defined.
+function(tether_install_package)
+  install(EXPORT TetherTargets NAMESPACE Tether:: DESTINATION ${TETHER_INSTALL_CMAKEDIR})
+  configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/TetherConfig.cmake.in
+    ${PROJECT_BINARY_DIR}/TetherConfig.cmake INSTALL_DESTINATION ${TETHER_INSTALL_CMAKEDIR}
+    PATH_VARS TETHER_INSTALL_FIRMWAREDIR)
+  # 0.x: minor versions may break the API, so a consumer asking for 0.1 accepts 0.1.* only.
+  write_basic_package_version_file(${PROJECT_BINARY_DIR}/TetherConfigVersion.cmake
+    COMPATIBILITY SameMinorVersion)
+  install(FILES ${PROJECT_BINARY_DIR}/TetherConfig.cmake ${PROJECT_BINARY_DIR}/TetherConfigVersion.cmake
+    DESTINATION ${TETHER_INSTALL_CMAKEDIR})
+endfunction()
