@@ -27,7 +27,13 @@ elseif(STEP STREQUAL "build_subdirectory")
   file(REMOVE_RECURSE ${BINARY})
   # No build type given: Tether must not force one on its parent; its tests, benchmarks and AVR images
   # stay off (not the top-level project).
-  run_checked(${CMAKE_COMMAND} -S ${SOURCE}/package-tests/add-subdirectory -B ${BINARY} ${common}
+  # Tether is compiled again here, as a parent project would: plain flags (no sanitizers, no optimisation)
+  # keep this, the suite's longest test, short; the prefix consumer above checks the sanitized build.
+  set(plain -G "Unix Makefiles" -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_CXX_FLAGS=-O0)
+  if(LAUNCHER)
+    list(APPEND plain -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER})
+  endif()
+  run_checked(${CMAKE_COMMAND} -S ${SOURCE}/package-tests/add-subdirectory -B ${BINARY} ${plain}
     -DTETHER_SOURCE_DIR=${SOURCE} -DTETHER_SANITIZE=OFF)
   file(STRINGS ${BINARY}/CMakeCache.txt build_type REGEX "^CMAKE_BUILD_TYPE:")
   if(NOT build_type MATCHES "^CMAKE_BUILD_TYPE:[A-Z]*=$")

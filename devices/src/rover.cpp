@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "tether/elcano/node/config.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/transport_error.hpp"
