@@ -409,7 +409,7 @@ class ProxyClientImpl final : public transports::ClientLink {
         }
       }
       run_monitor(now);
-      if (options_.timing.ping_period > 0 && heartbeat_.due(now)) {
+      if (options_.timing.ping_period > 0 && heartbeat_.due(now) && id_window_open()) {
         send_untracked(Untracked::ping);
         heartbeat_.beat_sent(now);
       }
@@ -488,18 +488,34 @@ class ProxyClientImpl final : public transports::ClientLink {
   // --- sending -----------------------------------------------------------------------------------------
 
   std::uint32_t next_id() {
-    for (;;) {
-      ++last_id_;
-      if (last_id_ == 0 || table_.contains(last_id_)) continue;
-      return last_id_;
+    last_id_ = peek_next_id();
+    return last_id_;
+  }
+  std::uint32_t peek_next_id() const {
+    std::uint32_t id = last_id_;
+    do {
+      ++id;
+    } while (id == 0 || table_.contains(id));
+    return id;
+  }
+  // True when the next id keeps every unacked message in the device's duplicate filter (kIdWindow): the
+  // device executes at most kIdWindow - 1 other ids after the oldest unacked one. Distances in sequence
+  // order (ids wrap at 2^32).
+  bool id_window_open() const {
+    if (in_flight_.empty()) return true;
+    std::uint32_t oldest_distance = 0;
+    for (const auto& entry : in_flight_) {
+      oldest_distance = std::max(oldest_distance, static_cast<std::uint32_t>(last_id_ - entry.first));
     }
+    const std::uint32_t next_distance = oldest_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_);
+    return next_distance < kIdWindow;
   }
 
   // Starts what can start from `queue`, in order, keeping each pin's messages in order.
   void start_queue(std::deque<std::unique_ptr<Pending>>& queue, Millis now) {
     std::set<std::uint32_t> passed;  // pins with a message left behind in this scan
     for (auto it = queue.begin(); it != queue.end();) {
-      if (table_.in_flight() >= kMaxInFlight) return;
+      if (table_.in_flight() >= kMaxInFlight || !id_window_open()) return;
       const std::optional<std::uint32_t> lane = (*it)->lane;
       if (lane && (lanes_.count(*lane) != 0 || passed.count(*lane) != 0)) {
         passed.insert(*lane);
@@ -908,7 +924,8 @@ class ProxyClientImpl final : public transports::ClientLink {
     if (primary()) {
       consider(wakeup, table_.next_wakeup());
       consider(wakeup, monitor_.next_wakeup());
-      if (options_.timing.ping_period > 0) consider(wakeup, heartbeat_.next());
+      // A ping held back by the id window goes when an ack or a timeout opens it (both pump): no wakeup.
+      if (options_.timing.ping_period > 0 && id_window_open()) consider(wakeup, heartbeat_.next());
       Deadline queued;
       for (const auto& pending : user_queue_) {
         queued.arm_at(pending->queue_deadline);

@@ -563,6 +563,53 @@ TEST(ProxyClient, AtMostEightInFlight) {
       kPrompt));
 }
 
+// Issue 16: the device remembers the last 8 ids it executed (pings too). With one message unacked (its
+// ack lost) and the other pins busy, the client went on sending new ids as acks freed slots: the device
+// forgot the unacked id and executed its next re-send again. Every id must stay within 8 consecutive ids
+// of the oldest unacked one, pings included, until it is acked.
+TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.ping_period = 20;   // pings fall due while the message is held: they wait too
+  options.timing.send_budget = 5000;  // the held message stays in flight through the check
+  options.timing.queue_timeout = 10000;
+  auto held = std::make_shared<std::atomic<bool>>(true);
+  Link link(io.executor(), options, standard_device(100, [held](const DeviceFrame& frame) {
+              return *held && is_servo_control(frame) && frame.in.servocontrol().pin() == 0;
+            }));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(0).async_set(1, done.handler(0));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  std::size_t sends = 1;
+  for (int round = 0; round < 4; ++round) {
+    for (std::uint32_t pin = 1; pin <= 9; ++pin) link.client->servo(pin).async_set(round, done.handler(sends++));
+  }
+  // Ids after the held one (sends and pings) are acked at once, until the window is full.
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
+  std::this_thread::sleep_for(300ms);  // the held message is re-sent meanwhile (~160 ms window)
+  const std::vector<DeviceFrame> frames = link.device->frames();
+  std::uint32_t held_id = 0;
+  for (const auto& frame : frames_of(frames, ArduinoIn::kServoControl)) {
+    if (frame.in.servocontrol().pin() == 0) held_id = frame.in.messageid();
+  }
+  ASSERT_NE(held_id, 0u);
+  std::set<std::uint32_t> later_ids;
+  int held_sends = 0;
+  for (const auto& frame : frames) {
+    if (!frame.decoded || frame.in.has_reset()) continue;
+    if (frame.in.messageid() == held_id) ++held_sends;
+    if (held_sends > 0 && frame.in.messageid() != held_id) later_ids.insert(frame.in.messageid());
+  }
+  EXPECT_GE(held_sends, 2);  // it was re-sent: the case the window protects
+  EXPECT_LE(later_ids.size(), std::size_t{kIdWindow} - 1);
+  for (const std::uint32_t id : later_ids) EXPECT_LT(id - held_id, std::uint32_t{kIdWindow}) << id;
+  // Released: everything goes through, the held message acked on its next re-send.
+  *held = false;
+  ASSERT_TRUE(done.wait_for(sends, 5000ms));
+  for (std::size_t i = 0; i < sends; ++i) EXPECT_FALSE(done.at(i).error) << i << ": " << done.at(i).error.message();
+}
+
 // --- rejected before the wire -----------------------------------------------------------------------------
 
 TEST(ProxyClient, InvalidMessagesNeverReachTheWire) {
