@@ -308,6 +308,7 @@ class ProxyClientImpl final : public transports::ClientLink {
     InitKey replay_key = 0;             // != 0: the session's replay of this init
     Millis queue_deadline = 0;          // application messages: fail if not sent by then
     std::uint32_t id = 0;               // messageId on the wire
+    std::uint32_t anchor = 0;           // the oldest id in flight when it was first sent (its id if none)
     std::shared_ptr<const std::string> frame;
   };
   // A registered init and the application sends waiting for its replay.
@@ -498,16 +499,32 @@ class ProxyClientImpl final : public transports::ClientLink {
     } while (id == 0 || table_.contains(id));
     return id;
   }
-  // True when the next id keeps every unacked message in the device's duplicate filter (kIdWindow): the
-  // device executes at most kIdWindow - 1 other ids after the oldest unacked one. Distances in sequence
-  // order (ids wrap at 2^32).
-  bool id_window_open() const {
-    if (in_flight_.empty()) return true;
+  // The oldest id in flight (the one furthest back from the last id sent), or `fallback` when none.
+  std::uint32_t oldest_in_flight(std::uint32_t fallback) const {
+    std::uint32_t oldest = fallback;
     std::uint32_t oldest_distance = 0;
     for (const auto& entry : in_flight_) {
-      oldest_distance = std::max(oldest_distance, static_cast<std::uint32_t>(last_id_ - entry.first));
+      const auto distance = static_cast<std::uint32_t>(last_id_ - entry.first);
+      if (distance >= oldest_distance) {
+        oldest_distance = distance;
+        oldest = entry.first;
+      }
     }
-    const std::uint32_t next_distance = oldest_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_);
+    return oldest;
+  }
+  // True when the next id keeps every unacked message in the device's duplicate filter (kIdWindow). After
+  // a message X first runs, the device may still run for the first time an older id that was in flight
+  // when X was sent (its first copy lost, or still on the way), and the ids sent after X: so every new id
+  // stays within kIdWindow of the anchor of each message in flight (the oldest id in flight when it was
+  // sent), and at most kIdWindow - 1 other ids run between X and its re-send. Distances in sequence order
+  // (ids wrap at 2^32).
+  bool id_window_open() const {
+    if (in_flight_.empty()) return true;
+    std::uint32_t anchor_distance = 0;
+    for (const auto& entry : in_flight_) {
+      anchor_distance = std::max(anchor_distance, static_cast<std::uint32_t>(last_id_ - entry.second->anchor));
+    }
+    const std::uint32_t next_distance = anchor_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_);
     return next_distance < kIdWindow;
   }
 
@@ -533,6 +550,7 @@ class ProxyClientImpl final : public transports::ClientLink {
     ArduinoIn& message = std::get<ArduinoIn>(pending->message);
     message.set_messageid(id);
     pending->id = id;
+    pending->anchor = oldest_in_flight(id);
     pending->frame = frame_of(message.SerializeAsString(), Integrity::crc16);
     refresh_table_timing(pending->frame->size());
     (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight

@@ -25,7 +25,8 @@
 ///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Being in
 ///      flight is not all: while a message waits for its ack, the device must not execute 8 other ids (its
 ///      duplicate filter would forget it and run a re-send again), so a new id goes out only within
-///      `kIdWindow` (8) consecutive ids from the oldest unacked one, pings included. Other messages wait in
+///      `kIdWindow` (8) consecutive ids from the anchor of every message in flight (the oldest id in flight
+///      when it was sent), pings included. Other messages wait in
 ///      a FIFO queue on the client's strand.
 ///   2. **Acks and re-sends.** A message is re-sent, byte for byte (same messageId: the device executes an
 ///      id once and acks a repeat again), each time an attempt window passes without its ack, until it is
@@ -149,9 +150,10 @@ using error_code = boost::system::error_code;
 /// Messages in flight at once (the RequestTable's capacity; the device's duplicate filter remembers 8).
 inline constexpr std::uint8_t kMaxInFlight = 8;
 /// The device remembers the last 8 messageIds it executed (`ProxyDevice::kDuplicateDepth`), pings
-/// included. A message re-sent after 8 other ids ran would run again, so the client never sends an id more
-/// than `kIdWindow - 1` ids after the oldest unacked message: at most 8 consecutive ids from it to the
-/// newest sent. Application messages and pings wait for the window; Reset does not (it clears the filter).
+/// included. A message re-sent after 8 other ids ran would run again, so while a message is unacked every
+/// new id stays within `kIdWindow` consecutive ids of its anchor: the oldest id in flight when it was sent
+/// (an older message in flight then may still run for the first time after it). Application messages and
+/// pings wait for the window; Reset does not (it clears the filter).
 inline constexpr std::uint8_t kIdWindow = 8;
 /// Registered inits (ServoInit/DigitalInit keys) at most.
 inline constexpr std::uint8_t kMaxInits = 64;
