@@ -758,6 +758,12 @@ void validate(const RoverConfig& config) {
   for (std::size_t i = 0; i < config.devices.size(); ++i) {
     const DeviceConfig& device = config.devices[i];
     if (device.name.empty()) fail(device_path(i) + ".name", "must not be empty");
+    // A name is typed after --device and printed in messages: a NUL or a control character in it would
+    // cut or garble them.
+    if (std::any_of(device.name.begin(), device.name.end(),
+                    [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+      fail(device_path(i) + ".name", "must not contain control characters, got " + quote_json(device.name));
+    }
     const auto [where, inserted] = names.emplace(device.name, i);
     if (!inserted) {
       fail(device_path(i) + ".name",
@@ -789,13 +795,87 @@ RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& o
   return config;
 }
 
+void NameList::add(std::string_view name) {
+  if (count_++ < kListed) listed_ += (listed_.empty() ? "" : ", ") + quote_json(name);
+}
+
+std::string NameList::text() const {
+  return count_ > kListed ? listed_ + " and " + std::to_string(count_ - kListed) + " more" : listed_;
+}
+
 namespace {
 
-// JSON text (comments allowed) into a document; ConfigError "invalid JSON: parse error at line L, column C: ...".
+// `size`: "2000000", or "more than 1048576" when the rest was not read.
+std::string too_large(const std::string& size) {
+  return "configuration too large: " + size + " bytes (at most " + std::to_string(kMaxConfigBytes) + ")";
+}
+
+// Rejects a key given twice in one object (nlohmann keeps the last silently), naming its JSON path in the
+// style of the other errors (`devices[1].options.baud`). A SAX pass over the text (nlohmann's callback
+// parser would do it in one, but it scans the parent array at every object's end: quadratic in devices),
+// keeping one frame per open object or array.
+class DuplicateKeyCheck final : public nlohmann::json_sax<json> {
+ public:
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t&) override { return value(); }
+  bool string(string_t&) override { return value(); }
+  bool binary(binary_t&) override { return value(); }
+  bool start_object(std::size_t) override { return open(false); }
+  bool start_array(std::size_t) override { return open(true); }
+  bool end_object() override { return close(); }
+  bool end_array() override { return close(); }
+  bool key(string_t& key) override {
+    Frame& object = frames_.back();
+    object.key = key;
+    if (!object.keys.insert(key).second) fail(child_path(), "duplicate key (the object has it already)");
+    return true;
+  }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;  // not reached: the text parsed before
+  }
+
+ private:
+  struct Frame {
+    std::string path;
+    bool array = false;
+    std::size_t index = 0;  // arrays: the next element's
+    std::string key;        // objects: the current key
+    std::set<std::string> keys;
+  };
+  // The path of the value about to be read.
+  std::string child_path() const {
+    if (frames_.empty()) return "";
+    const Frame& parent = frames_.back();
+    if (parent.array) return parent.path + "[" + std::to_string(parent.index) + "]";
+    return parent.path.empty() ? parent.key : parent.path + "." + parent.key;
+  }
+  bool open(bool array) {
+    frames_.push_back(Frame{child_path(), array, 0, {}, {}});
+    return true;
+  }
+  bool close() {
+    frames_.pop_back();
+    return value();
+  }
+  bool value() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+    return true;
+  }
+
+  std::vector<Frame> frames_;
+};
+
+// JSON text (comments allowed) into a document; ConfigError "invalid JSON: parse error at line L, column C: ...",
+// "configuration too large", or a duplicate key with its path.
 json parse_json_text(std::string_view json_text) {
+  if (json_text.size() > kMaxConfigBytes) fail("", too_large(std::to_string(json_text.size())));
+  json document;
   try {
-    return json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
-                       /*ignore_comments=*/true);
+    document = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
+                           /*ignore_comments=*/true);
   } catch (const json::parse_error& error) {
     std::string text = error.what();
     // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep "parse error at line L, column C: ...".
@@ -804,6 +884,10 @@ json parse_json_text(std::string_view json_text) {
     }
     throw ConfigError("", "invalid JSON: " + text);
   }
+  DuplicateKeyCheck duplicates;
+  json::sax_parse(json_text.begin(), json_text.end(), &duplicates, nlohmann::json::input_format_t::json,
+                  /*strict=*/true, /*ignore_comments=*/true);
+  return document;
 }
 
 }  // namespace
@@ -827,17 +911,32 @@ NodeFile parse_node_file(std::string_view json_text) {
 }
 
 RoverConfig load_config(const std::filesystem::path& file, ParseOptions options) {
+  const auto os_error = [&](int error) {
+    return ConfigError("", std::system_category().message(error), error_code(error, boost::system::system_category()),
+                       file.string());
+  };
+  std::error_code status_error;
+  if (std::filesystem::is_directory(file, status_error)) throw os_error(EISDIR);  // ifstream opens one, reads nothing
   std::ifstream stream(file, std::ios::binary);
   if (!stream) {
     const int error = errno;
-    throw ConfigError("", std::system_category().message(error != 0 ? error : ENOENT),
-                      error_code(error != 0 ? error : ENOENT, boost::system::system_category()), file.string());
+    throw os_error(error != 0 ? error : ENOENT);
   }
-  std::ostringstream text;
-  text << stream.rdbuf();
+  std::string text(kMaxConfigBytes + 1, '\0');  // one byte more than allowed tells a file too large
+  stream.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(stream.gcount()));
+  if (stream.bad()) throw os_error(EIO);
   if (options.base_dir.empty()) options.base_dir = file.parent_path();
   try {
-    return parse_config(text.str(), options);
+    if (text.size() > kMaxConfigBytes) {
+      std::error_code size_error;
+      const std::uintmax_t size = std::filesystem::is_regular_file(file, size_error)
+                                      ? std::filesystem::file_size(file, size_error)
+                                      : std::uintmax_t{0};
+      fail("", too_large(size > kMaxConfigBytes && !size_error ? std::to_string(size)
+                                                               : "more than " + std::to_string(kMaxConfigBytes)));
+    }
+    return parse_config(text, options);
   } catch (const ConfigError& error) {
     throw ConfigError(error.path(), error.detail(), error.code(), file.string());
   }

@@ -310,9 +310,9 @@ const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted,
   const std::string quoted_name = nlohmann::json(std::string(name)).dump();
   if (device == nullptr) {
     if (devices_.empty()) throw std::out_of_range("rover: no device " + quoted_name + " (the rover has no devices)");
-    std::string names;
-    for (const auto& each : devices_) names += (names.empty() ? "" : ", ") + each.name;
-    throw std::out_of_range("rover: no device " + quoted_name + " (devices: " + names + ")");
+    NameList names;
+    for (const auto& each : devices_) names.add(each.name);
+    throw std::out_of_range("rover: no device " + quoted_name + " (devices: " + names.text() + ")");
   }
   if (!accepts(device->codec)) {
     throw std::out_of_range("rover: device " + quoted_name + " speaks " + std::string(to_string(device->codec)) +

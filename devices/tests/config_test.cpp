@@ -407,6 +407,67 @@ TEST(DevicesConfigErrors, LoadConfigNamesTheFile) {
   std::filesystem::remove_all(directory);
 }
 
+// Issue 16: nlohmann keeps the last of two equal keys silently; a config whose "baud" is given twice
+// meant one of them.
+TEST(DevicesConfigErrors, DuplicateKeysAreRejectedWithTheirPath) {
+  EXPECT_EQ(error_of(R"({"devices": [{"name": "a", "name": "b", "codec": "romi", "transport": )" + kSerial + "}]}"),
+            "devices[0].name: duplicate key (the object has it already)");
+  EXPECT_EQ(error_of(one_device("romi", R"({"serial": {"path": "/dev/a", "baud": 9600, "baud": 115200}})")),
+            "devices[0].transport.serial.baud: duplicate key (the object has it already)");
+  EXPECT_EQ(error_of(R"({"name": "r", "devices": [], "name": "s"})"), "name: duplicate key (the object has it already)");
+  // Inside arrays, after nested objects and arrays: the index still counts every element.
+  EXPECT_EQ(error_of(R"({"devices": [[1, {"a": [2]}], 3, {"name": "dev", "options": {}, "options": {}}]})"),
+            "devices[2].options: duplicate key (the object has it already)");
+  // The same key in different objects is no duplicate.
+  EXPECT_NO_THROW(parse_config(R"({"devices": [{"name": "a", "codec": "romi", "transport": )" + kSerial +
+                               R"(}, {"name": "b", "codec": "romi", "transport": )" + kSerial + "}]}"));
+}
+
+// Issue 16: a 52 MB configuration (600,000 devices) took 16 s and ~1 GB before any error.
+TEST(DevicesConfigErrors, ConfigurationsOverOneMebibyteAreRejectedUnread) {
+  std::string text = one_device("romi", kSerial);
+  text.append(kMaxConfigBytes + 1 - text.size(), ' ');
+  EXPECT_EQ(error_of(text), "configuration too large: 1048577 bytes (at most 1048576)");
+  text.pop_back();
+  EXPECT_NO_THROW(parse_config(text));  // exactly the limit parses
+  try {
+    load_config("/dev/zero");  // endless: the read stops one byte past the limit
+    ADD_FAILURE() << "loaded /dev/zero";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()), "/dev/zero: configuration too large: more than 1048576 bytes (at most 1048576)");
+  }
+}
+
+TEST(DevicesConfigErrors, LoadingADirectorySaysSo) {
+  const std::filesystem::path directory = std::filesystem::temp_directory_path();
+  try {
+    load_config(directory);
+    ADD_FAILURE() << "loaded a directory";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()), directory.string() + ": Is a directory");
+    EXPECT_EQ(error.code(), boost::system::errc::is_a_directory);
+  }
+}
+
+// Issue 16: a NUL in a device name cut the error messages that named it short.
+TEST(DevicesConfigErrors, ControlCharactersInDeviceNamesAreRejectedInFull) {
+  const std::string message =
+      error_of(R"({"devices": [{"name": "a\u0000b", "codec": "romi", "transport": )" + kSerial + "}]}");
+  EXPECT_EQ(message, R"(devices[0].name: must not contain control characters, got "a\u0000b")");
+  EXPECT_EQ(error_of(R"({"devices": [{"name": "tab\there", "codec": "romi", "transport": )" + kSerial + "}]}"),
+            R"(devices[0].name: must not contain control characters, got "tab\there")");
+}
+
+TEST(DevicesNameList, QuotesEachNameAndListsTenAtMost) {
+  NameList few;
+  for (const char* name : {"arm", "head"}) few.add(name);
+  EXPECT_EQ(few.text(), R"("arm", "head")");
+  NameList names;
+  names.add(std::string_view("a\0b", 3));
+  for (int i = 1; i < 25; ++i) names.add("d" + std::to_string(i));
+  EXPECT_EQ(names.text(), R"("a\u0000b", "d1", "d2", "d3", "d4", "d5", "d6", "d7", "d8", "d9" and 15 more)");
+}
+
 TEST(DevicesConfigErrors, ValidateCatchesInconsistentConfigsBuiltInCode) {
   RoverConfig config;
   try {

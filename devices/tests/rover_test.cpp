@@ -117,7 +117,7 @@ TEST(DevicesRover, LookupsOfMissingNamesAndWrongCodecsSayWhatIsThere) {
     rover.romi("armm");
     ADD_FAILURE();
   } catch (const std::out_of_range& error) {
-    EXPECT_STREQ(error.what(), R"(rover: no device "armm" (devices: arm, head))");
+    EXPECT_STREQ(error.what(), R"(rover: no device "armm" (devices: "arm", "head"))");
   }
   try {
     rover.proxy("arm");

@@ -4,8 +4,12 @@
 // client's framing can produce).
 #include <gtest/gtest.h>
 
+#include <boost/asio/use_future.hpp>
+
 #include <atomic>
 #include <cmath>
+#include <functional>
+#include <future>
 #include <chrono>
 #include <mutex>
 #include <random>
@@ -13,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "../wire_tap.hpp"
 #include "reference_firmware_double.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/romi/encoder.hpp"
@@ -205,60 +210,44 @@ class FaultyWire {
     damage_request_id,  ///< the next request's second id digit becomes 'o' (`#e:5097` -> `#e:5o97`)
   };
   FaultyWire(std::shared_ptr<transports::ByteStream> host_side, std::shared_ptr<transports::ByteStream> device)
-      : host_side_(std::move(host_side)), device_(std::move(device)) {
-    upstream_ = std::thread([this] { pump(*host_side_, *device_, false); });
-    downstream_ = std::thread([this] { pump(*device_, *host_side_, true); });
-  }
-  ~FaultyWire() {
-    running_ = false;
-    upstream_.join();
-    downstream_.join();
-  }
+      : tap_(std::move(host_side), std::move(device),
+             [this](bool from_device, std::uint8_t byte, std::vector<std::uint8_t>& out) {
+               if (pass(from_device, byte)) out.push_back(byte);
+             }) {}
   void arm(Fault fault) { armed_ = fault; }
   bool done() const { return armed_ == Fault::none; }
 
  private:
-  void pump(transports::ByteStream& from, transports::ByteStream& to, bool from_device) {
-    std::vector<uint8_t> buffer(256);
-    std::vector<uint8_t> out;
-    std::string line;
-    bool dropping = false;
-    while (running_) {
-      boost::system::error_code error;
-      const std::size_t got = from.read_some(boost::asio::buffer(buffer), 20ms, error);
-      out.clear();
-      for (std::size_t i = 0; i < got; ++i) {
-        uint8_t byte = buffer[i];
-        if (byte == '#') line.clear();
-        line.push_back(static_cast<char>(byte));
-        const Fault fault = armed_;
-        const bool answer = line.size() >= 2 && line[1] != '!';  // not a log line
-        if (from_device && fault == Fault::damage_answer && answer && line.size() == 4) {
-          byte = static_cast<uint8_t>(byte ^ 1u);
-          armed_ = Fault::none;
-        } else if (from_device && fault == Fault::drop_answer && answer && line.size() == 2) {
-          dropping = true;
-        } else if (!from_device && fault == Fault::damage_request_id && line.size() >= 3 &&
-                   line[line.size() - 3] == ':') {
-          byte = 'o';
-          armed_ = Fault::none;
-        }
-        if (!dropping) out.push_back(byte);
-        if (dropping && byte == '\n') {
-          dropping = false;
-          armed_ = Fault::none;
-        }
-      }
-      if (!out.empty()) to.write(boost::asio::buffer(out), error);
+  // Each direction has its own thread and line state.
+  bool pass(bool from_device, std::uint8_t& byte) {
+    std::string& line = from_device ? from_device_line_ : to_device_line_;
+    if (byte == '#') line.clear();
+    line.push_back(static_cast<char>(byte));
+    const Fault fault = armed_;
+    const bool answer = line.size() >= 2 && line[1] != '!';  // not a log line
+    if (from_device && fault == Fault::damage_answer && answer && line.size() == 4) {
+      byte = static_cast<uint8_t>(byte ^ 1u);
+      armed_ = Fault::none;
+    } else if (from_device && fault == Fault::drop_answer && answer && line.size() == 2) {
+      dropping_ = true;
+    } else if (!from_device && fault == Fault::damage_request_id && line.size() >= 3 &&
+               line[line.size() - 3] == ':') {
+      byte = 'o';
+      armed_ = Fault::none;
     }
+    const bool keep = !(from_device && dropping_);
+    if (from_device && dropping_ && byte == '\n') {
+      dropping_ = false;
+      armed_ = Fault::none;
+    }
+    return keep;
   }
 
-  std::shared_ptr<transports::ByteStream> host_side_;
-  std::shared_ptr<transports::ByteStream> device_;
-  std::atomic<bool> running_{true};
   std::atomic<Fault> armed_{Fault::none};
-  std::thread upstream_;
-  std::thread downstream_;
+  std::string from_device_line_;
+  std::string to_device_line_;
+  bool dropping_ = false;  // device direction only
+  tether::testing::WireTap tap_;  // last: its threads stop before the state above goes
 };
 
 // What became of one `g[1]` call (romi-test logs "log 1" once per execution, then answers [0]) sent
@@ -274,7 +263,9 @@ struct FaultedCall {
 
 FaultedCall call_through_fault(FaultyWire::Fault fault, const ClientOptions& options = ClientOptions()) {
   IoThread io;
-  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
+  // Real time: the firmware's reply cache lives for the host's 2 s call budget in the device's time, so
+  // the re-send must come within it in simulated time too (fast pacing runs seconds ahead in a few ms).
+  auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
   auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
   FaultyWire wire(wire_end, board);
   RomiClient client(client_end, options);
@@ -328,6 +319,81 @@ TEST(RomiInterop, LostAnswerIsSentAgainWithRetryOnTimeoutAndAnsweredFromTheCache
   EXPECT_EQ(call.response.attempts, 2);
   EXPECT_EQ(call.logs, (std::vector<std::string>{"log 1"}));  // exactly once
   EXPECT_EQ(call.counters.timeouts, 0u);
+}
+
+// Issue 16: the reply cache keyed on (id, CRC-16 of the request) answered a new host session whose first
+// call repeated the previous session's last one (same id, same command: 1 in 256 with random first ids)
+// from the cache, and the command did not run (`tether call --id 5 'g[1]'` twice). A cached reply now
+// answers repeats for the host's 2 s call budget after it was sent, no longer. This thread carries the
+// bytes and advances the board only while a request is being answered, so the simulated time between
+// sessions is exactly what the test runs.
+TEST(RomiInterop, NewSessionRepeatingTheLastIdAndCommandRunsOnceTheCallBudgetHasPassed) {
+  IoThread io;
+  transports::VirtualUno board(romi_test_board(Pacing::fast));
+  const auto give_up = std::chrono::steady_clock::now() + 20s;  // wall time: only against a hang
+  while (!board.uart().rx_enabled && std::chrono::steady_clock::now() < give_up) board.run_for(1ms);
+  ASSERT_TRUE(board.uart().rx_enabled);
+  // One host session: its own client, first call `g[1]` with id 5 (romi-test logs "log 1" per execution,
+  // then answers [0]).
+  struct Session {
+    RomiResponse response;
+    std::vector<std::string> logs;
+    std::chrono::nanoseconds simulated{0};  // board time the session took
+  };
+  const auto session = [&]() {
+    Session result;
+    const auto started = board.simulated_time();
+    auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
+    RomiClient client(client_end, ClientOptions().first_id(5));
+    LogRecorder logs;
+    client.set_log_handler(logs.handler());
+    std::future<RomiResponse> answer = client.async_call("g[1]", boost::asio::use_future);
+    std::vector<std::uint8_t> buffer(256);
+    std::string line;
+    bool answering = false;  // the request went in and its answer is not complete yet
+    while (answer.wait_for(0s) != std::future_status::ready && std::chrono::steady_clock::now() < give_up) {
+      boost::system::error_code error;
+      const std::size_t in = wire_end->read_some(boost::asio::buffer(buffer), 1ms, error);
+      if (in > 0) {
+        board.write(std::span<const std::uint8_t>(buffer.data(), in));
+        answering = true;
+      }
+      if (!answering) continue;
+      board.run_for(1ms);
+      const std::size_t out = board.read(buffer, 0ms);
+      for (std::size_t i = 0; i < out; ++i) {
+        line.push_back(static_cast<char>(buffer[i]));
+        if (buffer[i] != '\n') continue;
+        if (line.rfind("#!", 0) != 0) answering = false;  // an answer, not a log line
+        line.clear();
+      }
+      if (out > 0) wire_end->write(boost::asio::buffer(buffer.data(), out), error);
+    }
+    result.response = answer.get();
+    result.logs = logs.take();
+    result.simulated = board.simulated_time() - started;
+    client.close();
+    return result;
+  };
+  const Session first = session();
+  EXPECT_EQ(first.response.code, 0);
+  EXPECT_EQ(first.response.id, 5);
+  EXPECT_EQ(first.logs, (std::vector<std::string>{"log 1"}));
+
+  // At once: inside the budget a repeat is indistinguishable from a re-send of the same call, and is
+  // answered from the cache without running.
+  const Session within_budget = session();
+  EXPECT_LT(within_budget.simulated, 100ms);
+  EXPECT_EQ(within_budget.response.code, 0);
+  EXPECT_EQ(within_budget.response.id, 5);
+  EXPECT_TRUE(within_budget.logs.empty());
+
+  // Past the budget (2 s after that reply): the same id and command are a new command and run.
+  board.run_for(2100ms);
+  const Session later = session();
+  EXPECT_EQ(later.response.code, 0);
+  EXPECT_EQ(later.response.id, 5);
+  EXPECT_EQ(later.logs, (std::vector<std::string>{"log 1"}));
 }
 
 TEST(RomiInterop, McuResetMidSessionThenTheNextCallsSucceed) {

@@ -3,10 +3,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string_view>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -225,7 +227,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
       error = failure.what();
       return std::nullopt;
     }
-    std::string names;
+    devices::NameList names;
     for (std::size_t i = 0; i < rover.devices.size(); ++i) {
       const devices::DeviceConfig& device = rover.devices[i];
       if (device.name == options.device) {
@@ -234,11 +236,11 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
                        devices::describe(device.transport) + ", " + codec_name(device.codec) + ")";
         return target;
       }
-      names += (names.empty() ? "" : ", ") + device.name;
+      names.add(device.name);
     }
     error = options.device.empty()
-                ? "--config needs --device NAME (devices in " + options.config_file + ": " + names + ")"
-                : "no device '" + options.device + "' in " + options.config_file + " (devices: " + names + ")";
+                ? "--config needs --device NAME (devices in " + options.config_file + ": " + names.text() + ")"
+                : "no device '" + options.device + "' in " + options.config_file + " (devices: " + names.text() + ")";
     return std::nullopt;
   }
 
@@ -253,6 +255,16 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     }
   }
   const std::filesystem::path firmware = board ? firmware_image(options.firmware) : std::filesystem::path();
+  if (board) {
+    // Before the codec, which the image's name suggests: a missing image is "not found", not a codec mismatch.
+    std::error_code status_error;
+    const std::filesystem::file_status status = std::filesystem::status(firmware, status_error);
+    if (!std::filesystem::is_regular_file(status)) {
+      const int reason = std::filesystem::is_directory(status) ? EISDIR : ENOENT;
+      error = "firmware image not found: " + firmware.string() + ": " + std::system_category().message(reason);
+      return std::nullopt;
+    }
+  }
   const devices::Codec codec = options.codec ? *options.codec : (board ? codec_of_image(firmware) : default_codec);
   if (codec != devices::Codec::elcano && (options.generation || options.capture)) {
     error = std::string(options.generation ? "--generation" : "--capture") + " applies to the elcano codec only";

@@ -98,6 +98,11 @@ void error_without_message(IRomiSerial* romi, int16_t*, const char*) {
   ++runs;
   romi->send_error(3, nullptr);
 }
+void slow(IRomiSerial* romi, int16_t*, const char*) {  // a handler that works for 500 ms, then answers
+  ++runs;
+  fake_now += 500;
+  romi->send_ok();
+}
 
 const MessageHandler kHandlers[] = {
     {'a', 0, false, ok},         {'b', 0, false, silent},      {'c', 2, false, ok},
@@ -105,6 +110,7 @@ const MessageHandler kHandlers[] = {
     {'m', 12, false, ok},        {'2', 0, false, twice},       {'g', 0, false, logs_then_ok},
     {'L', 0, false, too_long},   {'E', 0, false, long_error},  {'k', 0, false, colon},
     {'n', 0, false, null_send},  {'r', 0, false, reentrant},   {'x', 0, false, error_without_message},
+    {'w', 0, false, slow},
 };
 constexpr uint8_t kHandlerCount = sizeof(kHandlers) / sizeof(kHandlers[0]);
 
@@ -355,6 +361,76 @@ TEST_F(RomiSerialTest, ManualRequestsBypassTheCacheAndDoNotPoisonIdZero) {
   EXPECT_EQ(runs, 4);
   EXPECT_EQ(exchange(request("a", 0)), "#a[0]:00e7\r\n");  // the id-0 request is still a repeat
   EXPECT_EQ(runs, 4);
+}
+
+// A new host session that starts with the previous one's last id and command (1 in 256 with random
+// first ids) must get its command executed, while every re-send of a call (all within the host's 2 s
+// budget) is still answered from the cache: the cached reply lives exactly 2 s after it was sent.
+TEST_F(RomiSerialTest, CachedReplyAnswersRepeatsUpToTheCallBudgetAfterItWasSent) {
+  fake_now = 1000;
+  const std::string first = exchange(request("c[1,2]", 5));
+  EXPECT_EQ(runs, 1);
+  fake_now = 1000 + 2000;  // the latest a re-send of the same call can come
+  EXPECT_EQ(exchange(request("c[1,2]", 5)), first);
+  EXPECT_EQ(runs, 1);
+  fake_now = 1000 + 2001;  // a new session's identical command
+  EXPECT_EQ(exchange(request("c[1,2]", 5)), first);
+  EXPECT_EQ(runs, 2);
+  EXPECT_EQ(device.counters().executed, 2u);
+  EXPECT_EQ(device.counters().link.duplicates, 1u);
+  // The run at 3001 is cached in turn, for 2 s from then.
+  fake_now = 3001 + 2000;
+  exchange(request("c[1,2]", 5));
+  EXPECT_EQ(runs, 2);
+  fake_now = 3001 + 2001;
+  exchange(request("c[1,2]", 5));
+  EXPECT_EQ(runs, 3);
+}
+
+TEST_F(RomiSerialTest, CachedReplyExpiresWhileTheDeviceIsIdle) {
+  exchange(request("a", 9));
+  fake_now = 2000;
+  EXPECT_EQ(exchange(""), "");
+  fake_now = 2001;
+  EXPECT_EQ(exchange(""), "");  // nothing to say, but the cache is gone
+  fake_now = 0x90000000u;       // far later (past half the clock's range): still gone, not wrapped back
+  EXPECT_EQ(exchange(request("a", 9)), response('a', "[0]", 9));
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, CacheLifetimeStartsWhenTheReplyIsSentNotWhenTheRequestArrived) {
+  fake_now = 0;
+  const std::string first = exchange(request("w", 3));  // the handler answers at 500
+  EXPECT_EQ(fake_now, 500u);
+  fake_now = 500 + 2000;
+  EXPECT_EQ(exchange(request("w", 3)), first);
+  EXPECT_EQ(runs, 1);
+  fake_now = 500 + 2001;
+  exchange(request("w", 3));
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, CacheLifetimeWorksAcrossTheClockWrap) {
+  fake_now = 0xFFFFF000u;
+  const std::string first = exchange(request("a", 7));
+  fake_now = 0xFFFFF000u + 2000u;  // wrapped
+  EXPECT_EQ(exchange(request("a", 7)), first);
+  EXPECT_EQ(runs, 1);
+  fake_now = 0xFFFFF000u + 2001u;
+  exchange(request("a", 7));
+  EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, BytesAfterASlowHandlerAreTimedFromItsReply) {
+  // The clock is read once per handle_input and once after each handler, never per byte: a request
+  // queued behind a 500 ms handler starts its 1 s deadline after the handler, not before it.
+  fake_now = 0;
+  const std::string out = exchange(request("w", 1) + "#a[");
+  EXPECT_EQ(out, response('w', "[0]", 1));
+  fake_now = 1499;  // 999 ms after the slow reply: the partial request is still in time
+  EXPECT_EQ(exchange(""), "");
+  fake_now = 1500;
+  EXPECT_EQ(exchange(""), response('a', "[-30]", 0));
 }
 
 // --- overlong frames (B1) ------------------------------------------------------------------------------

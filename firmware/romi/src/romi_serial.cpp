@@ -15,6 +15,7 @@ static_assert(RomiSerial::kReplyCapacity >= 16, "room for every protocol error r
 
 constexpr uint8_t RomiSerial::kReplyCapacity;
 constexpr Duration RomiSerial::kRequestDeadlineMs;
+constexpr Duration RomiSerial::kReplyCacheLifetimeMs;
 
 namespace {
 
@@ -41,25 +42,35 @@ void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
 
 void RomiSerial::handle_input() {
   if (in_handler_) return;
+  // One clock read per call and one per handler run, none per byte (the AVR's hot path): the bytes
+  // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
   Millis now = clock_ != nullptr ? clock_() : 0;
   char c;
   while (in_->available() && in_->read(c)) {
-    if (clock_ != nullptr) now = clock_();
-    handle_byte(static_cast<uint8_t>(c), now);
+    if (handle_received(static_cast<uint8_t>(c), now)) now = reply_sent_at_;
   }
   handle_timeouts(now);
 }
 
 void RomiSerial::handle_timeouts(Millis now) {
-  if (in_handler_ || !deadline_.poll(now)) return;
+  if (in_handler_) return;
+  // The cached reply outlives every re-send of its request (they all come within the host's call
+  // budget); after that, the same id and bytes are a new session's command and must run.
+  if (cache_expiry_.expired(now)) {
+    cache_expiry_.disarm();
+    replies_.clear();
+  }
+  if (!deadline_.poll(now)) return;
   // The request being received is too late: drop it, say so, wait for the next '#'.
   decoder_.reset();
   await_opcode_ = false;
   send_code(partial_opcode_, 0, ErrorCode::controller_timeout);
 }
 
-void RomiSerial::handle_byte(uint8_t byte, Millis now) {
-  if (in_handler_) return;
+void RomiSerial::handle_byte(uint8_t byte, Millis now) { handle_received(byte, now); }
+
+bool RomiSerial::handle_received(uint8_t byte, Millis now) {
+  if (in_handler_) return false;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
   if (byte == '#') {
     deadline_.on_frame_start(now);
@@ -72,25 +83,25 @@ void RomiSerial::handle_byte(uint8_t byte, Millis now) {
   const EnvelopeEvent event = decoder_.feed(byte);
   switch (event.kind) {
     case EnvelopeEvent::Kind::none:
-      return;
+      return false;
     case EnvelopeEvent::Kind::error:
       deadline_.on_frame_end();
       send_code(event.opcode, event.has_id ? event.id : 0, event.error);
-      return;
+      return false;
     case EnvelopeEvent::Kind::frame:
     case EnvelopeEvent::Kind::log:
       deadline_.on_frame_end();
-      handle_frame(event);
-      return;
+      return handle_frame(event, now);
   }
+  return false;
 }
 
-void RomiSerial::handle_frame(const EnvelopeEvent& event) {
+bool RomiSerial::handle_frame(const EnvelopeEvent& event, Millis now) {
   const uint8_t id = event.has_id ? event.id : 0;
   if (event.kind == EnvelopeEvent::Kind::log) {
     // "#!text": '!' is no opcode; the reference's message parser says the same.
     send_code('_', id, ErrorCode::invalid_opcode);
-    return;
+    return false;
   }
   // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
   const uint16_t fingerprint = Crc16Mcrf4xx::compute(event.payload);
@@ -98,18 +109,18 @@ void RomiSerial::handle_frame(const EnvelopeEvent& event) {
     const auto lookup = replies_.check(id, fingerprint);
     if (lookup.duplicate && !lookup.cached_reply.empty()) {
       write(lookup.cached_reply);  // exactly-once: the same response again, the handler does not run
-      return;
+      return false;
     }
   }
-  dispatch(event, fingerprint);
+  return dispatch(event, fingerprint, now);
 }
 
-void RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint) {
+bool RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Millis now) {
   const uint8_t id = event.has_id ? event.id : 0;
   const ErrorCode parsed = parse_request(event.payload, request_);
   if (parsed != ErrorCode::no_error) {
     send_code(event.opcode, id, parsed);
-    return;
+    return false;
   }
   const MessageHandler* handler = nullptr;
   for (uint8_t i = 0; i < handler_count_; ++i) {
@@ -128,7 +139,7 @@ void RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint) {
   }
   if (check != ErrorCode::no_error) {
     send_code(request_.opcode, id, check);
-    return;
+    return false;
   }
 
   opcode_ = request_.opcode;
@@ -142,10 +153,14 @@ void RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint) {
     ++counters_.silent_handlers;
     send_response(opcode_, id_, ByteView::from_literal("[-20]"));
   }
+  // The handler may have taken a while: the cache's lifetime starts when the reply went out.
+  reply_sent_at_ = clock_ != nullptr ? clock_() : now;
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!event.manual) {
     replies_.remember(id, fingerprint, ByteView(reply_, reply_size_));
+    cache_expiry_.arm(reply_sent_at_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
+  return true;
 }
 
 void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include <csignal>
+#include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -82,12 +84,54 @@ TEST(TetherUsage, DeviceSelectionErrors) {
   expect_usage_error({"monitor", "--port", "/dev/null", "--codec", "mavlink"}, "--codec needs romi, proxy");
   expect_usage_error({"monitor", "--port", "/dev/null", "--baud", "fast"}, "--baud needs a positive number");
   expect_usage_error({"monitor", "--port"}, "--port needs a value");
-  expect_usage_error({"stats", "--config", kRover}, "--config needs --device NAME (devices in " + kRover + ": arm, ");
+  expect_usage_error({"stats", "--config", kRover}, "--config needs --device NAME (devices in " + kRover + R"(: "arm", )");
   expect_usage_error({"stats", "--config", kRover, "--device", "wheels"}, "no device 'wheels'");
   expect_usage_error({"stats", "--config", kRover, "--device", "arm", "--baud", "9600"},
                      "--baud does not apply with --config");
   expect_usage_error({"stats", "--device", "arm"}, "--device needs --config FILE");
   expect_usage_error({"stats", "--config", "/nonexistent/rover.json", "--device", "arm"}, "/nonexistent/rover.json");
+}
+
+// Issue 16: `send --virtual nosuchimage` said the image "speaks romi, not the proxy protocol" (the codec
+// guessed from the name came first).
+TEST(TetherUsage, MissingFirmwareImageIsNotFound) {
+  for (const std::vector<std::string>& arguments :
+       {std::vector<std::string>{"send", "--virtual", "nosuchimage", "servo-init", "pin=9", "safe-position=90"},
+        std::vector<std::string>{"call", "--virtual", "nosuchimage", "e"},
+        std::vector<std::string>{"stats", "--virtual", "proxy-nosuchimage", "--duration", "0"}}) {
+    expect_usage_error(arguments, "firmware image not found: ");
+    const Outcome run = run_tether(arguments);
+    EXPECT_NE(run.err.find(arguments[2] + ".elf: No such file or directory"), std::string::npos) << run.err;
+    EXPECT_EQ(run.err.find("speaks"), std::string::npos) << run.err;
+  }
+  expect_usage_error({"call", "--virtual", ::testing::TempDir(), "e"}, ": Is a directory");
+}
+
+// Issue 16: configuration files that are not one, too large, or list too many names.
+TEST(TetherUsage, ConfigErrorsSayWhatIsWrongAndStayShort) {
+  expect_usage_error({"stats", "--config", ::testing::TempDir(), "--device", "a"}, ": Is a directory");
+  const std::string file = ::testing::TempDir() + "tether-usage-many-devices.json";
+  nlohmann::json rover = {{"devices", nlohmann::json::array()}};
+  for (int i = 0; i < 30; ++i) {
+    rover["devices"].push_back({{"name", "d" + std::to_string(i)},
+                                {"codec", "romi"},
+                                {"transport", {{"serial", {{"path", "/dev/null"}}}}}});
+  }
+  std::ofstream(file) << rover.dump();
+  Outcome run = run_tether({"stats", "--config", file, "--device", "a"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find(R"(no device 'a' in )" + file +
+                         R"( (devices: "d0", "d1", "d2", "d3", "d4", "d5", "d6", "d7", "d8", "d9" and 20 more))"),
+            std::string::npos)
+      << run.err;
+  EXPECT_LT(run.err.size(), 1000u);
+  std::ofstream(file) << std::string(2'000'000, ' ');
+  expect_usage_error({"stats", "--config", file, "--device", "a"},
+                     file + ": configuration too large: 2000000 bytes (at most 1048576)");
+  std::ofstream(file) << R"({"devices": [{"name": "a", "codec": "romi", "codec": "proxy"}]})";
+  expect_usage_error({"stats", "--config", file, "--device", "a"},
+                     file + ": devices[0].codec: duplicate key (the object has it already)");
+  std::remove(file.c_str());
 }
 
 TEST(TetherUsage, SendRejectsUnknownMessagesFieldsAndValuesBeforeOpening) {

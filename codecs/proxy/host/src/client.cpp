@@ -308,6 +308,7 @@ class ProxyClientImpl final : public transports::ClientLink {
     InitKey replay_key = 0;             // != 0: the session's replay of this init
     Millis queue_deadline = 0;          // application messages: fail if not sent by then
     std::uint32_t id = 0;               // messageId on the wire
+    std::uint32_t anchor = 0;           // the oldest id in flight when it was first sent (its id if none)
     std::shared_ptr<const std::string> frame;
   };
   // A registered init and the application sends waiting for its replay.
@@ -409,7 +410,7 @@ class ProxyClientImpl final : public transports::ClientLink {
         }
       }
       run_monitor(now);
-      if (options_.timing.ping_period > 0 && heartbeat_.due(now)) {
+      if (options_.timing.ping_period > 0 && heartbeat_.due(now) && id_window_open()) {
         send_untracked(Untracked::ping);
         heartbeat_.beat_sent(now);
       }
@@ -488,18 +489,50 @@ class ProxyClientImpl final : public transports::ClientLink {
   // --- sending -----------------------------------------------------------------------------------------
 
   std::uint32_t next_id() {
-    for (;;) {
-      ++last_id_;
-      if (last_id_ == 0 || table_.contains(last_id_)) continue;
-      return last_id_;
+    last_id_ = peek_next_id();
+    return last_id_;
+  }
+  std::uint32_t peek_next_id() const {
+    std::uint32_t id = last_id_;
+    do {
+      ++id;
+    } while (id == 0 || table_.contains(id));
+    return id;
+  }
+  // The oldest id in flight (the one furthest back from the last id sent), or `fallback` when none.
+  std::uint32_t oldest_in_flight(std::uint32_t fallback) const {
+    std::uint32_t oldest = fallback;
+    std::uint32_t oldest_distance = 0;
+    for (const auto& entry : in_flight_) {
+      const auto distance = static_cast<std::uint32_t>(last_id_ - entry.first);
+      if (distance >= oldest_distance) {
+        oldest_distance = distance;
+        oldest = entry.first;
+      }
     }
+    return oldest;
+  }
+  // True when the next id keeps every unacked message in the device's duplicate filter (kIdWindow). After
+  // a message X first runs, the device may still run for the first time an older id that was in flight
+  // when X was sent (its first copy lost, or still on the way), and the ids sent after X: so every new id
+  // stays within kIdWindow of the anchor of each message in flight (the oldest id in flight when it was
+  // sent), and at most kIdWindow - 1 other ids run between X and its re-send. Distances in sequence order
+  // (ids wrap at 2^32).
+  bool id_window_open() const {
+    if (in_flight_.empty()) return true;
+    std::uint32_t anchor_distance = 0;
+    for (const auto& entry : in_flight_) {
+      anchor_distance = std::max(anchor_distance, static_cast<std::uint32_t>(last_id_ - entry.second->anchor));
+    }
+    const std::uint32_t next_distance = anchor_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_);
+    return next_distance < kIdWindow;
   }
 
   // Starts what can start from `queue`, in order, keeping each pin's messages in order.
   void start_queue(std::deque<std::unique_ptr<Pending>>& queue, Millis now) {
     std::set<std::uint32_t> passed;  // pins with a message left behind in this scan
     for (auto it = queue.begin(); it != queue.end();) {
-      if (table_.in_flight() >= kMaxInFlight) return;
+      if (table_.in_flight() >= kMaxInFlight || !id_window_open()) return;
       const std::optional<std::uint32_t> lane = (*it)->lane;
       if (lane && (lanes_.count(*lane) != 0 || passed.count(*lane) != 0)) {
         passed.insert(*lane);
@@ -517,6 +550,7 @@ class ProxyClientImpl final : public transports::ClientLink {
     ArduinoIn& message = std::get<ArduinoIn>(pending->message);
     message.set_messageid(id);
     pending->id = id;
+    pending->anchor = oldest_in_flight(id);
     pending->frame = frame_of(message.SerializeAsString(), Integrity::crc16);
     refresh_table_timing(pending->frame->size());
     (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight
@@ -908,7 +942,8 @@ class ProxyClientImpl final : public transports::ClientLink {
     if (primary()) {
       consider(wakeup, table_.next_wakeup());
       consider(wakeup, monitor_.next_wakeup());
-      if (options_.timing.ping_period > 0) consider(wakeup, heartbeat_.next());
+      // A ping held back by the id window goes when an ack or a timeout opens it (both pump): no wakeup.
+      if (options_.timing.ping_period > 0 && id_window_open()) consider(wakeup, heartbeat_.next());
       Deadline queued;
       for (const auto& pending : user_queue_) {
         queued.arm_at(pending->queue_deadline);

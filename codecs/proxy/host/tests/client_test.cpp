@@ -371,20 +371,23 @@ TEST(ProxyClient, UnacknowledgedReplayRestartsTheHandshake) {
   ProxyOptions options = test_options();
   options.timing.processing_margin = 30;
   options.timing.send_budget = 200;
-  // The first session ignores the init: the client resets the device again and replays.
+  // The first session ignores the init: the client resets the device again and replays. The first Reset
+  // goes unanswered, so the init is the handshake's replay (registered after an established session, it
+  // would be an ordinary send that times out: a race the test lost about 1 run in 20).
   auto resets = std::make_shared<std::atomic<int>>(0);
   Link link(io.executor(), options, standard_device(100, [resets](const DeviceFrame& frame) {
-              if (frame.in.has_reset()) ++*resets;
-              return frame.in.has_servoinit() && *resets == 1;
+              if (frame.in.has_reset()) return ++*resets == 1;   // the first Reset goes unanswered
+              return frame.in.has_servoinit() && *resets == 2;  // the first session ignores the init
             }));
   Completions done;
+  // Registered now on the client's strand; the Reset's re-send fires there 1 s later.
   link.client->servo(3).async_init(0, done.handler(0));
   ASSERT_TRUE(done.wait_for(1));
   EXPECT_FALSE(done.at(0).error);
   const auto established = link.log.of<events::SessionEstablished>();
   ASSERT_EQ(established.size(), 1u);
   EXPECT_EQ(established[0].session_id, 101u);  // not the first session: it never took its init
-  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 2u);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 3u);  // unanswered, ignoring, replayed
   EXPECT_GE(link.client->counters().link.timeouts, 1u);
 }
 
@@ -561,6 +564,89 @@ TEST(ProxyClient, AtMostEightInFlight) {
         return seen.size() == 10;
       },
       kPrompt));
+}
+
+// Issue 16: the device remembers the last 8 ids it executed (pings too). With one message unacked (its
+// ack lost) and the other pins busy, the client went on sending new ids as acks freed slots: the device
+// forgot the unacked id and executed its next re-send again. Every id must stay within 8 consecutive ids
+// of the oldest unacked one, pings included, until it is acked.
+TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.ping_period = 20;   // pings fall due while the message is held: they wait too
+  options.timing.send_budget = 5000;  // the held message stays in flight through the check
+  options.timing.queue_timeout = 10000;
+  auto held = std::make_shared<std::atomic<bool>>(true);
+  Link link(io.executor(), options, standard_device(100, [held](const DeviceFrame& frame) {
+              return *held && is_servo_control(frame) && frame.in.servocontrol().pin() == 0;
+            }));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(0).async_set(1, done.handler(0));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  std::size_t sends = 1;
+  for (int round = 0; round < 4; ++round) {
+    for (std::uint32_t pin = 1; pin <= 9; ++pin) link.client->servo(pin).async_set(round, done.handler(sends++));
+  }
+  // Ids after the held one (sends and pings) are acked at once, until the window is full.
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
+  std::this_thread::sleep_for(300ms);  // the held message is re-sent meanwhile (~160 ms window)
+  const std::vector<DeviceFrame> frames = link.device->frames();
+  std::uint32_t held_id = 0;
+  for (const auto& frame : frames_of(frames, ArduinoIn::kServoControl)) {
+    if (frame.in.servocontrol().pin() == 0) held_id = frame.in.messageid();
+  }
+  ASSERT_NE(held_id, 0u);
+  std::set<std::uint32_t> later_ids;
+  int held_sends = 0;
+  for (const auto& frame : frames) {
+    if (!frame.decoded || frame.in.has_reset()) continue;
+    if (frame.in.messageid() == held_id) ++held_sends;
+    if (held_sends > 0 && frame.in.messageid() != held_id) later_ids.insert(frame.in.messageid());
+  }
+  EXPECT_GE(held_sends, 2);  // it was re-sent: the case the window protects
+  EXPECT_LE(later_ids.size(), std::size_t{kIdWindow} - 1);
+  for (const std::uint32_t id : later_ids) EXPECT_LT(id - held_id, std::uint32_t{kIdWindow}) << id;
+  // Released: everything goes through, the held message acked on its next re-send.
+  *held = false;
+  ASSERT_TRUE(done.wait_for(sends, 5000ms));
+  for (std::size_t i = 0; i < sends; ++i) EXPECT_FALSE(done.at(i).error) << i << ": " << done.at(i).error.message();
+}
+
+// The window counts from the oldest message that was in flight when the held one was sent: that older
+// message may run for the first time after it (its first copy was lost), so when its ack opens the window
+// the held message's id is not where new ids may count from. Found under load in the interop test (the
+// device ran a re-send again in the same boot).
+TEST(ProxyClient, IdWindowCountsFromTheOldestMessageInFlightWhenTheHeldOneWasSent) {
+  IoThread io;
+  ProxyOptions options = test_options();
+  options.timing.send_budget = 5000;
+  options.timing.queue_timeout = 10000;
+  auto held = std::make_shared<std::atomic<bool>>(true);
+  Link link(io.executor(), options, standard_device(100, [held](const DeviceFrame& frame) {
+              if (!is_servo_control(frame)) return false;
+              const std::uint32_t pin = frame.in.servocontrol().pin();
+              return (pin == 0 && frame.repeat == 1) || (pin == 1 && *held);  // pin 0: first copy lost
+            }));
+  ASSERT_TRUE(link.established());
+  Completions done;
+  link.client->servo(0).async_set(1, done.handler(0));  // W: runs late, on its re-send
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 1), kPrompt));
+  link.client->servo(1).async_set(1, done.handler(1));  // X: its acks are lost while held
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
+  std::size_t sends = 2;
+  for (int round = 0; round < 4; ++round) {
+    for (std::uint32_t pin = 2; pin <= 9; ++pin) link.client->servo(pin).async_set(round, done.handler(sends++));
+  }
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_FALSE(done.at(0).error);  // W acked: the window must still not move past W + 7
+  std::this_thread::sleep_for(400ms);
+  const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
+  const std::uint32_t w = controls.at(0).in.messageid();
+  for (const auto& frame : controls) EXPECT_LT(frame.in.messageid() - w, std::uint32_t{kIdWindow}) << frame.in.messageid();
+  *held = false;
+  ASSERT_TRUE(done.wait_for(sends, 5000ms));
+  for (std::size_t i = 0; i < sends; ++i) EXPECT_FALSE(done.at(i).error) << i << ": " << done.at(i).error.message();
 }
 
 // --- rejected before the wire -----------------------------------------------------------------------------

@@ -268,15 +268,37 @@ struct ParseOptions {
   std::filesystem::path base_dir;
 };
 
+/// Largest configuration text accepted (1 MiB): a rover's is a few KB. Bounds the time and memory of a
+/// parse (a 52 MB file once took 16 s and ~1 GB) and whatever else reads it; more is a `ConfigError`.
+inline constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
+
 /// Parses a JSON document. Throws `ConfigError` (path and expectation; JSON syntax errors with line and
-/// column).
+/// column; a key given twice in one object, with its path; text over `kMaxConfigBytes`).
 RoverConfig parse_config(std::string_view json_text, const ParseOptions& options = ParseOptions());
 /// Parses an already-parsed JSON document (e.g. one section of a larger application config). Throws
-/// `ConfigError`.
+/// `ConfigError`. Duplicate keys are the caller's parser's business (nlohmann keeps the last).
 RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& options = ParseOptions());
 /// Reads and parses `file`; `base_dir` defaults to the file's folder. Throws `ConfigError` whose `file()`
-/// is the file (an unreadable file has an empty path and the OS's message).
+/// is the file (an unreadable file, a directory, a file over `kMaxConfigBytes`: an empty path and the
+/// reason, e.g. `Is a directory`). Reads at most `kMaxConfigBytes` + 1 bytes, also from a device or a pipe.
 RoverConfig load_config(const std::filesystem::path& file, ParseOptions options = ParseOptions());
+
+/// Device names for an error message ("no device 'x' (devices: ...)"): each JSON-quoted (a NUL or a
+/// control character is escaped, never cuts the message short), comma-separated, the first
+/// `kListed` only, then how many more: the message stays short whatever the rover's size.
+class NameList {
+ public:
+  /// Names shown at most.
+  static constexpr std::size_t kListed = 10;
+  /// Adds a name.
+  void add(std::string_view name);
+  /// `"arm", "servos"` or `"a", ..., "j" and 5 more`.
+  std::string text() const;
+
+ private:
+  std::size_t count_ = 0;
+  std::string listed_;
+};
 
 /// Checks what parsing guarantees, for configurations built in code: devices present, names unique and
 /// non-empty, options matching the codec, transport allowed for the codec, timing values usable. Throws

@@ -22,8 +22,12 @@
 ///      (`ProxyOptions::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
 ///      put in the message is overwritten. At most `kMaxInFlight` (8) messages are in flight; at most one
 ///      per pin ("lane"), so two commands to the same pin reach the device in submission order even when
-///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Other
-///      messages wait in a FIFO queue on the client's strand.
+///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Being in
+///      flight is not all: while a message waits for its ack, the device must not execute 8 other ids (its
+///      duplicate filter would forget it and run a re-send again), so a new id goes out only within
+///      `kIdWindow` (8) consecutive ids from the anchor of every message in flight (the oldest id in flight
+///      when it was sent), pings included. Other messages wait in
+///      a FIFO queue on the client's strand.
 ///   2. **Acks and re-sends.** A message is re-sent, byte for byte (same messageId: the device executes an
 ///      id once and acks a repeat again), each time an attempt window passes without its ack, until it is
 ///      acked or its `send_budget` runs out (`ProxyError::timed_out`) or `max_sends` frames were sent. The
@@ -88,7 +92,7 @@
 ///   |---|---|
 ///   | none | primary: the device acked the messageId; compat: the frame was written |
 ///   | `ProxyError::timed_out` | no ack within `send_budget` (or after `max_sends` frames) |
-///   | `ProxyError::queue_timeout` | not sent within `queue_timeout` (no session, pin busy, 8 in flight) |
+///   | `ProxyError::queue_timeout` | not sent within `queue_timeout` (no session, pin busy, id window full) |
 ///   | `ProxyError::device_reset` | the session changed while it was in flight |
 ///   | `ProxyError::wrong_mode`, `invalid_message`, `reserved_message`, `message_too_large`, `too_many_inits` | rejected before anything was written |
 ///   | `asio::error::operation_aborted` | `close()` (or the client's destruction) |
@@ -145,6 +149,12 @@ using error_code = boost::system::error_code;
 
 /// Messages in flight at once (the RequestTable's capacity; the device's duplicate filter remembers 8).
 inline constexpr std::uint8_t kMaxInFlight = 8;
+/// The device remembers the last 8 messageIds it executed (`ProxyDevice::kDuplicateDepth`), pings
+/// included. A message re-sent after 8 other ids ran would run again, so while a message is unacked every
+/// new id stays within `kIdWindow` consecutive ids of its anchor: the oldest id in flight when it was sent
+/// (an older message in flight then may still run for the first time after it). Application messages and
+/// pings wait for the window; Reset does not (it clears the filter).
+inline constexpr std::uint8_t kIdWindow = 8;
 /// Registered inits (ServoInit/DigitalInit keys) at most.
 inline constexpr std::uint8_t kMaxInits = 64;
 /// Largest protobuf payload sent or accepted; longer device frames are dropped (`link.oversize_frames`).

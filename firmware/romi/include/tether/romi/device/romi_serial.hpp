@@ -20,10 +20,12 @@
 ///      digits, -4 CRC mismatch, -5 expected end, -6 missing metadata, -7 bad `xxxx`), the frame's opcode
 ///      (`_` when its first character is not one) and the id read so far (0 when none). A frame too long
 ///      for the buffer gets exactly ONE `[-1]` and nothing else: the rest of it is skipped (B1).
-///   3. A good frame whose id and bytes equal those of the last request whose handler ran is answered
-///      with that request's response again, byte for byte, without running the handler (exactly-once,
-///      B3; the reference answers -15 instead). -15 is never sent. A fresh device knows no id, so the
-///      first request is never a repeat whatever its id (B6).
+///   3. A good frame whose id and bytes equal those of the last request whose handler ran, arriving at
+///      most `kReplyCacheLifetimeMs` (2 s, the host's call budget) after that request's response was
+///      sent, is answered with that response again, byte for byte, without running the handler
+///      (exactly-once, B3; the reference answers -15 instead). -15 is never sent. Later it runs: a new
+///      host session may start with the previous one's last id and command. A fresh device knows no
+///      id, so the first request is never a repeat whatever its id (B6).
 ///   4. Manual requests (`:xxxx`, typed in a terminal) are never treated as repeats and are not
 ///      remembered: they neither hit nor poison the cache (B6). Their response carries id 00.
 ///   5. Otherwise the payload is parsed: -8..-14 on a syntax error (`[code]`, the frame's opcode and id).
@@ -39,12 +41,13 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 393 bytes of static RAM (measured), all bounded at compile time:
+/// One `RomiSerial` is 403 bytes of static RAM (measured), all bounded at compile time:
 ///   - request buffer: 83 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
 ///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1), reply cache: 81 bytes (id, fingerprint, 72 bytes);
-///   - counters: 68 bytes; pointers, deadline and state: 28 bytes.
+///   - counters: 68 bytes; pointers, deadlines, the reply's send time and state: 37 bytes.
+/// Time: the clock is read once per `handle_input()` and once after each handler, never per byte.
 /// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
 /// in a 72-byte buffer). Measured peaks, interrupts included: 155 bytes (romi-blink), 221 (romi-test).
 /// Nothing is allocated at run time. Flash: ~6.5 KB for the device and the codec it uses.
@@ -106,6 +109,10 @@ class RomiSerial final : public IRomiSerial {
   static constexpr uint8_t kReplyCapacity = 72;
   /// Time from a request's '#' to its '\n' before it is dropped with -30 (the spec's 1 s).
   static constexpr Duration kRequestDeadlineMs = kControllerDeadlineMs;
+  /// How long after it was sent a reply answers a repeat of its request: the host's call budget (2 s),
+  /// within which every re-send of a call arrives. Later, the same id and bytes are a new command (a new
+  /// host session that happens to start with the last id) and run.
+  static constexpr Duration kReplyCacheLifetimeMs = kHostCallBudgetMs;
 
   /// Device reading `in`, writing `out`, dispatching to `handlers[0..count)` (which must outlive it),
   /// timing requests with `clock` (null: no request deadline). The streams may be the same object.
@@ -127,9 +134,12 @@ class RomiSerial final : public IRomiSerial {
   void handle_input();
 
   /// Sans-I/O entry: handles one received byte at `now` (ms on the same clock as the deadline).
-  /// `handle_input()` calls it for each byte. Ignored when called from inside a handler.
+  /// `handle_input()` does the same for each byte. Ignored when called from inside a handler. With a
+  /// clock, the reply's send time (start of its cache lifetime) is read from it after the handler ran;
+  /// without one it is `now`.
   void handle_byte(uint8_t byte, Millis now);
-  /// Sans-I/O entry: answers -30 if the request being received is past its deadline at `now`.
+  /// Sans-I/O entry: answers -30 if the request being received is past its deadline at `now`, and
+  /// forgets the cached reply once it is older than `kReplyCacheLifetimeMs`.
   void handle_timeouts(Millis now);
 
   /// See `IRomiSerial::send_ok`.
@@ -147,8 +157,10 @@ class RomiSerial final : public IRomiSerial {
   bool in_handler() const { return in_handler_; }
 
  private:
-  void handle_frame(const EnvelopeEvent& event);
-  void dispatch(const EnvelopeEvent& event, uint16_t fingerprint);
+  // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
+  bool handle_received(uint8_t byte, Millis now);
+  bool handle_frame(const EnvelopeEvent& event, Millis now);
+  bool dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Millis now);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, ErrorCode code);
@@ -163,6 +175,8 @@ class RomiSerial final : public IRomiSerial {
   EnvelopeDecoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
   session::DuplicateFilter<uint8_t, 1, kReplyCapacity> replies_;
+  Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
+  Millis reply_sent_at_ = 0;  // when the last handler's reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
   uint8_t reply_[kReplyCapacity];
   uint8_t reply_size_ = 0;
