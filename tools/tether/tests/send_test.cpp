@@ -94,19 +94,27 @@ TEST(TetherSend, CompatMessagesAreWrittenAndTheDeviceAnswerIsShown) {
   EXPECT_NE(std::find(events.begin(), events.end(), "SERVO_INIT 9"), events.end()) << events;
 }
 
+// A servo-init then a servo-control on D3 through a compat device: each lists only its own event. Returns
+// the control's result (null when the run did not print two results).
+json expect_init_and_control_on_d3(const Outcome& run) {
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<json> results = json_lines(run);
+  EXPECT_EQ(results.size(), 2u) << run.out;
+  if (results.size() != 2) return json();
+  EXPECT_EQ(results[0]["device_events"], json::array({"SERVO_INIT 3"})) << results[0];
+  EXPECT_EQ(results[1]["device_events"], json::array({"SERVO_CONTROL 3"})) << results[1];
+  return results[1];
+}
+
 TEST(TetherSend, CompatListsEachEventUnderTheMessageItAnswers) {
   TETHER_REQUIRE_FIRMWARE("proxy-compat");
   // A servo on D3 (any pin, as the deployed firmware); each event under the message it answers.
   const Outcome run = run_tether({"send", "--virtual", "proxy-compat", "--settle", "20000", "--json", "servo-init",
                                   "pin=3", "safe-position=90", "servo-control", "pin=3", "position=120"});
-  EXPECT_EQ(run.status, 0) << run.err;
-  const std::vector<json> results = json_lines(run);
-  ASSERT_EQ(results.size(), 2u) << run.out;
-  const json& init = results[0];
-  const json& control = results[1];
-  EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
-  EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
-  for (const auto& event : control["other_device_events"]) EXPECT_NE(event, "SERVO_INIT 3") << control;
+  const json control = expect_init_and_control_on_d3(run);
+  for (const auto& event : control.value("other_device_events", json::array())) {
+    EXPECT_NE(event, "SERVO_INIT 3") << control;
+  }
 }
 
 TEST(TetherSend, CompatEventsThatDoNotAnswerTheMessageAreListedApart) {
@@ -134,13 +142,7 @@ TEST(TetherSend, CompatEventsThatDoNotAnswerTheMessageAreListedApart) {
                                   "--json", "servo-init", "pin=3", "safe-position=90", "servo-control", "pin=3",
                                   "position=120"});
   device.join();
-  EXPECT_EQ(run.status, 0) << run.err;
-  const std::vector<json> results = json_lines(run);
-  ASSERT_EQ(results.size(), 2u) << run.out;
-  const json& init = results[0];
-  const json& control = results[1];
-  EXPECT_EQ(init["device_events"], json::array({"SERVO_INIT 3"})) << init;
-  EXPECT_EQ(control["device_events"], json::array({"SERVO_CONTROL 3"})) << control;
+  const json control = expect_init_and_control_on_d3(run);
   EXPECT_EQ(control["other_device_events"], json::array({"SERVO_INIT 3"})) << control;
 }
 
