@@ -7,6 +7,7 @@ include(CMakePackageConfigHelpers)
 
 set(TETHER_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/Tether)
 set(TETHER_INSTALL_FIRMWAREDIR ${CMAKE_INSTALL_DATADIR}/tether/firmware)
+set(TETHER_INSTALL_ARDUINODIR ${CMAKE_INSTALL_DATADIR}/tether/arduino)  # the Arduino libraries (.zip)
 set(TETHER_INSTALL_EXAMPLESDIR ${CMAKE_INSTALL_DATADIR}/tether/examples)
 
 # tether_library(TARGET NAME <exported name> [HEADERS <dir>]): makes TARGET a public library of the package:

@@ -89,7 +89,8 @@ Ring::Ring(RingOptions options) : options_(std::move(options)), group_(transport
   if (options_.boards.empty()) throw std::invalid_argument("Ring: no boards");
   for (std::size_t i = 0; i < options_.boards.size(); ++i) {
     transports::VirtualUnoOptions board_options;
-    board_options.firmware = node_image();
+    const bool own_image = i < options_.images.size() && !options_.images[i].empty();
+    board_options.firmware = own_image ? options_.images[i] : node_image();
     board_options.pacing = transports::Pacing::fast;
     board_options.seed = transports::FaultRandom::mix(options_.seed, 100 + i);
     board_options.name = "node" + std::to_string(i + 1);

@@ -56,6 +56,9 @@ struct HostEvent {
 struct RingOptions {
   /// One EEPROM configuration per board, in ring order.
   std::vector<node::NodeConfig> boards;
+  /// The image of each board, in ring order (missing or empty entries: elcano-node); e.g. an Arduino
+  /// sketch in a ring of elcano-node boards. Its EEPROM gets the board's configuration all the same.
+  std::vector<std::filesystem::path> images;
   /// Write the configurations into the boards' EEPROM (false: erased EEPROM, build-time defaults).
   bool write_eeprom = true;
   /// The host's node.

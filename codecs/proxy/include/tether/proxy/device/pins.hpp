@@ -69,18 +69,23 @@ constexpr int32_t kArduinoServoMaxPulseUs = 2400;
 /// Arduino Servo library: the width `attach` starts with, before any `write` (us).
 constexpr uint16_t kArduinoServoAttachPulseUs = 1500;
 
+/// An angle value of Arduino's `Servo::write` clamped to 0..180 as the Servo library does.
+constexpr int32_t arduino_servo_angle(int32_t value) {
+  return value < 0 ? 0 : (value > kServoMaxDegrees ? kServoMaxDegrees : value);
+}
+
 /// The pulse Arduino's `Servo::write(value)` produces (the deployed firmware's servo arithmetic), `value`
 /// being what it receives: the position as an AVR `int` (16 bits; the deployed firmware narrows the
 /// protobuf int32 the same way). Below 544 it is an angle, clamped to 0..180 and mapped to
 /// `544 + angle * 1856 / 180` us (integer division: 90 -> 1472, 120 -> 1781, 45 -> 1008, 180 -> 2400);
 /// from 544 on it is a width in microseconds, at most 2400 (999 -> 999 us, 5000 -> 2400 us).
 constexpr uint16_t arduino_servo_pulse_us(int16_t value) {
-  int32_t us = value;
-  if (us < kArduinoServoMinPulseUs) {
-    const int32_t angle = us < 0 ? 0 : (us > kServoMaxDegrees ? kServoMaxDegrees : us);
-    us = kArduinoServoMinPulseUs + angle * (kArduinoServoMaxPulseUs - kArduinoServoMinPulseUs) / kServoMaxDegrees;
-  }
-  return static_cast<uint16_t>(us > kArduinoServoMaxPulseUs ? kArduinoServoMaxPulseUs : us);
+  // One return statement (C++11 constexpr): the Arduino IDE compiles the TetherProxy library as gnu++11.
+  return static_cast<uint16_t>(
+      value < kArduinoServoMinPulseUs
+          ? kArduinoServoMinPulseUs + arduino_servo_angle(value) *
+                                          (kArduinoServoMaxPulseUs - kArduinoServoMinPulseUs) / kServoMaxDegrees
+          : (value > kArduinoServoMaxPulseUs ? kArduinoServoMaxPulseUs : value));
 }
 
 /// Compatibility mode: the HX711 load cell's data pin (A4) and clock pin (A5); no output may use them.

@@ -1,0 +1,139 @@
+// ElcanoSerial API on Tether's ring node: see ElcanoSerial.h.
+#include "ElcanoSerial.h"
+
+namespace elcano {
+
+namespace {
+
+using tether::elcano::Message;
+using tether::elcano::ReadError;
+using tether::elcano::RingEvent;
+using tether::elcano::Type;
+
+tether::elcano::RingNodeConfig node_config() {
+  tether::elcano::RingNodeConfig config;
+  config.generation = tether::elcano::Generation::b;
+  config.pacing.baud = baudrate;
+  return config;
+}
+
+bool to_message(const SerialData& data, Message& message) {
+  switch (data.kind) {
+    case MsgType::drive: message.type = Type::drive; break;
+    case MsgType::sensor: message.type = Type::sensor; break;
+    case MsgType::goal: message.type = Type::goal; break;
+    case MsgType::seg: message.type = Type::segment; break;
+    default: return false;
+  }
+  message.number = data.number;
+  message.speed = data.speed_cmPs;
+  message.angle = data.angle_deg;
+  message.bearing = data.bearing_deg;
+  message.east = data.posE_cm;
+  message.north = data.posN_cm;
+  message.probability = data.probability;
+  return tether::elcano::has_required_fields(message);
+}
+
+void from_message(const Message& message, SerialData& data) {
+  switch (message.type) {
+    case Type::drive: data.kind = MsgType::drive; break;
+    case Type::sensor: data.kind = MsgType::sensor; break;
+    case Type::goal: data.kind = MsgType::goal; break;
+    case Type::segment: data.kind = MsgType::seg; break;
+  }
+  data.number = message.number;
+  data.speed_cmPs = message.speed;
+  data.angle_deg = message.angle;
+  data.bearing_deg = message.bearing;
+  data.posE_cm = message.east;
+  data.posN_cm = message.north;
+  data.probability = message.probability;
+}
+
+ParseStateError from_read_error(ReadError error) {
+  switch (error) {
+    case ReadError::success: return ParseStateError::success;
+    case ReadError::bad_type: return ParseStateError::bad_type;
+    case ReadError::bad_lcurly: return ParseStateError::bad_lcurly;
+    case ReadError::bad_attrib: return ParseStateError::bad_attrib;
+    case ReadError::bad_number: return ParseStateError::bad_number;
+    case ReadError::inval_comb: return ParseStateError::inval_comb;
+    case ReadError::bad_crc: return ParseStateError::bad_crc;
+    case ReadError::too_long: return ParseStateError::too_long;
+    case ReadError::timed_out: return ParseStateError::timed_out;
+    case ReadError::queue_full: return ParseStateError::queue_full;
+  }
+  return ParseStateError::bad_type;
+}
+
+}  // namespace
+
+void SerialData::clear() { *this = SerialData(); }
+
+bool SerialData::verify() const {
+  Message message;
+  return to_message(*this, message);
+}
+
+bool SerialData::write(Print* device) const {
+  Message message;
+  if (device == nullptr || !to_message(*this, message)) return false;
+  uint8_t text[96];
+  const tether::Result<size_t> written =
+      tether::elcano::write_message(message, tether::elcano::Generation::b, tether::MutableByteView(text, sizeof text));
+  if (!written.ok()) return false;
+  return device->write(text, written.value()) == written.value();
+}
+
+ParseState::ParseState() : node_(node_config(), millis(), link_counters_, ring_counters_) {}
+
+ParseStateError ParseState::update() {
+  const tether::Millis now = millis();
+  node_.set_capture(tether::elcano::TypeSet::from_bits(static_cast<uint8_t>(capture)));
+  ParseStateError result = ParseStateError::unavailable;
+  while (input != nullptr && result == ParseStateError::unavailable && input->available() > 0) {
+    const int byte = input->read();
+    if (byte < 0) break;
+    switch (node_.consume(static_cast<uint8_t>(byte), now)) {
+      case RingEvent::Kind::none: break;
+      case RingEvent::Kind::captured:
+        if (dt != nullptr) from_message(node_.message(), *dt);
+        result = ParseStateError::success;
+        break;
+      case RingEvent::Kind::forwarded: result = ParseStateError::passthru; break;
+      case RingEvent::Kind::undeliverable: result = ParseStateError::undeliverable; break;
+      case RingEvent::Kind::dropped: result = from_read_error(node_.error()); break;
+    }
+  }
+  for (;;) {
+    const RingEvent event = node_.poll(now);
+    if (event.kind == RingEvent::Kind::none) break;
+    if (result == ParseStateError::unavailable && event.kind == RingEvent::Kind::dropped) {
+      result = from_read_error(event.error);
+    }
+  }
+  pump(now);
+  return result;
+}
+
+bool ParseState::write(const SerialData& data) {
+  Message message;
+  if (!to_message(data, message)) return false;
+  const tether::Millis now = millis();
+  if (node_.originate(message, now) != tether::Status::ok) return false;
+  pump(now);
+  return true;
+}
+
+void ParseState::pump(tether::Millis now) {
+  if (output == nullptr || node_.pending_output() == 0) return;
+  const int room = output->availableForWrite();
+  if (room <= 0) return;
+  uint8_t chunk[32];
+  const size_t size = static_cast<size_t>(room) < sizeof chunk ? static_cast<size_t>(room) : sizeof chunk;
+  const size_t count = node_.take_output(tether::MutableByteView(chunk, size), now);
+  if (count != 0) output->write(chunk, count);
+}
+
+}  // namespace elcano

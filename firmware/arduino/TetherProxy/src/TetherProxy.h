@@ -1,0 +1,126 @@
+/// @file TetherProxy.h
+/// The proxy device (firmware/proxy) in an Arduino sketch: an Uno as the host's I/O proxy over any
+/// `Stream` (normally `Serial`), with the Arduino core's `millis()` as its clock.
+///
+///     #include <TetherProxy.h>
+///     TetherProxy proxy(Serial);                        // primary mode: COBS + CRC-16, tether.proxy messages
+///     void setup() { Serial.begin(115200); proxy.begin(); }
+///     void loop() { proxy.poll(); }
+///
+/// `TetherProxyCompat` is the deployed uORocketry variant (57600 baud, RocketryProto, no CRC/acks/ping).
+/// The wire behaviour is the bare-metal images' (tether/proxy/device/proxy_device.hpp, compat_device.hpp):
+/// acks, exactly-once per messageId, 10 s ping failsafe, ArduinoInfo every 5 s, Reset through the watchdog.
+///
+/// Hardware, shared with the images (tether/proxy/device/hardware.hpp): primary-mode servos on D9/D10 use
+/// Timer1's hardware PWM, compat-mode servos any pin through a Timer1 interrupt. Timer1 is therefore
+/// Tether's: `begin()` takes it back from the Arduino core (whose `init()` starts it for analogWrite on
+/// D9/D10), and a sketch must not use the Arduino Servo library or analogWrite on D9/D10 beside it.
+/// The primary mode's sessionId uses the last 8 bytes of EEPROM.
+#pragma once
+
+#include <Arduino.h>
+
+// Arduino.h defines function-like macros (bit, min, max, ...) that would rewrite Tether's members of those
+// names: they are set aside while Tether's headers are read.
+#pragma push_macro("bit")
+#pragma push_macro("min")
+#pragma push_macro("max")
+#pragma push_macro("abs")
+#pragma push_macro("round")
+#pragma push_macro("constrain")
+#undef bit
+#undef min
+#undef max
+#undef abs
+#undef round
+#undef constrain
+#include "tether/proxy/device.hpp"
+#pragma pop_macro("constrain")
+#pragma pop_macro("round")
+#pragma pop_macro("abs")
+#pragma pop_macro("max")
+#pragma pop_macro("min")
+#pragma pop_macro("bit")
+
+namespace tether {
+namespace arduino {
+
+/// Gives Timer1 to Tether's servo drivers: the Arduino core's init() leaves it running (phase-correct PWM
+/// for analogWrite), and the drivers configure the timer only when they find it stopped.
+void release_timer1();
+/// Bytes available on `stream`, fed one by one to `feed(byte)`; at most one RX buffer's worth per call so a
+/// sender faster than the loop cannot keep it from polling.
+template <typename Feed>
+void drain(Stream& stream, Feed feed) {
+  for (uint8_t count = 0; count < 64 && stream.available() > 0; ++count) {
+    const int byte = stream.read();
+    if (byte < 0) break;
+    feed(static_cast<uint8_t>(byte));
+  }
+}
+/// Frame sink writing to the `Stream` passed as context (blocks while the TX buffer is full).
+void write_frame(void* stream, ByteView frame);
+/// Restart hook: flushes the `Stream` passed as context (the Reset's ack must leave) and resets through
+/// the watchdog.
+void restart(void* stream);
+
+}  // namespace arduino
+}  // namespace tether
+
+/// Primary mode of the proxy protocol on a `Stream` (115200 8N1 recommended).
+class TetherProxy {
+ public:
+  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
+  explicit TetherProxy(Stream& stream)
+      : stream_(stream),
+        device_(outputs_, tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream},
+                tether::arduino::restart, &stream) {}
+  TetherProxy(const TetherProxy&) = delete;
+  TetherProxy& operator=(const TetherProxy&) = delete;
+
+  /// End of setup: derives this boot's sessionId, takes Timer1, sends ResetEvent.
+  void begin() {
+    const uint32_t session_id = tether::proxy::device::boot_session_id();
+    tether::arduino::release_timer1();
+    device_.begin(session_id, millis());
+  }
+  /// Call from loop(): handles received bytes, timers (failsafe, info, partial frames).
+  void poll() {
+    tether::arduino::drain(stream_, [this](uint8_t byte) { device_.handle_byte(byte, millis()); });
+    device_.poll(millis());
+  }
+  /// True once the 10 s ping failsafe fired (until a Ping and PingFailsafeReset).
+  bool failsafe_triggered() const { return device_.failsafe_triggered(); }
+
+ private:
+  Stream& stream_;
+  tether::proxy::device::OutputTable outputs_;
+  tether::proxy::device::ProxyDevice device_;
+};
+
+/// The deployed uORocketry variant on a `Stream` (its hosts expect 57600 8N1).
+class TetherProxyCompat {
+ public:
+  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
+  explicit TetherProxyCompat(Stream& stream)
+      : stream_(stream),
+        device_(tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream}, tether::arduino::restart,
+                &stream) {}
+  TetherProxyCompat(const TetherProxyCompat&) = delete;
+  TetherProxyCompat& operator=(const TetherProxyCompat&) = delete;
+
+  /// End of setup: takes Timer1, sends EventMessage{RESET}.
+  void begin() {
+    tether::arduino::release_timer1();
+    device_.begin(millis());
+  }
+  /// Call from loop(): handles received bytes and the 50 ms state stream.
+  void poll() {
+    tether::arduino::drain(stream_, [this](uint8_t byte) { device_.handle_byte(byte); });
+    device_.poll(millis());
+  }
+
+ private:
+  Stream& stream_;
+  tether::proxy::device::CompatDevice device_;
+};
