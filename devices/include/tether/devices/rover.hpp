@@ -70,9 +70,19 @@
 
 namespace tether::devices {
 
-/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one).
+/// The client of a codec registered at run time (codecs.hpp): its own client type derives from this, so the
+/// rover can close it; users reach it with `std::dynamic_pointer_cast`.
+class ExtensionClient {
+ public:
+  virtual ~ExtensionClient() = default;
+  /// Closes the client and its stream; idempotent, never waits for the device.
+  virtual void close() = 0;
+};
+
+/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one;
+/// registered codecs use `ExtensionClient`).
 using DeviceClient = std::variant<std::shared_ptr<romi::RomiClient>, std::shared_ptr<proxy::ProxyClient>,
-                                  std::shared_ptr<elcano::RingClient>>;
+                                  std::shared_ptr<elcano::RingClient>, std::shared_ptr<ExtensionClient>>;
 
 /// One opened device.
 struct RoverDevice {
