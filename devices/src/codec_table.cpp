@@ -25,30 +25,25 @@ std::vector<CodecRow> builtin_rows() {
   rows[0].validate = detail::validate_romi;
   rows[0].open = detail::open_romi;
 
-  rows[1].codec = Codec::proxy;
-  rows[1].name = "proxy";
-  rows[1].client_name = "proxy::ProxyClient";
+  // proxy and proxy-compat: one client and parser, the mode from the codec.
+  const auto proxy_row = [](CodecRow& row, Codec codec, std::string_view name, std::string_view client_name) {
+    row.codec = codec;
+    row.name = name;
+    row.client_name = client_name;
+    row.parse_options = detail::parse_proxy;
+    row.validate = [codec](const CodecOptions& options, const std::string& path) {
+      detail::validate_proxy(options, path, codec);
+    };
+    row.open = detail::open_proxy;
+    row.await_ready = detail::await_proxy;
+  };
+  proxy_row(rows[1], Codec::proxy, "proxy", "proxy::ProxyClient");
   rows[1].option_keys = {"baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms",
                          "max_sends",      "queue_timeout_ms", "ping_period_ms",       "reset_timeout_ms",
                          "open_timeout_ms", "inits"};
-  rows[1].parse_options = detail::parse_proxy;
-  rows[1].validate = [](const CodecOptions& options, const std::string& path) {
-    detail::validate_proxy(options, path, Codec::proxy);
-  };
-  rows[1].open = detail::open_proxy;
-  rows[1].await_ready = detail::await_proxy;
-
-  rows[2].codec = Codec::proxy_compat;
-  rows[2].name = "proxy-compat";
-  rows[2].client_name = "proxy::ProxyClient (ProxyOptions::compat())";
+  proxy_row(rows[2], Codec::proxy_compat, "proxy-compat", "proxy::ProxyClient (ProxyOptions::compat())");
   rows[2].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[2].default_baud = 57600;  // the deployed firmware's
-  rows[2].parse_options = detail::parse_proxy;
-  rows[2].validate = [](const CodecOptions& options, const std::string& path) {
-    detail::validate_proxy(options, path, Codec::proxy_compat);
-  };
-  rows[2].open = detail::open_proxy;
-  rows[2].await_ready = detail::await_proxy;
 
   rows[3].codec = Codec::elcano;
   rows[3].name = "elcano";
