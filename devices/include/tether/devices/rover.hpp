@@ -14,8 +14,9 @@
 /// Devices open one after the other, in the configuration's order:
 ///   1. the transport: the serial port (with its boot wait), the TCP connection, or the virtual board
 ///      (created, started, owned by the rover: it stops when the device closes);
-///   2. the codec's client: `romi::RomiClient`, `proxy::ProxyClient` (primary or compat mode), or
-///      `elcano::RingClient` (see "Elcano" below);
+///   2. the codec's client, made by its row of the codec table (codecs.hpp): `romi::RomiClient`,
+///      `proxy::ProxyClient` (primary or compat mode), `elcano::RingClient` (see "Elcano" below), or a
+///      registered codec's `ExtensionClient`;
 ///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
 ///      the session handshake is done, within `ProxyDeviceOptions::open_timeout`. A device that does not
