@@ -1,6 +1,8 @@
 // Parsing and validation of rover configurations (schema: docs/config.md).
 #include "tether/devices/config.hpp"
 
+#include "builtin_codecs.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <array>
@@ -60,13 +62,11 @@ ConfigError::ConfigError(std::string path, std::string detail, error_code code, 
       file_(std::move(file)) {}
 
 std::string_view to_string(Codec codec) {
-  switch (codec) {
-    case Codec::romi: return "romi";
-    case Codec::proxy: return "proxy";
-    case Codec::proxy_compat: return "proxy-compat";
-    case Codec::elcano: return "elcano";
+  try {
+    return codec_row(codec).name;
+  } catch (const std::out_of_range&) {
+    return "unknown";
   }
-  return "unknown";
 }
 
 // --- helpers ----------------------------------------------------------------------------------------------
@@ -74,7 +74,7 @@ std::string_view to_string(Codec codec) {
 namespace {
 
 using json = nlohmann::json;
-using Names = std::initializer_list<std::string_view>;
+using Names = std::vector<std::string_view>;
 
 [[noreturn]] void fail(const std::string& path, std::string detail) { throw ConfigError(path, std::move(detail)); }
 
@@ -96,7 +96,7 @@ std::string show(const json& value) {
   }
 }
 
-std::string join(Names names, std::string_view separator = ", ") {
+std::string join(const Names& names, std::string_view separator = ", ") {
   std::string text;
   for (std::string_view name : names) {
     if (!text.empty()) text += separator;
@@ -123,7 +123,7 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
 }
 
 // The closest candidate when it is plausibly a typo of `word`.
-std::optional<std::string_view> closest(std::string_view word, Names candidates) {
+std::optional<std::string_view> closest(std::string_view word, const Names& candidates) {
   std::optional<std::string_view> best;
   std::size_t best_distance = std::numeric_limits<std::size_t>::max();
   for (std::string_view candidate : candidates) {
@@ -139,7 +139,7 @@ std::optional<std::string_view> closest(std::string_view word, Names candidates)
   return best;
 }
 
-bool contains(Names names, std::string_view name) {
+bool contains(const Names& names, std::string_view name) {
   return std::find(names.begin(), names.end(), name) != names.end();
 }
 
@@ -167,7 +167,7 @@ class Object {
   const std::string& path() const { return node_.path; }
 
   // Every key must be in `allowed`; `elsewhere` (key -> what it belongs to) explains keys of other codecs.
-  void allow_only(Names allowed, const std::map<std::string, std::string>& elsewhere = {}) const {
+  void allow_only(const Names& allowed, const std::map<std::string, std::string>& elsewhere = {}) const {
     for (const auto& item : node_.value.items()) {
       const std::string& key = item.key();
       if (contains(allowed, key)) continue;
@@ -237,7 +237,7 @@ double read_rate(const Node& node) {
 }
 
 // One of `names` (returns its index); `what` names the kind of value in the message ("codec").
-std::size_t read_choice(const Node& node, std::string_view what, Names names) {
+std::size_t read_choice(const Node& node, std::string_view what, const Names& names) {
   if (!node.value.is_string()) {
     node.expected("a " + std::string(what) + " name (one of " + join(names) + ")");
   }
@@ -264,7 +264,7 @@ constexpr std::array<unsigned, 30> kStandardBauds = {50,     75,     110,    134
                                                      115200, 230400, 460800, 500000,  576000,  921600,  1000000,
                                                      1152000, 1500000, 2000000, 2500000, 3000000, 3500000, 4000000};
 
-unsigned default_baud(Codec codec) { return codec == Codec::proxy_compat ? 57600u : 115200u; }
+unsigned default_baud(Codec codec) { return static_cast<unsigned>(codec_row(codec).default_baud); }
 
 unsigned read_baud(const Node& node) {
   const auto baud = read_unsigned(node);
@@ -467,6 +467,15 @@ VirtualRingTransport parse_virtual_ring(const Node& node, const ParseOptions& op
 
 const Names kTransports = {"serial", "tcp", "virtual", "virtual_ring"};
 
+// The codecs a virtual ring carries: `elcano`.
+std::string ring_codecs() {
+  Names names;
+  for (const CodecRow* row : codec_rows()) {
+    if (row->virtual_boards == VirtualBoards::ring) names.push_back(row->name);
+  }
+  return join(names, " or ");
+}
+
 TransportConfig parse_transport(const Node& node, Codec codec, const std::string& device_name,
                                 const ParseOptions& options) {
   const Object object(node);
@@ -488,12 +497,14 @@ TransportConfig parse_transport(const Node& node, Codec codec, const std::string
   }
   const std::string kind = value.begin().key();
   const Node inner = node.key(kind);
-  if (kind == "virtual_ring" && codec != Codec::elcano) {
-    fail(inner.path, "a virtual ring carries codec elcano only, not " + std::string(to_string(codec)) +
+  const bool on_ring = codec_row(codec).virtual_boards == VirtualBoards::ring;
+  if (kind == "virtual_ring" && !on_ring) {
+    fail(inner.path, "a virtual ring carries codec " + ring_codecs() + " only, not " + std::string(to_string(codec)) +
                          " (use \"virtual\" for one board)");
   }
-  if (kind == "virtual" && codec == Codec::elcano) {
-    fail(inner.path, "codec elcano runs on a ring: use \"virtual_ring\" (a ring may have one board)");
+  if (kind == "virtual" && on_ring) {
+    fail(inner.path, "codec " + std::string(to_string(codec)) +
+                         " runs on a ring: use \"virtual_ring\" (a ring may have one board)");
   }
   if (kind == "serial") return parse_serial(inner, codec);
   if (kind == "tcp") return parse_tcp(inner);
@@ -503,39 +514,20 @@ TransportConfig parse_transport(const Node& node, Codec codec, const std::string
 
 // --- codec options --------------------------------------------------------------------------------------
 
-const Names kRomiKeys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
-const Names kProxyKeys = {"baud",           "bits_per_byte",     "processing_margin_ms", "send_budget_ms",
-                              "max_sends",      "queue_timeout_ms",  "ping_period_ms",       "reset_timeout_ms",
-                              "open_timeout_ms", "inits"};
-const Names kCompatKeys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
-const Names kElcanoKeys = {"generation", "capture", "pacing", "attempt_timeout_ms", "call_budget_ms",
-                               "max_attempts"};
-
-Names keys_of(Codec codec) {
-  switch (codec) {
-    case Codec::romi: return kRomiKeys;
-    case Codec::proxy: return kProxyKeys;
-    case Codec::proxy_compat: return kCompatKeys;
-    case Codec::elcano: return kElcanoKeys;
-  }
-  return kRomiKeys;
-}
-
 // For a codec: keys that belong to other codecs only -> "does not apply to codec X (an option of Y)".
-std::map<std::string, std::string> foreign_keys(Codec codec) {
+std::map<std::string, std::string> foreign_keys(const CodecRow& codec) {
   std::map<std::string, std::string> owners;
-  const Names own = keys_of(codec);
-  for (Codec other : {Codec::romi, Codec::proxy, Codec::proxy_compat, Codec::elcano}) {
-    if (other == codec) continue;
-    for (std::string_view key : keys_of(other)) {
-      if (contains(own, key)) continue;
+  for (const CodecRow* other : codec_rows()) {
+    if (other == &codec) continue;
+    for (std::string_view key : other->option_keys) {
+      if (contains(codec.option_keys, key)) continue;
       auto& text = owners[std::string(key)];
       text += text.empty() ? "of " : ", ";
-      text += to_string(other);
+      text += other->name;
     }
   }
   for (auto& [key, text] : owners) {
-    text = "does not apply to codec " + std::string(to_string(codec)) + " (it is an option " + text + ")";
+    text = "does not apply to codec " + std::string(codec.name) + " (it is an option " + text + ")";
   }
   return owners;
 }
@@ -635,33 +627,41 @@ ElcanoOptions parse_elcano_options(const Object* object, const TransportConfig& 
   return options;
 }
 
-CodecOptions parse_options(const std::optional<Node>& node, Codec codec, const TransportConfig& transport) {
-  std::optional<Object> object;
+CodecOptions parse_options(const std::optional<Node>& node, const std::string& path, Codec codec,
+                           const TransportConfig& transport) {
+  const CodecRow& row = codec_row(codec);
+  OptionsContext context;
+  context.path = path;
+  context.codec = codec;
+  context.transport = &transport;
   if (node) {
-    object.emplace(*node);
-    object->allow_only(keys_of(codec), foreign_keys(codec));
+    Object(*node).allow_only(row.option_keys, foreign_keys(row));
+    context.options = &node->value;
   }
-  const Object* pointer = object ? &*object : nullptr;
-  switch (codec) {
-    case Codec::romi: return pointer ? parse_romi_options(*pointer) : RomiOptions();
-    case Codec::proxy:
-    case Codec::proxy_compat: return parse_proxy_options(pointer, codec, transport);
-    case Codec::elcano: return parse_elcano_options(pointer, transport);
-  }
-  return RomiOptions();
+  return row.parse_options(context);
 }
 
-const Names kCodecs = {"romi", "proxy", "proxy-compat", "elcano"};
+// The options object a built-in parser reads, if any.
+std::optional<Object> options_object(const OptionsContext& context) {
+  if (context.options == nullptr) return std::nullopt;
+  return Object(Node{*context.options, context.path});
+}
+
+Names codec_names() {
+  Names names;
+  for (const CodecRow* row : codec_rows()) names.push_back(row->name);
+  return names;
+}
 
 DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
   const Object object(node);
   object.allow_only({"name", "codec", "transport", "options"});
   DeviceConfig device;
   device.name = read_nonempty_string(object.required("name"));
-  static constexpr std::array<Codec, 4> kCodecValues = {Codec::romi, Codec::proxy, Codec::proxy_compat, Codec::elcano};
-  device.codec = kCodecValues.at(read_choice(object.required("codec"), "codec", kCodecs));
+  const std::vector<const CodecRow*> rows = codec_rows();
+  device.codec = rows.at(read_choice(object.required("codec"), "codec", codec_names()))->codec;
   device.transport = parse_transport(object.required("transport"), device.codec, device.name, options);
-  device.options = parse_options(object.optional("options"), device.codec, device.transport);
+  device.options = parse_options(object.optional("options"), object.path() + ".options", device.codec, device.transport);
   return device;
 }
 
@@ -682,12 +682,22 @@ std::string transport_key(const TransportConfig& transport) {
 void validate_device(const DeviceConfig& device, std::size_t i) {
   const std::string path = device_path(i);
   const std::string transport_path = path + ".transport." + transport_key(device.transport);
+  const CodecRow* found = nullptr;
+  for (const CodecRow* each : codec_rows()) {
+    if (each->codec == device.codec) found = each;
+  }
+  if (found == nullptr) {
+    fail(path + ".codec", "no codec has the value " + std::to_string(static_cast<unsigned>(device.codec)) +
+                              " (register_codec, codecs.hpp)");
+  }
+  const CodecRow& row = *found;
   const bool ring = std::holds_alternative<VirtualRingTransport>(device.transport);
   const bool single_board = std::holds_alternative<VirtualTransport>(device.transport);
-  if (ring && device.codec != Codec::elcano) {
-    fail(transport_path, "a virtual ring carries codec elcano only, not " + std::string(to_string(device.codec)));
+  const bool on_ring = row.virtual_boards == VirtualBoards::ring;
+  if (ring && !on_ring) {
+    fail(transport_path, "a virtual ring carries codec " + ring_codecs() + " only, not " + std::string(row.name));
   }
-  if (single_board && device.codec == Codec::elcano) fail(transport_path, "codec elcano runs on a ring");
+  if (single_board && on_ring) fail(transport_path, "codec " + std::string(row.name) + " runs on a ring");
   if (const auto* serial = std::get_if<SerialTransport>(&device.transport); serial && serial->path.empty()) {
     fail(transport_path + ".path", "must not be empty");
   }
@@ -698,57 +708,75 @@ void validate_device(const DeviceConfig& device, std::size_t i) {
   if (const auto* rings = std::get_if<VirtualRingTransport>(&device.transport); rings && rings->boards.empty()) {
     fail(transport_path + ".boards", "a ring needs at least one board");
   }
-  const std::string options_path = path + ".options";
-  switch (device.codec) {
-    case Codec::romi: {
-      const auto* options = std::get_if<RomiOptions>(&device.options);
-      if (options == nullptr) fail(options_path, "codec romi needs RomiOptions");
-      check_call_timing(options_path, options->timing);
-      break;
+  if (row.validate) row.validate(device.options, path + ".options");
+}
+
+}  // namespace
+
+// --- the built-in codecs' options (rows in codec_table.cpp) ---------------------------------------------------
+
+namespace detail {
+
+CodecOptions parse_romi(const OptionsContext& context) {
+  const std::optional<Object> object = options_object(context);
+  return object ? parse_romi_options(*object) : RomiOptions();
+}
+
+CodecOptions parse_proxy(const OptionsContext& context) {
+  const std::optional<Object> object = options_object(context);
+  return parse_proxy_options(object ? &*object : nullptr, context.codec, *context.transport);
+}
+
+CodecOptions parse_elcano(const OptionsContext& context) {
+  const std::optional<Object> object = options_object(context);
+  return parse_elcano_options(object ? &*object : nullptr, *context.transport);
+}
+
+void validate_romi(const CodecOptions& codec_options, const std::string& options_path) {
+  const auto* options = std::get_if<RomiOptions>(&codec_options);
+  if (options == nullptr) fail(options_path, "codec romi needs RomiOptions");
+  check_call_timing(options_path, options->timing);
+}
+
+void validate_proxy(const CodecOptions& codec_options, const std::string& options_path, Codec codec) {
+  const auto* options = std::get_if<ProxyDeviceOptions>(&codec_options);
+  if (options == nullptr) fail(options_path, "codec " + std::string(to_string(codec)) + " needs ProxyDeviceOptions");
+  const proxy::Mode mode = codec == Codec::proxy ? proxy::Mode::primary : proxy::Mode::compat;
+  if (options->client.mode != mode) {
+    fail(options_path, "the client's mode does not match codec " + std::string(to_string(codec)));
+  }
+  const proxy::ProxyTiming& timing = options->client.timing;
+  if (timing.baud == 0) fail(options_path + ".baud", "must be at least 1");
+  if (timing.bits_per_byte == 0) fail(options_path + ".bits_per_byte", "must be at least 1");
+  if (timing.send_budget == 0) fail(options_path + ".send_budget_ms", "must be at least 1");
+  if (timing.max_sends == 0) fail(options_path + ".max_sends", "must be at least 1");
+  if (options->inits.size() > proxy::kMaxInits) fail(options_path + ".inits", "too many inits");
+  for (std::size_t k = 0; k < options->inits.size(); ++k) {
+    const PinInit& init = options->inits[k];
+    const std::string init_path = options_path + ".inits[" + std::to_string(k) + "]";
+    if (init.kind == PinInit::Kind::servo && (init.safe_value < 0 || init.safe_value > 180)) {
+      fail(init_path + ".safe_position", "must be in 0..180");
     }
-    case Codec::proxy:
-    case Codec::proxy_compat: {
-      const auto* options = std::get_if<ProxyDeviceOptions>(&device.options);
-      if (options == nullptr) fail(options_path, "codec " + std::string(to_string(device.codec)) + " needs ProxyDeviceOptions");
-      const proxy::Mode mode = device.codec == Codec::proxy ? proxy::Mode::primary : proxy::Mode::compat;
-      if (options->client.mode != mode) {
-        fail(options_path, "the client's mode does not match codec " + std::string(to_string(device.codec)));
-      }
-      const proxy::ProxyTiming& timing = options->client.timing;
-      if (timing.baud == 0) fail(options_path + ".baud", "must be at least 1");
-      if (timing.bits_per_byte == 0) fail(options_path + ".bits_per_byte", "must be at least 1");
-      if (timing.send_budget == 0) fail(options_path + ".send_budget_ms", "must be at least 1");
-      if (timing.max_sends == 0) fail(options_path + ".max_sends", "must be at least 1");
-      if (options->inits.size() > proxy::kMaxInits) fail(options_path + ".inits", "too many inits");
-      for (std::size_t k = 0; k < options->inits.size(); ++k) {
-        const PinInit& init = options->inits[k];
-        const std::string init_path = options_path + ".inits[" + std::to_string(k) + "]";
-        if (init.kind == PinInit::Kind::servo && (init.safe_value < 0 || init.safe_value > 180)) {
-          fail(init_path + ".safe_position", "must be in 0..180");
-        }
-        if (init.kind == PinInit::Kind::digital && init.safe_value != 0 && init.safe_value != 1) {
-          fail(init_path + ".safe_state", "must be 0 or 1");
-        }
-        for (std::size_t j = 0; j < k; ++j) {
-          if (options->inits[j].kind == init.kind && options->inits[j].pin == init.pin) {
-            fail(init_path, std::string(kind_name(init.kind)) + " " + std::to_string(init.pin) +
-                                " is already initialised by inits[" + std::to_string(j) + "]");
-          }
-        }
-      }
-      break;
+    if (init.kind == PinInit::Kind::digital && init.safe_value != 0 && init.safe_value != 1) {
+      fail(init_path + ".safe_state", "must be 0 or 1");
     }
-    case Codec::elcano: {
-      const auto* options = std::get_if<ElcanoOptions>(&device.options);
-      if (options == nullptr) fail(options_path, "codec elcano needs ElcanoOptions");
-      check_call_timing(options_path, options->timing);
-      if (options->pacing.baud == 0) fail(options_path + ".pacing", "baud must be at least 1");
-      break;
+    for (std::size_t j = 0; j < k; ++j) {
+      if (options->inits[j].kind == init.kind && options->inits[j].pin == init.pin) {
+        fail(init_path, std::string(kind_name(init.kind)) + " " + std::to_string(init.pin) +
+                            " is already initialised by inits[" + std::to_string(j) + "]");
+      }
     }
   }
 }
 
-}  // namespace
+void validate_elcano(const CodecOptions& codec_options, const std::string& options_path) {
+  const auto* options = std::get_if<ElcanoOptions>(&codec_options);
+  if (options == nullptr) fail(options_path, "codec elcano needs ElcanoOptions");
+  check_call_timing(options_path, options->timing);
+  if (options->pacing.baud == 0) fail(options_path + ".pacing", "baud must be at least 1");
+}
+
+}  // namespace detail
 
 // --- public API ---------------------------------------------------------------------------------------------
 

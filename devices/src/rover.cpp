@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "builtin_codecs.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
@@ -100,7 +101,11 @@ std::string init_text(const PinInit& init) {
   return std::string(init.kind == PinInit::Kind::servo ? "servo " : "digital ") + std::to_string(init.pin);
 }
 
-void await_proxy(proxy::ProxyClient& client, const ProxyDeviceOptions& options, const std::string& path) {
+}  // namespace
+
+void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, const std::string& path) {
+  proxy::ProxyClient& client = *std::get<std::shared_ptr<proxy::ProxyClient>>(device_client);
+  const auto& options = std::get<ProxyDeviceOptions>(device.options);
   auto state = std::make_shared<ProxyReadiness>();
   const bool primary = options.client.mode == proxy::Mode::primary;
   const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::ProxyEvent& event) {
@@ -160,7 +165,27 @@ void await_proxy(proxy::ProxyClient& client, const ProxyDeviceOptions& options, 
   }
 }
 
-}  // namespace
+DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
+  const auto& options = std::get<RomiOptions>(device.options);
+  romi::ClientOptions client_options;
+  client_options.timing = options.timing;
+  client_options.first_id(options.first_id ? *options.first_id : romi::random_first_id());
+  return std::make_shared<romi::RomiClient>(std::move(stream), client_options);
+}
+
+DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
+  return std::make_shared<proxy::ProxyClient>(std::move(stream), std::get<ProxyDeviceOptions>(device.options).client);
+}
+
+DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
+  const auto& options = std::get<ElcanoOptions>(device.options);
+  elcano::RingClientOptions client_options;
+  client_options.node.generation = options.generation;
+  client_options.node.capture = options.capture;
+  client_options.node.pacing = options.pacing;
+  client_options.timing = options.timing;
+  return std::make_shared<elcano::RingClient>(std::move(stream), client_options);
+}
 
 bool register_virtual_board_opener(VirtualBoardOpener opener) {
   virtual_board_opener = opener;
@@ -209,44 +234,13 @@ class RoverOpener {
     opened.transport = describe(device.transport);
     opened.boards = std::move(boards);
     try {
-      switch (device.codec) {
-        case Codec::romi: {
-          const auto& romi_options = std::get<RomiOptions>(device.options);
-          romi::ClientOptions client_options;
-          client_options.timing = romi_options.timing;
-          client_options.first_id(romi_options.first_id ? *romi_options.first_id : romi::random_first_id());
-          opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
-          rover.devices_.push_back(std::move(opened));
-          if (stop) rover.stops_.push_back(std::move(stop));
-          if (hooks.on_client) hooks.on_client(rover.devices_.back());
-          return;
-        }
-        case Codec::elcano: {
-          const auto& options = std::get<ElcanoOptions>(device.options);
-          elcano::RingClientOptions client_options;
-          client_options.node.generation = options.generation;
-          client_options.node.capture = options.capture;
-          client_options.node.pacing = options.pacing;
-          client_options.timing = options.timing;
-          opened.client = std::make_shared<elcano::RingClient>(stream, client_options);
-          rover.devices_.push_back(std::move(opened));
-          if (stop) rover.stops_.push_back(std::move(stop));
-          if (hooks.on_client) hooks.on_client(rover.devices_.back());
-          return;
-        }
-        case Codec::proxy:
-        case Codec::proxy_compat: {
-          const auto& options = std::get<ProxyDeviceOptions>(device.options);
-          auto client = std::make_shared<proxy::ProxyClient>(stream, options.client);
-          opened.client = client;
-          // Registered before waiting: a failure below closes it with the others.
-          rover.devices_.push_back(std::move(opened));
-          if (stop) rover.stops_.push_back(std::move(stop));
-          if (hooks.on_client) hooks.on_client(rover.devices_.back());
-          await_proxy(*client, options, path);
-          return;
-        }
-      }
+      const CodecRow& codec = codec_row(device.codec);
+      opened.client = codec.open(stream, device);
+      // Registered before waiting: a failure below closes it with the others.
+      rover.devices_.push_back(std::move(opened));
+      if (stop) rover.stops_.push_back(std::move(stop));
+      if (hooks.on_client) hooks.on_client(rover.devices_.back());
+      if (codec.await_ready) codec.await_ready(rover.devices_.back().client, device, path);
     } catch (const ConfigError&) {
       stream->close();
       if (stop) stop();

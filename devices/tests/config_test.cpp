@@ -7,6 +7,7 @@
 #include <fstream>
 #include <string>
 
+#include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
 
 namespace tether::devices {
@@ -299,6 +300,46 @@ TEST(DevicesConfigErrors, UnknownCodecListsTheCodecsAndSuggests) {
   EXPECT_EQ(error_of(one_device("romi", R"({"virtual": {"firmware": "x", "pacing": "realtime"}})")),
             R"(devices[0].transport.virtual.pacing: unknown pacing "realtime" (expected one of real_time, fast); )"
             R"(did you mean "real_time"?)");
+}
+
+TEST(DevicesCodecTable, BuiltInRowsInOrderAndRegistrationErrors) {
+  std::string names;
+  for (const CodecRow* row : codec_rows()) {
+    names += (names.empty() ? "" : " ") + std::string(row->name);
+    EXPECT_EQ(&codec_row(row->codec), row);
+    EXPECT_EQ(find_codec(row->name), row);
+  }
+  EXPECT_EQ(names, "romi proxy proxy-compat elcano");
+  EXPECT_EQ(codec_row(Codec::proxy_compat).default_baud, 57600u);
+  EXPECT_EQ(codec_row(Codec::elcano).virtual_boards, VirtualBoards::ring);
+  EXPECT_EQ(find_codec("mavlink"), nullptr);
+  EXPECT_THROW(codec_row(static_cast<Codec>(200)), std::out_of_range);
+  EXPECT_EQ(to_string(static_cast<Codec>(200)), "unknown");
+
+  // Rejected rows leave the table as it was.
+  CodecRow taken = codec_row(Codec::romi);
+  EXPECT_THROW(register_codec(taken), std::invalid_argument);
+  CodecRow incomplete;
+  incomplete.name = "incomplete";
+  EXPECT_THROW(register_codec(incomplete), std::invalid_argument);
+  EXPECT_EQ(codec_rows().size(), 4u);
+
+  // A configuration built in code with a value no row has is a ConfigError, not a crash.
+  RoverConfig config;
+  DeviceConfig device;
+  device.name = "x";
+  device.codec = static_cast<Codec>(200);
+  TcpTransport tcp;
+  tcp.host = "h";
+  tcp.port = 1;
+  device.transport = tcp;
+  config.devices.push_back(device);
+  try {
+    validate(config);
+    ADD_FAILURE() << "validated";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(error.path(), "devices[0].codec");
+  }
 }
 
 TEST(DevicesConfigErrors, MissingKeys) {

@@ -27,6 +27,7 @@
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
+#include "shell_text.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/transports/io_thread.hpp"
 
@@ -128,16 +129,6 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
   return std::nullopt;
 }
 
-// The response of a command rejected before anything is sent.
-romi::RomiResponse rejected(const romi::Command& command) {
-  romi::RomiResponse response;
-  response.code = static_cast<std::int16_t>(command.error().value());
-  response.message = command.error().message();
-  response.values = nlohmann::json::array({response.code, response.message});
-  response.opcode = command.opcode();
-  return response;
-}
-
 }  // namespace
 
 int run_call(int argc, char** argv) {
@@ -164,17 +155,19 @@ int run_call(int argc, char** argv) {
   boost::system::error_code error;
   if (!command.valid()) {
     error = command.error();
-    response = rejected(command);
+    response = romi_rejected_response(command);
   } else {
     transports::IoThread io;
     Progress progress("call");
     ClientHooks hooks;
-    hooks.romi_log = [](std::string_view text) {
-      std::fprintf(stderr, "log: %.*s\n", static_cast<int>(text.size()), text.data());
+    hooks.on_client = [](const devices::DeviceClient& client) {
+      std::get<std::shared_ptr<romi::RomiClient>>(client)->set_log_handler([](std::string_view text) {
+        std::fprintf(stderr, "log: %.*s\n", static_cast<int>(text.size()), text.data());
+      });
     };
     auto device = open_device(*target, io.executor(), hooks, progress, error_text);
     if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");
-    const auto& client = device->romi();
+    const auto client = device->client_as<romi::RomiClient>();
     response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
     device->close();
   }
@@ -191,7 +184,7 @@ int run_call(int argc, char** argv) {
   std::fflush(stdout);
   if (response.code != 0) {
     std::string line = std::to_string(response.code) + " " + response.message;
-    if (response.answered && (response.code == -23 || response.code == -26 || response.code == -27)) {
+    if (romi_answer_unreadable(response)) {
       line += " (received: " + response.raw + ")";
     }
     std::fprintf(stderr, "tether call: %s\n", line.c_str());

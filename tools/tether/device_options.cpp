@@ -48,52 +48,6 @@ const char* const kDeviceUsage =
     "  --virtual with an elcano image is a ring of one board that captures drive messages and answers each\n"
     "  with a sensor report S{s}{a}{b 0}{p 0,0}, which the host captures (default --capture sensor).\n";
 
-namespace {
-
-std::optional<devices::Codec> parse_codec(std::string_view text) {
-  if (text == "romi") return devices::Codec::romi;
-  if (text == "proxy") return devices::Codec::proxy;
-  if (text == "proxy-compat") return devices::Codec::proxy_compat;
-  if (text == "elcano") return devices::Codec::elcano;
-  return std::nullopt;
-}
-
-std::string codec_name(devices::Codec codec) { return std::string(devices::to_string(codec)); }
-
-// The codec an image name suggests.
-devices::Codec codec_of_image(const std::filesystem::path& firmware) {
-  const std::string stem = firmware.stem().string();
-  if (stem.starts_with("proxy-compat")) return devices::Codec::proxy_compat;
-  if (stem.starts_with("proxy")) return devices::Codec::proxy;
-  if (stem.starts_with("elcano")) return devices::Codec::elcano;
-  return devices::Codec::romi;
-}
-
-// Default options of `codec` for a device named on the command line.
-devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t baud, const DeviceOptions& options) {
-  switch (codec) {
-    case devices::Codec::romi:
-      return devices::RomiOptions();
-    case devices::Codec::proxy:
-    case devices::Codec::proxy_compat: {
-      devices::ProxyDeviceOptions proxy;
-      proxy.client = codec == devices::Codec::proxy ? proxy::ProxyOptions::primary() : proxy::ProxyOptions::compat();
-      proxy.client.timing.baud = baud;
-      return proxy;
-    }
-    case devices::Codec::elcano: {
-      devices::ElcanoOptions elcano_options;
-      elcano_options.generation = options.generation.value_or(elcano::Generation::b);
-      elcano_options.capture = options.capture.value_or(elcano::TypeSet());
-      elcano_options.pacing.baud = baud;
-      return elcano_options;
-    }
-  }
-  return devices::RomiOptions();
-}
-
-}  // namespace
-
 std::string firmware_dir() {
   if (const char* dir = std::getenv("TETHER_FIRMWARE_DIR"); dir != nullptr && *dir != '\0') return dir;
   // An installed or unpacked `tether` uses the images installed with it (relative to the binary, so a
@@ -143,7 +97,7 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
     if (!options.baud) return bad("a positive number");
   } else if (argument == "--codec") {
     options.codec = parse_codec(value);
-    if (!options.codec) return bad("romi, proxy, proxy-compat or elcano");
+    if (!options.codec) return bad(codec_choices());
   } else if (argument == "--boot-wait") {
     options.boot_wait_ms = parse_number(value, 0, 60000);
     if (!options.boot_wait_ms) return bad("milliseconds (0..60000)");
@@ -231,9 +185,14 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     for (std::size_t i = 0; i < rover.devices.size(); ++i) {
       const devices::DeviceConfig& device = rover.devices[i];
       if (device.name == options.device) {
+        if (codec_commands(device.codec) == nullptr) {
+          error = "device '" + device.name + "' speaks " + std::string(devices::to_string(device.codec)) +
+                  ", which the tether command does not know (no row in its codec table)";
+          return std::nullopt;
+        }
         target.config = device;
         target.label = device.name + " in " + options.config_file + " (devices[" + std::to_string(i) + "], " +
-                       devices::describe(device.transport) + ", " + codec_name(device.codec) + ")";
+                       devices::describe(device.transport) + ", " + std::string(devices::to_string(device.codec)) + ")";
         return target;
       }
       names.add(device.name);
@@ -266,13 +225,20 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     }
   }
   const devices::Codec codec = options.codec ? *options.codec : (board ? codec_of_image(firmware) : default_codec);
-  if (codec != devices::Codec::elcano && (options.generation || options.capture)) {
-    error = std::string(options.generation ? "--generation" : "--capture") + " applies to the elcano codec only";
+  const CodecCommands& commands = *codec_commands(codec);  // parse_codec and codec_of_image name rows it has
+  if (!commands.ring_options && (options.generation || options.capture)) {
+    std::string ring_codecs;
+    for (const devices::CodecRow* row : devices::codec_rows()) {
+      const CodecCommands* other = codec_commands(row->codec);
+      if (other != nullptr && other->ring_options) ring_codecs += (ring_codecs.empty() ? "" : " or ") + std::string(row->name);
+    }
+    error = std::string(options.generation ? "--generation" : "--capture") + " applies to the " + ring_codecs +
+            " codec only";
     return std::nullopt;
   }
-  const std::uint32_t baud = options.baud.value_or(codec == devices::Codec::proxy_compat ? 57600 : 115200);
+  const std::uint32_t baud = options.baud.value_or(devices::codec_row(codec).default_baud);
   target.config.codec = codec;
-  target.config.options = default_codec_options(codec, baud, options);
+  target.config.options = commands.default_options(baud, options);
   if (port) {
     devices::SerialTransport serial;
     serial.path = options.port;
@@ -281,25 +247,8 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     serial.options.boot_wait = std::chrono::milliseconds(options.boot_wait_ms.value_or(0));
     target.config.name = options.port;
     target.config.transport = serial;
-  } else if (codec == devices::Codec::elcano) {
-    // The host and one board make a ring of one (host TX -> board -> host RX). An unconfigured board
-    // captures nothing, so everything would come back undelivered: the board drives the servos from drive
-    // messages and answers each with a sensor report (`kLoneVirtualNodeBehaviour`).
-    devices::VirtualRingTransport ring;
-    devices::RingBoardConfig node;
-    node.firmware = firmware;
-    devices::RingNodeSettings settings;
-    settings.capture = elcano::TypeSet::of(elcano::Type::drive);
-    settings.behaviour_bits = kLoneVirtualNodeBehaviour;
-    node.eeprom = settings;
-    // ... which the host captures (unless --capture says otherwise).
-    if (!options.capture) {
-      std::get<devices::ElcanoOptions>(target.config.options).capture = elcano::TypeSet::of(elcano::Type::sensor);
-    }
-    ring.boards.push_back(node);
-    ring.pacing = transports::Pacing::real_time;
-    target.config.name = firmware.stem().string();
-    target.config.transport = ring;
+  } else if (commands.lone_virtual_board) {
+    commands.lone_virtual_board(firmware, options, target.config);
   } else {
     devices::VirtualTransport virt;
     virt.board.firmware = firmware;
@@ -308,60 +257,15 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     target.config.name = virt.board.name;
     target.config.transport = virt;
   }
-  target.label = devices::describe(target.config.transport) + " (" + codec_name(codec) + ")";
+  target.label = devices::describe(target.config.transport) + " (" + std::string(devices::to_string(codec)) + ")";
   return target;
 }
 
-nlohmann::ordered_json link_counters_json(const LinkCounters& counters) {
-  return {{"frames_ok", counters.frames_ok},
-          {"crc_errors", counters.crc_errors},
-          {"framing_errors", counters.framing_errors},
-          {"oversize_frames", counters.oversize_frames},
-          {"resyncs", counters.resyncs},
-          {"partial_timeouts", counters.partial_timeouts},
-          {"stale", counters.stale},
-          {"duplicates", counters.duplicates},
-          {"retries", counters.retries},
-          {"timeouts", counters.timeouts},
-          {"resets", counters.resets},
-          {"failsafes", counters.failsafes}};
-}
-
-nlohmann::ordered_json OpenDevice::counters() const {
-  nlohmann::ordered_json report;
-  if (romi_) {
-    report["link"] = link_counters_json(romi_->counters());
-  } else if (proxy_) {
-    const proxy::ProxyCounters counters = proxy_->counters();
-    report["link"] = link_counters_json(counters.link);
-    report["proxy"] = {{"messages_sent", counters.messages_sent}, {"acks", counters.acks},
-                       {"pings_sent", counters.pings_sent},       {"ping_acks", counters.ping_acks},
-                       {"resets_sent", counters.resets_sent},     {"inits_replayed", counters.inits_replayed},
-                       {"undecodable", counters.undecodable},     {"unknown_messages", counters.unknown_messages},
-                       {"pins_lost", counters.pins_lost}};
-    const proxy::SessionStatus session = proxy_->session();
-    report["session"] = {{"established", session.established}, {"session_id", nullptr}};
-    if (session.session_id) report["session"]["session_id"] = *session.session_id;
-  } else if (ring_) {
-    const elcano::RingClientCounters counters = ring_->counters();
-    report["link"] = link_counters_json(counters.link);
-    report["ring"] = {{"captured", counters.ring.captured},
-                      {"forwarded", counters.ring.forwarded},
-                      {"originated", counters.ring.originated},
-                      {"undeliverable", counters.ring.undeliverable},
-                      {"queue_full_drops", counters.ring.queue_full_drops},
-                      {"origins_expired", counters.ring.origins_expired},
-                      {"origins_evicted", counters.ring.origins_evicted},
-                      {"replies", counters.replies},
-                      {"receive_overflows", counters.receive_overflows},
-                      {"bytes_written", counters.bytes_written}};
-  }
-  return report;
-}
+nlohmann::ordered_json OpenDevice::counters() const { return codec_commands(codec())->counters(client()); }
 
 nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds, const nlohmann::ordered_json& extra) {
   nlohmann::ordered_json report = {{"device", device.description()},
-                                   {"codec", codec_name(device.codec())},
+                                   {"codec", std::string(devices::to_string(device.codec()))},
                                    {"seconds", std::round(seconds * 1000.0) / 1000.0}};
   const nlohmann::ordered_json counters = device.counters();
   for (const auto& [key, value] : counters.items()) report[key] = value;
@@ -370,9 +274,6 @@ nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds, co
 }
 
 void OpenDevice::close() {
-  if (romi_) romi_->close();
-  if (proxy_) proxy_->close();
-  if (ring_) ring_->close();
   if (rover_) rover_->close();
 }
 
@@ -384,7 +285,6 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     ~ClearProgress() { progress.clear(); }
   } clear_progress{progress};
   OpenDevice opened;
-  opened.codec_ = target.config.codec;
   opened.description_ = target.label;
 
   // The devices library opens it as a rover service would (boot wait, random first Romi id, proxy inits and
@@ -393,24 +293,10 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
   rover_config.devices.push_back(target.config);
   devices::OpenOptions open_options;
   open_options.on_client = [&](const devices::RoverDevice& device) {
-    std::visit(
-        [&](const auto& client) {
-          using Client = std::decay_t<decltype(client)>;
-          if constexpr (std::is_same_v<Client, std::shared_ptr<romi::RomiClient>>) {
-            opened.romi_ = client;
-            if (hooks.romi_log) client->set_log_handler(hooks.romi_log);
-            if (hooks.romi_link_failed) client->set_link_failed_handler(hooks.romi_link_failed);
-          } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::ProxyClient>>) {
-            opened.proxy_ = client;
-            if (hooks.proxy_events) client->add_event_handler(hooks.proxy_events);
-          } else {
-            opened.ring_ = client;
-            if (hooks.ring_events) client->add_event_handler(hooks.ring_events);
-          }
-        },
-        device.client);
-    const bool proxy = device.codec == devices::Codec::proxy || device.codec == devices::Codec::proxy_compat;
-    if (proxy) progress.show("waiting for the proxy session and inits...");
+    if (hooks.on_client) hooks.on_client(device.client);
+    if (const CodecCommands* commands = codec_commands(device.codec); commands != nullptr && !commands->readying.empty()) {
+      progress.show(std::string(commands->readying));
+    }
   };
   progress.show("opening " + devices::describe(target.config.transport) + "...");
   try {

@@ -9,11 +9,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <variant>
 
 #include "cli_support.hpp"
+#include "codec_commands.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/elcano/client.hpp"
@@ -66,24 +69,27 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
 
 /// Callbacks installed when the client is created, so they see every event from the first byte on.
 struct ClientHooks {
-  romi::LogHandler romi_log;         ///< romi log lines
-  romi::LinkFailedHandler romi_link_failed;  ///< romi: the link failed (an idle client hears of it too)
-  proxy::EventHandler proxy_events;  ///< proxy events
-  elcano::EventHandler ring_events;  ///< elcano ring events
+  /// Called with the new client, before it gets ready (proxy handshake and inits): attach event handlers.
+  std::function<void(const devices::DeviceClient& client)> on_client;
 };
 
-/// An opened device with its codec's client.
+/// An opened device with its codec's client: a rover of one device (`devices::open_rover`), so the command
+/// opens a device the way a rover service does.
 class OpenDevice {
  public:
   /// The codec.
-  devices::Codec codec() const { return codec_; }
+  devices::Codec codec() const { return device().codec; }
   /// One line: `serial /dev/pts/3 115200 (romi)`.
   const std::string& description() const { return description_; }
-  /// The client of the codec (exactly one is set).
-  const std::shared_ptr<romi::RomiClient>& romi() const { return romi_; }
-  const std::shared_ptr<proxy::ProxyClient>& proxy() const { return proxy_; }
-  const std::shared_ptr<elcano::RingClient>& ring() const { return ring_; }
-  /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}`.
+  /// The client of the codec.
+  const devices::DeviceClient& client() const { return device().client; }
+  /// The client as `Client` (`romi::RomiClient`), or null when the codec has another.
+  template <typename Client>
+  std::shared_ptr<Client> client_as() const {
+    const auto* client = std::get_if<std::shared_ptr<Client>>(&device().client);
+    return client != nullptr ? *client : nullptr;
+  }
+  /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`).
   nlohmann::ordered_json counters() const;
   /// Closes the client (and the device); idempotent.
   void close();
@@ -91,12 +97,9 @@ class OpenDevice {
  private:
   friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                const ClientHooks& hooks, Progress& progress, std::string& error);
-  devices::Codec codec_ = devices::Codec::romi;
+  const devices::RoverDevice& device() const { return rover_->devices().front(); }
   std::string description_;
-  std::shared_ptr<romi::RomiClient> romi_;
-  std::shared_ptr<proxy::ProxyClient> proxy_;
-  std::shared_ptr<elcano::RingClient> ring_;
-  std::shared_ptr<devices::Rover> rover_;  // devices opened through devices::open_rover (virtual rings)
+  std::shared_ptr<devices::Rover> rover_;
 };
 
 /// Opens the device and creates its client: romi (random first id unless the options set one), proxy (waits for
@@ -114,9 +117,6 @@ std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, 
 /// the client's counters (`OpenDevice::counters()`) plus `extra`'s entries.
 nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds,
                                     const nlohmann::ordered_json& extra = nlohmann::ordered_json::object());
-
-/// `{"frames_ok": 1, ...}` of every link counter.
-nlohmann::ordered_json link_counters_json(const LinkCounters& counters);
 
 /// Renders a counters report (nested JSON objects of numbers, strings and booleans) as an aligned table:
 /// top-level values as `key  value`, objects as a heading followed by their indented entries.

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "cli_support.hpp"
+#include "codec_commands.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "monitor_decoding.hpp"
@@ -258,8 +259,12 @@ int run_monitor(int argc, char** argv) {
   std::string error;
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
   if (!target) return command_text().usage_error(error);
-  const devices::Codec codec = target->config.codec;
-  if (arguments.keepalive && codec != devices::Codec::proxy) {
+  const CodecCommands& commands = *codec_commands(target->config.codec);
+  if (!commands.monitor_decoder) {
+    return command_text().usage_error(target->label + ": the monitor cannot decode " +
+                                      std::string(devices::to_string(target->config.codec)));
+  }
+  if (arguments.keepalive && !commands.monitor_keepalive) {
     return command_text().usage_error("--keepalive applies to the proxy codec (primary mode) only");
   }
   if (arguments.keepalive && arguments.tap) {

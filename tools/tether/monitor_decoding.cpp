@@ -273,22 +273,20 @@ class ElcanoReaderDecoder final : public MonitorDecoder {
 
 }  // namespace
 
-std::unique_ptr<MonitorDecoder> make_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
-                                                     Millis now) {
-  switch (config.codec) {
-    case devices::Codec::romi:
-      return std::make_unique<RomiDecoder>();
-    case devices::Codec::proxy:
-    case devices::Codec::proxy_compat:
-      return std::make_unique<ProxyDecoder>(std::get<devices::ProxyDeviceOptions>(config.options).client.mode, role,
-                                            now);
-    case devices::Codec::elcano: {
-      const auto& options = std::get<devices::ElcanoOptions>(config.options);
-      if (role.ring_node) return std::make_unique<ElcanoRingNodeDecoder>(options, now);
-      return std::make_unique<ElcanoReaderDecoder>(options.generation);
-    }
-  }
-  return nullptr;
+std::unique_ptr<MonitorDecoder> make_romi_monitor_decoder(const devices::DeviceConfig&, const DecoderRole&, Millis) {
+  return std::make_unique<RomiDecoder>();
+}
+
+std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                           Millis now) {
+  return std::make_unique<ProxyDecoder>(std::get<devices::ProxyDeviceOptions>(config.options).client.mode, role, now);
+}
+
+std::unique_ptr<MonitorDecoder> make_elcano_monitor_decoder(const devices::DeviceConfig& config,
+                                                            const DecoderRole& role, Millis now) {
+  const auto& options = std::get<devices::ElcanoOptions>(config.options);
+  if (role.ring_node) return std::make_unique<ElcanoRingNodeDecoder>(options, now);
+  return std::make_unique<ElcanoReaderDecoder>(options.generation);
 }
 
 }  // namespace tether::cli

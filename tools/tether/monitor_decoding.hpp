@@ -65,8 +65,19 @@ struct DecoderRole {
   bool keepalive = false;
 };
 
-/// The decoder of `config`'s codec (and its options: proxy mode, elcano generation and capture) for `role`.
+/// The decoder of `config`'s codec (and its options: proxy mode, elcano generation and capture) for `role`:
+/// its row's `monitor_decoder` (codec_commands.hpp); null when the codec has none.
 std::unique_ptr<MonitorDecoder> make_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
                                                      Millis now);
+
+/// The built-in codecs' decoders (their rows in codec_commands.cpp): romi (both directions share the envelope),
+/// proxy (the mode's schema for the role's direction; keepalive pings), elcano (the host's ring node, or a
+/// plain reader when `role.ring_node` is false).
+std::unique_ptr<MonitorDecoder> make_romi_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                          Millis now);
+std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                           Millis now);
+std::unique_ptr<MonitorDecoder> make_elcano_monitor_decoder(const devices::DeviceConfig& config,
+                                                            const DecoderRole& role, Millis now);
 
 }  // namespace tether::cli

@@ -195,10 +195,13 @@ int run_send(int argc, char** argv) {
   // Shared with the event handler, which may still run on the I/O thread while this function returns.
   const auto seen = std::make_shared<Observed>();
   ClientHooks hooks;
-  hooks.proxy_events = [seen](const proxy::ProxyEvent& event) { observe(*seen, event); };
+  hooks.on_client = [seen](const devices::DeviceClient& client) {
+    std::get<std::shared_ptr<proxy::ProxyClient>>(client)->add_event_handler(
+        [seen](const proxy::ProxyEvent& event) { observe(*seen, event); });
+  };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);
-  proxy::ProxyClient& client = *device->proxy();
+  proxy::ProxyClient& client = *device->client_as<proxy::ProxyClient>();
 
   int status = 0;
   for (const ProxyCommand& command : commands) {

@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "cli_support.hpp"
+#include "codec_commands.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "message_text.hpp"
@@ -293,93 +294,6 @@ std::vector<std::string> split_words(const std::string& line) {
   return words;
 }
 
-// How the shell prints: text or JSON lines, from any thread.
-struct Printer {
-  bool json = false;
-
-  void print(std::string_view type, const ShellLine& line) const { out().line(shell_output(type, line, json)); }
-  void answer(const ShellLine& line) const { print("answer", line); }
-  void event(const ShellLine& line) const { print("event", line); }
-  void error(const std::string& text) const { print("error", {"error: " + text, {{"message", text}}}); }
-  void info(const std::string& type, const std::string& text, const nlohmann::ordered_json& object) const {
-    print(type, {text, object});
-  }
-};
-
-std::string help_text(devices::Codec codec) {
-  std::string text;
-  switch (codec) {
-    case devices::Codec::romi:
-      text =
-          "Type a Romi command: an opcode and its arguments, the device's own (romi-test: e, s[2,3], t[\"hello\"],\n"
-          "g[2]; romi-blink: L[1]; romi-rover: S[1500,1500], A[0]). The id, CRC and framing are added; the\n"
-          "answer array is printed. Log lines from the device appear as `log: text`.\n";
-      break;
-    case devices::Codec::proxy:
-    case devices::Codec::proxy_compat: {
-      const proxy::Mode mode = codec == devices::Codec::proxy ? proxy::Mode::primary : proxy::Mode::compat;
-      text = "Type a message and its fields (FIELD=VALUE, every field):\n" + proxy_message_list(mode, "  ") +
-             "Device errors, pin states, info and session changes appear as they arrive.\n";
-      break;
-    }
-    case devices::Codec::elcano:
-      text =
-          "Type a message: D{s 50}{a 25} (drive), S{s 1}{a 2}{b 3}{p 4,5} (sensor), G{n 1}{p 0,0}{b 90} (goal),\n"
-          "X{n 1}{p 0,0}{b 90}{s 50} (segment); it is sent into the ring. Captured messages and messages that\n"
-          "came back undelivered appear as they arrive. :capture TYPES sets the types the host consumes\n"
-          "(drive,sensor,goal,segment or none).\n";
-      break;
-  }
-  return text + "Shell commands: :help, :stats (the session's counters), :quit (or Ctrl-D).";
-}
-
-// What became of the messages sent into an Elcano ring: each one ends captured somewhere (what the host
-// sees is the answer it captures) or back at the host undelivered. End of input waits for these (bounded),
-// so `echo 'D{s 50}{a 25}' | tether shell ...` prints the answer before it exits.
-class RingReplies {
- public:
-  /// How long end of input waits, at most, for the replies still outstanding.
-  static constexpr std::chrono::seconds kWait{3};
-
-  void sent() {
-    const std::lock_guard lock(mutex_);
-    ++sent_;
-  }
-  /// A captured message or an undelivered one came back.
-  void settled() {
-    const std::lock_guard lock(mutex_);
-    ++settled_;
-    changed_.notify_all();
-  }
-  /// Waits until every message sent has settled or `kWait` passed (or `stop` is set).
-  void wait(const std::atomic<bool>& stop) {
-    std::unique_lock lock(mutex_);
-    const auto deadline = std::chrono::steady_clock::now() + kWait;
-    while (settled_ < sent_ && !stop && std::chrono::steady_clock::now() < deadline) {
-      changed_.wait_for(lock, std::chrono::milliseconds(50));  // 50 ms steps: notices a stop signal
-    }
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::uint64_t sent_ = 0;
-  std::uint64_t settled_ = 0;
-};
-
-// Prints every captured message: one receive at a time, re-armed from its completion.
-void receive_captured(std::weak_ptr<elcano::RingClient> weak, Printer printer, elcano::Generation generation,
-                      std::shared_ptr<RingReplies> replies) {
-  const auto ring = weak.lock();
-  if (!ring || !ring->is_open()) return;
-  ring->async_receive([weak, printer, generation, replies](elcano::error_code error, elcano::Message message) {
-    if (error) return;  // closed, or the link failed (reported as an event)
-    printer.event(captured_line(message, generation));
-    replies->settled();
-    receive_captured(weak, printer, generation, replies);
-  });
-}
-
 }  // namespace
 
 int run_shell(int argc, char** argv) {
@@ -389,11 +303,13 @@ int run_shell(int argc, char** argv) {
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
   if (!target) return command_text().usage_error(error);
   const devices::Codec codec = target->config.codec;
-  const elcano::Generation generation = codec == devices::Codec::elcano
-                                            ? std::get<devices::ElcanoOptions>(target->config.options).generation
-                                            : elcano::Generation::b;
+  const CodecCommands& commands = *codec_commands(codec);
+  if (!commands.open_shell) {
+    return command_text().usage_error(target->label + ": the shell does not speak " +
+                                      std::string(devices::to_string(codec)));
+  }
 
-  Printer printer{arguments.json};
+  const ShellPrinter printer{arguments.json};
   // Set when the link fails: the main thread stops reading input.
   auto link_failed = std::make_shared<std::atomic<bool>>(false);
   // The reader to wake when the link fails (the I/O thread calls on_failure; the main thread owns the reader).
@@ -402,46 +318,32 @@ int run_shell(int argc, char** argv) {
     LineReader* reader = nullptr;
   };
   auto wake_target = std::make_shared<WakeTarget>();
-  auto on_failure = [link_failed, wake_target] {
+  ShellContext context;
+  context.printer = printer;
+  context.options = &arguments.device;
+  context.link_failed = [link_failed, wake_target] {
     *link_failed = true;
     const std::lock_guard lock(wake_target->mutex);
     if (wake_target->reader != nullptr) wake_target->reader->wake();
   };
 
-  auto ring_replies = std::make_shared<RingReplies>();
+  // The codec's shell, created with the client: its event handlers see everything from the first byte on.
+  std::unique_ptr<ShellSession> session;
   ClientHooks hooks;
-  hooks.romi_log = [printer](std::string_view text) { printer.event(romi_log_line(text)); };
-  hooks.romi_link_failed = [printer, on_failure](romi::error_code failure) {
-    printer.event({"link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}}});
-    on_failure();
-  };
-  hooks.proxy_events = [printer, on_failure](const proxy::ProxyEvent& event) {
-    printer.event(proxy_event_line(event));
-    if (std::holds_alternative<proxy::events::LinkFailed>(event)) on_failure();
-  };
-  hooks.ring_events = [printer, generation, on_failure, ring_replies](const elcano::ClientEvent& event) {
-    printer.event(ring_event_line(event, generation));
-    if (event.kind == elcano::ClientEvent::Kind::undeliverable) ring_replies->settled();
-    if (event.kind == elcano::ClientEvent::Kind::link_failed) on_failure();
+  hooks.on_client = [&](const devices::DeviceClient& client) {
+    session = commands.open_shell(client, target->config, context);
   };
 
   transports::IoThread io;
   Progress progress("shell");
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);
-  if (device->ring()) receive_captured(device->ring(), printer, generation, ring_replies);
 
   const bool interactive = ::isatty(STDIN_FILENO) == 1 && ::isatty(STDOUT_FILENO) == 1;
   const std::string prompt = interactive ? std::string(devices::to_string(codec)) + "> " : std::string();
   printer.info("open", "connected to " + device->description() + "; :help for help, :quit to leave",
                {{"device", device->description()}, {"codec", std::string(devices::to_string(codec))}});
-  if (codec == devices::Codec::elcano && !arguments.device.firmware.empty()) {  // --virtual: a ring of one
-    const std::string capture = arguments.device.capture ? "as --capture says" : "sensor messages";
-    printer.info("note",
-                 "the virtual board captures drive messages and answers each with a sensor report; the host "
-                 "captures " + capture + "; other messages come back undelivered",
-                 {{"board_captures", "drive"}});
-  }
+  session->greet();
 
   g_stop_signalled = false;
   auto reader = std::make_unique<LineReader>(prompt);
@@ -464,7 +366,7 @@ int run_shell(int argc, char** argv) {
       break;
     }
     if (!read) {
-      if (device->ring()) ring_replies->wait(g_stop_signalled);
+      session->finish(g_stop_signalled);
       break;
     }
     const std::string line = trim(*read);
@@ -475,7 +377,8 @@ int run_shell(int argc, char** argv) {
       const std::string& command = words[0];
       if (command == ":quit" || command == ":q" || command == ":exit") break;
       if (command == ":help") {
-        printer.info("help", help_text(codec), {{"text", help_text(codec)}});
+        const std::string help = commands.shell_help(target->config);
+        printer.info("help", help, {{"text", help}});
       } else if (command == ":stats") {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         const nlohmann::ordered_json report = stats_report(*device, seconds);
@@ -486,82 +389,12 @@ int run_shell(int argc, char** argv) {
           if (!table.empty() && table.back() == '\n') table.pop_back();
           out().line(table);
         }
-      } else if (command == ":capture" && device->ring()) {
-        const std::optional<elcano::TypeSet> set =
-            words.size() == 2 ? parse_elcano_types(words[1]) : std::optional<elcano::TypeSet>();
-        const bool valid = set.has_value();
-        if (!valid) {
-          printer.error(":capture needs TYPES: drive,sensor,goal,segment or none");
-        } else {
-          device->ring()->set_capture(*set);
-          printer.info("capture", "capturing " + words[1], {{"capture", words[1]}});
-        }
-      } else {
+      } else if (!session->command(words)) {
         printer.error("unknown shell command " + command + " (:help, :stats, :quit)");
       }
       continue;
     }
-
-    if (const auto& romi = device->romi()) {
-      const romi::Command command(line);
-      romi::error_code call_error;
-      const romi::RomiResponse response = romi->call(command, call_error);
-      printer.answer(romi_answer_line(line, response));
-    } else if (const auto& client = device->proxy()) {
-      const std::vector<std::string> words = split_words(line);
-      auto command = parse_proxy_command(client->mode(), words, error);
-      if (!command) {
-        printer.error(error);
-        continue;
-      }
-      if (command->reset && client->mode() == proxy::Mode::primary) {
-        client->restart_session();
-        printer.answer(
-            {"restarting the session (Reset, ResetEvent, inits)", {{"message", "reset"}, {"restarting", true}}});
-        continue;
-      }
-      proxy::error_code send_error;
-      proxy::SendResult sent;
-      if (const auto* primary = std::get_if<proxy::ArduinoIn>(&command->message)) {
-        sent = client->send(*primary, send_error);
-      } else {
-        sent = client->send(std::get<RocketryProto::ArduinoIn>(command->message), send_error);
-      }
-      nlohmann::ordered_json object = {
-          {"message", command->name},
-          {"acked", sent.acked},
-          {"written", !send_error},
-          {"message_id", sent.message_id},
-          {"attempts", sent.attempts},
-          {"error", send_error ? nlohmann::ordered_json(send_error.message()) : nlohmann::ordered_json()}};
-      std::string text;
-      if (send_error) {
-        text = command->name + " failed: " + send_error.message();
-      } else if (sent.acked) {
-        text = command->name + " acked (message id " + std::to_string(sent.message_id) + ", " +
-               std::to_string(sent.attempts) + (sent.attempts == 1 ? " attempt)" : " attempts)");
-      } else {
-        text = command->name + " written";
-      }
-      printer.answer({text, object});
-    } else if (const auto& ring = device->ring()) {
-      const auto message = parse_elcano(line, error);
-      if (!message) {
-        printer.error(error);
-        continue;
-      }
-      elcano::error_code send_error;
-      ring_replies->sent();  // before sending: the reply can come back before `send` returns
-      ring->send(*message, send_error);
-      const std::string text = format_elcano(*message, generation);
-      if (send_error) {
-        ring_replies->settled();  // nothing will come of it
-        printer.answer({"send failed: " + send_error.message(),
-                        {{"text", text}, {"sent", false}, {"error", send_error.message()}}});
-      } else {
-        printer.answer({"sent " + text, {{"text", text}, {"sent", true}, {"message", elcano_json(*message)}}});
-      }
-    }
+    session->send(line);
   }
   {
     const std::lock_guard lock(wake_target->mutex);
@@ -569,6 +402,7 @@ int run_shell(int argc, char** argv) {
   }
   reader.reset();
   device->close();
+  session.reset();
   if (status != 0) std::fprintf(stderr, "tether shell: the link to %s failed\n", device->description().c_str());
   return status;
 }

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "cli_support.hpp"
+#include "codec_commands.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "tether/transports/io_thread.hpp"
@@ -56,7 +57,7 @@ const CommandText& command_text() {
 struct Arguments {
   DeviceOptions device;
   std::uint32_t duration_ms = 5000;
-  std::string probe = "?";
+  std::string probe;
   bool passive = false;
   bool probe_given = false;
   std::uint32_t interval_ms = 1000;
@@ -104,13 +105,16 @@ int run_stats(int argc, char** argv) {
   std::string error;
   const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
   if (!target) return command_text().usage_error(error);
-  const bool romi = target->config.codec == devices::Codec::romi;
-  if (!romi && (arguments.probe_given || arguments.passive)) {
+  const CodecCommands& commands = *codec_commands(target->config.codec);
+  const bool probes = static_cast<bool>(commands.send_probe);
+  if (!probes && (arguments.probe_given || arguments.passive)) {
     return command_text().usage_error("--probe and --passive apply to the romi codec only");
   }
-  const romi::Command probe(arguments.probe);
-  if (romi && !arguments.passive && !probe.valid()) {
-    return command_text().usage_error("--probe '" + arguments.probe + "': " + probe.error().message());
+  const std::string probe = arguments.probe_given ? arguments.probe : std::string(commands.default_probe);
+  if (probes && !arguments.passive) {
+    if (const auto reason = commands.check_probe(probe)) {
+      return command_text().usage_error("--probe '" + probe + "': " + *reason);
+    }
   }
 
   transports::IoThread io;
@@ -130,11 +134,9 @@ int run_stats(int argc, char** argv) {
   for (bool first = true; !stop; first = false) {
     const auto now = Clock::now();
     if (!first && now >= end) break;
-    if (romi && !arguments.passive && now >= next_probe) {
-      romi::error_code call_error;
-      device->romi()->call(probe, call_error);
+    if (probes && !arguments.passive && now >= next_probe) {
       ++calls;
-      ++(call_error ? failed : answered);
+      ++(commands.send_probe(device->client(), probe) ? answered : failed);
       next_probe += std::chrono::milliseconds(arguments.interval_ms);
       continue;
     }
@@ -142,15 +144,15 @@ int run_stats(int argc, char** argv) {
     const auto seconds_left = std::chrono::duration_cast<std::chrono::seconds>(end - now).count();
     progress.show("counting, " + std::to_string(seconds_left + 1) + " s left...");
     auto wake = std::min(end, now + std::chrono::milliseconds(100));
-    if (romi && !arguments.passive) wake = std::min(wake, next_probe);
+    if (probes && !arguments.passive) wake = std::min(wake, next_probe);
     std::this_thread::sleep_until(wake);
   }
   progress.clear();
 
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   nlohmann::ordered_json extra = nlohmann::ordered_json::object();
-  if (romi) {
-    extra["calls"] = {{"probe", arguments.passive ? nlohmann::ordered_json() : nlohmann::ordered_json(arguments.probe)},
+  if (probes) {
+    extra["calls"] = {{"probe", arguments.passive ? nlohmann::ordered_json() : nlohmann::ordered_json(probe)},
                       {"sent", calls},
                       {"answered", answered},
                       {"failed", failed}};

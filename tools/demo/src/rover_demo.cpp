@@ -11,6 +11,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <thread>
+#include <type_traits>
 #include <variant>
 
 #include "tether/devices/rover.hpp"
@@ -213,23 +214,27 @@ class ElcanoWorkload final : public Workload {
   std::shared_ptr<elcano::RingClient> client_;
 };
 
+// The workload of the device's client (the demo drives servos the way each client can).
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
-  switch (device.codec) {
-    case devices::Codec::romi:
-      return std::make_unique<RomiWorkload>(std::get<std::shared_ptr<romi::RomiClient>>(device.client));
-    case devices::Codec::proxy:
-    case devices::Codec::proxy_compat: {
-      std::vector<devices::PinInit> servos;
-      for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
-        if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
-      }
-      return std::make_unique<ProxyWorkload>(std::get<std::shared_ptr<proxy::ProxyClient>>(device.client),
-                                             std::move(servos), device.codec == devices::Codec::proxy_compat);
-    }
-    case devices::Codec::elcano:
-      return std::make_unique<ElcanoWorkload>(std::get<std::shared_ptr<elcano::RingClient>>(device.client));
-  }
-  throw std::logic_error("unknown codec");
+  return std::visit(
+      [&](const auto& client) -> std::unique_ptr<Workload> {
+        using Client = typename std::decay_t<decltype(client)>::element_type;
+        if constexpr (std::is_same_v<Client, romi::RomiClient>) {
+          return std::make_unique<RomiWorkload>(client);
+        } else if constexpr (std::is_same_v<Client, proxy::ProxyClient>) {
+          std::vector<devices::PinInit> servos;
+          for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
+            if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
+          }
+          return std::make_unique<ProxyWorkload>(client, std::move(servos), client->mode() == proxy::Mode::compat);
+        } else if constexpr (std::is_same_v<Client, elcano::RingClient>) {
+          return std::make_unique<ElcanoWorkload>(client);
+        } else {
+          throw std::invalid_argument("the demo has no servo workload for codec " +
+                                      std::string(devices::to_string(device.codec)));
+        }
+      },
+      device.client);
 }
 
 double percentile(std::vector<double> sorted, double fraction) {

@@ -96,7 +96,7 @@ SimBoard::SimBoard(const std::vector<std::string>& arguments)
   pty_ = line->substr(4);
 }
 
-Terminal::Terminal(const std::vector<std::string>& arguments) {
+Terminal::Terminal(const std::string& program, const std::vector<std::string>& arguments) {
   master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
   if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) {
     throw std::system_error(errno, std::generic_category(), "posix_openpt");
@@ -104,7 +104,7 @@ Terminal::Terminal(const std::vector<std::string>& arguments) {
   char name[128];
   if (::ptsname_r(master_, name, sizeof name) != 0) throw std::system_error(errno, std::generic_category(), "ptsname");
   // Everything the child needs, prepared before fork (the child only makes system calls).
-  std::vector<std::string> strings = {TETHER_BINARY};
+  std::vector<std::string> strings = {program};
   strings.insert(strings.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
   for (std::string& text : strings) argv.push_back(text.data());

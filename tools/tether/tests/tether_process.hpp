@@ -74,7 +74,9 @@ class SimBoard {
 /// and reads the screen from it.
 class Terminal {
  public:
-  explicit Terminal(const std::vector<std::string>& arguments);
+  explicit Terminal(const std::vector<std::string>& arguments) : Terminal(TETHER_BINARY, arguments) {}
+  /// `program ARGS...` on the terminal (a test build of the command, say).
+  Terminal(const std::string& program, const std::vector<std::string>& arguments);
   ~Terminal();
   Terminal(const Terminal&) = delete;
   Terminal& operator=(const Terminal&) = delete;

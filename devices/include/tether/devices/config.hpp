@@ -36,6 +36,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <any>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -103,15 +104,17 @@ class ConfigError : public std::runtime_error {
   std::string file_;
 };
 
-/// The protocol a device speaks.
-enum class Codec {
+/// The protocol a device speaks: a row of the codec table (codecs.hpp). Values other than these name codecs a
+/// program registered (`register_codec`).
+enum class Codec : std::uint8_t {
   romi,          ///< Romi text request/response (`romi::RomiClient`).
   proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::ProxyClient`, primary mode).
   proxy_compat,  ///< The deployed proxy variant (`proxy::ProxyClient`, `ProxyOptions::compat()`).
   elcano,        ///< Elcano ring (`elcano::RingClient`).
 };
 
-/// The codec's name in configurations: `romi`, `proxy`, `proxy-compat`, `elcano`.
+/// The codec's name in configurations: `romi`, `proxy`, `proxy-compat`, `elcano` (its row's `name`;
+/// `unknown` for a value no row has).
 std::string_view to_string(Codec codec);
 
 /// A serial port (`{"serial": {...}}`).
@@ -242,8 +245,14 @@ struct ElcanoOptions {
   session::CallTiming timing = elcano::default_call_timing();
 };
 
-/// A codec's options; the alternative matches `DeviceConfig::codec` (proxy and proxy-compat share one).
-using CodecOptions = std::variant<RomiOptions, ProxyDeviceOptions, ElcanoOptions>;
+/// Options of a codec registered at run time (codecs.hpp): whatever its row's parser made of them.
+struct ExtensionOptions {
+  std::any value;  ///< The codec's own options type.
+};
+
+/// A codec's options; the alternative matches `DeviceConfig::codec` (proxy and proxy-compat share one;
+/// registered codecs use `ExtensionOptions`).
+using CodecOptions = std::variant<RomiOptions, ProxyDeviceOptions, ElcanoOptions, ExtensionOptions>;
 
 /// One device of the rover.
 struct DeviceConfig {

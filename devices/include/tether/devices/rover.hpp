@@ -14,8 +14,9 @@
 /// Devices open one after the other, in the configuration's order:
 ///   1. the transport: the serial port (with its boot wait), the TCP connection, or the virtual board
 ///      (created, started, owned by the rover: it stops when the device closes);
-///   2. the codec's client: `romi::RomiClient`, `proxy::ProxyClient` (primary or compat mode), or
-///      `elcano::RingClient` (see "Elcano" below);
+///   2. the codec's client, made by its row of the codec table (codecs.hpp): `romi::RomiClient`,
+///      `proxy::ProxyClient` (primary or compat mode), `elcano::RingClient` (see "Elcano" below), or a
+///      registered codec's `ExtensionClient`;
 ///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
 ///      the session handshake is done, within `ProxyDeviceOptions::open_timeout`. A device that does not
@@ -70,9 +71,19 @@
 
 namespace tether::devices {
 
-/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one).
+/// The client of a codec registered at run time (codecs.hpp): its own client type derives from this, so the
+/// rover can close it; users reach it with `std::dynamic_pointer_cast`.
+class ExtensionClient {
+ public:
+  virtual ~ExtensionClient() = default;
+  /// Closes the client and its stream; idempotent, never waits for the device.
+  virtual void close() = 0;
+};
+
+/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one;
+/// registered codecs use `ExtensionClient`).
 using DeviceClient = std::variant<std::shared_ptr<romi::RomiClient>, std::shared_ptr<proxy::ProxyClient>,
-                                  std::shared_ptr<elcano::RingClient>>;
+                                  std::shared_ptr<elcano::RingClient>, std::shared_ptr<ExtensionClient>>;
 
 /// One opened device.
 struct RoverDevice {

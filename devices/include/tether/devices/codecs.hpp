@@ -1,0 +1,100 @@
+/// @file codecs.hpp
+/// The codec table: one row per protocol a device can speak, read by everything that handles a device by
+/// its codec (the configuration parser and validator, `open_rover`, the `tether` command and the demo, which
+/// add their own columns: tools/tether/codec_commands.hpp). A new protocol is a folder (codecs/<name>/) and
+/// one row; how to add one: docs/codecs.md, "Adding a codec".
+///
+/// The built-in rows are `romi`, `proxy`, `proxy-compat` and `elcano`. A program registers more at start-up
+/// (`register_codec`, before any configuration is parsed): its configurations then name the codec like the
+/// built-in ones, options checked against the row's keys, the device opened through the row's `open`:
+///
+/// @code
+///   devices::CodecRow row;
+///   row.name = "line-echo";
+///   row.option_keys = {"timeout_ms"};
+///   row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions { ... };
+///   row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device)
+///       -> devices::DeviceClient { return std::make_shared<LineEchoClient>(stream, ...); };
+///   const devices::Codec line_echo = devices::register_codec(row);
+/// @endcode
+///
+/// A registered codec's options live in `ExtensionOptions` and its client is an `ExtensionClient` (the
+/// alternatives of `CodecOptions` and `DeviceClient` the built-in codecs do not use).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tether/devices/config.hpp"
+#include "tether/devices/rover.hpp"
+#include "tether/transports/byte_stream.hpp"
+
+namespace tether::devices {
+
+/// Which virtual transport carries a codec: one simulated board (`"virtual"`) or a ring of them
+/// (`"virtual_ring"`, whose host node sends what it does not consume on round the ring).
+enum class VirtualBoards {
+  single,  ///< `{"virtual": {...}}` only.
+  ring,    ///< `{"virtual_ring": {...}}` only.
+};
+
+/// What a row's option parser gets.
+struct OptionsContext {
+  /// The device's `"options"` object, its keys already checked against `CodecRow::option_keys`; null when the
+  /// device has none (the parser returns the defaults).
+  const nlohmann::json* options = nullptr;
+  /// JSON path of the options (`devices[1].options`), for the `ConfigError`s the parser throws.
+  std::string path;
+  /// The row's codec (one parser may serve two rows: proxy and proxy-compat).
+  Codec codec = Codec::romi;
+  /// The device's transport, already parsed (a serial transport's baud is the default of a codec's own).
+  const TransportConfig* transport = nullptr;
+};
+
+/// One codec: its names, options, transports and how a device speaking it is opened. Every function is
+/// called on the thread that parses or opens; they report errors by throwing `ConfigError`.
+struct CodecRow {
+  /// The codec's value (`register_codec` assigns it to a new row).
+  Codec codec = Codec::romi;
+  /// Its name in configurations (`"codec": "romi"`), in messages and on the command line (`--codec`).
+  std::string_view name;
+  /// What opens it, for messages and documentation: `romi::RomiClient`.
+  std::string_view client_name;
+  /// Keys allowed in the device's `"options"`; a key of another codec's only is named as such.
+  std::vector<std::string_view> option_keys;
+  /// Line speed of a serial transport that does not set one.
+  std::uint32_t default_baud = 115200;
+  /// The virtual transport that carries it.
+  VirtualBoards virtual_boards = VirtualBoards::single;
+  /// The options of a configuration's device (`OptionsContext::options` null: the defaults).
+  std::function<CodecOptions(const OptionsContext& context)> parse_options;
+  /// Checks options built in code (what parsing guarantees); throws `ConfigError` at `options_path`'s keys.
+  /// Unset: nothing to check.
+  std::function<void(const CodecOptions& options, const std::string& options_path)> validate;
+  /// The client of `device` on its opened byte stream (which it owns from then on).
+  std::function<DeviceClient(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device)> open;
+  /// Waits until the new client is ready for the application (proxy: handshake and inits), within the
+  /// device's limits; throws `ConfigError` under `device_path` (`devices[1]`). Unset: ready when created.
+  std::function<void(const DeviceClient& client, const DeviceConfig& device, const std::string& device_path)>
+      await_ready;
+};
+
+/// The row of `codec`. Throws `std::out_of_range` for a value no row has.
+const CodecRow& codec_row(Codec codec);
+/// The row named `name` (`"proxy-compat"`), or null.
+const CodecRow* find_codec(std::string_view name);
+/// Every row: the built-in ones, then the registered ones in registration order.
+std::vector<const CodecRow*> codec_rows();
+
+/// Adds `row` to the table and returns its new `Codec` value (also stored in the row). Throws
+/// `std::invalid_argument` when the name is empty or taken, or `parse_options` or `open` is unset. Meant for
+/// start-up: rows are never removed, and a configuration parsed before cannot name the codec.
+Codec register_codec(CodecRow row);
+
+}  // namespace tether::devices

@@ -1,0 +1,123 @@
+// The `tether` command's columns of the codec table (devices/codecs.hpp): for each codec, how the device
+// options build it from the command line, its counters, its shell (what a typed line does, what its events
+// print) and its monitor decoder. Subcommands look a codec up here instead of switching on it, so a new codec
+// is one devices row plus one row here, registered together (`register_codec`); docs/codecs.md, "Adding a
+// codec".
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "monitor_decoding.hpp"
+#include "shell_text.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/devices/codecs.hpp"
+
+namespace tether::cli {
+
+struct DeviceOptions;  // device_options.hpp
+
+/// How a shell prints, from any thread: text lines or JSON lines of a "type".
+struct ShellPrinter {
+  bool json = false;  ///< JSON lines instead of text
+
+  void print(std::string_view type, const ShellLine& line) const;
+  void answer(const ShellLine& line) const { print("answer", line); }
+  void event(const ShellLine& line) const { print("event", line); }
+  void error(const std::string& text) const { print("error", {"error: " + text, {{"message", text}}}); }
+  void info(const std::string& type, const std::string& text, const nlohmann::ordered_json& object) const {
+    print(type, {text, object});
+  }
+};
+
+/// What a codec's shell gets: where to print and whom to tell that the link failed (the shell then ends
+/// with exit status 2).
+struct ShellContext {
+  ShellPrinter printer;
+  std::function<void()> link_failed;
+  const DeviceOptions* options = nullptr;  ///< the command line's device options
+};
+
+/// One device's shell, for its codec: created as soon as the client exists (its event handlers see
+/// everything from the first byte), used by the shell's main thread.
+class ShellSession {
+ public:
+  virtual ~ShellSession() = default;
+  /// Printed after the "connected to ..." line (e.g. what a lone virtual board does).
+  virtual void greet() {}
+  /// Sends the typed line (not empty, not a `:` command) and prints what became of it.
+  virtual void send(const std::string& line) = 0;
+  /// Runs a shell command of this codec (`:capture TYPES`); false when `words[0]` is none of its own.
+  virtual bool command(const std::vector<std::string>& /*words*/) { return false; }
+  /// End of input: waits, bounded (and until `stop`), for what the lines sent are still owed.
+  virtual void finish(const std::atomic<bool>& /*stop*/) {}
+};
+
+/// The `tether` command's row of a codec.
+struct CodecCommands {
+  /// The codec's name: its devices row's (`romi`).
+  std::string_view name;
+  /// `--virtual IMAGE`: images whose file name starts with one of these speak it (the longest prefix wins;
+  /// no match: romi).
+  std::vector<std::string_view> image_prefixes;
+  /// Takes `--generation` and `--capture` (the elcano ring's options).
+  bool ring_options = false;
+  /// The options of a device named by `--port` or `--virtual` (`baud`: the line speed).
+  std::function<devices::CodecOptions(std::uint32_t baud, const DeviceOptions& options)> default_options;
+  /// `--virtual`: the transport of a lone board running `firmware` (and what it changes in the options).
+  /// Unset: one virtual board.
+  std::function<void(const std::filesystem::path& firmware, const DeviceOptions& options,
+                     devices::DeviceConfig& config)>
+      lone_virtual_board;
+  /// Shown while the device gets ready after its client exists (`waiting for the proxy session...`).
+  std::string_view readying;
+  /// The client's counters, beside the link's: `{"link": {...}, "proxy": {...}}`.
+  std::function<nlohmann::ordered_json(const devices::DeviceClient& client)> counters;
+  /// `:help` of its shell.
+  std::function<std::string(const devices::DeviceConfig& config)> shell_help;
+  /// Its shell on `client` (event handlers attached at once). Unset: `tether shell` refuses the codec.
+  std::function<std::unique_ptr<ShellSession>(const devices::DeviceClient& client, const devices::DeviceConfig& config,
+                                              const ShellContext& context)>
+      open_shell;
+  /// `tether monitor`'s decoder (and, for a ring, the host's node). Unset: monitor refuses the codec.
+  std::function<std::unique_ptr<MonitorDecoder>(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                Millis now)>
+      monitor_decoder;
+  /// `monitor --keepalive` applies (proxy primary mode).
+  bool monitor_keepalive = false;
+  /// `tether stats`: the probe sent every interval unless `--passive` (unset: the codec takes no probe).
+  std::string_view default_probe;
+  /// Why `probe` cannot be sent (nothing: it can).
+  std::function<std::optional<std::string>(const std::string& probe)> check_probe;
+  /// Sends `probe` once; true when the device answered.
+  std::function<bool(const devices::DeviceClient& client, const std::string& probe)> send_probe;
+};
+
+/// The row of `codec`, or null when the `tether` command has none (a codec registered with the devices
+/// library only).
+const CodecCommands* codec_commands(devices::Codec codec);
+
+/// Registers a codec with the devices library (`devices::register_codec`) and with the command; for start-up,
+/// before a subcommand runs. Returns its value. Throws `std::invalid_argument` like `devices::register_codec`.
+devices::Codec register_codec(devices::CodecRow device, CodecCommands commands);
+
+/// The codec named on the command line (`--codec`).
+std::optional<devices::Codec> parse_codec(std::string_view text);
+/// The codecs the command knows: `romi, proxy, proxy-compat or elcano`.
+std::string codec_choices();
+/// The codec of a `--virtual` image (by its file name).
+devices::Codec codec_of_image(const std::filesystem::path& firmware);
+
+/// `{"frames_ok": 1, ...}` of every link counter.
+nlohmann::ordered_json link_counters_json(const LinkCounters& counters);
+
+}  // namespace tether::cli
