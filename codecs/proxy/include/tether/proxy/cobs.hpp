@@ -43,26 +43,11 @@ class CobsDecoder {
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte) {
-    if (byte == 0x00) {
-      DecodeStatus status = DecodeStatus::more;
-      if (skipping_) {
-        skipping_ = false;  // resynchronised on the delimiter
-        ++counters_->resyncs;
-      } else if (left_ != 0) {
-        status = fail(FrameError::framing_error);  // the frame ended inside a block
-        skipping_ = false;
-      } else if (started_) {
-        frame_size_ = size_;
-        status = DecodeStatus::frame;
-      }
-      started_ = false;
-      size_ = 0;
-      left_ = 0;
-      return status;
-    }
+    if (byte == 0x00) return end_frame();
     if (skipping_) return DecodeStatus::more;
     if (left_ == 0) {  // a code byte
       if (started_ && last_code_ != 0xFF && !append(0x00)) return fail(FrameError::frame_too_long);
+      if (!started_) size_ = 0;  // the previous frame stays readable until the next one starts
       started_ = true;
       last_code_ = byte;
       left_ = static_cast<uint8_t>(byte - 1);
@@ -75,7 +60,7 @@ class CobsDecoder {
   /// Consumes `bytes` up to and including the first one that completes a frame or an error.
   FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
   /// After `frame`: the decoded frame (a view into the decoder, valid until the next feed).
-  ByteView frame() const { return ByteView(buffer_, frame_size_); }
+  ByteView frame() const { return ByteView(buffer_, size_); }
   /// After `error`: why the frame was dropped.
   FrameError error() const { return error_; }
   /// Forgets the frame in progress and waits for the next 0x00.
@@ -89,6 +74,24 @@ class CobsDecoder {
   bool in_frame() const { return started_ && !skipping_; }
 
  private:
+  // The delimiter: completes the frame in progress, reports a block cut short, or ends a resync.
+  DecodeStatus end_frame() {
+    DecodeStatus status = DecodeStatus::more;
+    if (skipping_) {
+      skipping_ = false;  // resynchronised on the delimiter
+      ++counters_->resyncs;
+    } else if (left_ != 0) {
+      status = fail(FrameError::framing_error);  // the frame ended inside a block
+      skipping_ = false;
+    } else if (started_) {
+      status = DecodeStatus::frame;  // `size_` bytes stay in `buffer_` until the next code byte
+    } else {
+      size_ = 0;
+    }
+    started_ = false;
+    left_ = 0;
+    return status;
+  }
   bool append(uint8_t byte) {
     if (size_ == Capacity) return false;
     buffer_[size_++] = byte;
@@ -111,7 +114,6 @@ class CobsDecoder {
   LinkCounters* counters_;
   uint8_t buffer_[Capacity];
   size_t size_ = 0;
-  size_t frame_size_ = 0;   // size of the last completed frame (`frame()`)
   uint8_t left_ = 0;        // data bytes left in the current block
   uint8_t last_code_ = 0;   // code of the current block
   bool started_ = false;    // a code byte was seen since the last delimiter

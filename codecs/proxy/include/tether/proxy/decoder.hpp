@@ -30,12 +30,27 @@ class Decoder {
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte) {
     const DecodeStatus cobs = cobs_.feed(byte);
-    if (cobs == DecodeStatus::error) {
-      error_ = cobs_.error();
-      return DecodeStatus::error;
-    }
-    if (cobs != DecodeStatus::frame) return DecodeStatus::more;
+    if (cobs == DecodeStatus::more) return DecodeStatus::more;  // the per-byte path: nothing else to do
+    if (cobs == DecodeStatus::error) return fail(cobs_.error());
+    return check(cobs_.frame());
+  }
+  /// Consumes `bytes` up to and including the first one that completes a frame or an error.
+  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
+  /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
+  ByteView frame() const {
     const ByteView frame = cobs_.frame();
+    return integrity_ == Integrity::crc16 ? frame.subview(2) : frame;
+  }
+  /// After `error`: why the frame was dropped (frame_too_long, framing_error or crc_mismatch).
+  FrameError error() const { return error_; }
+  /// Forgets the frame in progress; waits for the next delimiter.
+  void reset() { cobs_.reset(); }
+  /// True while a frame is being received.
+  bool in_frame() const { return cobs_.in_frame(); }
+
+ private:
+  // A complete COBS frame: the payload after its CRC check (primary) or as is (compatibility mode).
+  DecodeStatus check(ByteView frame) {
     if (integrity_ == Integrity::none) {
       if (frame.empty()) return DecodeStatus::more;  // `01 00` carries nothing: an empty frame, ignored
       if (frame.size() > MaxPayload) {  // the COBS stage has room for a CRC this mode does not send
@@ -43,7 +58,6 @@ class Decoder {
         return fail(FrameError::frame_too_long);
       }
       ++counters_->frames_ok;
-      payload_ = frame;
       return DecodeStatus::frame;
     }
     if (frame.size() < 2) {
@@ -57,21 +71,8 @@ class Decoder {
       return fail(FrameError::crc_mismatch);
     }
     ++counters_->frames_ok;
-    payload_ = payload;
     return DecodeStatus::frame;
   }
-  /// Consumes `bytes` up to and including the first one that completes a frame or an error.
-  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
-  /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
-  ByteView frame() const { return payload_; }
-  /// After `error`: why the frame was dropped (frame_too_long, framing_error or crc_mismatch).
-  FrameError error() const { return error_; }
-  /// Forgets the frame in progress; waits for the next delimiter.
-  void reset() { cobs_.reset(); }
-  /// True while a frame is being received.
-  bool in_frame() const { return cobs_.in_frame(); }
-
- private:
   DecodeStatus fail(FrameError error) {
     error_ = error;
     return DecodeStatus::error;
@@ -80,7 +81,6 @@ class Decoder {
   Integrity integrity_;
   LinkCounters* counters_;
   CobsDecoder<MaxPayload + 2> cobs_;
-  ByteView payload_;
   FrameError error_ = FrameError::none;
 };
 
