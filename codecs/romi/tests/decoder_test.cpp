@@ -276,16 +276,19 @@ TEST(RomiEnvelope, DeprecatedEnvelopeDecoderStillReportsEventsForOneRelease) {
   LinkCounters counters;
   EnvelopeDecoder<kHostDecoderCapacity> decoder(counters);
   std::vector<EnvelopeEvent> events;
+  std::vector<std::string> payloads;  // copied: a payload view is valid until the next feed
   for (char c : std::string("#e:7b04\r\n#!up:xxxx\r\n#s[1]:2a00\r\n")) {
     const EnvelopeEvent e = decoder.feed(static_cast<uint8_t>(c));
-    if (e.kind != EnvelopeEvent::Kind::none) events.push_back(e);
+    if (e.kind == EnvelopeEvent::Kind::none) continue;
+    events.push_back(e);
+    payloads.emplace_back(reinterpret_cast<const char*>(e.payload.data()), e.payload.size());
   }
   ASSERT_EQ(events.size(), 3u);
   EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
   EXPECT_EQ(events[0].id, 0x7b);
   EXPECT_EQ(events[0].opcode, 'e');
   EXPECT_EQ(events[1].kind, EnvelopeEvent::Kind::log);
-  EXPECT_EQ(std::string(reinterpret_cast<const char*>(events[1].payload.data()), events[1].payload.size()), "up");
+  EXPECT_EQ(payloads[1], "up");
   EXPECT_EQ(events[2].kind, EnvelopeEvent::Kind::error);
   EXPECT_EQ(events[2].error, ErrorCode::crc_mismatch);
   EXPECT_EQ(events[2].opcode, 's');
