@@ -9,13 +9,15 @@
 #include <string>
 #include <vector>
 
+#include "tether/elcano/encoder.hpp"
 #include "tether/elcano/message.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether_proxy.pb.h"
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/romi/request_parser.hpp"
 
 namespace {
@@ -40,12 +42,13 @@ void BM_RomiDecodeAndParseRequest(benchmark::State& state) {
   builder.add_int(1234).add_int(-567);
   const size_t size = romi::encode_request(builder.payload(), 7, frame).value();
   LinkCounters counters;
-  romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity> decoder(counters);
+  romi::Decoder<romi::kDeviceDecoderCapacity> decoder(counters);
   romi::Request request;
   for (auto _ : state) {
     for (size_t i = 0; i < size; ++i) {
-      const romi::EnvelopeEvent event = decoder.feed(frame[i]);
-      if (event.kind == romi::EnvelopeEvent::Kind::frame) benchmark::DoNotOptimize(romi::parse_request(event.payload, request));
+      if (decoder.feed(frame[i]) == DecodeStatus::frame) {
+        benchmark::DoNotOptimize(romi::parse_request(decoder.frame().payload, request));
+      }
     }
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
@@ -75,7 +78,7 @@ void BM_ProxyDecodeFrame(benchmark::State& state) {
   const size_t size =
       proxy::encode_frame(ByteView(payload.data(), payload.size()), proxy::Integrity::crc16, true, frame).value();
   LinkCounters counters;
-  proxy::FrameDecoder<64> decoder(proxy::Integrity::crc16, counters);
+  proxy::Decoder<64> decoder(proxy::Integrity::crc16, counters);
   for (auto _ : state) {
     for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
   }
@@ -92,7 +95,7 @@ void BM_RomiDecodeLongResponse(benchmark::State& state) {
   uint8_t frame[1024];
   const size_t size = romi::encode_response('r', ByteView::from_chars(body.data(), body.size()), 3, frame).value();
   LinkCounters counters;
-  romi::EnvelopeDecoder<romi::kHostDecoderCapacity> decoder(counters);
+  romi::Decoder<romi::kHostDecoderCapacity> decoder(counters);
   for (auto _ : state) {
     for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
   }
@@ -126,13 +129,13 @@ elcano::Message elcano_segment() {
 
 std::vector<uint8_t> elcano_bytes(const elcano::Message& message, elcano::Generation generation) {
   uint8_t out[96];
-  const Result<size_t> size = elcano::write_message(message, generation, out);
+  const Result<size_t> size = elcano::encode_message(message, generation, out);
   return std::vector<uint8_t>(out, out + (size.ok() ? size.value() : 0));
 }
 
 void BM_ElcanoWrite(benchmark::State& state, elcano::Message message, elcano::Generation generation) {
   uint8_t out[96];
-  for (auto _ : state) benchmark::DoNotOptimize(elcano::write_message(message, generation, out));
+  for (auto _ : state) benchmark::DoNotOptimize(elcano::encode_message(message, generation, out));
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
   state.counters["wire_bytes"] = static_cast<double>(elcano_bytes(message, generation).size());
 }
@@ -141,11 +144,11 @@ BENCHMARK_CAPTURE(BM_ElcanoWrite, drive_gen_d, elcano_drive(), elcano::Generatio
 BENCHMARK_CAPTURE(BM_ElcanoWrite, segment_gen_b, elcano_segment(), elcano::Generation::b);
 BENCHMARK_CAPTURE(BM_ElcanoWrite, segment_gen_d, elcano_segment(), elcano::Generation::d);
 
-// Byte by byte through the boards' reader (Reader<96>), one message per iteration.
+// Byte by byte through the boards' reader (Decoder<96>), one message per iteration.
 void BM_ElcanoRead(benchmark::State& state, elcano::Message message, elcano::Generation generation) {
   const std::vector<uint8_t> bytes = elcano_bytes(message, generation);
   LinkCounters counters;
-  elcano::Reader<96> reader(generation, counters);
+  elcano::Decoder<96> reader(generation, counters);
   for (auto _ : state) {
     for (uint8_t byte : bytes) benchmark::DoNotOptimize(reader.feed(byte));
   }
@@ -273,7 +276,7 @@ void BM_DriveJob_Elcano(benchmark::State& state, elcano::Generation generation) 
   uint8_t out[96];
   size_t to_device = 0;
   for (auto _ : state) {
-    const Result<size_t> size = elcano::write_message(drive, generation, out);
+    const Result<size_t> size = elcano::encode_message(drive, generation, out);
     to_device = size.ok() ? size.value() : 0;
     benchmark::DoNotOptimize(out);
   }

@@ -3,7 +3,7 @@
 // (benchmarks/avr_cycle_report.cpp). D2 carries an empty pulse: the baseline to subtract.
 //   D2 baseline | D3 Romi: decode + parse a request | D4 Romi: encode a response | D5 proxy: decode a frame
 //   D6 proxy: encode a frame | D7 CRC-16 over 64 bytes | D8 CRC-8 over 64 bytes
-//   Elcano (Reader<96>, RingNode<96, 256, 4> like the elcano-node image), drive D{s 50}{a 25} and segment
+//   Elcano (Decoder<96>, RingNode<96, 256, 4> like the elcano-node image), drive D{s 50}{a 25} and segment
 //   X{n 4}{s 160}{b 80}{p 3200,-64000}: D9/D10 read a drive message (generation B/D), D11/D12 read a
 //   segment message (B/D), D13/A0 write a drive message (B/D), A1/A2 write a segment message (B/D),
 //   A3/A4 RingNode feed + take_output of a forwarded drive message (B/D), A5 RingNode feed of a captured
@@ -15,12 +15,14 @@
 #include <avr/sleep.h>
 
 #include "tether/core/crc.hpp"
+#include "tether/elcano/encoder.hpp"
 #include "tether/elcano/message.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/romi/request_parser.hpp"
 
 extern "C" {
@@ -78,7 +80,7 @@ uint8_t bytes_if(bool ok, size_t bytes) { return ok ? static_cast<uint8_t>(bytes
 
 // Writes `message` into `input` (outside any measurement); returns its size.
 uint8_t prepare_input(const elcano::Message& message, elcano::Generation generation) {
-  return static_cast<uint8_t>(write_message(message, generation, input).value());
+  return static_cast<uint8_t>(encode_message(message, generation, input).value());
 }
 
 // Bytes of `input` other than spaces: what a node forwards of a generation B message.
@@ -88,15 +90,15 @@ uint8_t without_spaces(uint8_t size) {
   return count;
 }
 
-// Reads `size` bytes of `input` with a fresh Reader<96>, as an elcano-node board would; true when they
+// Reads `size` bytes of `input` with a fresh Decoder<96>, as an elcano-node board would; true when they
 // made one message of `type`.
 bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, tether::LinkCounters& counters) {
-  elcano::Reader<96> reader(generation, counters);
+  elcano::Decoder<96> reader(generation, counters);
   bool read = false;
   for (uint8_t i = 0; i < size; ++i) {
-    if (reader.consume(input[i]) == elcano::ReadEvent::Kind::message) {  // the fast path, as the node uses
-      sink = static_cast<uint16_t>(reader.message().speed + static_cast<int32_t>(reader.forward().size()));
-      read = reader.message().type == type;
+    if (reader.feed(input[i]) == tether::DecodeStatus::frame) {
+      sink = static_cast<uint16_t>(reader.frame().speed + static_cast<int32_t>(reader.forward().size()));
+      read = reader.frame().type == type;
     }
   }
   return read;
@@ -124,12 +126,11 @@ int main() {
 
   measure(_BV(PD2), 0, 0, [] {});
   measure(_BV(PD3), 0, 0, [&] {
-    tether::romi::EnvelopeDecoder<tether::romi::kDeviceDecoderCapacity> decoder(counters);
+    tether::romi::Decoder<tether::romi::kDeviceDecoderCapacity> decoder(counters);
     tether::romi::Request request;
     for (size_t i = 0; i + 1 < sizeof kRequest; ++i) {
-      const tether::romi::EnvelopeEvent event = decoder.feed(kRequest[i]);
-      if (event.kind == tether::romi::EnvelopeEvent::Kind::frame) {
-        const int16_t parsed = static_cast<int16_t>(tether::romi::parse_request(event.payload, request));
+      if (decoder.feed(kRequest[i]) == tether::DecodeStatus::frame) {
+        const int16_t parsed = static_cast<int16_t>(tether::romi::parse_request(decoder.frame().payload, request));
         sink = static_cast<uint16_t>(parsed + request.arguments[1]);
         read = parsed == 0 && request.arguments[1] == -567;
       }
@@ -146,9 +147,9 @@ int main() {
                             .value();
   read = false;
   measure(_BV(PD5), 0, 0, [&] {
-    tether::proxy::FrameDecoder<32> decoder(tether::proxy::Integrity::crc16, counters);
+    tether::proxy::Decoder<32> decoder(tether::proxy::Integrity::crc16, counters);
     for (size_t i = 0; i < framed; ++i) {
-      if (decoder.feed(frame[i]).kind == tether::proxy::FrameEvent::Kind::payload) read = true;
+      if (decoder.feed(frame[i]) == tether::DecodeStatus::frame) read = true;
     }
   });
   bench_wire_bytes[5] = bytes_if(read, framed);
@@ -179,13 +180,13 @@ int main() {
   measure(0, _BV(PB4), 0, [&] { read = read_input(elcano::Generation::d, size, elcano::Type::segment, counters); });
   bench_wire_bytes[12] = bytes_if(read, size);
 
-  measure(0, _BV(PB5), 0, [&] { written = write_message(drive, elcano::Generation::b, frame).value(); });
+  measure(0, _BV(PB5), 0, [&] { written = encode_message(drive, elcano::Generation::b, frame).value(); });
   bench_wire_bytes[13] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC0), [&] { written = write_message(drive, elcano::Generation::d, frame).value(); });
+  measure(0, 0, _BV(PC0), [&] { written = encode_message(drive, elcano::Generation::d, frame).value(); });
   bench_wire_bytes[14] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC1), [&] { written = write_message(segment, elcano::Generation::b, frame).value(); });
+  measure(0, 0, _BV(PC1), [&] { written = encode_message(segment, elcano::Generation::b, frame).value(); });
   bench_wire_bytes[15] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC2), [&] { written = write_message(segment, elcano::Generation::d, frame).value(); });
+  measure(0, 0, _BV(PC2), [&] { written = encode_message(segment, elcano::Generation::d, frame).value(); });
   bench_wire_bytes[16] = static_cast<uint8_t>(written);
 
   // Ring nodes are built outside the measurement (their construction is a boot cost, not a per-message one).

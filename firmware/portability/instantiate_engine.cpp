@@ -7,11 +7,12 @@
 #include "tether/core/session/request_table.hpp"
 #include "tether/core/session/session_monitor.hpp"
 #include "tether/core/session/write_pacer.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
 #include "tether/elcano/session_policy.hpp"
-#include "tether/proxy/frame.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/session_policy.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/romi/limits.hpp"
 
 namespace tether {
@@ -39,11 +40,13 @@ template class session::RequestTable<portability::WordIdPolicy, 4>;
 template class session::SessionMonitor<uint32_t, 8>;
 template class session::DuplicateFilter<uint8_t, 1, 64>;
 template class session::DuplicateFilter<uint32_t, 8, 0>;
-template class romi::EnvelopeDecoder<romi::kDeviceDecoderCapacity>;
-template class proxy::FrameDecoder<64>;
-template class elcano::Reader<96>;
+template class romi::Decoder<romi::kDeviceDecoderCapacity>;
+template class proxy::Decoder<64>;
+template class proxy::CobsDecoder<66>;
+template class elcano::Decoder<96>;
 template class elcano::RingNode<96, 256, 4>;
 template class elcano::RingNode<48, 128, 8>;
 template class session::RequestTable<elcano::SessionPolicy, 4>;
+template class session::RequestTable<proxy::SessionPolicy, proxy::kMaxInFlight>;
 
 }  // namespace tether

@@ -80,7 +80,7 @@ bool same_message(const Message& a, const Message& b) {
 
 std::string describe(const Message& message) {
   std::uint8_t text[128];
-  const Result<std::size_t> written = write_message(message, Generation::b, MutableByteView(text, sizeof text));
+  const Result<std::size_t> written = encode_message(message, Generation::b, MutableByteView(text, sizeof text));
   if (!written.ok()) return std::string("<unwritable ") + static_cast<char>(message.type) + " message>";
   return std::string(reinterpret_cast<const char*>(text), written.value() - 1);  // without the '\n'
 }

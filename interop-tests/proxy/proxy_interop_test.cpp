@@ -16,7 +16,8 @@
 
 #include "../wire_tap.hpp"
 #include "tether/proxy/client.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/in_memory_stream.hpp"
@@ -233,10 +234,10 @@ class AckDropper {
                  return;
                }
                frame_.push_back(byte);
-               const FrameEvent event = decoder_.feed(byte);
+               const bool payload = decoder_.feed(byte) == DecodeStatus::frame;
                if (byte != 0) return;
-               if (event.kind == FrameEvent::Kind::payload) observe(event.payload);
-               if (event.kind == FrameEvent::Kind::payload && is_ack(event.payload) && ++acks_ % drop_every_ == 0) {
+               if (payload) observe(decoder_.frame());
+               if (payload && is_ack(decoder_.frame()) && ++acks_ % drop_every_ == 0) {
                  ++dropped_;
                } else {
                  out.insert(out.end(), frame_.begin(), frame_.end());
@@ -279,7 +280,7 @@ class AckDropper {
 
   unsigned drop_every_;
   LinkCounters counters_;
-  FrameDecoder<kMaxPayload> decoder_;  // device direction only
+  Decoder<kMaxPayload> decoder_;  // device direction only
   std::vector<std::uint8_t> frame_;
   unsigned acks_ = 0;
   std::atomic<unsigned> dropped_{0};
@@ -446,10 +447,10 @@ class CompatBoard {
     std::uint8_t buffer[512];
     while (std::size_t count = uno_.read(buffer, 0ms)) {
       for (std::size_t i = 0; i < count; ++i) {
-        const FrameEvent event = decoder_.feed(buffer[i]);
-        if (event.kind != FrameEvent::Kind::payload) continue;
+        if (decoder_.feed(buffer[i]) != DecodeStatus::frame) continue;
+        const ByteView payload = decoder_.frame();
         RocketryProto::ArduinoOut out;
-        EXPECT_TRUE(out.ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size())));
+        EXPECT_TRUE(out.ParseFromArray(payload.data(), static_cast<int>(payload.size())));
         messages.push_back(out);
       }
     }
@@ -461,7 +462,7 @@ class CompatBoard {
  private:
   transports::VirtualUno uno_;
   LinkCounters counters_;
-  FrameDecoder<128> decoder_{Integrity::none, counters_};
+  Decoder<128> decoder_{Integrity::none, counters_};
 };
 
 double microseconds(transports::SimDuration duration) {

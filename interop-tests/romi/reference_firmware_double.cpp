@@ -149,8 +149,8 @@ void ReferenceFirmwareDouble::complete(std::string& out) {
     return;
   }
   Request request;
-  const ErrorCode parsed = parse_request(ByteView::from_chars(payload_.data(), payload_.size()), request);
-  if (parsed != ErrorCode::no_error) {
+  const Error parsed = parse_request(ByteView::from_chars(payload_.data(), payload_.size()), request);
+  if (parsed != Error::no_error) {
     out += diagnostics(std::string(1, payload_.empty() ? '_' : payload_.back()), static_cast<int16_t>(parsed));
     out += reply(static_cast<int16_t>(parsed), id);
     return;

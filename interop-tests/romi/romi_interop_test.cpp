@@ -21,7 +21,7 @@
 #include "reference_firmware_double.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/testing/random_seed.hpp"
@@ -131,7 +131,7 @@ TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {
   RomiClient client(stream);
   error_code error;
   const RomiResponse late = client.call("w[1500]", error);
-  EXPECT_EQ(error, make_error_code(ErrorCode::client_timeout)) << error.message();
+  EXPECT_EQ(error, make_error_code(Error::client_timeout)) << error.message();
   EXPECT_EQ(late.code, -25);
   const RomiResponse own = client.call("s[20,22]", error);  // sent while the device still waits
   ASSERT_FALSE(error) << error.message();
@@ -424,18 +424,16 @@ TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) 
   const auto sent_at = stream->board().simulated_time();
   stream->write(boost::asio::buffer(std::string("#s[1,")));  // and nothing more
   LinkCounters counters;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder(counters);
+  Decoder<kHostDecoderCapacity> decoder(counters);
   std::vector<uint8_t> buffer(64);
-  EnvelopeEvent answer;
   std::string payload;
   while (payload.empty()) {
     boost::system::error_code error;
     const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 5s, error);
     ASSERT_FALSE(error) << error.message();
     for (std::size_t i = 0; i < got; ++i) {
-      const EnvelopeEvent event = decoder.feed(buffer[i]);
-      if (event.kind == EnvelopeEvent::Kind::frame) {
-        answer = event;
+      if (decoder.feed(buffer[i]) == DecodeStatus::frame && !decoder.frame().log) {
+        const Frame& event = decoder.frame();
         payload.assign(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
       }
     }
@@ -549,7 +547,7 @@ TEST(RomiReferenceCrossCheck, TetherFirmwareAnswersEveryRequestTheReferenceClien
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
   LinkCounters counters;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder(counters);
+  Decoder<kHostDecoderCapacity> decoder(counters);
   auto random = tether::testing::seeded_generator(58);
   std::vector<std::string> payloads;
   for (std::size_t length = 6; length <= kMaxDevicePayload; ++length) {
@@ -577,8 +575,8 @@ TEST(RomiReferenceCrossCheck, TetherFirmwareAnswersEveryRequestTheReferenceClien
       boost::system::error_code error;
       const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 100ms, error);
       for (std::size_t k = 0; k < got; ++k) {
-        const EnvelopeEvent event = decoder.feed(buffer[k]);
-        if (event.kind != EnvelopeEvent::Kind::frame) continue;
+        if (decoder.feed(buffer[k]) != DecodeStatus::frame || decoder.frame().log) continue;
+        const Frame& event = decoder.frame();
         ++answers;
         EXPECT_EQ(event.id, id) << payload;
         const std::string body(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());

@@ -10,7 +10,7 @@
 #include <set>
 
 #include "cli_support.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 
 namespace tether::cli {
 
@@ -301,29 +301,29 @@ nlohmann::ordered_json proxy_message_json(const pb::Message& message) {
 
 std::optional<elcano::Message> parse_elcano(std::string_view text, std::string& error) {
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.remove_suffix(1);
-  elcano::ReadError first = elcano::ReadError::success;
+  elcano::Error first = elcano::Error::success;
   for (const elcano::Generation generation : {elcano::Generation::b, elcano::Generation::d}) {
     LinkCounters counters;
-    elcano::Reader<256> reader(generation, counters);
-    elcano::ReadEvent event;
+    elcano::Decoder<256> reader(generation, counters);
+    DecodeStatus status = DecodeStatus::more;
     for (const char c : text) {
-      event = reader.feed(static_cast<std::uint8_t>(c));
-      if (event.kind != elcano::ReadEvent::Kind::none) break;
+      status = reader.feed(static_cast<std::uint8_t>(c));
+      if (status != DecodeStatus::more) break;
     }
-    if (event.kind == elcano::ReadEvent::Kind::none) event = reader.feed('\n');
-    if (event.kind == elcano::ReadEvent::Kind::message) return event.message;
-    if (first == elcano::ReadError::success) {
-      first = event.kind == elcano::ReadEvent::Kind::error ? event.error : elcano::ReadError::bad_lcurly;
+    if (status == DecodeStatus::more) status = reader.feed('\n');
+    if (status == DecodeStatus::frame) return reader.frame();
+    if (first == elcano::Error::success) {
+      first = status == DecodeStatus::error ? reader.error() : elcano::Error::bad_lcurly;
     }
   }
-  error = std::string("not an Elcano message (") + elcano::to_string(first) +
+  error = std::string("not an Elcano message (") + elcano::describe(first) +
           "): expected e.g. D{s 50}{a 25}, S{s 1}{a 2}{b 3}{p 4,5}, G{n 1}{p 0,0}{b 90}";
   return std::nullopt;
 }
 
 std::string format_elcano(const elcano::Message& message, elcano::Generation generation) {
   std::uint8_t buffer[160];
-  const Result<std::size_t> written = elcano::write_message(message, generation, MutableByteView(buffer));
+  const Result<std::size_t> written = elcano::encode_message(message, generation, MutableByteView(buffer));
   if (!written.ok()) return "?";
   std::size_t size = written.value();
   while (size > 0 && (buffer[size - 1] == '\n' || buffer[size - 1] == '\r')) --size;

@@ -5,9 +5,10 @@
 #include <variant>
 
 #include "message_text.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 
 namespace tether::cli {
@@ -50,55 +51,49 @@ class RomiDecoder final : public MonitorDecoder {
  public:
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
     const std::uint32_t resyncs = counters_.resyncs;
-    const romi::EnvelopeEvent event = decoder_.feed(byte);
+    const DecodeStatus status = decoder_.feed(byte);
     if (counters_.resyncs != resyncs) records.push_back(resync_record());
+    if (status == DecodeStatus::more) return;
+    const romi::Frame& event = decoder_.frame();
     const std::string payload(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
     char id[4];
     std::snprintf(id, sizeof id, "%02x", event.id);
-    switch (event.kind) {
-      case romi::EnvelopeEvent::Kind::none:
-        break;
-      case romi::EnvelopeEvent::Kind::log:
-        records.push_back({"log", payload, {{"text", payload}}, true});
-        break;
-      case romi::EnvelopeEvent::Kind::frame: {
-        nlohmann::ordered_json json = {
-            {"opcode", std::string(1, event.opcode)},
-            {"id", event.manual ? nlohmann::ordered_json() : nlohmann::ordered_json(event.id)},
-            {"manual", event.manual},
-            {"payload", payload}};
-        // An empty payload (`#:xxxx`, which the reference firmware sends) has no values after an opcode.
-        if (payload.size() > 1) {
-          const auto values = nlohmann::ordered_json::parse(payload.begin() + 1, payload.end(), nullptr, false);
-          if (!values.is_discarded()) json["values"] = values;
-        }
-        const std::string shown = payload.empty() ? std::string("(empty)") : payload;
-        records.push_back({"frame", shown + (event.manual ? " (manual)" : " id " + std::string(id)), json, true});
-        break;
+    if (status == DecodeStatus::frame && event.log) {
+      records.push_back({"log", payload, {{"text", payload}}, true});
+    } else if (status == DecodeStatus::frame) {
+      nlohmann::ordered_json json = {
+          {"opcode", std::string(1, event.opcode)},
+          {"id", event.manual ? nlohmann::ordered_json() : nlohmann::ordered_json(event.id)},
+          {"manual", event.manual},
+          {"payload", payload}};
+      // An empty payload (`#:xxxx`, which the reference firmware sends) has no values after an opcode.
+      if (payload.size() > 1) {
+        const auto values = nlohmann::ordered_json::parse(payload.begin() + 1, payload.end(), nullptr, false);
+        if (!values.is_discarded()) json["values"] = values;
       }
-      case romi::EnvelopeEvent::Kind::error: {
-        const auto code = static_cast<std::int16_t>(event.error);
-        std::string detail = std::to_string(code) + " " + romi::message(code);
-        nlohmann::ordered_json json = {{"code", code}, {"message", romi::message(code)}};
-        if (event.opcode != '_') {
-          detail += " (opcode " + std::string(1, event.opcode);
-          json["opcode"] = std::string(1, event.opcode);
-          if (event.has_id) {
-            detail += ", id " + std::string(id);
-            json["id"] = event.id;
-          }
-          detail += ")";
+      const std::string shown = payload.empty() ? std::string("(empty)") : payload;
+      records.push_back({"frame", shown + (event.manual ? " (manual)" : " id " + std::string(id)), json, true});
+    } else {
+      const auto code = static_cast<std::int16_t>(decoder_.error());
+      std::string detail = std::to_string(code) + " " + romi::describe(code);
+      nlohmann::ordered_json json = {{"code", code}, {"message", romi::describe(code)}};
+      if (event.opcode != '_') {
+        detail += " (opcode " + std::string(1, event.opcode);
+        json["opcode"] = std::string(1, event.opcode);
+        if (event.has_id) {
+          detail += ", id " + std::string(id);
+          json["id"] = event.id;
         }
-        records.push_back({"error", detail, json, false});
-        break;
+        detail += ")";
       }
+      records.push_back({"error", detail, json, false});
     }
   }
   LinkCounters counters() const override { return counters_; }
 
  private:
   LinkCounters counters_;
-  romi::EnvelopeDecoder<1030> decoder_{counters_};  // responses and log lines up to 1024 bytes, like the client
+  romi::Decoder<1030> decoder_{counters_};  // responses and log lines up to 1024 bytes, like the client
 };
 
 class ProxyDecoder final : public MonitorDecoder {
@@ -112,16 +107,18 @@ class ProxyDecoder final : public MonitorDecoder {
 
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
     const std::uint32_t resyncs = counters_.resyncs;
-    const proxy::FrameEvent event = decoder_.feed(byte);
+    const DecodeStatus status = decoder_.feed(byte);
     if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (event.kind == proxy::FrameEvent::Kind::error) {
-      records.push_back({"error", to_string(event.status), {{"status", to_string(event.status)}}, false});
+    if (status == DecodeStatus::error) {
+      const char* cause = proxy::describe(decoder_.error());
+      records.push_back({"error", cause, {{"status", cause}}, false});
       return;
     }
-    if (event.kind != proxy::FrameEvent::Kind::payload) return;
+    if (status != DecodeStatus::frame) return;
+    const ByteView payload = decoder_.frame();
     const std::unique_ptr<google::protobuf::Message> message = schema_message();
-    if (!message->ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size()))) {
-      const std::string bytes = hex(event.payload);
+    if (!message->ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+      const std::string bytes = hex(payload);
       records.push_back({"undecodable", bytes, {{"payload_hex", bytes}}, false});
       return;
     }
@@ -166,7 +163,7 @@ class ProxyDecoder final : public MonitorDecoder {
   Direction direction_;
   bool keepalive_;
   LinkCounters counters_;
-  proxy::FrameDecoder<proxy::kMaxPayload> decoder_;
+  proxy::Decoder<proxy::kMaxPayload> decoder_;
   Millis next_ping_;
   std::uint32_t message_id_ = 0x4d4f4e00;  // "MON": far from a client's ids
 };
@@ -176,8 +173,8 @@ MonitorRecord elcano_record(const char* kind, const elcano::Message& message, el
   return {kind, text, {{"text", text}, {"message", elcano_json(message)}}, true};
 }
 
-MonitorRecord elcano_error_record(elcano::ReadError error) {
-  return {"error", elcano::to_string(error), {{"reason", elcano::to_string(error)}}, false};
+MonitorRecord elcano_error_record(elcano::Error error) {
+  return {"error", elcano::describe(error), {{"reason", elcano::describe(error)}}, false};
 }
 
 // The host's node of an Elcano ring: captures, forwards the rest (paced), as `RingClient` would.
@@ -255,12 +252,10 @@ class ElcanoReaderDecoder final : public MonitorDecoder {
 
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
     const std::uint32_t resyncs = counters_.resyncs;
-    const elcano::ReadEvent event = reader_.feed(byte);
+    const DecodeStatus status = reader_.feed(byte);
     if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (event.kind == elcano::ReadEvent::Kind::message) {
-      records.push_back(elcano_record("message", event.message, generation_));
-    }
-    if (event.kind == elcano::ReadEvent::Kind::error) records.push_back(elcano_error_record(event.error));
+    if (status == DecodeStatus::frame) records.push_back(elcano_record("message", reader_.frame(), generation_));
+    if (status == DecodeStatus::error) records.push_back(elcano_error_record(reader_.error()));
   }
 
   LinkCounters counters() const override { return counters_; }
@@ -268,7 +263,7 @@ class ElcanoReaderDecoder final : public MonitorDecoder {
  private:
   elcano::Generation generation_;
   LinkCounters counters_;
-  elcano::Reader<96> reader_;
+  elcano::Decoder<96> reader_;
 };
 
 }  // namespace

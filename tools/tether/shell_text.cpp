@@ -120,8 +120,8 @@ ShellLine ring_event_line(const elcano::ClientEvent& event, elcano::Generation g
       return {"undeliverable " + text + " (came back round the ring: nobody captured it)",
               {{"event", "undeliverable"}, {"text", text}, {"message", elcano_json(event.message)}}};
     case Kind::read_error:
-      return {std::string("read error: ") + elcano::to_string(event.error),
-              {{"event", "read_error"}, {"reason", elcano::to_string(event.error)}}};
+      return {std::string("read error: ") + elcano::describe(event.error),
+              {{"event", "read_error"}, {"reason", elcano::describe(event.error)}}};
     case Kind::forward_dropped:
       return {"forward dropped " + text + " (output queue full)", {{"event", "forward_dropped"}, {"text", text}}};
     case Kind::receive_overflow:

@@ -6,8 +6,9 @@
 #include <cstdint>
 #include <initializer_list>
 
+#include "tether/elcano/encoder.hpp"
 #include "tether/elcano/message.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
 using namespace tether;
@@ -16,24 +17,27 @@ using namespace tether::elcano;
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const Generation generation : {Generation::b, Generation::d}) {
     LinkCounters counters;
-    Reader<> reader(generation, counters);
-    for (size_t i = 0; i < size; ++i) {
-      const ReadEvent event = reader.feed(data[i]);
-      if (event.kind != ReadEvent::Kind::message) continue;
-      TETHER_FUZZ_CHECK(event.forward.size() <= 96);
-      TETHER_FUZZ_CHECK(has_required_fields(event.message));
+    Decoder<> reader(generation, counters);
+    ByteView rest(data, size);
+    while (!rest.empty()) {  // span feeding: stops at each message or error
+      const FeedResult fed = reader.feed(rest);
+      TETHER_FUZZ_CHECK(fed.consumed >= 1 && fed.consumed <= rest.size());
+      rest = rest.subview(fed.consumed);
+      if (fed.status != DecodeStatus::frame) continue;
+      TETHER_FUZZ_CHECK(reader.forward().size() <= 96);
+      TETHER_FUZZ_CHECK(has_required_fields(reader.frame()));
       uint8_t out[160];
-      const auto written = write_message(event.message, generation, out);
+      const auto written = encode_message(reader.frame(), generation, out);
       TETHER_FUZZ_CHECK(written.ok());
       LinkCounters again_counters;
-      Reader<160> again(generation, again_counters);
+      Decoder<160> again(generation, again_counters);
       bool seen = false;
       for (size_t j = 0; j < written.value(); ++j) {
-        const ReadEvent e = again.feed(out[j]);
-        TETHER_FUZZ_CHECK(e.kind != ReadEvent::Kind::error);
-        if (e.kind != ReadEvent::Kind::message) continue;
+        const DecodeStatus e = again.feed(out[j]);
+        TETHER_FUZZ_CHECK(e != DecodeStatus::error);
+        if (e != DecodeStatus::frame) continue;
         uint8_t second[160];
-        const auto rewritten = write_message(e.message, generation, second);
+        const auto rewritten = encode_message(again.frame(), generation, second);
         TETHER_FUZZ_CHECK(rewritten.ok() && rewritten.value() == written.value());
         for (size_t k = 0; k < written.value(); ++k) TETHER_FUZZ_CHECK(second[k] == out[k]);
         seen = true;

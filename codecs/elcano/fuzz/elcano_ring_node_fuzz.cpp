@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
@@ -45,15 +45,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Millis now = 0xFFFFFF00u;  // cross the clock wrap on long inputs
   RingNode<96, 256, 4> node(config, now, link, ring);
   LinkCounters out_link;
-  Reader<96> downstream(config.generation, out_link);
+  Decoder<96> downstream(config.generation, out_link);
   uint32_t messages_out = 0;
   const auto drain = [&] {
     uint8_t out[300];
     const size_t n = node.take_output(MutableByteView(out, sizeof out), now);
     for (size_t i = 0; i < n; ++i) {
-      const ReadEvent e = downstream.feed(out[i]);
-      TETHER_FUZZ_CHECK(e.kind != ReadEvent::Kind::error);
-      if (e.kind == ReadEvent::Kind::message) ++messages_out;
+      const DecodeStatus e = downstream.feed(out[i]);
+      TETHER_FUZZ_CHECK(e != DecodeStatus::error);
+      if (e == DecodeStatus::frame) ++messages_out;
     }
   };
   for (size_t i = 1; i < size; ++i) {
@@ -73,14 +73,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const uint32_t after = ring.captured + ring.forwarded + ring.undeliverable + ring.queue_full_drops;
       const bool counted = event.kind == RingEvent::Kind::captured || event.kind == RingEvent::Kind::forwarded ||
                            event.kind == RingEvent::Kind::undeliverable ||
-                           (event.kind == RingEvent::Kind::dropped && event.error == ReadError::queue_full);
+                           (event.kind == RingEvent::Kind::dropped && event.error == Error::queue_full);
       TETHER_FUZZ_CHECK(after - before == (counted ? 1u : 0u));
     }
     TETHER_FUZZ_CHECK(node.pending_output() <= 255u);
     while (true) {
       const RingEvent polled = node.poll(now);
       if (polled.kind == RingEvent::Kind::none) break;
-      TETHER_FUZZ_CHECK(polled.kind == RingEvent::Kind::dropped && polled.error == ReadError::timed_out);
+      TETHER_FUZZ_CHECK(polled.kind == RingEvent::Kind::dropped && polled.error == Error::timed_out);
     }
     const Deadline wake = node.next_wakeup(now);
     if (node.in_message()) TETHER_FUZZ_CHECK(wake.armed());
@@ -91,7 +91,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     drain();
   }
   TETHER_FUZZ_CHECK(node.pending_output() == 0);
-  TETHER_FUZZ_CHECK(!downstream.in_message());
+  TETHER_FUZZ_CHECK(!downstream.in_frame());
   TETHER_FUZZ_CHECK(messages_out == ring.forwarded + ring.originated);
   return 0;
 }

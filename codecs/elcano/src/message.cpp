@@ -1,6 +1,8 @@
 #include "tether/elcano/message.hpp"
 
 #include "tether/core/crc.hpp"
+#include "tether/elcano/encoder.hpp"
+#include "tether/elcano/errors.hpp"
 
 namespace tether {
 namespace elcano {
@@ -59,18 +61,18 @@ Uses uses(Type type) {
 
 }  // namespace
 
-const char* to_string(ReadError error) {
+const char* describe(Error error) {
   switch (error) {
-    case ReadError::success: return "success";
-    case ReadError::bad_type: return "bad_type";
-    case ReadError::bad_lcurly: return "bad_lcurly";
-    case ReadError::bad_attrib: return "bad_attrib";
-    case ReadError::bad_number: return "bad_number";
-    case ReadError::inval_comb: return "inval_comb";
-    case ReadError::bad_crc: return "bad_crc";
-    case ReadError::too_long: return "too_long";
-    case ReadError::timed_out: return "timed_out";
-    case ReadError::queue_full: return "queue_full";
+    case Error::success: return "success";
+    case Error::bad_type: return "bad_type";
+    case Error::bad_lcurly: return "bad_lcurly";
+    case Error::bad_attrib: return "bad_attrib";
+    case Error::bad_number: return "bad_number";
+    case Error::inval_comb: return "inval_comb";
+    case Error::bad_crc: return "bad_crc";
+    case Error::too_long: return "too_long";
+    case Error::timed_out: return "timed_out";
+    case Error::queue_full: return "queue_full";
   }
   return "unknown";
 }
@@ -114,7 +116,7 @@ bool has_required_fields(const Message& m) {
   return false;
 }
 
-Result<size_t> write_message(const Message& m, Generation generation, MutableByteView out) {
+Result<size_t> encode_message(const Message& m, Generation generation, MutableByteView out) {
   if (!has_required_fields(m)) return Status::invalid_argument;
   const Uses u = uses(m.type);
   const bool b = generation == Generation::b;

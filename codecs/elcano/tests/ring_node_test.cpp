@@ -201,7 +201,7 @@ TEST(RingNode, PartialMessageIsDroppedAtItsDeadline) {
   EXPECT_EQ(node.poll(1249).kind, RingEvent::Kind::none);
   const RingEvent dropped = node.poll(1250);
   EXPECT_EQ(dropped.kind, RingEvent::Kind::dropped);
-  EXPECT_EQ(dropped.error, ReadError::timed_out);
+  EXPECT_EQ(dropped.error, Error::timed_out);
   EXPECT_EQ(link.partial_timeouts, 1u);
   EXPECT_FALSE(node.in_message());
   // The rest of the stale message is skipped; the next message is whole.
@@ -258,7 +258,7 @@ TEST(RingNode, FullQueueDropsForwardsWithAReportAndPushesBackOnOriginate) {
   EXPECT_EQ(events[0].kind, RingEvent::Kind::forwarded);  // the reserve takes them: 52,
   EXPECT_EQ(events[1].kind, RingEvent::Kind::forwarded);  // 62 of 63 bytes
   EXPECT_EQ(events[2].kind, RingEvent::Kind::dropped);    // 72 would not fit: reported
-  EXPECT_EQ(events[2].error, ReadError::queue_full);
+  EXPECT_EQ(events[2].error, Error::queue_full);
   EXPECT_EQ(ring.queue_full_drops, 1u);
 }
 
@@ -299,7 +299,7 @@ TEST(RingNode, ReadErrorsAreReportedAndTheNextMessageGetsThrough) {
   Fed fed = feed(node, "D{s50}{a25}75\nD{s1500}{a60}179\n", 0);
   ASSERT_EQ(fed.events.size(), 2u);
   EXPECT_EQ(fed.events[0].kind, RingEvent::Kind::dropped);
-  EXPECT_EQ(fed.events[0].error, ReadError::bad_crc);
+  EXPECT_EQ(fed.events[0].error, Error::bad_crc);
   EXPECT_EQ(fed.events[1].kind, RingEvent::Kind::captured);
   EXPECT_EQ(link.crc_errors, 1u);
 }
@@ -314,7 +314,7 @@ TEST(RingNode, AMalformedMessageOfAnUncapturedTypeIsDroppedNotForwarded) {
   Fed fed = feed(node, "S{s 1}{a 2}{b 3}{p 4}\nS{s 1}{a 2}{b 3}{p 4,5}\n", 0);
   ASSERT_EQ(fed.events.size(), 2u);
   EXPECT_EQ(fed.events[0].kind, RingEvent::Kind::dropped);
-  EXPECT_EQ(fed.events[0].error, ReadError::bad_number);
+  EXPECT_EQ(fed.events[0].error, Error::bad_number);
   EXPECT_EQ(fed.events[1].kind, RingEvent::Kind::forwarded);
   EXPECT_EQ(output(node, 0), "S{s1}{a2}{b3}{p4,5}\n");  // only the well-formed one
   EXPECT_EQ(ring.forwarded, 1u);

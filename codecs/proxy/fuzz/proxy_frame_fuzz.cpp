@@ -7,7 +7,8 @@
 #include <vector>
 
 #include "tether/proxy/cobs.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
 namespace {
@@ -19,24 +20,29 @@ constexpr size_t kMax = 128;
 
 void check(const uint8_t* data, size_t size, Integrity integrity) {
   LinkCounters counters;
-  FrameDecoder<kMax> decoder(integrity, counters);
-  for (size_t i = 0; i < size; ++i) {
-    const FrameEvent event = decoder.feed(data[i]);
-    if (event.kind != FrameEvent::Kind::payload) continue;
-    TETHER_FUZZ_CHECK(event.payload.size() <= kMax);
-    std::vector<uint8_t> payload(event.payload.begin(), event.payload.end());
+  Decoder<kMax> decoder(integrity, counters);
+  ByteView rest(data, size);
+  while (!rest.empty()) {  // span feeding: stops at each frame or error
+    const FeedResult fed = decoder.feed(rest);
+    TETHER_FUZZ_CHECK(fed.consumed >= 1 && fed.consumed <= rest.size());
+    rest = rest.subview(fed.consumed);
+    if (fed.status == DecodeStatus::error) TETHER_FUZZ_CHECK(decoder.error() != FrameError::none);
+    if (fed.status != DecodeStatus::frame) continue;
+    const ByteView decoded = decoder.frame();
+    TETHER_FUZZ_CHECK(decoded.size() <= kMax);
+    std::vector<uint8_t> payload(decoded.begin(), decoded.end());
     std::vector<uint8_t> wire(max_frame_size(payload.size()));
     const auto framed = encode_frame(ByteView(payload.data(), payload.size()), integrity, false,
                                      MutableByteView(wire.data(), wire.size()));
     TETHER_FUZZ_CHECK(framed.ok());
     LinkCounters again_counters;
-    FrameDecoder<kMax> again(integrity, again_counters);
+    Decoder<kMax> again(integrity, again_counters);
     bool seen = false;
     for (size_t j = 0; j < framed.value(); ++j) {
-      const FrameEvent e = again.feed(wire[j]);
-      if (e.kind != FrameEvent::Kind::payload) continue;
-      TETHER_FUZZ_CHECK(e.payload.size() == payload.size());
-      TETHER_FUZZ_CHECK(payload.empty() || std::memcmp(e.payload.data(), payload.data(), payload.size()) == 0);
+      if (again.feed(wire[j]) != DecodeStatus::frame) continue;
+      const ByteView e = again.frame();
+      TETHER_FUZZ_CHECK(e.size() == payload.size());
+      TETHER_FUZZ_CHECK(payload.empty() || std::memcmp(e.data(), payload.data(), payload.size()) == 0);
       seen = true;
     }
     TETHER_FUZZ_CHECK(seen || payload.empty());

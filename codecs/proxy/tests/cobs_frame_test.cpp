@@ -5,7 +5,8 @@
 #include <vector>
 
 #include "tether/proxy/cobs.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::proxy {
@@ -40,16 +41,16 @@ Bytes frame(const Bytes& payload, Integrity integrity, bool lead) {
 
 // Feeds a byte stream to a frame decoder; returns the payloads and the error statuses, in order.
 template <size_t Max = 256>
-std::pair<std::vector<Bytes>, std::vector<Status>> receive(const Bytes& wire, Integrity integrity,
+std::pair<std::vector<Bytes>, std::vector<FrameError>> receive(const Bytes& wire, Integrity integrity,
                                                            LinkCounters* counters_out = nullptr) {
   LinkCounters counters;
-  FrameDecoder<Max> decoder(integrity, counters);
+  Decoder<Max> decoder(integrity, counters);
   std::vector<Bytes> payloads;
-  std::vector<Status> errors;
+  std::vector<FrameError> errors;
   for (uint8_t byte : wire) {
-    const FrameEvent event = decoder.feed(byte);
-    if (event.kind == FrameEvent::Kind::payload) payloads.emplace_back(event.payload.begin(), event.payload.end());
-    if (event.kind == FrameEvent::Kind::error) errors.push_back(event.status);
+    const DecodeStatus status = decoder.feed(byte);
+    if (status == DecodeStatus::frame) payloads.emplace_back(decoder.frame().begin(), decoder.frame().end());
+    if (status == DecodeStatus::error) errors.push_back(decoder.error());
   }
   if (counters_out) *counters_out = counters;
   return {payloads, errors};
@@ -151,7 +152,7 @@ TEST(ProxyFrame, CorruptedFramesAreDroppedByCauseAndTheNextFrameArrives) {
   LinkCounters counters;
   const auto [payloads, errors] = receive(wire, Integrity::crc16, &counters);
   ASSERT_EQ(payloads.size(), 1u);
-  EXPECT_EQ(errors, (std::vector<Status>{Status::crc_mismatch, Status::framing_error, Status::framing_error}));
+  EXPECT_EQ(errors, (std::vector<FrameError>{FrameError::crc_mismatch, FrameError::framing_error, FrameError::framing_error}));
   EXPECT_EQ(counters.crc_errors, 1u);
   EXPECT_EQ(counters.framing_errors, 2u);
   EXPECT_EQ(counters.frames_ok, 1u);
@@ -164,7 +165,7 @@ TEST(ProxyFrame, OversizeFrameIsDroppedOnceAndTheDecoderResynchronises) {
   wire.insert(wire.end(), good.begin(), good.end());
   LinkCounters counters;
   const auto [payloads, errors] = receive<32>(wire, Integrity::crc16, &counters);
-  EXPECT_EQ(errors, (std::vector<Status>{Status::frame_too_long}));
+  EXPECT_EQ(errors, (std::vector<FrameError>{FrameError::frame_too_long}));
   ASSERT_EQ(payloads.size(), 1u);
   EXPECT_EQ(payloads[0], (Bytes{0x01}));
   EXPECT_EQ(counters.oversize_frames, 1u);
@@ -180,7 +181,7 @@ TEST(ProxyFrame, CompatModeBoundsThePayloadToo) {
     LinkCounters counters;
     const auto [payloads, errors] = receive<32>(frame(Bytes(size, 0x07), Integrity::none, true), Integrity::none, &counters);
     EXPECT_TRUE(payloads.empty()) << size;
-    EXPECT_EQ(errors, (std::vector<Status>{Status::frame_too_long})) << size;
+    EXPECT_EQ(errors, (std::vector<FrameError>{FrameError::frame_too_long})) << size;
     EXPECT_EQ(counters.oversize_frames, 1u);
   }
   EXPECT_EQ(receive<32>(frame(Bytes(32, 0x07), Integrity::none, true), Integrity::none).first.size(), 1u);

@@ -6,7 +6,8 @@
 #include <vector>
 
 #include "rocketry.pb.h"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether_proxy.pb.h"
 
 namespace tether::proxy {
@@ -61,12 +62,11 @@ TEST(ProxySchema, PrimaryMessagesRoundTripThroughAFrame) {
                                  MutableByteView(wire.data(), wire.size()));
   ASSERT_TRUE(size.ok());
   LinkCounters counters;
-  FrameDecoder<64> decoder(Integrity::crc16, counters);
+  Decoder<64> decoder(Integrity::crc16, counters);
   tether::proxy::ArduinoIn decoded;
   for (std::size_t i = 0; i < size.value(); ++i) {
-    const FrameEvent event = decoder.feed(wire[i]);
-    if (event.kind != FrameEvent::Kind::payload) continue;
-    ASSERT_TRUE(decoded.ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size())));
+    if (decoder.feed(wire[i]) != DecodeStatus::frame) continue;
+    ASSERT_TRUE(decoded.ParseFromArray(decoder.frame().data(), static_cast<int>(decoder.frame().size())));
   }
   EXPECT_EQ(decoded.messageid(), 0xDEADBEEFu);
   EXPECT_EQ(decoded.servoinit().safeposition(), 90);

@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/romi/request_parser.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
@@ -18,14 +18,18 @@ using namespace tether::romi;
 template <size_t Capacity>
 void decode_all(const uint8_t* data, size_t size) {
   LinkCounters counters;
-  EnvelopeDecoder<Capacity> decoder(counters);
-  for (size_t i = 0; i < size; ++i) {
-    const EnvelopeEvent event = decoder.feed(data[i]);
-    if (event.kind == EnvelopeEvent::Kind::none || event.kind == EnvelopeEvent::Kind::error) continue;
+  Decoder<Capacity> decoder(counters);
+  ByteView rest(data, size);
+  while (!rest.empty()) {  // span feeding: stops at each frame or error
+    const FeedResult fed = decoder.feed(rest);
+    TETHER_FUZZ_CHECK(fed.consumed >= 1 && fed.consumed <= rest.size());
+    rest = rest.subview(fed.consumed);
+    if (fed.status != DecodeStatus::frame) continue;
+    const Frame& event = decoder.frame();
     TETHER_FUZZ_CHECK(event.payload.size() <= Capacity);
-    if (event.kind != EnvelopeEvent::Kind::frame) continue;
+    if (event.log) continue;
     Request request;
-    if (parse_request(event.payload, request) == ErrorCode::no_error) {
+    if (parse_request(event.payload, request) == Error::no_error) {
       TETHER_FUZZ_CHECK(request.argument_count <= kMaxArguments);
       TETHER_FUZZ_CHECK(std::strlen(request.string) <= kMaxStringLength);
     }
@@ -38,12 +42,13 @@ void decode_all(const uint8_t* data, size_t size) {
     const size_t payload_size = event.payload.size();
     std::memcpy(copy, event.payload.data(), payload_size);
     LinkCounters again_counters;
-    EnvelopeDecoder<Capacity> again(again_counters);
+    Decoder<Capacity> again(again_counters);
     bool seen = false;
     for (size_t j = 0; j < encoded.value(); ++j) {
-      const EnvelopeEvent e = again.feed(frame[j]);
-      if (e.kind == EnvelopeEvent::Kind::none) continue;
-      TETHER_FUZZ_CHECK(e.kind == EnvelopeEvent::Kind::frame);
+      const DecodeStatus status = again.feed(frame[j]);
+      if (status == DecodeStatus::more) continue;
+      TETHER_FUZZ_CHECK(status == DecodeStatus::frame && !again.frame().log);
+      const Frame& e = again.frame();
       TETHER_FUZZ_CHECK(e.id == event.id && e.payload.size() == payload_size);
       TETHER_FUZZ_CHECK(std::memcmp(e.payload.data(), copy, payload_size) == 0);
       seen = true;
@@ -59,9 +64,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   decode_all<kDeviceDecoderCapacity>(data, size);
   decode_all<kHostDecoderCapacity>(data, size);
   // The host's validator must never accept what the device's parser rejects.
-  if (validate_request_payload(ByteView(data, size)) == ErrorCode::no_error) {
+  if (validate_request_payload(ByteView(data, size)) == Error::no_error) {
     Request request;
-    TETHER_FUZZ_CHECK(parse_request(ByteView(data, size), request) == ErrorCode::no_error);
+    TETHER_FUZZ_CHECK(parse_request(ByteView(data, size), request) == Error::no_error);
     TETHER_FUZZ_CHECK(size <= kMaxHostPayload);
   }
   return 0;

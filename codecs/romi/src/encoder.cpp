@@ -100,7 +100,7 @@ Result<size_t> encode_log(ByteView text, MutableByteView out) {
 
 RequestBuilder::RequestBuilder(char opcode) {
   if (!is_opcode(static_cast<uint8_t>(opcode))) {
-    error_ = ErrorCode::invalid_opcode;
+    error_ = Error::invalid_opcode;
     return;
   }
   append(static_cast<uint8_t>(opcode));
@@ -108,7 +108,7 @@ RequestBuilder::RequestBuilder(char opcode) {
 
 void RequestBuilder::append(uint8_t c) {
   if (size_ >= kMaxHostPayload) {
-    if (error_ == ErrorCode::no_error) error_ = ErrorCode::client_request_too_long;
+    if (error_ == Error::no_error) error_ = Error::client_request_too_long;
     return;
   }
   buffer_[size_++] = c;
@@ -124,13 +124,13 @@ void RequestBuilder::open_argument() {
 }
 
 RequestBuilder& RequestBuilder::add_int(int32_t value) {
-  if (error_ != ErrorCode::no_error) return *this;
+  if (error_ != Error::no_error) return *this;
   if (arguments_ == kMaxArguments) {
-    error_ = ErrorCode::too_many_arguments;
+    error_ = Error::too_many_arguments;
     return *this;
   }
   if (value < -32768 || value > 32767) {
-    error_ = ErrorCode::value_out_of_range;
+    error_ = Error::value_out_of_range;
     return *this;
   }
   open_argument();
@@ -149,22 +149,22 @@ RequestBuilder& RequestBuilder::add_int(int32_t value) {
 }
 
 RequestBuilder& RequestBuilder::add_string(ByteView text) {
-  if (error_ != ErrorCode::no_error) return *this;
+  if (error_ != Error::no_error) return *this;
   if (has_string_) {
-    error_ = ErrorCode::too_many_strings;
+    error_ = Error::too_many_strings;
     return *this;
   }
   if (text.size() > kMaxStringLength) {
-    error_ = ErrorCode::string_too_long;
+    error_ = Error::string_too_long;
     return *this;
   }
   for (uint8_t c : text) {
     if (is_reserved(c)) {
-      error_ = ErrorCode::reserved_character;
+      error_ = Error::reserved_character;
       return *this;
     }
     if (!is_string_char(c)) {
-      error_ = ErrorCode::invalid_string;
+      error_ = Error::invalid_string;
       return *this;
     }
   }
@@ -177,16 +177,16 @@ RequestBuilder& RequestBuilder::add_string(ByteView text) {
   return *this;
 }
 
-ErrorCode validate_request_payload(ByteView payload) {
-  if (payload.empty()) return ErrorCode::client_empty_request;
+Error validate_request_payload(ByteView payload) {
+  if (payload.empty()) return Error::client_empty_request;
   for (uint8_t c : payload) {
-    if (c == '#' || c == ':' || c == '\r' || c == '\n') return ErrorCode::reserved_character;
+    if (c == '#' || c == ':' || c == '\r' || c == '\n') return Error::reserved_character;
   }
   Request request;
-  const ErrorCode parsed = parse_request(payload, request);
-  if (parsed != ErrorCode::no_error) return parsed;
-  if (payload.size() > kMaxHostPayload) return ErrorCode::client_request_too_long;
-  return ErrorCode::no_error;
+  const Error parsed = parse_request(payload, request);
+  if (parsed != Error::no_error) return parsed;
+  if (payload.size() > kMaxHostPayload) return Error::client_request_too_long;
+  return Error::no_error;
 }
 
 }  // namespace romi

@@ -72,46 +72,46 @@ TEST(RomiRequestBuilder, BuildsPayloads) {
 }
 
 TEST(RomiRequestBuilder, RejectsBadInputWithTheProtocolsCodes) {
-  EXPECT_EQ(RequestBuilder('#').error(), ErrorCode::invalid_opcode);
-  EXPECT_EQ(RequestBuilder('a').add_int(40000).error(), ErrorCode::value_out_of_range);
-  EXPECT_EQ(RequestBuilder('a').add_int(-32769).error(), ErrorCode::value_out_of_range);
+  EXPECT_EQ(RequestBuilder('#').error(), Error::invalid_opcode);
+  EXPECT_EQ(RequestBuilder('a').add_int(40000).error(), Error::value_out_of_range);
+  EXPECT_EQ(RequestBuilder('a').add_int(-32769).error(), Error::value_out_of_range);
   RequestBuilder thirteen('m');
   for (int i = 0; i < 13; ++i) thirteen.add_int(i);
-  EXPECT_EQ(thirteen.error(), ErrorCode::too_many_arguments);
-  EXPECT_EQ(RequestBuilder('t').add_string(view(std::string(33, 'a'))).error(), ErrorCode::string_too_long);
-  EXPECT_EQ(RequestBuilder('t').add_string(view("a")).add_string(view("b")).error(), ErrorCode::too_many_strings);
-  EXPECT_EQ(RequestBuilder('t').add_string(view("tab\there")).error(), ErrorCode::invalid_string);
-  EXPECT_EQ(RequestBuilder('t').add_string(view("a:b")).error(), ErrorCode::reserved_character);
-  EXPECT_EQ(RequestBuilder('t').add_string(view("a#b")).error(), ErrorCode::reserved_character);
+  EXPECT_EQ(thirteen.error(), Error::too_many_arguments);
+  EXPECT_EQ(RequestBuilder('t').add_string(view(std::string(33, 'a'))).error(), Error::string_too_long);
+  EXPECT_EQ(RequestBuilder('t').add_string(view("a")).add_string(view("b")).error(), Error::too_many_strings);
+  EXPECT_EQ(RequestBuilder('t').add_string(view("tab\there")).error(), Error::invalid_string);
+  EXPECT_EQ(RequestBuilder('t').add_string(view("a:b")).error(), Error::reserved_character);
+  EXPECT_EQ(RequestBuilder('t').add_string(view("a#b")).error(), Error::reserved_character);
   // 12 arguments of six characters and a 32-character string: more than a 64-byte frame can carry.
   RequestBuilder long_one('m');
   for (int i = 0; i < 12; ++i) long_one.add_int(-32768);
-  EXPECT_EQ(long_one.error(), ErrorCode::client_request_too_long);
+  EXPECT_EQ(long_one.error(), Error::client_request_too_long);
 }
 
 TEST(RomiRequestBuilder, LongestLegalRequestFitsSixtyFourBytes) {
   RequestBuilder builder('m');
   for (int i = 0; i < 7; ++i) builder.add_int(-32768);  // "m[" + 7*6 + 6 commas + "]" = 51
   builder.add_int(1);
-  ASSERT_EQ(builder.error(), ErrorCode::no_error);
+  ASSERT_EQ(builder.error(), Error::no_error);
   uint8_t frame[128];
   EXPECT_LE(encode_request(builder.payload(), 0, frame).value(), kMaxRequestFrame);
 }
 
 TEST(RomiValidate, TypedCommands) {
-  EXPECT_EQ(validate_request_payload(view("L[1]")), ErrorCode::no_error);
-  EXPECT_EQ(validate_request_payload(view("M[16,\"Shutdown\"]")), ErrorCode::no_error);
-  EXPECT_EQ(validate_request_payload(view("")), ErrorCode::client_empty_request);
-  EXPECT_EQ(validate_request_payload(view("a:b")), ErrorCode::reserved_character);
-  EXPECT_EQ(validate_request_payload(view("L[1")), ErrorCode::unexpected_char);
-  EXPECT_EQ(validate_request_payload(view("m[" + std::string(60, '1') + "]")), ErrorCode::value_out_of_range);
+  EXPECT_EQ(validate_request_payload(view("L[1]")), Error::no_error);
+  EXPECT_EQ(validate_request_payload(view("M[16,\"Shutdown\"]")), Error::no_error);
+  EXPECT_EQ(validate_request_payload(view("")), Error::client_empty_request);
+  EXPECT_EQ(validate_request_payload(view("a:b")), Error::reserved_character);
+  EXPECT_EQ(validate_request_payload(view("L[1")), Error::unexpected_char);
+  EXPECT_EQ(validate_request_payload(view("m[" + std::string(60, '1') + "]")), Error::value_out_of_range);
   std::string long_payload = "m[";
   for (int i = 0; i < 12; ++i) long_payload += (i ? ",-9999" : "-9999");
   long_payload += "]";
-  EXPECT_EQ(validate_request_payload(view(long_payload)), ErrorCode::client_request_too_long);
+  EXPECT_EQ(validate_request_payload(view(long_payload)), Error::client_request_too_long);
 }
 
-Request parsed(const std::string& payload, ErrorCode expected = ErrorCode::no_error) {
+Request parsed(const std::string& payload, Error expected = Error::no_error) {
   Request request;
   EXPECT_EQ(parse_request(view(payload), request), expected) << payload;
   return request;
@@ -133,23 +133,23 @@ TEST(RomiRequestParser, ParsesOpcodeIntegersAndString) {
 }
 
 TEST(RomiRequestParser, EveryMessageParserErrorCode) {
-  parsed("", ErrorCode::invalid_opcode);
-  parsed("#", ErrorCode::invalid_opcode);
-  parsed("a(1)", ErrorCode::unexpected_char);
-  parsed("a[1", ErrorCode::unexpected_char);
-  parsed("a[1,]", ErrorCode::unexpected_char);
-  parsed("a[1]x", ErrorCode::unexpected_char);
-  parsed("a[x]", ErrorCode::unexpected_char);
-  parsed("a[-]", ErrorCode::unexpected_char);
-  parsed("a[1 ,2]", ErrorCode::unexpected_char);  // no spaces between tokens
-  parsed("m[1,2,3,4,5,6,7,8,9,10,11,12,13]", ErrorCode::too_many_arguments);
-  parsed("a[32768]", ErrorCode::value_out_of_range);
-  parsed("a[-32769]", ErrorCode::value_out_of_range);
-  parsed("a[99999999999999999999]", ErrorCode::value_out_of_range);
-  parsed("t[\"" + std::string(33, 'a') + "\"]", ErrorCode::string_too_long);
-  parsed("t[\"a\tb\"]", ErrorCode::invalid_string);
-  parsed("t[\"unterminated]", ErrorCode::invalid_string);
-  parsed("t[\"a\",\"b\"]", ErrorCode::too_many_strings);
+  parsed("", Error::invalid_opcode);
+  parsed("#", Error::invalid_opcode);
+  parsed("a(1)", Error::unexpected_char);
+  parsed("a[1", Error::unexpected_char);
+  parsed("a[1,]", Error::unexpected_char);
+  parsed("a[1]x", Error::unexpected_char);
+  parsed("a[x]", Error::unexpected_char);
+  parsed("a[-]", Error::unexpected_char);
+  parsed("a[1 ,2]", Error::unexpected_char);  // no spaces between tokens
+  parsed("m[1,2,3,4,5,6,7,8,9,10,11,12,13]", Error::too_many_arguments);
+  parsed("a[32768]", Error::value_out_of_range);
+  parsed("a[-32769]", Error::value_out_of_range);
+  parsed("a[99999999999999999999]", Error::value_out_of_range);
+  parsed("t[\"" + std::string(33, 'a') + "\"]", Error::string_too_long);
+  parsed("t[\"a\tb\"]", Error::invalid_string);
+  parsed("t[\"unterminated]", Error::invalid_string);
+  parsed("t[\"a\",\"b\"]", Error::too_many_strings);
 }
 
 TEST(RomiRequestParser, ThirtyTwoCharacterStringIsAccepted) {
@@ -159,10 +159,10 @@ TEST(RomiRequestParser, ThirtyTwoCharacterStringIsAccepted) {
 TEST(RomiErrors, EveryCodeHasAMessage) {
   for (int code = -33; code <= 0; ++code) {
     if (code == -29) continue;  // left unassigned between the reference's and Tether's codes
-    EXPECT_STRNE(message(static_cast<int16_t>(code)), "unknown error") << code;
+    EXPECT_STRNE(describe(static_cast<int16_t>(code)), "unknown error") << code;
   }
-  EXPECT_STREQ(message(-29), "unknown error");
-  EXPECT_STREQ(message(101), "application error");
+  EXPECT_STREQ(describe(int16_t{-29}), "unknown error");
+  EXPECT_STREQ(describe(int16_t{101}), "application error");
   EXPECT_TRUE(is_envelope_error(-1));
   EXPECT_TRUE(is_envelope_error(-6));
   EXPECT_FALSE(is_envelope_error(-7));

@@ -11,7 +11,8 @@
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
 #include "tether/proxy/device/io.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 
 namespace wire {
 
@@ -62,14 +63,14 @@ inline Bytes frame(const Bytes& payload, tether::proxy::Integrity integrity, boo
 template <typename Message>
 std::vector<Message> decode_all(const Bytes& bytes, tether::proxy::Integrity integrity, const pb_msgdesc_t* fields) {
   tether::LinkCounters counters;
-  tether::proxy::FrameDecoder<128> decoder(integrity, counters);
+  tether::proxy::Decoder<128> decoder(integrity, counters);
   std::vector<Message> messages;
   for (const uint8_t byte : bytes) {
-    const auto event = decoder.feed(byte);
-    if (event.kind == tether::proxy::FrameEvent::Kind::error) throw std::runtime_error("bad frame from device");
-    if (event.kind != tether::proxy::FrameEvent::Kind::payload) continue;
+    const tether::DecodeStatus status = decoder.feed(byte);
+    if (status == tether::DecodeStatus::error) throw std::runtime_error("bad frame from device");
+    if (status != tether::DecodeStatus::frame) continue;
     Message message{};
-    pb_istream_t stream = pb_istream_from_buffer(event.payload.data(), event.payload.size());
+    pb_istream_t stream = pb_istream_from_buffer(decoder.frame().data(), decoder.frame().size());
     if (!pb_decode(&stream, fields, &message)) throw std::runtime_error("device sent an undecodable message");
     messages.push_back(message);
   }

@@ -51,8 +51,7 @@ void CompatDevice::begin(Millis now) {
 }
 
 void CompatDevice::handle_byte(uint8_t byte) {
-  const FrameEvent event = decoder_.feed(byte);
-  if (event.kind == FrameEvent::Kind::payload) handle_payload(event.payload);
+  if (decoder_.feed(byte) == DecodeStatus::frame) handle_payload(decoder_.frame());
 }
 
 void CompatDevice::poll(Millis now) {

@@ -55,21 +55,21 @@ void ProxyDevice::begin(uint32_t session_id, Millis now) {
 
 void ProxyDevice::handle_byte(uint8_t byte, Millis now) {
   const bool was_in_frame = decoder_.in_frame();
-  const FrameEvent event = decoder_.feed(byte);
+  const DecodeStatus status = decoder_.feed(byte);
   const bool in_frame = decoder_.in_frame();
   if (!was_in_frame && in_frame) {
     partial_.on_frame_start(now);
   } else if (was_in_frame && !in_frame) {
     partial_.on_frame_end();
   }
-  if (event.kind == FrameEvent::Kind::payload) handle_payload(event.payload, now);
+  if (status == DecodeStatus::frame) handle_payload(decoder_.frame(), now);
 }
 
 void ProxyDevice::poll(Millis now) {
   if (partial_.poll(now)) {
     // Drop the stalled frame; a fresh decoder takes the next byte as a frame's first (code) byte, so a
     // host that sends no leading 0x00 loses only the stalled frame, not the next one too.
-    decoder_ = FrameDecoder<kMaxPayload>(Integrity::crc16, counters_.link);
+    decoder_ = Decoder<kMaxPayload>(Integrity::crc16, counters_.link);
   }
   watchdog_.poll(now);  // before ArduinoInfo: an info due in the same poll shows the flag
   if (next_info_.expired(now)) {

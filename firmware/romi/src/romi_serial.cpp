@@ -64,7 +64,7 @@ void RomiSerial::handle_timeouts(Millis now) {
   // The request being received is too late: drop it, say so, wait for the next '#'.
   decoder_.reset();
   await_opcode_ = false;
-  send_code(partial_opcode_, 0, ErrorCode::controller_timeout);
+  send_code(partial_opcode_, 0, Error::controller_timeout);
 }
 
 void RomiSerial::handle_byte(uint8_t byte, Millis now) { handle_received(byte, now); }
@@ -80,46 +80,41 @@ bool RomiSerial::handle_received(uint8_t byte, Millis now) {
     partial_opcode_ = is_opcode(byte) ? static_cast<char>(byte) : '_';
     await_opcode_ = false;
   }
-  const EnvelopeEvent event = decoder_.feed(byte);
-  switch (event.kind) {
-    case EnvelopeEvent::Kind::none:
-      return false;
-    case EnvelopeEvent::Kind::error:
-      deadline_.on_frame_end();
-      send_code(event.opcode, event.has_id ? event.id : 0, event.error);
-      return false;
-    case EnvelopeEvent::Kind::frame:
-    case EnvelopeEvent::Kind::log:
-      deadline_.on_frame_end();
-      return handle_frame(event, now);
+  const DecodeStatus status = decoder_.feed(byte);
+  if (status == DecodeStatus::more) return false;
+  deadline_.on_frame_end();
+  const Frame& frame = decoder_.frame();
+  if (status == DecodeStatus::error) {
+    send_code(frame.opcode, frame.has_id ? frame.id : 0, decoder_.error());
+    return false;
   }
-  return false;
+  return handle_frame(frame, now);
 }
 
-bool RomiSerial::handle_frame(const EnvelopeEvent& event, Millis now) {
-  const uint8_t id = event.has_id ? event.id : 0;
-  if (event.kind == EnvelopeEvent::Kind::log) {
+bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
+  const uint8_t id = frame.has_id ? frame.id : 0;
+  if (frame.log) {
     // "#!text": '!' is no opcode; the reference's message parser says the same.
-    send_code('_', id, ErrorCode::invalid_opcode);
+    send_code('_', id, Error::invalid_opcode);
     return false;
   }
   // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
-  const uint16_t fingerprint = Crc16Mcrf4xx::compute(event.payload);
-  if (!event.manual) {
+  const uint16_t fingerprint = Crc16Mcrf4xx::compute(frame.payload);
+  if (!frame.manual) {
     const auto lookup = replies_.check(id, fingerprint);
     if (lookup.duplicate && !lookup.cached_reply.empty()) {
       write(lookup.cached_reply);  // exactly-once: the same response again, the handler does not run
       return false;
     }
   }
-  return dispatch(event, fingerprint, now);
+  return dispatch(frame, fingerprint, now);
 }
 
-bool RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Millis now) {
-  const uint8_t id = event.has_id ? event.id : 0;
-  const ErrorCode parsed = parse_request(event.payload, request_);
-  if (parsed != ErrorCode::no_error) {
-    send_code(event.opcode, id, parsed);
+bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
+  const uint8_t id = frame.has_id ? frame.id : 0;
+  const Error parsed = parse_request(frame.payload, request_);
+  if (parsed != Error::no_error) {
+    send_code(frame.opcode, id, parsed);
     return false;
   }
   const MessageHandler* handler = nullptr;
@@ -129,15 +124,15 @@ bool RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Mill
       break;
     }
   }
-  ErrorCode check = ErrorCode::no_error;
+  Error check = Error::no_error;
   if (handler == nullptr || handler->callback == nullptr) {
-    check = ErrorCode::unknown_opcode;
+    check = Error::unknown_opcode;
   } else if (request_.argument_count != handler->number_arguments) {
-    check = ErrorCode::bad_number_of_arguments;
+    check = Error::bad_number_of_arguments;
   } else if (request_.has_string != handler->requires_string) {
-    check = handler->requires_string ? ErrorCode::missing_string : ErrorCode::bad_string;
+    check = handler->requires_string ? Error::missing_string : Error::bad_string;
   }
-  if (check != ErrorCode::no_error) {
+  if (check != Error::no_error) {
     send_code(request_.opcode, id, check);
     return false;
   }
@@ -156,7 +151,7 @@ bool RomiSerial::dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Mill
   // The handler may have taken a while: the cache's lifetime starts when the reply went out.
   reply_sent_at_ = clock_ != nullptr ? clock_() : now;
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
-  if (!event.manual) {
+  if (!frame.manual) {
     replies_.remember(id, fingerprint, ByteView(reply_, reply_size_));
     cache_expiry_.arm(reply_sent_at_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
@@ -222,7 +217,7 @@ void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
   write(ByteView(reply_, reply_size_));
 }
 
-void RomiSerial::send_code(char opcode, uint8_t id, ErrorCode code) {
+void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   ++counters_.rejected;
   ArrayText<8> body;  // "[-32768]" never needed: protocol codes have at most 3 characters
   body.add_int(static_cast<int16_t>(code));

@@ -127,7 +127,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 3: {
       elcano::ClientEvent event;
       event.kind = static_cast<elcano::ClientEvent::Kind>(input.ConsumeIntegral<std::uint8_t>() % 5);
-      event.error = static_cast<elcano::ReadError>(input.ConsumeIntegral<std::uint8_t>() % 10);
+      event.error = static_cast<elcano::Error>(input.ConsumeIntegral<std::uint8_t>() % 10);
       event.message = ring_message(input);
       event.link_error = elcano::error_code(input.ConsumeIntegral<int>(), boost::system::generic_category());
       const auto generation = input.ConsumeBool() ? elcano::Generation::d : elcano::Generation::b;

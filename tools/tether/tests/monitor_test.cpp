@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "fake_port.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"

@@ -66,7 +66,7 @@ bool known_type(Type type) {
 // by when it comes back.
 std::string encode(const Message& message, Generation generation) {
   std::array<std::uint8_t, kMaxMessageBytes> buffer{};
-  const Result<size_t> size = write_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
+  const Result<size_t> size = encode_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
   if (!size.ok()) return std::string();
   return std::string(reinterpret_cast<const char*>(buffer.data()), size.value());
 }
@@ -375,7 +375,7 @@ class RingClientImpl final : public transports::ClientLink {
         return;
       case RingEvent::Kind::dropped: {
         ClientEvent report;
-        if (event.error == ReadError::queue_full) {
+        if (event.error == Error::queue_full) {
           report.kind = ClientEvent::Kind::forward_dropped;
           report.message = event.message;
         } else {

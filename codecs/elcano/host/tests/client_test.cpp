@@ -471,7 +471,7 @@ TEST(RingClient, PartialMessageIsDroppedAtItsDeadline) {
   ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::read_error));
   const auto reports = link.log.of(ClientEvent::Kind::read_error);
   ASSERT_EQ(reports.size(), 1u);
-  EXPECT_EQ(reports[0].error, ReadError::timed_out);
+  EXPECT_EQ(reports[0].error, Error::timed_out);
   EXPECT_EQ(link.client->counters().link.partial_timeouts, 1u);
   // The reader resynchronised: the next message passes.
   link.ring->send(wire(drive(6, 6)));
@@ -487,8 +487,8 @@ TEST(RingClient, ReadErrorsAreReportedAndNotForwarded) {
   EXPECT_EQ(link.ring->received(), "D{s3}{a3}\n");
   const auto reports = link.log.of(ClientEvent::Kind::read_error);
   ASSERT_EQ(reports.size(), 2u);
-  EXPECT_EQ(reports[0].error, ReadError::bad_type);
-  EXPECT_EQ(reports[1].error, ReadError::bad_attrib);
+  EXPECT_EQ(reports[0].error, Error::bad_type);
+  EXPECT_EQ(reports[1].error, Error::bad_attrib);
 }
 
 // --- generation D --------------------------------------------------------------------------------------
@@ -516,7 +516,7 @@ TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
   EXPECT_EQ(link.ring->received(), wire(goal(1), Generation::d) + passing);
   const auto reports = link.log.of(ClientEvent::Kind::read_error);
   ASSERT_EQ(reports.size(), 1u);
-  EXPECT_EQ(reports[0].error, ReadError::bad_crc);
+  EXPECT_EQ(reports[0].error, Error::bad_crc);
   EXPECT_EQ(link.client->counters().link.crc_errors, 1u);
 }
 

@@ -28,14 +28,17 @@ void FakeRing::on_bytes(const std::uint8_t* data, std::size_t size) {
   record([&] { arrivals_.push_back(Arrival{now, size}); });
   for (std::size_t i = 0; i < size; ++i) {
     wire_.push_back(static_cast<char>(data[i]));
-    const ReadEvent event = reader_.feed(data[i]);
-    if (event.kind == ReadEvent::Kind::none) continue;
+    const DecodeStatus status = reader_.feed(data[i]);
+    if (status == DecodeStatus::more) continue;
     RingRecord entry;
     entry.wire = std::move(wire_);
     wire_.clear();
-    entry.ok = event.kind == ReadEvent::Kind::message;
-    entry.message = event.message;
-    entry.error = event.error;
+    entry.ok = status == DecodeStatus::frame;
+    if (entry.ok) {
+      entry.message = reader_.frame();
+    } else {
+      entry.error = reader_.error();
+    }
     entry.at = now;
     deliver(entry);
   }
@@ -45,7 +48,7 @@ void FakeRing::on_bytes(const std::uint8_t* data, std::size_t size) {
 
 std::string wire(const Message& message, Generation generation) {
   std::array<std::uint8_t, kMaxMessageBytes> buffer{};
-  const Result<size_t> size = write_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
+  const Result<size_t> size = encode_message(message, generation, MutableByteView(buffer.data(), buffer.size()));
   return std::string(reinterpret_cast<const char*>(buffer.data()), size.ok() ? size.value() : 0);
 }
 

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "tether/elcano/client.hpp"
-#include "tether/elcano/reader.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
@@ -36,7 +36,7 @@ struct RingRecord {
   std::string wire;                      ///< the bytes since the previous record (the message's bytes)
   bool ok = false;                       ///< a complete, valid message
   Message message;                       ///< when ok
-  ReadError error = ReadError::success;  ///< when not ok
+  Error error = Error::success;  ///< when not ok
   std::chrono::steady_clock::time_point at;  ///< arrival
 };
 
@@ -75,7 +75,7 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
 
   // Strand only.
   LinkCounters counters_;
-  Reader<kMaxMessageBytes> reader_;
+  Decoder<kMaxMessageBytes> reader_;
   std::string wire_;
 
   // Under the peer's lock.

@@ -23,6 +23,7 @@
 
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/proxy/decoder.hpp"
 #include "tether/transports/client_link.hpp"
 
 namespace tether::proxy {
@@ -30,12 +31,17 @@ namespace tether::proxy {
 namespace asio = boost::asio;
 using transports::ByteStream;
 
-Duration ProxyTiming::ack_timeout(std::size_t frame_bytes) const {
-  const std::uint64_t rate = baud == 0 ? 1 : baud;
-  const std::uint64_t bits = static_cast<std::uint64_t>(frame_bytes + kAckFrameBytes) * bits_per_byte;
-  const std::uint64_t wire_ms = (bits * 1000 + rate - 1) / rate;
-  return static_cast<Duration>(std::min<std::uint64_t>(wire_ms + processing_margin, 0x7FFFFFFFu));
+AckTiming ProxyTiming::ack_timing() const {
+  AckTiming timing;
+  timing.baud = baud;
+  timing.bits_per_byte = bits_per_byte;
+  timing.processing_margin = processing_margin;
+  timing.send_budget = send_budget;
+  timing.max_sends = max_sends;
+  return timing;
 }
+
+Duration ProxyTiming::ack_timeout(std::size_t frame_bytes) const { return proxy::ack_timeout(ack_timing(), frame_bytes); }
 
 namespace detail {
 namespace {
@@ -43,15 +49,7 @@ namespace {
 // ---------------------------------------------------------------------------------------------------------
 // Engine types
 
-// The proxy's RequestTable policy: 32-bit messageIds; an ack carries no status (code 0 = acked); nothing is
-// retried on a reply, silent attempts are (retry_on_timeout).
-struct AckPolicy {
-  using Id = std::uint32_t;
-  using Code = std::uint8_t;
-  static bool is_success(Code code) { return code == 0; }
-  static bool is_retryable(Code) { return false; }
-};
-using Table = session::RequestTable<AckPolicy, kMaxInFlight>;
+using Table = RequestTable;  // session_policy.hpp: SessionPolicy, kMaxInFlight
 using Monitor = session::SessionMonitor<std::uint32_t, kMaxInits>;
 using InitKey = Monitor::InitKey;
 using PinKey = std::pair<PinKind, std::uint32_t>;
@@ -568,13 +566,7 @@ class ProxyClientImpl final : public transports::ClientLink {
   void refresh_table_timing(std::size_t starting_frame = 0) {
     std::size_t longest = starting_frame;
     for (const auto& entry : in_flight_) longest = std::max(longest, entry.second->frame->size());
-    session::CallTiming timing;
-    timing.attempt_timeout = options_.timing.ack_timeout(longest);
-    timing.call_budget = options_.timing.send_budget;
-    timing.max_attempts = options_.timing.max_sends;
-    timing.retry_on_timeout = true;
-    timing.activity_rearms_attempt = false;
-    table_.set_timing(timing);
+    table_.set_timing(call_timing(options_.timing.ack_timing(), longest));
   }
 
   void send_untracked(Untracked kind) {
@@ -706,12 +698,11 @@ class ProxyClientImpl final : public transports::ClientLink {
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
     const Millis now = now_ms();
     for (std::size_t i = 0; i < size && is_open() && !link_error(); ++i) {
-      const FrameEvent event = decoder_.feed(data[i]);
-      if (event.kind == FrameEvent::Kind::payload) {
+      if (decoder_.feed(data[i]) == DecodeStatus::frame) {
         if (primary()) {
-          on_primary_payload(event.payload, now);
+          on_primary_payload(decoder_.frame(), now);
         } else {
-          on_compat_payload(event.payload, now);
+          on_compat_payload(decoder_.frame(), now);
         }
       }
     }
@@ -980,7 +971,7 @@ class ProxyClientImpl final : public transports::ClientLink {
 
   // Strand only.
   ProxyCounters counters_;
-  FrameDecoder<kMaxPayload> decoder_;
+  Decoder<kMaxPayload> decoder_;
   Table table_;
   session::HeartbeatSchedule heartbeat_;
   Monitor monitor_;

@@ -64,8 +64,8 @@ void FakeDevice::on_bytes(const std::uint8_t* data, std::size_t size) {
   for (std::size_t i = 0; i < size; ++i) {
     const std::uint8_t byte = data[i];
     frame_.push_back(static_cast<char>(byte));
-    const FrameEvent event = decoder_.feed(byte);
-    if (event.kind == FrameEvent::Kind::none) {
+    const DecodeStatus status = decoder_.feed(byte);
+    if (status == DecodeStatus::more) {
       if (byte == 0x00) frame_.clear();  // an empty frame (the host's leading delimiter)
       continue;
     }
@@ -73,10 +73,10 @@ void FakeDevice::on_bytes(const std::uint8_t* data, std::size_t size) {
     frame.wire = frame_;
     frame.at = std::chrono::steady_clock::now();
     frame_.clear();
-    if (event.kind == FrameEvent::Kind::error) {
+    if (status == DecodeStatus::error) {
       frame.damaged = true;
     } else {
-      frame.payload.assign(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
+      frame.payload.assign(reinterpret_cast<const char*>(decoder_.frame().data()), decoder_.frame().size());
       const int length = static_cast<int>(frame.payload.size());
       frame.decoded = integrity_ == Integrity::crc16 ? frame.in.ParseFromArray(frame.payload.data(), length)
                                                      : frame.compat.ParseFromArray(frame.payload.data(), length);

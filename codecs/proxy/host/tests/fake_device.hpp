@@ -13,7 +13,8 @@
 #include <vector>
 
 #include "rocketry.pb.h"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 #include "tether_proxy.pb.h"
@@ -72,7 +73,7 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
   // Strand only.
   Integrity integrity_;
   LinkCounters counters_;
-  FrameDecoder<512> decoder_;
+  Decoder<512> decoder_;
   std::string frame_;  // bytes of the frame in progress
   std::map<std::string, int> seen_;
 };

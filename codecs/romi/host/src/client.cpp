@@ -18,7 +18,7 @@
 
 #include "tether/core/time.hpp"
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/transports/client_link.hpp"
 
 namespace tether::romi {
@@ -31,15 +31,15 @@ using transports::ByteStream;
 // Command
 
 Command::Command(std::string_view text) : payload_(text) {
-  const ErrorCode code = validate_request_payload(ByteView::from_chars(text.data(), text.size()));
-  if (code != ErrorCode::no_error) error_ = make_error_code(code);
+  const Error code = validate_request_payload(ByteView::from_chars(text.data(), text.size()));
+  if (code != Error::no_error) error_ = make_error_code(code);
 }
 
 Command::Command(char opcode, const std::vector<std::int32_t>& ints, std::optional<std::string_view> text) {
   RequestBuilder builder(opcode);
   for (const std::int32_t value : ints) builder.add_int(value);
   if (text) builder.add_string(ByteView::from_chars(text->data(), text->size()));
-  if (builder.error() != ErrorCode::no_error) {
+  if (builder.error() != Error::no_error) {
     error_ = make_error_code(builder.error());
     payload_.assign(1, opcode);  // keeps opcode() meaningful for the failure's response
     return;
@@ -63,7 +63,7 @@ void describe_failure(RomiResponse& response, std::int16_t code, std::string mes
 RomiResponse failure(std::int16_t code, char opcode) {
   RomiResponse response;
   response.opcode = opcode;
-  describe_failure(response, code, romi::message(code));
+  describe_failure(response, code, romi::describe(code));
   return response;
 }
 
@@ -72,8 +72,8 @@ RomiResponse failure(const error_code& error, char opcode) {
   if (error.category() == romi_category()) return failure(static_cast<std::int16_t>(error.value()), opcode);
   RomiResponse response;
   response.opcode = opcode;
-  const auto code = static_cast<std::int16_t>(ErrorCode::transport_error);
-  describe_failure(response, code, std::string(romi::message(code)) + ": " + error.message());
+  const auto code = static_cast<std::int16_t>(Error::transport_error);
+  describe_failure(response, code, std::string(romi::describe(code)) + ": " + error.message());
   return response;
 }
 
@@ -85,14 +85,14 @@ RomiResponse parse_answer(ByteView payload, char opcode) {
   response.raw.assign(reinterpret_cast<const char*>(payload.data()), payload.size());
   const std::string_view body = payload.size() > 1 ? std::string_view(response.raw).substr(1) : std::string_view();
   if (body.empty()) {
-    const auto code = static_cast<std::int16_t>(ErrorCode::client_empty_response);
-    describe_failure(response, code, romi::message(code));
+    const auto code = static_cast<std::int16_t>(Error::client_empty_response);
+    describe_failure(response, code, romi::describe(code));
     return response;
   }
   json values = json::parse(body.begin(), body.end(), nullptr, /*allow_exceptions=*/false);
   if (values.is_discarded()) {  // defect B5: the reference throws here
-    const auto code = static_cast<std::int16_t>(ErrorCode::client_invalid_json);
-    describe_failure(response, code, romi::message(code));
+    const auto code = static_cast<std::int16_t>(Error::client_invalid_json);
+    describe_failure(response, code, romi::describe(code));
     return response;
   }
   const bool has_code = values.is_array() && !values.empty() && values[0].is_number_integer();
@@ -100,14 +100,14 @@ RomiResponse parse_answer(ByteView payload, char opcode) {
   const bool in_range =
       first >= std::numeric_limits<std::int16_t>::min() && first <= std::numeric_limits<std::int16_t>::max();
   if (!has_code || !in_range) {
-    const auto code = static_cast<std::int16_t>(ErrorCode::client_bad_response);
-    describe_failure(response, code, romi::message(code));
+    const auto code = static_cast<std::int16_t>(Error::client_bad_response);
+    describe_failure(response, code, romi::describe(code));
     return response;
   }
   response.code = static_cast<std::int16_t>(first);
   if (response.code != 0) {
     response.message = values.size() > 1 && values[1].is_string() ? values[1].get<std::string>()
-                                                                   : std::string(romi::message(response.code));
+                                                                   : std::string(romi::describe(response.code));
   }
   response.values = std::move(values);
   return response;
@@ -265,7 +265,7 @@ class ClientImpl final : public transports::ClientLink {
         }
         break;
       case session::CallOutcome::timeout:
-        error = make_error_code(ErrorCode::client_timeout);
+        error = make_error_code(Error::client_timeout);
         response = failure(error, call->opcode);
         describe_failure(response, response.code, timeout_message(waited, completion.attempts));
         break;
@@ -328,24 +328,25 @@ class ClientImpl final : public transports::ClientLink {
     publish();
   }
 
-  void on_event(const EnvelopeEvent& event) {
-    switch (event.kind) {
-      case EnvelopeEvent::Kind::none:
+  void on_event(DecodeStatus status) {
+    switch (status) {
+      case DecodeStatus::more:
         return;
-      case EnvelopeEvent::Kind::log:
-        deliver_log(event.payload);
-        table_.on_activity(now());
+      case DecodeStatus::frame:
+        if (decoder_.frame().log) {
+          deliver_log(decoder_.frame().payload);
+          table_.on_activity(now());
+          return;
+        }
+        on_frame(decoder_.frame());
         return;
-      case EnvelopeEvent::Kind::frame:
-        on_frame(event);
-        return;
-      case EnvelopeEvent::Kind::error:
-        on_damaged_frame(event);
+      case DecodeStatus::error:
+        on_damaged_frame(decoder_.error(), decoder_.frame());
         return;
     }
   }
 
-  void on_frame(const EnvelopeEvent& event) {
+  void on_frame(const Frame& event) {
     const Millis at = now();
     if (!event.has_id || !current_) {
       // A frame with `xxxx` metadata (not a log line) or an answer nobody waits for.
@@ -384,7 +385,7 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   // A frame that is not the current call's answer: counted, dropped, and it re-arms the attempt window.
-  void stale(Millis at, const EnvelopeEvent& event) {
+  void stale(Millis at, const Frame& event) {
     if (event.has_id && !table_.contains(event.id)) {
       (void)table_.on_reply(event.id, 0, at);  // the engine counts it
     } else {
@@ -397,11 +398,11 @@ class ClientImpl final : public transports::ClientLink {
   // answer was probably lost, so the call fails retryably (same bytes again; Tether firmware answers a
   // repeated id from its cache). A damaged log line (`#!...`, or -7: bad `xxxx`, which only log lines
   // carry) is no lost answer: it only re-arms the window.
-  void on_damaged_frame(const EnvelopeEvent& event) {
+  void on_damaged_frame(Error error, const Frame& event) {
     const Millis at = now();
     if (!current_) return;
-    const auto code = static_cast<std::int16_t>(event.error);
-    if (!is_envelope_error(code) || event.log_line) {
+    const auto code = static_cast<std::int16_t>(error);
+    if (!is_envelope_error(code) || event.log) {
       table_.on_activity(at);
       return;
     }
@@ -465,7 +466,7 @@ class ClientImpl final : public transports::ClientLink {
 
   // Strand only.
   LinkCounters counters_;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder_;
+  Decoder<kHostDecoderCapacity> decoder_;
   Table table_;
   std::unique_ptr<Call> current_;
   std::deque<std::unique_ptr<Call>> queue_;

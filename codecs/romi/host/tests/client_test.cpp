@@ -124,28 +124,28 @@ TEST(RomiClient, InvalidCommandsNeverReachTheWire) {
   const std::vector<std::int32_t> twelve_wide(12, -32768);  // 12 x 7 characters: frame over 64 bytes
   const struct {
     Command command;
-    ErrorCode expected;
+    Error expected;
   } cases[] = {
-      {Command(""), ErrorCode::client_empty_request},
-      {Command("~"), ErrorCode::invalid_opcode},
-      {Command('#'), ErrorCode::invalid_opcode},
-      {Command("a[1,2,3,4,5,6,7,8,9,10,11,12,13]"), ErrorCode::too_many_arguments},
-      {Command('a', thirteen), ErrorCode::too_many_arguments},
-      {Command("a[40000]"), ErrorCode::value_out_of_range},
-      {Command('a', {-32769}), ErrorCode::value_out_of_range},
-      {Command("a[\"" + long_string + "\"]"), ErrorCode::string_too_long},
-      {Command('a', {}, long_string), ErrorCode::string_too_long},
-      {Command("a[\"<>\"]"), ErrorCode::invalid_string},
-      {Command('a', {}, "tab\there"), ErrorCode::invalid_string},
-      {Command("a[\"x\",\"y\"]"), ErrorCode::too_many_strings},
-      {Command('a', twelve_wide), ErrorCode::client_request_too_long},
+      {Command(""), Error::client_empty_request},
+      {Command("~"), Error::invalid_opcode},
+      {Command('#'), Error::invalid_opcode},
+      {Command("a[1,2,3,4,5,6,7,8,9,10,11,12,13]"), Error::too_many_arguments},
+      {Command('a', thirteen), Error::too_many_arguments},
+      {Command("a[40000]"), Error::value_out_of_range},
+      {Command('a', {-32769}), Error::value_out_of_range},
+      {Command("a[\"" + long_string + "\"]"), Error::string_too_long},
+      {Command('a', {}, long_string), Error::string_too_long},
+      {Command("a[\"<>\"]"), Error::invalid_string},
+      {Command('a', {}, "tab\there"), Error::invalid_string},
+      {Command("a[\"x\",\"y\"]"), Error::too_many_strings},
+      {Command('a', twelve_wide), Error::client_request_too_long},
       {Command("a[-32768,-32768,-32768,-32768,-32768,-32768,-32768,-32768,-32768]"),
-       ErrorCode::client_request_too_long},
-      {Command('M', {16}, "a:b"), ErrorCode::reserved_character},
-      {Command('M', {}, "say \"hi\""), ErrorCode::reserved_character},
-      {Command("a[\"#\"]"), ErrorCode::reserved_character},
-      {Command("a:1"), ErrorCode::reserved_character},
-      {Command("a[1"), ErrorCode::unexpected_char},
+       Error::client_request_too_long},
+      {Command('M', {16}, "a:b"), Error::reserved_character},
+      {Command('M', {}, "say \"hi\""), Error::reserved_character},
+      {Command("a[\"#\"]"), Error::reserved_character},
+      {Command("a:1"), Error::reserved_character},
+      {Command("a[1"), Error::unexpected_char},
   };
   for (const auto& test : cases) {
     SCOPED_TRACE(test.command.payload());
@@ -156,7 +156,7 @@ TEST(RomiClient, InvalidCommandsNeverReachTheWire) {
     EXPECT_EQ(error, test.expected);
     EXPECT_EQ(error.category(), romi_category());
     EXPECT_EQ(response.code, static_cast<std::int16_t>(test.expected));
-    EXPECT_EQ(response.values, json::array({response.code, romi::message(response.code)}));
+    EXPECT_EQ(response.values, json::array({response.code, romi::describe(response.code)}));
     EXPECT_FALSE(response.answered);
     EXPECT_EQ(response.attempts, 0);
     EXPECT_THROW(link.client->call(test.command), boost::system::system_error);
@@ -179,7 +179,7 @@ TEST(RomiClient, BuiltCommandsAreTheExpectedPayloads) {
   EXPECT_TRUE(Command(longest).valid());
   EXPECT_EQ(request_frame(longest, 0).size(), kMaxRequestFrame);
   const std::string too_long = "a[\"" + std::string(32, 'x') + "\",1000,1000,1000,1000]";  // 57
-  EXPECT_EQ(Command(too_long).error(), ErrorCode::client_request_too_long);
+  EXPECT_EQ(Command(too_long).error(), Error::client_request_too_long);
 }
 
 // --- retries ----------------------------------------------------------------------------------------------
@@ -318,7 +318,7 @@ TEST(RomiClient, EnvelopeErrorsUnderAnotherIdNeverCompleteTheCall) {
   });
   error_code error;
   const RomiResponse response = link.client->call("a", error);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   EXPECT_FALSE(response.answered);
   EXPECT_EQ(response.attempts, 3);
   EXPECT_EQ(link.device->requests().size(), 3u);
@@ -336,7 +336,7 @@ TEST(RomiClient, LateErrorOfATimedOutCallIsNotPinnedOnTheNextCall) {
   });
   error_code error;
   link.client->call("a", error);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   const RomiResponse second = link.client->call("b", error);
   EXPECT_FALSE(error);
   EXPECT_EQ(second.values, json::parse("[0,2]"));
@@ -486,7 +486,7 @@ TEST(RomiClient, LogLinesNeverStretchACallPastItsBudget) {
   error_code error;
   const RomiResponse response = link.client->call("a", error);
   const auto took = elapsed_ms(start);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   EXPECT_EQ(error, boost::system::errc::timed_out);
   EXPECT_EQ(response.code, -25);
   EXPECT_EQ(response.message.rfind("client: no reply from the device within ", 0), 0u) << response.message;
@@ -503,7 +503,7 @@ TEST(RomiClient, SilentDeviceTimesOutAfterTheAttemptWindow) {
   error_code error;
   const RomiResponse response = link.client->call("a", error);
   const auto took = elapsed_ms(start);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   EXPECT_FALSE(response.answered);
   EXPECT_EQ(response.attempts, 1);
   EXPECT_LT(took, 150 + 1000);  // the attempt window, far from the 5 s budget
@@ -516,7 +516,7 @@ TEST(RomiClient, TimeoutSaysHowLongTheCallWaitedForAnAnswer) {
   Link link(io.executor(), short_timing(150, 5000));
   error_code error;
   const RomiResponse response = link.client->call("a", error);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   EXPECT_EQ(error.message(), "client: no reply from the device");
   EXPECT_EQ(response.code, -25);
   // The deadline that ended the call, from the first send: exact however late the timer fired.
@@ -550,7 +550,7 @@ TEST(RomiClient, SilentDeviceWithRetryOnTimeoutStopsAtTheBudget) {
   Link link(io.executor(), options);
   error_code error;
   const RomiResponse response = link.client->call("a", error);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
   EXPECT_GE(response.attempts, 2);
   EXPECT_LE(response.attempts, 3);
   // The last window is cut at the budget (its start depends on how late the re-sends were; the end not).
@@ -611,7 +611,7 @@ TEST(RomiClient, FirstIdIsTheOneChosen) {
 
 // Echo device: `c[t,i]` is answered `[0,t,i]`.
 void echo_arguments(const DeviceRequest& request, FakeDevice& device) {
-  if (request.error != ErrorCode::no_error) return;
+  if (request.error != Error::no_error) return;
   const std::string arguments = request.payload.size() > 2 ? request.payload.substr(2) : "]";
   device.send(FakeDevice::response(request.opcode, "[0," + arguments, request.id));
 }
@@ -709,7 +709,7 @@ TEST(RomiClient, FutureThrowsOnlyWhenThereIsNoAnswer) {
     rejected.get();
     ADD_FAILURE() << "expected an exception";
   } catch (const boost::system::system_error& failure) {
-    EXPECT_EQ(failure.code(), ErrorCode::value_out_of_range);
+    EXPECT_EQ(failure.code(), Error::value_out_of_range);
   }
   link.device->on_request(answer_with("[5]"));
   EXPECT_EQ(link.client->async_call("a", asio::use_future).get().code, 5);
@@ -872,7 +872,7 @@ TEST(RomiClient, AnswerDamagedOnEverySendIsAnErrorCode) {
   });
   error_code error;
   const RomiResponse response = link.client->call("a", error);
-  EXPECT_EQ(error, ErrorCode::crc_mismatch);
+  EXPECT_EQ(error, Error::crc_mismatch);
   EXPECT_EQ(response.code, -4);
   EXPECT_FALSE(response.answered);
   EXPECT_EQ(response.attempts, 3);
@@ -937,21 +937,21 @@ TEST(RomiClient, ManualCallIsBoundedByTheEngine) {
   Link link(io.executor(), short_timing(100, 200));
   error_code error;
   link.client->call_manual("a", error);
-  EXPECT_EQ(error, ErrorCode::client_timeout);
+  EXPECT_EQ(error, Error::client_timeout);
 }
 
 // --- error category and counters --------------------------------------------------------------------------
 
 TEST(RomiErrorCategory, ValuesAreRomiCodesAndMessagesTheTable) {
-  const error_code error = make_error_code(ErrorCode::unknown_opcode);
+  const error_code error = make_error_code(Error::unknown_opcode);
   EXPECT_STREQ(error.category().name(), "tether.romi");
   EXPECT_EQ(error.value(), -16);
   EXPECT_EQ(error.message(), "unknown opcode");
-  EXPECT_EQ(error, ErrorCode::unknown_opcode);
+  EXPECT_EQ(error, Error::unknown_opcode);
   EXPECT_EQ(make_romi_error_code(101).message(), "application error");
   EXPECT_FALSE(make_romi_error_code(0));
-  EXPECT_EQ(make_error_code(ErrorCode::client_timeout), boost::system::errc::timed_out);
-  EXPECT_NE(make_error_code(ErrorCode::crc_mismatch), boost::system::errc::timed_out);
+  EXPECT_EQ(make_error_code(Error::client_timeout), boost::system::errc::timed_out);
+  EXPECT_NE(make_error_code(Error::crc_mismatch), boost::system::errc::timed_out);
 }
 
 TEST(RomiClient, CountersSeeFramesLogsAndStaleBetweenCalls) {

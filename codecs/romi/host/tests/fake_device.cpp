@@ -45,14 +45,15 @@ void FakeDevice::on_bytes(const std::uint8_t* data, std::size_t size) {
     const std::uint8_t byte = data[i];
     if (byte == '#') frame_.clear();
     frame_.push_back(static_cast<char>(byte));
-    const EnvelopeEvent event = decoder_.feed(byte);
-    if (event.kind == EnvelopeEvent::Kind::none) continue;
+    const DecodeStatus status = decoder_.feed(byte);
+    if (status == DecodeStatus::more) continue;
+    const Frame& event = decoder_.frame();
     DeviceRequest request;
     request.frame = frame_;
     request.manual = event.manual;
     request.id = event.id;
     request.opcode = event.opcode;
-    request.error = event.kind == EnvelopeEvent::Kind::error ? event.error : ErrorCode::no_error;
+    request.error = status == DecodeStatus::error ? decoder_.error() : Error::no_error;
     request.payload.assign(reinterpret_cast<const char*>(event.payload.data()), event.payload.size());
     request.repeat = ++seen_[frame_];
     frame_.clear();

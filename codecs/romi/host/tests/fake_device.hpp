@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
@@ -25,7 +25,7 @@ struct DeviceRequest {
   bool manual = false;  ///< `xxxx` metadata
   std::uint8_t id = 0;  ///< the id (0 for manual frames)
   char opcode = '_';    ///< first payload character
-  ErrorCode error = ErrorCode::no_error;  ///< decoder error of a damaged frame
+  Error error = Error::no_error;  ///< decoder error of a damaged frame
   int repeat = 1;       ///< how many times this exact frame has been received so far (1 the first time)
 };
 
@@ -60,7 +60,7 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
 
   // Strand only.
   LinkCounters counters_;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder_{counters_};
+  Decoder<kHostDecoderCapacity> decoder_{counters_};
   std::string frame_;  // bytes of the frame in progress
   std::map<std::string, int> seen_;
 };

@@ -76,7 +76,7 @@ inline std::string request_frame(const std::string& payload, std::uint8_t id) {
 /// A script answering every good request with `body` (its opcode and id mirrored).
 inline FakeDevice::Script answer_with(std::string body) {
   return [body = std::move(body)](const DeviceRequest& request, FakeDevice& device) {
-    if (request.error != ErrorCode::no_error) return;
+    if (request.error != Error::no_error) return;
     device.send(FakeDevice::response(request.opcode, body, request.manual ? 0 : request.id));
   };
 }

@@ -44,23 +44,6 @@ struct Message {
   int32_t north = kUnset;        ///< `p` north cm (gen B: second value of `p`; gen D: `q`).
 };
 
-/// Outcome kinds of reading (the reference's names) plus Tether's.
-enum class ReadError : uint8_t {
-  success = 0,  ///< A complete, valid message.
-  bad_type,     ///< The header is not D, S, G or X.
-  bad_lcurly,   ///< Expected `{` (or the end of the message).
-  bad_attrib,   ///< Unknown attribute letter.
-  bad_number,   ///< Malformed number, or outside int32 (never wrapped).
-  inval_comb,   ///< A field the type requires is missing.
-  bad_crc,      ///< Generation D: the checksum does not match.
-  too_long,     ///< More bytes than the reader holds.
-  timed_out,    ///< A partial message older than its deadline was dropped (set by the node, not the reader).
-  queue_full,   ///< A message to forward found the node's output queue full (set by the node).
-};
-
-/// Short name of a read outcome (the reference's where it has one).
-const char* to_string(ReadError error);
-
 /// Name of a message type: `drive`, `sensor`, `goal`, `segment` (configs, tools, logs).
 const char* to_string(Type type);
 /// The type named `name` (its `to_string` name or its header letter D, S, G, X); false when none is.
@@ -70,9 +53,10 @@ bool type_from_name(ByteView name, Type& type);
 /// optional); segment n p b s. `p` means both east and north.
 bool has_required_fields(const Message& message);
 
-/// Writes `message` (with its trailing `\n`) in `generation`. `Status::invalid_argument` when a required
-/// field is missing or the type is unknown; `Status::buffer_too_small`.
-Result<size_t> write_message(const Message& message, Generation generation, MutableByteView out);
-
 }  // namespace elcano
 }  // namespace tether
+
+// Deprecated, for one release: code that included message.hpp for write_message (now encoder.hpp's
+// encode_message) or ReadError (now errors.hpp's Error) still builds.
+#include "tether/elcano/encoder.hpp"
+#include "tether/elcano/errors.hpp"

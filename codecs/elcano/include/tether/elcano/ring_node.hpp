@@ -42,8 +42,10 @@
 #include "tether/core/session/write_pacer.hpp"
 #include "tether/core/status.hpp"
 #include "tether/core/time.hpp"
+#include "tether/elcano/decoder.hpp"
+#include "tether/elcano/encoder.hpp"
+#include "tether/elcano/errors.hpp"
 #include "tether/elcano/message.hpp"
-#include "tether/elcano/reader.hpp"
 
 namespace tether {
 namespace elcano {
@@ -122,7 +124,7 @@ struct RingEvent {
     dropped,        ///< Bytes were dropped; `error` says why (a read error, `timed_out`, `queue_full`).
   };
   Kind kind = Kind::none;               ///< What happened.
-  ReadError error = ReadError::success; ///< For `dropped`.
+  Error error = Error::success; ///< For `dropped`.
   Message message;                      ///< For `captured`, `forwarded`, `undeliverable`, `queue_full`.
 };
 
@@ -155,9 +157,9 @@ class RingNode {
   /// before the next byte.
   RingEvent::Kind consume(uint8_t byte, Millis now);
   /// The message of the last event that had one (valid until the next byte).
-  const Message& message() const { return reader_.message(); }
+  const Message& message() const { return reader_.frame(); }
   /// Why the last `dropped` event dropped.
-  ReadError error() const { return error_; }
+  Error error() const { return error_; }
   /// Queues `message` for the next node and remembers it (rule 2). `Status::invalid_argument` when it
   /// lacks a field its type requires, `Status::busy` when the output queue has no room for it beside the
   /// forwarding reserve (rule 4): try again after `take_output`.
@@ -180,7 +182,7 @@ class RingNode {
   /// Room left in the output queue.
   size_t output_room() const { return OutputCapacity - 1 - pending_output(); }
   /// True while a message is being received.
-  bool in_message() const { return reader_.in_message(); }
+  bool in_message() const { return reader_.in_frame(); }
   /// Forgets the partial message, the output queue and the origin records (e.g. after a link failure).
   void reset();
 
@@ -197,11 +199,11 @@ class RingNode {
   bool came_back(ByteView stripped);
 
   RingNodeConfig config_;
-  Reader<MessageCapacity> reader_;
+  Decoder<MessageCapacity> reader_;
   session::PartialFrameDeadline partial_;
   session::WritePacer pacer_;
   RingCounters* counters_;
-  ReadError error_ = ReadError::success;
+  Error error_ = Error::success;
   uint8_t queue_[OutputCapacity];
   uint8_t head_ = 0;  // next write (mod OutputCapacity)
   uint8_t tail_ = 0;  // next read

@@ -36,15 +36,15 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView 
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::consume(uint8_t byte, Millis now) {
-  const ReadEvent::Kind read = reader_.consume(byte);
+  const DecodeStatus read = reader_.feed(byte);
   // The partial-message deadline follows the reader: armed when a message starts, off when none is open.
-  if (reader_.in_message()) {
+  if (reader_.in_frame()) {
     if (!partial_.in_frame()) partial_.on_frame_start(now);
   } else {
     partial_.on_frame_end();
   }
-  if (read == ReadEvent::Kind::none) return RingEvent::Kind::none;
-  if (read == ReadEvent::Kind::error) {
+  if (read == DecodeStatus::more) return RingEvent::Kind::none;
+  if (read == DecodeStatus::error) {
     error_ = reader_.error();
     return RingEvent::Kind::dropped;
   }
@@ -53,13 +53,13 @@ RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::consume(
     ++counters_->undeliverable;
     return RingEvent::Kind::undeliverable;
   }
-  if (config_.capture.contains(reader_.message().type)) {
+  if (config_.capture.contains(reader_.frame().type)) {
     ++counters_->captured;
     return RingEvent::Kind::captured;
   }
   if (!enqueue(forward)) {
     ++counters_->queue_full_drops;
-    error_ = ReadError::queue_full;
+    error_ = Error::queue_full;
     return RingEvent::Kind::dropped;
   }
   ++counters_->forwarded;
@@ -73,15 +73,15 @@ RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::feed(uint8_t b
   if (event.kind == RingEvent::Kind::dropped) event.error = error_;
   // A message dropped for a full queue was read whole: it is reported too.
   const bool has_message = event.kind != RingEvent::Kind::none &&
-                           (event.kind != RingEvent::Kind::dropped || error_ == ReadError::queue_full);
-  if (has_message) event.message = reader_.message();
+                           (event.kind != RingEvent::Kind::dropped || error_ == Error::queue_full);
+  if (has_message) event.message = reader_.frame();
   return event;
 }
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const Message& message, Millis now) {
   uint8_t bytes[MessageCapacity];
-  const Result<size_t> written = write_message(message, config_.generation, MutableByteView(bytes, sizeof bytes));
+  const Result<size_t> written = encode_message(message, config_.generation, MutableByteView(bytes, sizeof bytes));
   if (!written.ok()) return written.status() == Status::buffer_too_small ? Status::invalid_argument : written.status();
   if (written.value() + MessageCapacity > output_room()) return Status::busy;  // keep the forwarding reserve
   // The signature covers the bytes as they come back: forwarded copies are whitespace-stripped.
@@ -129,7 +129,7 @@ RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::poll(Millis no
   if (partial_.poll(now)) {
     reader_.reset();
     event.kind = RingEvent::Kind::dropped;
-    event.error = ReadError::timed_out;
+    event.error = Error::timed_out;
     return event;
   }
   for (Origin& origin : origins_) {

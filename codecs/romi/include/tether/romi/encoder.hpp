@@ -49,8 +49,8 @@ class RequestBuilder {
   /// Appends the string argument (-13 for a second one, -11 over 32 characters, -32 for a reserved
   /// character, -12 for any other character outside the allowed set).
   RequestBuilder& add_string(ByteView text);
-  /// `ErrorCode::no_error`, or the first error.
-  ErrorCode error() const { return error_; }
+  /// `Error::no_error`, or the first error.
+  Error error() const { return error_; }
   /// The payload (meaningful when `error()` is no_error), e.g. `M[16,"Shutdown"]`; -22 when it would
   /// exceed kMaxHostPayload is reported by `error()`.
   ByteView payload() const { return ByteView(buffer_, size_); }
@@ -63,12 +63,12 @@ class RequestBuilder {
   size_t size_ = 0;
   uint8_t arguments_ = 0;
   bool has_string_ = false;
-  ErrorCode error_ = ErrorCode::no_error;
+  Error error_ = Error::no_error;
 };
 
 /// Checks a complete payload typed by a user (`L[1]`): the same rules as RequestBuilder, as the device's
 /// parser would apply them, plus the host's length limit. Returns the first error or no_error.
-ErrorCode validate_request_payload(ByteView payload);
+Error validate_request_payload(ByteView payload);
 
 }  // namespace romi
 }  // namespace tether

@@ -19,8 +19,9 @@
 namespace tether {
 namespace romi {
 
-/// Every protocol code. Values are the wire values.
-enum class ErrorCode : int16_t {
+/// Every protocol code. Values are the wire values (a response's first value); positive values, which
+/// belong to the application, are valid `Error` values too.
+enum class Error : int16_t {
   no_error = 0,
   envelope_too_long = -1,
   invalid_id = -2,
@@ -56,14 +57,21 @@ enum class ErrorCode : int16_t {
   transport_error = -33,
 };
 
-/// English message of `code` (the reference's wording where it has one, except -25: "client: no reply
+/// English text of `error` (the reference's wording where it has one, except -25: "client: no reply
 /// from the device", which says what timed out, where the reference says "connection timed out");
 /// "application error" for positive codes, "unknown error" for unassigned negative ones. Never null.
-const char* message(int16_t code);
+const char* describe(Error error);
+/// The text of a response's code as it came off the wire: `describe(static_cast<Error>(code))`.
+inline const char* describe(int16_t code) { return describe(static_cast<Error>(code)); }
 
 /// Envelope errors -1..-6: the frame was damaged on the way, so re-sending the same bytes can help.
 /// (The reference host retries exactly these; -7 needs a human to fix the typed command.)
 inline bool is_envelope_error(int16_t code) { return code <= -1 && code >= -6; }
+
+/// Deprecated name of `Error` (before the codecs shared one vocabulary); removed in the next release.
+using ErrorCode [[deprecated("use romi::Error")]] = Error;
+/// Deprecated name of `describe(int16_t)`; removed in the next release.
+[[deprecated("use romi::describe")]] inline const char* message(int16_t code) { return describe(code); }
 
 }  // namespace romi
 }  // namespace tether

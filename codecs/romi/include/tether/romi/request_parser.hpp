@@ -25,7 +25,7 @@ struct Request {
 /// Parses `payload` into `request`. Returns no_error, or -14 (bad opcode), -8 (unexpected character),
 /// -9 (more than 12 integers), -10 (outside int16), -11 (string over 32), -12 (bad string character or
 /// unterminated string), -13 (second string).
-ErrorCode parse_request(ByteView payload, Request& request);
+Error parse_request(ByteView payload, Request& request);
 
 }  // namespace romi
 }  // namespace tether

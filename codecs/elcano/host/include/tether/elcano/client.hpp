@@ -135,14 +135,14 @@ struct ClientEvent {
   enum class Kind : std::uint8_t {
     undeliverable,     ///< `message`, originated by the host, came back: no node captured it (once per message).
     read_error,        ///< Bytes from the ring were dropped; `error` says why (a reader error kind, or
-                       ///< `ReadError::timed_out` for a partial message past its deadline).
+                       ///< `Error::timed_out` for a partial message past its deadline).
     forward_dropped,   ///< `message` should have been forwarded but the node's output queue was full.
     receive_overflow,  ///< `message`, captured, was dropped: the receive queue was full (the oldest goes).
     link_failed,       ///< The link failed with `link_error`; every pending operation failed with it.
   };
   Kind kind = Kind::read_error;          ///< What happened.
   Message message;                       ///< For undeliverable, forward_dropped, receive_overflow.
-  ReadError error = ReadError::success;  ///< For read_error.
+  Error error = Error::success;  ///< For read_error.
   bool request_failed = false;           ///< For undeliverable: a request failed with `RingError::undeliverable`.
   error_code link_error;                 ///< For link_failed.
 };

@@ -137,7 +137,8 @@
 #include "tether/core/session/session_monitor.hpp"
 #include "tether/core/time.hpp"
 #include "tether/proxy/error_category.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/proxy/session_policy.hpp"  // SessionPolicy, kMaxInFlight, kAckFrameBytes, ack_timeout
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether_proxy.pb.h"
@@ -147,8 +148,6 @@ namespace tether::proxy {
 /// Error codes of the client (boost::system, like asio).
 using error_code = boost::system::error_code;
 
-/// Messages in flight at once (the RequestTable's capacity; the device's duplicate filter remembers 8).
-inline constexpr std::uint8_t kMaxInFlight = 8;
 /// The device remembers the last 8 messageIds it executed (`ProxyDevice::kDuplicateDepth`), pings
 /// included. A message re-sent after 8 other ids ran would run again, so while a message is unacked every
 /// new id stays within `kIdWindow` consecutive ids of its anchor: the oldest id in flight when it was sent
@@ -159,8 +158,6 @@ inline constexpr std::uint8_t kIdWindow = 8;
 inline constexpr std::uint8_t kMaxInits = 64;
 /// Largest protobuf payload sent or accepted; longer device frames are dropped (`link.oversize_frames`).
 inline constexpr std::size_t kMaxPayload = 256;
-/// Bytes of the longest ack frame (`ArduinoOut{ack{messageId}}`, 9-byte payload), delimiters included.
-inline constexpr std::size_t kAckFrameBytes = max_frame_size(9);
 
 /// Which protocol the client speaks.
 enum class Mode : std::uint8_t {
@@ -201,6 +198,8 @@ struct ProxyTiming {
   /// The attempt window of a frame of `frame_bytes`:
   /// `ceil((frame_bytes + kAckFrameBytes) * bits_per_byte * 1000 / baud) + processing_margin`.
   Duration ack_timeout(std::size_t frame_bytes) const;
+  /// The fields of the portable ack policy (session_policy.hpp), which computes the engine's timing.
+  AckTiming ack_timing() const;
 };
 
 /// How a client behaves.

@@ -155,7 +155,7 @@ struct RomiResponse {
   /// Without an intact answer (and for -23/-26/-27): `[code, message]`.
   nlohmann::json values = nlohmann::json::array();
   /// Empty for code 0. Otherwise the device's message (second value, when it is a string), else the
-  /// text of the code (`romi::message(code)`; for transport failures the transport error's message).
+  /// text of the code (`romi::describe(code)`; for transport failures the transport error's message).
   std::string message;
   /// The opcode of the answer (the request's opcode when there was no answer).
   char opcode = '\0';

@@ -60,7 +60,8 @@
 #include "tether/core/time.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/proxy/device/pins.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 
 namespace tether {
 namespace proxy {
@@ -151,7 +152,7 @@ class CompatDevice {
   RestartFunction restart_;
   void* restart_context_;
   CompatDeviceCounters counters_;  // before the decoder, which counts into it
-  FrameDecoder<kMaxPayload> decoder_;
+  Decoder<kMaxPayload> decoder_;
   Deadline next_states_;
   uint32_t servos_ = 0;    // bit n: pin n is a servo
   uint32_t digitals_ = 0;  // bit n: pin n is a digital output

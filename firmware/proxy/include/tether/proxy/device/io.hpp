@@ -14,7 +14,7 @@
 #include <pb.h>
 
 #include "tether/core/bytes.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/encoder.hpp"
 
 namespace tether {
 namespace proxy {

@@ -64,7 +64,8 @@
 #include "tether/core/time.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/proxy/device/outputs.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 
 namespace tether {
 namespace proxy {
@@ -133,7 +134,7 @@ class ProxyDevice {
   RestartFunction restart_;
   void* restart_context_;
   ProxyDeviceCounters counters_;  // before the members that count into it
-  FrameDecoder<kMaxPayload> decoder_;
+  Decoder<kMaxPayload> decoder_;
   session::PartialFrameDeadline partial_;
   session::DuplicateFilter<uint32_t, kDuplicateDepth, 0> executed_;
   session::FailsafeWatchdog watchdog_;

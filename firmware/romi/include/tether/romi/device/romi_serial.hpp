@@ -63,7 +63,7 @@
 #include "tether/core/time.hpp"
 #include "tether/romi/device/handler.hpp"
 #include "tether/romi/device/streams.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/romi/errors.hpp"
 #include "tether/romi/limits.hpp"
 #include "tether/romi/request_parser.hpp"
@@ -159,11 +159,11 @@ class RomiSerial final : public IRomiSerial {
  private:
   // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
   bool handle_received(uint8_t byte, Millis now);
-  bool handle_frame(const EnvelopeEvent& event, Millis now);
-  bool dispatch(const EnvelopeEvent& event, uint16_t fingerprint, Millis now);
+  bool handle_frame(const Frame& frame, Millis now);
+  bool dispatch(const Frame& frame, uint16_t fingerprint, Millis now);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
-  void send_code(char opcode, uint8_t id, ErrorCode code);
+  void send_code(char opcode, uint8_t id, Error code);
   void write(ByteView bytes);
 
   IInputStream* in_;
@@ -172,7 +172,7 @@ class RomiSerial final : public IRomiSerial {
   uint8_t handler_count_;
   ClockFunction clock_;
   DeviceCounters counters_;  // before the members that count into it
-  EnvelopeDecoder<kDeviceDecoderCapacity> decoder_;
+  Decoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
   session::DuplicateFilter<uint8_t, 1, kReplyCapacity> replies_;
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)

@@ -1,4 +1,4 @@
-// Implementation of reader.hpp (a template: the capacity is the user's choice).
+// Implementation of decoder.hpp (a template: the capacity is the user's choice).
 #pragma once
 
 namespace tether {
@@ -11,20 +11,20 @@ inline bool is_ignored(uint8_t c) { return c == ' ' || c == '\t' || c == '\r' ||
 }  // namespace detail
 
 template <size_t Capacity>
-bool Reader<Capacity>::keep(uint8_t byte) {
+bool Decoder<Capacity>::keep(uint8_t byte) {
   if (size_ == Capacity) return false;
   buffer_[size_++] = byte;
   return true;
 }
 
 template <size_t Capacity>
-int32_t Reader<Capacity>::signed_value() const {
+int32_t Decoder<Capacity>::signed_value() const {
   // value_ <= 2^31 when negative, <= 2^31 - 1 otherwise: both fit once the sign is applied.
   return negative_ ? static_cast<int32_t>(0u - value_) : static_cast<int32_t>(value_);
 }
 
 template <size_t Capacity>
-bool Reader<Capacity>::store_value() {
+bool Decoder<Capacity>::store_value() {
   const int32_t value = signed_value();
   switch (letter_) {
     case 'n': message_.number = value; return true;
@@ -49,77 +49,64 @@ bool Reader<Capacity>::store_value() {
 }
 
 template <size_t Capacity>
-ReadEvent::Kind Reader<Capacity>::fail(ReadError error) {
+DecodeStatus Decoder<Capacity>::fail(Error error) {
   error_ = error;
-  if (error == ReadError::bad_crc) {
+  if (error == Error::bad_crc) {
     ++counters_->crc_errors;
-  } else if (error == ReadError::too_long) {
+  } else if (error == Error::too_long) {
     ++counters_->oversize_frames;
   } else {
     ++counters_->framing_errors;
   }
   state_ = State::skip;
   size_ = 0;
-  return ReadEvent::Kind::error;
+  return DecodeStatus::error;
 }
 
 template <size_t Capacity>
-ReadEvent::Kind Reader<Capacity>::finish() {
+DecodeStatus Decoder<Capacity>::finish() {
   if (generation_ == Generation::d) {
-    if (!trailer_digits_) return fail(ReadError::bad_crc);
-    if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(ReadError::bad_crc);
+    if (!trailer_digits_) return fail(Error::bad_crc);
+    if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(Error::bad_crc);
   }
-  if (!has_required_fields(message_)) return fail(ReadError::inval_comb);
-  if (!keep('\n')) return fail(ReadError::too_long);
+  if (!has_required_fields(message_)) return fail(Error::inval_comb);
+  if (!keep('\n')) return fail(Error::too_long);
   ++counters_->frames_ok;
   state_ = State::header;
-  return ReadEvent::Kind::message;
+  return DecodeStatus::frame;
 }
 
 template <size_t Capacity>
-ReadEvent::Kind Reader<Capacity>::consume(uint8_t byte) {
-  const bool was_open = in_message();
-  const ReadEvent::Kind kind = step(byte);
+DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+  const bool was_open = in_frame();
+  const DecodeStatus status = step(byte);
   // A header never appears inside a message: one arriving mid-message (the sender reset, bytes were
   // lost) ends the broken message with its error AND starts the next message, which must not be lost.
-  if (kind == ReadEvent::Kind::error && was_open && detail::is_header(byte)) {
+  if (status == DecodeStatus::error && was_open && detail::is_header(byte)) {
     state_ = State::header;
     ++counters_->resyncs;
     step(byte);  // opens the message; cannot produce an event
   }
-  return kind;
+  return status;
 }
 
 template <size_t Capacity>
-ReadEvent Reader<Capacity>::feed(uint8_t byte) {
-  ReadEvent event;
-  event.kind = consume(byte);
-  if (event.kind == ReadEvent::Kind::message) {
-    event.message = message_;
-    event.forward = forward();
-  } else if (event.kind == ReadEvent::Kind::error) {
-    event.error = error_;
-  }
-  return event;
-}
-
-template <size_t Capacity>
-ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
-  if (detail::is_ignored(byte)) return ReadEvent::Kind::none;
+DecodeStatus Decoder<Capacity>::step(uint8_t byte) {
+  if (detail::is_ignored(byte)) return DecodeStatus::more;
   if (state_ == State::skip) {
     if (byte == '\n') {
       state_ = State::header;
       ++counters_->resyncs;
-      return ReadEvent::Kind::none;
+      return DecodeStatus::more;
     }
-    if (!detail::is_header(byte)) return ReadEvent::Kind::none;
+    if (!detail::is_header(byte)) return DecodeStatus::more;
     ++counters_->resyncs;
     state_ = State::header;  // and read this byte as the header below
   }
   switch (state_) {
     case State::header:
-      if (byte == '\n') return ReadEvent::Kind::none;  // an empty line
-      if (!detail::is_header(byte)) return fail(ReadError::bad_type);
+      if (byte == '\n') return DecodeStatus::more;  // an empty line
+      if (!detail::is_header(byte)) return fail(Error::bad_type);
       message_ = Message();
       message_.type = static_cast<Type>(byte);
       size_ = 0;
@@ -127,32 +114,32 @@ ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
       trailer_digits_ = false;
       keep(byte);
       state_ = State::lcurly;
-      return ReadEvent::Kind::none;
+      return DecodeStatus::more;
     case State::lcurly:
       if (byte == '\n') return finish();
       if (byte == '{') {
-        if (!keep(byte)) return fail(ReadError::too_long);
+        if (!keep(byte)) return fail(Error::too_long);
         state_ = State::letter;
-        return ReadEvent::Kind::none;
+        return DecodeStatus::more;
       }
       if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
         crc_end_ = size_;
         state_ = State::trailer;
         return step(byte);
       }
-      return fail(ReadError::bad_lcurly);
+      return fail(Error::bad_lcurly);
     case State::letter: {
       const bool known = byte == 'n' || byte == 's' || byte == 'a' || byte == 'b' || byte == 'r' || byte == 'p' ||
                          (generation_ == Generation::d && (byte == 'o' || byte == 'q'));
-      if (!known) return fail(ReadError::bad_attrib);
-      if (!keep(byte)) return fail(ReadError::too_long);
+      if (!known) return fail(Error::bad_attrib);
+      if (!keep(byte)) return fail(Error::too_long);
       letter_ = static_cast<char>(byte);
       second_ = false;
       negative_ = false;
       digits_ = false;
       value_ = 0;
       state_ = State::number;
-      return ReadEvent::Kind::none;
+      return DecodeStatus::more;
     }
     case State::number:
       if (byte == '-' && !digits_ && !negative_) {
@@ -164,7 +151,7 @@ ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
         // Checked before multiplying, by comparison only (a 32-bit division costs hundreds of AVR cycles).
         const uint8_t digit = static_cast<uint8_t>(byte - '0');
         if (value_ > 214748364u || (value_ == 214748364u && digit > (negative_ ? 8u : 7u))) {
-          return fail(ReadError::bad_number);
+          return fail(Error::bad_number);
         }
         value_ = value_ * 10u + digit;
       } else if (byte == ',' && letter_ == 'p' && generation_ == Generation::b && !second_ && digits_) {
@@ -174,26 +161,26 @@ ReadEvent::Kind Reader<Capacity>::step(uint8_t byte) {
         digits_ = false;
         value_ = 0;
       } else if (byte == '}' && digits_) {
-        if (!store_value()) return fail(ReadError::bad_number);
-        if (!keep(byte)) return fail(ReadError::too_long);
+        if (!store_value()) return fail(Error::bad_number);
+        if (!keep(byte)) return fail(Error::too_long);
         state_ = State::lcurly;
-        return ReadEvent::Kind::none;
+        return DecodeStatus::more;
       } else {
-        return fail(ReadError::bad_number);
+        return fail(Error::bad_number);
       }
-      if (!keep(byte)) return fail(ReadError::too_long);
-      return ReadEvent::Kind::none;
+      if (!keep(byte)) return fail(Error::too_long);
+      return DecodeStatus::more;
     case State::trailer:
       if (byte == '\n') return finish();
-      if (byte < '0' || byte > '9' || trailer_ > 25) return fail(ReadError::bad_crc);
+      if (byte < '0' || byte > '9' || trailer_ > 25) return fail(Error::bad_crc);
       trailer_ = static_cast<uint16_t>(trailer_ * 10u + static_cast<uint8_t>(byte - '0'));
       trailer_digits_ = true;
-      if (!keep(byte)) return fail(ReadError::too_long);
-      return ReadEvent::Kind::none;
+      if (!keep(byte)) return fail(Error::too_long);
+      return DecodeStatus::more;
     case State::skip:
       break;
   }
-  return ReadEvent::Kind::none;
+  return DecodeStatus::more;
 }
 
 }  // namespace elcano

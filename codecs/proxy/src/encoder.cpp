@@ -1,4 +1,6 @@
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/encoder.hpp"
+
+#include "tether/core/crc.hpp"
 
 namespace tether {
 namespace proxy {

@@ -1,0 +1,88 @@
+/// @file decoder.hpp
+/// Incremental reader of proxy frames (the format: encoder.hpp): COBS, then the CRC-16 check in primary
+/// mode. `feed` returns a `DecodeStatus` (core/decode_status.hpp); on `frame` read `frame()` (the checked
+/// payload), on `error` read `error()`. Empty frames are ignored. Every drop is counted by cause in
+/// LinkCounters: oversize_frames, framing_errors (bad COBS, a frame too short for its CRC), crc_errors;
+/// frames_ok counts delivered payloads. Undecodable protobuf is the layer above's to count.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/crc.hpp"
+#include "tether/core/decode_status.hpp"
+#include "tether/proxy/cobs.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/proxy/errors.hpp"
+
+namespace tether {
+namespace proxy {
+
+/// Frame decoder for payloads of at most `MaxPayload` bytes.
+template <size_t MaxPayload>
+class Decoder {
+ public:
+  /// Decoder in `integrity` mode, counting into `counters` (frames_ok too); `counters` outlives it.
+  Decoder(Integrity integrity, LinkCounters& counters) : integrity_(integrity), counters_(&counters), cobs_(counters) {}
+
+  /// Consumes one byte.
+  DecodeStatus feed(uint8_t byte) {
+    const DecodeStatus cobs = cobs_.feed(byte);
+    if (cobs == DecodeStatus::more) return DecodeStatus::more;  // the per-byte path: nothing else to do
+    if (cobs == DecodeStatus::error) return fail(cobs_.error());
+    return check(cobs_.frame());
+  }
+  /// Consumes `bytes` up to and including the first one that completes a frame or an error.
+  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
+  /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
+  ByteView frame() const {
+    const ByteView frame = cobs_.frame();
+    return integrity_ == Integrity::crc16 ? frame.subview(2) : frame;
+  }
+  /// After `error`: why the frame was dropped (frame_too_long, framing_error or crc_mismatch).
+  FrameError error() const { return error_; }
+  /// Forgets the frame in progress; waits for the next delimiter.
+  void reset() { cobs_.reset(); }
+  /// True while a frame is being received.
+  bool in_frame() const { return cobs_.in_frame(); }
+
+ private:
+  // A complete COBS frame: the payload after its CRC check (primary) or as is (compatibility mode).
+  DecodeStatus check(ByteView frame) {
+    if (integrity_ == Integrity::none) {
+      if (frame.empty()) return DecodeStatus::more;  // `01 00` carries nothing: an empty frame, ignored
+      if (frame.size() > MaxPayload) {  // the COBS stage has room for a CRC this mode does not send
+        ++counters_->oversize_frames;
+        return fail(FrameError::frame_too_long);
+      }
+      ++counters_->frames_ok;
+      return DecodeStatus::frame;
+    }
+    if (frame.size() < 2) {
+      ++counters_->framing_errors;
+      return fail(FrameError::framing_error);
+    }
+    const ByteView payload = frame.subview(2);
+    const uint16_t sent = static_cast<uint16_t>(frame[0] | (frame[1] << 8));
+    if (Crc16Mcrf4xx::compute(payload) != sent) {
+      ++counters_->crc_errors;
+      return fail(FrameError::crc_mismatch);
+    }
+    ++counters_->frames_ok;
+    return DecodeStatus::frame;
+  }
+  DecodeStatus fail(FrameError error) {
+    error_ = error;
+    return DecodeStatus::error;
+  }
+
+  Integrity integrity_;
+  LinkCounters* counters_;
+  CobsDecoder<MaxPayload + 2> cobs_;
+  FrameError error_ = FrameError::none;
+};
+
+}  // namespace proxy
+}  // namespace tether

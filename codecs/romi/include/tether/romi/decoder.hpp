@@ -1,0 +1,95 @@
+/// @file decoder.hpp
+/// Incremental Romi envelope decoder, shared by Tether firmware (requests) and hosts (responses, logs).
+///
+/// Feed it bytes as they arrive (`feed(byte)`, or `feed(bytes)` which stops at the first frame or error);
+/// each byte returns a `DecodeStatus` (core/decode_status.hpp); on `frame` or `error` read `frame()` or
+/// `error()` before the next feed. It never blocks and never allocates; `Capacity` bounds the frame
+/// (payload, ':' and the 4 metadata characters).
+///
+/// Framing rules (the reference's, made precise):
+///   1. Bytes before `#` are ignored (counted as a resync). `#` starts a frame anywhere, also inside one:
+///      the half frame before it is dropped (counted).
+///   2. The metadata is the 4 characters after the LAST ':' of the line, so log text may contain ':'.
+///   3. `\r` or `\n` before any ':' is -6 (missing metadata). Metadata that is not 4 characters: fewer is
+///      -2 (invalid id: `#e:\r\n`), more is -5 (expected end). `xxxx` marks a manual frame (no id, no CRC
+///      check); another 'x' pattern is -7. Otherwise the id must be two lowercase hex digits (-2) and the
+///      CRC too (-3). After the metadata comes `\r\n` (-5 otherwise). A wrong CRC is -4.
+///   4. A frame longer than `Capacity` is -1, reported once; the decoder then waits for the next `#`.
+///   5. After an error the offending byte is consumed and the decoder waits for the next `#`.
+/// After an error `frame()` keeps what was parsed so far (opcode character, id when its two digits were
+/// valid, whether it was a log line), so a device can answer with the right opcode and id.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/decode_status.hpp"
+#include "tether/romi/errors.hpp"
+
+namespace tether {
+namespace romi {
+
+/// A decoded frame, or after an error what was parsed of the damaged one.
+struct Frame {
+  /// Answer or request: opcode + arguments/values; log line: its text (after `#!`). Empty after an
+  /// error. A view into the decoder, valid until the next feed.
+  ByteView payload;
+  /// The frame began `#!`: a log line, not an answer (after an error too, so a host waiting for an answer
+  /// does not take a damaged log line for a lost answer).
+  bool log = false;
+  bool manual = false;  ///< `xxxx` metadata: no id, CRC not checked.
+  bool has_id = false;  ///< `id` is valid (always for a complete non-manual frame).
+  uint8_t id = 0;       ///< The frame's id.
+  char opcode = '_';    ///< First payload character of a non-log frame, or '_' when there was none.
+};
+
+/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`.
+template <size_t Capacity>
+class Decoder {
+  static_assert(Capacity >= 8, "a frame needs room for an opcode and its metadata");
+
+ public:
+  /// Decoder counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames,
+  /// resyncs); `counters` must outlive it.
+  explicit Decoder(LinkCounters& counters) : counters_(&counters) {}
+
+  /// Consumes one byte.
+  DecodeStatus feed(uint8_t byte);
+  /// Consumes `bytes` up to and including the first one that completes a frame or an error.
+  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
+  /// After `frame`: the frame; after `error`: what was parsed of it (see the file overview).
+  const Frame& frame() const { return frame_; }
+  /// After `error`: why the frame was dropped.
+  Error error() const { return error_; }
+  /// Forgets the frame in progress (e.g. its deadline passed); waits for the next `#`.
+  void reset() {
+    state_ = State::idle;
+    size_ = 0;
+    frame_ = Frame();
+  }
+  /// True between a `#` and the end of that frame: what a partial-frame deadline watches.
+  bool in_frame() const { return state_ != State::idle; }
+
+ private:
+  enum class State : uint8_t { idle, body, expect_lf, skip };
+
+  DecodeStatus finish_line(uint8_t end);
+  DecodeStatus fail(Error error);
+
+  LinkCounters* counters_;
+  State state_ = State::idle;
+  Error error_ = Error::no_error;
+  uint8_t buffer_[Capacity];
+  size_t size_ = 0;
+  size_t last_colon_ = 0;
+  bool seen_colon_ = false;
+  bool skipping_ = false;  // bytes are being ignored: the next '#' counts as a resync
+  Frame frame_;            // the frame being completed (waiting for its '\n'), complete, or failed
+};
+
+}  // namespace romi
+}  // namespace tether
+
+#include "tether/romi/decoder_impl.hpp"
