@@ -26,10 +26,10 @@ ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& r
 }
 
 bool romi_answer_unreadable(const romi::RomiResponse& response) {
-  const auto code = static_cast<romi::ErrorCode>(response.code);
-  return response.answered && (code == romi::ErrorCode::client_empty_response ||
-                               code == romi::ErrorCode::client_invalid_json ||
-                               code == romi::ErrorCode::client_bad_response);
+  const auto code = static_cast<romi::Error>(response.code);
+  return response.answered && (code == romi::Error::client_empty_response ||
+                               code == romi::Error::client_invalid_json ||
+                               code == romi::Error::client_bad_response);
 }
 
 romi::RomiResponse romi_rejected_response(const romi::Command& command) {

@@ -6,7 +6,7 @@ namespace elcano {
 namespace {
 
 using tether::elcano::Message;
-using tether::elcano::ReadError;
+using tether::elcano::Error;
 using tether::elcano::RingEvent;
 using tether::elcano::Type;
 
@@ -51,18 +51,18 @@ void from_message(const Message& message, SerialData& data) {
   data.probability = message.probability;
 }
 
-ParseStateError from_read_error(ReadError error) {
+ParseStateError from_read_error(Error error) {
   switch (error) {
-    case ReadError::success: return ParseStateError::success;
-    case ReadError::bad_type: return ParseStateError::bad_type;
-    case ReadError::bad_lcurly: return ParseStateError::bad_lcurly;
-    case ReadError::bad_attrib: return ParseStateError::bad_attrib;
-    case ReadError::bad_number: return ParseStateError::bad_number;
-    case ReadError::inval_comb: return ParseStateError::inval_comb;
-    case ReadError::bad_crc: return ParseStateError::bad_crc;
-    case ReadError::too_long: return ParseStateError::too_long;
-    case ReadError::timed_out: return ParseStateError::timed_out;
-    case ReadError::queue_full: return ParseStateError::queue_full;
+    case Error::success: return ParseStateError::success;
+    case Error::bad_type: return ParseStateError::bad_type;
+    case Error::bad_lcurly: return ParseStateError::bad_lcurly;
+    case Error::bad_attrib: return ParseStateError::bad_attrib;
+    case Error::bad_number: return ParseStateError::bad_number;
+    case Error::inval_comb: return ParseStateError::inval_comb;
+    case Error::bad_crc: return ParseStateError::bad_crc;
+    case Error::too_long: return ParseStateError::too_long;
+    case Error::timed_out: return ParseStateError::timed_out;
+    case Error::queue_full: return ParseStateError::queue_full;
   }
   return ParseStateError::bad_type;
 }
@@ -81,7 +81,7 @@ bool SerialData::write(Print* device) const {
   if (device == nullptr || !to_message(*this, message)) return false;
   uint8_t text[96];
   const tether::Result<size_t> written =
-      tether::elcano::write_message(message, tether::elcano::Generation::b, tether::MutableByteView(text, sizeof text));
+      tether::elcano::encode_message(message, tether::elcano::Generation::b, tether::MutableByteView(text, sizeof text));
   if (!written.ok()) return false;
   return device->write(text, written.value()) == written.value();
 }
