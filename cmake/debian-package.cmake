@@ -27,7 +27,7 @@ function(tether_man_page)
   set(_page ${PROJECT_BINARY_DIR}/man/tether.1.gz)
   add_custom_command(OUTPUT ${_page}
     COMMAND ${CMAKE_COMMAND} -DTETHER=$<TARGET_FILE:tether> -DHELP2MAN=${TETHER_HELP2MAN} -DGZIP=${TETHER_GZIP}
-            -DFIRMWARE_DIR=${CMAKE_INSTALL_FULL_DATADIR}/tether/firmware -DDOC_DIR=${CMAKE_INSTALL_FULL_DOCDIR}
+            -DFIRMWARE_DIR=${CMAKE_INSTALL_PREFIX}/${TETHER_INSTALL_FIRMWAREDIR} -DDOC_DIR=${CMAKE_INSTALL_FULL_DOCDIR}
             -DOUTPUT=${_page} -P ${PROJECT_SOURCE_DIR}/cmake/man-page.cmake
     DEPENDS tether ${PROJECT_SOURCE_DIR}/cmake/man-page.cmake
     COMMENT "man page of tether (help2man)")
