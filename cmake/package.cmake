@@ -9,6 +9,12 @@ set(TETHER_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/Tether)
 set(TETHER_INSTALL_FIRMWAREDIR ${CMAKE_INSTALL_DATADIR}/tether/firmware)
 set(TETHER_INSTALL_ARDUINODIR ${CMAKE_INSTALL_DATADIR}/tether/arduino)  # the Arduino libraries (.zip)
 set(TETHER_INSTALL_EXAMPLESDIR ${CMAKE_INSTALL_DATADIR}/tether/examples)
+# Install rules without a COMPONENT (libraries, headers, CMake and pkg-config files) go to the Debian
+# package libtether-dev (cmake/debian-package.cmake); the command and its data say COMPONENT tether.
+set(CMAKE_INSTALL_DEFAULT_COMPONENT_NAME dev)
+# Folders 0755 whatever the umask (Debian packages; lintian checks).
+set(CMAKE_INSTALL_DEFAULT_DIRECTORY_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE
+  WORLD_READ WORLD_EXECUTE)
 
 # tether_library(TARGET NAME <exported name> [HEADERS <dir>]): makes TARGET a public library of the package:
 # exported as Tether::<name> (also the in-tree alias, so add_subdirectory users write the same names), C++20

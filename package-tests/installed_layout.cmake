@@ -29,6 +29,7 @@ set(expected
   share/tether/firmware/proxy.elf
   share/tether/firmware/elcano-node.elf
   share/tether/examples/rover-virtual.json
+  share/man/man1/tether.1.gz
   share/doc/tether/README.md
   share/doc/tether/config.md)
 foreach(file IN LISTS expected)

@@ -13,10 +13,11 @@
 namespace {
 
 void print_usage(std::FILE* out) {
+  // "Usage:" and "or:" as GNU programs write them: help2man makes the man page's SYNOPSIS of these lines.
   std::fprintf(out,
-               "usage: tether <command> [args...]\n"
-               "       tether <command> --help\n"
-               "       tether --version\n\n"
+               "Usage: tether <command> [args...]\n"
+               "  or:  tether <command> --help\n"
+               "  or:  tether --version\n\n"
                "commands:\n");
   std::size_t width = 0;
   for (const auto& command : tether::cli::commands()) width = std::max(width, command.name.size());
