@@ -34,7 +34,7 @@ using namespace tether::proxy::device;
 
 // What the device sent, read as a host reads it.
 struct HostView {
-  explicit HostView(Integrity integrity) : integrity(integrity), decoder(integrity, counters) {}
+  explicit HostView(Integrity mode) : integrity(mode), decoder(mode, counters) {}
   Integrity integrity;
   LinkCounters counters;
   FrameDecoder<128> decoder;
@@ -78,14 +78,15 @@ std::vector<uint8_t> framed(const uint8_t* payload, size_t size, Integrity integ
 
 void fuzz_primary(const uint8_t* data, size_t size) {
   Millis now = 0xFFFF0000u;  // cross the clock's wrap on long inputs
-  OutputTable outputs;
+  std::optional<OutputTable> outputs;
   HostView host(Integrity::crc16);
   std::optional<ProxyDevice> device;
   uint32_t session = 1;
   uint32_t acks_expected = 0;  // acks of earlier sessions
   const auto boot = [&] {
-    outputs = OutputTable();
-    device.emplace(outputs, host.sink(), &HostView::restart, &host);
+    device.reset();
+    outputs.emplace();  // a reboot forgets every pin
+    device.emplace(*outputs, host.sink(), &HostView::restart, &host);
     device->begin(session++, now);
   };
   const auto check = [&] {

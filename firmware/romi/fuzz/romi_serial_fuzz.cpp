@@ -1,7 +1,8 @@
 // Fuzz target of the Romi device library's dispatcher (RomiSerial): its byte loop, handlers and reply
 // cache, with a fake clock. The input is what the host sends, with commands after an escape byte 0xFF:
-//   0x00..0x7F  the clock advances by (command * 20) ms (up to 2.5 s: past the request deadline and the
-//               reply cache's lifetime), then `handle_timeouts` runs, as a main loop would;
+//   0x00..0x3F  the clock advances by (command * 40) ms (up to 2.5 s: past the request deadline and the
+//               reply cache's lifetime), and the next byte comes at that time (a device that slept);
+//   0x40..0x7F  the same step of (command - 0x40) * 40 ms, then `handle_timeouts` runs, as a main loop would;
 //   0x80..0xBF  `handle_timeouts` at the same time;
 //   0xC0..0xFF  the next (command - 0xC0) bytes arrive together through the input stream and one
 //               `handle_input()` reads them (the Arduino loop); other bytes go through `handle_byte`.
@@ -139,8 +140,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (size_t i = 0; i < size; ++i) {
     if (data[i] == 0xFF && i + 1 < size) {
       const uint8_t command = data[++i];
-      if (command < 0x80) {
-        fake_now += command * 20u;
+      if (command < 0x40) {
+        fake_now += command * 40u;
+      } else if (command < 0x80) {
+        fake_now += (command - 0x40u) * 40u;
         timeouts();
       } else if (command < 0xC0) {
         timeouts();

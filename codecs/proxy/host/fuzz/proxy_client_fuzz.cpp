@@ -34,7 +34,7 @@ using namespace tether::proxy;
 
 // What the client wrote, decoded as the device would (I/O thread): the last messageId.
 struct DeviceSide {
-  explicit DeviceSide(Integrity integrity) : integrity(integrity), decoder(integrity, counters) {}
+  explicit DeviceSide(Integrity mode) : integrity(mode), decoder(mode, counters) {}
   Integrity integrity;
   std::mutex mutex;
   LinkCounters counters;

@@ -73,13 +73,14 @@ class FuzzLink {
   std::thread thread_;
 };
 
-/// Waits until `done()` (polled every millisecond) for at most `limit`; false when it never held.
+/// Waits until `done()` (polled every 50 us: the I/O thread usually needs microseconds) for at most
+/// `limit`; false when it never held.
 template <typename Predicate>
 bool wait_for_fuzz(Predicate done, std::chrono::milliseconds limit = std::chrono::seconds(10)) {
   const auto until = std::chrono::steady_clock::now() + limit;
   while (!done()) {
     if (std::chrono::steady_clock::now() >= until) return false;
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
   return true;
 }
