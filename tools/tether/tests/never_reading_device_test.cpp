@@ -15,6 +15,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -81,8 +82,14 @@ class NeverReadingDevice : public ::testing::TestWithParam<Case> {};
 TEST_P(NeverReadingDevice, EndsOnItsOwnOrOnStopSignal) {
   const Case& c = GetParam();
   FloodingDevice device(c.flood);
+  // "CONFIG": a rover configuration whose one device, an Elcano ring, is the pty.
+  const std::string config = ::testing::TempDir() + "never-reading-" + c.name + ".json";
+  std::ofstream(config) << R"({"devices": [{"name": "ring", "codec": "elcano", "transport": {"serial": {"path": ")"
+                        << device.path() << R"("}}}]})";
   std::vector<std::string> argv = {TETHER_BINARY};
-  for (const std::string& argument : c.arguments) argv.push_back(argument == "PORT" ? device.path() : argument);
+  for (const std::string& argument : c.arguments) {
+    argv.push_back(argument == "PORT" ? device.path() : argument == "CONFIG" ? config : argument);
+  }
   tether::testing::ChildProcess child(argv);
   const auto started = std::chrono::steady_clock::now();
   if (c.signal) {
@@ -128,7 +135,10 @@ INSTANTIATE_TEST_SUITE_P(
         Case{"send_compat", kElcano, {"send", "--port", "PORT", "--codec", "proxy-compat", "servo-init", "pin=9", "safe-position=90"}},
         Case{"shell_elcano", kElcano, {"shell", "--codec", "elcano", "--port", "PORT"}, false},
         Case{"stats_romi", kElcano, {"stats", "--port", "PORT", "--duration", "60"}},
-        Case{"stats_elcano", kElcano, {"stats", "--codec", "elcano", "--port", "PORT", "--duration", "60"}}),
+        Case{"stats_elcano", kElcano, {"stats", "--codec", "elcano", "--port", "PORT", "--duration", "60"}},
+        Case{"monitor_config", kElcano, {"monitor", "--config", "CONFIG", "--device", "ring"}},
+        Case{"demo_config", kElcano, {"demo", "--config", "CONFIG", "--iterations", "100000"}},
+        Case{"flash", kElcano, {"flash", "--port", "PORT", "romi-test"}}),
     [](const ::testing::TestParamInfo<Case>& param) { return param.param.name; });
 
 }  // namespace
