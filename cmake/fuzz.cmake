@@ -2,8 +2,21 @@
 #  - Normal builds: the target is linked with the corpus-and-random driver and registered as the ctest
 #    test fuzz.NAME (a short, seeded run on every test command: N generated inputs, default 20000; fewer
 #    for a target whose inputs are costly, so the test stays around ten seconds in the sanitizer build).
-#  - TETHER_FUZZ=ON with clang (tools/fuzz): a real libFuzzer binary fuzz_NAME, run by tools/fuzz.
+#  - TETHER_FUZZ=ON with clang (tools/fuzz): a real libFuzzer binary fuzz_NAME, run by tools/fuzz. Every
+#    target of the project is then compiled with coverage feedback and ASan/UBSan (the top-level
+#    CMakeLists.txt includes this file before its subdirectories), so the fuzzer sees and checks the codec
+#    libraries, CRCs, clients and device loops a target calls, not only the target's own file.
+include_guard(GLOBAL)
 option(TETHER_FUZZ "Build fuzz targets with libFuzzer (needs clang)" OFF)
+if(TETHER_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "TETHER_FUZZ=ON needs clang (tools/fuzz configures it)")
+  endif()
+  # Directory scope: applies to every target defined after the top-level include, libraries included.
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+    -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=address,undefined)
+endif()
 
 # LLVM's FuzzedDataProvider (Debian: libclang-rt-14-dev), for targets that build values out of the input:
 # `#include <fuzzer/FuzzedDataProvider.h>`. Its folder holds clang's own stddef.h & co, which must not
@@ -33,11 +46,8 @@ function(tether_fuzz_target name)
   target_include_directories(fuzz_${name} SYSTEM PRIVATE ${TETHER_FUZZ_INCLUDE_DIR})
   tether_warnings(fuzz_${name})
   if(TETHER_FUZZ)
-    if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
-      message(FATAL_ERROR "TETHER_FUZZ=ON needs clang (tools/fuzz configures it)")
-    endif()
-    target_compile_options(fuzz_${name} PRIVATE -fsanitize=fuzzer,address,undefined)
-    target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer,address,undefined)
+    target_compile_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)
+    target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)
   else()
     target_link_libraries(fuzz_${name} PRIVATE tether_fuzz_driver)
     add_test(NAME fuzz.${name} COMMAND fuzz_${name} --iterations ${FUZZ_ITERATIONS} ${FUZZ_CORPUS})

@@ -2,6 +2,7 @@
 #include "tether/devices/config.hpp"
 
 #include "builtin_codecs.hpp"
+#include "tether/elcano/node/config.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -934,7 +935,11 @@ NodeFile parse_node_file(std::string_view json_text) {
   if (auto v = object.optional("generation")) {
     file.generation = read_choice(*v, "generation", {"B", "D"}) == 0 ? elcano::Generation::b : elcano::Generation::d;
   }
-  if (auto v = object.optional("baud")) file.baud = static_cast<std::uint32_t>(read_unsigned(*v, 1, 0xFFFFFFFFu));
+  // The node's own range: a baud it would refuse is an error at its key here, not a nameless one when the
+  // block is encoded (found by fuzzing).
+  if (auto v = object.optional("baud")) {
+    file.baud = static_cast<std::uint32_t>(read_unsigned(*v, elcano::node::kMinBaud, elcano::node::kMaxBaud));
+  }
   return file;
 }
 

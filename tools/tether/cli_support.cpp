@@ -4,9 +4,12 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <ctime>
+#include <map>
+#include <thread>
 #include <utility>
 
 namespace tether::cli {
@@ -64,10 +67,64 @@ void request_stop(int) { g_stop_requested = true; }
 
 }  // namespace
 
+namespace {
+
+// The StopActions alive and the thread that runs them on a stop signal. Never destroyed: the watcher may
+// still look at it while the process exits.
+struct StopWatcher {
+  std::mutex mutex;
+  std::map<std::uint64_t, std::function<void()>> actions;
+  std::uint64_t next_id = 1;
+  bool started = false;
+
+  static StopWatcher& instance() {
+    static auto* watcher = new StopWatcher;
+    return *watcher;
+  }
+  // Polls the flag (a signal handler can only set it); runs each action once, under the lock, so that a
+  // StopAction's destructor waits for its action.
+  void start() {
+    if (started) return;
+    started = true;
+    std::thread([this] {
+      for (;;) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(25));
+        if (!g_stop_requested) continue;
+        const std::lock_guard lock(mutex);
+        for (auto& [id, action] : actions) {
+          if (action) std::exchange(action, nullptr)();
+        }
+      }
+    }).detach();
+  }
+};
+
+}  // namespace
+
 const std::atomic<bool>& catch_stop_signals() {
   g_stop_requested = false;
   handle_stop_signals(request_stop);
   return g_stop_requested;
+}
+
+StopAction::StopAction(std::function<void()> action) {
+  StopWatcher& watcher = StopWatcher::instance();
+  const std::lock_guard lock(watcher.mutex);
+  id_ = watcher.next_id++;
+  watcher.actions.emplace(id_, std::move(action));
+  watcher.start();
+}
+
+StopAction::~StopAction() {
+  StopWatcher& watcher = StopWatcher::instance();
+  const std::lock_guard lock(watcher.mutex);
+  watcher.actions.erase(id_);
+}
+
+std::size_t write_to_device(transports::ByteStream& stream, boost::asio::const_buffer bytes,
+                            boost::system::error_code& error, std::chrono::steady_clock::time_point end) {
+  const auto deadline = std::min(end, std::chrono::steady_clock::now() + kDeviceWriteTimeout);
+  return stream.write(bytes, deadline, error);
 }
 
 std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum) {

@@ -3,6 +3,9 @@
 // printer that several threads (the I/O thread's event handlers, the shell) share.
 #pragma once
 
+#include <boost/asio/buffer.hpp>
+#include <boost/system/error_code.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <atomic>
@@ -14,6 +17,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+
+#include "tether/transports/byte_stream.hpp"
 
 namespace tether::cli {
 
@@ -57,6 +62,31 @@ void handle_stop_signals(void (*handler)(int));
 
 /// `handle_stop_signals` with a handler that sets the returned flag (cleared first), for loops that poll it.
 const std::atomic<bool>& catch_stop_signals();
+
+/// While alive, a stop signal caught by `catch_stop_signals` runs `action` (once, within ~50 ms, on a watcher
+/// thread): closing the device there ends whatever a command is blocked on (a write to a device that does
+/// not read, a call waiting for its budget), so Ctrl-C ends every command within a second. Destroyed before
+/// what `action` touches; the destructor waits for an `action` that is running.
+class StopAction {
+ public:
+  explicit StopAction(std::function<void()> action);
+  ~StopAction();
+  StopAction(const StopAction&) = delete;
+  StopAction& operator=(const StopAction&) = delete;
+
+ private:
+  std::uint64_t id_;
+};
+
+/// How long one write to a device may block before the device counts as not reading: a full UART or pty
+/// buffer drains in far less on any working link (4 KB at 9600 baud: ~4 s is the slowest case we accept).
+inline constexpr std::chrono::milliseconds kDeviceWriteTimeout{4000};
+
+/// Writes all of `bytes` to `stream`, giving up at `kDeviceWriteTimeout` from now or at `end`, whichever
+/// comes first (`TransportError::timed_out`; the stream is then closed: see `ByteStream::write`).
+std::size_t write_to_device(transports::ByteStream& stream, boost::asio::const_buffer bytes,
+                            boost::system::error_code& error,
+                            std::chrono::steady_clock::time_point end = std::chrono::steady_clock::time_point::max());
 
 /// Parses a decimal number in [minimum, maximum]; nothing when malformed or out of range.
 std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum);

@@ -177,7 +177,14 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
   }
 
   const std::atomic<bool>& stop = catch_stop_signals();
+  // Ctrl-C also ends a pump blocked writing to a side that does not read.
+  const StopAction close_on_stop([&device, &application] {
+    device.close();
+    application->close();
+  });
   const auto start = std::chrono::steady_clock::now();
+  const auto run_end = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
+                                             : std::chrono::steady_clock::time_point::max();
   RecordPrinter printer(arguments);
   std::mutex mutex;
   std::condition_variable finished;
@@ -205,6 +212,7 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
       boost::system::error_code read_error;
       const std::size_t size = from.read_some(asio::buffer(buffer), std::chrono::milliseconds(100), read_error);
       if (read_error && read_error != transports::TransportError::timed_out) {
+        if (stop || is_done()) return;  // closed by Ctrl-C or by the other pump's end
         std::fprintf(stderr, "tether monitor: the link to %s failed: %s\n",
                      direction == Direction::device_to_host ? "the device" : "the application",
                      read_error.message().c_str());
@@ -221,8 +229,12 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
       }
       records.clear();
       boost::system::error_code write_error;
-      to.write(asio::buffer(buffer.data(), size), write_error);
+      write_to_device(to, asio::buffer(buffer.data(), size), write_error, run_end);
       if (write_error) {
+        if (stop || is_done() || std::chrono::steady_clock::now() >= run_end) {  // stopped, or --duration is up
+          finish(0);
+          return;
+        }
         std::fprintf(stderr, "tether monitor: the link to %s failed: %s\n",
                      direction == Direction::device_to_host ? "the application" : "the device",
                      write_error.message().c_str());
@@ -235,8 +247,7 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
   std::thread to_device([&] { pump(*application, device, Direction::host_to_device); });
   {
     std::unique_lock lock(mutex);
-    const auto deadline = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
-                                                 : std::chrono::steady_clock::time_point::max();
+    const auto deadline = run_end;
     // Woken by the pumps; the 100 ms steps notice a stop signal (a handler cannot notify).
     while (!done && !stop && std::chrono::steady_clock::now() < deadline) {
       const std::chrono::steady_clock::duration left = deadline - std::chrono::steady_clock::now();
@@ -278,8 +289,12 @@ int run_monitor(int argc, char** argv) {
   if (arguments.tap) return run_tap(arguments, *target, *stream, io);
 
   const std::atomic<bool>& stop = catch_stop_signals();
+  // Ctrl-C also ends a write blocked on a device that does not read.
+  const StopAction close_on_stop([&stream] { stream->close(); });
 
   const auto start = std::chrono::steady_clock::now();
+  const auto run_end = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
+                                             : std::chrono::steady_clock::time_point::max();
   auto now_ms = [&] { return elapsed_ms(start); };
   DecoderRole role;
   role.keepalive = arguments.keepalive;
@@ -297,11 +312,13 @@ int run_monitor(int argc, char** argv) {
     decoder->poll(now, records);
     for (std::string bytes = decoder->output(now); !bytes.empty(); bytes = decoder->output(now_ms())) {
       boost::system::error_code write_error;
-      stream->write(asio::buffer(bytes), write_error);
+      write_to_device(*stream, asio::buffer(bytes), write_error, run_end);
       if (write_error) {
-        std::fprintf(stderr, "tether monitor: the link failed: %s\n", write_error.message().c_str());
-        status = 2;
         done = true;
+        if (stop || std::chrono::steady_clock::now() >= run_end) break;  // stopped, or --duration is up
+        std::fprintf(stderr, "tether monitor: the link failed: %s%s\n", write_error.message().c_str(),
+                     write_error == transports::TransportError::timed_out ? " (the device does not read)" : "");
+        status = 2;
         break;
       }
     }
@@ -320,6 +337,7 @@ int run_monitor(int argc, char** argv) {
       boost::system::error_code read_error;
       size = stream->read_some(asio::buffer(buffer), std::chrono::milliseconds(wait), read_error);
       if (read_error && read_error != transports::TransportError::timed_out) {
+        if (stop) break;  // closed by Ctrl-C
         std::fprintf(stderr, "tether monitor: the link failed: %s\n", read_error.message().c_str());
         status = 2;
         done = true;
@@ -337,10 +355,10 @@ int run_monitor(int argc, char** argv) {
   }
   // Messages already accepted for forwarding still leave (paced), so stopping does not cut the ring.
   const auto flush_limit = std::chrono::steady_clock::now() + std::chrono::seconds(1);
-  while (status == 0 && decoder->output_pending() && std::chrono::steady_clock::now() < flush_limit) {
+  while (status == 0 && !stop && decoder->output_pending() && std::chrono::steady_clock::now() < flush_limit) {
     const std::string bytes = decoder->output(now_ms());
     boost::system::error_code write_error;
-    if (!bytes.empty()) stream->write(asio::buffer(bytes), write_error);
+    if (!bytes.empty()) write_to_device(*stream, asio::buffer(bytes), write_error, flush_limit);
     if (write_error) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }

@@ -123,6 +123,7 @@ int run_stats(int argc, char** argv) {
   if (!device) return command_text().fail(target->label + ": " + error);
 
   const std::atomic<bool>& stop = catch_stop_signals();
+  const StopAction close_on_stop([&device] { device->close(); });  // Ctrl-C ends a probe call at once
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();

@@ -214,6 +214,34 @@ std::size_t ByteStream::write(asio::const_buffer buffer, error_code& error) {
   return total;
 }
 
+std::size_t ByteStream::write(asio::const_buffer buffer, SteadyClock::time_point deadline, error_code& error) {
+  if (strand_.running_in_this_thread()) {
+    error = make_error_code(TransportError::would_deadlock);
+    return 0;
+  }
+  std::size_t total = 0;
+  error = error_code();
+  while (total < buffer.size() && !error) {
+    // Shared: after a deadline the completion may still arrive (aborted by the close) once we returned.
+    auto done = std::make_shared<std::promise<std::pair<error_code, std::size_t>>>();
+    auto result = done->get_future();
+    async_write_some(buffer + total, [done](error_code e, std::size_t n) { done->set_value({e, n}); });
+    if (result.wait_until(deadline) != std::future_status::ready) {
+      error_code ignored;
+      close(ignored);  // completes the write in flight with operation_aborted
+      // The buffer is the caller's: do not return before the device stopped using it. The close above
+      // completed the write, or will do so on the strand (its 250 ms fallback when nobody runs it).
+      if (result.wait_for(std::chrono::seconds(1)) == std::future_status::ready) total += result.get().second;
+      error = make_error_code(TransportError::timed_out);
+      return total;
+    }
+    const auto [write_error, size] = result.get();
+    error = write_error;
+    total += size;
+  }
+  return total;
+}
+
 std::size_t ByteStream::write(asio::const_buffer buffer) {
   error_code error;
   const std::size_t size = write(buffer, error);

@@ -187,6 +187,37 @@ TEST(ByteStream, BlockingCallsFromAnotherThread) {
   runner.join();
 }
 
+TEST(ByteStream, WriteWithADeadlineGivesUpOnAPeerThatNeverReads) {
+  // Regression (issue 16): `tether monitor` blocked for ever writing to a device that did not read.
+  asio::io_context io;
+  auto guard = asio::make_work_guard(io);
+  std::thread runner([&] { io.run(); });
+  auto [a, b] = InMemoryStream::make_pair(io.get_executor(), /*capacity=*/16);  // b never reads
+  const std::string bytes(64, 'x');
+  error_code error;
+  const std::size_t written = a->write(asio::buffer(bytes), SteadyClock::now() + 50ms, error);
+  EXPECT_EQ(error, make_error_code(TransportError::timed_out));
+  EXPECT_LE(written, 16u);
+  EXPECT_FALSE(a->is_open());  // the write in flight could not be taken back: the link is closed
+  EXPECT_EQ(a->write(asio::buffer(bytes), SteadyClock::now() + 50ms, error), 0u);
+  EXPECT_EQ(error, asio::error::operation_aborted);
+  // A peer that reads gets everything before the deadline.
+  auto [c, d] = InMemoryStream::make_pair(io.get_executor(), 16);
+  std::thread reader([&, d = d] {
+    std::vector<uint8_t> buffer(64);
+    std::size_t total = 0;
+    while (total < 64) total += d->read_some(asio::buffer(buffer), 10s);
+  });
+  EXPECT_EQ(c->write(asio::buffer(bytes), SteadyClock::now() + 30s, error), 64u);
+  EXPECT_FALSE(error);
+  reader.join();
+  b->close();
+  c->close();
+  d->close();
+  guard.reset();
+  runner.join();
+}
+
 TEST(ByteStream, CloseWithNoThreadRunningTheExecutorDoesNotHang) {
   // Regression: close() used to wait for the strand and report would_deadlock after seconds.
   asio::io_context io;

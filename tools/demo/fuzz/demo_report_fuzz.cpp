@@ -30,7 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   report.bit_error_rate = any_double(input);
   report.reset_halfway = (input.ConsumeIntegral<std::uint8_t>() & 1) != 0;
   report.wall_seconds = any_double(input);
-  while (!input.remaining_bytes() == 0 && report.devices.size() < 4) {
+  while (input.remaining_bytes() != 0 && report.devices.size() < 4) {
     DeviceReport device;
     const auto flags = input.ConsumeIntegral<std::uint8_t>();
     device.confirmed = (flags & 1) != 0;

@@ -127,6 +127,12 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
   std::size_t write(asio::const_buffer buffer, error_code& error);
   /// Blocking write of all of `buffer`; throws `boost::system::system_error`.
   std::size_t write(asio::const_buffer buffer);
+  /// Blocking write of all of `buffer` that gives up at `deadline` (a device that stopped reading, a full
+  /// pty): then `TransportError::timed_out` and the bytes written so far. Bytes handed to a device cannot
+  /// be taken back, so the write still in flight is ended by closing the stream (the link is unusable:
+  /// the device would get a cut frame); later operations fail with `operation_aborted`. Callable from any
+  /// thread but the stream's strand (`TransportError::would_deadlock`).
+  std::size_t write(asio::const_buffer buffer, SteadyClock::time_point deadline, error_code& error);
 
   /// Closes the stream; pending operations complete with `operation_aborted`. Idempotent. Runs on the
   /// stream's strand; when no thread runs the executor (shutdown), it closes the device directly after

@@ -6,7 +6,12 @@
 /// The same file builds two ways (cmake/fuzz.cmake):
 ///   - in every build, linked with a driver (core/testing/src/fuzz_driver.cpp) that runs the corpus in
 ///     the target's folder plus seeded random inputs and mutations; a ctest test, honours RANDOM_SEED;
-///   - with clang and libFuzzer for coverage-guided runs: `tools/fuzz <target> [seconds]`.
+///   - with clang and libFuzzer for coverage-guided runs: `tools/fuzz <target> [seconds]`, or every target
+///     in turn with a table of execs, edges, corpus size and crashes: `tools/fuzz --all --minutes N`. That
+///     build instruments every library a target links (coverage feedback, ASan, UBSan halting).
+/// Targets that hold state (device loops, host clients) take commands from the input after an escape byte
+/// (clock steps, operations, "let it catch up"), and check that every operation completes exactly once and
+/// that nothing grows without bound; the host clients run on `FuzzLink` (fuzz_link.hpp).
 #pragma once
 
 #include <cstdio>
