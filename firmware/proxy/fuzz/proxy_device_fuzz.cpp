@@ -22,7 +22,8 @@
 #include "rocketry.pb.h"
 #include "tether/proxy/device/compat_device.hpp"
 #include "tether/proxy/device/proxy_device.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/testing/fuzz_target.hpp"
 #include "tether_proxy.pb.h"
 
@@ -37,7 +38,7 @@ struct HostView {
   explicit HostView(Integrity mode) : integrity(mode), decoder(mode, counters) {}
   Integrity integrity;
   LinkCounters counters;
-  FrameDecoder<128> decoder;
+  Decoder<128> decoder;
   uint32_t messages = 0;
   uint32_t acks = 0;
   bool restart_requested = false;
@@ -51,11 +52,12 @@ struct HostView {
   FrameSink sink() { return FrameSink{&HostView::write, this}; }
 
   void feed(uint8_t byte) {
-    const FrameEvent event = decoder.feed(byte);
-    TETHER_FUZZ_CHECK(event.kind != FrameEvent::Kind::error);
-    if (event.kind != FrameEvent::Kind::payload) return;
+    const DecodeStatus status = decoder.feed(byte);
+    TETHER_FUZZ_CHECK(status != DecodeStatus::error);
+    if (status != DecodeStatus::frame) return;
     ++messages;
-    pb_istream_t stream = pb_istream_from_buffer(event.payload.data(), event.payload.size());
+    const ByteView payload = decoder.frame();
+    pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
     if (integrity == Integrity::crc16) {
       tether_proxy_ArduinoOut out = tether_proxy_ArduinoOut_init_zero;
       TETHER_FUZZ_CHECK(pb_decode(&stream, tether_proxy_ArduinoOut_fields, &out));

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "tether/romi/device/romi_serial.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
 namespace {
@@ -86,14 +86,14 @@ const MessageHandler kHandlers[] = {
 // What the device wrote, as a host reads it: whole frames, no error.
 struct HostView {
   LinkCounters counters;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder{counters};
+  Decoder<kHostDecoderCapacity> decoder{counters};
   uint32_t responses = 0;
   void read(std::vector<uint8_t>& output) {
     for (const uint8_t byte : output) {
-      const EnvelopeEvent event = decoder.feed(byte);
-      TETHER_FUZZ_CHECK(event.kind != EnvelopeEvent::Kind::error);
-      if (event.kind == EnvelopeEvent::Kind::frame) {
-        TETHER_FUZZ_CHECK(event.has_id);
+      const DecodeStatus status = decoder.feed(byte);
+      TETHER_FUZZ_CHECK(status != DecodeStatus::error);
+      if (status == DecodeStatus::frame && !decoder.frame().log) {
+        TETHER_FUZZ_CHECK(decoder.frame().has_id);
         ++responses;
       }
     }
@@ -119,7 +119,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   uint32_t starts = 0;  // '#' bytes received
   // A mirror of the device's request decoder: which request each byte completes.
   LinkCounters mirror_counters;
-  std::optional<EnvelopeDecoder<kDeviceDecoderCapacity>> mirror;
+  std::optional<Decoder<kDeviceDecoderCapacity>> mirror;
   mirror.emplace(mirror_counters);
   std::optional<LastRun> last;
 
@@ -165,7 +165,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     const uint8_t byte = data[i];
     if (byte == '#') ++starts;
-    const EnvelopeEvent seen = mirror->feed(byte);
+    const DecodeStatus seen_status = mirror->feed(byte);
+    const Frame& seen = mirror->frame();  // valid until the mirror's next feed
     const uint32_t runs_before = runs;
     const uint32_t duplicates_before = device.counters().link.duplicates;
     const uint32_t timeouts_before = device.counters().link.partial_timeouts;
@@ -176,11 +177,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       last.reset();
       continue;
     }
-    if (seen.kind == EnvelopeEvent::Kind::none || seen.kind == EnvelopeEvent::Kind::log) continue;
+    if (seen_status == DecodeStatus::more || (seen_status == DecodeStatus::frame && seen.log)) continue;
     const bool answered_from_cache = device.counters().link.duplicates != duplicates_before;
-    if (seen.kind == EnvelopeEvent::Kind::error || seen.manual) {
+    if (seen_status == DecodeStatus::error || seen.manual) {
       TETHER_FUZZ_CHECK(!answered_from_cache);
-      if (seen.kind == EnvelopeEvent::Kind::error) last.reset();
+      if (seen_status == DecodeStatus::error) last.reset();
       continue;
     }
     const bool same_as_last = last && last->id == seen.id && last->payload.size() == seen.payload.size() &&

@@ -22,7 +22,8 @@
 
 #include "rocketry.pb.h"
 #include "tether/proxy/client.hpp"
-#include "tether/proxy/frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/testing/fuzz_link.hpp"
 #include "tether/testing/fuzz_target.hpp"
 #include "tether_proxy.pb.h"
@@ -38,16 +39,17 @@ struct DeviceSide {
   Integrity integrity;
   std::mutex mutex;
   LinkCounters counters;
-  FrameDecoder<256> decoder;
+  Decoder<256> decoder;
   uint32_t last_id = 0;
   void on_written(const uint8_t* data, size_t size) {
     const std::lock_guard lock(mutex);
     for (size_t i = 0; i < size; ++i) {
-      const FrameEvent event = decoder.feed(data[i]);
-      TETHER_FUZZ_CHECK(event.kind != FrameEvent::Kind::error);  // the client writes valid frames
-      if (event.kind != FrameEvent::Kind::payload || integrity == Integrity::none) continue;
+      const DecodeStatus status = decoder.feed(data[i]);
+      TETHER_FUZZ_CHECK(status != DecodeStatus::error);  // the client writes valid frames
+      if (status != DecodeStatus::frame || integrity == Integrity::none) continue;
+      const ByteView payload = decoder.frame();
       ArduinoIn in;
-      TETHER_FUZZ_CHECK(in.ParseFromArray(event.payload.data(), static_cast<int>(event.payload.size())));
+      TETHER_FUZZ_CHECK(in.ParseFromArray(payload.data(), static_cast<int>(payload.size())));
       last_id = in.messageid();
     }
   }

@@ -18,7 +18,7 @@
 
 #include "tether/romi/client.hpp"
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 #include "tether/testing/fuzz_link.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
@@ -33,7 +33,7 @@ const char* const kCommands[] = {"e", "s[2,3]", "t[\"hello\"]", "f", "g[1]", "S[
 struct DeviceSide {
   std::mutex mutex;
   LinkCounters counters;
-  EnvelopeDecoder<kDeviceDecoderCapacity> decoder{counters};
+  Decoder<kDeviceDecoderCapacity> decoder{counters};
   char opcode = 'e';
   uint8_t id = 0;
   size_t written = 0;
@@ -41,11 +41,12 @@ struct DeviceSide {
     const std::lock_guard lock(mutex);
     written += size;
     for (size_t i = 0; i < size; ++i) {
-      const EnvelopeEvent event = decoder.feed(data[i]);
-      TETHER_FUZZ_CHECK(event.kind != EnvelopeEvent::Kind::error);  // the client writes valid requests
-      if (event.kind != EnvelopeEvent::Kind::frame) continue;
-      opcode = event.opcode;
-      id = event.manual ? 0 : event.id;
+      const DecodeStatus status = decoder.feed(data[i]);
+      TETHER_FUZZ_CHECK(status != DecodeStatus::error);  // the client writes valid requests
+      if (status != DecodeStatus::frame) continue;
+      const Frame& frame = decoder.frame();
+      opcode = frame.opcode;
+      id = frame.manual ? 0 : frame.id;
     }
   }
 };
