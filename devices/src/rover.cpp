@@ -100,10 +100,10 @@ std::string init_text(const PinInit& init) {
   return std::string(init.kind == PinInit::Kind::servo ? "servo " : "digital ") + std::to_string(init.pin);
 }
 
-void await_proxy(proxy::ProxyClient& client, const ProxyDeviceOptions& options, const std::string& path) {
+void await_proxy(proxy::Client& client, const ProxyDeviceOptions& options, const std::string& path) {
   auto state = std::make_shared<ProxyReadiness>();
   const bool primary = options.client.mode == proxy::Mode::primary;
-  const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::ProxyEvent& event) {
+  const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::Event& event) {
     std::lock_guard lock(state->mutex);
     if (std::holds_alternative<proxy::events::SessionEstablished>(event)) state->established = true;
     if (const auto* failed = std::get_if<proxy::events::LinkFailed>(&event)) state->link_error = failed->error;
@@ -212,10 +212,10 @@ class RoverOpener {
       switch (device.codec) {
         case Codec::romi: {
           const auto& romi_options = std::get<RomiOptions>(device.options);
-          romi::ClientOptions client_options;
+          romi::Options client_options;
           client_options.timing = romi_options.timing;
           client_options.first_id(romi_options.first_id ? *romi_options.first_id : romi::random_first_id());
-          opened.client = std::make_shared<romi::RomiClient>(stream, client_options);
+          opened.client = std::make_shared<romi::Client>(stream, client_options);
           rover.devices_.push_back(std::move(opened));
           if (stop) rover.stops_.push_back(std::move(stop));
           if (hooks.on_client) hooks.on_client(rover.devices_.back());
@@ -223,7 +223,7 @@ class RoverOpener {
         }
         case Codec::elcano: {
           const auto& options = std::get<ElcanoOptions>(device.options);
-          elcano::RingClientOptions client_options;
+          elcano::Options client_options;
           client_options.node.generation = options.generation;
           client_options.node.capture = options.capture;
           client_options.node.pacing = options.pacing;
@@ -237,7 +237,7 @@ class RoverOpener {
         case Codec::proxy:
         case Codec::proxy_compat: {
           const auto& options = std::get<ProxyDeviceOptions>(device.options);
-          auto client = std::make_shared<proxy::ProxyClient>(stream, options.client);
+          auto client = std::make_shared<proxy::Client>(stream, options.client);
           opened.client = client;
           // Registered before waiting: a failure below closes it with the others.
           rover.devices_.push_back(std::move(opened));
@@ -321,16 +321,16 @@ const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted,
   return *device;
 }
 
-std::shared_ptr<romi::RomiClient> Rover::romi(std::string_view name) const {
+std::shared_ptr<romi::Client> Rover::romi(std::string_view name) const {
   const RoverDevice& device = lookup(name, "romi", [](Codec codec) { return codec == Codec::romi; });
-  return std::get<std::shared_ptr<romi::RomiClient>>(device.client);
+  return std::get<std::shared_ptr<romi::Client>>(device.client);
 }
 
-std::shared_ptr<proxy::ProxyClient> Rover::proxy(std::string_view name) const {
+std::shared_ptr<proxy::Client> Rover::proxy(std::string_view name) const {
   const RoverDevice& device = lookup(name, "proxy or proxy-compat", [](Codec codec) {
     return codec == Codec::proxy || codec == Codec::proxy_compat;
   });
-  return std::get<std::shared_ptr<proxy::ProxyClient>>(device.client);
+  return std::get<std::shared_ptr<proxy::Client>>(device.client);
 }
 
 std::shared_ptr<elcano::RingClient> Rover::elcano(std::string_view name) const {

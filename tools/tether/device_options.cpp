@@ -77,7 +77,7 @@ devices::CodecOptions default_codec_options(devices::Codec codec, std::uint32_t 
     case devices::Codec::proxy:
     case devices::Codec::proxy_compat: {
       devices::ProxyDeviceOptions proxy;
-      proxy.client = codec == devices::Codec::proxy ? proxy::ProxyOptions::primary() : proxy::ProxyOptions::compat();
+      proxy.client = codec == devices::Codec::proxy ? proxy::Options::primary() : proxy::Options::compat();
       proxy.client.timing.baud = baud;
       return proxy;
     }
@@ -330,9 +330,9 @@ nlohmann::ordered_json link_counters_json(const LinkCounters& counters) {
 nlohmann::ordered_json OpenDevice::counters() const {
   nlohmann::ordered_json report;
   if (romi_) {
-    report["link"] = link_counters_json(romi_->counters());
+    report["link"] = link_counters_json(romi_->counters().link);
   } else if (proxy_) {
-    const proxy::ProxyCounters counters = proxy_->counters();
+    const proxy::Counters counters = proxy_->counters();
     report["link"] = link_counters_json(counters.link);
     report["proxy"] = {{"messages_sent", counters.messages_sent}, {"acks", counters.acks},
                        {"pings_sent", counters.pings_sent},       {"ping_acks", counters.ping_acks},
@@ -343,7 +343,7 @@ nlohmann::ordered_json OpenDevice::counters() const {
     report["session"] = {{"established", session.established}, {"session_id", nullptr}};
     if (session.session_id) report["session"]["session_id"] = *session.session_id;
   } else if (ring_) {
-    const elcano::RingClientCounters counters = ring_->counters();
+    const elcano::Counters counters = ring_->counters();
     report["link"] = link_counters_json(counters.link);
     report["ring"] = {{"captured", counters.ring.captured},
                       {"forwarded", counters.ring.forwarded},
@@ -396,11 +396,11 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     std::visit(
         [&](const auto& client) {
           using Client = std::decay_t<decltype(client)>;
-          if constexpr (std::is_same_v<Client, std::shared_ptr<romi::RomiClient>>) {
+          if constexpr (std::is_same_v<Client, std::shared_ptr<romi::Client>>) {
             opened.romi_ = client;
             if (hooks.romi_log) client->set_log_handler(hooks.romi_log);
             if (hooks.romi_link_failed) client->set_link_failed_handler(hooks.romi_link_failed);
-          } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::ProxyClient>>) {
+          } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::Client>>) {
             opened.proxy_ = client;
             if (hooks.proxy_events) client->add_event_handler(hooks.proxy_events);
           } else {

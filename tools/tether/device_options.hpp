@@ -80,8 +80,8 @@ class OpenDevice {
   /// One line: `serial /dev/pts/3 115200 (romi)`.
   const std::string& description() const { return description_; }
   /// The client of the codec (exactly one is set).
-  const std::shared_ptr<romi::RomiClient>& romi() const { return romi_; }
-  const std::shared_ptr<proxy::ProxyClient>& proxy() const { return proxy_; }
+  const std::shared_ptr<romi::Client>& romi() const { return romi_; }
+  const std::shared_ptr<proxy::Client>& proxy() const { return proxy_; }
   const std::shared_ptr<elcano::RingClient>& ring() const { return ring_; }
   /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}`.
   nlohmann::ordered_json counters() const;
@@ -93,8 +93,8 @@ class OpenDevice {
                                                const ClientHooks& hooks, Progress& progress, std::string& error);
   devices::Codec codec_ = devices::Codec::romi;
   std::string description_;
-  std::shared_ptr<romi::RomiClient> romi_;
-  std::shared_ptr<proxy::ProxyClient> proxy_;
+  std::shared_ptr<romi::Client> romi_;
+  std::shared_ptr<proxy::Client> proxy_;
   std::shared_ptr<elcano::RingClient> ring_;
   std::shared_ptr<devices::Rover> rover_;  // devices opened through devices::open_rover (virtual rings)
 };

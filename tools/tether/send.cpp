@@ -129,7 +129,7 @@ struct Observed {
   }
 };
 
-void observe(Observed& observed, const proxy::ProxyEvent& event) {
+void observe(Observed& observed, const proxy::Event& event) {
   const std::lock_guard lock(observed.mutex);
   if (const auto* error = std::get_if<proxy::events::DeviceError>(&event)) {
     observed.device_errors.push_back(error->text);
@@ -195,10 +195,10 @@ int run_send(int argc, char** argv) {
   // Shared with the event handler, which may still run on the I/O thread while this function returns.
   const auto seen = std::make_shared<Observed>();
   ClientHooks hooks;
-  hooks.proxy_events = [seen](const proxy::ProxyEvent& event) { observe(*seen, event); };
+  hooks.proxy_events = [seen](const proxy::Event& event) { observe(*seen, event); };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);
-  proxy::ProxyClient& client = *device->proxy();
+  proxy::Client& client = *device->proxy();
 
   int status = 0;
   for (const ProxyCommand& command : commands) {

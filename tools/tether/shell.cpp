@@ -415,7 +415,7 @@ int run_shell(int argc, char** argv) {
     printer.event({"link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}}});
     on_failure();
   };
-  hooks.proxy_events = [printer, on_failure](const proxy::ProxyEvent& event) {
+  hooks.proxy_events = [printer, on_failure](const proxy::Event& event) {
     printer.event(proxy_event_line(event));
     if (std::holds_alternative<proxy::events::LinkFailed>(event)) on_failure();
   };

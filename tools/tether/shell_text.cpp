@@ -25,7 +25,7 @@ ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& r
   return {text, object};
 }
 
-ShellLine proxy_event_line(const proxy::ProxyEvent& event) {
+ShellLine proxy_event_line(const proxy::Event& event) {
   namespace ev = proxy::events;
   if (const auto* error = std::get_if<ev::DeviceError>(&event)) {
     const bool fatal = error->level == proxy::ErrorLevel::fatal;

@@ -25,7 +25,7 @@ ShellLine romi_log_line(std::string_view text);
 /// The answer array of a romi call (`[0,1,2]`, `[-16]  error -16: unknown opcode`) for the typed `command`.
 ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& response);
 /// A proxy client's event (`servo 9 = 90`, `device error: ...`, `session 7 established`, ...).
-ShellLine proxy_event_line(const proxy::ProxyEvent& event);
+ShellLine proxy_event_line(const proxy::Event& event);
 /// An Elcano ring client's event (`undeliverable D{s 50}{a 25} (...)`, `read error: bad_crc`, ...).
 ShellLine ring_event_line(const elcano::ClientEvent& event, elcano::Generation generation);
 /// `captured D{s 50}{a 25}`: a message the host's node captured.

@@ -67,7 +67,7 @@ std::int32_t degrees(unsigned i, unsigned stride) { return static_cast<std::int3
 
 class RomiWorkload final : public Workload {
  public:
-  explicit RomiWorkload(std::shared_ptr<romi::RomiClient> client) : client_(std::move(client)) {}
+  explicit RomiWorkload(std::shared_ptr<romi::Client> client) : client_(std::move(client)) {}
   std::string operation() const override { return "call S[throttle_us,steering_us] -> [0]"; }
   Outcome run(unsigned i) override {
     Outcome outcome;
@@ -85,15 +85,15 @@ class RomiWorkload final : public Workload {
     }
     return outcome;
   }
-  LinkCounters link() const override { return client_->counters(); }
+  LinkCounters link() const override { return client_->counters().link; }
 
  private:
-  std::shared_ptr<romi::RomiClient> client_;
+  std::shared_ptr<romi::Client> client_;
 };
 
 class ProxyWorkload final : public Workload {
  public:
-  ProxyWorkload(std::shared_ptr<proxy::ProxyClient> client, std::vector<devices::PinInit> servo_inits, bool compat)
+  ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<devices::PinInit> servo_inits, bool compat)
       : client_(std::move(client)), inits_(std::move(servo_inits)), compat_(compat) {
     if (inits_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
     if (inits_.size() > 2) inits_.resize(2);
@@ -176,7 +176,7 @@ class ProxyWorkload final : public Workload {
     if (pin == 9) pulses.d9 = us;
     if (pin == 10) pulses.d10 = us;
   }
-  std::shared_ptr<proxy::ProxyClient> client_;
+  std::shared_ptr<proxy::Client> client_;
   std::vector<devices::PinInit> inits_;  // the servo inits of the config (at most two)
   std::vector<std::uint32_t> pins_;      // their pins
   bool compat_;
@@ -216,14 +216,14 @@ class ElcanoWorkload final : public Workload {
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
   switch (device.codec) {
     case devices::Codec::romi:
-      return std::make_unique<RomiWorkload>(std::get<std::shared_ptr<romi::RomiClient>>(device.client));
+      return std::make_unique<RomiWorkload>(std::get<std::shared_ptr<romi::Client>>(device.client));
     case devices::Codec::proxy:
     case devices::Codec::proxy_compat: {
       std::vector<devices::PinInit> servos;
       for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
         if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
       }
-      return std::make_unique<ProxyWorkload>(std::get<std::shared_ptr<proxy::ProxyClient>>(device.client),
+      return std::make_unique<ProxyWorkload>(std::get<std::shared_ptr<proxy::Client>>(device.client),
                                              std::move(servos), device.codec == devices::Codec::proxy_compat);
     }
     case devices::Codec::elcano:

@@ -42,7 +42,7 @@ elcano::Message ring_message(FuzzedDataProvider& input) {
   return message;
 }
 
-proxy::ProxyEvent proxy_event(std::uint8_t which, FuzzedDataProvider& input) {
+proxy::Event proxy_event(std::uint8_t which, FuzzedDataProvider& input) {
   namespace ev = proxy::events;
   switch (which % 12) {
     case 0: {

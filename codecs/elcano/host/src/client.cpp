@@ -1,6 +1,6 @@
 // RingClient: the portable RingNode and the Elcano session engine (elcano::RequestTable) driven by the read
-// loop, the write queue and the timer of a transports::ClientLink, like romi::RomiClient and
-// proxy::ProxyClient (the link owns the strand, close and the lifetime rules).
+// loop, the write queue and the timer of a transports::ClientLink, like romi::Client and
+// proxy::Client (the link owns the strand, close and the lifetime rules).
 //
 // Everything below `RingClientImpl`'s public functions runs on the link's strand. All timed work goes
 // through `pump(now)`: the node's deadlines (partial message, origin records), the engine's (re-sends,
@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "tether/core/wakeup.hpp"
 #include "tether/transports/client_link.hpp"
 
 namespace tether::elcano {
@@ -36,20 +37,6 @@ namespace {
 
 using Node = RingNode<kMaxMessageBytes, kOutputQueueBytes, kOriginRecords>;
 using Table = RequestTable;
-
-Millis now_ms() { return transports::ClientLink::now(); }
-
-// The earlier of `wake` and `candidate` (disarmed deadlines never win).
-void consider(Deadline& wake, const Deadline& candidate) {
-  if (!candidate.armed()) return;
-  if (!wake.armed() || tick_difference(candidate.at(), wake.at()) < 0) wake.arm_at(candidate.at());
-}
-
-Deadline deadline_at(Millis instant) {
-  Deadline deadline;
-  deadline.arm_at(instant);
-  return deadline;
-}
 
 bool known_type(Type type) {
   switch (type) {
@@ -78,10 +65,10 @@ std::string encode(const Message& message, Generation generation) {
 
 class RingClientImpl final : public transports::ClientLink {
  public:
-  RingClientImpl(std::shared_ptr<ByteStream> stream, const RingClientOptions& options)
-      : ClientLink(std::move(stream)),
+  RingClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
+      : ClientLink(std::move(stream), options.clock),
         options_(options),
-        node_(options.node, now_ms(), counters_.link, counters_.ring),
+        node_(options.node, now(), counters_.link, counters_.ring),
         table_(options.timing, 0, counters_.link),
         capture_(options.node.capture) {
     published_capture_.set(capture_);
@@ -91,7 +78,7 @@ class RingClientImpl final : public transports::ClientLink {
   void start() {
     post_to_strand([this] {
       start_reading();
-      pump(now_ms());
+      pump(now());
     });
   }
 
@@ -168,7 +155,7 @@ class RingClientImpl final : public transports::ClientLink {
     std::erase_if(handlers_, [id](const auto& entry) { return entry.first == id; });
   }
 
-  RingClientCounters counters() const { return published_.get(); }
+  Counters counters() const { return published_.get(); }
 
  private:
   // A request from acceptance to completion.
@@ -212,7 +199,7 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(item->send_handler), error);
       return;
     }
-    const Millis now = now_ms();
+    const Millis now = this->now();
     item->deadline = static_cast<Millis>(now + options_.send_timeout);
     enqueue(std::move(item), now);
     pump(now);
@@ -224,7 +211,7 @@ class RingClientImpl final : public transports::ClientLink {
       return;
     }
     const std::uint8_t id = call_id(call->reply);
-    const Millis now = now_ms();
+    const Millis now = this->now();
     if (calls_.count(id) != 0 || !table_.begin_with(id, now).ok()) {
       complete(std::move(call->handler), RingError::reply_type_busy, Message());
       return;
@@ -251,7 +238,7 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(receiver->handler), RingError::receive_timed_out, Message());
       return;
     }
-    const Millis now = now_ms();
+    const Millis now = this->now();
     if (receiver->timeout) receiver->deadline = static_cast<Millis>(now + *receiver->timeout);
     receivers_.push_back(std::move(receiver));
     pump(now);
@@ -349,13 +336,13 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(written_.front().handler), error_code());
       written_.pop_front();
     }
-    pump(now_ms());
+    pump(now());
   }
 
   // --- the ring ------------------------------------------------------------------------------------------
 
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    const Millis now = now_ms();
+    const Millis now = this->now();
     for (std::size_t i = 0; i < size && !unusable(); ++i) {
       on_ring_event(node_.feed(data[i], now), now);
     }
@@ -528,7 +515,7 @@ class RingClientImpl final : public transports::ClientLink {
     publish();
   }
 
-  void on_timer() override { pump(now_ms()); }
+  void on_timer() override { pump(now()); }
 
   // --- the pump ------------------------------------------------------------------------------------------
 
@@ -593,10 +580,10 @@ class RingClientImpl final : public transports::ClientLink {
 
   void publish() { published_.set(counters_); }
 
-  const RingClientOptions options_;
+  const Options options_;
 
   // Strand only.
-  RingClientCounters counters_;
+  Counters counters_;
   Node node_;
   Table table_;
   TypeSet capture_;
@@ -610,7 +597,7 @@ class RingClientImpl final : public transports::ClientLink {
   bool writing_ = false;
 
   // Any thread.
-  transports::Published<RingClientCounters> published_;
+  transports::Published<Counters> published_;
   transports::Published<TypeSet> published_capture_;
   mutable std::mutex mutex_;  // guards the handlers
   std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
@@ -640,7 +627,7 @@ asio::any_io_executor executor_of(const std::shared_ptr<RingClientImpl>& impl) {
 
 namespace {
 
-std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const RingClientOptions& options) {
+std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const Options& options) {
   if (!stream) throw std::invalid_argument("RingClient needs a stream");
   if (options.timing.max_attempts == 0 || options.timing.call_budget == 0) {
     throw std::invalid_argument("RingClient: timing.max_attempts and timing.call_budget must be > 0");
@@ -659,7 +646,7 @@ Message wait_for_message(const detail::RingClientImpl& impl, Start&& start, erro
 
 }  // namespace
 
-RingClient::RingClient(std::shared_ptr<ByteStream> stream, const RingClientOptions& options, EventHandler handler)
+RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& options, EventHandler handler)
     : impl_(std::make_shared<detail::RingClientImpl>(require(std::move(stream), options), options)) {
   if (handler) impl_->add_event_handler(std::move(handler));
   impl_->start();
@@ -718,7 +705,7 @@ EventHandlerId RingClient::add_event_handler(EventHandler handler) {
   return impl_->add_event_handler(std::move(handler));
 }
 void RingClient::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
-RingClientCounters RingClient::counters() const { return impl_->counters(); }
+Counters RingClient::counters() const { return impl_->counters(); }
 void RingClient::close() { impl_->close(); }
 bool RingClient::is_open() const { return impl_->is_open(); }
 

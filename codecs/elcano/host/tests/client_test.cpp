@@ -63,7 +63,7 @@ TEST(RingClient, RequestIsAnsweredByTheFirstMessageOfTheReplyType) {
   const auto records = link.ring->messages();
   ASSERT_EQ(records.size(), 1u);
   EXPECT_EQ(records[0].wire, "G{n 1}{b 90}{p 100,200}\n");  // generation B, as the writer writes it
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.replies, 1u);
   EXPECT_EQ(counters.ring.originated, 1u);
   EXPECT_EQ(counters.ring.captured, 1u);
@@ -106,7 +106,7 @@ TEST(RingClient, LostReplyIsRecoveredByAResendOfTheSameBytes) {
   const auto records = link.ring->messages();
   ASSERT_EQ(records.size(), 2u);
   EXPECT_EQ(records[0].wire, records[1].wire);
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.link.retries, 1u);
   EXPECT_EQ(counters.ring.originated, 2u);
   EXPECT_EQ(counters.replies, 1u);
@@ -124,7 +124,7 @@ TEST(RingClient, SilentRingTimesOutAfterEveryAttempt) {
   EXPECT_TRUE(same(reply, Message()));
   ASSERT_TRUE(link.ring->wait_for_messages(3));
   EXPECT_EQ(count_of(link.ring->messages(), Type::goal), 3u);
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.link.retries, 2u);
   EXPECT_EQ(counters.link.timeouts, 1u);
   // The reply type is no longer captured: a late segment is forwarded.
@@ -157,7 +157,7 @@ TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
   const auto records = link.ring->messages();
   EXPECT_EQ(records[0].message.type, Type::goal);
   EXPECT_TRUE(same(records[1].message, drive(1, 2)));
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.ring.undeliverable, 1u);
   EXPECT_EQ(counters.link.retries, 0u);
   EXPECT_EQ(counters.ring.originated, 1u);
@@ -233,7 +233,7 @@ TEST(RingClient, SecondRequestForTheSameReplyTypeIsBusy) {
 
 TEST(RingClient, SendsWaitForRoomInOrderAndFailBusyBeyondTheSendQueue) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.pacing = trickle();  // one byte per second: the output queue stays full
   options.send_queue_bound = 2;
   options.send_timeout = 60000;
@@ -269,7 +269,7 @@ TEST(RingClient, SendsWaitForRoomInOrderAndFailBusyBeyondTheSendQueue) {
 
 TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.pacing = trickle();
   options.send_queue_bound = 64;
   options.send_timeout = 150;
@@ -295,7 +295,7 @@ TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
 
 TEST(RingClient, ReceivesCapturedMessagesInOrder) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.capture = TypeSet::of(Type::sensor);
   Link link(io.executor(), options);
   // A receive made before the message arrives waits for it.
@@ -321,7 +321,7 @@ TEST(RingClient, ReceivesCapturedMessagesInOrder) {
 
 TEST(RingClient, ReceiveQueueOverflowDropsTheOldestAndReportsIt) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.capture = TypeSet::of(Type::sensor);
   options.receive_queue_bound = 2;
   Link link(io.executor(), options);
@@ -338,7 +338,7 @@ TEST(RingClient, ReceiveQueueOverflowDropsTheOldestAndReportsIt) {
 
 TEST(RingClient, RequestClaimsItsReplyBeforeTheReceiveQueue) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.capture = TypeSet::of(Type::segment);
   Link link(io.executor(), options, answer_goals_with_segment(8));
   link.ring->send(wire(segment(1)));  // before the request: received
@@ -368,7 +368,7 @@ TEST(RingClient, CaptureSetCanChange) {
 
 TEST(RingClient, UncapturedMessagesAreForwardedByteForByte) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.capture = TypeSet::of(Type::sensor);
   Link link(io.executor(), options);
   const std::string passing = "D{s50}{a25}\nG{n1}{b90}{p100,200}\nX{n4}{s160}{b80}{p3200,-64000}\n";
@@ -376,7 +376,7 @@ TEST(RingClient, UncapturedMessagesAreForwardedByteForByte) {
   link.ring->send("D{s 7} {a 8}\n");  // whitespace: stripped like the reference does
   ASSERT_TRUE(link.ring->wait_for_messages(4));
   EXPECT_EQ(link.ring->received(), passing + "D{s7}{a8}\n");
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.ring.forwarded, 4u);
   EXPECT_EQ(counters.ring.captured, 1u);
   EXPECT_TRUE(same(link.client->receive(0), sensor(1)));
@@ -399,7 +399,7 @@ TEST(RingClient, ForwardedAndOriginatedMessagesLeaveWhole) {
 
 TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.pacing = trickle();
   Link link(io.executor(), options);
   constexpr std::size_t kMessages = 25;  // 25 x 14 bytes: more than the 255-byte queue
@@ -407,10 +407,10 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   for (std::size_t i = 0; i < kMessages; ++i) burst += wire(drive(10 + static_cast<std::int32_t>(i), 25));
   link.ring->send(burst);
   ASSERT_TRUE(eventually([&] {
-    const RingClientCounters c = link.client->counters();
+    const Counters c = link.client->counters();
     return c.ring.forwarded + c.ring.queue_full_drops == kMessages;
   }));
-  const RingClientCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_GE(counters.ring.queue_full_drops, 1u);
   const auto reports = link.log.of(ClientEvent::Kind::forward_dropped);
   ASSERT_EQ(reports.size(), counters.ring.queue_full_drops);
@@ -422,7 +422,7 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
 
 TEST(RingClient, WritesNeverRunAheadOfThePacer) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   // A 16-byte receiver polled every 20 ms at 9600 baud: bucket of 8 bytes, 0.4 byte per ms.
   options.node.pacing.baud = 9600;
   options.node.pacing.receiver_buffer = 16;
@@ -464,7 +464,7 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
 
 TEST(RingClient, PartialMessageIsDroppedAtItsDeadline) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.partial_message_timeout = 50;
   Link link(io.executor(), options);
   link.ring->send("D{s 5");
@@ -495,7 +495,7 @@ TEST(RingClient, ReadErrorsAreReportedAndNotForwarded) {
 
 TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   options.node.generation = Generation::d;
   Link link(io.executor(), options, answer_goals_with_segment(4, Generation::d));
   const Message reply = link.client->request(goal(1), Type::segment);
@@ -522,7 +522,7 @@ TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
 
 TEST(RingClient, GenerationDUndeliverableRequestFailsFast) {
   IoThread io;
-  RingClientOptions options = test_options(20000, 40000);
+  Options options = test_options(20000, 40000);
   options.node.generation = Generation::d;
   Link link(io.executor(), options, echo_goals());
   error_code error;
@@ -559,7 +559,7 @@ TEST(RingClient, InvalidMessagesAreRejectedBeforeTheWire) {
 
 TEST(RingClient, CloseCompletesEveryPendingOperationWithOperationAborted) {
   IoThread io;
-  RingClientOptions options = test_options(20000, 40000);
+  Options options = test_options(20000, 40000);
   options.node.pacing = trickle();
   Link link(io.executor(), options);
   Completions completions;
@@ -602,7 +602,7 @@ TEST(RingClient, LinkFailureFailsPendingOperationsAndIsReported) {
 
 TEST(RingClient, BlockingCallFromTheStrandFailsInsteadOfDeadlocking) {
   IoThread io;
-  RingClientOptions options = test_options();
+  Options options = test_options();
   auto [host_end, ring_end] = transports::InMemoryStream::make_pair(io.executor());
   auto ring = FakeRing::start(ring_end, Generation::b);
   std::promise<error_code> seen;
@@ -629,13 +629,13 @@ TEST(RingClient, InvalidOptionsAreRefused) {
   IoThread io;
   auto [host_end, ring_end] = transports::InMemoryStream::make_pair(io.executor());
   EXPECT_THROW({ RingClient client(nullptr); }, std::invalid_argument);
-  RingClientOptions options;
+  Options options;
   options.receive_queue_bound = 0;
   EXPECT_THROW({ RingClient client(host_end, options); }, std::invalid_argument);
-  options = RingClientOptions();
+  options = Options();
   options.timing.max_attempts = 0;
   EXPECT_THROW({ RingClient client(host_end, options); }, std::invalid_argument);
-  options = RingClientOptions();
+  options = Options();
   options.timing.call_budget = 0;
   EXPECT_THROW({ RingClient client(host_end, options); }, std::invalid_argument);
   ring_end->close();

@@ -89,8 +89,8 @@ Message segment(std::int32_t number) {
   return message;
 }
 
-RingClientOptions test_options(Duration attempt_ms, Duration budget_ms) {
-  RingClientOptions options;
+Options test_options(Duration attempt_ms, Duration budget_ms) {
+  Options options;
   options.timing.attempt_timeout = attempt_ms;
   options.timing.call_budget = budget_ms;
   options.timing.max_attempts = 3;
@@ -185,7 +185,7 @@ std::optional<Outcome> Completions::at(std::size_t index) const {
 
 // --- Link --------------------------------------------------------------------------------------------------
 
-Link::Link(boost::asio::any_io_executor executor, const RingClientOptions& options, FakeRing::Script script) {
+Link::Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script) {
   auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor);
   ring = FakeRing::start(ring_end, options.node.generation, std::move(script));
   client.emplace(host_end, options, log.handler());

@@ -96,7 +96,7 @@ Message segment(std::int32_t number);
 
 /// Options for tests: fast pacing (115200 baud, a 64-byte receiver that keeps up), the engine's shape
 /// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends).
-RingClientOptions test_options(Duration attempt_ms = 200, Duration budget_ms = 1000);
+Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000);
 
 /// Pacing of 1 byte per second (a 2-byte receiver at 10 baud): nothing but the first byte leaves within a
 /// test, so the node's output queue stays as the test filled it.
@@ -157,7 +157,7 @@ class Completions {
 
 /// A client and the rest of the ring on the two ends of an in-memory pair.
 struct Link {
-  Link(boost::asio::any_io_executor executor, const RingClientOptions& options, FakeRing::Script script = {});
+  Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script = {});
   ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;

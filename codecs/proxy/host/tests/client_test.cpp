@@ -1,4 +1,4 @@
-// ProxyClient in primary mode against a scripted fake device over an in-memory pair: acks, the wire format
+// Client in primary mode against a scripted fake device over an in-memory pair: acks, the wire format
 // byte for byte, re-sends with the same messageId, budgets, stale acks, pings, the session handshake and
 // reset recovery, damaged and undecodable frames, events, per-pin ordering, close and link failure.
 #include <gtest/gtest.h>
@@ -41,7 +41,7 @@ TEST(ProxyClient, SendIsAckedAfterTheHandshake) {
   EXPECT_EQ(frames[1].in.servocontrol().position(), 90);
   EXPECT_EQ(link.client->session().session_id, std::optional<std::uint32_t>(100));
   EXPECT_TRUE(link.client->session().established);
-  const ProxyCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.acks, 1u);
   EXPECT_EQ(counters.resets_sent, 1u);
   EXPECT_EQ(counters.link.stale, 0u);
@@ -73,7 +73,7 @@ TEST(ProxyClient, FramesOnTheWireByteForByte) {
   // the spec's worked example frame, which decodes as ArduinoOut{ack{messageId 1823}} (its payload
   // 0a 06 08 9f 0e 10 cf 09 is field 1 = Ack{1823, unknown field 2}).
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.first_message_id = 1822;
   options.timing.session.reset_timeout = 3000;
   const std::string worked_example = unhex("0b 57 88 0a 06 08 9f 0e 10 cf 09 00");
@@ -97,7 +97,7 @@ TEST(ProxyClient, FramesOnTheWireByteForByte) {
 
 TEST(ProxyClient, FirstPingFollowsTheResetByteForByte) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.first_message_id = 1822;
   options.timing.ping_period = 1000;
   Link link(io.executor(), options, [](const DeviceFrame& frame, FakeDevice& device) {
@@ -129,7 +129,7 @@ TEST(ProxyClient, AckTimeoutComesFromBaudRateAndFrameLength) {
 
 TEST(ProxyClient, MissingAckIsResentWithTheSameMessageId) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 100;
   Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
               return is_servo_control(frame) && frame.repeat == 1;  // the first copy is "lost"
@@ -149,7 +149,7 @@ TEST(ProxyClient, MissingAckIsResentWithTheSameMessageId) {
 
 TEST(ProxyClient, OutOfBudgetTimesOut) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 50;
   options.timing.send_budget = 400;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
@@ -174,7 +174,7 @@ TEST(ProxyClient, OutOfBudgetTimesOut) {
 
 TEST(ProxyClient, MaxSendsBoundsTheAttempts) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 30;
   options.timing.max_sends = 2;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
@@ -209,7 +209,7 @@ TEST(ProxyClient, DuplicateAndStaleAcksAreCountedAndIgnored) {
 
 TEST(ProxyClient, PingsAtTheConfiguredPeriod) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.ping_period = 100;
   Link link(io.executor(), options, standard_device());
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 6), kPrompt));
@@ -227,7 +227,7 @@ TEST(ProxyClient, PingsAtTheConfiguredPeriod) {
 
 TEST(ProxyClient, PingsDefaultToOneSecond) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.ping_period = ProxyTiming().ping_period;
   EXPECT_EQ(options.timing.ping_period, 1000u);
   Link link(io.executor(), options, standard_device());
@@ -309,7 +309,7 @@ TEST(ProxyClient, ChangedSessionIdInArduinoInfoResetsAndReplaysTheInits) {
   EXPECT_EQ(link.client->session().session_id, std::optional<std::uint32_t>(101));
   // The event order: the report that revealed the restart comes after ResetDetected.
   const auto all = link.log.all();
-  const auto reset_at = std::find_if(all.begin(), all.end(), [](const ProxyEvent& event) {
+  const auto reset_at = std::find_if(all.begin(), all.end(), [](const Event& event) {
     return std::holds_alternative<events::ResetDetected>(event);
   });
   ASSERT_NE(reset_at, all.end());
@@ -336,7 +336,7 @@ TEST(ProxyClient, UnsolicitedResetEventWithANewIdIsAReset) {
 
 TEST(ProxyClient, MessageInFlightWhenTheDeviceRestartsFailsWithDeviceReset) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.send_budget = 5000;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
   ASSERT_TRUE(link.established());
@@ -352,7 +352,7 @@ TEST(ProxyClient, MessageInFlightWhenTheDeviceRestartsFailsWithDeviceReset) {
 
 TEST(ProxyClient, UnansweredResetIsSentAgain) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.session.reset_timeout = 150;
   auto first = std::make_shared<std::atomic<bool>>(true);
   Link link(io.executor(), options, standard_device(100, [first](const DeviceFrame& frame) {
@@ -368,7 +368,7 @@ TEST(ProxyClient, UnansweredResetIsSentAgain) {
 
 TEST(ProxyClient, UnacknowledgedReplayRestartsTheHandshake) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 30;
   options.timing.send_budget = 200;
   // The first session ignores the init: the client resets the device again and replays. The first Reset
@@ -407,7 +407,7 @@ TEST(ProxyClient, RestartSessionResetsAndReplays) {
 
 TEST(ProxyClient, DamagedAndGarbageFramesAreCountedNeverDelivered) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 100;
   Link link(io.executor(), options, [](const DeviceFrame& frame, FakeDevice& device) {
     if (is_servo_control(frame) && frame.repeat == 1) {
@@ -448,7 +448,7 @@ TEST(ProxyClient, UndecodableProtobufIsCountedAndReported) {
   EXPECT_EQ(hex(undecodable[0].payload), "ff ff");
   EXPECT_TRUE(undecodable[0].malformed);
   EXPECT_FALSE(undecodable[1].malformed);
-  const ProxyCounters counters = link.client->counters();
+  const Counters counters = link.client->counters();
   EXPECT_EQ(counters.undecodable, 1u);
   EXPECT_EQ(counters.unknown_messages, 1u);
   EXPECT_EQ(counters.link.crc_errors, 0u);
@@ -500,7 +500,7 @@ TEST(ProxyClient, SeveralHandlersAndRemoval) {
   ASSERT_TRUE(link.established());
   EventLog second;
   const EventHandlerId id = link.client->add_event_handler(second.handler());
-  link.client->add_event_handler([](const ProxyEvent&) { throw std::runtime_error("ignored"); });
+  link.client->add_event_handler([](const Event&) { throw std::runtime_error("ignored"); });
   link.device->send(FakeDevice::error("one", Error::WARNING));
   ASSERT_TRUE(second.wait_for<events::DeviceError>(1));
   link.client->remove_event_handler(id);
@@ -514,7 +514,7 @@ TEST(ProxyClient, SeveralHandlersAndRemoval) {
 
 TEST(ProxyClient, MessagesToOnePinKeepTheirOrderOthersPass) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.processing_margin = 100;
   Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
               return is_servo_control(frame) && frame.in.servocontrol().position() == 10 && frame.repeat == 1;
@@ -572,7 +572,7 @@ TEST(ProxyClient, AtMostEightInFlight) {
 // of the oldest unacked one, pings included, until it is acked.
 TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.ping_period = 20;   // pings fall due while the message is held: they wait too
   options.timing.send_budget = 5000;  // the held message stays in flight through the check
   options.timing.queue_timeout = 10000;
@@ -619,7 +619,7 @@ TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
 // device ran a re-send again in the same boot).
 TEST(ProxyClient, IdWindowCountsFromTheOldestMessageInFlightWhenTheHeldOneWasSent) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.send_budget = 5000;
   options.timing.queue_timeout = 10000;
   auto held = std::make_shared<std::atomic<bool>>(true);
@@ -690,11 +690,11 @@ TEST(ProxyClient, TooManyInitsAreRejected) {
 TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
   IoThread io;
   std::promise<error_code> seen;
-  auto client_slot = std::make_shared<ProxyClient*>(nullptr);
+  auto client_slot = std::make_shared<Client*>(nullptr);
   Link link(io.executor(), test_options(), standard_device());
   *client_slot = &*link.client;
   link.client->add_event_handler([client_slot, &seen, once = std::make_shared<std::atomic<bool>>(false)](
-                                     const ProxyEvent& event) {
+                                     const Event& event) {
     if (!std::holds_alternative<events::DeviceError>(event) || once->exchange(true)) return;
     error_code error;
     (*client_slot)->servo(1).set(1, error);
@@ -710,7 +710,7 @@ TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
 
 TEST(ProxyClient, CloseCompletesEverythingPending) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.send_budget = 60000;
   options.timing.queue_timeout = 60000;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
@@ -736,7 +736,7 @@ TEST(ProxyClient, DestructionDuringTheHandshakeCompletesWaitingSends) {
   auto device = FakeDevice::start(device_end, Integrity::crc16);  // never answers
   Completions done;
   {
-    ProxyClient client(host_end, test_options());
+    Client client(host_end, test_options());
     client.servo(9).async_init(90, done.handler(0));  // waits for the replay
     client.servo(9).async_set(100, done.handler(1));  // waits for the session
     ASSERT_TRUE(device->wait_for(has(ArduinoIn::kReset), kPrompt));
@@ -749,7 +749,7 @@ TEST(ProxyClient, DestructionDuringTheHandshakeCompletesWaitingSends) {
 
 TEST(ProxyClient, WaitingForTheSessionIsBounded) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.queue_timeout = 200;
   Link link(io.executor(), options, [](const DeviceFrame&, FakeDevice&) {});  // a silent device
   error_code error;
@@ -764,7 +764,7 @@ TEST(ProxyClient, WaitingForTheSessionIsBounded) {
 
 TEST(ProxyClient, LinkFailureFailsPendingSendsAndIsReported) {
   IoThread io;
-  ProxyOptions options = test_options();
+  Options options = test_options();
   options.timing.send_budget = 60000;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
   ASSERT_TRUE(link.established());
@@ -782,12 +782,12 @@ TEST(ProxyClient, LinkFailureFailsPendingSendsAndIsReported) {
 }
 
 TEST(ProxyClient, RejectsANullStreamAndNonsenseTiming) {
-  EXPECT_THROW(ProxyClient(nullptr), std::invalid_argument);
+  EXPECT_THROW(Client(nullptr), std::invalid_argument);
   IoThread io;
   auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor());
-  ProxyOptions options;
+  Options options;
   options.timing.baud = 0;
-  EXPECT_THROW({ ProxyClient client(host_end, options); }, std::invalid_argument);
+  EXPECT_THROW({ Client client(host_end, options); }, std::invalid_argument);
 }
 
 TEST(ProxyClient, CompletionsRunOnTheirAssociatedExecutorNotInline) {

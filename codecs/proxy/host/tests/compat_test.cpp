@@ -1,4 +1,4 @@
-// ProxyClient in compatibility mode (the deployed variant): the spec's vectors byte for byte in both
+// Client in compatibility mode (the deployed variant): the spec's vectors byte for byte in both
 // directions, events, the init replay on EventMessage{RESET}, the 5 s staleness rule (shortened), close.
 #include <gtest/gtest.h>
 
@@ -64,7 +64,7 @@ TEST(ProxyCompat, DigitalInitAndAnyRocketryMessage) {
 
 TEST(ProxyCompat, DeviceVectorsBecomeEvents) {
   IoThread io;
-  ProxyOptions options = compat_test_options();
+  Options options = compat_test_options();
   options.compat_replay_on_reset = false;
   Link link(io.executor(), options, silent());
   link.device->send(unhex("02 0a 01 00"));              // EventMessage{RESET}
@@ -129,7 +129,7 @@ TEST(ProxyCompat, ResetEventReplaysTheInitsInOrder) {
 
 TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   IoThread io;
-  ProxyOptions options = compat_test_options();
+  Options options = compat_test_options();
   options.timing.stale_after = 200;
   Link link(io.executor(), options, silent());
   link.client->digital(8).init(false);
@@ -171,8 +171,8 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
 }
 
 TEST(ProxyCompat, StalenessDefaultsToFiveSeconds) {
-  EXPECT_EQ(ProxyOptions::compat().timing.stale_after, 5000u);
-  EXPECT_EQ(ProxyOptions::compat().timing.baud, 57600u);
+  EXPECT_EQ(Options::compat().timing.stale_after, 5000u);
+  EXPECT_EQ(Options::compat().timing.baud, 57600u);
 }
 
 TEST(ProxyCompat, UndecodableAndUnknownFramesAreCounted) {

@@ -27,8 +27,8 @@ inline constexpr auto kPrompt = std::chrono::milliseconds(3000);
 
 /// Primary-mode options for tests: the protocol's shape, scaled down. No pings unless a test wants them
 /// (so messageIds are predictable); a margin wide enough that a loaded machine does not re-send.
-inline ProxyOptions test_options() {
-  ProxyOptions options;
+inline Options test_options() {
+  Options options;
   options.timing.processing_margin = 150;
   options.timing.send_budget = 1000;
   options.timing.queue_timeout = 2000;
@@ -38,8 +38,8 @@ inline ProxyOptions test_options() {
 }
 
 /// Compat-mode options for tests.
-inline ProxyOptions compat_test_options() {
-  ProxyOptions options = ProxyOptions::compat();
+inline Options compat_test_options() {
+  Options options = Options::compat();
   options.timing.stale_after = 5000;
   return options;
 }
@@ -50,7 +50,7 @@ class EventLog {
  public:
   /// A handler that records into this log.
   EventHandler handler() {
-    return [state = state_](const ProxyEvent& event) {
+    return [state = state_](const Event& event) {
       {
         std::lock_guard lock(state->mutex);
         state->events.push_back(event);
@@ -59,7 +59,7 @@ class EventLog {
     };
   }
   /// Every event so far.
-  std::vector<ProxyEvent> all() const {
+  std::vector<Event> all() const {
     std::lock_guard lock(state_->mutex);
     return state_->events;
   }
@@ -90,14 +90,14 @@ class EventLog {
   struct State {
     std::mutex mutex;
     std::condition_variable changed;
-    std::vector<ProxyEvent> events;
+    std::vector<Event> events;
   };
   std::shared_ptr<State> state_ = std::make_shared<State>();
 };
 
 /// A client and a fake device on the two ends of an in-memory pair.
 struct Link {
-  Link(boost::asio::any_io_executor executor, const ProxyOptions& options, FakeDevice::Script script) {
+  Link(boost::asio::any_io_executor executor, const Options& options, FakeDevice::Script script) {
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end, options.mode == Mode::primary ? Integrity::crc16 : Integrity::none,
                                std::move(script));
@@ -115,7 +115,7 @@ struct Link {
 
   EventLog log;
   std::shared_ptr<FakeDevice> device;
-  std::optional<ProxyClient> client;
+  std::optional<Client> client;
 };
 
 /// Polls `condition` until it holds; false after `timeout`.

@@ -19,8 +19,8 @@
 namespace tether::romi::testing {
 
 /// Timing for tests: the spec's shape (attempt window, budget twice as long, 3 sends), scaled down.
-inline ClientOptions short_timing(Duration attempt_ms = 250, Duration budget_ms = 500) {
-  ClientOptions options;
+inline Options short_timing(Duration attempt_ms = 250, Duration budget_ms = 500) {
+  Options options;
   options.timing.attempt_timeout = attempt_ms;
   options.timing.call_budget = budget_ms;
   return options;
@@ -50,7 +50,7 @@ class IoThreads {
 
 /// A client and a fake device on the two ends of an in-memory pair.
 struct Link {
-  explicit Link(boost::asio::any_io_executor executor, const ClientOptions& options = short_timing()) {
+  explicit Link(boost::asio::any_io_executor executor, const Options& options = short_timing()) {
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end);
     client.emplace(host_end, options);
@@ -63,7 +63,7 @@ struct Link {
   Link& operator=(const Link&) = delete;
 
   std::shared_ptr<FakeDevice> device;
-  std::optional<RomiClient> client;
+  std::optional<Client> client;
 };
 
 /// The request frame a client writes for `payload` with `id`.

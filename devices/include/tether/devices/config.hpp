@@ -105,9 +105,9 @@ class ConfigError : public std::runtime_error {
 
 /// The protocol a device speaks.
 enum class Codec {
-  romi,          ///< Romi text request/response (`romi::RomiClient`).
-  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::ProxyClient`, primary mode).
-  proxy_compat,  ///< The deployed proxy variant (`proxy::ProxyClient`, `ProxyOptions::compat()`).
+  romi,          ///< Romi text request/response (`romi::Client`).
+  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::Client`, primary mode).
+  proxy_compat,  ///< The deployed proxy variant (`proxy::Client`, `ProxyOptions::compat()`).
   elcano,        ///< Elcano ring (`elcano::RingClient`).
 };
 
@@ -200,7 +200,7 @@ std::string describe(const TransportConfig& transport);
 
 /// Options of a `romi` device.
 struct RomiOptions {
-  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::ClientOptions`).
+  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::Options`).
   session::CallTiming timing = romi::default_call_timing();
   /// Id of the first request (`first_id`, 0..254). Unset: random when the device opens. A fixed first id
   /// would make the first request of a restarted service look, to a device that remembers the last id of
@@ -224,7 +224,7 @@ struct PinInit {
 struct ProxyDeviceOptions {
   /// Mode (from the codec) and timing (`ProxyTiming`; its `baud` follows a serial transport's baud unless
   /// the configuration sets it).
-  proxy::ProxyOptions client;
+  proxy::Options client;
   /// Inits sent, in order, when the device opens (and replayed by the client after every reset).
   std::vector<PinInit> inits;
   /// How long opening waits for the session handshake (primary mode) and the inits.

@@ -3,7 +3,7 @@
 ///
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyUSB0", serial_options);
-///   elcano::RingClientOptions options;
+///   elcano::Options options;
 ///   options.node.capture = elcano::TypeSet::of(elcano::Type::sensor);   // what the host consumes
 ///   elcano::RingClient ring(port, options);
 ///   ring.send(drive);                                                  // blocking, throws on failure
@@ -19,7 +19,7 @@
 /// boards run) on the stream:
 ///   1. **Capture.** A complete message of a type the host captures is consumed: it completes the request
 ///      awaiting that type, if one is in flight, else it goes to the receive queue (`async_receive`). The
-///      capture set is `RingClientOptions::node.capture` (`set_capture` changes it) plus, while a request
+///      capture set is `Options::node.capture` (`set_capture` changes it) plus, while a request
 ///      is in flight, its reply type (from its first send until it completes).
 ///   2. **Forwarding.** Every other message goes on to the first board, in arrival order, without being
 ///      re-serialised: byte-identical in generation D and for input without whitespace, whitespace-stripped
@@ -58,12 +58,12 @@
 ///      second request for a reply type already awaited fails with `reply_type_busy`.
 ///   3. **Receive queue.** Captured messages no request claims wait in a queue of `receive_queue_bound`
 ///      messages for `async_receive`; when it is full the oldest is dropped, counted
-///      (`RingClientCounters::receive_overflows`) and reported (`ClientEvent::Kind::receive_overflow`).
+///      (`Counters::receive_overflows`) and reported (`ClientEvent::Kind::receive_overflow`).
 ///      Receives waiting together are served in the order they were made.
 ///   4. `close()` (and the destructor) completes every pending operation with `operation_aborted`; a link
 ///      failure (EOF, unplugged adapter) with the transport's error, after `ClientEvent::Kind::link_failed`.
 ///
-/// ## Threading and lifetime (as `romi::RomiClient` and `proxy::ProxyClient`)
+/// ## Threading and lifetime (as `romi::Client` and `proxy::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The plumbing (read loop, write queue, one timer for every deadline, close) is the shared
 ///     `transports::ClientLink`. The client reads continuously from construction on: forwarding never
@@ -94,6 +94,7 @@
 #include "tether/elcano/ring_node.hpp"
 #include "tether/elcano/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::elcano {
@@ -113,7 +114,7 @@ inline constexpr std::size_t kOutputQueueBytes = 256;
 inline constexpr std::uint8_t kOriginRecords = 64;
 
 /// How a client behaves. Every duration is in milliseconds.
-struct RingClientOptions {
+struct Options {
   /// The host's node: generation, capture set, pacing of the host's link to the first board, partial
   /// message timeout, return timeout (`elcano::RingNodeConfig`).
   RingNodeConfig node;
@@ -127,6 +128,8 @@ struct RingClientOptions {
   std::size_t send_queue_bound = 16;
   /// Longest a send waits for room in the node's output queue (then `RingError::send_timed_out`).
   Duration send_timeout = 2000;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 };
 
 /// Something the application should know that is not the completion of one of its operations.
@@ -159,7 +162,7 @@ using EventHandler = std::function<void(const ClientEvent& event)>;
 using EventHandlerId = std::uint64_t;
 
 /// The client's counters (a snapshot; they only grow).
-struct RingClientCounters {
+struct Counters {
   /// Reader (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs), partial-message deadline
   /// (partial_timeouts) and session engine (retries = re-sends of requests, timeouts).
   LinkCounters link;
@@ -202,7 +205,7 @@ class RingClient {
   /// `std::invalid_argument` for a null stream, `timing.max_attempts` or `timing.call_budget` of 0, or a
   /// `receive_queue_bound` of 0.
   explicit RingClient(std::shared_ptr<transports::ByteStream> stream,
-                      const RingClientOptions& options = RingClientOptions(), EventHandler handler = EventHandler());
+                      const Options& options = Options(), EventHandler handler = EventHandler());
   /// Closes (`close()`).
   ~RingClient();
   /// Takes `other`'s node; `other` is left without one (only destruction and assignment are valid).
@@ -283,7 +286,7 @@ class RingClient {
 
   /// Snapshot of the counters. Any thread; updated after each batch of bytes, each write and each
   /// completion (a caller reading them after a completion sees what led to it).
-  RingClientCounters counters() const;
+  Counters counters() const;
 
   /// Completes every pending operation with `operation_aborted`, closes the stream and stops reading,
   /// forwarding and timing; later operations complete with `operation_aborted` too. Bytes still in the
@@ -306,5 +309,10 @@ class RingClient {
 
   std::shared_ptr<detail::RingClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using RingClientOptions [[deprecated("use elcano::Options")]] = Options;
+/// Old name of `Counters`.
+using RingClientCounters [[deprecated("use elcano::Counters")]] = Counters;
 
 }  // namespace tether::elcano

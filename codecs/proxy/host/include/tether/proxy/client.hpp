@@ -4,14 +4,14 @@
 ///
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0", serial_options);
-///   proxy::ProxyClient client(port);                                  // primary mode: Reset, handshake, pings
-///   client.add_event_handler([](const proxy::ProxyEvent& event) { ... });
+///   proxy::Client client(port);                                  // primary mode: Reset, handshake, pings
+///   client.add_event_handler([](const proxy::Event& event) { ... });
 ///   client.servo(9).init(90);                                        // registered for replay AND sent; blocks
 ///   client.servo(9).set(120);                                        // throws system_error on failure
 ///   client.digital(13).async_set(true, [](error_code e, proxy::SendResult r) { ... });
 ///   std::future<proxy::SendResult> f = client.async_send(message, asio::use_future);   // any ArduinoIn
 ///
-///   proxy::ProxyClient old(port2, proxy::ProxyOptions::compat());     // the deployed firmware
+///   proxy::Client old(port2, proxy::Options::compat());     // the deployed firmware
 ///   old.servo(5).set(180);                                           // completes when written
 /// @endcode
 ///
@@ -19,7 +19,7 @@
 /// Wire: `0x00 ‖ COBS(crc16_le ‖ pb) ‖ 0x00` host to device (the leading 0x00 flushes line garbage), device
 /// frames `COBS(crc16_le ‖ pb) ‖ 0x00`; pb is one `tether::proxy::ArduinoIn` / `ArduinoOut`.
 ///   1. **Sends.** Every message gets the next messageId of a 32-bit sequence that starts at a random value
-///      (`ProxyOptions::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
+///      (`Options::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
 ///      put in the message is overwritten. At most `kMaxInFlight` (8) messages are in flight; at most one
 ///      per pin ("lane"), so two commands to the same pin reach the device in submission order even when
 ///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Being in
@@ -70,7 +70,7 @@
 ///   | `stale_after` | 5000 | compat: a silent pin is lost |
 /// The device side of the design: it fails safe after 10 s without a ping and sends ArduinoInfo every 5 s.
 ///
-/// ## Compatibility mode (the deployed variant, `ProxyOptions::compat()`)
+/// ## Compatibility mode (the deployed variant, `Options::compat()`)
 /// Wire: host `0x00 ‖ COBS(pb) ‖ 0x00`, device `COBS(pb) ‖ 0x00`, no CRC, `RocketryProto` messages, 57600
 /// baud (the transport's setting). No messageIds, acks, pings or sessions: a send completes when its frame
 /// was written to the stream (`SendResult::acked` is false). Same convenience API; `async_send` takes a
@@ -99,12 +99,12 @@
 ///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
 ///
 /// ## Events (`add_event_handler`)
-/// Handlers receive a `ProxyEvent` (a variant; see `events::`). Contract: called on the client's strand, one
+/// Handlers receive a `Event` (a variant; see `events::`). Contract: called on the client's strand, one
 /// event at a time, in arrival order; must not block for long (decoding waits), must not call the blocking
 /// API of this client (it fails with `TransportError::would_deadlock`; the async API is fine); exceptions
 /// are caught and dropped. Events are not queued for handlers added later.
 ///
-/// ## Threading and lifetime (as `romi::RomiClient`)
+/// ## Threading and lifetime (as `romi::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The client reads continuously from construction on (one read loop, no read deadline; one
 ///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule; the
@@ -139,6 +139,7 @@
 #include "tether/proxy/error_category.hpp"
 #include "tether/proxy/frame.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether_proxy.pb.h"
 
@@ -204,7 +205,7 @@ struct ProxyTiming {
 };
 
 /// How a client behaves.
-struct ProxyOptions {
+struct Options {
   /// Protocol.
   Mode mode = Mode::primary;
   /// Timing (see `ProxyTiming`).
@@ -213,12 +214,14 @@ struct ProxyOptions {
   std::optional<std::uint32_t> first_message_id;
   /// Compat mode: re-send every registered init when the device sends `EventMessage{RESET}`.
   bool compat_replay_on_reset = true;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 
   /// Primary mode with the protocol's timing.
-  static ProxyOptions primary() { return ProxyOptions(); }
+  static Options primary() { return Options(); }
   /// Compatibility mode: the deployed variant at 57600 baud.
-  static ProxyOptions compat() {
-    ProxyOptions options;
+  static Options compat() {
+    Options options;
     options.mode = Mode::compat;
     options.timing.baud = 57600;
     return options;
@@ -262,7 +265,7 @@ struct PinStatus {
   std::chrono::steady_clock::time_point updated;  ///< Last report (or its init, before any report).
 };
 
-/// Events to the application; each type is one alternative of `ProxyEvent`.
+/// Events to the application; each type is one alternative of `Event`.
 namespace events {
 /// Primary: the device sent `Error(text, level)`.
 struct DeviceError {
@@ -331,17 +334,17 @@ struct LinkFailed {
 }  // namespace events
 
 /// Everything a handler can receive.
-using ProxyEvent = std::variant<events::DeviceError, events::DeviceInfo, events::FailsafeTriggered,
+using Event = std::variant<events::DeviceError, events::DeviceInfo, events::FailsafeTriggered,
                                 events::PinReport, events::PinLost, events::SessionEstablished,
                                 events::ResetDetected, events::CompatEvent, events::CompatError,
                                 events::CompatState, events::UndecodableMessage, events::LinkFailed>;
 /// An event handler (contract in the file overview).
-using EventHandler = std::function<void(const ProxyEvent& event)>;
+using EventHandler = std::function<void(const Event& event)>;
 /// Identifies a handler for `remove_event_handler`.
 using EventHandlerId = std::uint64_t;
 
 /// The client's counters (a snapshot; they only grow).
-struct ProxyCounters {
+struct Counters {
   /// Decoder (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs) and session engine (stale
   /// acks, retries = re-sends and unanswered Resets, timeouts, resets = device restarts detected).
   LinkCounters link;
@@ -363,7 +366,7 @@ struct SessionStatus {
 };
 
 namespace detail {
-class ProxyClientImpl;
+class ClientImpl;
 /// Type-erased completion handler of a send.
 using SendHandler = transports::UniqueFunction<SendSignature>;
 
@@ -378,21 +381,21 @@ struct Request {
 };
 
 /// Queues `request` on `impl` (any thread). Defined in client.cpp.
-void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendHandler handler);
+void submit(const std::shared_ptr<ClientImpl>& impl, Request request, SendHandler handler);
 /// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl);
+boost::asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl);
 /// Blocking send: failures in `error`.
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error);
+SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request, error_code& error);
 /// Blocking send: throws `boost::system::system_error`.
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request);
+SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request);
 /// The pin's status (`ServoHandle::state`, ...).
-std::optional<PinStatus> pin_state(const std::shared_ptr<ProxyClientImpl>& impl, PinKind kind, std::uint32_t pin);
+std::optional<PinStatus> pin_state(const std::shared_ptr<ClientImpl>& impl, PinKind kind, std::uint32_t pin);
 
 /// Starts `request` with any completion token.
 template <typename SendToken>
-auto initiate_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendToken&& token) {
+auto initiate_send(const std::shared_ptr<ClientImpl>& impl, Request request, SendToken&& token) {
   // The initiation holds the implementation, not the client: deferred tokens (use_awaitable) may start it
-  // after the ProxyClient object was moved.
+  // after the Client object was moved.
   return boost::asio::async_initiate<SendToken, SendSignature>(
       [impl](auto handler, Request req) {
         auto bound = transports::bind_to_associated_executor<SendSignature>(std::move(handler), executor_of(impl));
@@ -445,11 +448,11 @@ class ServoHandle {
   std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::servo, pin_); }
 
  private:
-  friend class ProxyClient;
+  friend class Client;
   using Op = detail::Request::Op;
-  ServoHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin) : impl_(std::move(impl)), pin_(pin) {}
+  ServoHandle(std::shared_ptr<detail::ClientImpl> impl, std::uint32_t pin) : impl_(std::move(impl)), pin_(pin) {}
   detail::Request request(Op op, std::int32_t value) const { return detail::make_request(op, pin_, value); }
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  std::shared_ptr<detail::ClientImpl> impl_;
   std::uint32_t pin_;
 };
 
@@ -486,31 +489,31 @@ class DigitalHandle {
   std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::digital, pin_); }
 
  private:
-  friend class ProxyClient;
+  friend class Client;
   using Op = detail::Request::Op;
-  DigitalHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin)
+  DigitalHandle(std::shared_ptr<detail::ClientImpl> impl, std::uint32_t pin)
       : impl_(std::move(impl)), pin_(pin) {}
   detail::Request request(Op op, bool value) const { return detail::make_request(op, pin_, value ? 1 : 0); }
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  std::shared_ptr<detail::ClientImpl> impl_;
   std::uint32_t pin_;
 };
 
 /// Proxy host client for one device. Movable, not copyable; see the file overview.
-class ProxyClient {
+class Client {
  public:
   /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
   /// `handler`, when given, is installed before anything starts, so it sees every event (the first
   /// `SessionEstablished` may come before a handler added after construction). Throws
   /// `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget or
   /// max_sends of 0).
-  explicit ProxyClient(std::shared_ptr<transports::ByteStream> stream, const ProxyOptions& options = ProxyOptions(),
+  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
                        EventHandler handler = EventHandler());
   /// Closes (`close()`).
-  ~ProxyClient();
-  ProxyClient(ProxyClient&&) noexcept;
-  ProxyClient& operator=(ProxyClient&&) noexcept;
-  ProxyClient(const ProxyClient&) = delete;
-  ProxyClient& operator=(const ProxyClient&) = delete;
+  ~Client();
+  Client(Client&&) noexcept;
+  Client& operator=(Client&&) noexcept;
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
 
   /// Executor of the stream; completion handlers without an associated executor run on it.
   boost::asio::any_io_executor get_executor() const;
@@ -567,7 +570,7 @@ class ProxyClient {
   void remove_event_handler(EventHandlerId id);
 
   /// Snapshot of the counters. Any thread; updated after each batch of bytes and each completion.
-  ProxyCounters counters() const;
+  Counters counters() const;
   /// Where the session stands. Any thread.
   SessionStatus session() const;
   /// The last known state of a pin (inited through this client or reported). Any thread.
@@ -594,7 +597,16 @@ class ProxyClient {
     return request;
   }
 
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  std::shared_ptr<detail::ClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using ProxyClient [[deprecated("use proxy::Client")]] = Client;
+/// Old name of `Options`.
+using ProxyOptions [[deprecated("use proxy::Options")]] = Options;
+/// Old name of `Counters`.
+using ProxyCounters [[deprecated("use proxy::Counters")]] = Counters;
+/// Old name of `Event`.
+using ProxyEvent [[deprecated("use proxy::Event")]] = Event;
 
 }  // namespace tether::proxy

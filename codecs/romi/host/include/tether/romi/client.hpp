@@ -4,7 +4,7 @@
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0",
 ///                                                  transports::SerialOptions::arduino_uno());
-///   romi::RomiClient client(port);
+///   romi::Client client(port);
 ///   romi::RomiResponse led = client.call("L[1]");                  // blocking, throws on failure
 ///   romi::RomiResponse off = client.call({'M', {16}, "Shutdown"});  // built and validated
 ///   client.async_call("A", [](error_code error, romi::RomiResponse response) { ... });
@@ -104,6 +104,8 @@
 #include "tether/romi/errors.hpp"
 #include "tether/romi/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::romi {
@@ -175,16 +177,18 @@ struct RomiResponse {
 };
 
 /// How a client behaves; every field has the spec's value by default.
-struct ClientOptions {
+struct Options {
   /// Attempt window (1 s), call budget (2 s), sends per call (3), log lines re-arm the window. Tests and
   /// slow links may change them. `retry_on_timeout` (re-send a silent attempt, rule 4c of the overview):
   /// off by default; turn it on for Tether firmware only (the reference answers a re-send -15).
   session::CallTiming timing = default_call_timing();
   /// Ids start after this one (255: the first call uses id 0, like the reference host).
   std::uint8_t last_id = 255;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 
   /// Makes `id` the first call's id.
-  ClientOptions& first_id(std::uint8_t id) {
+  Options& first_id(std::uint8_t id) {
     last_id = static_cast<std::uint8_t>(id - 1u);
     return *this;
   }
@@ -219,40 +223,41 @@ namespace detail {
 class ClientImpl;
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
-/// Queues `command` on `impl` (any thread). Defined in client.cpp.
-void start_call(const std::shared_ptr<ClientImpl>& impl, Command command, bool manual, CallHandler handler);
-/// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl);
+/// Queues `command` on `impl` as operation `operation` (any thread). Defined in client.cpp.
+void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                CallHandler handler, Command command, bool manual);
 }  // namespace detail
 
-/// Romi host client for one device. Movable, not copyable; see the file overview.
-class RomiClient {
+/// What a client counted: the link's decoder (frames_ok, crc_errors, framing_errors, oversize_frames,
+/// resyncs) and session engine (stale, retries, timeouts); the Romi protocol adds nothing of its own.
+struct Counters {
+  LinkCounters link;  ///< Decoder and engine.
+};
+
+/// Romi host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open` and the
+/// moves: `transports::ClientFront`); see the file overview. `close()` completes the call in flight and
+/// every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
+/// thread runs the executor).
+class Client : public transports::ClientFront<detail::ClientImpl> {
  public:
   /// Client over `stream`; starts reading at once. The stream's executor runs everything. Throws
   /// `std::invalid_argument` for a null stream.
-  explicit RomiClient(std::shared_ptr<transports::ByteStream> stream, const ClientOptions& options = ClientOptions());
-  /// Closes (`close()`).
-  ~RomiClient();
-  RomiClient(RomiClient&&) noexcept;
-  RomiClient& operator=(RomiClient&&) noexcept;
-  RomiClient(const RomiClient&) = delete;
-  RomiClient& operator=(const RomiClient&) = delete;
-
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  boost::asio::any_io_executor get_executor() const;
+  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options());
 
   /// Sends `command` and completes with `void(error_code, RomiResponse)` when the device answered, the
   /// call timed out, or the client was closed. Works with any completion token (callback, `use_future`:
   /// a `std::future<RomiResponse>` that throws `system_error` on an error_code, `use_awaitable`).
-  /// An invalid command completes with its error (see `Command`) without touching the wire.
+  /// An invalid command completes with its error (see `Command`) without touching the wire. A token with a
+  /// cancellation slot (`asio::bind_cancellation_slot`) cancels this call alone: queued, it never starts;
+  /// in flight, it completes with `operation_aborted` at once and its answer, if it comes, is stale.
   template <typename CallToken>
   auto async_call(Command command, CallToken&& token) {
-    return initiate(std::move(command), false, std::forward<CallToken>(token));
+    return initiate<CallSignature>(std::forward<CallToken>(token), &detail::start_call, std::move(command), false);
   }
   /// `async_call` in manual form (`#command:xxxx\r\n`, answer matched by id 00 and opcode).
   template <typename CallToken>
   auto async_call_manual(Command command, CallToken&& token) {
-    return initiate(std::move(command), true, std::forward<CallToken>(token));
+    return initiate<CallSignature>(std::forward<CallToken>(token), &detail::start_call, std::move(command), true);
   }
 
   /// Blocking call; failures (see the overview) in `error`, the response always filled in.
@@ -280,32 +285,15 @@ class RomiClient {
 
   /// Snapshot of the link counters: decoder (frames_ok, crc_errors, framing_errors, oversize_frames,
   /// resyncs) and engine (stale, retries, timeouts). Any thread; updated after each batch of bytes.
-  LinkCounters counters() const;
-
-  /// Completes the call in flight and all queued calls with `operation_aborted`, closes the stream and
-  /// stops reading; later calls complete with `operation_aborted` too. Idempotent, any thread, never
-  /// waits for the device (at most the stream's own 250 ms close fallback when no thread runs the
-  /// executor).
-  void close();
-  /// False after `close()`.
-  bool is_open() const;
+  Counters counters() const;
 
  private:
-  template <typename CallToken>
-  auto initiate(Command command, bool manual, CallToken&& token) {
-    // The initiation holds the implementation, not `this`: deferred tokens (use_awaitable) may start it
-    // after the RomiClient object was moved.
-    return boost::asio::async_initiate<CallToken, CallSignature>(
-        [impl = impl_](auto handler, Command cmd, bool as_manual) {
-          auto bound = transports::bind_to_associated_executor<CallSignature>(std::move(handler),
-                                                                               detail::executor_of(impl));
-          detail::start_call(impl, std::move(cmd), as_manual, std::move(bound));
-        },
-        token, std::move(command), manual);
-  }
   RomiResponse blocking_call(const Command& command, bool manual, error_code& error);
-
-  std::shared_ptr<detail::ClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using RomiClient [[deprecated("use romi::Client")]] = Client;
+/// Old name of `Options`.
+using ClientOptions [[deprecated("use romi::Options")]] = Options;
 
 }  // namespace tether::romi

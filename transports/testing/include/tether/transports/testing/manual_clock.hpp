@@ -1,0 +1,45 @@
+/// @file manual_clock.hpp
+/// A `LinkClock` that moves only when a test says so: clients built on it (their `Options::clock`) see
+/// simulated time, so a test asserts "the re-send went out after exactly 250 ms" without reading the wall
+/// clock, and a loaded machine cannot make a deadline pass early or late.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "tether/transports/link_clock.hpp"
+
+namespace tether::transports::testing {
+
+/// Manual clock: `now()` changes only through `advance`/`set`. Thread-safe.
+class ManualClock final : public LinkClock, public std::enable_shared_from_this<ManualClock> {
+ public:
+  /// A clock reading `start` (a value near the 32-bit wrap tests the wrap).
+  static std::shared_ptr<ManualClock> create(Millis start = 1000);
+
+  Millis now() const override;
+  std::unique_ptr<LinkTimer> make_timer(const boost::asio::any_io_executor& executor) override;
+
+  /// Moves the clock `by` ms forward and completes (posts) every wait whose instant was reached, in the
+  /// order of their instants.
+  void advance(Duration by);
+  /// Moves the clock to `instant` (wrap-safe, forward only: an instant behind `now()` changes nothing).
+  void advance_to(Millis instant);
+  /// Waits pending on the clock's timers (a test waits for the client to arm one before advancing).
+  std::size_t pending() const;
+  /// The earliest pending instant, when a wait is pending (`next_due` false otherwise).
+  bool next_due(Millis& at) const;
+
+ private:
+  struct Wait;
+  class Timer;
+  ManualClock(Millis start) : now_(start) {}
+
+  mutable std::mutex mutex_;
+  Millis now_;
+  std::vector<std::shared_ptr<Wait>> waits_;
+};
+
+}  // namespace tether::transports::testing
