@@ -103,7 +103,7 @@ std::string init_text(const PinInit& init) {
 void await_proxy(proxy::Client& client, const ProxyDeviceOptions& options, const std::string& path) {
   auto state = std::make_shared<ProxyReadiness>();
   const bool primary = options.client.mode == proxy::Mode::primary;
-  const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::Event& event) {
+  const proxy::EventHandlerId handler = client.on_event([state](const proxy::Event& event) {
     std::lock_guard lock(state->mutex);
     if (std::holds_alternative<proxy::events::SessionEstablished>(event)) state->established = true;
     if (const auto* failed = std::get_if<proxy::events::LinkFailed>(&event)) state->link_error = failed->error;

@@ -127,7 +127,7 @@ TEST(ProxyInterop, WithoutPingsThePinsGoSafeAfterTenSecondsAndTheFailsafeIsRepor
   options.timing.ping_period = 0;  // the host stops pinging
   EventLog log;
   Client client(stream, options);
-  client.add_event_handler(log.handler());
+  client.on_event(log.handler());
   client.servo(9).init(45);
   client.digital(13).init(false);
   client.servo(9).set(170);
@@ -150,7 +150,7 @@ TEST(ProxyInterop, AnMcuResetIsDetectedAndTheInitsAreReplayedWithoutTheApplicati
   auto& uno = stream->board();
   EventLog log;
   Client client(stream);
-  client.add_event_handler(log.handler());
+  client.on_event(log.handler());
   client.servo(9).init(90);
   client.digital(13).init(true);
   client.servo(9).set(180);
@@ -176,7 +176,7 @@ TEST(ProxyInterop, UnderLineNoiseEveryAckedCommandRanExactlyOnce) {
   auto& uno = stream->board();
   EventLog log;
   Client client(stream);
-  client.add_event_handler(log.handler());
+  client.on_event(log.handler());
   client.servo(9).init(0);
   transports::FaultConfig noise;
   noise.bit_error_rate = 5e-4;
@@ -308,7 +308,7 @@ TEST(ProxyInterop, ManyInFlightWithLostAcksAndResetsEveryAckedCommandRanExactlyO
   std::set<std::uint32_t> acked_ids;
   std::atomic<int> completed{0};
   Client client(client_end);
-  client.add_event_handler(log.handler());
+  client.on_event(log.handler());
   struct Lane {
     std::uint32_t pin;
     bool servo;

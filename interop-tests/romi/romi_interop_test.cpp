@@ -50,10 +50,12 @@ VirtualUnoOptions romi_test_board(Pacing pacing) {
 struct LogRecorder {
   std::mutex mutex;
   std::vector<std::string> lines;
-  LogHandler handler() {
-    return [this](std::string_view text) {
+  EventHandler handler() {
+    return [this](const Event& event) {
+      const auto* log = std::get_if<events::Log>(&event);
+      if (log == nullptr) return;
       std::lock_guard lock(mutex);
-      lines.emplace_back(text);
+      lines.push_back(log->text);
     };
   }
   std::vector<std::string> take() {
@@ -67,7 +69,7 @@ TEST(RomiInterop, EveryRomiTestHandlerThroughTheRealFirmware) {
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
   Client client(stream);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
 
   EXPECT_EQ(client.call("a").values, json::parse("[0]"));
   EXPECT_EQ(client.call("c[1,2]").values, json::parse("[0]"));
@@ -145,7 +147,7 @@ TEST(RomiInterop, LogFloodBetweenRequestAndAnswer) {
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
   Client client(stream);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   EXPECT_EQ(client.call("g[20]").values, json::parse("[0]"));
   const auto lines = logs.take();
   ASSERT_EQ(lines.size(), 20u);
@@ -270,7 +272,7 @@ FaultedCall call_through_fault(FaultyWire::Fault fault, const Options& options =
   FaultyWire wire(wire_end, board);
   Client client(client_end, options);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   FaultedCall result;
   if (client.call("a", result.error).code != 0) return result;
   wire.arm(fault);
@@ -346,7 +348,7 @@ TEST(RomiInterop, NewSessionRepeatingTheLastIdAndCommandRunsOnceTheCallBudgetHas
     auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
     Client client(client_end, Options().first_id(5));
     LogRecorder logs;
-    client.set_log_handler(logs.handler());
+    client.on_event(logs.handler());
     std::future<RomiResponse> answer = client.async_call("g[1]", boost::asio::use_future);
     std::vector<std::uint8_t> buffer(256);
     std::string line;
@@ -529,7 +531,7 @@ TEST(RomiReferenceCrossCheck, TetherClientRecoversFromADamagedIdLikeTheReference
   FaultyWire wire(wire_end, device_side);
   Client client(client_end);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   ASSERT_EQ(client.call("s[1,1]").values, json::parse("[0,2]"));
   wire.arm(FaultyWire::Fault::damage_request_id);
   error_code error;

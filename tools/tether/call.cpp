@@ -169,8 +169,10 @@ int run_call(int argc, char** argv) {
     transports::IoThread io;
     Progress progress("call");
     ClientHooks hooks;
-    hooks.romi_log = [](std::string_view text) {
-      std::fprintf(stderr, "log: %.*s\n", static_cast<int>(text.size()), text.data());
+    hooks.romi_events = [](const romi::Event& event) {
+      if (const auto* log = std::get_if<romi::events::Log>(&event)) {
+        std::fprintf(stderr, "log: %.*s\n", static_cast<int>(log->text.size()), log->text.data());
+      }
     };
     auto device = open_device(*target, io.executor(), hooks, progress, error_text);
     if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");

@@ -398,14 +398,13 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
           using Client = std::decay_t<decltype(client)>;
           if constexpr (std::is_same_v<Client, std::shared_ptr<romi::Client>>) {
             opened.romi_ = client;
-            if (hooks.romi_log) client->set_log_handler(hooks.romi_log);
-            if (hooks.romi_link_failed) client->set_link_failed_handler(hooks.romi_link_failed);
+            if (hooks.romi_events) client->on_event(hooks.romi_events);
           } else if constexpr (std::is_same_v<Client, std::shared_ptr<proxy::Client>>) {
             opened.proxy_ = client;
-            if (hooks.proxy_events) client->add_event_handler(hooks.proxy_events);
+            if (hooks.proxy_events) client->on_event(hooks.proxy_events);
           } else {
             opened.ring_ = client;
-            if (hooks.ring_events) client->add_event_handler(hooks.ring_events);
+            if (hooks.ring_events) client->on_event(hooks.ring_events);
           }
         },
         device.client);

@@ -66,8 +66,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
 
 /// Callbacks installed when the client is created, so they see every event from the first byte on.
 struct ClientHooks {
-  romi::LogHandler romi_log;         ///< romi log lines
-  romi::LinkFailedHandler romi_link_failed;  ///< romi: the link failed (an idle client hears of it too)
+  romi::EventHandler romi_events;    ///< romi events (log lines; the link failed: an idle client hears of it too)
   proxy::EventHandler proxy_events;  ///< proxy events
   elcano::EventHandler ring_events;  ///< elcano ring events
 };

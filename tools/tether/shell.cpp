@@ -410,8 +410,12 @@ int run_shell(int argc, char** argv) {
 
   auto ring_replies = std::make_shared<RingReplies>();
   ClientHooks hooks;
-  hooks.romi_log = [printer](std::string_view text) { printer.event(romi_log_line(text)); };
-  hooks.romi_link_failed = [printer, on_failure](romi::error_code failure) {
+  hooks.romi_events = [printer, on_failure](const romi::Event& event) {
+    if (const auto* log = std::get_if<romi::events::Log>(&event)) {
+      printer.event(romi_log_line(log->text));
+      return;
+    }
+    const romi::error_code failure = std::get<romi::events::LinkFailed>(event).error;
     printer.event({"link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}}});
     on_failure();
   };
@@ -419,10 +423,10 @@ int run_shell(int argc, char** argv) {
     printer.event(proxy_event_line(event));
     if (std::holds_alternative<proxy::events::LinkFailed>(event)) on_failure();
   };
-  hooks.ring_events = [printer, generation, on_failure, ring_replies](const elcano::ClientEvent& event) {
+  hooks.ring_events = [printer, generation, on_failure, ring_replies](const elcano::Event& event) {
     printer.event(ring_event_line(event, generation));
-    if (event.kind == elcano::ClientEvent::Kind::undeliverable) ring_replies->settled();
-    if (event.kind == elcano::ClientEvent::Kind::link_failed) on_failure();
+    if (std::holds_alternative<elcano::events::Undeliverable>(event)) ring_replies->settled();
+    if (std::holds_alternative<elcano::events::LinkFailed>(event)) on_failure();
   };
 
   transports::IoThread io;

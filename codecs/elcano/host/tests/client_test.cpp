@@ -146,8 +146,8 @@ TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
   } catch (const boost::system::system_error& failure) {
     EXPECT_EQ(failure.code(), RingError::undeliverable);
   }
-  ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::undeliverable));
-  const auto reports = link.log.of(ClientEvent::Kind::undeliverable);
+  ASSERT_TRUE(link.log.wait_for<events::Undeliverable>());
+  const auto reports = link.log.of<events::Undeliverable>();
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_TRUE(reports[0].request_failed);
   EXPECT_TRUE(same(reports[0].message, goal(1)));
@@ -169,14 +169,14 @@ TEST(RingClient, UndeliverableSendIsReportedOnce) {
     if (record.ok && record.message.type == Type::drive) ring.send(record.wire);  // nobody takes drives
   });
   link.client->send(drive(50, 25));
-  ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::undeliverable));
+  ASSERT_TRUE(link.log.wait_for<events::Undeliverable>());
   // One more message through the ring proves the echo was handled (and not forwarded) before it.
   link.ring->send(wire(goal(4)));
   ASSERT_TRUE(link.ring->wait_for_messages(2));
   const auto records = link.ring->messages();
   ASSERT_EQ(records.size(), 2u);
   EXPECT_EQ(records[1].message.type, Type::goal);
-  const auto reports = link.log.of(ClientEvent::Kind::undeliverable);
+  const auto reports = link.log.of<events::Undeliverable>();
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_FALSE(reports[0].request_failed);
   EXPECT_TRUE(same(reports[0].message, drive(50, 25)));
@@ -326,8 +326,8 @@ TEST(RingClient, ReceiveQueueOverflowDropsTheOldestAndReportsIt) {
   options.receive_queue_bound = 2;
   Link link(io.executor(), options);
   link.ring->send(wire(sensor(1)) + wire(sensor(2)) + wire(sensor(3)) + wire(sensor(4)));
-  ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::receive_overflow, 2));
-  const auto reports = link.log.of(ClientEvent::Kind::receive_overflow);
+  ASSERT_TRUE(link.log.wait_for<events::ReceiveOverflow>(2));
+  const auto reports = link.log.of<events::ReceiveOverflow>();
   ASSERT_EQ(reports.size(), 2u);
   EXPECT_TRUE(same(reports[0].message, sensor(1)));
   EXPECT_TRUE(same(reports[1].message, sensor(2)));
@@ -412,7 +412,7 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   }));
   const Counters counters = link.client->counters();
   EXPECT_GE(counters.ring.queue_full_drops, 1u);
-  const auto reports = link.log.of(ClientEvent::Kind::forward_dropped);
+  const auto reports = link.log.of<events::ForwardDropped>();
   ASSERT_EQ(reports.size(), counters.ring.queue_full_drops);
   // The last ones were dropped: the queue keeps the first in order.
   EXPECT_TRUE(same(reports.back().message, drive(10 + static_cast<std::int32_t>(kMessages) - 1, 25)));
@@ -468,8 +468,8 @@ TEST(RingClient, PartialMessageIsDroppedAtItsDeadline) {
   options.node.partial_message_timeout = 50;
   Link link(io.executor(), options);
   link.ring->send("D{s 5");
-  ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::read_error));
-  const auto reports = link.log.of(ClientEvent::Kind::read_error);
+  ASSERT_TRUE(link.log.wait_for<events::InputDropped>());
+  const auto reports = link.log.of<events::InputDropped>();
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_EQ(reports[0].error, ReadError::timed_out);
   EXPECT_EQ(link.client->counters().link.partial_timeouts, 1u);
@@ -485,7 +485,7 @@ TEST(RingClient, ReadErrorsAreReportedAndNotForwarded) {
   link.ring->send("Q{s 1}\nD{s 1}{z 2}\n" + wire(drive(3, 3)));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
   EXPECT_EQ(link.ring->received(), "D{s3}{a3}\n");
-  const auto reports = link.log.of(ClientEvent::Kind::read_error);
+  const auto reports = link.log.of<events::InputDropped>();
   ASSERT_EQ(reports.size(), 2u);
   EXPECT_EQ(reports[0].error, ReadError::bad_type);
   EXPECT_EQ(reports[1].error, ReadError::bad_attrib);
@@ -514,7 +514,7 @@ TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
   records = link.ring->messages();
   EXPECT_EQ(records[1].wire, passing);
   EXPECT_EQ(link.ring->received(), wire(goal(1), Generation::d) + passing);
-  const auto reports = link.log.of(ClientEvent::Kind::read_error);
+  const auto reports = link.log.of<events::InputDropped>();
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_EQ(reports[0].error, ReadError::bad_crc);
   EXPECT_EQ(link.client->counters().link.crc_errors, 1u);
@@ -593,8 +593,8 @@ TEST(RingClient, LinkFailureFailsPendingOperationsAndIsReported) {
   ASSERT_TRUE(completions.wait_for(1));
   EXPECT_TRUE(completions.at(0)->error);
   EXPECT_NE(completions.at(0)->error, asio::error::operation_aborted);
-  ASSERT_TRUE(link.log.wait_for(ClientEvent::Kind::link_failed));
-  EXPECT_EQ(link.log.of(ClientEvent::Kind::link_failed)[0].link_error, completions.at(0)->error);
+  ASSERT_TRUE(link.log.wait_for<events::LinkFailed>());
+  EXPECT_EQ(link.log.of<events::LinkFailed>()[0].error, completions.at(0)->error);
   error_code error;
   link.client->send(drive(1, 1), error);
   EXPECT_EQ(error, completions.at(0)->error);  // the link's error, for every later operation
@@ -608,7 +608,7 @@ TEST(RingClient, BlockingCallFromTheStrandFailsInsteadOfDeadlocking) {
   std::promise<error_code> seen;
   RingClient* client_ptr = nullptr;
   std::atomic<bool> once{false};
-  RingClient client(host_end, options, [&](const ClientEvent&) {
+  RingClient client(host_end, options, [&](const Event&) {
     if (once.exchange(true)) return;
     error_code error;
     client_ptr->send(drive(1, 1), error);

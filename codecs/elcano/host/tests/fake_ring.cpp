@@ -109,43 +109,6 @@ session::LinkPacing trickle() {
   return pacing;
 }
 
-// --- EventLog ----------------------------------------------------------------------------------------------
-
-EventHandler EventLog::handler() {
-  return [state = state_](const ClientEvent& event) {
-    {
-      std::lock_guard lock(state->mutex);
-      state->events.push_back(event);
-    }
-    state->changed.notify_all();
-  };
-}
-
-std::vector<ClientEvent> EventLog::all() const {
-  std::lock_guard lock(state_->mutex);
-  return state_->events;
-}
-
-std::vector<ClientEvent> EventLog::of(ClientEvent::Kind kind) const {
-  std::lock_guard lock(state_->mutex);
-  std::vector<ClientEvent> found;
-  for (const auto& event : state_->events) {
-    if (event.kind == kind) found.push_back(event);
-  }
-  return found;
-}
-
-bool EventLog::wait_for(ClientEvent::Kind kind, std::size_t count, std::chrono::milliseconds timeout) const {
-  std::unique_lock lock(state_->mutex);
-  return state_->changed.wait_for(lock, timeout, [&] {
-    std::size_t seen = 0;
-    for (const auto& event : state_->events) {
-      if (event.kind == kind) ++seen;
-    }
-    return seen >= count;
-  });
-}
-
 // --- Completions -------------------------------------------------------------------------------------------
 
 void Completions::store(std::size_t index, Outcome outcome) {
@@ -194,19 +157,6 @@ Link::Link(boost::asio::any_io_executor executor, const Options& options, FakeRi
 Link::~Link() {
   if (client) client->close();
   ring->close();
-}
-
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return condition();
-}
-
-long long elapsed_ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace tether::elcano::testing

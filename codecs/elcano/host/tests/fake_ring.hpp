@@ -22,6 +22,8 @@
 #include "tether/elcano/reader.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/testing/eventually.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::elcano::testing {
@@ -102,26 +104,9 @@ Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000);
 /// test, so the node's output queue stays as the test filled it.
 session::LinkPacing trickle();
 
-/// Records every event; tests wait for the ones they expect. Handlers share its state.
-class EventLog {
- public:
-  /// A handler that records into this log.
-  EventHandler handler();
-  /// Every event so far.
-  std::vector<ClientEvent> all() const;
-  /// The events of `kind` so far.
-  std::vector<ClientEvent> of(ClientEvent::Kind kind) const;
-  /// Waits until `count` events of `kind` were recorded; false after `timeout`.
-  bool wait_for(ClientEvent::Kind kind, std::size_t count = 1, std::chrono::milliseconds timeout = kPrompt) const;
-
- private:
-  struct State {
-    mutable std::mutex mutex;
-    std::condition_variable changed;
-    std::vector<ClientEvent> events;
-  };
-  std::shared_ptr<State> state_ = std::make_shared<State>();
-};
+/// Records every event; tests wait for the ones they expect.
+using EventLog = transports::testing::EventLog<Event>;
+using ::tether::testing::eventually;
 
 /// The outcome of an asynchronous operation.
 struct Outcome {
@@ -166,11 +151,5 @@ struct Link {
   std::shared_ptr<FakeRing> ring;
   std::optional<RingClient> client;
 };
-
-/// Polls `condition` until it holds; false after `timeout`.
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = kPrompt);
-
-/// Milliseconds since `start`.
-long long elapsed_ms(std::chrono::steady_clock::time_point start);
 
 }  // namespace tether::elcano::testing

@@ -223,7 +223,7 @@ class ClientImpl final : public transports::ClientLink {
   Mode mode() const { return options_.mode; }
 
   // Any thread.
-  void submit(Request request, SendHandler handler) {
+  void submit(OperationId operation, Request request, SendHandler handler) {
     Built built = primary() ? build_primary(request) : build_compat(request);
     if (built.error) {
       post_completion(std::move(handler), built.error, SendResult());
@@ -238,6 +238,7 @@ class ClientImpl final : public transports::ClientLink {
     pending->lane = built.lane;
     pending->init = built.init;
     pending->handler = std::move(handler);
+    pending->operation = operation;
     post_to_strand([this, pending = std::move(pending)]() mutable { accept(std::move(pending)); });
   }
 
@@ -259,18 +260,7 @@ class ClientImpl final : public transports::ClientLink {
     });
   }
 
-  EventHandlerId add_event_handler(EventHandler handler) {
-    std::lock_guard lock(mutex_);
-    const EventHandlerId id = ++last_handler_id_;
-    if (handler) handlers_.emplace_back(id, std::make_shared<EventHandler>(std::move(handler)));
-    return id;
-  }
-
-  void remove_event_handler(EventHandlerId id) {
-    std::lock_guard lock(mutex_);
-    handlers_.erase(std::remove_if(handlers_.begin(), handlers_.end(), [id](const auto& entry) { return entry.first == id; }),
-                    handlers_.end());
-  }
+  transports::EventHandlers<Event>& event_handlers() { return events_; }
 
   Counters counters() const { return published_.get(); }
 
@@ -296,6 +286,7 @@ class ClientImpl final : public transports::ClientLink {
   struct Pending {
     AnyMessage message;                 // messageId assigned at the first send (primary)
     SendHandler handler;                // empty for replays
+    OperationId operation = 0;          // the application's operation (0 for replays)
     std::optional<std::uint32_t> lane;  // its pin: one message per pin in flight
     std::optional<PinKey> init;         // an init (registered for replay)
     InitKey replay_key = 0;             // != 0: the session's replay of this init
@@ -724,6 +715,41 @@ class ClientImpl final : public transports::ClientLink {
 
   void on_timer() override { pump(now()); }
 
+  // The application cancelled one send: queued or waiting for its init's replay, it never goes out; in
+  // flight, it leaves the engine (no more re-sends; a late ack is stale) and frees its pin and its slot.
+  // A compat send already handed to the stream completes when written (the header says so).
+  void on_cancel(OperationId operation) override {
+    const error_code aborted = asio::error::operation_aborted;
+    const auto matches = [operation](const std::unique_ptr<Pending>& pending) { return pending->operation == operation; };
+    if (const auto queued = std::find_if(user_queue_.begin(), user_queue_.end(), matches); queued != user_queue_.end()) {
+      complete(std::move((*queued)->handler), aborted, SendResult());
+      user_queue_.erase(queued);
+      pump(now());
+      return;
+    }
+    for (auto& [key, entry] : inits_) {
+      const auto waiting = std::find_if(entry.waiters.begin(), entry.waiters.end(), matches);
+      if (waiting == entry.waiters.end()) continue;
+      complete(std::move((*waiting)->handler), aborted, SendResult());
+      entry.waiters.erase(waiting);
+      pump(now());
+      return;
+    }
+    const auto in_flight = std::find_if(in_flight_.begin(), in_flight_.end(),
+                                        [&](const auto& entry) { return matches(entry.second); });
+    if (in_flight == in_flight_.end()) return;
+    const Result<Table::Completion> cancelled = table_.cancel(in_flight->first);
+    std::unique_ptr<Pending> pending = std::move(in_flight->second);
+    in_flight_.erase(in_flight);
+    if (pending->lane) lanes_.erase(*pending->lane);
+    refresh_table_timing();
+    SendResult result;
+    result.message_id = pending->id;
+    result.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+    complete(std::move(pending->handler), aborted, result);
+    pump(now());  // its pin and its slot are free for what waits
+  }
+
   void undecodable(ByteView payload, bool malformed) {
     if (malformed) {
       ++counters_.undecodable;
@@ -914,18 +940,7 @@ class ClientImpl final : public transports::ClientLink {
   // by it) reading them sees what the event reports.
   void emit(const Event& event) {
     publish();
-    std::vector<std::shared_ptr<EventHandler>> handlers;
-    {
-      std::lock_guard lock(mutex_);
-      handlers.reserve(handlers_.size());
-      for (const auto& entry : handlers_) handlers.push_back(entry.second);
-    }
-    for (const auto& handler : handlers) {
-      try {
-        (*handler)(event);
-      } catch (...) {  // NOLINT(bugprone-empty-catch): the contract says handlers must not throw
-      }
-    }
+    events_.emit(event);
   }
 
   // --- deadlines ---------------------------------------------------------------------------------------
@@ -989,34 +1004,32 @@ class ClientImpl final : public transports::ClientLink {
   // Any thread.
   transports::Published<Counters> published_;
   transports::Published<SessionStatus> published_session_;
-  mutable std::mutex mutex_;  // guards everything below
+  mutable std::mutex mutex_;  // guards pins_
   std::map<PinKey, PinEntry> pins_;
-  std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
-  EventHandlerId last_handler_id_ = 0;
+  transports::EventHandlers<Event> events_;
 };
 
-void submit(const std::shared_ptr<ClientImpl>& impl, Request request, SendHandler handler) {
-  impl->submit(std::move(request), std::move(handler));
+void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                SendHandler handler, Request request) {
+  impl->submit(operation, std::move(request), std::move(handler));
 }
 
-asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl) { return impl->executor(); }
-
-SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request, error_code& error) {
-  SendResult sent;
-  const auto start = [&](SendHandler handler) { impl->submit(std::move(request), std::move(handler)); };
-  if (!transports::wait_for_completion(*impl, start, error, sent)) return SendResult();
-  return sent;
+SendResult blocking_send(const ClientRef& client, Request request, error_code& error) {
+  return transports::wait_for_operation<SendResult>(
+      *client.link(),
+      [&](transports::ClientLink::OperationId operation, SendHandler handler) {
+        client.impl()->submit(operation, std::move(request), std::move(handler));
+      },
+      error);
 }
 
-SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request) {
-  error_code error;
-  const SendResult result = blocking_send(impl, std::move(request), error);
-  if (error) throw boost::system::system_error(error, "proxy send");
-  return result;
+SendResult blocking_send(const ClientRef& client, Request request) {
+  return transports::require([&](error_code& error) { return blocking_send(client, std::move(request), error); },
+                             "proxy send");
 }
 
-std::optional<PinStatus> pin_state(const std::shared_ptr<ClientImpl>& impl, PinKind kind, std::uint32_t pin) {
-  return impl->pin_state(kind, pin);
+std::optional<PinStatus> pin_state(const ClientRef& client, PinKind kind, std::uint32_t pin) {
+  return client.impl()->pin_state(kind, pin);
 }
 
 }  // namespace detail
@@ -1025,41 +1038,29 @@ std::optional<PinStatus> pin_state(const std::shared_ptr<ClientImpl>& impl, PinK
 // Client
 
 namespace {
-std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const Options& options) {
-  if (!stream) throw std::invalid_argument("Client needs a stream");
+std::shared_ptr<ByteStream> checked_stream(std::shared_ptr<ByteStream> stream, const Options& options) {
+  stream = transports::require_stream(std::move(stream), "proxy::Client");
   const ProxyTiming& timing = options.timing;
   if (timing.baud == 0 || timing.bits_per_byte == 0 || timing.send_budget == 0 || timing.max_sends == 0) {
-    throw std::invalid_argument("Client: baud, bits_per_byte, send_budget and max_sends must be > 0");
+    throw std::invalid_argument("proxy::Client: baud, bits_per_byte, send_budget and max_sends must be > 0");
   }
   return stream;
 }
 }  // namespace
 
 Client::Client(std::shared_ptr<ByteStream> stream, const Options& options, EventHandler handler)
-    : impl_(std::make_shared<detail::ClientImpl>(require(std::move(stream), options), options)) {
-  if (handler) impl_->add_event_handler(std::move(handler));
-  impl_->start();
+    : ClientFront(std::make_shared<detail::ClientImpl>(checked_stream(std::move(stream), options), options)) {
+  on_event(std::move(handler));
+  impl()->start();
 }
 
-Client::~Client() { transports::close_link(impl_); }
-Client::Client(Client&&) noexcept = default;
-Client& Client::operator=(Client&& other) noexcept {
-  transports::move_link(impl_, other.impl_);
-  return *this;
-}
-
-asio::any_io_executor Client::get_executor() const { return impl_->executor(); }
-Mode Client::mode() const { return impl_->mode(); }
-void Client::restart_session() { impl_->restart_session(); }
-EventHandlerId Client::add_event_handler(EventHandler handler) { return impl_->add_event_handler(std::move(handler)); }
-void Client::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
-Counters Client::counters() const { return impl_->counters(); }
-SessionStatus Client::session() const { return impl_->session(); }
+Mode Client::mode() const { return impl()->mode(); }
+void Client::restart_session() { impl()->restart_session(); }
+Counters Client::counters() const { return impl()->counters(); }
+SessionStatus Client::session() const { return impl()->session(); }
 std::optional<PinStatus> Client::pin_state(PinKind kind, std::uint32_t pin) const {
-  return impl_->pin_state(kind, pin);
+  return impl()->pin_state(kind, pin);
 }
-std::vector<PinStatus> Client::pin_states() const { return impl_->pin_states(); }
-void Client::close() { impl_->close(); }
-bool Client::is_open() const { return impl_->is_open(); }
+std::vector<PinStatus> Client::pin_states() const { return impl()->pin_states(); }
 
 }  // namespace tether::proxy

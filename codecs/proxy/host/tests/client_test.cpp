@@ -499,8 +499,8 @@ TEST(ProxyClient, SeveralHandlersAndRemoval) {
   Link link(io.executor(), test_options(), standard_device(100));
   ASSERT_TRUE(link.established());
   EventLog second;
-  const EventHandlerId id = link.client->add_event_handler(second.handler());
-  link.client->add_event_handler([](const Event&) { throw std::runtime_error("ignored"); });
+  const EventHandlerId id = link.client->on_event(second.handler());
+  link.client->on_event([](const Event&) { throw std::runtime_error("ignored"); });
   link.device->send(FakeDevice::error("one", Error::WARNING));
   ASSERT_TRUE(second.wait_for<events::DeviceError>(1));
   link.client->remove_event_handler(id);
@@ -693,7 +693,7 @@ TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
   auto client_slot = std::make_shared<Client*>(nullptr);
   Link link(io.executor(), test_options(), standard_device());
   *client_slot = &*link.client;
-  link.client->add_event_handler([client_slot, &seen, once = std::make_shared<std::atomic<bool>>(false)](
+  link.client->on_event([client_slot, &seen, once = std::make_shared<std::atomic<bool>>(false)](
                                      const Event& event) {
     if (!std::holds_alternative<events::DeviceError>(event) || once->exchange(true)) return;
     error_code error;

@@ -16,6 +16,8 @@
 
 #include "fake_device.hpp"
 #include "tether/proxy/client.hpp"
+#include "tether/testing/eventually.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 
 namespace tether::proxy::testing {
@@ -44,56 +46,9 @@ inline Options compat_test_options() {
   return options;
 }
 
-/// Records every event; tests wait for the ones they expect. Handlers share its state, so a late event
-/// after the log is gone is harmless.
-class EventLog {
- public:
-  /// A handler that records into this log.
-  EventHandler handler() {
-    return [state = state_](const Event& event) {
-      {
-        std::lock_guard lock(state->mutex);
-        state->events.push_back(event);
-      }
-      state->changed.notify_all();
-    };
-  }
-  /// Every event so far.
-  std::vector<Event> all() const {
-    std::lock_guard lock(state_->mutex);
-    return state_->events;
-  }
-  /// The events of type T so far.
-  template <typename T>
-  std::vector<T> of() const {
-    std::lock_guard lock(state_->mutex);
-    std::vector<T> found;
-    for (const auto& event : state_->events) {
-      if (const T* typed = std::get_if<T>(&event)) found.push_back(*typed);
-    }
-    return found;
-  }
-  /// Waits until `count` events of type T were recorded; false after `timeout`.
-  template <typename T>
-  bool wait_for(std::size_t count = 1, std::chrono::milliseconds timeout = kPrompt) const {
-    std::unique_lock lock(state_->mutex);
-    return state_->changed.wait_for(lock, timeout, [&] {
-      std::size_t seen = 0;
-      for (const auto& event : state_->events) {
-        if (std::holds_alternative<T>(event)) ++seen;
-      }
-      return seen >= count;
-    });
-  }
-
- private:
-  struct State {
-    std::mutex mutex;
-    std::condition_variable changed;
-    std::vector<Event> events;
-  };
-  std::shared_ptr<State> state_ = std::make_shared<State>();
-};
+/// Records every event; tests wait for the ones they expect.
+using EventLog = transports::testing::EventLog<Event>;
+using ::tether::testing::eventually;
 
 /// A client and a fake device on the two ends of an in-memory pair.
 struct Link {
@@ -117,16 +72,6 @@ struct Link {
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;
 };
-
-/// Polls `condition` until it holds; false after `timeout`.
-inline bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = kPrompt) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return condition();
-}
 
 /// Frames the device decoded whose ArduinoIn holds `data_case` (primary).
 inline std::vector<DeviceFrame> frames_of(const std::vector<DeviceFrame>& frames, ArduinoIn::DataCase data_case) {

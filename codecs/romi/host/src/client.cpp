@@ -169,17 +169,20 @@ class ClientImpl final : public transports::ClientLink {
     });
   }
 
-  void set_log_handler(LogHandler handler) {
-    auto shared = handler ? std::make_shared<LogHandler>(std::move(handler)) : nullptr;
-    std::lock_guard lock(mutex_);
-    log_handler_ = std::move(shared);
-  }
+  transports::EventHandlers<Event>& event_handlers() { return events_; }
 
-  void set_link_failed_handler(LinkFailedHandler handler) {
-    auto shared = handler ? std::make_shared<LinkFailedHandler>(std::move(handler)) : nullptr;
-    std::lock_guard lock(mutex_);
-    link_failed_handler_ = std::move(shared);
+  // The deprecated setters: each replaces the handler it added before.
+  void set_legacy_handler(EventHandlerId& slot, EventHandler handler) {
+    const EventHandlerId added = events_.add(std::move(handler));
+    EventHandlerId previous = 0;
+    {
+      std::lock_guard lock(mutex_);
+      previous = std::exchange(slot, added);
+    }
+    events_.remove(previous);
   }
+  EventHandlerId log_handler_ = 0;          // guarded by mutex_
+  EventHandlerId link_failed_handler_ = 0;  // guarded by mutex_
 
   void set_timing(const session::CallTiming& timing) {
     post_to_strand([this, timing] { table_.set_timing(timing); });
@@ -317,12 +320,7 @@ class ClientImpl final : public transports::ClientLink {
   void on_link_failed(const error_code& error) override {
     fail_all(error);
     publish();
-    std::shared_ptr<LinkFailedHandler> handler;
-    {
-      std::lock_guard lock(mutex_);
-      handler = std::exchange(link_failed_handler_, nullptr);  // at most once
-    }
-    if (handler) (*handler)(error);
+    events_.emit(events::LinkFailed{error});
   }
 
   void on_closed() override {
@@ -448,12 +446,8 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void deliver_log(ByteView text) {
-    std::shared_ptr<LogHandler> handler;
-    {
-      std::lock_guard lock(mutex_);
-      handler = log_handler_;
-    }
-    if (handler) (*handler)(std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+    if (events_.empty()) return;
+    events_.emit(events::Log{std::string(reinterpret_cast<const char*>(text.data()), text.size())});
   }
 
   // --- deadlines -----------------------------------------------------------------------------------------
@@ -495,9 +489,8 @@ class ClientImpl final : public transports::ClientLink {
 
   // Any thread.
   transports::Published<LinkCounters> published_;
-  mutable std::mutex mutex_;  // guards log_handler_ and link_failed_handler_
-  std::shared_ptr<LogHandler> log_handler_;
-  std::shared_ptr<LinkFailedHandler> link_failed_handler_;
+  std::mutex mutex_;  // guards the deprecated setters' handler ids
+  transports::EventHandlers<Event> events_;
 };
 
 void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
@@ -510,18 +503,19 @@ void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink:
 // ---------------------------------------------------------------------------------------------------------
 // Client
 
-Client::Client(std::shared_ptr<transports::ByteStream> stream, const Options& options)
+Client::Client(std::shared_ptr<transports::ByteStream> stream, const Options& options, EventHandler handler)
     : ClientFront(std::make_shared<detail::ClientImpl>(transports::require_stream(std::move(stream), "romi::Client"),
                                                        options)) {
+  on_event(std::move(handler));
   impl()->start();
 }
 
 RomiResponse Client::blocking_call(const Command& command, bool manual, error_code& error) {
-  RomiResponse response;
-  const auto start = [&](detail::CallHandler handler) {
-    detail::start_call(impl(), impl()->new_operation(), std::move(handler), command, manual);
-  };
-  if (!transports::wait_for_completion(link(), start, error, response)) return failure(error, command.opcode());
+  const RomiResponse response = transports::wait_for_operation<RomiResponse>(
+      link(), [&](transports::ClientLink::OperationId operation, detail::CallHandler handler) {
+        detail::start_call(impl(), operation, std::move(handler), command, manual);
+      }, error);
+  if (error == transports::TransportError::would_deadlock) return failure(error, command.opcode());
   return response;
 }
 
@@ -548,9 +542,24 @@ std::uint8_t random_first_id() {
   return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
-void Client::set_log_handler(LogHandler handler) { impl()->set_log_handler(std::move(handler)); }
+void Client::set_log_handler(LogHandler handler) {
+  EventHandler wrapper;
+  if (handler) {
+    wrapper = [handler = std::move(handler)](const Event& event) {
+      if (const auto* log = std::get_if<events::Log>(&event)) handler(log->text);
+    };
+  }
+  impl()->set_legacy_handler(impl()->log_handler_, std::move(wrapper));
+}
+
 void Client::set_link_failed_handler(LinkFailedHandler handler) {
-  impl()->set_link_failed_handler(std::move(handler));
+  EventHandler wrapper;
+  if (handler) {
+    wrapper = [handler = std::move(handler)](const Event& event) {
+      if (const auto* failed = std::get_if<events::LinkFailed>(&event)) handler(failed->error);
+    };
+  }
+  impl()->set_legacy_handler(impl()->link_failed_handler_, std::move(wrapper));
 }
 
 void Client::set_timing(const session::CallTiming& timing) { impl()->set_timing(timing); }

@@ -404,10 +404,10 @@ TEST(RomiClient, LongAnswersAndLogLinesAreRead) {
   const std::string long_value(200, 'v');
   std::mutex mutex;
   std::vector<std::string> logs;
-  link.client->set_log_handler([&](std::string_view text) {
+  link.client->on_event(on_log([&](std::string_view text) {
     std::lock_guard lock(mutex);
     logs.emplace_back(text);
-  });
+  }));
   link.device->on_request([&](const DeviceRequest& request, FakeDevice& device) {
     device.send(FakeDevice::log(long_log));
     device.send(FakeDevice::response(request.opcode, "[0,\"" + long_value + "\",12345]", request.id));
@@ -428,10 +428,10 @@ TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
   Link link(io.executor(), short_timing(1000, 5000));
   std::mutex mutex;
   std::vector<std::string> logs;
-  link.client->set_log_handler([&](std::string_view text) {
+  link.client->on_event(on_log([&](std::string_view text) {
     std::lock_guard lock(mutex);
     logs.emplace_back(text);
-  });
+  }));
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
     for (int i = 1; i <= 6; ++i) device.send_after(i * 300ms, FakeDevice::log("step " + std::to_string(i)));
     device.send_after(1950ms, FakeDevice::response(request.opcode, "[0]", request.id));
@@ -448,7 +448,7 @@ TEST(RomiClient, LogLinesBetweenCallsGoToTheSink) {
   IoThread io;
   Link link(io.executor());
   std::promise<std::string> got;
-  link.client->set_log_handler([&](std::string_view text) { got.set_value(std::string(text)); });
+  link.client->on_event(on_log([&](std::string_view text) { got.set_value(std::string(text)); }));
   link.device->send(FakeDevice::log("booted: v1.2"));
   auto future = got.get_future();
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
@@ -460,17 +460,47 @@ TEST(RomiClient, BlockingCallFromTheLogHandlerFailsInsteadOfDeadlocking) {
   Link link(io.executor());
   std::promise<error_code> inner;
   Client& client = *link.client;
-  client.set_log_handler([&](std::string_view) {
+  const EventHandlerId id = client.on_event(on_log([&](std::string_view) {
     error_code error;
     client.call("a", error);  // would wait for the strand it runs on
     inner.set_value(error);
-  });
+  }));
   link.device->send(FakeDevice::log("hello"));
   auto future = inner.get_future();
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   EXPECT_EQ(future.get(), transports::make_error_code(transports::TransportError::would_deadlock));
-  client.set_log_handler(nullptr);
+  client.remove_event_handler(id);
 }
+
+// The deprecated setters (one release): each replaces the handler it set before; an empty one removes it.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+TEST(RomiClient, TheDeprecatedLogSetterReplacesItsHandler) {
+  IoThread io;
+  Link link(io.executor());
+  std::atomic<int> first{0}, second{0}, failures{0};
+  std::promise<void> seen;
+  link.client->set_log_handler([&](std::string_view) { ++first; });
+  link.client->set_log_handler([&](std::string_view text) {
+    if (++second == 1) {
+      EXPECT_EQ(text, "one");
+    }
+  });
+  link.client->set_link_failed_handler([&](error_code) { ++failures; });
+  link.client->on_event(on_log([&](std::string_view) { seen.set_value(); }));
+  link.device->send(FakeDevice::log("one"));
+  ASSERT_EQ(seen.get_future().wait_for(kPrompt), std::future_status::ready);
+  link.client->set_log_handler(nullptr);
+  link.client->set_link_failed_handler(nullptr);
+  link.device->close();
+  error_code error;
+  link.client->call("a", error);  // the link failure reached every handler before this completes
+  EXPECT_EQ(error, asio::error::eof);
+  EXPECT_EQ(first.load(), 0);
+  EXPECT_EQ(second.load(), 1);
+  EXPECT_EQ(failures.load(), 0);
+}
+#pragma GCC diagnostic pop
 
 // --- timing -----------------------------------------------------------------------------------------------
 
@@ -500,7 +530,7 @@ TEST(RomiClient, LogLinesNeverStretchACallPastItsBudget) {
   std::promise<Outcome> done;  // before the link: a completion at its close still finds it
   ManualLink manual(io.executor(), short_timing(250, 500));
   Link& link = manual.link;
-  link.client->set_log_handler([&](std::string_view) { ++logs; });
+  link.client->on_event(on_log([&](std::string_view) { ++logs; }));
   link.client->async_call("a", [&](error_code e, RomiResponse r) { done.set_value({e, std::move(r)}); });
   ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
   auto future = done.get_future();
@@ -689,7 +719,7 @@ void echo_arguments(const DeviceRequest& request, FakeDevice& device) {
 }
 
 TEST(RomiClient, ConcurrentCallsFromSeveralThreadsGetTheirOwnAnswers) {
-  IoThreads io(3);
+  IoThread io(3);
   Link link(io.executor());
   link.device->on_request(echo_arguments);
   constexpr int kThreads = 4;
@@ -726,7 +756,7 @@ TEST(RomiClient, QueuedAsyncCallsCompleteInOrder) {
 }
 
 TEST(RomiClient, ManyDevicesShareOneIoContext) {
-  IoThreads io(2);
+  IoThread io(2);
   std::vector<std::unique_ptr<Link>> links;
   for (int d = 0; d < 4; ++d) {
     links.push_back(std::make_unique<Link>(io.executor()));
@@ -826,7 +856,6 @@ TEST(RomiClient, CloseAbortsTheCallInFlightAndTheQueuedOnes) {
   std::vector<std::future<RomiResponse>> futures;
   for (int i = 0; i < 3; ++i) futures.push_back(link.client->async_call("a", asio::use_future));
   ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
-  const auto start = std::chrono::steady_clock::now();
   link.client->close();
   EXPECT_FALSE(link.client->is_open());
   for (auto& future : futures) {
@@ -838,7 +867,6 @@ TEST(RomiClient, CloseAbortsTheCallInFlightAndTheQueuedOnes) {
       EXPECT_EQ(failure.code(), asio::error::operation_aborted);
     }
   }
-  EXPECT_LT(elapsed_ms(start), 3000);
   error_code error;
   const RomiResponse late = link.client->call("a", error);
   EXPECT_EQ(error, asio::error::operation_aborted);
@@ -881,11 +909,11 @@ TEST(RomiClient, AnIdleClientHearsOfTheLinkFailureOnce) {
   std::mutex mutex;
   std::vector<error_code> failures;
   std::promise<void> first;
-  link.client->set_link_failed_handler([&](error_code error) {
+  link.client->on_event(on_link_failed([&](error_code error) {
     std::lock_guard lock(mutex);
     failures.push_back(error);
     if (failures.size() == 1) first.set_value();
-  });
+  }));
   link.device->close();  // no call in flight: only the handler can tell the application
   ASSERT_EQ(first.get_future().wait_for(kPrompt), std::future_status::ready);
   error_code error;
@@ -901,7 +929,7 @@ TEST(RomiClient, CloseIsNotALinkFailure) {
   IoThread io;
   Link link(io.executor(), short_timing(60000, 60000));
   std::atomic<int> calls{0};
-  link.client->set_link_failed_handler([&](error_code) { ++calls; });
+  link.client->on_event(on_link_failed([&](error_code) { ++calls; }));
   link.client->close();
   error_code error;
   link.client->call("a", error);

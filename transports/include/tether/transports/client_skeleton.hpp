@@ -2,7 +2,7 @@
 /// The parts every host codec client is made of besides its protocol, written once: the public front over
 /// a `ClientLink` implementation (`ClientFront`), the asio initiation with per-operation cancellation
 /// (`ClientFront::initiate`), the blocking-or-throw form of a call (`require`) and the list of event
-/// handlers (`EventHandlers`). `romi::Client`, `proxy::Client` and `elcano::RingClient` are built from them,
+/// handlers (`EventHandlers`, registered with `ClientFront::on_event`). `romi::Client`, `proxy::Client` and `elcano::RingClient` are built from them,
 /// so what differs between those files is protocol.
 #pragma once
 
@@ -165,57 +165,38 @@ void connect_cancellation(const CancellableHandler<Handler>& handler, const std:
   });
 }
 
-/// The public front of a client over its implementation `Impl` (a `ClientLink`, complete only in the
-/// client's .cpp): owns it, closes it when destroyed or replaced by a move, and starts its asynchronous
-/// operations. Movable, not copyable; a moved-from client holds nothing (only destruction and assignment).
+/// What every client reports when its link fails (read or write error, EOF, unplugged device): one
+/// alternative of each `<codec>::Event` (`romi::events::LinkFailed`, ...). Emitted once, after every pending
+/// operation completed with `error`; never for `close()` (the application knows it closed).
+struct LinkFailed {
+  error_code error;  ///< The transport's error.
+};
+
+/// A shared reference to a client's implementation `Impl` (a `ClientLink`, complete only in the client's
+/// .cpp): what the front (`ClientFront`) and a client's sub-handles (`proxy::ServoHandle`) start
+/// asynchronous operations with. Cheap to copy; keeps the implementation alive.
 template <typename Impl>
-class ClientFront {
+class ClientRef {
  public:
-  ClientFront(const ClientFront&) = delete;
-  ClientFront& operator=(const ClientFront&) = delete;
-  /// Takes `other`'s implementation.
-  ClientFront(ClientFront&& other) noexcept = default;
-  /// Closes the implementation it replaces, then takes `other`'s. Self-assignment keeps it open.
-  ClientFront& operator=(ClientFront&& other) noexcept {
-    if (this == &other) return *this;
-    close();
-    impl_ = std::move(other.impl_);
-    link_ = std::move(other.link_);
-    return *this;
-  }
-  /// Closes (`close()`).
-  ~ClientFront() { close(); }
-
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  asio::any_io_executor get_executor() const { return link_->executor(); }
-  /// Completes every pending operation with `operation_aborted`, closes the stream and stops reading;
-  /// later operations complete with `operation_aborted` too. Idempotent, any thread, never waits for the
-  /// device.
-  void close() {
-    if (link_) link_->close();
-  }
-  /// False after `close()`.
-  bool is_open() const { return link_ && link_->is_open(); }
-
- protected:
-  /// Front of `impl` (not null), defined where `Impl` is complete (the client's .cpp).
-  explicit ClientFront(std::shared_ptr<Impl> impl) : impl_(impl), link_(std::move(impl)) {}
+  /// No implementation (a moved-from front).
+  ClientRef() = default;
+  /// Reference to `impl` (not null); constructed where `Impl` is complete (the client's .cpp).
+  explicit ClientRef(std::shared_ptr<Impl> impl) : impl_(impl), link_(std::move(impl)) {}
 
   /// The implementation.
   const std::shared_ptr<Impl>& impl() const { return impl_; }
-  /// The implementation as its link (complete here: for blocking waits).
-  const ClientLink& link() const { return *link_; }
+  /// The implementation as its link (complete here: executor, close, blocking waits).
+  const std::shared_ptr<ClientLink>& link() const { return link_; }
 
   /// Starts an asynchronous operation for any completion token with completion `Signature`:
   /// `start(impl, operation, handler, args...)` runs once the token initiates it (deferred tokens such
-  /// as `use_awaitable` may do that after this front was moved: the initiation holds the implementation,
+  /// as `use_awaitable` may do that after the front was moved: the initiation holds the implementation,
   /// not the front). `handler` completes on the token's associated executor (the stream's by default).
-  /// When the token carries a cancellation slot (`bind_cancellation_slot`, `experimental::parallel_group`,
-  /// a cancelled coroutine), emitting it cancels this one operation: the implementation's
+  /// A handler made by `bind_cancellation` cancels this one operation: the implementation's
   /// `on_cancel(operation)` runs on its strand, and the operation completes with `operation_aborted` if it
-  /// was still pending (see `ClientLink::on_cancel`).
+  /// was still pending (see `ClientLink::on_cancel`). (Boost 1.74 has no asio cancellation slots.)
   template <typename Signature, typename Token, typename Start, typename... Args>
-  auto initiate(Token&& token, Start start, Args&&... args) {
+  auto initiate(Token&& token, Start start, Args&&... args) const {
     return asio::async_initiate<Token, Signature>(
         [impl = impl_, link = link_, start = std::move(start)](auto handler, auto&&... arguments) mutable {
           const ClientLink::OperationId operation = link->new_operation();
@@ -230,6 +211,88 @@ class ClientFront {
   std::shared_ptr<Impl> impl_;
   std::shared_ptr<ClientLink> link_;
 };
+
+/// The public front of a client over its implementation `Impl` (a `ClientLink`, complete only in the
+/// client's .cpp) whose events are `Event` (a `std::variant` of event structs): owns the implementation,
+/// closes it when destroyed or replaced by a move, starts its asynchronous operations (`initiate`) and
+/// registers its event handlers (`on_event`, contract at `EventHandlers`). Movable, not copyable; a
+/// moved-from client holds nothing (only destruction and assignment).
+template <typename Impl, typename Event>
+class ClientFront {
+ public:
+  /// An event handler (contract at `EventHandlers`).
+  using EventHandler = typename EventHandlers<Event>::Handler;
+  /// What `on_event` returns, for `remove_event_handler`. Never 0.
+  using EventHandlerId = typename EventHandlers<Event>::Id;
+
+  ClientFront(const ClientFront&) = delete;
+  ClientFront& operator=(const ClientFront&) = delete;
+  /// Takes `other`'s implementation.
+  ClientFront(ClientFront&& other) noexcept = default;
+  /// Closes the implementation it replaces, then takes `other`'s. Self-assignment keeps it open.
+  ClientFront& operator=(ClientFront&& other) noexcept {
+    if (this == &other) return *this;
+    close();
+    ref_ = std::move(other.ref_);
+    events_ = std::move(other.events_);
+    return *this;
+  }
+  /// Closes (`close()`).
+  ~ClientFront() { close(); }
+
+  /// Executor of the stream; completion handlers without an associated executor run on it.
+  asio::any_io_executor get_executor() const { return ref_.link()->executor(); }
+  /// Completes every pending operation with `operation_aborted`, closes the stream and stops reading;
+  /// later operations complete with `operation_aborted` too. Idempotent, any thread, never waits for the
+  /// device.
+  void close() {
+    if (ref_.link()) ref_.link()->close();
+  }
+  /// False after `close()`.
+  bool is_open() const { return ref_.link() && ref_.link()->is_open(); }
+
+  /// Adds an event handler (an empty one is not added and gets 0); it receives every event from now on
+  /// (events are not queued for handlers added later: the constructor's handler sees the first ones).
+  /// Any thread.
+  EventHandlerId on_event(EventHandler handler) { return events_->add(std::move(handler)); }
+  /// Removes the handler `id` (unknown ids are ignored); it may still receive an event being delivered
+  /// on another thread (rule 4 of `EventHandlers`). Any thread.
+  void remove_event_handler(EventHandlerId id) { events_->remove(id); }
+
+ protected:
+  /// Front of `impl` (not null) whose `event_handlers()` are its `EventHandlers<Event>`; defined where
+  /// `Impl` is complete (the client's .cpp).
+  explicit ClientFront(const std::shared_ptr<Impl>& impl)
+      : ref_(impl), events_(impl, &impl->event_handlers()) {}
+
+  /// The implementation.
+  const std::shared_ptr<Impl>& impl() const { return ref_.impl(); }
+  /// The implementation as its link (complete here: for blocking waits).
+  ClientLink& link() const { return *ref_.link(); }
+  /// The shared reference (for sub-handles that start operations of their own).
+  const ClientRef<Impl>& ref() const { return ref_; }
+
+  /// `ClientRef::initiate` on this client's implementation.
+  template <typename Signature, typename Token, typename Start, typename... Args>
+  auto initiate(Token&& token, Start start, Args&&... args) {
+    return ref_.template initiate<Signature>(std::forward<Token>(token), std::move(start), std::forward<Args>(args)...);
+  }
+
+ private:
+  ClientRef<Impl> ref_;
+  std::shared_ptr<EventHandlers<Event>> events_;  // aliases the implementation: no allocation of its own
+};
+
+/// Starts an operation with `start(operation, handler)` and waits for its `void(error_code, Result)`
+/// completion: the body of every blocking call (`wait_for_completion` with a fresh operation id).
+template <typename Result, typename Start>
+Result wait_for_operation(ClientLink& link, Start&& start, error_code& error) {
+  Result result{};
+  (void)wait_for_completion(
+      link, [&](UniqueFunction<void(error_code, Result)> handler) { start(link.new_operation(), std::move(handler)); },
+      error, result);
+  return result;
+}
 
 }  // namespace tether::transports
 

@@ -5,7 +5,7 @@
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0", serial_options);
 ///   proxy::Client client(port);                                  // primary mode: Reset, handshake, pings
-///   client.add_event_handler([](const proxy::Event& event) { ... });
+///   client.on_event([](const proxy::Event& event) { ... });
 ///   client.servo(9).init(90);                                        // registered for replay AND sent; blocks
 ///   client.servo(9).set(120);                                        // throws system_error on failure
 ///   client.digital(13).async_set(true, [](error_code e, proxy::SendResult r) { ... });
@@ -98,11 +98,12 @@
 ///   | `asio::error::operation_aborted` | `close()` (or the client's destruction) |
 ///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
 ///
-/// ## Events (`add_event_handler`)
-/// Handlers receive a `Event` (a variant; see `events::`). Contract: called on the client's strand, one
-/// event at a time, in arrival order; must not block for long (decoding waits), must not call the blocking
-/// API of this client (it fails with `TransportError::would_deadlock`; the async API is fine); exceptions
-/// are caught and dropped. Events are not queued for handlers added later.
+/// ## Events (`on_event`)
+/// Handlers receive an `Event` (a variant; see `events::`). Contract (`transports::EventHandlers`, as for
+/// every client): called on the client's strand, one event at a time, in arrival order; must not block for
+/// long (decoding waits), must not call the blocking API of this client (it fails with
+/// `TransportError::would_deadlock`; the async API is fine); exceptions are caught and dropped. Events are
+/// not queued for handlers added later.
 ///
 /// ## Threading and lifetime (as `romi::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
@@ -139,6 +140,7 @@
 #include "tether/proxy/error_category.hpp"
 #include "tether/proxy/frame.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
 #include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether_proxy.pb.h"
@@ -328,9 +330,7 @@ struct UndecodableMessage {
   bool malformed = true;
 };
 /// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done.
-struct LinkFailed {
-  error_code error;  ///< The transport's error.
-};
+using LinkFailed = transports::LinkFailed;
 }  // namespace events
 
 /// Everything a handler can receive.
@@ -339,9 +339,9 @@ using Event = std::variant<events::DeviceError, events::DeviceInfo, events::Fail
                                 events::ResetDetected, events::CompatEvent, events::CompatError,
                                 events::CompatState, events::UndecodableMessage, events::LinkFailed>;
 /// An event handler (contract in the file overview).
-using EventHandler = std::function<void(const Event& event)>;
-/// Identifies a handler for `remove_event_handler`.
-using EventHandlerId = std::uint64_t;
+using EventHandler = transports::EventHandlers<Event>::Handler;
+/// Identifies a handler for `Client::remove_event_handler`.
+using EventHandlerId = transports::EventHandlers<Event>::Id;
 
 /// The client's counters (a snapshot; they only grow).
 struct Counters {
@@ -380,28 +380,22 @@ struct Request {
   std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn> message;       ///< `Op::raw`.
 };
 
-/// Queues `request` on `impl` (any thread). Defined in client.cpp.
-void submit(const std::shared_ptr<ClientImpl>& impl, Request request, SendHandler handler);
-/// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl);
+/// A shared reference to the implementation (`Client` and its pin handles start sends with it).
+using ClientRef = transports::ClientRef<ClientImpl>;
+/// Queues `request` on `impl` as operation `operation` (any thread). Defined in client.cpp.
+void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                SendHandler handler, Request request);
 /// Blocking send: failures in `error`.
-SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request, error_code& error);
+SendResult blocking_send(const ClientRef& client, Request request, error_code& error);
 /// Blocking send: throws `boost::system::system_error`.
-SendResult blocking_send(const std::shared_ptr<ClientImpl>& impl, Request request);
+SendResult blocking_send(const ClientRef& client, Request request);
 /// The pin's status (`ServoHandle::state`, ...).
-std::optional<PinStatus> pin_state(const std::shared_ptr<ClientImpl>& impl, PinKind kind, std::uint32_t pin);
+std::optional<PinStatus> pin_state(const ClientRef& client, PinKind kind, std::uint32_t pin);
 
-/// Starts `request` with any completion token.
+/// Starts `request` on `client` with any completion token.
 template <typename SendToken>
-auto initiate_send(const std::shared_ptr<ClientImpl>& impl, Request request, SendToken&& token) {
-  // The initiation holds the implementation, not the client: deferred tokens (use_awaitable) may start it
-  // after the Client object was moved.
-  return boost::asio::async_initiate<SendToken, SendSignature>(
-      [impl](auto handler, Request req) {
-        auto bound = transports::bind_to_associated_executor<SendSignature>(std::move(handler), executor_of(impl));
-        submit(impl, std::move(req), std::move(bound));
-      },
-      token, std::move(request));
+auto initiate_send(const ClientRef& client, Request request, SendToken&& token) {
+  return client.initiate<SendSignature>(std::forward<SendToken>(token), &start_send, std::move(request));
 }
 
 inline Request make_request(Request::Op op, std::uint32_t pin, std::int32_t value) {
@@ -423,36 +417,36 @@ class ServoHandle {
   /// Registers ServoInit{pin, safe_position} for replay and sends it; completes like a send.
   template <typename SendToken>
   auto async_init(std::int32_t safe_position, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::servo_init, safe_position), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::servo_init, safe_position), std::forward<SendToken>(token));
   }
   /// Blocking `async_init`; failures in `error`.
   SendResult init(std::int32_t safe_position, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::servo_init, safe_position), error);
+    return detail::blocking_send(client_, request(Op::servo_init, safe_position), error);
   }
   /// Blocking `async_init`; throws `boost::system::system_error`.
   SendResult init(std::int32_t safe_position) {
-    return detail::blocking_send(impl_, request(Op::servo_init, safe_position));
+    return detail::blocking_send(client_, request(Op::servo_init, safe_position));
   }
   /// Sends ServoControl{pin, position}; completes like a send.
   template <typename SendToken>
   auto async_set(std::int32_t position, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::servo_set, position), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::servo_set, position), std::forward<SendToken>(token));
   }
   /// Blocking `async_set`; failures in `error`.
   SendResult set(std::int32_t position, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::servo_set, position), error);
+    return detail::blocking_send(client_, request(Op::servo_set, position), error);
   }
   /// Blocking `async_set`; throws `boost::system::system_error`.
-  SendResult set(std::int32_t position) { return detail::blocking_send(impl_, request(Op::servo_set, position)); }
+  SendResult set(std::int32_t position) { return detail::blocking_send(client_, request(Op::servo_set, position)); }
   /// The pin's last known state (none before its init or first report).
-  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::servo, pin_); }
+  std::optional<PinStatus> state() const { return detail::pin_state(client_, PinKind::servo, pin_); }
 
  private:
   friend class Client;
   using Op = detail::Request::Op;
-  ServoHandle(std::shared_ptr<detail::ClientImpl> impl, std::uint32_t pin) : impl_(std::move(impl)), pin_(pin) {}
+  ServoHandle(detail::ClientRef client, std::uint32_t pin) : client_(std::move(client)), pin_(pin) {}
   detail::Request request(Op op, std::int32_t value) const { return detail::make_request(op, pin_, value); }
-  std::shared_ptr<detail::ClientImpl> impl_;
+  detail::ClientRef client_;
   std::uint32_t pin_;
 };
 
@@ -466,97 +460,95 @@ class DigitalHandle {
   /// Registers DigitalInit{pin, safe_state} for replay and sends it; completes like a send.
   template <typename SendToken>
   auto async_init(bool safe_state, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::digital_init, safe_state), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::digital_init, safe_state), std::forward<SendToken>(token));
   }
   /// Blocking `async_init`; failures in `error`.
   SendResult init(bool safe_state, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::digital_init, safe_state), error);
+    return detail::blocking_send(client_, request(Op::digital_init, safe_state), error);
   }
   /// Blocking `async_init`; throws `boost::system::system_error`.
-  SendResult init(bool safe_state) { return detail::blocking_send(impl_, request(Op::digital_init, safe_state)); }
+  SendResult init(bool safe_state) { return detail::blocking_send(client_, request(Op::digital_init, safe_state)); }
   /// Sends DigitalControl{pin, state}; completes like a send.
   template <typename SendToken>
   auto async_set(bool state, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::digital_set, state), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::digital_set, state), std::forward<SendToken>(token));
   }
   /// Blocking `async_set`; failures in `error`.
   SendResult set(bool state, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::digital_set, state), error);
+    return detail::blocking_send(client_, request(Op::digital_set, state), error);
   }
   /// Blocking `async_set`; throws `boost::system::system_error`.
-  SendResult set(bool state) { return detail::blocking_send(impl_, request(Op::digital_set, state)); }
+  SendResult set(bool state) { return detail::blocking_send(client_, request(Op::digital_set, state)); }
   /// The pin's last known state (none before its init or first report).
-  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::digital, pin_); }
+  std::optional<PinStatus> state() const { return detail::pin_state(client_, PinKind::digital, pin_); }
 
  private:
   friend class Client;
   using Op = detail::Request::Op;
-  DigitalHandle(std::shared_ptr<detail::ClientImpl> impl, std::uint32_t pin)
-      : impl_(std::move(impl)), pin_(pin) {}
+  DigitalHandle(detail::ClientRef client, std::uint32_t pin) : client_(std::move(client)), pin_(pin) {}
   detail::Request request(Op op, bool value) const { return detail::make_request(op, pin_, value ? 1 : 0); }
-  std::shared_ptr<detail::ClientImpl> impl_;
+  detail::ClientRef client_;
   std::uint32_t pin_;
 };
 
-/// Proxy host client for one device. Movable, not copyable; see the file overview.
-class Client {
+/// Proxy host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
+/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// completes every pending send (in flight, queued, or waiting for a replay) with `operation_aborted` and
+/// stops reading, pinging and timing (at most the stream's own 250 ms close fallback when no thread runs
+/// the executor).
+class Client : public transports::ClientFront<detail::ClientImpl, Event> {
  public:
   /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
-  /// `handler`, when given, is installed before anything starts, so it sees every event (the first
-  /// `SessionEstablished` may come before a handler added after construction). Throws
+  /// `handler`, when given, is added (`on_event`) before anything starts, so it sees every event (the
+  /// first `SessionEstablished` may come before a handler added after construction). Throws
   /// `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget or
   /// max_sends of 0).
   explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
-                       EventHandler handler = EventHandler());
-  /// Closes (`close()`).
-  ~Client();
-  Client(Client&&) noexcept;
-  Client& operator=(Client&&) noexcept;
-  Client(const Client&) = delete;
-  Client& operator=(const Client&) = delete;
+                  EventHandler handler = EventHandler());
 
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  boost::asio::any_io_executor get_executor() const;
   /// The mode chosen at construction.
   Mode mode() const;
 
   /// Primary mode: sends `message` (its messageId is assigned) and completes with
-  /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token.
+  /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token. A handler
+  /// made by `transports::bind_cancellation` cancels this send alone: queued, it never goes out; in
+  /// flight, it completes with `operation_aborted` at once (the device may still run it: its late ack is
+  /// stale). A compat send already handed to the stream completes when written.
   template <typename SendToken>
   auto async_send(const ArduinoIn& message, SendToken&& token) {
-    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+    return detail::initiate_send(ref(), raw(message), std::forward<SendToken>(token));
   }
   /// Compat mode: sends `message`; completes when written.
   template <typename SendToken>
   auto async_send(const RocketryProto::ArduinoIn& message, SendToken&& token) {
-    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+    return detail::initiate_send(ref(), raw(message), std::forward<SendToken>(token));
   }
   /// Blocking send; failures in `error`.
-  SendResult send(const ArduinoIn& message, error_code& error) { return detail::blocking_send(impl_, raw(message), error); }
+  SendResult send(const ArduinoIn& message, error_code& error) { return detail::blocking_send(ref(), raw(message), error); }
   /// Blocking send; throws `boost::system::system_error`.
-  SendResult send(const ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+  SendResult send(const ArduinoIn& message) { return detail::blocking_send(ref(), raw(message)); }
   /// Blocking compat send; failures in `error`.
   SendResult send(const RocketryProto::ArduinoIn& message, error_code& error) {
-    return detail::blocking_send(impl_, raw(message), error);
+    return detail::blocking_send(ref(), raw(message), error);
   }
   /// Blocking compat send; throws `boost::system::system_error`.
-  SendResult send(const RocketryProto::ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+  SendResult send(const RocketryProto::ArduinoIn& message) { return detail::blocking_send(ref(), raw(message)); }
 
   /// The servo on `pin`.
-  ServoHandle servo(std::uint32_t pin) const { return ServoHandle(impl_, pin); }
+  ServoHandle servo(std::uint32_t pin) const { return ServoHandle(ref(), pin); }
   /// The digital output on `pin`.
-  DigitalHandle digital(std::uint32_t pin) const { return DigitalHandle(impl_, pin); }
+  DigitalHandle digital(std::uint32_t pin) const { return DigitalHandle(ref(), pin); }
 
   /// Primary mode: sends PingFailsafeReset (clears the device's pingFailsafeTriggered); completes like a
   /// send. Compat: `ProxyError::wrong_mode`.
   template <typename SendToken>
   auto async_reset_failsafe(SendToken&& token) {
-    return detail::initiate_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0),
+    return detail::initiate_send(ref(), detail::make_request(detail::Request::Op::failsafe_reset, 0, 0),
                                  std::forward<SendToken>(token));
   }
   /// Blocking `async_reset_failsafe`; throws `boost::system::system_error`.
   SendResult reset_failsafe() {
-    return detail::blocking_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0));
+    return detail::blocking_send(ref(), detail::make_request(detail::Request::Op::failsafe_reset, 0, 0));
   }
 
   /// Resets the device. Primary: messages in flight fail with `device_reset`, then Reset, ResetEvent, the
@@ -564,10 +556,10 @@ class Client {
   /// device's `EventMessage{RESET}` then triggers the replay. Any thread; returns at once.
   void restart_session();
 
-  /// Adds an event handler (contract in the file overview). Any thread.
-  EventHandlerId add_event_handler(EventHandler handler);
-  /// Removes a handler; it may still receive an event being delivered on another thread. Any thread.
-  void remove_event_handler(EventHandlerId id);
+  /// Old name of `on_event`.
+  [[deprecated("use on_event")]] EventHandlerId add_event_handler(EventHandler handler) {
+    return on_event(std::move(handler));
+  }
 
   /// Snapshot of the counters. Any thread; updated after each batch of bytes and each completion.
   Counters counters() const;
@@ -577,13 +569,6 @@ class Client {
   std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const;
   /// Every known pin, ordered by (kind, pin). Any thread.
   std::vector<PinStatus> pin_states() const;
-
-  /// Completes every pending send with `operation_aborted`, closes the stream and stops reading, pinging
-  /// and timing; later sends complete with `operation_aborted` too. Idempotent, any thread, never waits for
-  /// the device (at most the stream's own 250 ms close fallback when no thread runs the executor).
-  void close();
-  /// False after `close()`.
-  bool is_open() const;
 
  private:
   static detail::Request raw(const ArduinoIn& message) {
@@ -596,8 +581,6 @@ class Client {
     request.message = message;
     return request;
   }
-
-  std::shared_ptr<detail::ClientImpl> impl_;
 };
 
 /// Old names (before one vocabulary for the three clients), kept for programs written against them.

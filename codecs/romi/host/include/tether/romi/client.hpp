@@ -52,7 +52,7 @@
 ///      reference firmware a re-send of a request that ran answers -15, and unknown firmware may run it
 ///      twice; Tether firmware answers it from its reply cache, so configs of Tether devices turn it on).
 ///      Otherwise a silent attempt times out with -25.
-///   5. Log lines (`#!text:xxxx`) go to the log handler; frames whose id is not the call's are stale
+///   5. Log lines (`#!text:xxxx`) are `events::Log` events; frames whose id is not the call's are stale
 ///      (counted in `LinkCounters::stale`, dropped; envelope errors first re-send, rule 4a), so a late
 ///      answer or error is never pinned on the wrong request (defect B4). Both re-arm the attempt window,
 ///      never past the call budget.
@@ -78,7 +78,7 @@
 ///     the client's strand and never inside the initiating call.
 ///   - The blocking forms (`call`, `call_manual`) need another thread running the executor; calling them
 ///     from a handler on a single-threaded `io_context` deadlocks (the client detects only calls made
-///     on its own strand, e.g. from the log handler, and fails them with `TransportError::would_deadlock`).
+///     on its own strand, e.g. from an event handler, and fails them with `TransportError::would_deadlock`).
 ///   - `close()` and the destructor complete the call in flight and every queued call with
 ///     `operation_aborted`, close the stream, and never block on the device. The client owns its stream's
 ///     reading: do not read from the stream yourself while a client uses it.
@@ -96,6 +96,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "tether/core/counters.hpp"
@@ -200,20 +201,31 @@ struct Options {
 /// firmware takes 255 for its last id (defect B6).
 std::uint8_t random_first_id();
 
-/// Log sink: receives the text of every `#!text:xxxx` line. Contract:
-///   1. Called on the client's strand, one line at a time, in arrival order, with a view valid only
-///      during the call.
-///   2. Must not block for long (it delays the decoding of the answer) and must not call the blocking
-///      `call`/`call_manual` of the same client (they fail with `would_deadlock`); `async_call` is fine.
-///   3. Must not throw: an exception would leave the `io_context::run()` that decodes the line.
-///   4. Lines arriving between calls are delivered too. Without a handler, log lines are dropped.
-using LogHandler = std::function<void(std::string_view text)>;
+/// Events to the application; each type is one alternative of `Event`.
+namespace events {
+/// A log line `#!text:xxxx` from the device (lines between calls too). Without a handler it is dropped.
+struct Log {
+  std::string text;  ///< The line's text.
+};
+/// The link failed (the device went away, the port was unplugged): every call in flight and queued
+/// completed with `error` first, so an idle client (a shell waiting for input) learns of it too. Once;
+/// never for `close()`.
+using LinkFailed = transports::LinkFailed;
+}  // namespace events
 
-/// Link-failure sink: the stream failed (the device went away, the port was unplugged). Contract:
-///   1. Called at most once per client, on the client's strand, after every call in flight and queued
-///      completed with the same error.
-///   2. Not called for `close()` (the application knows it closed).
-///   3. Must not block and must not throw (same reasons as `LogHandler`).
+/// Everything a handler can receive (`Client::on_event`; contract at `transports::EventHandlers`: called
+/// on the client's strand in arrival order, must not call the blocking forms of this client, exceptions
+/// are caught and dropped).
+using Event = std::variant<events::Log, events::LinkFailed>;
+/// An event handler (contract at `Event`).
+using EventHandler = transports::EventHandlers<Event>::Handler;
+/// Identifies a handler for `Client::remove_event_handler`.
+using EventHandlerId = transports::EventHandlers<Event>::Id;
+
+/// Old log sink (`set_log_handler`, deprecated): the text of every log line. Same contract as an event
+/// handler.
+using LogHandler = std::function<void(std::string_view text)>;
+/// Old link-failure sink (`set_link_failed_handler`, deprecated): `events::LinkFailed`'s error.
 using LinkFailedHandler = std::function<void(error_code error)>;
 
 /// Completion signature of every asynchronous call.
@@ -238,11 +250,13 @@ struct Counters {
 /// moves: `transports::ClientFront`); see the file overview. `close()` completes the call in flight and
 /// every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
 /// thread runs the executor).
-class Client : public transports::ClientFront<detail::ClientImpl> {
+class Client : public transports::ClientFront<detail::ClientImpl, Event> {
  public:
-  /// Client over `stream`; starts reading at once. The stream's executor runs everything. Throws
+  /// Client over `stream`; starts reading at once. The stream's executor runs everything. `handler`, when
+  /// given, is added (`on_event`) before anything starts, so it sees every event. Throws
   /// `std::invalid_argument` for a null stream.
-  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options());
+  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
+                  EventHandler handler = EventHandler());
 
   /// Sends `command` and completes with `void(error_code, RomiResponse)` when the device answered, the
   /// call timed out, or the client was closed. Works with any completion token (callback, `use_future`:
@@ -275,11 +289,10 @@ class Client : public transports::ClientFront<detail::ClientImpl> {
   /// Blocking manual call; throws like `call(command)`.
   RomiResponse call_manual(const Command& command);
 
-  /// Sets the log sink (see `LogHandler`); an empty function drops log lines. Any thread.
-  void set_log_handler(LogHandler handler);
-  /// Sets the link-failure sink (see `LinkFailedHandler`), so an idle client (a shell waiting for input)
-  /// learns that the device went away without making a call. Any thread.
-  void set_link_failed_handler(LinkFailedHandler handler);
+  /// Replaces the handler of `events::Log` set by this function (an empty function removes it). Any thread.
+  [[deprecated("use on_event: events::Log")]] void set_log_handler(LogHandler handler);
+  /// Replaces the handler of `events::LinkFailed` set by this function. Any thread.
+  [[deprecated("use on_event: events::LinkFailed")]] void set_link_failed_handler(LinkFailedHandler handler);
   /// Changes the timing of calls that start from now on (calls in flight keep theirs). Any thread.
   void set_timing(const session::CallTiming& timing);
 
