@@ -5,6 +5,7 @@
 #include <boost/asio/post.hpp>
 
 #include <algorithm>
+#include <thread>
 #include <utility>
 
 namespace tether::transports::testing {
@@ -109,6 +110,44 @@ bool ManualClock::next_due(Millis& at) const {
   at = waits_.front()->at;
   for (const auto& wait : waits_) {
     if (tick_difference(wait->at, at) < 0) at = wait->at;
+  }
+  return true;
+}
+
+bool ManualClock::wait_for_due(Millis at, Millis& seen, std::chrono::milliseconds timeout) const {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    if (!next_due(seen)) {
+      seen = now();
+    } else if (seen == at) {
+      return true;
+    }
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+bool ManualClock::advance_to_next(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  Millis at = 0;
+  while (!next_due(at)) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  advance_to(at);
+  return true;
+}
+
+bool ManualClock::advance_until(const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    Millis at = 0;
+    if (next_due(at)) {
+      advance_to(at);
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
   }
   return true;
 }

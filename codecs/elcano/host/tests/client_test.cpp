@@ -2,12 +2,11 @@
 // timed out, undeliverable requests failing fast, receives and their bound, forwarding byte for byte,
 // pacing of the host's link, waiting for room and the busy cases, close and link failure, generation D.
 //
-// Time: the client runs on the steady clock. Assertions never bound elapsed time from above except by the
-// generous `kPrompt` ("it happened at all"); where a test needs to show that something did NOT wait for a
-// deadline, the deadline is made far longer than `kPrompt` and the outcome itself tells (e.g. an
-// `undeliverable` error instead of `timed_out`). Lower bounds (a re-send came after its attempt window,
-// bytes never ran ahead of the pacer) hold however slow the machine is; the client's clock counts whole
-// milliseconds, so a deadline of T ms may pass T - 1 ms after the call (hence the `- 1`).
+// Time: tests about deadlines (re-sends, timeouts, the send and receive timeouts, pacing) run the client
+// on a `ManualClock` and assert on simulated time: the deadline the client armed is exactly the one the
+// spec names, and nothing happens before the clock reaches it. The others run on the steady clock and
+// never bound elapsed time: `kPrompt` only says "it happened at all"; where a test must show that
+// something did NOT wait for a deadline, the deadline is far longer than `kPrompt` and the outcome tells.
 #include <gtest/gtest.h>
 
 #include <boost/asio/error.hpp>
@@ -29,6 +28,8 @@ namespace {
 
 namespace asio = boost::asio;
 using IoThread = transports::IoThread;
+using transports::testing::ManualClock;
+using namespace std::chrono_literals;
 
 bool same(const Message& a, const Message& b) { return wire(a, Generation::d) == wire(b, Generation::d); }
 
@@ -95,14 +96,21 @@ TEST(RingClient, RequestWorksWithEveryCompletionForm) {
 TEST(RingClient, LostReplyIsRecoveredByAResendOfTheSameBytes) {
   IoThread io;
   // The first goal's answer is lost somewhere in the ring; the second is answered.
-  Link link(io.executor(), test_options(200, 2000), [](const RingRecord& record, FakeRing& ring) {
+  auto clock = ManualClock::create();
+  Link link(io.executor(), test_options(200, 2000, clock), [](const RingRecord& record, FakeRing& ring) {
     if (!record.ok || record.message.type != Type::goal) return;
     if (ring.messages().size() >= 2) ring.send(wire(segment(9)));
   });
-  const auto start = std::chrono::steady_clock::now();
-  const Message reply = link.client->request(goal(1), Type::segment);
-  EXPECT_GE(elapsed_ms(start), 200 - 1);  // the re-send waited for the attempt window
-  EXPECT_TRUE(same(reply, segment(9)));
+  const Millis sent = clock->now();
+  std::future<Message> reply = link.client->async_request(goal(1), Type::segment, asio::use_future);
+  ASSERT_TRUE(link.ring->wait_for_messages(1));
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(sent + 200), due)) << "next deadline: +" << due - sent;
+  clock->advance(199);
+  EXPECT_EQ(clock->pending(), 1u);  // not yet due: no re-send
+  clock->advance(1);                // the attempt window: the same bytes again
+  ASSERT_EQ(reply.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_TRUE(same(reply.get(), segment(9)));
   const auto records = link.ring->messages();
   ASSERT_EQ(records.size(), 2u);
   EXPECT_EQ(records[0].wire, records[1].wire);
@@ -114,14 +122,23 @@ TEST(RingClient, LostReplyIsRecoveredByAResendOfTheSameBytes) {
 
 TEST(RingClient, SilentRingTimesOutAfterEveryAttempt) {
   IoThread io;
-  Link link(io.executor(), test_options(100, 1000));
-  const auto start = std::chrono::steady_clock::now();
-  error_code error;
-  const Message reply = link.client->request(goal(1), Type::segment, error);
-  EXPECT_GE(elapsed_ms(start), 300 - 1);  // three attempt windows
+  auto clock = ManualClock::create();
+  Link link(io.executor(), test_options(100, 1000, clock));
+  const Millis sent = clock->now();
+  Completions completions;
+  link.client->async_request(goal(1), Type::segment, completions.message_handler(0));
+  for (std::uint32_t attempt = 1; attempt <= 3; ++attempt) {  // each attempt window, exactly
+    ASSERT_TRUE(link.ring->wait_for_messages(attempt));
+    Millis due = 0;
+    ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(sent + 100 * attempt), due)) << "+" << due - sent;
+    EXPECT_EQ(completions.calls(), 0u);
+    clock->advance_to(due);
+  }
+  ASSERT_TRUE(completions.wait_for(1));
+  const error_code error = completions.at(0)->error;
   EXPECT_EQ(error, RingError::timed_out);
   EXPECT_EQ(error, boost::system::errc::timed_out);
-  EXPECT_TRUE(same(reply, Message()));
+  EXPECT_TRUE(same(*completions.at(0)->message, Message()));
   ASSERT_TRUE(link.ring->wait_for_messages(3));
   EXPECT_EQ(count_of(link.ring->messages(), Type::goal), 3u);
   const Counters counters = link.client->counters();
@@ -131,7 +148,9 @@ TEST(RingClient, SilentRingTimesOutAfterEveryAttempt) {
   link.ring->send(wire(segment(5)));
   ASSERT_TRUE(link.ring->wait_for_messages(4));
   EXPECT_TRUE(same(link.ring->messages()[3].message, segment(5)));
-  EXPECT_THROW(link.client->request(goal(2), Type::segment), boost::system::system_error);
+  std::future<Message> again = link.client->async_request(goal(2), Type::segment, asio::use_future);
+  ASSERT_TRUE(clock->advance_until([&] { return again.wait_for(0ms) == std::future_status::ready; }));
+  EXPECT_THROW(again.get(), boost::system::system_error);
 }
 
 TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
@@ -273,10 +292,12 @@ TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
   options.node.pacing = trickle();
   options.send_queue_bound = 64;
   options.send_timeout = 150;
+  auto clock = ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options);
   constexpr std::size_t kSends = 20;
   Completions completions;
-  const auto start = std::chrono::steady_clock::now();
+  const Millis start = clock->now();
   for (std::size_t i = 0; i < kSends; ++i) {
     link.client->async_send(drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
   }
@@ -284,8 +305,11 @@ TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
   (void)link.client->receive(0, barrier);
   const std::uint32_t originated = link.client->counters().ring.originated;
   ASSERT_LT(originated, kSends);
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  EXPECT_EQ(completions.calls(), 0u);  // nothing failed before its send_timeout
+  clock->advance_to(due);
   ASSERT_TRUE(completions.wait_for(kSends - originated));
-  EXPECT_GE(elapsed_ms(start), 150 - 1);
   for (std::size_t i = originated; i < kSends; ++i) {
     EXPECT_EQ(completions.at(i)->error, RingError::send_timed_out) << "send " << i;
   }
@@ -297,6 +321,8 @@ TEST(RingClient, ReceivesCapturedMessagesInOrder) {
   IoThread io;
   Options options = test_options();
   options.node.capture = TypeSet::of(Type::sensor);
+  auto clock = ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options);
   // A receive made before the message arrives waits for it.
   std::future<Message> early = link.client->async_receive(asio::use_future);
@@ -309,11 +335,19 @@ TEST(RingClient, ReceivesCapturedMessagesInOrder) {
   ASSERT_TRUE(link.ring->wait_for_messages(1));
   EXPECT_TRUE(same(link.ring->messages()[0].message, drive(5, 5)));
   // Nothing more: the timeout ends the wait; 0 means "only what is queued".
+  const Millis start = clock->now();
+  std::future<Message> none = link.client->async_receive(100, asio::use_future);
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 100), due)) << "+" << due - start;
+  clock->advance_to(due);
+  ASSERT_EQ(none.wait_for(kPrompt), std::future_status::ready);
+  try {
+    none.get();
+    ADD_FAILURE() << "expected receive_timed_out";
+  } catch (const boost::system::system_error& failure) {
+    EXPECT_EQ(failure.code(), RingError::receive_timed_out);
+  }
   error_code error;
-  const auto start = std::chrono::steady_clock::now();
-  (void)link.client->receive(100, error);
-  EXPECT_EQ(error, RingError::receive_timed_out);
-  EXPECT_GE(elapsed_ms(start), 100 - 1);
   (void)link.client->receive(0, error);
   EXPECT_EQ(error, RingError::receive_timed_out);
   EXPECT_EQ(link.client->counters().ring.captured, 3u);
@@ -429,8 +463,11 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
   options.node.pacing.receiver_poll_interval = 20;
   const double depth = 8.0;
   const double rate = 0.4;
-  const auto start = std::chrono::steady_clock::now();  // before the pacer exists: its bucket starts full
+  auto clock = ManualClock::create();
+  options.clock = clock;
+  const Millis start = clock->now();  // the pacer's bucket starts full
   Link link(io.executor(), options);
+  link.ring->use_clock(clock);
   constexpr std::size_t kSends = 12;
   Completions completions;
   std::size_t total = 0;
@@ -439,19 +476,19 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
     total += wire(message).size();
     link.client->async_send(message, completions.send_handler(i));
   }
-  ASSERT_TRUE(completions.wait_for(kSends, std::chrono::milliseconds(kPrompt.count() + 1000)));
+  ASSERT_TRUE(clock->advance_until([&] { return completions.calls() == kSends; }));
   for (std::size_t i = 0; i < kSends; ++i) EXPECT_FALSE(completions.at(i)->error) << "send " << i;
   ASSERT_TRUE(link.ring->wait_for_messages(kSends));
-  // However late a read completes, the bytes it brings were written before it: by then the pacer allowed
-  // at most its bucket plus what refilled since the start (+1 ms: the pacer counts whole milliseconds).
+  // However late a read completes, the bytes it brings were written before it: by then (simulated time)
+  // the pacer allowed at most its bucket plus what refilled since the start.
   std::size_t received = 0;
   for (const Arrival& arrival : link.ring->arrivals()) {
     received += arrival.bytes;
-    const double ms = std::chrono::duration<double, std::milli>(arrival.at - start).count();
-    EXPECT_LE(static_cast<double>(received), depth + rate * (ms + 1.0)) << "after " << ms << " ms";
+    const auto ms = static_cast<double>(tick_difference(arrival.at, start));
+    EXPECT_LE(static_cast<double>(received), depth + rate * ms) << "after " << ms << " ms";
   }
   EXPECT_EQ(received, total);
-  EXPECT_GE(static_cast<double>(elapsed_ms(start)), (static_cast<double>(total) - depth) / rate - 1.0);
+  EXPECT_GE(static_cast<double>(tick_difference(clock->now(), start)), (static_cast<double>(total) - depth) / rate);
   // In order, whole.
   const auto records = link.ring->messages();
   for (std::size_t i = 0; i < kSends; ++i) {

@@ -25,7 +25,7 @@ std::vector<Arrival> FakeRing::arrivals() const {
 
 void FakeRing::on_bytes(const std::uint8_t* data, std::size_t size) {
   const auto now = std::chrono::steady_clock::now();
-  record([&] { arrivals_.push_back(Arrival{now, size}); });
+  record([&] { arrivals_.push_back(Arrival{clock_->now(), size}); });
   for (std::size_t i = 0; i < size; ++i) {
     wire_.push_back(static_cast<char>(data[i]));
     const ReadEvent event = reader_.feed(data[i]);
@@ -89,8 +89,9 @@ Message segment(std::int32_t number) {
   return message;
 }
 
-Options test_options(Duration attempt_ms, Duration budget_ms) {
+Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<transports::LinkClock> clock) {
   Options options;
+  options.clock = std::move(clock);
   options.timing.attempt_timeout = attempt_ms;
   options.timing.call_budget = budget_ms;
   options.timing.max_attempts = 3;

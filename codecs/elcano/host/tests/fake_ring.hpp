@@ -23,7 +23,9 @@
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/testing/eventually.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/testing/event_log.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::elcano::testing {
@@ -44,8 +46,8 @@ struct RingRecord {
 
 /// A chunk of bytes as the ring's end of the stream read it.
 struct Arrival {
-  std::chrono::steady_clock::time_point at;  ///< when the read completed
-  std::size_t bytes = 0;                     ///< how many bytes it brought
+  Millis at = 0;          ///< when the read completed, on the ring's clock (`use_clock`)
+  std::size_t bytes = 0;  ///< how many bytes it brought
 };
 
 /// Scripted rest-of-the-ring; create with `start`, always `close` (or drop) it. `send`, `send_after`,
@@ -71,6 +73,10 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
   }
   /// Every read of the ring's end so far, in order.
   std::vector<Arrival> arrivals() const;
+  /// Stamps arrivals with `clock` (the client's manual clock; before the first byte arrives).
+  void use_clock(std::shared_ptr<transports::LinkClock> clock) {
+    record([&] { clock_ = std::move(clock); });
+  }
 
  private:
   void on_bytes(const std::uint8_t* data, std::size_t size) override;
@@ -82,6 +88,7 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
 
   // Under the peer's lock.
   std::vector<Arrival> arrivals_;
+  std::shared_ptr<transports::LinkClock> clock_ = transports::steady_link_clock();
 };
 
 /// The bytes of `message` in `generation` (what the host writes when it originates it).
@@ -97,8 +104,9 @@ Message goal(std::int32_t number);
 Message segment(std::int32_t number);
 
 /// Options for tests: fast pacing (115200 baud, a 64-byte receiver that keeps up), the engine's shape
-/// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends).
-Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000);
+/// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends), on `clock` (null: the steady clock).
+Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000,
+                     std::shared_ptr<transports::LinkClock> clock = nullptr);
 
 /// Pacing of 1 byte per second (a 2-byte receiver at 10 baud): nothing but the first byte leaves within a
 /// test, so the node's output queue stays as the test filled it.

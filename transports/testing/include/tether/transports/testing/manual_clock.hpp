@@ -4,7 +4,9 @@
 /// clock, and a loaded machine cannot make a deadline pass early or late.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -31,6 +33,18 @@ class ManualClock final : public LinkClock, public std::enable_shared_from_this<
   std::size_t pending() const;
   /// The earliest pending instant, when a wait is pending (`next_due` false otherwise).
   bool next_due(Millis& at) const;
+  /// Waits (wall clock, at most `timeout`) until the earliest pending instant is `at`: the client armed
+  /// that deadline and none before it. False otherwise; `seen` then holds the last earliest instant (or
+  /// `now()` when none was pending). A test asserts on simulated time with it: "the re-send is due exactly
+  /// 200 ms after the send".
+  bool wait_for_due(Millis at, Millis& seen, std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const;
+  /// Waits (wall clock, at most `timeout`) until some wait is pending and advances the clock to the earliest
+  /// one. False when none came.
+  bool advance_to_next(std::chrono::milliseconds timeout = std::chrono::milliseconds(5000));
+  /// Advances the clock deadline by deadline (to each earliest pending wait as the client arms it) until
+  /// `done()` holds; false when it still does not after `timeout` of wall time.
+  bool advance_until(const std::function<bool()>& done,
+                     std::chrono::milliseconds timeout = std::chrono::milliseconds(10000));
 
  private:
   struct Wait;
