@@ -12,6 +12,7 @@
 #include <set>
 
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "test_support.hpp"
 
@@ -20,6 +21,7 @@ namespace {
 
 namespace asio = boost::asio;
 using IoThread = transports::IoThread;
+using transports::testing::ManualClock;
 
 bool is_servo_control(const DeviceFrame& frame) { return frame.decoded && frame.in.has_servocontrol(); }
 
@@ -131,12 +133,24 @@ TEST(ProxyClient, MissingAckIsResentWithTheSameMessageId) {
   IoThread io;
   Options options = test_options();
   options.timing.processing_margin = 100;
+  auto clock = ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
               return is_servo_control(frame) && frame.repeat == 1;  // the first copy is "lost"
             }));
-  const auto start = std::chrono::steady_clock::now();
-  const SendResult result = link.client->servo(9).set(45);
-  EXPECT_GE(elapsed_ms(start), 90);  // one attempt window went by
+  ASSERT_TRUE(link.established());
+  const Millis sent = clock->now();
+  std::future<SendResult> future = link.client->servo(9).async_set(45, asio::use_future);
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  // The attempt window of this frame (+1: the host's leading 0x00 is not in `wire`), exactly.
+  const Duration window = options.timing.ack_timeout(link.device->frames().back().wire.size() + 1);
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(sent + window), due)) << "+" << due - sent << " for " << window;
+  clock->advance(window - 1);
+  EXPECT_EQ(clock->pending(), 1u);  // not due yet: no re-send
+  clock->advance(1);
+  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
+  const SendResult result = future.get();
   EXPECT_TRUE(result.acked);
   EXPECT_EQ(result.attempts, 2);
   const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
@@ -152,24 +166,33 @@ TEST(ProxyClient, OutOfBudgetTimesOut) {
   Options options = test_options();
   options.timing.processing_margin = 50;
   options.timing.send_budget = 400;
+  auto clock = ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
   ASSERT_TRUE(link.established());
-  const auto start = std::chrono::steady_clock::now();
-  error_code error;
-  const SendResult result = link.client->servo(9).set(45, error);
-  const auto took = elapsed_ms(start);
+  const Millis sent = clock->now();
+  Completions done;
+  link.client->servo(9).async_set(45, done.handler(0));
+  // Once the device has the frame, the client armed its window (one I/O thread): advance from there.
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  ASSERT_TRUE(clock->advance_until([&] { return done.calls() == 1; }));  // deadline by deadline
+  const error_code error = done.at(0).error;
+  const SendResult result = done.at(0).result;
+  EXPECT_EQ(tick_difference(clock->now(), sent), 400);  // the budget ended it, to the millisecond
   EXPECT_EQ(error, ProxyError::timed_out);
   EXPECT_EQ(error, boost::system::errc::timed_out);
   EXPECT_FALSE(result.acked);
   EXPECT_GE(result.attempts, 3);  // windows of ~54 ms in a 400 ms budget
-  EXPECT_GE(took, 380);
-  EXPECT_LT(took, 400 + kPrompt.count());
   const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
   EXPECT_EQ(controls.size(), result.attempts);
   for (const auto& frame : controls) EXPECT_EQ(frame.in.messageid(), result.message_id);
   EXPECT_EQ(link.client->counters().link.timeouts, 1u);
-  // The throwing form throws.
-  EXPECT_THROW(link.client->servo(9).set(46), boost::system::system_error);
+  // The throwing form throws (on another thread: the clock moves only when this one advances it).
+  auto throwing = std::async(std::launch::async, [&] { link.client->servo(9).set(46); });
+  const bool ended = clock->advance_until([&] { return throwing.wait_for(0ms) == std::future_status::ready; });
+  if (!ended) link.client->close();  // never a hang: close ends the blocking call
+  EXPECT_TRUE(ended);
+  EXPECT_THROW(throwing.get(), boost::system::system_error);
 }
 
 TEST(ProxyClient, MaxSendsBoundsTheAttempts) {
@@ -718,10 +741,8 @@ TEST(ProxyClient, CloseCompletesEverythingPending) {
   Completions done;
   for (std::uint32_t i = 0; i < 12; ++i) link.client->servo(i % 10).async_set(1, done.handler(i));  // 8 in flight
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, kMaxInFlight), kPrompt));
-  const auto start = std::chrono::steady_clock::now();
   link.client->close();
-  ASSERT_TRUE(done.wait_for(12));
-  EXPECT_LT(elapsed_ms(start), kPrompt.count());
+  ASSERT_TRUE(done.wait_for(12));  // within kPrompt: far from the 60 s budget and queue timeout
   for (std::size_t i = 0; i < 12; ++i) EXPECT_EQ(done.at(i).error, asio::error::operation_aborted) << i;
   EXPECT_FALSE(link.client->is_open());
   error_code error;
@@ -751,15 +772,22 @@ TEST(ProxyClient, WaitingForTheSessionIsBounded) {
   IoThread io;
   Options options = test_options();
   options.timing.queue_timeout = 200;
+  auto clock = ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options, [](const DeviceFrame&, FakeDevice&) {});  // a silent device
-  error_code error;
-  const auto start = std::chrono::steady_clock::now();
-  link.client->servo(9).set(1, error);
-  EXPECT_EQ(error, ProxyError::queue_timeout);
-  EXPECT_EQ(error, boost::system::errc::timed_out);
-  EXPECT_GE(elapsed_ms(start), 190);
-  link.client->digital(3).init(true, error);
-  EXPECT_EQ(error, ProxyError::queue_timeout);
+  const Millis start = clock->now();
+  Completions done;
+  link.client->servo(9).async_set(1, done.handler(0));
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 200), due)) << "+" << due - start;
+  EXPECT_EQ(done.calls(), 0u);
+  clock->advance_to(due);
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_EQ(done.at(0).error, ProxyError::queue_timeout);
+  EXPECT_EQ(done.at(0).error, boost::system::errc::timed_out);
+  link.client->digital(3).async_init(true, done.handler(1));
+  ASSERT_TRUE(clock->advance_until([&] { return done.calls() == 2; }));
+  EXPECT_EQ(done.at(1).error, ProxyError::queue_timeout);
 }
 
 TEST(ProxyClient, LinkFailureFailsPendingSendsAndIsReported) {

@@ -87,11 +87,6 @@ inline std::function<bool(const std::vector<DeviceFrame>&)> has(ArduinoIn::DataC
   return [data_case, count](const std::vector<DeviceFrame>& frames) { return frames_of(frames, data_case).size() >= count; };
 }
 
-/// Milliseconds since `start`.
-inline long long elapsed_ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
-}
-
 /// The result of an asynchronous send, captured for a test.
 struct Outcome {
   error_code error;
