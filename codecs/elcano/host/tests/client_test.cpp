@@ -592,6 +592,40 @@ TEST(RingClient, InvalidMessagesAreRejectedBeforeTheWire) {
   EXPECT_EQ(link.ring->received(), wire(drive(1, 1)));
 }
 
+// --- cancellation ----------------------------------------------------------------------------------------
+
+TEST(RingClient, CancellingOneOperationLeavesTheOthersAlone) {
+  IoThread io;
+  auto clock = ManualClock::create();
+  Options options = test_options(200, 2000, clock);  // no re-send unless the test moves the clock
+  options.node.capture = TypeSet::of(Type::sensor);
+  Link link(io.executor(), options);  // nobody answers
+  Completions completions;
+  transports::CancellationSignal cancel_request, cancel_receive;
+  link.client->async_request(goal(1), Type::segment,
+                             transports::bind_cancellation(cancel_request, completions.message_handler(0)));
+  link.client->async_receive(transports::bind_cancellation(cancel_receive, completions.message_handler(1)));
+  link.client->async_receive(completions.message_handler(2));
+  ASSERT_TRUE(link.ring->wait_for_messages(1));
+  cancel_request.emit();
+  ASSERT_TRUE(completions.wait_for(1));
+  EXPECT_EQ(completions.at(0)->error, asio::error::operation_aborted);
+  cancel_receive.emit();
+  ASSERT_TRUE(completions.wait_for(2));
+  EXPECT_EQ(completions.at(1)->error, asio::error::operation_aborted);
+  // The other receive still waits: it gets the next captured message.
+  link.ring->send(wire(sensor(4)));
+  ASSERT_TRUE(completions.wait_for(3));
+  EXPECT_FALSE(completions.at(2)->error);
+  EXPECT_TRUE(same(*completions.at(2)->message, sensor(4)));
+  // The cancelled request's reply type is no longer captured: its late reply goes on round the ring.
+  link.ring->send(wire(segment(5)));
+  ASSERT_TRUE(clock->advance_until([&] { return link.ring->messages().size() >= 2; }));  // paced
+  EXPECT_TRUE(same(link.ring->messages()[1].message, segment(5)));
+  EXPECT_EQ(count_of(link.ring->messages(), Type::goal), 1u);  // never re-sent
+  EXPECT_EQ(link.client->counters().replies, 0u);
+}
+
 // --- close and link failure ----------------------------------------------------------------------------
 
 TEST(RingClient, CloseCompletesEveryPendingOperationWithOperationAborted) {

@@ -729,6 +729,43 @@ TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
   EXPECT_EQ(future.get(), transports::TransportError::would_deadlock);
 }
 
+// --- cancellation ---------------------------------------------------------------------------------------
+
+TEST(ProxyClient, CancellingOneSendLeavesTheOthersAlone) {
+  IoThread io;
+  Options options = test_options();
+  options.clock = ManualClock::create();  // no re-send or timeout while the test runs: only cancellations
+  Link link(io.executor(), options, standard_device(100, is_servo_control));  // controls are never acked
+  ASSERT_TRUE(link.established());
+  Completions done;
+  transports::CancellationSignal cancel_first, cancel_queued;
+  link.client->servo(1).async_set(10, transports::bind_cancellation(cancel_first, done.handler(0)));
+  link.client->servo(1).async_set(20, transports::bind_cancellation(cancel_queued, done.handler(1)));  // behind it
+  link.client->servo(2).async_set(30, done.handler(2));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
+  cancel_queued.emit();  // queued: completes at once and never goes out
+  ASSERT_TRUE(done.wait_for(1));
+  EXPECT_EQ(done.at(1).error, asio::error::operation_aborted);
+  EXPECT_EQ(done.at(1).result.attempts, 0);
+  cancel_first.emit();  // in flight: completes at once, frees its pin
+  ASSERT_TRUE(done.wait_for(2));
+  EXPECT_EQ(done.at(0).error, asio::error::operation_aborted);
+  EXPECT_EQ(done.at(0).result.attempts, 1);
+  EXPECT_NE(done.at(0).result.message_id, 0u);
+  link.client->servo(1).async_set(40, done.handler(3));  // the pin's lane is free again
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 3), kPrompt));
+  std::vector<std::int32_t> positions;
+  for (const auto& frame : frames_of(link.device->frames(), ArduinoIn::kServoControl)) {
+    positions.push_back(frame.in.servocontrol().position());
+  }
+  EXPECT_EQ(positions, (std::vector<std::int32_t>{10, 30, 40}));  // the cancelled queued send never left
+  EXPECT_EQ(done.calls(), 2u);  // the others still wait for their acks
+  cancel_first.emit();          // already completed: nothing happens
+  link.client->close();
+  ASSERT_TRUE(done.wait_for(4));
+  EXPECT_EQ(done.at(2).error, asio::error::operation_aborted);
+}
+
 // --- close and link failure -------------------------------------------------------------------------------
 
 TEST(ProxyClient, CloseCompletesEverythingPending) {
