@@ -2,8 +2,8 @@
 /// The asio plumbing every host codec client shares: one `ByteStream`, one strand, one continuous read
 /// loop, a FIFO write queue, one timer armed at an absolute `Millis` deadline, link-failure detection and
 /// a close that never hangs. A client derives from `ClientLink` and keeps only its protocol logic
-/// (decoding, session engine calls, queues of calls, events); `romi::Client` and `proxy::Client`
-/// are built this way.
+/// (decoding, session engine calls, queues of calls, events); `romi::Client`, `proxy::Client` and
+/// `elcano::RingClient` are built this way, with their public fronts from `client_skeleton.hpp`.
 ///
 /// Threading: the link runs everything on a strand of the stream's executor. Functions marked "strand"
 /// must be called on it (from a hook, or from work posted with `post_to_strand`); the others may be called
@@ -213,21 +213,6 @@ bool wait_for_completion(const ClientLink& link, Start&& start, error_code& erro
   error = completion_error;
   result = std::move(value);
   return true;
-}
-
-/// The destructor of a client holding its link in `link`: closes it (a moved-from client holds none).
-template <typename Link>
-void close_link(const std::shared_ptr<Link>& link) {
-  if (link) link->close();
-}
-
-/// The move assignment of a client holding its link in `link`: closes the link it replaces, then takes
-/// `other`'s. Self-assignment keeps the link open.
-template <typename Link>
-void move_link(std::shared_ptr<Link>& link, std::shared_ptr<Link>& other) {
-  if (&link == &other) return;
-  close_link(link);
-  link = std::move(other);
 }
 
 /// A value written on a strand and read from any thread: what a client publishes of its strand state
