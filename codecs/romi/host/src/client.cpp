@@ -542,24 +542,27 @@ std::uint8_t random_first_id() {
   return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
+namespace {
+// The deprecated setters' handler as an event handler: `pick(event)` of every event of type `Alternative`.
+template <typename Alternative, typename Handler, typename Pick>
+EventHandler only(Handler handler, Pick pick) {
+  if (!handler) return EventHandler();
+  return [handler = std::move(handler), pick](const Event& event) {
+    if (const auto* typed = std::get_if<Alternative>(&event)) handler(pick(*typed));
+  };
+}
+}  // namespace
+
 void Client::set_log_handler(LogHandler handler) {
-  EventHandler wrapper;
-  if (handler) {
-    wrapper = [handler = std::move(handler)](const Event& event) {
-      if (const auto* log = std::get_if<events::Log>(&event)) handler(log->text);
-    };
-  }
-  impl()->set_legacy_handler(impl()->log_handler_, std::move(wrapper));
+  impl()->set_legacy_handler(impl()->log_handler_, only<events::Log>(std::move(handler), [](const events::Log& log) {
+                               return std::string_view(log.text);
+                             }));
 }
 
 void Client::set_link_failed_handler(LinkFailedHandler handler) {
-  EventHandler wrapper;
-  if (handler) {
-    wrapper = [handler = std::move(handler)](const Event& event) {
-      if (const auto* failed = std::get_if<events::LinkFailed>(&event)) handler(failed->error);
-    };
-  }
-  impl()->set_legacy_handler(impl()->link_failed_handler_, std::move(wrapper));
+  impl()->set_legacy_handler(impl()->link_failed_handler_,
+                             only<events::LinkFailed>(std::move(handler),
+                                                      [](const events::LinkFailed& failed) { return failed.error; }));
 }
 
 void Client::set_timing(const session::CallTiming& timing) { impl()->set_timing(timing); }
