@@ -246,9 +246,9 @@ struct Counters {
   LinkCounters link;  ///< Decoder and engine.
 };
 
-/// Romi host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open` and the
-/// moves: `transports::ClientFront`); see the file overview. `close()` completes the call in flight and
-/// every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
+/// Romi host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
+/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// completes the call in flight and every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
 /// thread runs the executor).
 class Client : public transports::ClientFront<detail::ClientImpl, Event> {
  public:
