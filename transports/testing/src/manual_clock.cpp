@@ -138,12 +138,18 @@ bool ManualClock::advance_to_next(std::chrono::milliseconds timeout) {
   return true;
 }
 
-bool ManualClock::advance_until(const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+bool ManualClock::advance_until(const std::function<bool()>& done, std::chrono::milliseconds timeout,
+                                Duration max_step) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (!done()) {
     if (std::chrono::steady_clock::now() >= deadline) return false;
     Millis at = 0;
     if (next_due(at)) {
+      const Millis current = now();
+      if (max_step != 0 && tick_difference(at, current) > static_cast<std::int32_t>(max_step)) {
+        at = static_cast<Millis>(current + max_step);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));  // let the client catch up
+      }
       advance_to(at);
     } else {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));

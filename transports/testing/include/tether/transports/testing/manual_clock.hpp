@@ -41,10 +41,13 @@ class ManualClock final : public LinkClock, public std::enable_shared_from_this<
   /// Waits (wall clock, at most `timeout`) until some wait is pending and advances the clock to the earliest
   /// one. False when none came.
   bool advance_to_next(std::chrono::milliseconds timeout = std::chrono::milliseconds(5000));
-  /// Advances the clock deadline by deadline (to each earliest pending wait as the client arms it) until
-  /// `done()` holds; false when it still does not after `timeout` of wall time.
+  /// Advances the clock deadline by deadline (to each earliest pending wait as the client arms it, at most
+  /// `max_step` ms at a time when `max_step` is not 0) until `done()` holds; false when it still does not
+  /// after `timeout` of wall time. A client that has not armed its next deadline yet (a write in flight)
+  /// may see a later one pass first: tests where that matters cap the step and make the later deadlines
+  /// unreachable.
   bool advance_until(const std::function<bool()>& done,
-                     std::chrono::milliseconds timeout = std::chrono::milliseconds(10000));
+                     std::chrono::milliseconds timeout = std::chrono::milliseconds(10000), Duration max_step = 0);
 
  private:
   struct Wait;
