@@ -19,7 +19,7 @@ std::vector<CodecRow> builtin_rows() {
   std::vector<CodecRow> rows(4);
   rows[0].codec = Codec::romi;
   rows[0].name = "romi";
-  rows[0].client_name = "romi::RomiClient";
+  rows[0].client_name = "romi::Client";
   rows[0].option_keys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
   rows[0].parse_options = detail::parse_romi;
   rows[0].validate = detail::validate_romi;
@@ -37,11 +37,11 @@ std::vector<CodecRow> builtin_rows() {
     row.open = detail::open_proxy;
     row.await_ready = detail::await_proxy;
   };
-  proxy_row(rows[1], Codec::proxy, "proxy", "proxy::ProxyClient");
+  proxy_row(rows[1], Codec::proxy, "proxy", "proxy::Client");
   rows[1].option_keys = {"baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms",
                          "max_sends",      "queue_timeout_ms", "ping_period_ms",       "reset_timeout_ms",
                          "open_timeout_ms", "inits"};
-  proxy_row(rows[2], Codec::proxy_compat, "proxy-compat", "proxy::ProxyClient (ProxyOptions::compat())");
+  proxy_row(rows[2], Codec::proxy_compat, "proxy-compat", "proxy::Client (proxy::Options::compat())");
   rows[2].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[2].default_baud = 57600;  // the deployed firmware's
 

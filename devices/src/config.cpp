@@ -570,7 +570,7 @@ PinInit parse_init(const Node& node) {
 
 ProxyDeviceOptions parse_proxy_options(const Object* object, Codec codec, const TransportConfig& transport) {
   ProxyDeviceOptions options;
-  options.client = codec == Codec::proxy ? proxy::ProxyOptions::primary() : proxy::ProxyOptions::compat();
+  options.client = codec == Codec::proxy ? proxy::Options::primary() : proxy::Options::compat();
   if (const auto* serial = std::get_if<SerialTransport>(&transport)) options.client.timing.baud = serial->options.baud;
   if (object == nullptr) return options;
   proxy::ProxyTiming& timing = options.client.timing;

@@ -104,11 +104,11 @@ std::string init_text(const PinInit& init) {
 }  // namespace
 
 void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, const std::string& path) {
-  proxy::ProxyClient& client = *std::get<std::shared_ptr<proxy::ProxyClient>>(device_client);
+  proxy::Client& client = *std::get<std::shared_ptr<proxy::Client>>(device_client);
   const auto& options = std::get<ProxyDeviceOptions>(device.options);
   auto state = std::make_shared<ProxyReadiness>();
   const bool primary = options.client.mode == proxy::Mode::primary;
-  const proxy::EventHandlerId handler = client.add_event_handler([state](const proxy::ProxyEvent& event) {
+  const proxy::EventHandlerId handler = client.on_event([state](const proxy::Event& event) {
     std::lock_guard lock(state->mutex);
     if (std::holds_alternative<proxy::events::SessionEstablished>(event)) state->established = true;
     if (const auto* failed = std::get_if<proxy::events::LinkFailed>(&event)) state->link_error = failed->error;
@@ -167,19 +167,19 @@ void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, 
 
 DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
   const auto& options = std::get<RomiOptions>(device.options);
-  romi::ClientOptions client_options;
+  romi::Options client_options;
   client_options.timing = options.timing;
   client_options.first_id(options.first_id ? *options.first_id : romi::random_first_id());
-  return std::make_shared<romi::RomiClient>(std::move(stream), client_options);
+  return std::make_shared<romi::Client>(std::move(stream), client_options);
 }
 
 DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
-  return std::make_shared<proxy::ProxyClient>(std::move(stream), std::get<ProxyDeviceOptions>(device.options).client);
+  return std::make_shared<proxy::Client>(std::move(stream), std::get<ProxyDeviceOptions>(device.options).client);
 }
 
 DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
   const auto& options = std::get<ElcanoOptions>(device.options);
-  elcano::RingClientOptions client_options;
+  elcano::Options client_options;
   client_options.node.generation = options.generation;
   client_options.node.capture = options.capture;
   client_options.node.pacing = options.pacing;
@@ -315,16 +315,16 @@ const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted,
   return *device;
 }
 
-std::shared_ptr<romi::RomiClient> Rover::romi(std::string_view name) const {
+std::shared_ptr<romi::Client> Rover::romi(std::string_view name) const {
   const RoverDevice& device = lookup(name, "romi", [](Codec codec) { return codec == Codec::romi; });
-  return std::get<std::shared_ptr<romi::RomiClient>>(device.client);
+  return std::get<std::shared_ptr<romi::Client>>(device.client);
 }
 
-std::shared_ptr<proxy::ProxyClient> Rover::proxy(std::string_view name) const {
+std::shared_ptr<proxy::Client> Rover::proxy(std::string_view name) const {
   const RoverDevice& device = lookup(name, "proxy or proxy-compat", [](Codec codec) {
     return codec == Codec::proxy || codec == Codec::proxy_compat;
   });
-  return std::get<std::shared_ptr<proxy::ProxyClient>>(device.client);
+  return std::get<std::shared_ptr<proxy::Client>>(device.client);
 }
 
 std::shared_ptr<elcano::RingClient> Rover::elcano(std::string_view name) const {

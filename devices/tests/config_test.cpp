@@ -539,7 +539,7 @@ TEST(DevicesConfigErrors, ValidateCatchesInconsistentConfigsBuiltInCode) {
     EXPECT_STREQ(error.what(), "devices[0].options: codec proxy needs ProxyDeviceOptions");
   }
   ProxyDeviceOptions compat;
-  compat.client = proxy::ProxyOptions::compat();
+  compat.client = proxy::Options::compat();
   config.devices[0].options = compat;
   EXPECT_THROW(validate(config), ConfigError) << "mode does not match the codec";
   config.devices[0].codec = Codec::proxy_compat;

@@ -147,10 +147,10 @@ TEST(DevicesRover, AMissingSerialPortFailsTheOpenAndClosesTheDevicesOpenedBefore
   const RoverConfig config = rover_of(
       {romi_device(), R"({"name": "servos", "codec": "proxy",
                           "transport": {"serial": {"path": "/dev/tether-no-such-port"}}})"});
-  std::vector<std::shared_ptr<romi::RomiClient>> opened;
+  std::vector<std::shared_ptr<romi::Client>> opened;
   OpenOptions hooks;
   hooks.on_opened = [&](const RoverDevice& device) {
-    opened.push_back(std::get<std::shared_ptr<romi::RomiClient>>(device.client));
+    opened.push_back(std::get<std::shared_ptr<romi::Client>>(device.client));
   };
   const ConfigError error = open_error(config, io.executor(), hooks);
   EXPECT_STREQ(error.what(), "devices[1].transport.serial.path: /dev/tether-no-such-port: No such file or directory");
@@ -258,9 +258,9 @@ TEST(DevicesRover, AMissingRingImageFailsTheOpenAndClosesTheDevicesOpenedBefore)
   const RoverConfig config = rover_of(
       {romi_device(), R"({"name": "ring", "codec": "elcano", "transport": {"virtual_ring": {"boards": [
           {"firmware": "elcano-node"}, {"firmware": "no-such-node"}]}}})"});
-  std::shared_ptr<romi::RomiClient> arm;
+  std::shared_ptr<romi::Client> arm;
   OpenOptions hooks;
-  hooks.on_opened = [&](const RoverDevice& device) { arm = std::get<std::shared_ptr<romi::RomiClient>>(device.client); };
+  hooks.on_opened = [&](const RoverDevice& device) { arm = std::get<std::shared_ptr<romi::Client>>(device.client); };
   const ConfigError error = open_error(config, io.executor(), hooks);
   EXPECT_EQ(std::string(error.what()), "devices[1].transport.virtual_ring.boards[1].firmware: " +
                                            std::string(TETHER_FIRMWARE_DIR) +

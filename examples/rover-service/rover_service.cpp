@@ -19,12 +19,12 @@
 namespace {
 
 bool drive(const tether::devices::RoverDevice& device) {
-  if (const auto* romi = std::get_if<std::shared_ptr<tether::romi::RomiClient>>(&device.client)) {
+  if (const auto* romi = std::get_if<std::shared_ptr<tether::romi::Client>>(&device.client)) {
     const tether::romi::RomiResponse answer = (*romi)->call("S[1500,1500]");
     std::cout << device.name << " (romi): " << answer.values.dump() << "\n";
     return answer.code == 0;
   }
-  if (const auto* proxy = std::get_if<std::shared_ptr<tether::proxy::ProxyClient>>(&device.client)) {
+  if (const auto* proxy = std::get_if<std::shared_ptr<tether::proxy::Client>>(&device.client)) {
     const tether::proxy::SendResult sent = (*proxy)->servo(9).set(90);  // the configuration's inits ran
     std::cout << device.name << " (proxy): servo 9 at 90, " << int(sent.attempts) << " attempt(s)"
               << (sent.acked ? ", acked" : "") << "\n";

@@ -1,4 +1,4 @@
-// The proxy protocol end to end: ProxyClient against the real proxy / proxy-compat firmware on the
+// The proxy protocol end to end: Client against the real proxy / proxy-compat firmware on the
 // virtual Uno, checking the simulated pins (servo pulse on D9, level of D13), not only the messages.
 #include <gtest/gtest.h>
 
@@ -55,9 +55,9 @@ bool wait_for(Predicate predicate, std::chrono::milliseconds limit = 10s) {
 // Records every event.
 struct EventLog {
   std::mutex mutex;
-  std::vector<ProxyEvent> events;
+  std::vector<Event> events;
   EventHandler handler() {
-    return [this](const ProxyEvent& event) {
+    return [this](const Event& event) {
       std::lock_guard lock(mutex);
       events.push_back(event);
     };
@@ -77,7 +77,7 @@ TEST(ProxyInterop, InitAndControlDriveTheServoPulseAndTheDigitalPin) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
   auto& uno = stream->board();
-  ProxyClient client(stream);
+  Client client(stream);
   client.servo(9).init(90);
   client.digital(13).init(false);
   ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1500.0) < 5.0; })) << servo_pulse_us(uno);
@@ -98,7 +98,7 @@ TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
   auto& uno = stream->board();
   EventLog log;
-  ProxyClient client(stream, ProxyOptions{}, log.handler());
+  Client client(stream, Options{}, log.handler());
   client.servo(9).init(90);
   client.servo(9).set(180);
   ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2000.0) < 5.0; })) << servo_pulse_us(uno);
@@ -124,11 +124,11 @@ TEST(ProxyInterop, WithoutPingsThePinsGoSafeAfterTenSecondsAndTheFailsafeIsRepor
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::fast));
   auto& uno = stream->board();
-  ProxyOptions options;
+  Options options;
   options.timing.ping_period = 0;  // the host stops pinging
   EventLog log;
-  ProxyClient client(stream, options);
-  client.add_event_handler(log.handler());
+  Client client(stream, options);
+  client.on_event(log.handler());
   client.servo(9).init(45);
   client.digital(13).init(false);
   client.servo(9).set(170);
@@ -150,8 +150,8 @@ TEST(ProxyInterop, AnMcuResetIsDetectedAndTheInitsAreReplayedWithoutTheApplicati
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
   auto& uno = stream->board();
   EventLog log;
-  ProxyClient client(stream);
-  client.add_event_handler(log.handler());
+  Client client(stream);
+  client.on_event(log.handler());
   client.servo(9).init(90);
   client.digital(13).init(true);
   client.servo(9).set(180);
@@ -176,8 +176,8 @@ TEST(ProxyInterop, UnderLineNoiseEveryAckedCommandRanExactlyOnce) {
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
   auto& uno = stream->board();
   EventLog log;
-  ProxyClient client(stream);
-  client.add_event_handler(log.handler());
+  Client client(stream);
+  client.on_event(log.handler());
   client.servo(9).init(0);
   transports::FaultConfig noise;
   noise.bit_error_rate = 5e-4;
@@ -308,8 +308,8 @@ TEST(ProxyInterop, ManyInFlightWithLostAcksAndResetsEveryAckedCommandRanExactlyO
   std::map<std::uint32_t, int> failed;
   std::set<std::uint32_t> acked_ids;
   std::atomic<int> completed{0};
-  ProxyClient client(client_end);
-  client.add_event_handler(log.handler());
+  Client client(client_end);
+  client.on_event(log.handler());
   struct Lane {
     std::uint32_t pin;
     bool servo;
@@ -389,7 +389,7 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
   auto stream = VirtualUnoStream::open(io.executor(), board("proxy-compat.elf", Pacing::real_time));
   auto& uno = stream->board();
   EventLog log;
-  ProxyClient client(stream, ProxyOptions::compat(), log.handler());
+  Client client(stream, Options::compat(), log.handler());
   // Like the deployed host: command the device once it announced the end of its setup (it re-sends
   // nothing after that, but a client re-sends its inits on a RESET announcement).
   ASSERT_TRUE(wait_for([&] {

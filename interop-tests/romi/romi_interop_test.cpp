@@ -50,10 +50,12 @@ VirtualUnoOptions romi_test_board(Pacing pacing) {
 struct LogRecorder {
   std::mutex mutex;
   std::vector<std::string> lines;
-  LogHandler handler() {
-    return [this](std::string_view text) {
+  EventHandler handler() {
+    return [this](const Event& event) {
+      const auto* log = std::get_if<events::Log>(&event);
+      if (log == nullptr) return;
       std::lock_guard lock(mutex);
-      lines.emplace_back(text);
+      lines.push_back(log->text);
     };
   }
   std::vector<std::string> take() {
@@ -65,9 +67,9 @@ struct LogRecorder {
 TEST(RomiInterop, EveryRomiTestHandlerThroughTheRealFirmware) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  RomiClient client(stream);
+  Client client(stream);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
 
   EXPECT_EQ(client.call("a").values, json::parse("[0]"));
   EXPECT_EQ(client.call("c[1,2]").values, json::parse("[0]"));
@@ -88,7 +90,7 @@ TEST(RomiInterop, EveryRomiTestHandlerThroughTheRealFirmware) {
   EXPECT_EQ(client.call("a[1]").code, -17);
   EXPECT_EQ(client.call("d").code, -18);
   EXPECT_EQ(client.call({'a', {}, "x"}).code, -19);
-  EXPECT_EQ(client.counters().timeouts, 0u);
+  EXPECT_EQ(client.counters().link.timeouts, 0u);
   client.close();
 }
 
@@ -98,7 +100,7 @@ TEST(RomiInterop, RoverImageDrivesItsServosAndReadsItsSensors) {
   VirtualUnoOptions options = romi_test_board(Pacing::fast);
   options.firmware = TETHER_FIRMWARE_DIR "/romi-rover.elf";
   auto stream = VirtualUnoStream::open(io.executor(), options);
-  RomiClient client(stream);
+  Client client(stream);
   const auto pulse_us = [&](int pin) {
     return std::chrono::duration<double, std::micro>(stream->board().pulse_timing(pin).high_time).count();
   };
@@ -128,7 +130,7 @@ TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {
   // Real-time pacing: the firmware's 1.5 s busy wait and the host's 1 s attempt window share one clock.
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
-  RomiClient client(stream);
+  Client client(stream);
   error_code error;
   const RomiResponse late = client.call("w[1500]", error);
   EXPECT_EQ(error, make_error_code(Error::client_timeout)) << error.message();
@@ -136,16 +138,16 @@ TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {
   const RomiResponse own = client.call("s[20,22]", error);  // sent while the device still waits
   ASSERT_FALSE(error) << error.message();
   EXPECT_EQ(own.values, json::parse("[0,42]"));
-  EXPECT_GE(client.counters().stale, 1u);
+  EXPECT_GE(client.counters().link.stale, 1u);
   client.close();
 }
 
 TEST(RomiInterop, LogFloodBetweenRequestAndAnswer) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  RomiClient client(stream);
+  Client client(stream);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   EXPECT_EQ(client.call("g[20]").values, json::parse("[0]"));
   const auto lines = logs.take();
   ASSERT_EQ(lines.size(), 20u);
@@ -162,7 +164,7 @@ TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinI
   noise.drop_rate = 2e-3;
   stream->board().set_faults(transports::Direction::to_mcu, noise);
   stream->board().set_faults(transports::Direction::from_mcu, noise);
-  RomiClient client(stream);
+  Client client(stream);
   auto random = tether::testing::seeded_generator(404);
   int answered = 0;
   int failed = 0;
@@ -190,7 +192,7 @@ TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinI
   std::printf("noise: %d answered, %d failed; injected %llu bit flips, %llu drops; retries %u stale %u\n", answered,
               failed, static_cast<unsigned long long>(stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped),
               static_cast<unsigned long long>(stats.to_mcu.bytes_dropped + stats.from_mcu.bytes_dropped),
-              client.counters().retries, client.counters().stale);
+              client.counters().link.retries, client.counters().link.stale);
   EXPECT_GT(answered, 60);
   // The noise was really there (flips and drops together: zero of both is vanishingly unlikely).
   EXPECT_GT(stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped + stats.to_mcu.bytes_dropped +
@@ -261,22 +263,22 @@ struct FaultedCall {
   bool fault_done = false;  // the wire did what it was armed for
 };
 
-FaultedCall call_through_fault(FaultyWire::Fault fault, const ClientOptions& options = ClientOptions()) {
+FaultedCall call_through_fault(FaultyWire::Fault fault, const Options& options = Options()) {
   IoThread io;
   // Real time: the firmware's reply cache lives for the host's 2 s call budget in the device's time, so
   // the re-send must come within it in simulated time too (fast pacing runs seconds ahead in a few ms).
   auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
   auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
   FaultyWire wire(wire_end, board);
-  RomiClient client(client_end, options);
+  Client client(client_end, options);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   FaultedCall result;
   if (client.call("a", result.error).code != 0) return result;
   wire.arm(fault);
   result.response = client.call("g[1]", result.error);
   result.logs = logs.take();
-  result.counters = client.counters();
+  result.counters = client.counters().link;
   result.fault_done = wire.done();
   client.close();
   return result;
@@ -309,7 +311,7 @@ TEST(RomiInterop, RequestWhoseIdDigitsAreDamagedIsSentAgain) {
 TEST(RomiInterop, LostAnswerIsSentAgainWithRetryOnTimeoutAndAnsweredFromTheCache) {
   // The answer vanishes on the line; with retry_on_timeout the client sends the same bytes after the
   // attempt window and the firmware answers from its reply cache without running the handler again.
-  ClientOptions options;
+  Options options;
   options.timing.attempt_timeout = 300;
   options.timing.retry_on_timeout = true;
   const FaultedCall call = call_through_fault(FaultyWire::Fault::drop_answer, options);
@@ -344,9 +346,9 @@ TEST(RomiInterop, NewSessionRepeatingTheLastIdAndCommandRunsOnceTheCallBudgetHas
     Session result;
     const auto started = board.simulated_time();
     auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
-    RomiClient client(client_end, ClientOptions().first_id(5));
+    Client client(client_end, Options().first_id(5));
     LogRecorder logs;
-    client.set_log_handler(logs.handler());
+    client.on_event(logs.handler());
     std::future<RomiResponse> answer = client.async_call("g[1]", boost::asio::use_future);
     std::vector<std::uint8_t> buffer(256);
     std::string line;
@@ -399,7 +401,7 @@ TEST(RomiInterop, NewSessionRepeatingTheLastIdAndCommandRunsOnceTheCallBudgetHas
 TEST(RomiInterop, McuResetMidSessionThenTheNextCallsSucceed) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
-  RomiClient client(stream);
+  Client client(stream);
   for (int i = 0; i < 5; ++i) ASSERT_EQ(client.call("s[1,1]").values, json::parse("[0,2]"));
   for (const auto kind : {transports::ResetKind::watchdog, transports::ResetKind::power_cycle}) {
     const auto boots = stream->board().stats().boots;
@@ -443,7 +445,7 @@ TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) 
   EXPECT_GE(waited, 1s);
   EXPECT_LT(waited, 1s + 500ms);
   // The device is ready for the next request at once.
-  RomiClient client(stream);
+  Client client(stream);
   EXPECT_EQ(client.call("s[1,2]").values, json::parse("[0,3]"));
   client.close();
 }
@@ -501,7 +503,7 @@ TEST(RomiReferenceCrossCheck, TetherClientDrivesReferenceFirmware) {
   IoThread io;
   auto [client_end, device_end] = transports::InMemoryStream::make_pair(io.executor());
   ReferenceDevice device(device_end, reference_romi_test());
-  RomiClient client(client_end);
+  Client client(client_end);
   EXPECT_EQ(client.call("e").values, json::parse("[0,1,2]"));
   EXPECT_EQ(client.call("f").code, 101);
   EXPECT_EQ(client.call({'t', {}, "Shutdown"}).values, json::parse(R"([0,"Shutdown"])"));
@@ -525,9 +527,9 @@ TEST(RomiReferenceCrossCheck, TetherClientRecoversFromADamagedIdLikeTheReference
   auto [device_side, device_end] = transports::InMemoryStream::make_pair(io.executor());
   ReferenceDevice device(device_end, reference_romi_test());
   FaultyWire wire(wire_end, device_side);
-  RomiClient client(client_end);
+  Client client(client_end);
   LogRecorder logs;
-  client.set_log_handler(logs.handler());
+  client.on_event(logs.handler());
   ASSERT_EQ(client.call("s[1,1]").values, json::parse("[0,2]"));
   wire.arm(FaultyWire::Fault::damage_request_id);
   error_code error;

@@ -7,8 +7,9 @@
 #include <iostream>
 #include <string>
 
+#include <tether/elcano/decoder.hpp>
+#include <tether/elcano/encoder.hpp>
 #include <tether/elcano/message.hpp>
-#include <tether/elcano/reader.hpp>
 #include <tether/proxy/client.hpp>
 #include <tether/romi/client.hpp>
 #include <tether/transports/io_thread.hpp>
@@ -28,19 +29,18 @@ bool elcano_round_trip() {
   drive.speed = 50;
   drive.angle = 25;
   std::uint8_t wire[64];
-  const auto written = tether::elcano::write_message(drive, tether::elcano::Generation::d,
+  const auto written = tether::elcano::encode_message(drive, tether::elcano::Generation::d,
                                                      tether::MutableByteView(wire, sizeof wire));
   if (!written.ok()) return false;
   tether::LinkCounters counters;
-  tether::elcano::Reader<> reader(tether::elcano::Generation::d, counters);
+  tether::elcano::Decoder<> decoder(tether::elcano::Generation::d, counters);
   for (std::size_t i = 0; i < written.value(); ++i) {
-    const tether::elcano::ReadEvent event = reader.feed(wire[i]);
-    if (event.kind == tether::elcano::ReadEvent::Kind::message) {
+    if (decoder.feed(wire[i]) == tether::DecodeStatus::frame) {
+      const tether::elcano::Message& message = decoder.frame();
       std::cout << "elcano: " << std::string(reinterpret_cast<const char*>(wire), written.value() - 1)
-                << " read back as " << tether::elcano::to_string(event.message.type) << " speed "
-                << event.message.speed << " angle " << event.message.angle << "\n";
-      return event.message.type == tether::elcano::Type::drive && event.message.speed == 50 &&
-             event.message.angle == 25;
+                << " read back as " << tether::elcano::to_string(message.type) << " speed " << message.speed
+                << " angle " << message.angle << "\n";
+      return message.type == tether::elcano::Type::drive && message.speed == 50 && message.angle == 25;
     }
   }
   return false;
@@ -56,11 +56,11 @@ int main(int argc, char** argv) {
   const std::filesystem::path images = argv[1];
   tether::transports::IoThread io;
 
-  tether::romi::RomiClient romi(tether::transports::VirtualUnoStream::open(io.executor(), board(images / "romi-test.elf")));
+  tether::romi::Client romi(tether::transports::VirtualUnoStream::open(io.executor(), board(images / "romi-test.elf")));
   const tether::romi::RomiResponse answer = romi.call("e");
   std::cout << "romi: e -> " << answer.values.dump() << "\n";
 
-  tether::proxy::ProxyClient proxy(tether::transports::VirtualUnoStream::open(io.executor(), board(images / "proxy.elf")));
+  tether::proxy::Client proxy(tether::transports::VirtualUnoStream::open(io.executor(), board(images / "proxy.elf")));
   proxy.servo(9).init(90);
   const tether::proxy::SendResult sent = proxy.servo(9).set(120);
   std::cout << "proxy: servo 9 to 120, " << (sent.acked ? "acked" : "not acked") << "\n";

@@ -161,13 +161,15 @@ int run_call(int argc, char** argv) {
     Progress progress("call");
     ClientHooks hooks;
     hooks.on_client = [](const devices::DeviceClient& client) {
-      std::get<std::shared_ptr<romi::RomiClient>>(client)->set_log_handler([](std::string_view text) {
-        std::fprintf(stderr, "log: %.*s\n", static_cast<int>(text.size()), text.data());
+      std::get<std::shared_ptr<romi::Client>>(client)->on_event([](const romi::Event& event) {
+        if (const auto* log = std::get_if<romi::events::Log>(&event)) {
+          std::fprintf(stderr, "log: %.*s\n", static_cast<int>(log->text.size()), log->text.data());
+        }
       });
     };
     auto device = open_device(*target, io.executor(), hooks, progress, error_text);
     if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");
-    const auto client = device->client_as<romi::RomiClient>();
+    const auto client = device->client_as<romi::Client>();
     response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
     device->close();
   }

@@ -42,18 +42,22 @@ const char* const kShellCommands = "Shell commands: :help, :stats (the session's
 
 // --- romi -------------------------------------------------------------------------------------------------------
 
-std::shared_ptr<romi::RomiClient> romi_client(const devices::DeviceClient& client) {
-  return std::get<std::shared_ptr<romi::RomiClient>>(client);
+std::shared_ptr<romi::Client> romi_client(const devices::DeviceClient& client) {
+  return std::get<std::shared_ptr<romi::Client>>(client);
 }
 
 class RomiShell final : public ShellSession {
  public:
-  RomiShell(std::shared_ptr<romi::RomiClient> client, const ShellContext& context)
+  RomiShell(std::shared_ptr<romi::Client> client, const ShellContext& context)
       : client_(std::move(client)), printer_(context.printer) {
     const ShellPrinter printer = context.printer;
     const std::function<void()> link_failed = context.link_failed;
-    client_->set_log_handler([printer](std::string_view text) { printer.event(romi_log_line(text)); });
-    client_->set_link_failed_handler([printer, link_failed](romi::error_code failure) {
+    client_->on_event([printer, link_failed](const romi::Event& event) {
+      if (const auto* log = std::get_if<romi::events::Log>(&event)) {
+        printer.event(romi_log_line(log->text));
+        return;
+      }
+      const romi::error_code failure = std::get<romi::events::LinkFailed>(event).error;
       printer.event({"link failed: " + failure.message(), {{"event", "link_failed"}, {"message", failure.message()}}});
       link_failed();
     });
@@ -65,7 +69,7 @@ class RomiShell final : public ShellSession {
   }
 
  private:
-  std::shared_ptr<romi::RomiClient> client_;
+  std::shared_ptr<romi::Client> client_;
   ShellPrinter printer_;
 };
 
@@ -77,7 +81,7 @@ CodecCommands romi_commands() {
     return devices::RomiOptions();
   };
   row.counters = [](const devices::DeviceClient& client) {
-    return nlohmann::ordered_json{{"link", link_counters_json(romi_client(client)->counters())}};
+    return nlohmann::ordered_json{{"link", link_counters_json(romi_client(client)->counters().link)}};
   };
   row.shell_help = [](const devices::DeviceConfig&) {
     return std::string(
@@ -106,17 +110,17 @@ CodecCommands romi_commands() {
 
 // --- proxy and proxy-compat -------------------------------------------------------------------------------------
 
-std::shared_ptr<proxy::ProxyClient> proxy_client(const devices::DeviceClient& client) {
-  return std::get<std::shared_ptr<proxy::ProxyClient>>(client);
+std::shared_ptr<proxy::Client> proxy_client(const devices::DeviceClient& client) {
+  return std::get<std::shared_ptr<proxy::Client>>(client);
 }
 
 class ProxyShell final : public ShellSession {
  public:
-  ProxyShell(std::shared_ptr<proxy::ProxyClient> client, const ShellContext& context)
+  ProxyShell(std::shared_ptr<proxy::Client> client, const ShellContext& context)
       : client_(std::move(client)), printer_(context.printer) {
     const ShellPrinter printer = context.printer;
     const std::function<void()> link_failed = context.link_failed;
-    client_->add_event_handler([printer, link_failed](const proxy::ProxyEvent& event) {
+    client_->on_event([printer, link_failed](const proxy::Event& event) {
       printer.event(proxy_event_line(event));
       if (std::holds_alternative<proxy::events::LinkFailed>(event)) link_failed();
     });
@@ -164,7 +168,7 @@ class ProxyShell final : public ShellSession {
   }
 
  private:
-  std::shared_ptr<proxy::ProxyClient> client_;
+  std::shared_ptr<proxy::Client> client_;
   ShellPrinter printer_;
 };
 
@@ -174,14 +178,14 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
   row.image_prefixes = {name};
   row.default_options = [mode](std::uint32_t baud, const DeviceOptions&) -> devices::CodecOptions {
     devices::ProxyDeviceOptions options;
-    options.client = mode == proxy::Mode::primary ? proxy::ProxyOptions::primary() : proxy::ProxyOptions::compat();
+    options.client = mode == proxy::Mode::primary ? proxy::Options::primary() : proxy::Options::compat();
     options.client.timing.baud = baud;
     return options;
   };
   row.readying = "waiting for the proxy session and inits...";
   row.counters = [](const devices::DeviceClient& device_client) {
     const auto client = proxy_client(device_client);
-    const proxy::ProxyCounters counters = client->counters();
+    const proxy::Counters counters = client->counters();
     nlohmann::ordered_json report;
     report["link"] = link_counters_json(counters.link);
     report["proxy"] = {{"messages_sent", counters.messages_sent}, {"acks", counters.acks},
@@ -272,10 +276,10 @@ class ElcanoShell final : public ShellSession {
     const std::function<void()> link_failed = context.link_failed;
     const elcano::Generation generation = generation_;
     const auto replies = replies_;
-    client_->add_event_handler([printer, generation, link_failed, replies](const elcano::ClientEvent& event) {
+    client_->on_event([printer, generation, link_failed, replies](const elcano::Event& event) {
       printer.event(ring_event_line(event, generation));
-      if (event.kind == elcano::ClientEvent::Kind::undeliverable) replies->settled();
-      if (event.kind == elcano::ClientEvent::Kind::link_failed) link_failed();
+      if (std::holds_alternative<elcano::events::Undeliverable>(event)) replies->settled();
+      if (std::holds_alternative<elcano::events::LinkFailed>(event)) link_failed();
     });
     receive_captured(client_, printer_, generation_, replies_);
   }
@@ -363,7 +367,7 @@ CodecCommands elcano_commands() {
     config.transport = ring;
   };
   row.counters = [](const devices::DeviceClient& client) {
-    const elcano::RingClientCounters counters = ring_client(client)->counters();
+    const elcano::Counters counters = ring_client(client)->counters();
     nlohmann::ordered_json report;
     report["link"] = link_counters_json(counters.link);
     report["ring"] = {{"captured", counters.ring.captured},

@@ -83,7 +83,7 @@ class OpenDevice {
   const std::string& description() const { return description_; }
   /// The client of the codec.
   const devices::DeviceClient& client() const { return device().client; }
-  /// The client as `Client` (`romi::RomiClient`), or null when the codec has another.
+  /// The client as `Client` (`romi::Client`), or null when the codec has another.
   template <typename Client>
   std::shared_ptr<Client> client_as() const {
     const auto* client = std::get_if<std::shared_ptr<Client>>(&device().client);

@@ -129,7 +129,7 @@ struct Observed {
   }
 };
 
-void observe(Observed& observed, const proxy::ProxyEvent& event) {
+void observe(Observed& observed, const proxy::Event& event) {
   const std::lock_guard lock(observed.mutex);
   if (const auto* error = std::get_if<proxy::events::DeviceError>(&event)) {
     observed.device_errors.push_back(error->text);
@@ -196,12 +196,11 @@ int run_send(int argc, char** argv) {
   const auto seen = std::make_shared<Observed>();
   ClientHooks hooks;
   hooks.on_client = [seen](const devices::DeviceClient& client) {
-    std::get<std::shared_ptr<proxy::ProxyClient>>(client)->add_event_handler(
-        [seen](const proxy::ProxyEvent& event) { observe(*seen, event); });
+    std::get<std::shared_ptr<proxy::Client>>(client)->on_event([seen](const proxy::Event& event) { observe(*seen, event); });
   };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);
-  proxy::ProxyClient& client = *device->client_as<proxy::ProxyClient>();
+  proxy::Client& client = *device->client_as<proxy::Client>();
 
   int status = 0;
   for (const ProxyCommand& command : commands) {

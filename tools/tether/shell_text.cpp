@@ -41,7 +41,7 @@ romi::RomiResponse romi_rejected_response(const romi::Command& command) {
   return response;
 }
 
-ShellLine proxy_event_line(const proxy::ProxyEvent& event) {
+ShellLine proxy_event_line(const proxy::Event& event) {
   namespace ev = proxy::events;
   if (const auto* error = std::get_if<ev::DeviceError>(&event)) {
     const bool fatal = error->level == proxy::ErrorLevel::fatal;
@@ -112,25 +112,27 @@ ShellLine proxy_event_line(const proxy::ProxyEvent& event) {
   return {"link failed: " + failed.error.message(), {{"event", "link_failed"}, {"message", failed.error.message()}}};
 }
 
-ShellLine ring_event_line(const elcano::ClientEvent& event, elcano::Generation generation) {
-  using Kind = elcano::ClientEvent::Kind;
-  const std::string text = format_elcano(event.message, generation);
-  switch (event.kind) {
-    case Kind::undeliverable:
-      return {"undeliverable " + text + " (came back round the ring: nobody captured it)",
-              {{"event", "undeliverable"}, {"text", text}, {"message", elcano_json(event.message)}}};
-    case Kind::read_error:
-      return {std::string("read error: ") + elcano::describe(event.error),
-              {{"event", "read_error"}, {"reason", elcano::describe(event.error)}}};
-    case Kind::forward_dropped:
-      return {"forward dropped " + text + " (output queue full)", {{"event", "forward_dropped"}, {"text", text}}};
-    case Kind::receive_overflow:
-      return {"receive overflow, dropped " + text, {{"event", "receive_overflow"}, {"text", text}}};
-    case Kind::link_failed:
-      break;
+ShellLine ring_event_line(const elcano::Event& event, elcano::Generation generation) {
+  namespace ev = elcano::events;
+  if (const auto* undeliverable = std::get_if<ev::Undeliverable>(&event)) {
+    const std::string text = format_elcano(undeliverable->message, generation);
+    return {"undeliverable " + text + " (came back round the ring: nobody captured it)",
+            {{"event", "undeliverable"}, {"text", text}, {"message", elcano_json(undeliverable->message)}}};
   }
-  return {"link failed: " + event.link_error.message(),
-          {{"event", "link_failed"}, {"message", event.link_error.message()}}};
+  if (const auto* dropped = std::get_if<ev::InputDropped>(&event)) {
+    return {std::string("read error: ") + elcano::describe(dropped->error),
+            {{"event", "read_error"}, {"reason", elcano::describe(dropped->error)}}};
+  }
+  if (const auto* forward = std::get_if<ev::ForwardDropped>(&event)) {
+    const std::string text = format_elcano(forward->message, generation);
+    return {"forward dropped " + text + " (output queue full)", {{"event", "forward_dropped"}, {"text", text}}};
+  }
+  if (const auto* overflow = std::get_if<ev::ReceiveOverflow>(&event)) {
+    const std::string text = format_elcano(overflow->message, generation);
+    return {"receive overflow, dropped " + text, {{"event", "receive_overflow"}, {"text", text}}};
+  }
+  const auto& failed = std::get<ev::LinkFailed>(event);
+  return {"link failed: " + failed.error.message(), {{"event", "link_failed"}, {"message", failed.error.message()}}};
 }
 
 ShellLine captured_line(const elcano::Message& message, elcano::Generation generation) {

@@ -31,9 +31,9 @@ bool romi_answer_unreadable(const romi::RomiResponse& response);
 /// client does): for checking a command before the device is opened.
 romi::RomiResponse romi_rejected_response(const romi::Command& command);
 /// A proxy client's event (`servo 9 = 90`, `device error: ...`, `session 7 established`, ...).
-ShellLine proxy_event_line(const proxy::ProxyEvent& event);
+ShellLine proxy_event_line(const proxy::Event& event);
 /// An Elcano ring client's event (`undeliverable D{s 50}{a 25} (...)`, `read error: bad_crc`, ...).
-ShellLine ring_event_line(const elcano::ClientEvent& event, elcano::Generation generation);
+ShellLine ring_event_line(const elcano::Event& event, elcano::Generation generation);
 /// `captured D{s 50}{a 25}`: a message the host's node captured.
 ShellLine captured_line(const elcano::Message& message, elcano::Generation generation);
 

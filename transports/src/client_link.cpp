@@ -5,29 +5,18 @@
 #include <boost/asio/error.hpp>
 #include <boost/asio/write.hpp>
 
-#include <chrono>
 
 namespace tether::transports {
 
-namespace {
-
-std::uint64_t steady_milliseconds() {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now().time_since_epoch()).count());
-}
-
-}  // namespace
-
-ClientLink::ClientLink(std::shared_ptr<ByteStream> stream)
+ClientLink::ClientLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock)
     : stream_(std::move(stream)),
       executor_(stream_->get_executor()),
       strand_(asio::make_strand(executor_)),
-      timer_(strand_),
+      clock_(clock ? std::move(clock) : steady_link_clock()),
+      timer_(clock_->make_timer(strand_)),
       read_buffer_(std::make_shared<ReadBuffer>()) {}
 
 ClientLink::~ClientLink() = default;
-
-Millis ClientLink::now() { return static_cast<Millis>(steady_milliseconds()); }
 
 void ClientLink::close() {
   if (closed_.exchange(true)) return;
@@ -121,26 +110,22 @@ void ClientLink::fail(const error_code& error) {
 
 void ClientLink::arm_timer(const Deadline& wakeup) {
   if (!wakeup.armed() || closed_.load()) {
-    if (timer_armed_) timer_.cancel();
+    if (timer_armed_) timer_->cancel();
     timer_armed_ = false;
     return;
   }
   if (timer_armed_ && timer_at_ == wakeup.at()) return;
-  const std::uint64_t full = steady_milliseconds();
-  const std::int32_t left = tick_difference(wakeup.at(), static_cast<Millis>(full));
-  const std::uint64_t due = full + static_cast<std::uint64_t>(left > 0 ? left : 0);
-  timer_.expires_at(SteadyClock::time_point(std::chrono::milliseconds(due)));
   timer_armed_ = true;
   timer_at_ = wakeup.at();
-  timer_.async_wait(asio::bind_executor(strand_, [self = shared_from_this()](error_code error) {
+  timer_->wait_until(wakeup.at(), [self = shared_from_this()](error_code error) {
     if (error) return;  // re-armed or cancelled
     self->timer_armed_ = false;
     self->on_timer();
-  }));
+  });
 }
 
 void ClientLink::cancel_timer() {
-  timer_.cancel();
+  timer_->cancel();
   timer_armed_ = false;
 }
 

@@ -52,7 +52,7 @@ bool wait_for(Predicate predicate, std::chrono::milliseconds limit = 20s) {
 TEST(TetherRomiBlink, LOneLightsTheLedAndLZeroTurnsItOff) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("TetherRomi.Blink", Pacing::fast));
-  romi::RomiClient client(stream);
+  romi::Client client(stream);
   EXPECT_EQ(client.call("L[1]").values, json::parse("[0]"));
   EXPECT_TRUE(stream->board().digital_level(13));
   EXPECT_EQ(client.call("L[0]").values, json::parse("[0]"));
@@ -64,7 +64,7 @@ TEST(TetherRomiBlink, LOneLightsTheLedAndLZeroTurnsItOff) {
 TEST(TetherRomiAnalogReadSerial, AAnswersTheConversionOfA0) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("TetherRomi.AnalogReadSerial", Pacing::fast));
-  romi::RomiClient client(stream);
+  romi::Client client(stream);
   stream->board().set_analog_input(0, 2.5);
   const json half = client.call("A").values;
   ASSERT_EQ(half.size(), 2u) << half;
@@ -82,9 +82,9 @@ double servo_pulse_us(transports::VirtualUno& uno) {
 
 struct EventLog {
   std::mutex mutex;
-  std::vector<proxy::ProxyEvent> events;
+  std::vector<proxy::Event> events;
   proxy::EventHandler handler() {
-    return [this](const proxy::ProxyEvent& event) {
+    return [this](const proxy::Event& event) {
       std::lock_guard lock(mutex);
       events.push_back(event);
     };
@@ -104,7 +104,7 @@ TEST(TetherProxyProxy, AcksMovesTheServoOnD9AndTheDigitalPin) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("TetherProxy.Proxy", Pacing::fast));
   auto& uno = stream->board();
-  proxy::ProxyClient client(stream);
+  proxy::Client client(stream);
   client.servo(9).init(90);  // each blocks until acked (throws otherwise)
   client.digital(13).init(false);
   ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1500.0) < 5.0; })) << servo_pulse_us(uno);
@@ -123,11 +123,11 @@ TEST(TetherProxyProxy, WithoutPingsThePinsGoSafeAfterTenSecondsOfSimulatedTime) 
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board("TetherProxy.Proxy", Pacing::fast));
   auto& uno = stream->board();
-  proxy::ProxyOptions options;
+  proxy::Options options;
   options.timing.ping_period = 0;  // the host stops pinging
   EventLog log;
-  proxy::ProxyClient client(stream, options);
-  client.add_event_handler(log.handler());
+  proxy::Client client(stream, options);
+  client.on_event(log.handler());
   client.servo(9).init(45);
   client.digital(13).init(false);
   client.servo(9).set(170);
@@ -147,7 +147,7 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
   auto stream = VirtualUnoStream::open(io.executor(), board("TetherProxy.ProxyCompat", Pacing::fast));
   auto& uno = stream->board();
   EventLog log;
-  proxy::ProxyClient client(stream, proxy::ProxyOptions::compat(), log.handler());
+  proxy::Client client(stream, proxy::Options::compat(), log.handler());
   ASSERT_TRUE(wait_for([&] {
     for (const auto& event : log.all<proxy::events::CompatEvent>()) {
       if (event.type == ::RocketryProto::RESET) return true;

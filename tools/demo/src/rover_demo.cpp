@@ -68,7 +68,7 @@ std::int32_t degrees(unsigned i, unsigned stride) { return static_cast<std::int3
 
 class RomiWorkload final : public Workload {
  public:
-  explicit RomiWorkload(std::shared_ptr<romi::RomiClient> client) : client_(std::move(client)) {}
+  explicit RomiWorkload(std::shared_ptr<romi::Client> client) : client_(std::move(client)) {}
   std::string operation() const override { return "call S[throttle_us,steering_us] -> [0]"; }
   Outcome run(unsigned i) override {
     Outcome outcome;
@@ -86,15 +86,15 @@ class RomiWorkload final : public Workload {
     }
     return outcome;
   }
-  LinkCounters link() const override { return client_->counters(); }
+  LinkCounters link() const override { return client_->counters().link; }
 
  private:
-  std::shared_ptr<romi::RomiClient> client_;
+  std::shared_ptr<romi::Client> client_;
 };
 
 class ProxyWorkload final : public Workload {
  public:
-  ProxyWorkload(std::shared_ptr<proxy::ProxyClient> client, std::vector<devices::PinInit> servo_inits, bool compat)
+  ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<devices::PinInit> servo_inits, bool compat)
       : client_(std::move(client)), inits_(std::move(servo_inits)), compat_(compat) {
     if (inits_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
     if (inits_.size() > 2) inits_.resize(2);
@@ -177,7 +177,7 @@ class ProxyWorkload final : public Workload {
     if (pin == 9) pulses.d9 = us;
     if (pin == 10) pulses.d10 = us;
   }
-  std::shared_ptr<proxy::ProxyClient> client_;
+  std::shared_ptr<proxy::Client> client_;
   std::vector<devices::PinInit> inits_;  // the servo inits of the config (at most two)
   std::vector<std::uint32_t> pins_;      // their pins
   bool compat_;
@@ -219,9 +219,9 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
   return std::visit(
       [&](const auto& client) -> std::unique_ptr<Workload> {
         using Client = typename std::decay_t<decltype(client)>::element_type;
-        if constexpr (std::is_same_v<Client, romi::RomiClient>) {
+        if constexpr (std::is_same_v<Client, romi::Client>) {
           return std::make_unique<RomiWorkload>(client);
-        } else if constexpr (std::is_same_v<Client, proxy::ProxyClient>) {
+        } else if constexpr (std::is_same_v<Client, proxy::Client>) {
           std::vector<devices::PinInit> servos;
           for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
             if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);

@@ -42,7 +42,7 @@ elcano::Message ring_message(FuzzedDataProvider& input) {
   return message;
 }
 
-proxy::ProxyEvent proxy_event(std::uint8_t which, FuzzedDataProvider& input) {
+proxy::Event proxy_event(std::uint8_t which, FuzzedDataProvider& input) {
   namespace ev = proxy::events;
   switch (which % 12) {
     case 0: {
@@ -125,11 +125,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       render("event", proxy_event_line(proxy_event(input.ConsumeIntegral<std::uint8_t>(), input)));
       break;
     case 3: {
-      elcano::ClientEvent event;
-      event.kind = static_cast<elcano::ClientEvent::Kind>(input.ConsumeIntegral<std::uint8_t>() % 5);
-      event.error = static_cast<elcano::Error>(input.ConsumeIntegral<std::uint8_t>() % 10);
-      event.message = ring_message(input);
-      event.link_error = elcano::error_code(input.ConsumeIntegral<int>(), boost::system::generic_category());
+      const auto kind = input.ConsumeIntegral<std::uint8_t>() % 5;
+      const auto error = static_cast<elcano::Error>(input.ConsumeIntegral<std::uint8_t>() % 10);
+      const elcano::Message message = ring_message(input);
+      const elcano::error_code link_error(input.ConsumeIntegral<int>(), boost::system::generic_category());
+      elcano::Event event = elcano::events::LinkFailed{link_error};
+      if (kind == 0) event = elcano::events::Undeliverable{message, false};
+      if (kind == 1) event = elcano::events::InputDropped{error};
+      if (kind == 2) event = elcano::events::ForwardDropped{message};
+      if (kind == 3) event = elcano::events::ReceiveOverflow{message};
       const auto generation = input.ConsumeBool() ? elcano::Generation::d : elcano::Generation::b;
       render("event", ring_event_line(event, generation));
       break;

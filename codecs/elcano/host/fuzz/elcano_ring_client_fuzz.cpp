@@ -49,13 +49,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::lock_guard lock(written_mutex);
     if (written.size() < 65536) written.insert(written.end(), bytes, bytes + n);
   });
-  RingClientOptions options;
+  Options options;
   options.node.generation = (data[0] & 0x10u) != 0 ? Generation::d : Generation::b;
   options.node.capture = TypeSet::from_bits(data[0]);
   options.receive_queue_bound = 4;
   options.send_queue_bound = 4;
   std::atomic<int> events{0};
-  RingClient client(link.host_end(), options, [&events](const ClientEvent&) { ++events; });
+  RingClient client(link.host_end(), options, [&events](const Event&) { ++events; });
 
   std::mutex mutex;
   std::vector<int> completions;
@@ -120,7 +120,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   }
   flush();
-  const RingClientCounters counters = client.counters();
+  const Counters counters = client.counters();
   client.close();
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] {
     const std::lock_guard lock(mutex);

@@ -1,6 +1,6 @@
 // RingClient: the portable RingNode and the Elcano session engine (elcano::RequestTable) driven by the read
-// loop, the write queue and the timer of a transports::ClientLink, like romi::RomiClient and
-// proxy::ProxyClient (the link owns the strand, close and the lifetime rules).
+// loop, the write queue and the timer of a transports::ClientLink, like romi::Client and
+// proxy::Client (the link owns the strand, close and the lifetime rules).
 //
 // Everything below `RingClientImpl`'s public functions runs on the link's strand. All timed work goes
 // through `pump(now)`: the node's deadlines (partial message, origin records), the engine's (re-sends,
@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "tether/core/wakeup.hpp"
 #include "tether/transports/client_link.hpp"
 
 namespace tether::elcano {
@@ -36,20 +37,6 @@ namespace {
 
 using Node = RingNode<kMaxMessageBytes, kOutputQueueBytes, kOriginRecords>;
 using Table = RequestTable;
-
-Millis now_ms() { return transports::ClientLink::now(); }
-
-// The earlier of `wake` and `candidate` (disarmed deadlines never win).
-void consider(Deadline& wake, const Deadline& candidate) {
-  if (!candidate.armed()) return;
-  if (!wake.armed() || tick_difference(candidate.at(), wake.at()) < 0) wake.arm_at(candidate.at());
-}
-
-Deadline deadline_at(Millis instant) {
-  Deadline deadline;
-  deadline.arm_at(instant);
-  return deadline;
-}
 
 bool known_type(Type type) {
   switch (type) {
@@ -78,10 +65,10 @@ std::string encode(const Message& message, Generation generation) {
 
 class RingClientImpl final : public transports::ClientLink {
  public:
-  RingClientImpl(std::shared_ptr<ByteStream> stream, const RingClientOptions& options)
-      : ClientLink(std::move(stream)),
+  RingClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
+      : ClientLink(std::move(stream), options.clock),
         options_(options),
-        node_(options.node, now_ms(), counters_.link, counters_.ring),
+        node_(options.node, now(), counters_.link, counters_.ring),
         table_(options.timing, 0, counters_.link),
         capture_(options.node.capture) {
     published_capture_.set(capture_);
@@ -91,13 +78,13 @@ class RingClientImpl final : public transports::ClientLink {
   void start() {
     post_to_strand([this] {
       start_reading();
-      pump(now_ms());
+      pump(now());
     });
   }
 
   // --- submissions (any thread) ----------------------------------------------------------------------
 
-  void submit_send(const Message& message, SendHandler handler) {
+  void submit_send(OperationId operation, const Message& message, SendHandler handler) {
     std::string bytes = encode(message, options_.node.generation);
     if (bytes.empty()) {
       post_completion(std::move(handler), error_code(RingError::invalid_message));
@@ -110,10 +97,11 @@ class RingClientImpl final : public transports::ClientLink {
     auto item = std::make_unique<Outgoing>();
     item->message = message;
     item->send_handler = std::move(handler);
+    item->operation = operation;
     post_to_strand([this, item = std::move(item)]() mutable { accept_send(std::move(item)); });
   }
 
-  void submit_request(const Message& message, Type reply_type, MessageHandler handler) {
+  void submit_request(OperationId operation, const Message& message, Type reply_type, MessageHandler handler) {
     std::string bytes = encode(message, options_.node.generation);
     if (bytes.empty()) {
       post_completion(std::move(handler), error_code(RingError::invalid_message), Message());
@@ -132,10 +120,11 @@ class RingClientImpl final : public transports::ClientLink {
     call->message = message;
     call->bytes = std::move(bytes);
     call->handler = std::move(handler);
+    call->operation = operation;
     post_to_strand([this, call = std::move(call)]() mutable { accept_request(std::move(call)); });
   }
 
-  void submit_receive(std::optional<Duration> timeout, MessageHandler handler) {
+  void submit_receive(OperationId operation, std::optional<Duration> timeout, MessageHandler handler) {
     if (!is_open()) {
       post_completion(std::move(handler), error_code(asio::error::operation_aborted), Message());
       return;
@@ -143,6 +132,7 @@ class RingClientImpl final : public transports::ClientLink {
     auto receiver = std::make_unique<Receiver>();
     receiver->handler = std::move(handler);
     receiver->timeout = timeout;
+    receiver->operation = operation;
     post_to_strand([this, receiver = std::move(receiver)]() mutable { accept_receive(std::move(receiver)); });
   }
 
@@ -156,19 +146,9 @@ class RingClientImpl final : public transports::ClientLink {
 
   TypeSet capture() const { return published_capture_.get(); }
 
-  EventHandlerId add_event_handler(EventHandler handler) {
-    std::lock_guard lock(mutex_);
-    const EventHandlerId id = ++last_handler_id_;
-    if (handler) handlers_.emplace_back(id, std::make_shared<EventHandler>(std::move(handler)));
-    return id;
-  }
+  transports::EventHandlers<Event>& event_handlers() { return events_; }
 
-  void remove_event_handler(EventHandlerId id) {
-    std::lock_guard lock(mutex_);
-    std::erase_if(handlers_, [id](const auto& entry) { return entry.first == id; });
-  }
-
-  RingClientCounters counters() const { return published_.get(); }
+  Counters counters() const { return published_.get(); }
 
  private:
   // A request from acceptance to completion.
@@ -177,6 +157,7 @@ class RingClientImpl final : public transports::ClientLink {
     Message message;
     std::string bytes;            // as written: recognises the request when it comes back
     MessageHandler handler;
+    OperationId operation = 0;
     bool sent = false;            // first originated: its reply type is captured from then on
     bool resend_pending = false;  // the engine asked for a re-send that found no room yet
   };
@@ -185,15 +166,18 @@ class RingClientImpl final : public transports::ClientLink {
     std::shared_ptr<Call> call;  // a request; else a send:
     Message message;
     SendHandler send_handler;
-    Millis deadline = 0;  // sends: `send_timeout` after acceptance
+    OperationId operation = 0;  // sends (a request's is its call's)
+    Millis deadline = 0;        // sends: `send_timeout` after acceptance
   };
   // A send originated, completing once its last byte (at offset `end` of the output) was written.
   struct Written {
     std::uint64_t end = 0;
     SendHandler handler;
+    OperationId operation = 0;
   };
   struct Receiver {
     MessageHandler handler;
+    OperationId operation = 0;
     std::optional<Duration> timeout;
     Millis deadline = 0;
   };
@@ -212,7 +196,7 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(item->send_handler), error);
       return;
     }
-    const Millis now = now_ms();
+    const Millis now = this->now();
     item->deadline = static_cast<Millis>(now + options_.send_timeout);
     enqueue(std::move(item), now);
     pump(now);
@@ -224,7 +208,7 @@ class RingClientImpl final : public transports::ClientLink {
       return;
     }
     const std::uint8_t id = call_id(call->reply);
-    const Millis now = now_ms();
+    const Millis now = this->now();
     if (calls_.count(id) != 0 || !table_.begin_with(id, now).ok()) {
       complete(std::move(call->handler), RingError::reply_type_busy, Message());
       return;
@@ -251,7 +235,7 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(receiver->handler), RingError::receive_timed_out, Message());
       return;
     }
-    const Millis now = now_ms();
+    const Millis now = this->now();
     if (receiver->timeout) receiver->deadline = static_cast<Millis>(now + *receiver->timeout);
     receivers_.push_back(std::move(receiver));
     pump(now);
@@ -299,7 +283,7 @@ class RingClientImpl final : public transports::ClientLink {
       item.call->sent = true;
       refresh_capture();
     } else {
-      written_.push_back(Written{taken_ + node_.pending_output(), std::move(item.send_handler)});
+      written_.push_back(Written{taken_ + node_.pending_output(), std::move(item.send_handler), item.operation});
     }
     return true;
   }
@@ -349,13 +333,13 @@ class RingClientImpl final : public transports::ClientLink {
       complete(std::move(written_.front().handler), error_code());
       written_.pop_front();
     }
-    pump(now_ms());
+    pump(now());
   }
 
   // --- the ring ------------------------------------------------------------------------------------------
 
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    const Millis now = now_ms();
+    const Millis now = this->now();
     for (std::size_t i = 0; i < size && !unusable(); ++i) {
       on_ring_event(node_.feed(data[i], now), now);
     }
@@ -373,18 +357,13 @@ class RingClientImpl final : public transports::ClientLink {
       case RingEvent::Kind::undeliverable:
         on_undeliverable(event.message);
         return;
-      case RingEvent::Kind::dropped: {
-        ClientEvent report;
+      case RingEvent::Kind::dropped:
         if (event.error == Error::queue_full) {
-          report.kind = ClientEvent::Kind::forward_dropped;
-          report.message = event.message;
+          emit(events::ForwardDropped{event.message});
         } else {
-          report.kind = ClientEvent::Kind::read_error;
-          report.error = event.error;
+          emit(events::InputDropped{event.error});
         }
-        emit(report);
         return;
-      }
     }
   }
 
@@ -406,9 +385,7 @@ class RingClientImpl final : public transports::ClientLink {
     }
     received_.push_back(message);
     if (received_.size() > options_.receive_queue_bound) {
-      ClientEvent report;
-      report.kind = ClientEvent::Kind::receive_overflow;
-      report.message = received_.front();
+      events::ReceiveOverflow report{received_.front()};
       received_.pop_front();
       ++counters_.receive_overflows;
       emit(report);
@@ -418,9 +395,7 @@ class RingClientImpl final : public transports::ClientLink {
   // One of our messages came back: the request it belongs to (if any) fails at once; reported once.
   void on_undeliverable(const Message& message) {
     const std::string bytes = encode(message, options_.node.generation);
-    ClientEvent report;
-    report.kind = ClientEvent::Kind::undeliverable;
-    report.message = message;
+    events::Undeliverable report{message, false};
     for (const auto& [id, call] : calls_) {
       if (!call->sent || call->bytes != bytes) continue;
       (void)table_.cancel(id);
@@ -496,31 +471,17 @@ class RingClientImpl final : public transports::ClientLink {
 
   // --- events --------------------------------------------------------------------------------------------
 
-  void emit(const ClientEvent& event) {
+  // The counters are published first, so a handler reading them sees what the event reports.
+  void emit(const Event& event) {
     publish();
-    std::vector<std::shared_ptr<EventHandler>> handlers;
-    {
-      std::lock_guard lock(mutex_);
-      handlers.reserve(handlers_.size());
-      for (const auto& entry : handlers_) handlers.push_back(entry.second);
-    }
-    for (const auto& handler : handlers) {
-      try {
-        (*handler)(event);
-      } catch (...) {  // NOLINT(bugprone-empty-catch): the contract says handlers must not throw
-      }
-    }
+    events_.emit(event);
   }
 
   // --- the link's hooks ----------------------------------------------------------------------------------
 
   void on_link_failed(const error_code& error) override {
     fail_all(error);
-    ClientEvent report;
-    report.kind = ClientEvent::Kind::link_failed;
-    report.link_error = error;
-    emit(report);
-    publish();
+    emit(events::LinkFailed{error});
   }
 
   void on_closed() override {
@@ -528,7 +489,35 @@ class RingClientImpl final : public transports::ClientLink {
     publish();
   }
 
-  void on_timer() override { pump(now_ms()); }
+  void on_timer() override { pump(now()); }
+
+  // The application cancelled one operation (the header lists what that means for each kind).
+  void on_cancel(OperationId operation) override {
+    const error_code aborted = asio::error::operation_aborted;
+    for (const auto& [id, call] : calls_) {
+      if (call->operation != operation) continue;
+      (void)table_.cancel(id);
+      finish(call, aborted, Message());  // also drops its first origination still waiting for room
+      pump(now());
+      return;
+    }
+    const auto waiting = std::find_if(outgoing_.begin(), outgoing_.end(),
+                                      [&](const auto& item) { return !item->call && item->operation == operation; });
+    if (waiting != outgoing_.end()) {
+      complete(std::move((*waiting)->send_handler), aborted);
+      outgoing_.erase(waiting);
+      pump(now());
+      return;
+    }
+    const auto receiver = std::find_if(receivers_.begin(), receivers_.end(),
+                                       [&](const auto& r) { return r->operation == operation; });
+    if (receiver != receivers_.end()) {
+      complete(std::move((*receiver)->handler), aborted, Message());
+      receivers_.erase(receiver);
+      pump(now());
+    }
+    // A send already handed to the node (`written_`) is written all the same and completes then.
+  }
 
   // --- the pump ------------------------------------------------------------------------------------------
 
@@ -593,10 +582,10 @@ class RingClientImpl final : public transports::ClientLink {
 
   void publish() { published_.set(counters_); }
 
-  const RingClientOptions options_;
+  const Options options_;
 
   // Strand only.
-  RingClientCounters counters_;
+  Counters counters_;
   Node node_;
   Table table_;
   TypeSet capture_;
@@ -610,116 +599,133 @@ class RingClientImpl final : public transports::ClientLink {
   bool writing_ = false;
 
   // Any thread.
-  transports::Published<RingClientCounters> published_;
+  transports::Published<Counters> published_;
   transports::Published<TypeSet> published_capture_;
-  mutable std::mutex mutex_;  // guards the handlers
-  std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
-  EventHandlerId last_handler_id_ = 0;
+  transports::EventHandlers<Event> events_;
 };
 
-void start_send(const std::shared_ptr<RingClientImpl>& impl, const Message& message, SendHandler handler) {
-  impl->submit_send(message, std::move(handler));
+void start_send(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, SendHandler handler,
+                const Message& message) {
+  impl->submit_send(operation, message, std::move(handler));
 }
 
-void start_request(const std::shared_ptr<RingClientImpl>& impl, const Message& message, Type reply_type,
-                   MessageHandler handler) {
-  impl->submit_request(message, reply_type, std::move(handler));
+void start_request(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, MessageHandler handler,
+                   const Message& message, Type reply_type) {
+  impl->submit_request(operation, message, reply_type, std::move(handler));
 }
 
-void start_receive(const std::shared_ptr<RingClientImpl>& impl, std::optional<Duration> timeout,
-                   MessageHandler handler) {
-  impl->submit_receive(timeout, std::move(handler));
+void start_receive(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, MessageHandler handler,
+                   std::optional<Duration> timeout) {
+  impl->submit_receive(operation, timeout, std::move(handler));
 }
-
-asio::any_io_executor executor_of(const std::shared_ptr<RingClientImpl>& impl) { return impl->executor(); }
 
 }  // namespace detail
+
+// ---------------------------------------------------------------------------------------------------------
+// Events
+
+ClientEvent to_client_event(const Event& event) {
+  ClientEvent old;
+  if (const auto* undeliverable = std::get_if<events::Undeliverable>(&event)) {
+    old.kind = ClientEvent::Kind::undeliverable;
+    old.message = undeliverable->message;
+    old.request_failed = undeliverable->request_failed;
+  } else if (const auto* dropped = std::get_if<events::InputDropped>(&event)) {
+    old.kind = ClientEvent::Kind::read_error;
+    old.error = dropped->error;
+  } else if (const auto* forward = std::get_if<events::ForwardDropped>(&event)) {
+    old.kind = ClientEvent::Kind::forward_dropped;
+    old.message = forward->message;
+  } else if (const auto* overflow = std::get_if<events::ReceiveOverflow>(&event)) {
+    old.kind = ClientEvent::Kind::receive_overflow;
+    old.message = overflow->message;
+  } else if (const auto* failed = std::get_if<events::LinkFailed>(&event)) {
+    old.kind = ClientEvent::Kind::link_failed;
+    old.link_error = failed->error;
+  }
+  return old;
+}
+
+namespace {
+EventHandler from_legacy(LegacyEventHandler handler) {
+  if (!handler) return EventHandler();
+  return [handler = std::move(handler)](const Event& event) { handler(to_client_event(event)); };
+}
+}  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
 // RingClient
 
 namespace {
 
-std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const RingClientOptions& options) {
-  if (!stream) throw std::invalid_argument("RingClient needs a stream");
+std::shared_ptr<ByteStream> checked_stream(std::shared_ptr<ByteStream> stream, const Options& options) {
+  stream = transports::require_stream(std::move(stream), "elcano::RingClient");
   if (options.timing.max_attempts == 0 || options.timing.call_budget == 0) {
-    throw std::invalid_argument("RingClient: timing.max_attempts and timing.call_budget must be > 0");
+    throw std::invalid_argument("elcano::RingClient: timing.max_attempts and timing.call_budget must be > 0");
   }
-  if (options.receive_queue_bound == 0) throw std::invalid_argument("RingClient: receive_queue_bound must be > 0");
+  if (options.receive_queue_bound == 0) {
+    throw std::invalid_argument("elcano::RingClient: receive_queue_bound must be > 0");
+  }
   return stream;
-}
-
-// Blocking form of an operation completing with `void(error_code, Message)`.
-template <typename Start>
-Message wait_for_message(const detail::RingClientImpl& impl, Start&& start, error_code& error) {
-  Message message;
-  if (!transports::wait_for_completion(impl, std::forward<Start>(start), error, message)) return Message();
-  return message;
 }
 
 }  // namespace
 
-RingClient::RingClient(std::shared_ptr<ByteStream> stream, const RingClientOptions& options, EventHandler handler)
-    : impl_(std::make_shared<detail::RingClientImpl>(require(std::move(stream), options), options)) {
-  if (handler) impl_->add_event_handler(std::move(handler));
-  impl_->start();
+RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& options, EventHandler handler)
+    : ClientFront(std::make_shared<detail::RingClientImpl>(checked_stream(std::move(stream), options), options)) {
+  on_event(std::move(handler));
+  impl()->start();
 }
 
-RingClient::~RingClient() { transports::close_link(impl_); }
-RingClient::RingClient(RingClient&&) noexcept = default;
-RingClient& RingClient::operator=(RingClient&& other) noexcept {
-  transports::move_link(impl_, other.impl_);
-  return *this;
-}
+RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& options, LegacyEventHandler handler)
+    : RingClient(std::move(stream), options, from_legacy(std::move(handler))) {}
 
-asio::any_io_executor RingClient::get_executor() const { return impl_->executor(); }
+EventHandlerId RingClient::add_event_handler(LegacyEventHandler handler) {
+  return on_event(from_legacy(std::move(handler)));
+}
 
 void RingClient::send(const Message& message, error_code& error) {
-  bool sent = false;
-  const auto start = [&](transports::UniqueFunction<void(error_code, bool)> done) {
-    impl_->submit_send(message, [done = std::move(done)](error_code e) mutable { done(e, !e); });
-  };
-  (void)transports::wait_for_completion(*impl_, start, error, sent);
+  (void)transports::wait_for_operation<bool>(
+      link(),
+      [&](detail::OperationId operation, transports::UniqueFunction<void(error_code, bool)> done) {
+        impl()->submit_send(operation, message, [done = std::move(done)](error_code e) mutable { done(e, !e); });
+      },
+      error);
 }
 
 void RingClient::send(const Message& message) {
-  error_code error;
-  send(message, error);
-  if (error) throw boost::system::system_error(error, "elcano send");
+  transports::require([&](error_code& error) { send(message, error); }, "elcano send");
 }
 
 Message RingClient::request(const Message& message, Type reply_type, error_code& error) {
-  return wait_for_message(
-      *impl_, [&](detail::MessageHandler done) { impl_->submit_request(message, reply_type, std::move(done)); }, error);
+  return transports::wait_for_operation<Message>(
+      link(),
+      [&](detail::OperationId operation, detail::MessageHandler done) {
+        impl()->submit_request(operation, message, reply_type, std::move(done));
+      },
+      error);
 }
 
 Message RingClient::request(const Message& message, Type reply_type) {
-  error_code error;
-  Message reply = request(message, reply_type, error);
-  if (error) throw boost::system::system_error(error, "elcano request");
-  return reply;
+  return transports::require([&](error_code& error) { return request(message, reply_type, error); },
+                             "elcano request");
 }
 
 Message RingClient::receive(Duration timeout, error_code& error) {
-  return wait_for_message(
-      *impl_, [&](detail::MessageHandler done) { impl_->submit_receive(timeout, std::move(done)); }, error);
+  return transports::wait_for_operation<Message>(
+      link(),
+      [&](detail::OperationId operation, detail::MessageHandler done) {
+        impl()->submit_receive(operation, timeout, std::move(done));
+      },
+      error);
 }
 
 Message RingClient::receive(Duration timeout) {
-  error_code error;
-  Message message = receive(timeout, error);
-  if (error) throw boost::system::system_error(error, "elcano receive");
-  return message;
+  return transports::require([&](error_code& error) { return receive(timeout, error); }, "elcano receive");
 }
 
-void RingClient::set_capture(TypeSet capture) { impl_->set_capture(capture); }
-TypeSet RingClient::capture() const { return impl_->capture(); }
-EventHandlerId RingClient::add_event_handler(EventHandler handler) {
-  return impl_->add_event_handler(std::move(handler));
-}
-void RingClient::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
-RingClientCounters RingClient::counters() const { return impl_->counters(); }
-void RingClient::close() { impl_->close(); }
-bool RingClient::is_open() const { return impl_->is_open(); }
+void RingClient::set_capture(TypeSet capture) { impl()->set_capture(capture); }
+TypeSet RingClient::capture() const { return impl()->capture(); }
+Counters RingClient::counters() const { return impl()->counters(); }
 
 }  // namespace tether::elcano

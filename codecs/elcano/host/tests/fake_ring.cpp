@@ -25,7 +25,7 @@ std::vector<Arrival> FakeRing::arrivals() const {
 
 void FakeRing::on_bytes(const std::uint8_t* data, std::size_t size) {
   const auto now = std::chrono::steady_clock::now();
-  record([&] { arrivals_.push_back(Arrival{now, size}); });
+  record([&] { arrivals_.push_back(Arrival{clock_->now(), size}); });
   for (std::size_t i = 0; i < size; ++i) {
     wire_.push_back(static_cast<char>(data[i]));
     const DecodeStatus status = reader_.feed(data[i]);
@@ -92,8 +92,9 @@ Message segment(std::int32_t number) {
   return message;
 }
 
-RingClientOptions test_options(Duration attempt_ms, Duration budget_ms) {
-  RingClientOptions options;
+Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<transports::LinkClock> clock) {
+  Options options;
+  options.clock = std::move(clock);
   options.timing.attempt_timeout = attempt_ms;
   options.timing.call_budget = budget_ms;
   options.timing.max_attempts = 3;
@@ -110,43 +111,6 @@ session::LinkPacing trickle() {
   pacing.receiver_buffer = 2;
   pacing.receiver_poll_interval = 0;
   return pacing;
-}
-
-// --- EventLog ----------------------------------------------------------------------------------------------
-
-EventHandler EventLog::handler() {
-  return [state = state_](const ClientEvent& event) {
-    {
-      std::lock_guard lock(state->mutex);
-      state->events.push_back(event);
-    }
-    state->changed.notify_all();
-  };
-}
-
-std::vector<ClientEvent> EventLog::all() const {
-  std::lock_guard lock(state_->mutex);
-  return state_->events;
-}
-
-std::vector<ClientEvent> EventLog::of(ClientEvent::Kind kind) const {
-  std::lock_guard lock(state_->mutex);
-  std::vector<ClientEvent> found;
-  for (const auto& event : state_->events) {
-    if (event.kind == kind) found.push_back(event);
-  }
-  return found;
-}
-
-bool EventLog::wait_for(ClientEvent::Kind kind, std::size_t count, std::chrono::milliseconds timeout) const {
-  std::unique_lock lock(state_->mutex);
-  return state_->changed.wait_for(lock, timeout, [&] {
-    std::size_t seen = 0;
-    for (const auto& event : state_->events) {
-      if (event.kind == kind) ++seen;
-    }
-    return seen >= count;
-  });
 }
 
 // --- Completions -------------------------------------------------------------------------------------------
@@ -188,7 +152,7 @@ std::optional<Outcome> Completions::at(std::size_t index) const {
 
 // --- Link --------------------------------------------------------------------------------------------------
 
-Link::Link(boost::asio::any_io_executor executor, const RingClientOptions& options, FakeRing::Script script) {
+Link::Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script) {
   auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor);
   ring = FakeRing::start(ring_end, options.node.generation, std::move(script));
   client.emplace(host_end, options, log.handler());
@@ -197,19 +161,6 @@ Link::Link(boost::asio::any_io_executor executor, const RingClientOptions& optio
 Link::~Link() {
   if (client) client->close();
   ring->close();
-}
-
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return condition();
-}
-
-long long elapsed_ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace tether::elcano::testing

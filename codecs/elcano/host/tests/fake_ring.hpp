@@ -22,6 +22,10 @@
 #include "tether/elcano/decoder.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/testing/eventually.hpp"
+#include "tether/transports/link_clock.hpp"
+#include "tether/transports/testing/event_log.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::elcano::testing {
@@ -42,8 +46,8 @@ struct RingRecord {
 
 /// A chunk of bytes as the ring's end of the stream read it.
 struct Arrival {
-  std::chrono::steady_clock::time_point at;  ///< when the read completed
-  std::size_t bytes = 0;                     ///< how many bytes it brought
+  Millis at = 0;          ///< when the read completed, on the ring's clock (`use_clock`)
+  std::size_t bytes = 0;  ///< how many bytes it brought
 };
 
 /// Scripted rest-of-the-ring; create with `start`, always `close` (or drop) it. `send`, `send_after`,
@@ -69,6 +73,10 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
   }
   /// Every read of the ring's end so far, in order.
   std::vector<Arrival> arrivals() const;
+  /// Stamps arrivals with `clock` (the client's manual clock; before the first byte arrives).
+  void use_clock(std::shared_ptr<transports::LinkClock> clock) {
+    record([&] { clock_ = std::move(clock); });
+  }
 
  private:
   void on_bytes(const std::uint8_t* data, std::size_t size) override;
@@ -80,6 +88,7 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
 
   // Under the peer's lock.
   std::vector<Arrival> arrivals_;
+  std::shared_ptr<transports::LinkClock> clock_ = transports::steady_link_clock();
 };
 
 /// The bytes of `message` in `generation` (what the host writes when it originates it).
@@ -95,33 +104,17 @@ Message goal(std::int32_t number);
 Message segment(std::int32_t number);
 
 /// Options for tests: fast pacing (115200 baud, a 64-byte receiver that keeps up), the engine's shape
-/// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends).
-RingClientOptions test_options(Duration attempt_ms = 200, Duration budget_ms = 1000);
+/// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends), on `clock` (null: the steady clock).
+Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000,
+                     std::shared_ptr<transports::LinkClock> clock = nullptr);
 
 /// Pacing of 1 byte per second (a 2-byte receiver at 10 baud): nothing but the first byte leaves within a
 /// test, so the node's output queue stays as the test filled it.
 session::LinkPacing trickle();
 
-/// Records every event; tests wait for the ones they expect. Handlers share its state.
-class EventLog {
- public:
-  /// A handler that records into this log.
-  EventHandler handler();
-  /// Every event so far.
-  std::vector<ClientEvent> all() const;
-  /// The events of `kind` so far.
-  std::vector<ClientEvent> of(ClientEvent::Kind kind) const;
-  /// Waits until `count` events of `kind` were recorded; false after `timeout`.
-  bool wait_for(ClientEvent::Kind kind, std::size_t count = 1, std::chrono::milliseconds timeout = kPrompt) const;
-
- private:
-  struct State {
-    mutable std::mutex mutex;
-    std::condition_variable changed;
-    std::vector<ClientEvent> events;
-  };
-  std::shared_ptr<State> state_ = std::make_shared<State>();
-};
+/// Records every event; tests wait for the ones they expect.
+using EventLog = transports::testing::EventLog<Event>;
+using ::tether::testing::eventually;
 
 /// The outcome of an asynchronous operation.
 struct Outcome {
@@ -157,7 +150,7 @@ class Completions {
 
 /// A client and the rest of the ring on the two ends of an in-memory pair.
 struct Link {
-  Link(boost::asio::any_io_executor executor, const RingClientOptions& options, FakeRing::Script script = {});
+  Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script = {});
   ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
@@ -166,11 +159,5 @@ struct Link {
   std::shared_ptr<FakeRing> ring;
   std::optional<RingClient> client;
 };
-
-/// Polls `condition` until it holds; false after `timeout`.
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = kPrompt);
-
-/// Milliseconds since `start`.
-long long elapsed_ms(std::chrono::steady_clock::time_point start);
 
 }  // namespace tether::elcano::testing

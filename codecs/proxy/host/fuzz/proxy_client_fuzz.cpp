@@ -1,4 +1,4 @@
-// Fuzz target of the proxy host client (ProxyClient, both modes): frame decoding, protobuf decode of the
+// Fuzz target of the proxy host client (proxy::Client, both modes): frame decoding, protobuf decode of the
 // device's messages, acks, re-sends, the session handshake and reset detection, pin reports and events,
 // stateful: the input plays the device. Byte 0: bit 0 picks compat mode, the rest seeds the first
 // messageId. Then each byte comes from the device or, after an escape 0xFF, is a command:
@@ -63,11 +63,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Integrity integrity = compat ? Integrity::none : Integrity::crc16;
   DeviceSide device(integrity);
   testing::FuzzLink link([&device](const uint8_t* bytes, size_t n) { device.on_written(bytes, n); });
-  ProxyOptions options = compat ? ProxyOptions::compat() : ProxyOptions::primary();
+  Options options = compat ? Options::compat() : Options::primary();
   options.timing.ping_period = 0;
   options.first_message_id = static_cast<uint32_t>(data[0]) << 24;
   std::atomic<int> events{0};
-  ProxyClient client(link.host_end(), options, [&events](const ProxyEvent&) { ++events; });
+  Client client(link.host_end(), options, [&events](const Event&) { ++events; });
 
   std::mutex mutex;
   std::vector<int> completions;

@@ -1,8 +1,8 @@
-// ProxyClient: the session engine (RequestTable, HeartbeatSchedule, SessionMonitor) driven by the read loop
-// and the timer of a transports::ClientLink, like romi::RomiClient (the link owns the strand, the write
+// Client: the session engine (RequestTable, HeartbeatSchedule, SessionMonitor) driven by the read loop
+// and the timer of a transports::ClientLink, like romi::Client (the link owns the strand, the write
 // queue, close and the lifetime rules).
 //
-// Everything below `ProxyClientImpl`'s public functions runs on the link's strand. All timed work goes
+// Everything below `ClientImpl`'s public functions runs on the link's strand. All timed work goes
 // through `pump(now)`: the engine's deadlines (re-sends, timeouts), the session monitor's actions, the
 // heartbeat, queue deadlines, starting queued messages and the compat staleness rule; the one timer is
 // re-armed at the earliest deadline after every pump.
@@ -24,6 +24,7 @@
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/proxy/decoder.hpp"
+#include "tether/core/wakeup.hpp"
 #include "tether/transports/client_link.hpp"
 
 namespace tether::proxy {
@@ -54,14 +55,6 @@ using Monitor = session::SessionMonitor<std::uint32_t, kMaxInits>;
 using InitKey = Monitor::InitKey;
 using PinKey = std::pair<PinKind, std::uint32_t>;
 using AnyMessage = std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn>;
-
-Millis now_ms() { return transports::ClientLink::now(); }
-
-// The earlier of `wake` and `candidate` (disarmed deadlines never win).
-void consider(Deadline& wake, const Deadline& candidate) {
-  if (!candidate.armed()) return;
-  if (!wake.armed() || tick_difference(candidate.at(), wake.at()) < 0) wake.arm_at(candidate.at());
-}
 
 // `payload` framed: leading 0x00, COBS(crc ‖ payload) (or COBS(payload)), 0x00.
 std::shared_ptr<const std::string> frame_of(const std::string& payload, Integrity integrity) {
@@ -197,10 +190,10 @@ Built build_compat(Request& request) {
 // ---------------------------------------------------------------------------------------------------------
 // The implementation
 
-class ProxyClientImpl final : public transports::ClientLink {
+class ClientImpl final : public transports::ClientLink {
  public:
-  ProxyClientImpl(std::shared_ptr<ByteStream> stream, const ProxyOptions& options)
-      : ClientLink(std::move(stream)),
+  ClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
+      : ClientLink(std::move(stream), options.clock),
         options_(options),
         decoder_(options.mode == Mode::primary ? Integrity::crc16 : Integrity::none, counters_.link),
         table_(session::CallTiming(), 0, counters_.link),
@@ -216,7 +209,7 @@ class ProxyClientImpl final : public transports::ClientLink {
     post_to_strand([this] {
       start_reading();
       if (primary()) {
-        const Millis now = now_ms();
+        const Millis now = this->now();
         monitor_.start(now);
         if (options_.timing.ping_period > 0) heartbeat_.start(now);
         pump(now);
@@ -228,7 +221,7 @@ class ProxyClientImpl final : public transports::ClientLink {
   Mode mode() const { return options_.mode; }
 
   // Any thread.
-  void submit(Request request, SendHandler handler) {
+  void submit(OperationId operation, Request request, SendHandler handler) {
     Built built = primary() ? build_primary(request) : build_compat(request);
     if (built.error) {
       post_completion(std::move(handler), built.error, SendResult());
@@ -243,13 +236,14 @@ class ProxyClientImpl final : public transports::ClientLink {
     pending->lane = built.lane;
     pending->init = built.init;
     pending->handler = std::move(handler);
+    pending->operation = operation;
     post_to_strand([this, pending = std::move(pending)]() mutable { accept(std::move(pending)); });
   }
 
   void restart_session() {
     post_to_strand([this] {
       if (!is_open() || link_error()) return;
-      const Millis now = now_ms();
+      const Millis now = this->now();
       if (primary()) {
         lose_session();
         monitor_.start(now);
@@ -264,20 +258,9 @@ class ProxyClientImpl final : public transports::ClientLink {
     });
   }
 
-  EventHandlerId add_event_handler(EventHandler handler) {
-    std::lock_guard lock(mutex_);
-    const EventHandlerId id = ++last_handler_id_;
-    if (handler) handlers_.emplace_back(id, std::make_shared<EventHandler>(std::move(handler)));
-    return id;
-  }
+  transports::EventHandlers<Event>& event_handlers() { return events_; }
 
-  void remove_event_handler(EventHandlerId id) {
-    std::lock_guard lock(mutex_);
-    handlers_.erase(std::remove_if(handlers_.begin(), handlers_.end(), [id](const auto& entry) { return entry.first == id; }),
-                    handlers_.end());
-  }
-
-  ProxyCounters counters() const { return published_.get(); }
+  Counters counters() const { return published_.get(); }
 
   SessionStatus session() const { return published_session_.get(); }
 
@@ -301,6 +284,7 @@ class ProxyClientImpl final : public transports::ClientLink {
   struct Pending {
     AnyMessage message;                 // messageId assigned at the first send (primary)
     SendHandler handler;                // empty for replays
+    OperationId operation = 0;          // the application's operation (0 for replays)
     std::optional<std::uint32_t> lane;  // its pin: one message per pin in flight
     std::optional<PinKey> init;         // an init (registered for replay)
     InitKey replay_key = 0;             // != 0: the session's replay of this init
@@ -336,7 +320,7 @@ class ProxyClientImpl final : public transports::ClientLink {
       complete(std::move(pending->handler), error, SendResult());
       return;
     }
-    const Millis now = now_ms();
+    const Millis now = this->now();
     pending->queue_deadline = static_cast<Millis>(now + options_.timing.queue_timeout);
     if (pending->init && !register_init(*pending, now)) {
       complete(std::move(pending->handler), ProxyError::too_many_inits, SendResult());
@@ -696,7 +680,7 @@ class ProxyClientImpl final : public transports::ClientLink {
   // --- the link's hooks --------------------------------------------------------------------------------
 
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    const Millis now = now_ms();
+    const Millis now = this->now();
     for (std::size_t i = 0; i < size && is_open() && !link_error(); ++i) {
       if (decoder_.feed(data[i]) == DecodeStatus::frame) {
         if (primary()) {
@@ -720,7 +704,42 @@ class ProxyClientImpl final : public transports::ClientLink {
     publish();
   }
 
-  void on_timer() override { pump(now_ms()); }
+  void on_timer() override { pump(now()); }
+
+  // The application cancelled one send: queued or waiting for its init's replay, it never goes out; in
+  // flight, it leaves the engine (no more re-sends; a late ack is stale) and frees its pin and its slot.
+  // A compat send already handed to the stream completes when written (the header says so).
+  void on_cancel(OperationId operation) override {
+    const error_code aborted = asio::error::operation_aborted;
+    const auto matches = [operation](const std::unique_ptr<Pending>& pending) { return pending->operation == operation; };
+    if (const auto queued = std::find_if(user_queue_.begin(), user_queue_.end(), matches); queued != user_queue_.end()) {
+      complete(std::move((*queued)->handler), aborted, SendResult());
+      user_queue_.erase(queued);
+      pump(now());
+      return;
+    }
+    for (auto& [key, entry] : inits_) {
+      const auto waiting = std::find_if(entry.waiters.begin(), entry.waiters.end(), matches);
+      if (waiting == entry.waiters.end()) continue;
+      complete(std::move((*waiting)->handler), aborted, SendResult());
+      entry.waiters.erase(waiting);
+      pump(now());
+      return;
+    }
+    const auto in_flight = std::find_if(in_flight_.begin(), in_flight_.end(),
+                                        [&](const auto& entry) { return matches(entry.second); });
+    if (in_flight == in_flight_.end()) return;
+    const Result<Table::Completion> cancelled = table_.cancel(in_flight->first);
+    std::unique_ptr<Pending> pending = std::move(in_flight->second);
+    in_flight_.erase(in_flight);
+    if (pending->lane) lanes_.erase(*pending->lane);
+    refresh_table_timing();
+    SendResult result;
+    result.message_id = pending->id;
+    result.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+    complete(std::move(pending->handler), aborted, result);
+    pump(now());  // its pin and its slot are free for what waits
+  }
 
   void undecodable(ByteView payload, bool malformed) {
     if (malformed) {
@@ -910,20 +929,9 @@ class ProxyClientImpl final : public transports::ClientLink {
 
   // Delivers `event` to every handler. The counters are published first, so a handler (or a thread woken
   // by it) reading them sees what the event reports.
-  void emit(const ProxyEvent& event) {
+  void emit(const Event& event) {
     publish();
-    std::vector<std::shared_ptr<EventHandler>> handlers;
-    {
-      std::lock_guard lock(mutex_);
-      handlers.reserve(handlers_.size());
-      for (const auto& entry : handlers_) handlers.push_back(entry.second);
-    }
-    for (const auto& handler : handlers) {
-      try {
-        (*handler)(event);
-      } catch (...) {  // NOLINT(bugprone-empty-catch): the contract says handlers must not throw
-      }
-    }
+    events_.emit(event);
   }
 
   // --- deadlines ---------------------------------------------------------------------------------------
@@ -935,24 +943,14 @@ class ProxyClientImpl final : public transports::ClientLink {
       consider(wakeup, monitor_.next_wakeup());
       // A ping held back by the id window goes when an ack or a timeout opens it (both pump): no wakeup.
       if (options_.timing.ping_period > 0 && id_window_open()) consider(wakeup, heartbeat_.next());
-      Deadline queued;
-      for (const auto& pending : user_queue_) {
-        queued.arm_at(pending->queue_deadline);
-        consider(wakeup, queued);
-      }
+      for (const auto& pending : user_queue_) consider(wakeup, deadline_at(pending->queue_deadline));
       for (const auto& [key, entry] : inits_) {
-        for (const auto& waiter : entry.waiters) {
-          queued.arm_at(waiter->queue_deadline);
-          consider(wakeup, queued);
-        }
+        for (const auto& waiter : entry.waiters) consider(wakeup, deadline_at(waiter->queue_deadline));
       }
     } else {
       std::lock_guard lock(mutex_);
-      Deadline stale;
       for (const auto& [key, entry] : pins_) {
-        if (entry.status.stale) continue;
-        stale.arm_at(static_cast<Millis>(entry.updated_ms + options_.timing.stale_after));
-        consider(wakeup, stale);
+        if (!entry.status.stale) consider(wakeup, deadline_at(static_cast<Millis>(entry.updated_ms + options_.timing.stale_after)));
       }
     }
     ClientLink::arm_timer(wakeup);
@@ -967,10 +965,10 @@ class ProxyClientImpl final : public transports::ClientLink {
     published_session_.set(session);
   }
 
-  const ProxyOptions options_;
+  const Options options_;
 
   // Strand only.
-  ProxyCounters counters_;
+  Counters counters_;
   Decoder<kMaxPayload> decoder_;
   Table table_;
   session::HeartbeatSchedule heartbeat_;
@@ -995,79 +993,65 @@ class ProxyClientImpl final : public transports::ClientLink {
   std::pair<std::uint32_t, std::uint32_t> detected_{0, 0};  // (stored, reported) of the last reset detected
 
   // Any thread.
-  transports::Published<ProxyCounters> published_;
+  transports::Published<Counters> published_;
   transports::Published<SessionStatus> published_session_;
-  mutable std::mutex mutex_;  // guards everything below
+  mutable std::mutex mutex_;  // guards pins_
   std::map<PinKey, PinEntry> pins_;
-  std::vector<std::pair<EventHandlerId, std::shared_ptr<EventHandler>>> handlers_;
-  EventHandlerId last_handler_id_ = 0;
+  transports::EventHandlers<Event> events_;
 };
 
-void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendHandler handler) {
-  impl->submit(std::move(request), std::move(handler));
+void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                SendHandler handler, Request request) {
+  impl->submit(operation, std::move(request), std::move(handler));
 }
 
-asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl) { return impl->executor(); }
-
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error) {
-  SendResult sent;
-  const auto start = [&](SendHandler handler) { impl->submit(std::move(request), std::move(handler)); };
-  if (!transports::wait_for_completion(*impl, start, error, sent)) return SendResult();
-  return sent;
+SendResult blocking_send(const ClientRef& client, Request request, error_code& error) {
+  return transports::wait_for_operation<SendResult>(
+      *client.link(),
+      [&](transports::ClientLink::OperationId operation, SendHandler handler) {
+        client.impl()->submit(operation, std::move(request), std::move(handler));
+      },
+      error);
 }
 
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request) {
-  error_code error;
-  const SendResult result = blocking_send(impl, std::move(request), error);
-  if (error) throw boost::system::system_error(error, "proxy send");
-  return result;
+SendResult blocking_send(const ClientRef& client, Request request) {
+  return transports::require([&](error_code& error) { return blocking_send(client, std::move(request), error); },
+                             "proxy send");
 }
 
-std::optional<PinStatus> pin_state(const std::shared_ptr<ProxyClientImpl>& impl, PinKind kind, std::uint32_t pin) {
-  return impl->pin_state(kind, pin);
+std::optional<PinStatus> pin_state(const ClientRef& client, PinKind kind, std::uint32_t pin) {
+  return client.impl()->pin_state(kind, pin);
 }
 
 }  // namespace detail
 
 // ---------------------------------------------------------------------------------------------------------
-// ProxyClient
+// Client
 
 namespace {
-std::shared_ptr<ByteStream> require(std::shared_ptr<ByteStream> stream, const ProxyOptions& options) {
-  if (!stream) throw std::invalid_argument("ProxyClient needs a stream");
+std::shared_ptr<ByteStream> checked_stream(std::shared_ptr<ByteStream> stream, const Options& options) {
+  stream = transports::require_stream(std::move(stream), "proxy::Client");
   const ProxyTiming& timing = options.timing;
   if (timing.baud == 0 || timing.bits_per_byte == 0 || timing.send_budget == 0 || timing.max_sends == 0) {
-    throw std::invalid_argument("ProxyClient: baud, bits_per_byte, send_budget and max_sends must be > 0");
+    throw std::invalid_argument("proxy::Client: baud, bits_per_byte, send_budget and max_sends must be > 0");
   }
   return stream;
 }
 }  // namespace
 
-ProxyClient::ProxyClient(std::shared_ptr<ByteStream> stream, const ProxyOptions& options, EventHandler handler)
-    : impl_(std::make_shared<detail::ProxyClientImpl>(require(std::move(stream), options), options)) {
-  if (handler) impl_->add_event_handler(std::move(handler));
-  impl_->start();
+Client::Client(std::shared_ptr<ByteStream> stream, const Options& options, EventHandler handler)
+    : ClientFront(std::make_shared<detail::ClientImpl>(checked_stream(std::move(stream), options), options)) {
+  on_event(std::move(handler));
+  impl()->start();
 }
 
-ProxyClient::~ProxyClient() { transports::close_link(impl_); }
-ProxyClient::ProxyClient(ProxyClient&&) noexcept = default;
-ProxyClient& ProxyClient::operator=(ProxyClient&& other) noexcept {
-  transports::move_link(impl_, other.impl_);
-  return *this;
+Mode Client::mode() const { return impl()->mode(); }
+void Client::restart_session() { impl()->restart_session(); }
+Counters Client::counters() const { return impl()->counters(); }
+SessionStatus Client::session() const { return impl()->session(); }
+std::optional<PinStatus> Client::pin_state(PinKind kind, std::uint32_t pin) const {
+  return impl()->pin_state(kind, pin);
 }
-
-asio::any_io_executor ProxyClient::get_executor() const { return impl_->executor(); }
-Mode ProxyClient::mode() const { return impl_->mode(); }
-void ProxyClient::restart_session() { impl_->restart_session(); }
-EventHandlerId ProxyClient::add_event_handler(EventHandler handler) { return impl_->add_event_handler(std::move(handler)); }
-void ProxyClient::remove_event_handler(EventHandlerId id) { impl_->remove_event_handler(id); }
-ProxyCounters ProxyClient::counters() const { return impl_->counters(); }
-SessionStatus ProxyClient::session() const { return impl_->session(); }
-std::optional<PinStatus> ProxyClient::pin_state(PinKind kind, std::uint32_t pin) const {
-  return impl_->pin_state(kind, pin);
-}
-std::vector<PinStatus> ProxyClient::pin_states() const { return impl_->pin_states(); }
-void ProxyClient::close() { impl_->close(); }
-bool ProxyClient::is_open() const { return impl_->is_open(); }
+std::vector<PinStatus> Client::pin_states() const { return impl()->pin_states(); }
 
 }  // namespace tether::proxy

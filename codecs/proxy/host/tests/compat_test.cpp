@@ -1,10 +1,11 @@
-// ProxyClient in compatibility mode (the deployed variant): the spec's vectors byte for byte in both
+// Client in compatibility mode (the deployed variant): the spec's vectors byte for byte in both
 // directions, events, the init replay on EventMessage{RESET}, the 5 s staleness rule (shortened), close.
 #include <gtest/gtest.h>
 
 #include <boost/asio/use_future.hpp>
 
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 #include "test_support.hpp"
 
 namespace tether::proxy::testing {
@@ -64,7 +65,7 @@ TEST(ProxyCompat, DigitalInitAndAnyRocketryMessage) {
 
 TEST(ProxyCompat, DeviceVectorsBecomeEvents) {
   IoThread io;
-  ProxyOptions options = compat_test_options();
+  Options options = compat_test_options();
   options.compat_replay_on_reset = false;
   Link link(io.executor(), options, silent());
   link.device->send(unhex("02 0a 01 00"));              // EventMessage{RESET}
@@ -129,35 +130,44 @@ TEST(ProxyCompat, ResetEventReplaysTheInitsInOrder) {
 
 TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   IoThread io;
-  ProxyOptions options = compat_test_options();
+  Options options = compat_test_options();
   options.timing.stale_after = 200;
+  auto clock = transports::testing::ManualClock::create();
+  options.clock = clock;
   Link link(io.executor(), options, silent());
+  const Millis start = clock->now();
   link.client->digital(8).init(false);
   link.client->servo(3).init(0);  // never reports
-  // The device streams DigitalState{8, true} every 20 ms for 400 ms, then stops.
+  // The device sends DigitalState{8, true} every 20 ms (simulated) from 0 to 380 ms, then stops.
   RocketryProto::ArduinoOut out;
   out.mutable_digitalstate()->set_pin(8);
   out.mutable_digitalstate()->set_activated(true);
   const std::string state = FakeDevice::frame_bytes(out.SerializeAsString(), Integrity::none);
-  const auto start = std::chrono::steady_clock::now();
-  for (int i = 0; i < 20; ++i) link.device->send_after(std::chrono::milliseconds(20 * i), state);
-  // The servo was lost first: 200 ms after its init.
-  ASSERT_TRUE(link.log.wait_for<events::PinLost>(1));
-  EXPECT_GE(elapsed_ms(start), 190);
+  for (std::uint32_t i = 0; i < 20; ++i) {
+    if (i > 0) clock->advance(20);
+    link.device->send(state);
+    ASSERT_TRUE(eventually([&] { return link.client->counters().link.frames_ok == i + 1; }));
+    // The servo is lost exactly 200 ms after its init, and not before.
+    EXPECT_EQ(link.log.of<events::PinLost>().size(), i >= 10 ? 1u : 0u) << "at " << 20 * i << " ms";
+  }
   auto lost = link.log.of<events::PinLost>();
+  ASSERT_EQ(lost.size(), 1u);
   EXPECT_EQ(lost[0].kind, PinKind::servo);
   EXPECT_EQ(lost[0].pin, 3u);
-  EXPECT_GE(lost[0].silent_ms, 200u);
+  EXPECT_EQ(lost[0].silent_ms, 200u);
   const auto servo = link.client->servo(3).state();
   ASSERT_TRUE(servo.has_value());
   EXPECT_TRUE(servo->stale);
   EXPECT_FALSE(servo->has_value);
-  // The digital pin was refreshed all along; it goes stale ~200 ms after the last state (sent at 380 ms).
+  // The digital pin was refreshed all along; it goes stale 200 ms after the last state (sent at 380 ms).
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 380 + 200), due)) << "+" << due - start;
+  clock->advance_to(due);
   ASSERT_TRUE(link.log.wait_for<events::PinLost>(2));
-  EXPECT_GE(elapsed_ms(start), 380 + 190);
   lost = link.log.of<events::PinLost>();
   EXPECT_EQ(lost[1].kind, PinKind::digital);
   EXPECT_EQ(lost[1].pin, 8u);
+  EXPECT_EQ(lost[1].silent_ms, 200u);
   EXPECT_TRUE(link.client->digital(8).state()->stale);
   EXPECT_EQ(link.log.of<events::PinReport>().size(), 1u);  // the first state only: the rest repeated it
   EXPECT_EQ(link.client->counters().pins_lost, 2u);
@@ -166,13 +176,15 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   ASSERT_TRUE(link.log.wait_for<events::PinReport>(2));
   EXPECT_FALSE(link.client->digital(8).state()->stale);
   EXPECT_EQ(link.log.of<events::PinReport>()[1].value, 1);
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 580 + 200), due)) << "+" << due - start;
+  clock->advance_to(due);
   ASSERT_TRUE(link.log.wait_for<events::PinLost>(3));
   EXPECT_EQ(link.log.of<events::PinLost>().size(), 3u);  // the silent servo is not reported twice
 }
 
 TEST(ProxyCompat, StalenessDefaultsToFiveSeconds) {
-  EXPECT_EQ(ProxyOptions::compat().timing.stale_after, 5000u);
-  EXPECT_EQ(ProxyOptions::compat().timing.baud, 57600u);
+  EXPECT_EQ(Options::compat().timing.stale_after, 5000u);
+  EXPECT_EQ(Options::compat().timing.baud, 57600u);
 }
 
 TEST(ProxyCompat, UndecodableAndUnknownFramesAreCounted) {

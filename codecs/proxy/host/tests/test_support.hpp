@@ -16,6 +16,8 @@
 
 #include "fake_device.hpp"
 #include "tether/proxy/client.hpp"
+#include "tether/testing/eventually.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 
 namespace tether::proxy::testing {
@@ -27,8 +29,8 @@ inline constexpr auto kPrompt = std::chrono::milliseconds(3000);
 
 /// Primary-mode options for tests: the protocol's shape, scaled down. No pings unless a test wants them
 /// (so messageIds are predictable); a margin wide enough that a loaded machine does not re-send.
-inline ProxyOptions test_options() {
-  ProxyOptions options;
+inline Options test_options() {
+  Options options;
   options.timing.processing_margin = 150;
   options.timing.send_budget = 1000;
   options.timing.queue_timeout = 2000;
@@ -38,66 +40,19 @@ inline ProxyOptions test_options() {
 }
 
 /// Compat-mode options for tests.
-inline ProxyOptions compat_test_options() {
-  ProxyOptions options = ProxyOptions::compat();
+inline Options compat_test_options() {
+  Options options = Options::compat();
   options.timing.stale_after = 5000;
   return options;
 }
 
-/// Records every event; tests wait for the ones they expect. Handlers share its state, so a late event
-/// after the log is gone is harmless.
-class EventLog {
- public:
-  /// A handler that records into this log.
-  EventHandler handler() {
-    return [state = state_](const ProxyEvent& event) {
-      {
-        std::lock_guard lock(state->mutex);
-        state->events.push_back(event);
-      }
-      state->changed.notify_all();
-    };
-  }
-  /// Every event so far.
-  std::vector<ProxyEvent> all() const {
-    std::lock_guard lock(state_->mutex);
-    return state_->events;
-  }
-  /// The events of type T so far.
-  template <typename T>
-  std::vector<T> of() const {
-    std::lock_guard lock(state_->mutex);
-    std::vector<T> found;
-    for (const auto& event : state_->events) {
-      if (const T* typed = std::get_if<T>(&event)) found.push_back(*typed);
-    }
-    return found;
-  }
-  /// Waits until `count` events of type T were recorded; false after `timeout`.
-  template <typename T>
-  bool wait_for(std::size_t count = 1, std::chrono::milliseconds timeout = kPrompt) const {
-    std::unique_lock lock(state_->mutex);
-    return state_->changed.wait_for(lock, timeout, [&] {
-      std::size_t seen = 0;
-      for (const auto& event : state_->events) {
-        if (std::holds_alternative<T>(event)) ++seen;
-      }
-      return seen >= count;
-    });
-  }
-
- private:
-  struct State {
-    std::mutex mutex;
-    std::condition_variable changed;
-    std::vector<ProxyEvent> events;
-  };
-  std::shared_ptr<State> state_ = std::make_shared<State>();
-};
+/// Records every event; tests wait for the ones they expect.
+using EventLog = transports::testing::EventLog<Event>;
+using ::tether::testing::eventually;
 
 /// A client and a fake device on the two ends of an in-memory pair.
 struct Link {
-  Link(boost::asio::any_io_executor executor, const ProxyOptions& options, FakeDevice::Script script) {
+  Link(boost::asio::any_io_executor executor, const Options& options, FakeDevice::Script script) {
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end, options.mode == Mode::primary ? Integrity::crc16 : Integrity::none,
                                std::move(script));
@@ -115,18 +70,8 @@ struct Link {
 
   EventLog log;
   std::shared_ptr<FakeDevice> device;
-  std::optional<ProxyClient> client;
+  std::optional<Client> client;
 };
-
-/// Polls `condition` until it holds; false after `timeout`.
-inline bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = kPrompt) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return condition();
-}
 
 /// Frames the device decoded whose ArduinoIn holds `data_case` (primary).
 inline std::vector<DeviceFrame> frames_of(const std::vector<DeviceFrame>& frames, ArduinoIn::DataCase data_case) {
@@ -140,11 +85,6 @@ inline std::vector<DeviceFrame> frames_of(const std::vector<DeviceFrame>& frames
 /// Predicate for FakeDevice::wait_for: at least `count` frames holding `data_case`.
 inline std::function<bool(const std::vector<DeviceFrame>&)> has(ArduinoIn::DataCase data_case, std::size_t count = 1) {
   return [data_case, count](const std::vector<DeviceFrame>& frames) { return frames_of(frames, data_case).size() >= count; };
-}
-
-/// Milliseconds since `start`.
-inline long long elapsed_ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
 }
 
 /// The result of an asynchronous send, captured for a test.

@@ -1,4 +1,4 @@
-// Fuzz target of the Romi host client's answer handling (RomiClient: envelope decoding, matching answers
+// Fuzz target of the Romi host client's answer handling (romi::Client: envelope decoding, matching answers
 // to calls, parse_answer and its JSON, log lines, stale frames, re-sends on envelope errors), stateful:
 // the input plays the device. Each byte is a byte from the device or, after an escape 0xFF, a command:
 //   0x00..0x3F  start a call (command % 8 picks one of the commands below; bit 5: manual form);
@@ -56,10 +56,12 @@ struct DeviceSide {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   DeviceSide device;
   testing::FuzzLink link([&device](const uint8_t* bytes, size_t n) { device.on_written(bytes, n); });
-  ClientOptions options;
+  Options options;
   options.first_id(data != nullptr && size > 0 ? data[0] : 0);
-  RomiClient client(link.host_end(), options);
-  client.set_log_handler([](std::string_view text) { TETHER_FUZZ_CHECK(text.size() <= 4096); });
+  Client client(link.host_end(), options);
+  client.on_event([](const Event& event) {
+    if (const auto* log = std::get_if<events::Log>(&event)) TETHER_FUZZ_CHECK(log->text.size() <= 4096);
+  });
 
   // Completions: calls[i] counts how often call i completed.
   std::mutex mutex;
@@ -132,7 +134,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] { return completed.load() == static_cast<int>(calls); }));
   {
     const std::lock_guard lock(device.mutex);
-    const ClientOptions defaults;
+    const Options defaults;
     TETHER_FUZZ_CHECK(device.written <= (calls + 1) * defaults.timing.max_attempts * 80u);
   }
   return 0;

@@ -1,4 +1,4 @@
-// RomiClient: the session engine (romi::RequestTable) driven by the read loop and the timer of a
+// Client: the session engine (romi::RequestTable) driven by the read loop and the timer of a
 // transports::ClientLink (which owns the strand, the write queue, close and the lifetime rules).
 //
 // Everything below `ClientImpl`'s public functions runs on the link's strand.
@@ -136,15 +136,15 @@ namespace detail {
 
 class ClientImpl final : public transports::ClientLink {
  public:
-  ClientImpl(std::shared_ptr<ByteStream> stream, const ClientOptions& options)
-      : ClientLink(std::move(stream)), decoder_(counters_), table_(options.timing, options.last_id, counters_) {}
+  ClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
+      : ClientLink(std::move(stream), options.clock), decoder_(counters_), table_(options.timing, options.last_id, counters_) {}
 
   // Starts the read loop (after construction: it needs shared_from_this).
   void start() {
     post_to_strand([this] { start_reading(); });
   }
 
-  void submit(Command command, bool manual, CallHandler handler) {
+  void submit(OperationId operation, Command command, bool manual, CallHandler handler) {
     const char opcode = command.opcode();
     // Off the strand: these completions touch no state (and must not publish the counters).
     if (!command.valid()) {
@@ -160,6 +160,7 @@ class ClientImpl final : public transports::ClientLink {
     call->payload = command.payload();
     call->opcode = opcode;
     call->manual = manual;
+    call->operation = operation;
     call->handler = std::move(handler);
     post_to_strand([this, call = std::move(call)]() mutable {
       queue_.push_back(std::move(call));
@@ -168,17 +169,20 @@ class ClientImpl final : public transports::ClientLink {
     });
   }
 
-  void set_log_handler(LogHandler handler) {
-    auto shared = handler ? std::make_shared<LogHandler>(std::move(handler)) : nullptr;
-    std::lock_guard lock(mutex_);
-    log_handler_ = std::move(shared);
-  }
+  transports::EventHandlers<Event>& event_handlers() { return events_; }
 
-  void set_link_failed_handler(LinkFailedHandler handler) {
-    auto shared = handler ? std::make_shared<LinkFailedHandler>(std::move(handler)) : nullptr;
-    std::lock_guard lock(mutex_);
-    link_failed_handler_ = std::move(shared);
+  // The deprecated setters: each replaces the handler it added before.
+  void set_legacy_handler(EventHandlerId& slot, EventHandler handler) {
+    const EventHandlerId added = events_.add(std::move(handler));
+    EventHandlerId previous = 0;
+    {
+      std::lock_guard lock(mutex_);
+      previous = std::exchange(slot, added);
+    }
+    events_.remove(previous);
   }
+  EventHandlerId log_handler_ = 0;          // guarded by mutex_
+  EventHandlerId link_failed_handler_ = 0;  // guarded by mutex_
 
   void set_timing(const session::CallTiming& timing) {
     post_to_strand([this, timing] { table_.set_timing(timing); });
@@ -191,6 +195,7 @@ class ClientImpl final : public transports::ClientLink {
     std::string payload;
     char opcode = '\0';
     bool manual = false;
+    OperationId operation = 0;
     CallHandler handler;
     std::shared_ptr<const std::string> frame;  // the encoded bytes, re-sent as they are
     std::uint8_t id = 0;
@@ -315,17 +320,32 @@ class ClientImpl final : public transports::ClientLink {
   void on_link_failed(const error_code& error) override {
     fail_all(error);
     publish();
-    std::shared_ptr<LinkFailedHandler> handler;
-    {
-      std::lock_guard lock(mutex_);
-      handler = std::exchange(link_failed_handler_, nullptr);  // at most once
-    }
-    if (handler) (*handler)(error);
+    events_.emit(events::LinkFailed{error});
   }
 
   void on_closed() override {
     fail_all(asio::error::operation_aborted);
     publish();
+  }
+
+  void on_cancel(OperationId operation) override {
+    const error_code aborted = asio::error::operation_aborted;
+    if (current_ && current_->operation == operation) {
+      const Result<Table::Completion> cancelled = table_.cancel(current_->id);
+      std::unique_ptr<Call> call = std::move(current_);
+      RomiResponse response = failure(aborted, call->opcode);
+      response.id = call->id;
+      response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+      complete(std::move(call->handler), aborted, std::move(response));
+      start_next();
+      arm_timer();
+      return;
+    }
+    const auto queued = std::find_if(queue_.begin(), queue_.end(), [operation](const auto& call) { return call->operation == operation; });
+    if (queued == queue_.end()) return;
+    std::unique_ptr<Call> call = std::move(*queued);
+    queue_.erase(queued);
+    complete(std::move(call->handler), aborted, failure(aborted, call->opcode));
   }
 
   void on_event(DecodeStatus status) {
@@ -427,12 +447,8 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void deliver_log(ByteView text) {
-    std::shared_ptr<LogHandler> handler;
-    {
-      std::lock_guard lock(mutex_);
-      handler = log_handler_;
-    }
-    if (handler) (*handler)(std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+    if (events_.empty()) return;
+    events_.emit(events::Log{std::string(reinterpret_cast<const char*>(text.data()), text.size())});
   }
 
   // --- deadlines -----------------------------------------------------------------------------------------
@@ -474,78 +490,50 @@ class ClientImpl final : public transports::ClientLink {
 
   // Any thread.
   transports::Published<LinkCounters> published_;
-  mutable std::mutex mutex_;  // guards log_handler_ and link_failed_handler_
-  std::shared_ptr<LogHandler> log_handler_;
-  std::shared_ptr<LinkFailedHandler> link_failed_handler_;
+  std::mutex mutex_;  // guards the deprecated setters' handler ids
+  transports::EventHandlers<Event> events_;
 };
 
-void start_call(const std::shared_ptr<ClientImpl>& impl, Command command, bool manual, CallHandler handler) {
-  impl->submit(std::move(command), manual, std::move(handler));
+void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                CallHandler handler, Command command, bool manual) {
+  impl->submit(operation, std::move(command), manual, std::move(handler));
 }
-
-asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl) { return impl->executor(); }
 
 }  // namespace detail
 
 // ---------------------------------------------------------------------------------------------------------
-// RomiClient
+// Client
 
-namespace {
-std::shared_ptr<transports::ByteStream> require(std::shared_ptr<transports::ByteStream> stream) {
-  if (!stream) throw std::invalid_argument("RomiClient needs a stream");
-  return stream;
-}
-}  // namespace
-
-RomiClient::RomiClient(std::shared_ptr<transports::ByteStream> stream, const ClientOptions& options)
-    : impl_(std::make_shared<detail::ClientImpl>(require(std::move(stream)), options)) {
-  impl_->start();
+Client::Client(std::shared_ptr<transports::ByteStream> stream, const Options& options, EventHandler handler)
+    : ClientFront(std::make_shared<detail::ClientImpl>(transports::require_stream(std::move(stream), "romi::Client"),
+                                                       options)) {
+  on_event(std::move(handler));
+  impl()->start();
 }
 
-RomiClient::RomiClient(RomiClient&&) noexcept = default;
-
-RomiClient& RomiClient::operator=(RomiClient&& other) noexcept {
-  transports::move_link(impl_, other.impl_);
-  return *this;
-}
-
-RomiClient::~RomiClient() { transports::close_link(impl_); }
-
-asio::any_io_executor RomiClient::get_executor() const { return impl_->executor(); }
-
-RomiResponse RomiClient::blocking_call(const Command& command, bool manual, error_code& error) {
-  RomiResponse response;
-  const auto start = [&](detail::CallHandler handler) { detail::start_call(impl_, command, manual, std::move(handler)); };
-  if (!transports::wait_for_completion(*impl_, start, error, response)) return failure(error, command.opcode());
+RomiResponse Client::blocking_call(const Command& command, bool manual, error_code& error) {
+  const RomiResponse response = transports::wait_for_operation<RomiResponse>(
+      link(), [&](transports::ClientLink::OperationId operation, detail::CallHandler handler) {
+        detail::start_call(impl(), operation, std::move(handler), command, manual);
+      }, error);
+  if (error == transports::TransportError::would_deadlock) return failure(error, command.opcode());
   return response;
 }
 
-namespace {
-// The throwing form of a blocking call: `call(error)`'s response, or its error_code thrown.
-template <typename Call>
-RomiResponse or_throw(Call&& call, const std::string& what) {
-  error_code error;
-  RomiResponse response = call(error);
-  if (error) throw boost::system::system_error(error, what);
-  return response;
-}
-}  // namespace
+RomiResponse Client::call(const Command& command, error_code& error) { return blocking_call(command, false, error); }
 
-RomiResponse RomiClient::call(const Command& command, error_code& error) {
-  return blocking_call(command, false, error);
-}
-
-RomiResponse RomiClient::call_manual(const Command& command, error_code& error) {
+RomiResponse Client::call_manual(const Command& command, error_code& error) {
   return blocking_call(command, true, error);
 }
 
-RomiResponse RomiClient::call(const Command& command) {
-  return or_throw([&](error_code& error) { return blocking_call(command, false, error); }, "romi call " + command.payload());
+RomiResponse Client::call(const Command& command) {
+  return transports::require([&](error_code& error) { return blocking_call(command, false, error); },
+                             "romi call " + command.payload());
 }
 
-RomiResponse RomiClient::call_manual(const Command& command) {
-  return or_throw([&](error_code& error) { return blocking_call(command, true, error); },
-                  "romi manual call " + command.payload());
+RomiResponse Client::call_manual(const Command& command) {
+  return transports::require([&](error_code& error) { return blocking_call(command, true, error); },
+                             "romi manual call " + command.payload());
 }
 
 std::uint8_t random_first_id() {
@@ -555,17 +543,31 @@ std::uint8_t random_first_id() {
   return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
 }
 
-void RomiClient::set_log_handler(LogHandler handler) { impl_->set_log_handler(std::move(handler)); }
-void RomiClient::set_link_failed_handler(LinkFailedHandler handler) {
-  impl_->set_link_failed_handler(std::move(handler));
+namespace {
+// The deprecated setters' handler as an event handler: `pick(event)` of every event of type `Alternative`.
+template <typename Alternative, typename Handler, typename Pick>
+EventHandler only(Handler handler, Pick pick) {
+  if (!handler) return EventHandler();
+  return [handler = std::move(handler), pick](const Event& event) {
+    if (const auto* typed = std::get_if<Alternative>(&event)) handler(pick(*typed));
+  };
+}
+}  // namespace
+
+void Client::set_log_handler(LogHandler handler) {
+  impl()->set_legacy_handler(impl()->log_handler_, only<events::Log>(std::move(handler), [](const events::Log& log) {
+                               return std::string_view(log.text);
+                             }));
 }
 
-void RomiClient::set_timing(const session::CallTiming& timing) { impl_->set_timing(timing); }
+void Client::set_link_failed_handler(LinkFailedHandler handler) {
+  impl()->set_legacy_handler(impl()->link_failed_handler_,
+                             only<events::LinkFailed>(std::move(handler),
+                                                      [](const events::LinkFailed& failed) { return failed.error; }));
+}
 
-LinkCounters RomiClient::counters() const { return impl_->counters(); }
+void Client::set_timing(const session::CallTiming& timing) { impl()->set_timing(timing); }
 
-void RomiClient::close() { impl_->close(); }
-
-bool RomiClient::is_open() const { return impl_->is_open(); }
+Counters Client::counters() const { return Counters{impl()->counters()}; }
 
 }  // namespace tether::romi

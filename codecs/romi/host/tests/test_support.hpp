@@ -1,10 +1,10 @@
 // Shared pieces of the Romi client tests: a client wired to a scripted fake device, short timing.
 #pragma once
 
-#include <boost/asio/executor_work_guard.hpp>
-#include <boost/asio/io_context.hpp>
-
 #include <chrono>
+#include <functional>
+#include <string_view>
+#include <variant>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,38 +19,30 @@
 namespace tether::romi::testing {
 
 /// Timing for tests: the spec's shape (attempt window, budget twice as long, 3 sends), scaled down.
-inline ClientOptions short_timing(Duration attempt_ms = 250, Duration budget_ms = 500) {
-  ClientOptions options;
+inline Options short_timing(Duration attempt_ms = 250, Duration budget_ms = 500) {
+  Options options;
   options.timing.attempt_timeout = attempt_ms;
   options.timing.call_budget = budget_ms;
   return options;
 }
 
-/// An io_context run by `count` threads (the strand must serialise the client across them).
-class IoThreads {
- public:
-  explicit IoThreads(unsigned count = 2) : guard_(boost::asio::make_work_guard(io_)) {
-    for (unsigned i = 0; i < count; ++i) threads_.emplace_back([this] { io_.run(); });
-  }
-  ~IoThreads() {
-    guard_.reset();
-    io_.stop();
-    for (auto& thread : threads_) thread.join();
-  }
-  IoThreads(const IoThreads&) = delete;
-  IoThreads& operator=(const IoThreads&) = delete;
-  /// Executor of the context.
-  boost::asio::any_io_executor executor() { return io_.get_executor(); }
+/// An event handler passing the text of every `events::Log` to `handler`.
+inline EventHandler on_log(std::function<void(std::string_view)> handler) {
+  return [handler = std::move(handler)](const Event& event) {
+    if (const auto* log = std::get_if<events::Log>(&event)) handler(log->text);
+  };
+}
 
- private:
-  boost::asio::io_context io_;
-  boost::asio::executor_work_guard<boost::asio::io_context::executor_type> guard_;
-  std::vector<std::thread> threads_;
-};
+/// An event handler passing the error of `events::LinkFailed` to `handler`.
+inline EventHandler on_link_failed(std::function<void(error_code)> handler) {
+  return [handler = std::move(handler)](const Event& event) {
+    if (const auto* failed = std::get_if<events::LinkFailed>(&event)) handler(failed->error);
+  };
+}
 
 /// A client and a fake device on the two ends of an in-memory pair.
 struct Link {
-  explicit Link(boost::asio::any_io_executor executor, const ClientOptions& options = short_timing()) {
+  explicit Link(boost::asio::any_io_executor executor, const Options& options = short_timing()) {
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end);
     client.emplace(host_end, options);
@@ -63,7 +55,7 @@ struct Link {
   Link& operator=(const Link&) = delete;
 
   std::shared_ptr<FakeDevice> device;
-  std::optional<RomiClient> client;
+  std::optional<Client> client;
 };
 
 /// The request frame a client writes for `payload` with `id`.
@@ -79,11 +71,6 @@ inline FakeDevice::Script answer_with(std::string body) {
     if (request.error != Error::no_error) return;
     device.send(FakeDevice::response(request.opcode, body, request.manual ? 0 : request.id));
   };
-}
-
-/// Milliseconds since `start`.
-inline long long elapsed_ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace tether::romi::testing

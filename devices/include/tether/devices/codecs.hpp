@@ -64,7 +64,7 @@ struct CodecRow {
   Codec codec = Codec::romi;
   /// Its name in configurations (`"codec": "romi"`), in messages and on the command line (`--codec`).
   std::string_view name;
-  /// What opens it, for messages and documentation: `romi::RomiClient`.
+  /// What opens it, for messages and documentation: `romi::Client`.
   std::string_view client_name;
   /// Keys allowed in the device's `"options"`; a key of another codec's only is named as such.
   std::vector<std::string_view> option_keys;

@@ -107,9 +107,9 @@ class ConfigError : public std::runtime_error {
 /// The protocol a device speaks: a row of the codec table (codecs.hpp). Values other than these name codecs a
 /// program registered (`register_codec`).
 enum class Codec : std::uint8_t {
-  romi,          ///< Romi text request/response (`romi::RomiClient`).
-  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::ProxyClient`, primary mode).
-  proxy_compat,  ///< The deployed proxy variant (`proxy::ProxyClient`, `ProxyOptions::compat()`).
+  romi,          ///< Romi text request/response (`romi::Client`).
+  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::Client`, primary mode).
+  proxy_compat,  ///< The deployed proxy variant (`proxy::Client`, `proxy::Options::compat()`).
   elcano,        ///< Elcano ring (`elcano::RingClient`).
 };
 
@@ -203,7 +203,7 @@ std::string describe(const TransportConfig& transport);
 
 /// Options of a `romi` device.
 struct RomiOptions {
-  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::ClientOptions`).
+  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::Options`).
   session::CallTiming timing = romi::default_call_timing();
   /// Id of the first request (`first_id`, 0..254). Unset: random when the device opens. A fixed first id
   /// would make the first request of a restarted service look, to a device that remembers the last id of
@@ -211,7 +211,7 @@ struct RomiOptions {
   std::optional<std::uint8_t> first_id;
 };
 
-/// One pin init a proxy device replays after every reset (`ProxyClient` registers it; see client.hpp).
+/// One pin init a proxy device replays after every reset (`proxy::Client` registers it; see client.hpp).
 struct PinInit {
   /// Which kind of output.
   enum class Kind {
@@ -227,7 +227,7 @@ struct PinInit {
 struct ProxyDeviceOptions {
   /// Mode (from the codec) and timing (`ProxyTiming`; its `baud` follows a serial transport's baud unless
   /// the configuration sets it).
-  proxy::ProxyOptions client;
+  proxy::Options client;
   /// Inits sent, in order, when the device opens (and replayed by the client after every reset).
   std::vector<PinInit> inits;
   /// How long opening waits for the session handshake (primary mode) and the inits.

@@ -14,8 +14,8 @@
 /// Devices open one after the other, in the configuration's order:
 ///   1. the transport: the serial port (with its boot wait), the TCP connection, or the virtual board
 ///      (created, started, owned by the rover: it stops when the device closes);
-///   2. the codec's client, made by its row of the codec table (codecs.hpp): `romi::RomiClient`,
-///      `proxy::ProxyClient` (primary or compat mode), `elcano::RingClient` (see "Elcano" below), or a
+///   2. the codec's client, made by its row of the codec table (codecs.hpp): `romi::Client`,
+///      `proxy::Client` (primary or compat mode), `elcano::RingClient` (see "Elcano" below), or a
 ///      registered codec's `ExtensionClient`;
 ///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
@@ -82,7 +82,7 @@ class ExtensionClient {
 
 /// The client of an opened device: one alternative per client type (proxy and proxy-compat share one;
 /// registered codecs use `ExtensionClient`).
-using DeviceClient = std::variant<std::shared_ptr<romi::RomiClient>, std::shared_ptr<proxy::ProxyClient>,
+using DeviceClient = std::variant<std::shared_ptr<romi::Client>, std::shared_ptr<proxy::Client>,
                                   std::shared_ptr<elcano::RingClient>, std::shared_ptr<ExtensionClient>>;
 
 /// One opened device.
@@ -90,7 +90,7 @@ struct RoverDevice {
   std::string name;           ///< Its name in the configuration.
   Codec codec = Codec::romi;  ///< Its codec.
   std::string transport;      ///< `describe(transport)`: `serial /dev/ttyACM0 115200`, `virtual proxy.elf (...)`.
-  DeviceClient client;        ///< The client (`romi::RomiClient`, `proxy::ProxyClient`, `elcano::RingClient`).
+  DeviceClient client;        ///< The client (`romi::Client`, `proxy::Client`, `elcano::RingClient`).
   /// The simulated boards behind a virtual device (one, or a ring's in ring order); empty for hardware.
   /// For fault injection, resets and pin checks (`tether demo`); each keeps its board alive.
   std::vector<std::shared_ptr<transports::VirtualUno>> boards;
@@ -133,9 +133,9 @@ class Rover {
 
   /// The client of the romi device `name`. Throws `std::out_of_range` when there is no such device or it
   /// speaks another codec (the message says which, and lists the devices).
-  std::shared_ptr<romi::RomiClient> romi(std::string_view name) const;
+  std::shared_ptr<romi::Client> romi(std::string_view name) const;
   /// The client of the proxy or proxy-compat device `name`. Throws `std::out_of_range` like `romi()`.
-  std::shared_ptr<proxy::ProxyClient> proxy(std::string_view name) const;
+  std::shared_ptr<proxy::Client> proxy(std::string_view name) const;
   /// The ring client of the elcano device `name`. Throws `std::out_of_range` like `romi()`.
   std::shared_ptr<elcano::RingClient> elcano(std::string_view name) const;
   /// The device `name`, or null.

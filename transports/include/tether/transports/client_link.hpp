@@ -2,8 +2,8 @@
 /// The asio plumbing every host codec client shares: one `ByteStream`, one strand, one continuous read
 /// loop, a FIFO write queue, one timer armed at an absolute `Millis` deadline, link-failure detection and
 /// a close that never hangs. A client derives from `ClientLink` and keeps only its protocol logic
-/// (decoding, session engine calls, queues of calls, events); `romi::RomiClient` and `proxy::ProxyClient`
-/// are built this way.
+/// (decoding, session engine calls, queues of calls, events); `romi::Client`, `proxy::Client` and
+/// `elcano::RingClient` are built this way, with their public fronts from `client_skeleton.hpp`.
 ///
 /// Threading: the link runs everything on a strand of the stream's executor. Functions marked "strand"
 /// must be called on it (from a hook, or from work posted with `post_to_strand`); the others may be called
@@ -18,14 +18,14 @@
 /// pending read, so a read completing after the link died never writes into freed memory. Dropping the
 /// last reference without `close()` destroys the link (and the stream) once no handler holds it.
 ///
-/// Time: `now()` is the steady clock in wrap-safe 32-bit milliseconds (`tether::Millis`), the clock of
-/// the session engines; `arm_timer(deadline)` converts such a deadline back to a steady-clock instant
-/// through the wrap-safe difference to `now()`, so a deadline in the past fires at once.
+/// Time: `now()` is the link's `LinkClock` in wrap-safe 32-bit milliseconds (`tether::Millis`), the clock
+/// of the session engines: the steady clock unless the client's options inject another (tests use
+/// `transports::testing::ManualClock` and assert on simulated time). `arm_timer(deadline)` waits on a timer
+/// of that clock; a deadline in the past fires at once.
 #pragma once
 
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/post.hpp>
-#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 
 #include <array>
@@ -42,6 +42,7 @@
 
 #include "tether/core/time.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/unique_function.hpp"
 
@@ -51,6 +52,8 @@ namespace tether::transports {
 /// overview. Not copyable; always owned by a `std::shared_ptr`.
 class ClientLink : public std::enable_shared_from_this<ClientLink> {
  public:
+  /// Names one asynchronous operation of the client (for its cancellation); never 0.
+  using OperationId = std::uint64_t;
   /// Bytes to write; shared so a re-send needs no copy and the pending write keeps them alive.
   using Bytes = std::shared_ptr<const std::string>;
   /// Completion of one queued write. Contract:
@@ -79,8 +82,15 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   /// never waits for the device or for the strand.
   void close();
 
-  /// The steady clock in wrap-safe milliseconds (the session engines' clock). Any thread.
-  static Millis now();
+  /// A new operation's id. Any thread.
+  OperationId new_operation() { return ++operations_; }
+  /// Cancels operation `id`: posts `on_cancel(id)` to the strand. Any thread, never waits.
+  void cancel(OperationId id) {
+    post_to_strand([this, id] { on_cancel(id); });
+  }
+
+  /// The link's clock in wrap-safe milliseconds (the session engines' clock). Any thread.
+  Millis now() const { return clock_->now(); }
 
   /// Posts `work` to the strand, holding the link until it ran. Any thread. `work` may be move-only.
   template <typename Work>
@@ -98,8 +108,9 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   }
 
  protected:
-  /// Link over `stream` (not null); nothing starts before `start_reading`.
-  explicit ClientLink(std::shared_ptr<ByteStream> stream);
+  /// Link over `stream` (not null) with its deadlines on `clock` (null: `steady_link_clock()`); nothing
+  /// starts before `start_reading`.
+  explicit ClientLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock = nullptr);
 
   /// Starts the continuous read loop. Strand, once.
   void start_reading();
@@ -141,6 +152,13 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   ///   2. `is_open()` is already false: the hook fails whatever waits (typically with `operation_aborted`).
   ///   3. Must not throw.
   virtual void on_closed() = 0;
+  /// The application cancelled operation `id` (its token's cancellation slot). Contract:
+  ///   1. Runs on the strand; the client completes that operation with `operation_aborted` if it is still
+  ///      pending (queued or waiting for the device) and leaves every other operation alone.
+  ///   2. An id that already completed, or that the client does not know, is ignored.
+  ///   3. What was already written stays written: a device may still act on it (its late answer is stale).
+  ///   4. Default: ignored (a client without cancellable operations); must not throw.
+  virtual void on_cancel(OperationId id) { (void)id; }
 
  private:
   using ReadBuffer = std::array<std::uint8_t, kReadBufferSize>;
@@ -158,7 +176,8 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   std::shared_ptr<ByteStream> stream_;
   asio::any_io_executor executor_;
   asio::strand<asio::any_io_executor> strand_;
-  asio::steady_timer timer_;
+  std::shared_ptr<LinkClock> clock_;
+  std::unique_ptr<LinkTimer> timer_;
 
   // Strand only.
   bool timer_armed_ = false;
@@ -171,6 +190,7 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
 
   // Any thread.
   std::atomic<bool> closed_{false};
+  std::atomic<OperationId> operations_{0};
 };
 
 /// Starts an operation with `start(handler)` and waits for its `void(error_code, Result)` completion; the
@@ -193,21 +213,6 @@ bool wait_for_completion(const ClientLink& link, Start&& start, error_code& erro
   error = completion_error;
   result = std::move(value);
   return true;
-}
-
-/// The destructor of a client holding its link in `link`: closes it (a moved-from client holds none).
-template <typename Link>
-void close_link(const std::shared_ptr<Link>& link) {
-  if (link) link->close();
-}
-
-/// The move assignment of a client holding its link in `link`: closes the link it replaces, then takes
-/// `other`'s. Self-assignment keeps the link open.
-template <typename Link>
-void move_link(std::shared_ptr<Link>& link, std::shared_ptr<Link>& other) {
-  if (&link == &other) return;
-  close_link(link);
-  link = std::move(other);
 }
 
 /// A value written on a strand and read from any thread: what a client publishes of its strand state

@@ -1,6 +1,6 @@
 /// @file io_thread.hpp
 /// An asio io_context run by one background thread for the lifetime of the object. The blocking calls of
-/// streams and clients (`read_some`, `RomiClient::call`, ...) need some other thread to run the executor:
+/// streams and clients (`read_some`, `romi::Client::call`, ...) need some other thread to run the executor:
 /// programs without an event loop of their own create one of these and pass `executor()` to the streams.
 #pragma once
 
@@ -9,17 +9,22 @@
 #include <boost/asio/io_context.hpp>
 
 #include <thread>
+#include <vector>
 
 namespace tether::transports {
 
-/// io_context + work guard + thread; stops and joins on destruction.
+/// io_context + work guard + thread(s); stops and joins on destruction.
 class IoThread {
  public:
-  IoThread() : guard_(boost::asio::make_work_guard(io_)), thread_([this] { io_.run(); }) {}
+  /// One thread; `threads` > 1 runs the context on that many (tests check that a client's strand
+  /// serialises it across them).
+  explicit IoThread(unsigned threads = 1) : guard_(boost::asio::make_work_guard(io_)) {
+    for (unsigned i = 0; i < threads; ++i) threads_.emplace_back([this] { io_.run(); });
+  }
   ~IoThread() {
     guard_.reset();
     io_.stop();
-    thread_.join();
+    for (auto& thread : threads_) thread.join();
   }
   IoThread(const IoThread&) = delete;
   IoThread& operator=(const IoThread&) = delete;
@@ -30,7 +35,7 @@ class IoThread {
  private:
   boost::asio::io_context io_;
   boost::asio::executor_work_guard<boost::asio::io_context::executor_type> guard_;
-  std::thread thread_;
+  std::vector<std::thread> threads_;
 };
 
 }  // namespace tether::transports

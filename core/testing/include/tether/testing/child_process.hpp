@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "tether/testing/eventually.hpp"  // NOLINT(misc-include-cleaner): users of child processes wait with it
+
 namespace tether::testing {
 
 /// Running child process.
@@ -39,20 +41,4 @@ class ChildProcess {
   std::optional<int> status_;
 };
 
-/// Waits until `predicate()` is true, polling every 5 ms, at most `timeout`; returns the last value.
-template <typename Predicate>
-bool eventually(Predicate predicate, std::chrono::milliseconds timeout);
-
 }  // namespace tether::testing
-
-#include <thread>
-
-template <typename Predicate>
-bool tether::testing::eventually(Predicate predicate, std::chrono::milliseconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!predicate()) {
-    if (std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
-}

@@ -3,7 +3,7 @@
 ///
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyUSB0", serial_options);
-///   elcano::RingClientOptions options;
+///   elcano::Options options;
 ///   options.node.capture = elcano::TypeSet::of(elcano::Type::sensor);   // what the host consumes
 ///   elcano::RingClient ring(port, options);
 ///   ring.send(drive);                                                  // blocking, throws on failure
@@ -19,15 +19,15 @@
 /// boards run) on the stream:
 ///   1. **Capture.** A complete message of a type the host captures is consumed: it completes the request
 ///      awaiting that type, if one is in flight, else it goes to the receive queue (`async_receive`). The
-///      capture set is `RingClientOptions::node.capture` (`set_capture` changes it) plus, while a request
+///      capture set is `Options::node.capture` (`set_capture` changes it) plus, while a request
 ///      is in flight, its reply type (from its first send until it completes).
 ///   2. **Forwarding.** Every other message goes on to the first board, in arrival order, without being
 ///      re-serialised: byte-identical in generation D and for input without whitespace, whitespace-stripped
 ///      in generation B otherwise (docs/elcano.md). When the node's output queue has no room, the message
-///      is dropped and reported (`ClientEvent::Kind::forward_dropped`).
+///      is dropped and reported (`events::ForwardDropped`).
 ///   3. **Loop protection.** The node remembers each message it originates for `node.return_timeout`. One
 ///      that comes back went round the ring without being captured: it is dropped (never forwarded again)
-///      and reported once (`ClientEvent::Kind::undeliverable`); a request fails with it at once
+///      and reported once (`events::Undeliverable`); a request fails with it at once
 ///      (`RingError::undeliverable`), without waiting for its timeout.
 ///   4. **Pacing.** Everything written to the first board, originated or forwarded, goes through the node's
 ///      `WritePacer` (`node.pacing`: baud rate, the first board's receive buffer and how often it reads), so
@@ -35,7 +35,7 @@
 ///      pacer decides how many bytes it carries.
 ///   5. **Broken input.** Read errors (bad syntax, bad CRC in generation D, too long) and partial messages
 ///      older than `node.partial_message_timeout` are dropped, counted and reported
-///      (`ClientEvent::Kind::read_error`); the reader resynchronises on the next header.
+///      (`events::InputDropped`); the reader resynchronises on the next header.
 ///
 /// ## Operations and what they complete with
 ///   | operation | completes | errors (besides `operation_aborted` on close and the transport's on link failure) |
@@ -58,12 +58,12 @@
 ///      second request for a reply type already awaited fails with `reply_type_busy`.
 ///   3. **Receive queue.** Captured messages no request claims wait in a queue of `receive_queue_bound`
 ///      messages for `async_receive`; when it is full the oldest is dropped, counted
-///      (`RingClientCounters::receive_overflows`) and reported (`ClientEvent::Kind::receive_overflow`).
+///      (`Counters::receive_overflows`) and reported (`events::ReceiveOverflow`).
 ///      Receives waiting together are served in the order they were made.
 ///   4. `close()` (and the destructor) completes every pending operation with `operation_aborted`; a link
-///      failure (EOF, unplugged adapter) with the transport's error, after `ClientEvent::Kind::link_failed`.
+///      failure (EOF, unplugged adapter) with the transport's error, after `events::LinkFailed`.
 ///
-/// ## Threading and lifetime (as `romi::RomiClient` and `proxy::ProxyClient`)
+/// ## Threading and lifetime (as `romi::Client` and `proxy::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The plumbing (read loop, write queue, one timer for every deadline, close) is the shared
 ///     `transports::ClientLink`. The client reads continuously from construction on: forwarding never
@@ -85,6 +85,7 @@
 #include <memory>
 #include <optional>
 #include <utility>
+#include <variant>
 
 #include "tether/core/counters.hpp"
 #include "tether/core/session/request_table.hpp"
@@ -94,6 +95,8 @@
 #include "tether/elcano/ring_node.hpp"
 #include "tether/elcano/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::elcano {
@@ -113,7 +116,7 @@ inline constexpr std::size_t kOutputQueueBytes = 256;
 inline constexpr std::uint8_t kOriginRecords = 64;
 
 /// How a client behaves. Every duration is in milliseconds.
-struct RingClientOptions {
+struct Options {
   /// The host's node: generation, capture set, pacing of the host's link to the first board, partial
   /// message timeout, return timeout (`elcano::RingNodeConfig`).
   RingNodeConfig node;
@@ -127,39 +130,71 @@ struct RingClientOptions {
   std::size_t send_queue_bound = 16;
   /// Longest a send waits for room in the node's output queue (then `RingError::send_timed_out`).
   Duration send_timeout = 2000;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 };
 
-/// Something the application should know that is not the completion of one of its operations.
+/// Events to the application (what it should know that is not the completion of one of its
+/// operations); each type is one alternative of `Event`.
+namespace events {
+/// `message`, originated by the host, came back: no node captured it (once per message).
+struct Undeliverable {
+  Message message;              ///< The message as it came back.
+  bool request_failed = false;  ///< A request failed with `RingError::undeliverable` because of it.
+};
+/// Bytes from the ring were dropped: a reader error kind, or `Error::timed_out` for a partial
+/// message past its deadline.
+struct InputDropped {
+  Error error = Error::success;  ///< Why.
+};
+/// `message` should have been forwarded but the node's output queue was full.
+struct ForwardDropped {
+  Message message;  ///< The message dropped.
+};
+/// `message`, captured, was dropped: the receive queue was full (the oldest goes).
+struct ReceiveOverflow {
+  Message message;  ///< The message dropped.
+};
+/// The link failed: every pending operation failed with `error` first.
+using LinkFailed = transports::LinkFailed;
+}  // namespace events
+
+/// Everything a handler can receive (`RingClient::on_event`). Contract (`transports::EventHandlers`, as
+/// for every client): called on the client's strand, one event at a time, in the order the ring produced
+/// them; must not block for long (reading and forwarding wait) and must not call the blocking API of this
+/// client (it fails with `TransportError::would_deadlock`); exceptions are caught and dropped (they must
+/// not stop the ring); events are not queued for handlers added later.
+using Event = std::variant<events::Undeliverable, events::InputDropped, events::ForwardDropped,
+                           events::ReceiveOverflow, events::LinkFailed>;
+/// An event handler (contract at `Event`).
+using EventHandler = transports::EventHandlers<Event>::Handler;
+/// Identifies a handler for `RingClient::remove_event_handler`.
+using EventHandlerId = transports::EventHandlers<Event>::Id;
+
+/// The old event model (one struct with a `Kind`), deprecated for `Event`: what
+/// `add_event_handler(LegacyEventHandler)` delivers, converted from `Event`.
 struct ClientEvent {
   /// Event kinds.
   enum class Kind : std::uint8_t {
-    undeliverable,     ///< `message`, originated by the host, came back: no node captured it (once per message).
-    read_error,        ///< Bytes from the ring were dropped; `error` says why (a reader error kind, or
-                       ///< `Error::timed_out` for a partial message past its deadline).
-    forward_dropped,   ///< `message` should have been forwarded but the node's output queue was full.
-    receive_overflow,  ///< `message`, captured, was dropped: the receive queue was full (the oldest goes).
-    link_failed,       ///< The link failed with `link_error`; every pending operation failed with it.
+    undeliverable,     ///< `events::Undeliverable`.
+    read_error,        ///< `events::InputDropped`.
+    forward_dropped,   ///< `events::ForwardDropped`.
+    receive_overflow,  ///< `events::ReceiveOverflow`.
+    link_failed,       ///< `events::LinkFailed`.
   };
   Kind kind = Kind::read_error;          ///< What happened.
   Message message;                       ///< For undeliverable, forward_dropped, receive_overflow.
-  Error error = Error::success;  ///< For read_error.
-  bool request_failed = false;           ///< For undeliverable: a request failed with `RingError::undeliverable`.
+  Error error = Error::success;          ///< For read_error.
+  bool request_failed = false;           ///< For undeliverable.
   error_code link_error;                 ///< For link_failed.
 };
-
-/// Event handler. Contract:
-///   1. Called on the client's strand, one event at a time, in the order the ring produced them.
-///   2. Must not block for long (reading and forwarding wait for it) and must not call the blocking API
-///      of this client (it fails with `TransportError::would_deadlock`); the asynchronous API is fine.
-///   3. Exceptions are caught and dropped (they must not stop the ring).
-///   4. Events are not queued for handlers added later; a removed handler may still receive an event
-///      being delivered on another thread.
-using EventHandler = std::function<void(const ClientEvent& event)>;
-/// Identifies a handler for `remove_event_handler`.
-using EventHandlerId = std::uint64_t;
+/// Handler of the old event model (deprecated: use `EventHandler`).
+using LegacyEventHandler = std::function<void(const ClientEvent& event)>;
+/// `event` in the old model.
+ClientEvent to_client_event(const Event& event);
 
 /// The client's counters (a snapshot; they only grow).
-struct RingClientCounters {
+struct Counters {
   /// Reader (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs), partial-message deadline
   /// (partial_timeouts) and session engine (retries = re-sends of requests, timeouts).
   LinkCounters link;
@@ -182,53 +217,47 @@ class RingClientImpl;
 using SendHandler = transports::UniqueFunction<SendSignature>;
 /// Type-erased completion handler of a request or a receive.
 using MessageHandler = transports::UniqueFunction<MessageSignature>;
+/// Names one operation (for its cancellation).
+using OperationId = transports::ClientLink::OperationId;
 /// Queues a send on `impl` (any thread). Defined in client.cpp.
-void start_send(const std::shared_ptr<RingClientImpl>& impl, const Message& message, SendHandler handler);
+void start_send(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, SendHandler handler,
+                const Message& message);
 /// Queues a request on `impl` (any thread).
-void start_request(const std::shared_ptr<RingClientImpl>& impl, const Message& message, Type reply_type,
-                   MessageHandler handler);
+void start_request(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, MessageHandler handler,
+                   const Message& message, Type reply_type);
 /// Queues a receive on `impl` (any thread); no timeout when `timeout` is empty.
-void start_receive(const std::shared_ptr<RingClientImpl>& impl, std::optional<Duration> timeout,
-                   MessageHandler handler);
-/// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<RingClientImpl>& impl);
+void start_receive(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, MessageHandler handler,
+                   std::optional<Duration> timeout);
 }  // namespace detail
 
-/// The host's node in an Elcano ring. Movable, not copyable; see the file overview.
-class RingClient {
+/// The host's node in an Elcano ring. Movable, not copyable (`get_executor`, `close`, `is_open`,
+/// `on_event`, `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview.
+/// `close()` completes every pending operation with `operation_aborted` and stops reading, forwarding and
+/// timing; bytes still in the node's output queue are not written.
+///
+/// Every asynchronous operation takes any completion token (callback, `use_future`, `use_awaitable`). A
+/// handler made by `transports::bind_cancellation` cancels that operation alone, with `operation_aborted`:
+/// a send or request still waiting for room never goes out; a request in flight stops being re-sent (its
+/// late reply goes to the receive queue); a send already handed to the node is written all the same; a
+/// receive stops waiting.
+class RingClient : public transports::ClientFront<detail::RingClientImpl, Event> {
  public:
   /// Client over `stream` (TX to the first board, RX from the last); starts reading and forwarding at
-  /// once. `handler`, when given, is installed before anything starts, so it sees every event. Throws
-  /// `std::invalid_argument` for a null stream, `timing.max_attempts` or `timing.call_budget` of 0, or a
-  /// `receive_queue_bound` of 0.
-  explicit RingClient(std::shared_ptr<transports::ByteStream> stream,
-                      const RingClientOptions& options = RingClientOptions(), EventHandler handler = EventHandler());
-  /// Closes (`close()`).
-  ~RingClient();
-  /// Takes `other`'s node; `other` is left without one (only destruction and assignment are valid).
-  RingClient(RingClient&& other) noexcept;
-  /// Closes this client's node and takes `other`'s.
-  RingClient& operator=(RingClient&& other) noexcept;
-  /// Not copyable: one node per stream.
-  RingClient(const RingClient&) = delete;
-  /// Not copyable: one node per stream.
-  RingClient& operator=(const RingClient&) = delete;
-
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  boost::asio::any_io_executor get_executor() const;
+  /// once. `handler`, when given, is added (`on_event`) before anything starts, so it sees every event.
+  /// Throws `std::invalid_argument` for a null stream, `timing.max_attempts` or `timing.call_budget` of 0,
+  /// or a `receive_queue_bound` of 0.
+  explicit RingClient(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
+                      EventHandler handler = EventHandler());
+  /// The constructor with a handler of the old event model.
+  [[deprecated("use an elcano::EventHandler")]] RingClient(std::shared_ptr<transports::ByteStream> stream,
+                                                            const Options& options, LegacyEventHandler handler);
 
   /// Originates `message` and completes with `void(error_code)` once its last byte was handed to the
   /// stream (paced: that may take a while on a slow ring). Any completion token (callback, `use_future`,
   /// `use_awaitable`). Errors: see the file overview.
   template <typename SendToken>
   auto async_send(const Message& message, SendToken&& token) {
-    return boost::asio::async_initiate<SendToken, SendSignature>(
-        [impl = impl_](auto handler, Message msg) {
-          auto bound = transports::bind_to_associated_executor<SendSignature>(std::move(handler),
-                                                                               detail::executor_of(impl));
-          detail::start_send(impl, msg, std::move(bound));
-        },
-        token, message);
+    return initiate<SendSignature>(std::forward<SendToken>(token), &detail::start_send, message);
   }
   /// Blocking `async_send`; failures in `error`.
   void send(const Message& message, error_code& error);
@@ -240,13 +269,7 @@ class RingClient {
   /// overview). Any completion token.
   template <typename MessageToken>
   auto async_request(const Message& message, Type reply_type, MessageToken&& token) {
-    return boost::asio::async_initiate<MessageToken, MessageSignature>(
-        [impl = impl_](auto handler, Message msg, Type reply) {
-          auto bound = transports::bind_to_associated_executor<MessageSignature>(std::move(handler),
-                                                                                  detail::executor_of(impl));
-          detail::start_request(impl, msg, reply, std::move(bound));
-        },
-        token, message, reply_type);
+    return initiate<MessageSignature>(std::forward<MessageToken>(token), &detail::start_request, message, reply_type);
   }
   /// Blocking `async_request`; failures in `error` (the returned message is then default-constructed).
   Message request(const Message& message, Type reply_type, error_code& error);
@@ -276,35 +299,23 @@ class RingClient {
   /// The configured capture set. Any thread.
   TypeSet capture() const;
 
-  /// Adds an event handler (contract at `EventHandler`). Any thread.
-  EventHandlerId add_event_handler(EventHandler handler);
-  /// Removes a handler. Any thread.
-  void remove_event_handler(EventHandlerId id);
+  /// Adds a handler of the old event model (each `Event` converted by `to_client_event`). Any thread.
+  [[deprecated("use on_event")]] EventHandlerId add_event_handler(LegacyEventHandler handler);
 
   /// Snapshot of the counters. Any thread; updated after each batch of bytes, each write and each
   /// completion (a caller reading them after a completion sees what led to it).
-  RingClientCounters counters() const;
-
-  /// Completes every pending operation with `operation_aborted`, closes the stream and stops reading,
-  /// forwarding and timing; later operations complete with `operation_aborted` too. Bytes still in the
-  /// node's output queue are not written. Idempotent, any thread, never waits for the device.
-  void close();
-  /// False after `close()`.
-  bool is_open() const;
+  Counters counters() const;
 
  private:
   template <typename MessageToken>
   auto initiate_receive(std::optional<Duration> timeout, MessageToken&& token) {
-    return boost::asio::async_initiate<MessageToken, MessageSignature>(
-        [impl = impl_](auto handler, std::optional<Duration> limit) {
-          auto bound = transports::bind_to_associated_executor<MessageSignature>(std::move(handler),
-                                                                                  detail::executor_of(impl));
-          detail::start_receive(impl, limit, std::move(bound));
-        },
-        token, timeout);
+    return initiate<MessageSignature>(std::forward<MessageToken>(token), &detail::start_receive, timeout);
   }
-
-  std::shared_ptr<detail::RingClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using RingClientOptions [[deprecated("use elcano::Options")]] = Options;
+/// Old name of `Counters`.
+using RingClientCounters [[deprecated("use elcano::Counters")]] = Counters;
 
 }  // namespace tether::elcano

@@ -4,14 +4,14 @@
 ///
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0", serial_options);
-///   proxy::ProxyClient client(port);                                  // primary mode: Reset, handshake, pings
-///   client.add_event_handler([](const proxy::ProxyEvent& event) { ... });
+///   proxy::Client client(port);                                  // primary mode: Reset, handshake, pings
+///   client.on_event([](const proxy::Event& event) { ... });
 ///   client.servo(9).init(90);                                        // registered for replay AND sent; blocks
 ///   client.servo(9).set(120);                                        // throws system_error on failure
 ///   client.digital(13).async_set(true, [](error_code e, proxy::SendResult r) { ... });
 ///   std::future<proxy::SendResult> f = client.async_send(message, asio::use_future);   // any ArduinoIn
 ///
-///   proxy::ProxyClient old(port2, proxy::ProxyOptions::compat());     // the deployed firmware
+///   proxy::Client old(port2, proxy::Options::compat());     // the deployed firmware
 ///   old.servo(5).set(180);                                           // completes when written
 /// @endcode
 ///
@@ -19,7 +19,7 @@
 /// Wire: `0x00 ‖ COBS(crc16_le ‖ pb) ‖ 0x00` host to device (the leading 0x00 flushes line garbage), device
 /// frames `COBS(crc16_le ‖ pb) ‖ 0x00`; pb is one `tether::proxy::ArduinoIn` / `ArduinoOut`.
 ///   1. **Sends.** Every message gets the next messageId of a 32-bit sequence that starts at a random value
-///      (`ProxyOptions::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
+///      (`Options::first_message_id` fixes it), skips 0 and ids in flight. Any `messageId` the caller
 ///      put in the message is overwritten. At most `kMaxInFlight` (8) messages are in flight; at most one
 ///      per pin ("lane"), so two commands to the same pin reach the device in submission order even when
 ///      the first needs re-sends. Messages without a pin (PingFailsafeReset, Ping) have no lane. Being in
@@ -70,7 +70,7 @@
 ///   | `stale_after` | 5000 | compat: a silent pin is lost |
 /// The device side of the design: it fails safe after 10 s without a ping and sends ArduinoInfo every 5 s.
 ///
-/// ## Compatibility mode (the deployed variant, `ProxyOptions::compat()`)
+/// ## Compatibility mode (the deployed variant, `Options::compat()`)
 /// Wire: host `0x00 ‖ COBS(pb) ‖ 0x00`, device `COBS(pb) ‖ 0x00`, no CRC, `RocketryProto` messages, 57600
 /// baud (the transport's setting). No messageIds, acks, pings or sessions: a send completes when its frame
 /// was written to the stream (`SendResult::acked` is false). Same convenience API; `async_send` takes a
@@ -98,13 +98,14 @@
 ///   | `asio::error::operation_aborted` | `close()` (or the client's destruction) |
 ///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
 ///
-/// ## Events (`add_event_handler`)
-/// Handlers receive a `ProxyEvent` (a variant; see `events::`). Contract: called on the client's strand, one
-/// event at a time, in arrival order; must not block for long (decoding waits), must not call the blocking
-/// API of this client (it fails with `TransportError::would_deadlock`; the async API is fine); exceptions
-/// are caught and dropped. Events are not queued for handlers added later.
+/// ## Events (`on_event`)
+/// Handlers receive an `Event` (a variant; see `events::`). Contract (`transports::EventHandlers`, as for
+/// every client): called on the client's strand, one event at a time, in arrival order; must not block for
+/// long (decoding waits), must not call the blocking API of this client (it fails with
+/// `TransportError::would_deadlock`; the async API is fine); exceptions are caught and dropped. Events are
+/// not queued for handlers added later.
 ///
-/// ## Threading and lifetime (as `romi::RomiClient`)
+/// ## Threading and lifetime (as `romi::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The client reads continuously from construction on (one read loop, no read deadline; one
 ///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule; the
@@ -140,6 +141,8 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/proxy/session_policy.hpp"  // SessionPolicy, kMaxInFlight, kAckFrameBytes, ack_timeout
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether_proxy.pb.h"
 
@@ -203,7 +206,7 @@ struct ProxyTiming {
 };
 
 /// How a client behaves.
-struct ProxyOptions {
+struct Options {
   /// Protocol.
   Mode mode = Mode::primary;
   /// Timing (see `ProxyTiming`).
@@ -212,12 +215,14 @@ struct ProxyOptions {
   std::optional<std::uint32_t> first_message_id;
   /// Compat mode: re-send every registered init when the device sends `EventMessage{RESET}`.
   bool compat_replay_on_reset = true;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 
   /// Primary mode with the protocol's timing.
-  static ProxyOptions primary() { return ProxyOptions(); }
+  static Options primary() { return Options(); }
   /// Compatibility mode: the deployed variant at 57600 baud.
-  static ProxyOptions compat() {
-    ProxyOptions options;
+  static Options compat() {
+    Options options;
     options.mode = Mode::compat;
     options.timing.baud = 57600;
     return options;
@@ -261,7 +266,7 @@ struct PinStatus {
   std::chrono::steady_clock::time_point updated;  ///< Last report (or its init, before any report).
 };
 
-/// Events to the application; each type is one alternative of `ProxyEvent`.
+/// Events to the application; each type is one alternative of `Event`.
 namespace events {
 /// Primary: the device sent `Error(text, level)`.
 struct DeviceError {
@@ -324,23 +329,21 @@ struct UndecodableMessage {
   bool malformed = true;
 };
 /// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done.
-struct LinkFailed {
-  error_code error;  ///< The transport's error.
-};
+using LinkFailed = transports::LinkFailed;
 }  // namespace events
 
 /// Everything a handler can receive.
-using ProxyEvent = std::variant<events::DeviceError, events::DeviceInfo, events::FailsafeTriggered,
+using Event = std::variant<events::DeviceError, events::DeviceInfo, events::FailsafeTriggered,
                                 events::PinReport, events::PinLost, events::SessionEstablished,
                                 events::ResetDetected, events::CompatEvent, events::CompatError,
                                 events::CompatState, events::UndecodableMessage, events::LinkFailed>;
 /// An event handler (contract in the file overview).
-using EventHandler = std::function<void(const ProxyEvent& event)>;
-/// Identifies a handler for `remove_event_handler`.
-using EventHandlerId = std::uint64_t;
+using EventHandler = transports::EventHandlers<Event>::Handler;
+/// Identifies a handler for `Client::remove_event_handler`.
+using EventHandlerId = transports::EventHandlers<Event>::Id;
 
 /// The client's counters (a snapshot; they only grow).
-struct ProxyCounters {
+struct Counters {
   /// Decoder (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs) and session engine (stale
   /// acks, retries = re-sends and unanswered Resets, timeouts, resets = device restarts detected).
   LinkCounters link;
@@ -362,7 +365,7 @@ struct SessionStatus {
 };
 
 namespace detail {
-class ProxyClientImpl;
+class ClientImpl;
 /// Type-erased completion handler of a send.
 using SendHandler = transports::UniqueFunction<SendSignature>;
 
@@ -376,28 +379,22 @@ struct Request {
   std::variant<std::monostate, ArduinoIn, RocketryProto::ArduinoIn> message;       ///< `Op::raw`.
 };
 
-/// Queues `request` on `impl` (any thread). Defined in client.cpp.
-void submit(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendHandler handler);
-/// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<ProxyClientImpl>& impl);
+/// A shared reference to the implementation (`Client` and its pin handles start sends with it).
+using ClientRef = transports::ClientRef<ClientImpl>;
+/// Queues `request` on `impl` as operation `operation` (any thread). Defined in client.cpp.
+void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                SendHandler handler, Request request);
 /// Blocking send: failures in `error`.
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, error_code& error);
+SendResult blocking_send(const ClientRef& client, Request request, error_code& error);
 /// Blocking send: throws `boost::system::system_error`.
-SendResult blocking_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request);
+SendResult blocking_send(const ClientRef& client, Request request);
 /// The pin's status (`ServoHandle::state`, ...).
-std::optional<PinStatus> pin_state(const std::shared_ptr<ProxyClientImpl>& impl, PinKind kind, std::uint32_t pin);
+std::optional<PinStatus> pin_state(const ClientRef& client, PinKind kind, std::uint32_t pin);
 
-/// Starts `request` with any completion token.
+/// Starts `request` on `client` with any completion token.
 template <typename SendToken>
-auto initiate_send(const std::shared_ptr<ProxyClientImpl>& impl, Request request, SendToken&& token) {
-  // The initiation holds the implementation, not the client: deferred tokens (use_awaitable) may start it
-  // after the ProxyClient object was moved.
-  return boost::asio::async_initiate<SendToken, SendSignature>(
-      [impl](auto handler, Request req) {
-        auto bound = transports::bind_to_associated_executor<SendSignature>(std::move(handler), executor_of(impl));
-        submit(impl, std::move(req), std::move(bound));
-      },
-      token, std::move(request));
+auto initiate_send(const ClientRef& client, Request request, SendToken&& token) {
+  return client.initiate<SendSignature>(std::forward<SendToken>(token), &start_send, std::move(request));
 }
 
 inline Request make_request(Request::Op op, std::uint32_t pin, std::int32_t value) {
@@ -419,36 +416,36 @@ class ServoHandle {
   /// Registers ServoInit{pin, safe_position} for replay and sends it; completes like a send.
   template <typename SendToken>
   auto async_init(std::int32_t safe_position, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::servo_init, safe_position), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::servo_init, safe_position), std::forward<SendToken>(token));
   }
   /// Blocking `async_init`; failures in `error`.
   SendResult init(std::int32_t safe_position, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::servo_init, safe_position), error);
+    return detail::blocking_send(client_, request(Op::servo_init, safe_position), error);
   }
   /// Blocking `async_init`; throws `boost::system::system_error`.
   SendResult init(std::int32_t safe_position) {
-    return detail::blocking_send(impl_, request(Op::servo_init, safe_position));
+    return detail::blocking_send(client_, request(Op::servo_init, safe_position));
   }
   /// Sends ServoControl{pin, position}; completes like a send.
   template <typename SendToken>
   auto async_set(std::int32_t position, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::servo_set, position), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::servo_set, position), std::forward<SendToken>(token));
   }
   /// Blocking `async_set`; failures in `error`.
   SendResult set(std::int32_t position, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::servo_set, position), error);
+    return detail::blocking_send(client_, request(Op::servo_set, position), error);
   }
   /// Blocking `async_set`; throws `boost::system::system_error`.
-  SendResult set(std::int32_t position) { return detail::blocking_send(impl_, request(Op::servo_set, position)); }
+  SendResult set(std::int32_t position) { return detail::blocking_send(client_, request(Op::servo_set, position)); }
   /// The pin's last known state (none before its init or first report).
-  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::servo, pin_); }
+  std::optional<PinStatus> state() const { return detail::pin_state(client_, PinKind::servo, pin_); }
 
  private:
-  friend class ProxyClient;
+  friend class Client;
   using Op = detail::Request::Op;
-  ServoHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin) : impl_(std::move(impl)), pin_(pin) {}
+  ServoHandle(detail::ClientRef client, std::uint32_t pin) : client_(std::move(client)), pin_(pin) {}
   detail::Request request(Op op, std::int32_t value) const { return detail::make_request(op, pin_, value); }
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  detail::ClientRef client_;
   std::uint32_t pin_;
 };
 
@@ -462,97 +459,95 @@ class DigitalHandle {
   /// Registers DigitalInit{pin, safe_state} for replay and sends it; completes like a send.
   template <typename SendToken>
   auto async_init(bool safe_state, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::digital_init, safe_state), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::digital_init, safe_state), std::forward<SendToken>(token));
   }
   /// Blocking `async_init`; failures in `error`.
   SendResult init(bool safe_state, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::digital_init, safe_state), error);
+    return detail::blocking_send(client_, request(Op::digital_init, safe_state), error);
   }
   /// Blocking `async_init`; throws `boost::system::system_error`.
-  SendResult init(bool safe_state) { return detail::blocking_send(impl_, request(Op::digital_init, safe_state)); }
+  SendResult init(bool safe_state) { return detail::blocking_send(client_, request(Op::digital_init, safe_state)); }
   /// Sends DigitalControl{pin, state}; completes like a send.
   template <typename SendToken>
   auto async_set(bool state, SendToken&& token) {
-    return detail::initiate_send(impl_, request(Op::digital_set, state), std::forward<SendToken>(token));
+    return detail::initiate_send(client_, request(Op::digital_set, state), std::forward<SendToken>(token));
   }
   /// Blocking `async_set`; failures in `error`.
   SendResult set(bool state, error_code& error) {
-    return detail::blocking_send(impl_, request(Op::digital_set, state), error);
+    return detail::blocking_send(client_, request(Op::digital_set, state), error);
   }
   /// Blocking `async_set`; throws `boost::system::system_error`.
-  SendResult set(bool state) { return detail::blocking_send(impl_, request(Op::digital_set, state)); }
+  SendResult set(bool state) { return detail::blocking_send(client_, request(Op::digital_set, state)); }
   /// The pin's last known state (none before its init or first report).
-  std::optional<PinStatus> state() const { return detail::pin_state(impl_, PinKind::digital, pin_); }
+  std::optional<PinStatus> state() const { return detail::pin_state(client_, PinKind::digital, pin_); }
 
  private:
-  friend class ProxyClient;
+  friend class Client;
   using Op = detail::Request::Op;
-  DigitalHandle(std::shared_ptr<detail::ProxyClientImpl> impl, std::uint32_t pin)
-      : impl_(std::move(impl)), pin_(pin) {}
+  DigitalHandle(detail::ClientRef client, std::uint32_t pin) : client_(std::move(client)), pin_(pin) {}
   detail::Request request(Op op, bool value) const { return detail::make_request(op, pin_, value ? 1 : 0); }
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
+  detail::ClientRef client_;
   std::uint32_t pin_;
 };
 
-/// Proxy host client for one device. Movable, not copyable; see the file overview.
-class ProxyClient {
+/// Proxy host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
+/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// completes every pending send (in flight, queued, or waiting for a replay) with `operation_aborted` and
+/// stops reading, pinging and timing (at most the stream's own 250 ms close fallback when no thread runs
+/// the executor).
+class Client : public transports::ClientFront<detail::ClientImpl, Event> {
  public:
   /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
-  /// `handler`, when given, is installed before anything starts, so it sees every event (the first
-  /// `SessionEstablished` may come before a handler added after construction). Throws
+  /// `handler`, when given, is added (`on_event`) before anything starts, so it sees every event (the
+  /// first `SessionEstablished` may come before a handler added after construction). Throws
   /// `std::invalid_argument` for a null stream or invalid timing (baud, bits_per_byte, send_budget or
   /// max_sends of 0).
-  explicit ProxyClient(std::shared_ptr<transports::ByteStream> stream, const ProxyOptions& options = ProxyOptions(),
-                       EventHandler handler = EventHandler());
-  /// Closes (`close()`).
-  ~ProxyClient();
-  ProxyClient(ProxyClient&&) noexcept;
-  ProxyClient& operator=(ProxyClient&&) noexcept;
-  ProxyClient(const ProxyClient&) = delete;
-  ProxyClient& operator=(const ProxyClient&) = delete;
+  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
+                  EventHandler handler = EventHandler());
 
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  boost::asio::any_io_executor get_executor() const;
   /// The mode chosen at construction.
   Mode mode() const;
 
   /// Primary mode: sends `message` (its messageId is assigned) and completes with
-  /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token.
+  /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token. A handler
+  /// made by `transports::bind_cancellation` cancels this send alone: queued, it never goes out; in
+  /// flight, it completes with `operation_aborted` at once (the device may still run it: its late ack is
+  /// stale). A compat send already handed to the stream completes when written.
   template <typename SendToken>
   auto async_send(const ArduinoIn& message, SendToken&& token) {
-    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+    return detail::initiate_send(ref(), raw(message), std::forward<SendToken>(token));
   }
   /// Compat mode: sends `message`; completes when written.
   template <typename SendToken>
   auto async_send(const RocketryProto::ArduinoIn& message, SendToken&& token) {
-    return detail::initiate_send(impl_, raw(message), std::forward<SendToken>(token));
+    return detail::initiate_send(ref(), raw(message), std::forward<SendToken>(token));
   }
   /// Blocking send; failures in `error`.
-  SendResult send(const ArduinoIn& message, error_code& error) { return detail::blocking_send(impl_, raw(message), error); }
+  SendResult send(const ArduinoIn& message, error_code& error) { return detail::blocking_send(ref(), raw(message), error); }
   /// Blocking send; throws `boost::system::system_error`.
-  SendResult send(const ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+  SendResult send(const ArduinoIn& message) { return detail::blocking_send(ref(), raw(message)); }
   /// Blocking compat send; failures in `error`.
   SendResult send(const RocketryProto::ArduinoIn& message, error_code& error) {
-    return detail::blocking_send(impl_, raw(message), error);
+    return detail::blocking_send(ref(), raw(message), error);
   }
   /// Blocking compat send; throws `boost::system::system_error`.
-  SendResult send(const RocketryProto::ArduinoIn& message) { return detail::blocking_send(impl_, raw(message)); }
+  SendResult send(const RocketryProto::ArduinoIn& message) { return detail::blocking_send(ref(), raw(message)); }
 
   /// The servo on `pin`.
-  ServoHandle servo(std::uint32_t pin) const { return ServoHandle(impl_, pin); }
+  ServoHandle servo(std::uint32_t pin) const { return ServoHandle(ref(), pin); }
   /// The digital output on `pin`.
-  DigitalHandle digital(std::uint32_t pin) const { return DigitalHandle(impl_, pin); }
+  DigitalHandle digital(std::uint32_t pin) const { return DigitalHandle(ref(), pin); }
 
   /// Primary mode: sends PingFailsafeReset (clears the device's pingFailsafeTriggered); completes like a
   /// send. Compat: `ProxyError::wrong_mode`.
   template <typename SendToken>
   auto async_reset_failsafe(SendToken&& token) {
-    return detail::initiate_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0),
+    return detail::initiate_send(ref(), detail::make_request(detail::Request::Op::failsafe_reset, 0, 0),
                                  std::forward<SendToken>(token));
   }
   /// Blocking `async_reset_failsafe`; throws `boost::system::system_error`.
   SendResult reset_failsafe() {
-    return detail::blocking_send(impl_, detail::make_request(detail::Request::Op::failsafe_reset, 0, 0));
+    return detail::blocking_send(ref(), detail::make_request(detail::Request::Op::failsafe_reset, 0, 0));
   }
 
   /// Resets the device. Primary: messages in flight fail with `device_reset`, then Reset, ResetEvent, the
@@ -560,26 +555,19 @@ class ProxyClient {
   /// device's `EventMessage{RESET}` then triggers the replay. Any thread; returns at once.
   void restart_session();
 
-  /// Adds an event handler (contract in the file overview). Any thread.
-  EventHandlerId add_event_handler(EventHandler handler);
-  /// Removes a handler; it may still receive an event being delivered on another thread. Any thread.
-  void remove_event_handler(EventHandlerId id);
+  /// Old name of `on_event`.
+  [[deprecated("use on_event")]] EventHandlerId add_event_handler(EventHandler handler) {
+    return on_event(std::move(handler));
+  }
 
   /// Snapshot of the counters. Any thread; updated after each batch of bytes and each completion.
-  ProxyCounters counters() const;
+  Counters counters() const;
   /// Where the session stands. Any thread.
   SessionStatus session() const;
   /// The last known state of a pin (inited through this client or reported). Any thread.
   std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const;
   /// Every known pin, ordered by (kind, pin). Any thread.
   std::vector<PinStatus> pin_states() const;
-
-  /// Completes every pending send with `operation_aborted`, closes the stream and stops reading, pinging
-  /// and timing; later sends complete with `operation_aborted` too. Idempotent, any thread, never waits for
-  /// the device (at most the stream's own 250 ms close fallback when no thread runs the executor).
-  void close();
-  /// False after `close()`.
-  bool is_open() const;
 
  private:
   static detail::Request raw(const ArduinoIn& message) {
@@ -592,8 +580,15 @@ class ProxyClient {
     request.message = message;
     return request;
   }
-
-  std::shared_ptr<detail::ProxyClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using ProxyClient [[deprecated("use proxy::Client")]] = Client;
+/// Old name of `Options`.
+using ProxyOptions [[deprecated("use proxy::Options")]] = Options;
+/// Old name of `Counters`.
+using ProxyCounters [[deprecated("use proxy::Counters")]] = Counters;
+/// Old name of `Event`.
+using ProxyEvent [[deprecated("use proxy::Event")]] = Event;
 
 }  // namespace tether::proxy

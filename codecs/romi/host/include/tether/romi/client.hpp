@@ -4,7 +4,7 @@
 /// @code
 ///   auto port = transports::SerialPortStream::open(io.get_executor(), "/dev/ttyACM0",
 ///                                                  transports::SerialOptions::arduino_uno());
-///   romi::RomiClient client(port);
+///   romi::Client client(port);
 ///   romi::RomiResponse led = client.call("L[1]");                  // blocking, throws on failure
 ///   romi::RomiResponse off = client.call({'M', {16}, "Shutdown"});  // built and validated
 ///   client.async_call("A", [](error_code error, romi::RomiResponse response) { ... });
@@ -52,7 +52,7 @@
 ///      reference firmware a re-send of a request that ran answers -15, and unknown firmware may run it
 ///      twice; Tether firmware answers it from its reply cache, so configs of Tether devices turn it on).
 ///      Otherwise a silent attempt times out with -25.
-///   5. Log lines (`#!text:xxxx`) go to the log handler; frames whose id is not the call's are stale
+///   5. Log lines (`#!text:xxxx`) are `events::Log` events; frames whose id is not the call's are stale
 ///      (counted in `LinkCounters::stale`, dropped; envelope errors first re-send, rule 4a), so a late
 ///      answer or error is never pinned on the wrong request (defect B4). Both re-arm the attempt window,
 ///      never past the call budget.
@@ -78,7 +78,7 @@
 ///     the client's strand and never inside the initiating call.
 ///   - The blocking forms (`call`, `call_manual`) need another thread running the executor; calling them
 ///     from a handler on a single-threaded `io_context` deadlocks (the client detects only calls made
-///     on its own strand, e.g. from the log handler, and fails them with `TransportError::would_deadlock`).
+///     on its own strand, e.g. from an event handler, and fails them with `TransportError::would_deadlock`).
 ///   - `close()` and the destructor complete the call in flight and every queued call with
 ///     `operation_aborted`, close the stream, and never block on the device. The client owns its stream's
 ///     reading: do not read from the stream yourself while a client uses it.
@@ -96,6 +96,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "tether/core/counters.hpp"
@@ -104,6 +105,8 @@
 #include "tether/romi/errors.hpp"
 #include "tether/romi/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::romi {
@@ -175,16 +178,18 @@ struct RomiResponse {
 };
 
 /// How a client behaves; every field has the spec's value by default.
-struct ClientOptions {
+struct Options {
   /// Attempt window (1 s), call budget (2 s), sends per call (3), log lines re-arm the window. Tests and
   /// slow links may change them. `retry_on_timeout` (re-send a silent attempt, rule 4c of the overview):
   /// off by default; turn it on for Tether firmware only (the reference answers a re-send -15).
   session::CallTiming timing = default_call_timing();
   /// Ids start after this one (255: the first call uses id 0, like the reference host).
   std::uint8_t last_id = 255;
+  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
+  std::shared_ptr<transports::LinkClock> clock;
 
   /// Makes `id` the first call's id.
-  ClientOptions& first_id(std::uint8_t id) {
+  Options& first_id(std::uint8_t id) {
     last_id = static_cast<std::uint8_t>(id - 1u);
     return *this;
   }
@@ -196,20 +201,31 @@ struct ClientOptions {
 /// firmware takes 255 for its last id (defect B6).
 std::uint8_t random_first_id();
 
-/// Log sink: receives the text of every `#!text:xxxx` line. Contract:
-///   1. Called on the client's strand, one line at a time, in arrival order, with a view valid only
-///      during the call.
-///   2. Must not block for long (it delays the decoding of the answer) and must not call the blocking
-///      `call`/`call_manual` of the same client (they fail with `would_deadlock`); `async_call` is fine.
-///   3. Must not throw: an exception would leave the `io_context::run()` that decodes the line.
-///   4. Lines arriving between calls are delivered too. Without a handler, log lines are dropped.
-using LogHandler = std::function<void(std::string_view text)>;
+/// Events to the application; each type is one alternative of `Event`.
+namespace events {
+/// A log line `#!text:xxxx` from the device (lines between calls too). Without a handler it is dropped.
+struct Log {
+  std::string text;  ///< The line's text.
+};
+/// The link failed (the device went away, the port was unplugged): every call in flight and queued
+/// completed with `error` first, so an idle client (a shell waiting for input) learns of it too. Once;
+/// never for `close()`.
+using LinkFailed = transports::LinkFailed;
+}  // namespace events
 
-/// Link-failure sink: the stream failed (the device went away, the port was unplugged). Contract:
-///   1. Called at most once per client, on the client's strand, after every call in flight and queued
-///      completed with the same error.
-///   2. Not called for `close()` (the application knows it closed).
-///   3. Must not block and must not throw (same reasons as `LogHandler`).
+/// Everything a handler can receive (`Client::on_event`; contract at `transports::EventHandlers`: called
+/// on the client's strand in arrival order, must not call the blocking forms of this client, exceptions
+/// are caught and dropped).
+using Event = std::variant<events::Log, events::LinkFailed>;
+/// An event handler (contract at `Event`).
+using EventHandler = transports::EventHandlers<Event>::Handler;
+/// Identifies a handler for `Client::remove_event_handler`.
+using EventHandlerId = transports::EventHandlers<Event>::Id;
+
+/// Old log sink (`set_log_handler`, deprecated): the text of every log line. Same contract as an event
+/// handler.
+using LogHandler = std::function<void(std::string_view text)>;
+/// Old link-failure sink (`set_link_failed_handler`, deprecated): `events::LinkFailed`'s error.
 using LinkFailedHandler = std::function<void(error_code error)>;
 
 /// Completion signature of every asynchronous call.
@@ -219,40 +235,43 @@ namespace detail {
 class ClientImpl;
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
-/// Queues `command` on `impl` (any thread). Defined in client.cpp.
-void start_call(const std::shared_ptr<ClientImpl>& impl, Command command, bool manual, CallHandler handler);
-/// The executor completions fall back to.
-boost::asio::any_io_executor executor_of(const std::shared_ptr<ClientImpl>& impl);
+/// Queues `command` on `impl` as operation `operation` (any thread). Defined in client.cpp.
+void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+                CallHandler handler, Command command, bool manual);
 }  // namespace detail
 
-/// Romi host client for one device. Movable, not copyable; see the file overview.
-class RomiClient {
- public:
-  /// Client over `stream`; starts reading at once. The stream's executor runs everything. Throws
-  /// `std::invalid_argument` for a null stream.
-  explicit RomiClient(std::shared_ptr<transports::ByteStream> stream, const ClientOptions& options = ClientOptions());
-  /// Closes (`close()`).
-  ~RomiClient();
-  RomiClient(RomiClient&&) noexcept;
-  RomiClient& operator=(RomiClient&&) noexcept;
-  RomiClient(const RomiClient&) = delete;
-  RomiClient& operator=(const RomiClient&) = delete;
+/// What a client counted: the link's decoder (frames_ok, crc_errors, framing_errors, oversize_frames,
+/// resyncs) and session engine (stale, retries, timeouts); the Romi protocol adds nothing of its own.
+struct Counters {
+  LinkCounters link;  ///< Decoder and engine.
+};
 
-  /// Executor of the stream; completion handlers without an associated executor run on it.
-  boost::asio::any_io_executor get_executor() const;
+/// Romi host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
+/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// completes the call in flight and every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
+/// thread runs the executor).
+class Client : public transports::ClientFront<detail::ClientImpl, Event> {
+ public:
+  /// Client over `stream`; starts reading at once. The stream's executor runs everything. `handler`, when
+  /// given, is added (`on_event`) before anything starts, so it sees every event. Throws
+  /// `std::invalid_argument` for a null stream.
+  explicit Client(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
+                  EventHandler handler = EventHandler());
 
   /// Sends `command` and completes with `void(error_code, RomiResponse)` when the device answered, the
   /// call timed out, or the client was closed. Works with any completion token (callback, `use_future`:
   /// a `std::future<RomiResponse>` that throws `system_error` on an error_code, `use_awaitable`).
-  /// An invalid command completes with its error (see `Command`) without touching the wire.
+  /// An invalid command completes with its error (see `Command`) without touching the wire. A token with a
+  /// cancellation slot (`asio::bind_cancellation_slot`) cancels this call alone: queued, it never starts;
+  /// in flight, it completes with `operation_aborted` at once and its answer, if it comes, is stale.
   template <typename CallToken>
   auto async_call(Command command, CallToken&& token) {
-    return initiate(std::move(command), false, std::forward<CallToken>(token));
+    return initiate<CallSignature>(std::forward<CallToken>(token), &detail::start_call, std::move(command), false);
   }
   /// `async_call` in manual form (`#command:xxxx\r\n`, answer matched by id 00 and opcode).
   template <typename CallToken>
   auto async_call_manual(Command command, CallToken&& token) {
-    return initiate(std::move(command), true, std::forward<CallToken>(token));
+    return initiate<CallSignature>(std::forward<CallToken>(token), &detail::start_call, std::move(command), true);
   }
 
   /// Blocking call; failures (see the overview) in `error`, the response always filled in.
@@ -270,42 +289,24 @@ class RomiClient {
   /// Blocking manual call; throws like `call(command)`.
   RomiResponse call_manual(const Command& command);
 
-  /// Sets the log sink (see `LogHandler`); an empty function drops log lines. Any thread.
-  void set_log_handler(LogHandler handler);
-  /// Sets the link-failure sink (see `LinkFailedHandler`), so an idle client (a shell waiting for input)
-  /// learns that the device went away without making a call. Any thread.
-  void set_link_failed_handler(LinkFailedHandler handler);
+  /// Replaces the handler of `events::Log` set by this function (an empty function removes it). Any thread.
+  [[deprecated("use on_event: events::Log")]] void set_log_handler(LogHandler handler);
+  /// Replaces the handler of `events::LinkFailed` set by this function. Any thread.
+  [[deprecated("use on_event: events::LinkFailed")]] void set_link_failed_handler(LinkFailedHandler handler);
   /// Changes the timing of calls that start from now on (calls in flight keep theirs). Any thread.
   void set_timing(const session::CallTiming& timing);
 
   /// Snapshot of the link counters: decoder (frames_ok, crc_errors, framing_errors, oversize_frames,
   /// resyncs) and engine (stale, retries, timeouts). Any thread; updated after each batch of bytes.
-  LinkCounters counters() const;
-
-  /// Completes the call in flight and all queued calls with `operation_aborted`, closes the stream and
-  /// stops reading; later calls complete with `operation_aborted` too. Idempotent, any thread, never
-  /// waits for the device (at most the stream's own 250 ms close fallback when no thread runs the
-  /// executor).
-  void close();
-  /// False after `close()`.
-  bool is_open() const;
+  Counters counters() const;
 
  private:
-  template <typename CallToken>
-  auto initiate(Command command, bool manual, CallToken&& token) {
-    // The initiation holds the implementation, not `this`: deferred tokens (use_awaitable) may start it
-    // after the RomiClient object was moved.
-    return boost::asio::async_initiate<CallToken, CallSignature>(
-        [impl = impl_](auto handler, Command cmd, bool as_manual) {
-          auto bound = transports::bind_to_associated_executor<CallSignature>(std::move(handler),
-                                                                               detail::executor_of(impl));
-          detail::start_call(impl, std::move(cmd), as_manual, std::move(bound));
-        },
-        token, std::move(command), manual);
-  }
   RomiResponse blocking_call(const Command& command, bool manual, error_code& error);
-
-  std::shared_ptr<detail::ClientImpl> impl_;
 };
+
+/// Old names (before one vocabulary for the three clients), kept for programs written against them.
+using RomiClient [[deprecated("use romi::Client")]] = Client;
+/// Old name of `Options`.
+using ClientOptions [[deprecated("use romi::Options")]] = Options;
 
 }  // namespace tether::romi

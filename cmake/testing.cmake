@@ -1,0 +1,40 @@
+# Test registration: every test carries exactly one tier label, so `ctest -L unit` is the edit loop.
+#   unit    portable logic on the host: no threads, no I/O, no simulator (seconds)
+#   client  host clients and transports on in-memory streams, ptys and local processes
+#   sim     firmware images on the simulated Uno (interop tests, virtual rovers, the demo)
+#   cli     the `tether` command and its subcommands
+#   fuzz    the fuzz targets' corpus replays
+#   package install, consumers, public headers
+set(TETHER_TEST_LABELS unit client sim cli fuzz package)
+
+function(_tether_check_label label)
+  if(NOT label IN_LIST TETHER_TEST_LABELS)
+    message(FATAL_ERROR "test label '${label}' is not one of: ${TETHER_TEST_LABELS}")
+  endif()
+endfunction()
+
+# tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [PROPERTIES <name> <value>...]): registers every
+# GoogleTest case of <target> as <prefix><Suite>.<Case> with <label> (and the further test properties).
+function(tether_add_gtests target)
+  cmake_parse_arguments(TESTS "" "PREFIX;LABEL" "PROPERTIES" ${ARGN})
+  if(NOT TESTS_PREFIX OR NOT TESTS_LABEL)
+    message(FATAL_ERROR "tether_add_gtests(${target}) needs PREFIX and LABEL")
+  endif()
+  _tether_check_label(${TESTS_LABEL})
+  gtest_discover_tests(${target} TEST_PREFIX "${TESTS_PREFIX}" DISCOVERY_TIMEOUT 60
+    PROPERTIES LABELS ${TESTS_LABEL} ${TESTS_PROPERTIES})
+endfunction()
+
+# tether_label_tests(<label> <test>...): labels tests registered with add_test.
+function(tether_label_tests label)
+  _tether_check_label(${label})
+  set_tests_properties(${ARGN} PROPERTIES LABELS ${label})
+endfunction()
+
+# tether_label_directory_tests(<label>): labels every add_test of the calling directory (call it last).
+function(tether_label_directory_tests label)
+  get_property(tests DIRECTORY PROPERTY TESTS)
+  if(tests)
+    tether_label_tests(${label} ${tests})
+  endif()
+endfunction()
