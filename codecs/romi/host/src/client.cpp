@@ -286,15 +286,18 @@ class ClientImpl final : public transports::ClientLink {
     arm_timer();
   }
 
+  // Ends the call in flight (there is one) with `error`: out of the engine, its late answer is stale.
+  void abort_current(const error_code& error) {
+    const Result<Table::Completion> cancelled = table_.cancel(current_->id);
+    std::unique_ptr<Call> call = std::move(current_);
+    RomiResponse response = failure(error, call->opcode);
+    response.id = call->id;
+    response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+    complete(std::move(call->handler), error, std::move(response));
+  }
+
   void fail_all(const error_code& error) {
-    if (current_) {
-      const Result<Table::Completion> cancelled = table_.cancel(current_->id);
-      std::unique_ptr<Call> call = std::move(current_);
-      RomiResponse response = failure(error, call->opcode);
-      response.id = call->id;
-      response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
-      complete(std::move(call->handler), error, std::move(response));
-    }
+    if (current_) abort_current(error);
     while (!queue_.empty()) {
       std::unique_ptr<Call> call = std::move(queue_.front());
       queue_.pop_front();
@@ -331,12 +334,7 @@ class ClientImpl final : public transports::ClientLink {
   void on_cancel(OperationId operation) override {
     const error_code aborted = asio::error::operation_aborted;
     if (current_ && current_->operation == operation) {
-      const Result<Table::Completion> cancelled = table_.cancel(current_->id);
-      std::unique_ptr<Call> call = std::move(current_);
-      RomiResponse response = failure(aborted, call->opcode);
-      response.id = call->id;
-      response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
-      complete(std::move(call->handler), aborted, std::move(response));
+      abort_current(aborted);
       start_next();
       arm_timer();
       return;
