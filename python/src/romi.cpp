@@ -1,0 +1,235 @@
+// tether.romi: the Romi client (romi::Client) with answers as Python lists.
+#include <pybind11/functional.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+
+#include "binding.hpp"
+#include "clients.hpp"
+#include "tether/romi/client.hpp"
+
+namespace tether::python {
+
+py::object json_to_python(const nlohmann::json& value) {
+  switch (value.type()) {
+    case nlohmann::json::value_t::null:
+      return py::none();
+    case nlohmann::json::value_t::boolean:
+      return py::bool_(value.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+      return py::int_(value.get<std::int64_t>());
+    case nlohmann::json::value_t::number_unsigned:
+      return py::int_(value.get<std::uint64_t>());
+    case nlohmann::json::value_t::number_float:
+      return py::float_(value.get<double>());
+    case nlohmann::json::value_t::string:
+      return py::str(value.get_ref<const std::string&>());
+    case nlohmann::json::value_t::array: {
+      py::list list;
+      for (const auto& item : value) list.append(json_to_python(item));
+      return std::move(list);
+    }
+    case nlohmann::json::value_t::object: {
+      py::dict dict;
+      for (const auto& [key, item] : value.items()) dict[py::str(key)] = json_to_python(item);
+      return std::move(dict);
+    }
+    default:
+      return py::none();
+  }
+}
+
+namespace {
+
+// `call('L[1]')` or `call('M', 16, 'Shutdown')`: the command the client validates.
+romi::Command make_command(const std::string& command, const py::args& args) {
+  if (args.empty()) return romi::Command(command);
+  if (command.size() != 1) {
+    throw py::value_error("with arguments, the command is one opcode character (call('M', 16, 'Shutdown')), got '" +
+                          command + "'");
+  }
+  std::vector<std::int32_t> ints;
+  std::optional<std::string> text;
+  for (const auto& arg : args) {
+    if (text) throw py::value_error("the string argument must be the last one");
+    if (py::isinstance<py::str>(arg)) {
+      text = arg.cast<std::string>();
+    } else if (py::isinstance<py::int_>(arg)) {
+      const auto value = arg.cast<long long>();  // OverflowError beyond 64 bits
+      if (value < std::numeric_limits<std::int32_t>::min() || value > std::numeric_limits<std::int32_t>::max()) {
+        throw py::value_error("argument " + std::to_string(value) + " is outside int16 (-32768..32767)");
+      }
+      ints.push_back(static_cast<std::int32_t>(value));
+    } else {
+      throw py::type_error("Romi arguments are int or str, got " +
+                           py::str(py::type::of(arg).attr("__name__")).cast<std::string>());
+    }
+  }
+  return romi::Command(command[0], ints, text ? std::optional<std::string_view>(*text) : std::nullopt);
+}
+
+// The answer as a list, or the exception for it (with the GIL).
+py::object answer_or_error(const romi::error_code& error, const romi::RomiResponse& response, bool check,
+                           py::object& failure) {
+  if (error) {
+    failure = error_object(error, response.message);
+    return py::none();
+  }
+  py::object values = json_to_python(response.values);
+  if (check && response.code != 0) {
+    failure = py::module_::import("tether._errors").attr("RomiError")(response.code, response.message, values);
+    return py::none();
+  }
+  return values;
+}
+
+session::CallTiming timing_from(double attempt_timeout, double call_budget, int max_attempts, bool retry_on_timeout) {
+  if (!(attempt_timeout > 0.0) || !(call_budget > 0.0) || attempt_timeout > 3600.0 || call_budget > 3600.0) {
+    throw py::value_error("attempt_timeout and call_budget must be 0 < t <= 3600 s");
+  }
+  if (max_attempts < 1 || max_attempts > 255) throw py::value_error("max_attempts must be 1..255");
+  session::CallTiming timing = romi::default_call_timing();
+  timing.attempt_timeout = static_cast<Duration>(std::lround(attempt_timeout * 1000.0));
+  timing.call_budget = static_cast<Duration>(std::lround(call_budget * 1000.0));
+  timing.max_attempts = static_cast<std::uint8_t>(max_attempts);
+  timing.retry_on_timeout = retry_on_timeout;
+  return timing;
+}
+
+}  // namespace
+
+RomiClient::~RomiClient() {
+  py::gil_scoped_release release;
+  client.reset();
+  owner.reset();
+  io.reset();
+}
+
+romi::Client& RomiClient::get() {
+  if (!client || !client->is_open()) raise_closed("the Romi client");
+  return *client;
+}
+
+void register_romi(py::module_& parent) {
+  py::module_ module = parent.def_submodule("romi", "The Romi text protocol: request/response with a Tether client.");
+
+  py::class_<LinkCounters>(parent, "LinkCounters", "Counters of a link's decoder and session engine (they only grow).")
+      .def_readonly("frames_ok", &LinkCounters::frames_ok, "Frames that passed every check.")
+      .def_readonly("crc_errors", &LinkCounters::crc_errors, "Frames dropped for a checksum mismatch.")
+      .def_readonly("framing_errors", &LinkCounters::framing_errors, "Frames dropped as malformed.")
+      .def_readonly("oversize_frames", &LinkCounters::oversize_frames, "Frames dropped for their size.")
+      .def_readonly("resyncs", &LinkCounters::resyncs, "Times the decoder skipped garbage.")
+      .def_readonly("partial_timeouts", &LinkCounters::partial_timeouts, "Partial frames dropped at their deadline.")
+      .def_readonly("stale", &LinkCounters::stale, "Replies whose id was not in flight (dropped).")
+      .def_readonly("retries", &LinkCounters::retries, "Re-sends of a request with the same id.")
+      .def_readonly("timeouts", &LinkCounters::timeouts, "Calls that ran out of time.")
+      .def_readonly("resets", &LinkCounters::resets, "Device resets detected.")
+      .def("__repr__", [](const LinkCounters& c) {
+        return "LinkCounters(frames_ok=" + std::to_string(c.frames_ok) + ", crc_errors=" + std::to_string(c.crc_errors) +
+               ", framing_errors=" + std::to_string(c.framing_errors) + ", stale=" + std::to_string(c.stale) +
+               ", retries=" + std::to_string(c.retries) + ", timeouts=" + std::to_string(c.timeouts) + ")";
+      });
+
+  py::class_<romi::Counters>(module, "Counters", "What a Romi client counted: the link's decoder and engine.")
+      .def_readonly("link", &romi::Counters::link, "Decoder and engine counters.");
+
+  py::class_<RomiClient, std::shared_ptr<RomiClient>>(module, "Client", R"doc(Romi client for one device (romi::Client).
+
+One call is in flight per device; calls from several threads queue in order. Each attempt waits
+``attempt_timeout`` (1 s) for the answer; a call never takes more than ``call_budget`` (2 s) once sent.
+A damaged answer or an envelope error (-1..-6) re-sends the same bytes (at most ``max_attempts``); a silent
+attempt is re-sent only with ``retry_on_timeout`` (Tether firmware answers a repeat from its cache; the
+reference firmware answers -15). Log lines (``#!text``) go to ``on_log``. The GIL is released while waiting.
+
+``port_or_transport``: a serial port path (opened with ``baud`` and ``boot_wait`` seconds: an Uno resets when
+its port opens) or a ``tether.transports.Transport``.)doc")
+      .def(py::init([](py::object port, unsigned baud, double boot_wait, double attempt_timeout, double call_budget,
+                       int max_attempts, bool retry_on_timeout, py::object on_log) {
+             const session::CallTiming timing = timing_from(attempt_timeout, call_budget, max_attempts, retry_on_timeout);
+             Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}});
+             auto wrapper = std::make_shared<RomiClient>();
+             wrapper->io = transport.io;
+             wrapper->owner = transport.keep_alive;
+             romi::Options options;
+             options.timing = timing;
+             options.last_id = static_cast<std::uint8_t>(romi::random_first_id() - 1u);
+             wrapper->client = std::make_shared<romi::Client>(transport.stream, options);
+             if (!on_log.is_none()) wrapper->get().set_log_handler(
+                 [callback = PyCallback(on_log)](std::string_view line) { callback(std::string(line)); });
+             return wrapper;
+           }),
+           py::arg("port_or_transport"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
+           py::arg("attempt_timeout") = 1.0, py::arg("call_budget") = 2.0, py::arg("max_attempts") = 3,
+           py::arg("retry_on_timeout") = false, py::arg("on_log") = py::none())
+      .def(
+          "call",
+          [](RomiClient& self, const std::string& command, const py::args& args, bool check) {
+            const romi::Command built = make_command(command, args);
+            romi::Client& client = self.get();
+            romi::error_code error;
+            romi::RomiResponse response;
+            {
+              py::gil_scoped_release release;
+              response = client.call(built, error);
+            }
+            py::object failure;
+            py::object values = answer_or_error(error, response, check, failure);
+            if (failure) {
+              PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(failure.ptr())), failure.ptr());
+              throw py::error_already_set();
+            }
+            return values;
+          },
+          py::arg("command"), py::kw_only(), py::arg("check") = true,
+          R"doc(Sends a command and returns the device's answer as a list, code first: ``call('e')`` ->
+``[0, 1, 2]``. ``call('L[1]')`` is raw text; ``call('M', 16, 'Shutdown')`` builds ``M[16,"Shutdown"]``
+(ints in int16, then at most one string). Raises ``RomiError`` when the answer's code is not 0 (unless
+``check=False``), ``RomiTimeoutError`` (also ``TimeoutError``) without an answer, ``RomiCommandError``
+(also ``ValueError``) for a command rejected before sending, ``ClosedError`` after ``close()``.)doc")
+      .def(
+          "call_async",
+          [](RomiClient& self, const std::string& command, const py::args& args, bool check) {
+            romi::Command built = make_command(command, args);
+            romi::Client& client = self.get();
+            return asyncio_future([&](PyCallback settle) {
+              client.async_call(std::move(built), [settle, check](romi::error_code error, romi::RomiResponse response) {
+                if (interpreter_exiting()) return;
+                py::gil_scoped_acquire gil;
+                py::object failure;
+                py::object values = answer_or_error(error, response, check, failure);
+                settle(failure ? failure : py::none(), values);
+              });
+            });
+          },
+          py::arg("command"), py::kw_only(), py::arg("check") = true,
+          "``call`` for asyncio: returns a future of the running loop, completed from the io thread.")
+      .def(
+          "on_log",
+          [](RomiClient& self, py::object callback) {
+            PyCallback handler(callback);
+            if (handler) {
+              self.get().set_log_handler([handler](std::string_view line) { handler(std::string(line)); });
+            } else {
+              self.get().set_log_handler({});
+            }
+          },
+          py::arg("callback"),
+          "Sets the log-line callback (``callback(text)``, on the io thread; None drops log lines).")
+      .def("counters", [](RomiClient& self) { return self.get().counters(); }, "Snapshot of the link counters.")
+      .def("close", [](RomiClient& self) {
+        if (!self.client) return;
+        py::gil_scoped_release release;
+        self.client->close();
+      }, "Closes the client: calls in flight and queued raise ``ClosedError``. Idempotent.")
+      .def_property_readonly("is_open", [](const RomiClient& self) { return self.client && self.client->is_open(); },
+                             "False after ``close()``.")
+      .def("__enter__", [](py::object self) { return self; })
+      .def("__exit__", [](RomiClient& self, py::args) {
+        if (!self.client) return;
+        py::gil_scoped_release release;
+        self.client->close();
+      });
+}
+
+}  // namespace tether::python
