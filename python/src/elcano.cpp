@@ -107,12 +107,12 @@ elcano::RingClient& RingClient::get() {
 void register_elcano(py::module_& parent) {
   py::module_ module = parent.def_submodule("elcano", "The Elcano ring: the host as one node of a ring of boards.");
 
-  py::class_<elcano::Message> message(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
+  py::class_<elcano::Message> message_class(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
 
 ``type`` is drive, sensor, goal or segment (or D, S, G, X); fields not given are None and not written.
 Required per type: drive speed angle; sensor speed angle east north bearing; goal number east north bearing;
 segment number east north bearing speed.)doc");
-  message
+  message_class
       .def(py::init([](py::handle type, const py::kwargs& fields) {
              elcano::Message made;
              made.type = type_from(type);
@@ -149,9 +149,9 @@ segment number east north bearing speed.)doc");
             return py::bytes(reinterpret_cast<const char*>(buffer), written.value());
           },
           py::arg("generation") = "B", "The message as it goes on the wire (``b'D{s 50}{a 25}\\n'``).");
-  message.attr("__hash__") = py::none();
+  message_class.attr("__hash__") = py::none();
   for (const Field& field : kFields) {
-    message.def_property_readonly(field.name, [member = field.member](const elcano::Message& m) -> py::object {
+    message_class.def_property_readonly(field.name, [member = field.member](const elcano::Message& m) -> py::object {
       if (m.*member == elcano::kUnset) return py::none();
       return py::int_(m.*member);
     });

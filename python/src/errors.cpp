@@ -1,7 +1,7 @@
 // error_code -> Python exception: the classes live in tether/_errors.py (plain Python, with `code` and
 // `message`); this file picks one from the error's category and condition.
 #include <boost/asio/error.hpp>
-#include <boost/system/errc.hpp>
+#include <boost/system/error_code.hpp>
 
 #include <cstring>
 

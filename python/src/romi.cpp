@@ -28,12 +28,12 @@ py::object json_to_python(const nlohmann::json& value) {
     case nlohmann::json::value_t::array: {
       py::list list;
       for (const auto& item : value) list.append(json_to_python(item));
-      return std::move(list);
+      return list;
     }
     case nlohmann::json::value_t::object: {
       py::dict dict;
       for (const auto& [key, item] : value.items()) dict[py::str(key)] = json_to_python(item);
-      return std::move(dict);
+      return dict;
     }
     default:
       return py::none();
