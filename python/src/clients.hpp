@@ -12,14 +12,20 @@
 
 namespace tether::python {
 
+/// Where a Romi client's log lines go: the `on_log` callback and every `log_lines()` iterator (romi.cpp).
+struct RomiLogFanout;
+
 /// `tether.romi.Client`.
 struct RomiClient {
   std::shared_ptr<transports::IoThread> io;
   std::shared_ptr<romi::Client> client;
   std::shared_ptr<void> owner;
+  std::shared_ptr<RomiLogFanout> logs;  // made (and set as the client's log handler) on first use
   ~RomiClient();
   /// The client; raises ClosedError after close().
   romi::Client& get();
+  /// The fan-out of log lines, installed as the client's log handler when first asked for.
+  RomiLogFanout& log_fanout();
 };
 
 /// `tether.proxy.Client`.

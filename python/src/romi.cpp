@@ -2,8 +2,13 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <limits>
+#include <mutex>
+#include <vector>
 
 #include "binding.hpp"
 #include "clients.hpp"
@@ -99,6 +104,92 @@ session::CallTiming timing_from(double attempt_timeout, double call_budget, int 
 
 }  // namespace
 
+/// The lines one `log_lines()` iterator has not taken yet (bounded: the oldest go first when full).
+struct RomiLogQueue {
+  static constexpr std::size_t capacity = 1024;
+  std::mutex mutex;
+  std::condition_variable arrived;
+  std::deque<std::string> lines;
+  std::uint64_t dropped = 0;
+  bool closed = false;  // the iterator's close(): no more lines
+};
+
+struct RomiLogFanout {
+  std::mutex mutex;
+  PyCallback callback;
+  std::vector<std::weak_ptr<RomiLogQueue>> queues;
+
+  // On the client's strand, one line at a time.
+  void deliver(std::string_view line) {
+    PyCallback to_call;
+    std::vector<std::shared_ptr<RomiLogQueue>> live;
+    {
+      std::lock_guard lock(mutex);
+      to_call = callback;
+      std::erase_if(queues, [](const auto& queue) { return queue.expired(); });
+      for (const auto& queue : queues) {
+        if (auto held = queue.lock()) live.push_back(std::move(held));
+      }
+    }
+    for (const auto& queue : live) {
+      {
+        std::lock_guard lock(queue->mutex);
+        if (queue->closed) continue;
+        if (queue->lines.size() == RomiLogQueue::capacity) {
+          queue->lines.pop_front();
+          ++queue->dropped;
+        }
+        queue->lines.emplace_back(line);
+      }
+      queue->arrived.notify_one();
+    }
+    to_call(std::string(line));
+  }
+};
+
+namespace {
+
+/// `tether.romi.LogLines`: iterates over a client's log lines from its creation on.
+struct RomiLogLines {
+  std::weak_ptr<romi::Client> client;  // to see it close (close(), the rover's, a failed link, destruction)
+  std::shared_ptr<RomiLogQueue> queue;
+  std::optional<std::chrono::milliseconds> timeout;
+
+  std::string next() {
+    const auto start = std::chrono::steady_clock::now();
+    for (;;) {
+      {
+        py::gil_scoped_release release;
+        std::unique_lock lock(queue->mutex);
+        // Short slices: a closed client and Ctrl-C are noticed within 100 ms.
+        queue->arrived.wait_for(lock, std::chrono::milliseconds(100), [this] { return !queue->lines.empty(); });
+        if (queue->closed) throw py::stop_iteration();
+        if (!queue->lines.empty()) {
+          std::string line = std::move(queue->lines.front());
+          queue->lines.pop_front();
+          return line;
+        }
+      }
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      const auto held = client.lock();
+      if (!held || !held->is_open() || (timeout && std::chrono::steady_clock::now() - start >= *timeout)) {
+        throw py::stop_iteration();
+      }
+    }
+  }
+};
+
+}  // namespace
+
+RomiLogFanout& RomiClient::log_fanout() {
+  romi::Client& romi_client = get();
+  if (!logs) {
+    logs = std::make_shared<RomiLogFanout>();
+    romi_client.set_log_handler([fanout = logs](std::string_view line) { fanout->deliver(line); });
+  }
+  return *logs;
+}
+
 RomiClient::~RomiClient() {
   py::gil_scoped_release release;
   client.reset();
@@ -134,6 +225,20 @@ void register_romi(py::module_& parent) {
   py::class_<romi::Counters>(module, "Counters", "What a Romi client counted: the link's decoder and engine.")
       .def_readonly("link", &romi::Counters::link, "Decoder and engine counters.");
 
+  py::class_<RomiLogLines>(module, "LogLines", "Iterator over a Romi client's log lines (``Client.log_lines``).")
+      .def("__iter__", [](py::object self) { return self; })
+      .def("__next__", &RomiLogLines::next)
+      .def_property_readonly("dropped", [](const RomiLogLines& self) {
+        std::lock_guard lock(self.queue->mutex);
+        return self.queue->dropped;
+      }, "Lines dropped because 1024 were waiting.")
+      .def("close", [](RomiLogLines& self) {
+        std::lock_guard lock(self.queue->mutex);
+        self.queue->closed = true;
+        self.queue->lines.clear();
+      },
+           "Stops collecting lines; iteration ends.");
+
   py::class_<RomiClient, std::shared_ptr<RomiClient>>(module, "Client", R"doc(Romi client for one device (romi::Client).
 
 One call is in flight per device; calls from several threads queue in order. Each attempt waits
@@ -155,8 +260,11 @@ its port opens) or a ``tether.transports.Transport``.)doc")
              options.timing = timing;
              options.last_id = static_cast<std::uint8_t>(romi::random_first_id() - 1u);
              wrapper->client = std::make_shared<romi::Client>(transport.stream, options);
-             if (!on_log.is_none()) wrapper->get().set_log_handler(
-                 [callback = PyCallback(on_log)](std::string_view line) { callback(std::string(line)); });
+             if (!on_log.is_none()) {
+               RomiLogFanout& fanout = wrapper->log_fanout();
+               std::lock_guard lock(fanout.mutex);
+               fanout.callback = PyCallback(on_log);
+             }
              return wrapper;
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
@@ -208,14 +316,33 @@ its port opens) or a ``tether.transports.Transport``.)doc")
           "on_log",
           [](RomiClient& self, py::object callback) {
             PyCallback handler(callback);
-            if (handler) {
-              self.get().set_log_handler([handler](std::string_view line) { handler(std::string(line)); });
-            } else {
-              self.get().set_log_handler({});
-            }
+            RomiLogFanout& fanout = self.log_fanout();
+            std::lock_guard lock(fanout.mutex);
+            fanout.callback = std::move(handler);
           },
           py::arg("callback"),
-          "Sets the log-line callback (``callback(text)``, on the io thread; None drops log lines).")
+          "Sets the log-line callback (``callback(text)``, on the io thread; None: no callback).")
+      .def(
+          "log_lines",
+          [](RomiClient& self, std::optional<double> timeout) {
+            if (timeout && (!(*timeout >= 0.0) || *timeout > 86400.0)) {
+              throw py::value_error("timeout must be None or 0..86400 s");
+            }
+            RomiLogFanout& fanout = self.log_fanout();
+            RomiLogLines lines;
+            lines.client = self.client;
+            lines.queue = std::make_shared<RomiLogQueue>();
+            if (timeout) lines.timeout = std::chrono::milliseconds(std::lround(*timeout * 1000.0));
+            std::lock_guard lock(fanout.mutex);
+            fanout.queues.push_back(lines.queue);
+            return lines;
+          },
+          py::kw_only(), py::arg("timeout") = py::none(),
+          R"doc(An iterator over the log lines (``#!text``) that arrive from now on: ``for line in
+client.log_lines(timeout=1.0): ...``. ``next()`` waits for the next line (the GIL released); iteration
+ends when the client is closed (or its link fails) and the lines received are taken, or when no line came
+within ``timeout`` seconds (None: wait while the client is open). At most 1024 lines wait: beyond that
+the oldest are dropped and counted in ``dropped``. Works alongside ``on_log``.)doc")
       .def("counters", [](RomiClient& self) { return self.get().counters(); }, "Snapshot of the link counters.")
       .def("close", [](RomiClient& self) {
         if (!self.client) return;

@@ -48,6 +48,56 @@ def test_log_lines_reach_the_callback(romi_client):
     assert lines == ["log 1", "log 2", "log 3"]
 
 
+def test_log_lines_as_an_iterator(romi_client):
+    lines = romi_client.log_lines(timeout=5.0)
+    assert iter(lines) is lines
+    assert romi_client.call("g", 3) == [0]
+    taken = []
+    for line in lines:  # the lines arrived before the answer: no wait
+        taken.append(line)
+        if len(taken) == 3:
+            break
+    assert taken == ["log 1", "log 2", "log 3"]
+    assert lines.dropped == 0
+
+
+def test_log_line_iterator_and_callback_both_get_every_line(romi_client):
+    seen = []
+    romi_client.on_log(seen.append)
+    first = romi_client.log_lines(timeout=5.0)
+    second = romi_client.log_lines(timeout=5.0)
+    assert romi_client.call("g", 2) == [0]
+    assert [next(first), next(first)] == ["log 1", "log 2"]
+    assert [next(second), next(second)] == ["log 1", "log 2"]
+    assert seen == ["log 1", "log 2"]
+
+
+def test_log_line_iteration_ends_on_timeout_and_on_close(romi_client):
+    # Only lines from the iterator's creation on; none come: the timeout ends the iteration.
+    assert list(romi_client.log_lines(timeout=0.2)) == []
+    lines = romi_client.log_lines()  # no timeout: waits while the client is open
+    assert romi_client.call("g", 1) == [0]
+    assert next(lines) == "log 1"
+    closer = threading.Timer(0.2, romi_client.close)
+    closer.start()
+    assert list(lines) == []  # ends when the client closes, not after a timeout
+    closer.join()
+    stopped = romi_client  # closed: asking for lines now is ClosedError
+    with pytest.raises(tether.ClosedError):
+        stopped.log_lines()
+
+
+def test_log_line_iterator_close_and_bad_timeout(romi_client):
+    lines = romi_client.log_lines(timeout=1.0)
+    lines.close()
+    assert romi_client.call("g", 1) == [0]
+    assert list(lines) == []
+    with pytest.raises(ValueError):
+        romi_client.log_lines(timeout=-1)
+    with pytest.raises(TypeError):
+        romi_client.log_lines(timeout="soon")
+
+
 def test_counters(romi_client):
     romi_client.call("a")
     romi_client.call("a")
