@@ -1,6 +1,9 @@
 """tether.elcano.RingClient on a virtual ring of three elcano-node boards, opened from a rover config."""
 
 import json
+import os
+import threading
+import tty
 
 import pytest
 
@@ -64,3 +67,56 @@ def test_closed_rover_closes_its_clients(ring_rover):
     ring_rover.close()
     with pytest.raises(tether.ClosedError):
         ring.request(tether.elcano.Message(type="drive", speed=1, angle=2), reply_type="sensor")
+
+
+def _read_line(fd):
+    data = b""
+    while not data.endswith(b"\n"):
+        chunk = os.read(fd, 64)
+        assert chunk, "the pty closed"
+        data += chunk
+    return data
+
+
+def test_ring_client_on_a_pty_port_requests_forwards_and_receives():
+    # The test plays the rest of the ring on the pty's other end: what the host sends arrives there, and what
+    # the test writes is what the last board would send to the host.
+    transport = tether.transports.pty()
+    path = transport.path
+    Message = tether.elcano.Message
+    reading = Message(type="sensor", speed=50, angle=25, east=10, north=20, bearing=90)
+    with tether.elcano.RingClient(transport, capture=("sensor",)) as ring:
+        fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+        try:
+            tty.setraw(fd)
+
+            def rest_of_ring():
+                assert _read_line(fd) == b"D{s 50}{a 25}\n"
+                os.write(fd, reading.to_wire("B"))
+
+            board = threading.Thread(target=rest_of_ring)
+            board.start()
+            assert ring.request(Message(type="drive", speed=50, angle=25), reply_type="sensor") == reading
+            board.join()
+            # A type the host does not capture goes on round the ring (without its spaces, like the reference).
+            goal = Message(type="goal", number=3, east=1, north=2, bearing=4).to_wire("B")
+            os.write(fd, goal)
+            assert _read_line(fd) == goal.replace(b" ", b"")
+            # A captured type no request awaits waits for receive().
+            os.write(fd, reading.to_wire("B"))
+            assert ring.receive(timeout=5.0) == reading
+            counters = ring.counters()
+            assert counters.replies == 1
+            assert counters.link.frames_ok == 3
+        finally:
+            os.close(fd)
+
+
+def test_ring_client_on_a_virtual_boards_port_reports_an_undeliverable_request():
+    # One unconfigured elcano-node forwards everything: the drive comes back to the host, no node took it.
+    with tether.VirtualUno("elcano-node") as board:
+        with tether.elcano.RingClient(board.port, boot_wait=0) as ring:
+            with pytest.raises(tether.ElcanoError) as caught:
+                ring.request(tether.elcano.Message(type="drive", speed=5, angle=2), reply_type="sensor")
+            assert caught.value.code == 2  # undeliverable
+            assert ring.counters().link.frames_ok >= 1
