@@ -5,7 +5,8 @@
 #   cli     the `tether` command and its subcommands
 #   fuzz    the fuzz targets' corpus replays
 #   package install, consumers, public headers
-set(TETHER_TEST_LABELS unit client sim cli fuzz package)
+#   python  the pytest suite over the Python package (python/tests)
+set(TETHER_TEST_LABELS unit client sim cli fuzz package python)
 
 function(_tether_check_label label)
   if(NOT label IN_LIST TETHER_TEST_LABELS)

@@ -1,0 +1,112 @@
+// tether.open_rover: a rover's JSON configuration opened into typed clients (devices::Rover).
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+
+#include "binding.hpp"
+#include "clients.hpp"
+#include "tether/devices/config.hpp"
+#include "tether/devices/rover.hpp"
+
+namespace tether::python {
+
+namespace {
+
+// A rover and the io thread running it; clients handed out keep it alive.
+struct RoverHolder {
+  std::shared_ptr<transports::IoThread> io;
+  std::shared_ptr<devices::Rover> rover;
+  ~RoverHolder() {
+    py::gil_scoped_release release;
+    rover.reset();
+    io.reset();
+  }
+  devices::Rover& get() {
+    if (!rover || !rover->is_open()) raise_closed("the rover");
+    return *rover;
+  }
+};
+
+[[noreturn]] void raise_config(const devices::ConfigError& failure) {
+  py::object exception =
+      py::module_::import("tether._errors").attr("ConfigError")(failure.code().value(), std::string(failure.what()));
+  exception.attr("path") = failure.path();
+  PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(exception.ptr())), exception.ptr());
+  throw py::error_already_set();
+}
+
+template <typename Wrapper, typename Get>
+std::shared_ptr<Wrapper> client_of(const std::shared_ptr<RoverHolder>& holder, const std::string& name, Get get) {
+  auto wrapper = std::make_shared<Wrapper>();
+  try {
+    wrapper->client = get(holder->get(), name);
+  } catch (const std::out_of_range& failure) {
+    throw py::key_error(failure.what());
+  }
+  wrapper->io = holder->io;
+  wrapper->owner = holder;
+  return wrapper;
+}
+
+}  // namespace
+
+void register_devices(py::module_& parent) {
+  py::class_<RoverHolder, std::shared_ptr<RoverHolder>>(parent, "Rover", R"doc(The opened devices of a rover (devices::Rover).
+
+``romi(name)``, ``proxy(name)``, ``elcano(name)`` return the device's client (KeyError for an unknown name or
+another codec); clients stay usable until the rover is closed, then raise ClosedError.)doc")
+      .def("romi", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
+             return client_of<RomiClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.romi(n); });
+           }, py::arg("name"), "The client of the romi device ``name``.")
+      .def("proxy", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
+             return client_of<ProxyClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.proxy(n); });
+           }, py::arg("name"), "The client of the proxy or proxy-compat device ``name``.")
+      .def("elcano", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
+             return client_of<RingClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.elcano(n); });
+           }, py::arg("name"), "The ring client of the elcano device ``name``.")
+      .def_property_readonly("devices", [](RoverHolder& h) {
+             py::list names;
+             for (const auto& device : h.get().devices()) {
+               names.append(py::module_::import("types").attr("SimpleNamespace")(
+                   "name"_a = device.name, "codec"_a = std::string(devices::to_string(device.codec)),
+                   "transport"_a = device.transport));
+             }
+             return names;
+           }, "Every device (name, codec, transport), in the configuration's order.")
+      .def("close", [](RoverHolder& h) {
+        if (!h.rover) return;
+        py::gil_scoped_release release;
+        h.rover->close();
+      }, "Closes every client and stops the virtual boards. Idempotent.")
+      .def_property_readonly("is_open", [](const RoverHolder& h) { return h.rover && h.rover->is_open(); })
+      .def("__enter__", [](py::object self) { return self; })
+      .def("__exit__", [](RoverHolder& h, py::args) {
+        if (!h.rover) return;
+        py::gil_scoped_release release;
+        h.rover->close();
+      });
+
+  parent.def(
+      "_open_rover",
+      [](const std::string& path, const std::string& firmware_dir) {
+        devices::ParseOptions where;
+        where.firmware_dir = firmware_dir;
+        auto holder = std::make_shared<RoverHolder>();
+        holder->io = io_thread();
+        try {
+          devices::RoverConfig config = devices::load_config(path, where);
+          devices::Rover rover;
+          {
+            py::gil_scoped_release release;
+            rover = devices::open_rover(config, holder->io->executor());
+          }
+          holder->rover = std::make_shared<devices::Rover>(std::move(rover));
+        } catch (const devices::ConfigError& failure) {
+          raise_config(failure);
+        }
+        return holder;
+      },
+      py::arg("path"), py::arg("firmware_dir"));
+}
+
+}  // namespace tether::python

@@ -1,0 +1,277 @@
+// tether.elcano: the host's node in an Elcano ring (elcano::RingClient) and its messages.
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+
+#include "binding.hpp"
+#include "clients.hpp"
+
+namespace tether::python {
+
+namespace {
+
+// The message fields by their Python names (None when kUnset).
+struct Field {
+  const char* name;
+  std::int32_t elcano::Message::*member;
+};
+constexpr Field kFields[] = {
+    {"number", &elcano::Message::number},     {"speed", &elcano::Message::speed},
+    {"angle", &elcano::Message::angle},       {"obstacle", &elcano::Message::obstacle},
+    {"bearing", &elcano::Message::bearing},   {"probability", &elcano::Message::probability},
+    {"east", &elcano::Message::east},         {"north", &elcano::Message::north},
+};
+
+elcano::Type type_from(py::handle name) {
+  if (!py::isinstance<py::str>(name)) {
+    throw py::type_error("a message type is a str ('drive', 'sensor', 'goal', 'segment' or D, S, G, X)");
+  }
+  const auto text = name.cast<std::string>();
+  elcano::Type type{};
+  if (!elcano::type_from_name(ByteView(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()), type)) {
+    throw py::value_error("unknown message type '" + text + "' (expected drive, sensor, goal, segment or D, S, G, X)");
+  }
+  return type;
+}
+
+std::int32_t field_value(py::handle value, const char* name) {
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value)) {
+    throw py::type_error(std::string(name) + " must be an int, got " +
+                         py::str(py::type::of(value).attr("__name__")).cast<std::string>());
+  }
+  const auto number = value.cast<long long>();
+  if (number < std::numeric_limits<std::int32_t>::min() || number >= elcano::kUnset) {
+    throw py::value_error(std::string(name) + " " + std::to_string(number) + " is outside -2147483648..2147483646");
+  }
+  return static_cast<std::int32_t>(number);
+}
+
+std::string message_repr(const elcano::Message& message) {
+  std::string text = std::string("Message(type='") + elcano::to_string(message.type) + "'";
+  for (const Field& field : kFields) {
+    if (message.*field.member != elcano::kUnset) text += std::string(", ") + field.name + "=" + std::to_string(message.*field.member);
+  }
+  return text + ")";
+}
+
+elcano::Generation generation_from(const std::string& name) {
+  if (name == "B" || name == "b") return elcano::Generation::b;
+  if (name == "D" || name == "d") return elcano::Generation::d;
+  throw py::value_error("generation is 'B' or 'D', got '" + name + "'");
+}
+
+Duration milliseconds(double seconds, const char* name) {
+  if (!(seconds >= 0.0) || seconds > 3600.0) throw py::value_error(std::string(name) + " must be 0..3600 s");
+  return static_cast<Duration>(std::lround(seconds * 1000.0));
+}
+
+// The Python surface keeps one namespace per event: the old model's fields (`elcano::to_client_event`).
+py::object ring_event(const elcano::Event& ring_event) {
+  static constexpr const char* kinds[] = {"undeliverable", "read_error", "forward_dropped", "receive_overflow",
+                                          "link_failed"};
+  const elcano::ClientEvent event = elcano::to_client_event(ring_event);
+  return py::module_::import("types").attr("SimpleNamespace")(
+      "kind"_a = kinds[static_cast<int>(event.kind)], "message"_a = event.message,
+      "error"_a = event.kind == elcano::ClientEvent::Kind::link_failed ? event.link_error.message()
+                                                                        : std::string(elcano::describe(event.error)),
+      "request_failed"_a = event.request_failed);
+}
+
+py::object message_future(const std::function<void(elcano::detail::MessageHandler)>& start) {
+  return asyncio_future([&](PyCallback settle) {
+    start([settle](elcano::error_code error, elcano::Message reply) {
+      if (interpreter_exiting()) return;
+      py::gil_scoped_acquire gil;
+      if (error) {
+        settle(error_object(error), py::none());
+      } else {
+        settle(py::none(), py::cast(reply));
+      }
+    });
+  });
+}
+
+}  // namespace
+
+RingClient::~RingClient() {
+  py::gil_scoped_release release;
+  client.reset();
+  owner.reset();
+  io.reset();
+}
+
+elcano::RingClient& RingClient::get() {
+  if (!client || !client->is_open()) raise_closed("the ring client");
+  return *client;
+}
+
+void register_elcano(py::module_& parent) {
+  py::module_ module = parent.def_submodule("elcano", "The Elcano ring: the host as one node of a ring of boards.");
+
+  py::class_<elcano::Message> message_class(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
+
+``type`` is drive, sensor, goal or segment (or D, S, G, X); fields not given are None and not written.
+Required per type: drive speed angle; sensor speed angle east north bearing; goal number east north bearing;
+segment number east north bearing speed.)doc");
+  message_class
+      .def(py::init([](py::handle type, const py::kwargs& fields) {
+             elcano::Message made;
+             made.type = type_from(type);
+             for (const auto& [key, value] : fields) {
+               const auto name = key.cast<std::string>();
+               bool known = false;
+               for (const Field& field : kFields) {
+                 if (name == field.name) {
+                   if (!value.is_none()) made.*field.member = field_value(value, field.name);
+                   known = true;
+                 }
+               }
+               if (!known) throw py::type_error("Message has no field '" + name + "'");
+             }
+             return made;
+           }),
+           py::arg("type") = "drive")
+      .def_property_readonly("type", [](const elcano::Message& m) { return elcano::to_string(m.type); },
+                             "drive, sensor, goal or segment.")
+      .def("__repr__", &message_repr)
+      .def("__eq__", [](const elcano::Message& a, const elcano::Message& b) {
+        if (a.type != b.type) return false;
+        for (const Field& field : kFields) {
+          if (a.*field.member != b.*field.member) return false;
+        }
+        return true;
+      })
+      .def(
+          "to_wire",
+          [](const elcano::Message& m, const std::string& generation) {
+            std::uint8_t buffer[elcano::kMaxMessageBytes];
+            const auto written = elcano::encode_message(m, generation_from(generation), MutableByteView(buffer));
+            if (!written.ok()) throw py::value_error("cannot write " + message_repr(m) + ": a required field is missing");
+            return py::bytes(reinterpret_cast<const char*>(buffer), written.value());
+          },
+          py::arg("generation") = "B", "The message as it goes on the wire (``b'D{s 50}{a 25}\\n'``).");
+  message_class.attr("__hash__") = py::none();
+  for (const Field& field : kFields) {
+    message_class.def_property_readonly(field.name, [member = field.member](const elcano::Message& m) -> py::object {
+      if (m.*member == elcano::kUnset) return py::none();
+      return py::int_(m.*member);
+    });
+  }
+
+  py::class_<elcano::RingCounters>(module, "RingCounters", "What the host's node did in the ring.")
+      .def_readonly("captured", &elcano::RingCounters::captured, "Messages consumed by the host.")
+      .def_readonly("forwarded", &elcano::RingCounters::forwarded, "Messages passed on to the first board.")
+      .def_readonly("originated", &elcano::RingCounters::originated, "Messages the host sent (re-sends included).")
+      .def_readonly("undeliverable", &elcano::RingCounters::undeliverable, "Own messages that came back.")
+      .def_readonly("queue_full_drops", &elcano::RingCounters::queue_full_drops, "Forwarding drops (queue full).")
+      .def_readonly("origins_expired", &elcano::RingCounters::origins_expired, "Origin records expired.")
+      .def_readonly("origins_evicted", &elcano::RingCounters::origins_evicted, "Origin records overwritten.");
+
+  py::class_<elcano::Counters>(module, "Counters", "What a ring client counted (a snapshot; they only grow).")
+      .def_readonly("link", &elcano::Counters::link, "Reader and engine (retries = request re-sends, timeouts).")
+      .def_readonly("ring", &elcano::Counters::ring, "The node: captured, forwarded, originated, ...")
+      .def_readonly("replies", &elcano::Counters::replies, "Captured messages that completed a request.")
+      .def_readonly("receive_overflows", &elcano::Counters::receive_overflows, "Captured messages dropped (queue full).")
+      .def_readonly("bytes_written", &elcano::Counters::bytes_written, "Bytes handed to the stream.");
+
+  py::class_<RingClient, std::shared_ptr<RingClient>>(module, "RingClient", R"doc(The host's node in an Elcano ring (elcano::RingClient).
+
+The stream's TX goes to the first board, its RX comes from the last. Messages of a captured type (``capture``,
+plus a request's reply type while it waits) are consumed; every other message is forwarded. A request is
+re-sent after each silent attempt (0.5 s) within its budget (2 s); one that comes back round the ring fails
+at once (undeliverable). Events (undeliverable, read_error, forward_dropped, receive_overflow, link_failed)
+go to ``on_event`` on the io thread. The GIL is released while waiting.)doc")
+      .def(py::init([](py::object port, const std::string& generation, std::vector<std::string> capture,
+                       unsigned baud, double boot_wait, py::object on_event) {
+             elcano::Options options;
+             options.node.generation = generation_from(generation);
+             for (const auto& name : capture) options.node.capture = options.node.capture.with(type_from(py::str(name)));
+             options.node.pacing.baud = baud;
+             Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}});
+             auto wrapper = std::make_shared<RingClient>();
+             wrapper->io = transport.io;
+             wrapper->owner = transport.keep_alive;
+             elcano::EventHandler handler;
+             if (!on_event.is_none()) {
+               handler = [callback = PyCallback(on_event)](const elcano::Event& event) {
+                 if (interpreter_exiting()) return;
+                 py::gil_scoped_acquire gil;
+                 callback(ring_event(event));
+               };
+             }
+             wrapper->client = std::make_shared<elcano::RingClient>(transport.stream, options, std::move(handler));
+             return wrapper;
+           }),
+           py::arg("port_or_transport"), py::kw_only(), py::arg("generation") = "B",
+           py::arg("capture") = std::vector<std::string>{}, py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
+           py::arg("on_event") = py::none())
+      .def(
+          "request",
+          [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
+            const elcano::Type reply = type_from(reply_type);
+            elcano::RingClient& client = self.get();
+            elcano::error_code error;
+            elcano::Message answer;
+            {
+              py::gil_scoped_release release;
+              answer = client.request(request, reply, error);
+            }
+            if (error) raise_error(error);
+            return answer;
+          },
+          py::arg("message"), py::kw_only(), py::arg("reply_type"),
+          "Sends ``message`` and returns the first captured message of ``reply_type``. Raises "
+          "ElcanoTimeoutError, ElcanoError (undeliverable, busy), ElcanoMessageError, ClosedError.")
+      .def(
+          "request_async",
+          [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
+            const elcano::Type reply = type_from(reply_type);
+            elcano::RingClient& client = self.get();
+            return message_future([&](elcano::detail::MessageHandler h) { client.async_request(request, reply, std::move(h)); });
+          },
+          py::arg("message"), py::kw_only(), py::arg("reply_type"), "``request`` for asyncio.")
+      .def(
+          "send",
+          [](RingClient& self, const elcano::Message& message) {
+            elcano::RingClient& client = self.get();
+            elcano::error_code error;
+            {
+              py::gil_scoped_release release;
+              client.send(message, error);
+            }
+            if (error) raise_error(error);
+          },
+          py::arg("message"), "Originates ``message``; returns once it was handed to the stream.")
+      .def(
+          "receive",
+          [](RingClient& self, double timeout) {
+            const Duration limit = milliseconds(timeout, "timeout");
+            elcano::RingClient& client = self.get();
+            elcano::error_code error;
+            elcano::Message message;
+            {
+              py::gil_scoped_release release;
+              message = client.receive(limit, error);
+            }
+            if (error) raise_error(error);
+            return message;
+          },
+          py::arg("timeout") = 1.0, "The next captured message no request claimed, within ``timeout`` seconds.")
+      .def("counters", [](RingClient& self) { return self.get().counters(); }, "Snapshot of the counters.")
+      .def("close", [](RingClient& self) {
+        if (!self.client) return;
+        py::gil_scoped_release release;
+        self.client->close();
+      }, "Closes the node: pending operations raise ``ClosedError``. Idempotent.")
+      .def_property_readonly("is_open", [](const RingClient& self) { return self.client && self.client->is_open(); },
+                             "False after ``close()``.")
+      .def("__enter__", [](py::object self) { return self; })
+      .def("__exit__", [](RingClient& self, py::args) {
+        if (!self.client) return;
+        py::gil_scoped_release release;
+        self.client->close();
+      });
+}
+
+}  // namespace tether::python

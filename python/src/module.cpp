@@ -1,0 +1,16 @@
+// The native module tether._tether; the package (tether/__init__.py) re-exports it.
+#include "binding.hpp"
+
+PYBIND11_MODULE(_tether, module) {
+  namespace python = tether::python;
+  module.doc() = "Tether's C++ clients, transports, devices and virtual boards (use the package `tether`).";
+  module.attr("__version__") = TETHER_VERSION;
+  module.attr("_build_firmware_dir") = TETHER_FIRMWARE_DIR;
+  module.def("_interpreter_exiting", &python::set_interpreter_exiting,
+             "Called at exit: callbacks from the io thread stop reaching Python.");
+  python::register_transports(module);
+  python::register_romi(module);
+  python::register_proxy(module);
+  python::register_elcano(module);
+  python::register_devices(module);
+}

@@ -1,0 +1,104 @@
+// The io thread, GIL-safe callables, opening streams for clients, firmware lookup, asyncio futures.
+#include <atomic>
+#include <chrono>
+#include <mutex>
+
+#include "binding.hpp"
+#include "tether/transports/serial_port_stream.hpp"
+
+namespace tether::python {
+
+namespace {
+std::atomic<bool> exiting{false};
+std::mutex io_mutex;
+std::weak_ptr<transports::IoThread> shared_io;
+std::string firmware_folder;  // set by tether/__init__.py (_set_firmware_dir)
+std::mutex firmware_mutex;
+}  // namespace
+
+std::shared_ptr<transports::IoThread> io_thread() {
+  std::lock_guard lock(io_mutex);
+  auto io = shared_io.lock();
+  if (!io) {
+    io = std::make_shared<transports::IoThread>();
+    shared_io = io;
+  }
+  return io;
+}
+
+bool interpreter_exiting() { return exiting.load(std::memory_order_acquire); }
+void set_interpreter_exiting() { exiting.store(true, std::memory_order_release); }
+
+PyCallback::PyCallback(py::object callable) {
+  if (callable.is_none()) return;
+  if (!PyCallable_Check(callable.ptr())) throw py::type_error("expected a callable or None");
+  holder_ = std::shared_ptr<py::object>(new py::object(std::move(callable)), [](py::object* object) {
+    if (interpreter_exiting() || !Py_IsInitialized()) {
+      (void)object->release();  // the interpreter is going away: leaking is the only safe option
+      delete object;
+      return;
+    }
+    py::gil_scoped_acquire gil;
+    delete object;
+  });
+}
+
+void set_firmware_dir(const std::string& dir) {
+  std::lock_guard lock(firmware_mutex);
+  firmware_folder = dir;
+}
+
+std::string firmware_path(const std::string& name) {
+  if (name.find('/') != std::string::npos) return name;
+  std::lock_guard lock(firmware_mutex);
+  const bool has_suffix = name.size() > 4 && name.ends_with(".elf");
+  return firmware_folder + "/" + (has_suffix ? name : name + ".elf");
+}
+
+Transport open_serial(const std::string& path, const SerialArguments& serial) {
+  if (!(serial.boot_wait >= 0.0) || serial.boot_wait > 60.0) throw py::value_error("boot_wait must be 0..60 s");
+  transports::SerialOptions options;
+  options.baud = serial.baud;
+  options.boot_wait = std::chrono::milliseconds(static_cast<long>(serial.boot_wait * 1000.0));
+  options.ready_banner = serial.ready_banner;
+  Transport transport;
+  transport.io = io_thread();
+  transport.path = path;
+  boost::system::error_code error;
+  {
+    py::gil_scoped_release release;
+    transport.stream = transports::SerialPortStream::open(transport.io->executor(), path, options, error);
+  }
+  if (error) raise_error(error, {}, path);
+  return transport;
+}
+
+Transport take_stream(py::handle port_or_transport, const SerialArguments& serial) {
+  if (py::isinstance<py::str>(port_or_transport)) return open_serial(port_or_transport.cast<std::string>(), serial);
+  if (py::isinstance(port_or_transport, py::module_::import("os").attr("PathLike"))) {
+    return open_serial(py::str(py::module_::import("os").attr("fspath")(port_or_transport)).cast<std::string>(),
+                       serial);
+  }
+  if (py::isinstance<Transport>(port_or_transport)) {
+    auto& given = port_or_transport.cast<Transport&>();
+    if (!given.stream) throw py::value_error("this transport is already used by a client (one client per stream)");
+    Transport taken = given;
+    given.stream.reset();
+    return taken;
+  }
+  throw py::type_error("expected a port path (str) or a tether.transports.Transport, got " +
+                       py::str(py::type::of(port_or_transport).attr("__name__")).cast<std::string>());
+}
+
+py::object asyncio_future(const std::function<void(PyCallback settle)>& start) {
+  py::object loop = py::module_::import("asyncio").attr("get_running_loop")();  // RuntimeError outside a loop
+  py::object future = loop.attr("create_future")();
+  py::object settle = py::module_::import("tether._asyncio").attr("settle");
+  py::object deliver = py::cpp_function([loop, future, settle](py::object failure, py::object value) {
+    loop.attr("call_soon_threadsafe")(settle, future, failure, value);
+  });
+  start(PyCallback(deliver));
+  return future;
+}
+
+}  // namespace tether::python

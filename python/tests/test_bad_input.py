@@ -1,0 +1,166 @@
+"""Bad input gets a Python exception, never a crash or a hang: wrong types, out-of-range values, closed
+clients, ports that do not exist, a device that answers garbage."""
+
+import os
+import threading
+
+import pytest
+
+import tether
+
+
+def test_wrong_argument_types(romi_client):
+    with pytest.raises(TypeError):
+        romi_client.call("s", 1.5, 2)
+    with pytest.raises(TypeError):
+        romi_client.call("s", None, 2)
+    with pytest.raises(TypeError):
+        romi_client.call(42)
+    with pytest.raises(TypeError):
+        tether.romi.Client(42)
+    with pytest.raises(TypeError):
+        romi_client.on_log(5)
+
+
+def test_out_of_range_romi_values_are_rejected_before_sending(romi_client):
+    with pytest.raises(tether.RomiCommandError) as caught:
+        romi_client.call("s", 40000, 1)
+    assert caught.value.code == -10 and isinstance(caught.value, ValueError)
+    with pytest.raises(ValueError):
+        romi_client.call("s", 2**40, 1)
+    with pytest.raises(tether.RomiCommandError) as caught:
+        romi_client.call("")
+    assert caught.value.code == -24
+    with pytest.raises(tether.RomiCommandError):
+        romi_client.call("#a")
+    with pytest.raises(ValueError):
+        romi_client.call("ab", 1)
+    with pytest.raises(ValueError):
+        romi_client.call("t", "x", 1)  # the string comes last
+    assert romi_client.call("a") == [0]  # the client still works
+
+
+def test_bad_options_are_value_errors(romi_board):
+    with pytest.raises(ValueError):
+        tether.romi.Client(romi_board.port, boot_wait=0, attempt_timeout=0)
+    with pytest.raises(ValueError):
+        tether.romi.Client(romi_board.port, boot_wait=0, max_attempts=0)
+    with pytest.raises(ValueError):
+        tether.romi.Client(romi_board.port, boot_wait=-1)
+    with pytest.raises(tether.TransportError):
+        tether.transports.serial(romi_board.port, baud=12345, boot_wait=0)
+    with pytest.raises(ValueError):
+        tether.transports.tcp("localhost", 70000)
+
+
+def test_closed_client_raises_closed_error(romi_board):
+    client = tether.romi.Client(romi_board.port, boot_wait=0)
+    client.close()
+    client.close()  # idempotent
+    assert not client.is_open
+    with pytest.raises(tether.ClosedError):
+        client.call("a")
+    with pytest.raises(tether.ClosedError):
+        client.counters()
+
+
+def test_close_from_another_thread_ends_a_waiting_call(romi_board):
+    client = tether.romi.Client(romi_board.port, boot_wait=0)
+    timer = threading.Timer(0.2, client.close)
+    timer.start()
+    with pytest.raises(tether.ClosedError):
+        client.call("w", 1500)
+    timer.join()
+
+
+def test_missing_port_and_missing_image():
+    with pytest.raises(FileNotFoundError):
+        tether.romi.Client("/dev/tether-no-such-port", boot_wait=0)
+    with pytest.raises(FileNotFoundError):
+        tether.proxy.Client("/dev/tether-no-such-port", boot_wait=0)
+    with pytest.raises(FileNotFoundError):
+        tether.VirtualUno("no-such-image")
+    with pytest.raises(ConnectionRefusedError):
+        tether.transports.tcp("127.0.0.1", 1, timeout=2)
+
+
+def test_bad_config_names_the_json_path(tmp_path):
+    path = tmp_path / "rover.json"
+    path.write_text('{"name": "r", "devices": [{"name": "a", "codec": "mavlink", '
+                    '"transport": {"serial": {"path": "/dev/null"}}}]}')
+    with pytest.raises(tether.ConfigError) as caught:
+        tether.open_rover(path)
+    assert "devices[0].codec" in str(caught.value)
+    assert caught.value.path == "devices[0].codec"
+    with pytest.raises(tether.ConfigError):
+        tether.open_rover(tmp_path / "missing.json")
+
+
+def test_proxy_bad_values():
+    with tether.VirtualUno("proxy", seed=2) as board:
+        with tether.proxy.Client(board.port, boot_wait=0) as client:
+            with pytest.raises(ValueError):
+                client.servo(-1)
+            with pytest.raises(ValueError):
+                client.servo(2**32)
+            with pytest.raises(TypeError):
+                client.servo("9")
+            with pytest.raises(ValueError):
+                client.servo(9).set(2**31)
+            with pytest.raises(TypeError):
+                client.servo(9).set(1.5)
+            with pytest.raises(ValueError):
+                client.digital(13).set(2)
+            with pytest.raises(TypeError):
+                client.digital(13).set("on")
+            handle = client.servo(9)
+            client.close()
+            with pytest.raises(tether.ClosedError):
+                handle.set(90)
+
+
+def test_elcano_bad_messages():
+    with pytest.raises(ValueError):
+        tether.elcano.Message(type="fly")
+    with pytest.raises(TypeError):
+        tether.elcano.Message(type="drive", colour=3)
+    with pytest.raises(TypeError):
+        tether.elcano.Message(type="drive", speed="fast")
+    with pytest.raises(ValueError):
+        tether.elcano.Message(type="drive", speed=2**31 - 1)  # the protocol's "unset"
+    with pytest.raises(ValueError):
+        tether.elcano.Message(type="drive", speed=1).to_wire()  # angle missing
+    with pytest.raises(ValueError):
+        tether.elcano.Message(type="drive", speed=1, angle=1).to_wire("C")
+
+
+def test_garbage_answering_device_times_out_and_is_counted():
+    pty = tether.transports.pty()
+    stop = threading.Event()
+    fd = os.open(pty.path, os.O_RDWR | os.O_NOCTTY)
+
+    def babble():
+        while not stop.is_set():
+            os.write(fd, b"#e[0,1:zz\r\n\x00\xff garbage ]]]#!\r\n#e[0]:9999\r\n")
+            stop.wait(0.01)
+
+    thread = threading.Thread(target=babble)
+    thread.start()
+    try:
+        with tether.romi.Client(pty, attempt_timeout=0.2, call_budget=0.4) as client:
+            with pytest.raises(tether.RomiError) as caught:
+                client.call("e")
+            assert caught.value.code in (-25, -1, -2, -3, -4, -5, -6)
+            link = client.counters().link
+            assert link.crc_errors + link.framing_errors + link.stale > 0
+    finally:
+        stop.set()
+        thread.join()
+        os.close(fd)
+
+
+def test_a_transport_serves_one_client(romi_board):
+    transport = tether.transports.serial(romi_board.port, boot_wait=0)
+    with tether.romi.Client(transport):
+        with pytest.raises(ValueError):
+            tether.romi.Client(transport)

@@ -1,0 +1,78 @@
+"""The .pyi stubs name exactly what the module has: every public class, function and method."""
+
+import ast
+import inspect
+import os
+
+import pytest
+
+import tether
+import tether.compat
+
+PACKAGE = os.path.dirname(tether.__file__)
+
+
+def stub_names(path):
+    """{qualified name} of the classes, functions, methods and variables a stub declares."""
+    tree = ast.parse(open(path).read())
+    names = set()
+
+    def visit(body, prefix):
+        for node in body:
+            if isinstance(node, ast.ClassDef):
+                names.add(prefix + node.name)
+                visit(node.body, prefix + node.name + ".")
+            elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                if not node.name.startswith("_") or node.name in ("__init__", "__enter__", "__exit__"):
+                    names.add(prefix + node.name)
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                names.add(prefix + node.target.id)
+            elif isinstance(node, ast.ImportFrom) and not prefix:
+                for alias in node.names:
+                    if node.module and node.module.startswith("_"):
+                        names.add(alias.asname or alias.name)
+    visit(tree.body, "")
+    return names
+
+
+def has_constructor(cls):
+    """pybind11 gives classes without a constructor an __init__ that raises: not part of the API."""
+    init = vars(cls).get("__init__")
+    return init is not None and not repr(init).startswith("<slot wrapper")
+
+
+def runtime_names(module):
+    names = set()
+    for name, value in vars(module).items():
+        if name.startswith("_") or inspect.ismodule(value):
+            continue
+        names.add(name)
+        if inspect.isclass(value) and not issubclass(value, BaseException):
+            for member in dir(value):
+                if not member.startswith("_") or member in ("__init__", "__enter__", "__exit__"):
+                    if member == "__init__" and not has_constructor(value):
+                        continue
+                    names.add(f"{name}.{member}")
+    return names
+
+
+@pytest.mark.parametrize("module,stub", [
+    (tether.romi, "romi.pyi"), (tether.proxy, "proxy.pyi"), (tether.elcano, "elcano.pyi"),
+    (tether.transports, "transports.pyi"), (tether.compat, "compat.pyi"),
+])
+def test_submodule_stub_matches(module, stub):
+    assert stub_names(os.path.join(PACKAGE, stub)) == runtime_names(module)
+
+
+def test_package_stub_matches():
+    declared = stub_names(os.path.join(PACKAGE, "__init__.pyi"))
+    public = {name for name in tether.__all__ if name not in ("romi", "proxy", "elcano", "transports", "compat")}
+    top = {name for name in declared if "." not in name}
+    assert top == public
+    for cls in (tether.VirtualUno, tether.Rover, tether.LinkCounters):
+        runtime = {f"{cls.__name__}.{m}" for m in dir(cls)
+                   if not m.startswith("_") or m in ("__enter__", "__exit__")}
+        runtime.discard(f"{cls.__name__}.__init__")
+        if has_constructor(cls):
+            runtime.add(f"{cls.__name__}.__init__")
+        assert {n for n in declared if n.startswith(cls.__name__ + ".")} == runtime

@@ -1,0 +1,70 @@
+"""Tether for Python: the C++ library's clients, transports, rover configurations and virtual boards.
+
+    import tether
+    with tether.VirtualUno('romi-test') as board:
+        with tether.romi.Client(board.port, boot_wait=0) as client:
+            print(client.call('e'))          # [0, 1, 2]
+
+Submodules: ``tether.romi`` (Client), ``tether.proxy`` (Client), ``tether.elcano`` (RingClient, Message),
+``tether.transports`` (serial, tcp, pty), ``tether.compat`` (ControlSerial, RomiSerial's Python host).
+Errors: ``RomiError``, ``ProxyError``, ``ElcanoError``, ``TransportError``, ``ConfigError`` (``code``,
+``message``), their ``...TimeoutError`` (also ``TimeoutError``), ``ClosedError``.
+"""
+
+import atexit as _atexit
+import os as _os
+import sys as _sys
+
+from . import _tether
+from ._errors import (ClosedError, ConfigError, ElcanoError, ElcanoMessageError, ElcanoTimeoutError,
+                      ProxyError, ProxyMessageError, ProxyTimeoutError, RomiCommandError, RomiError,
+                      RomiTimeoutError, TetherError, TransportError, TransportTimeoutError)
+
+romi = _tether.romi
+proxy = _tether.proxy
+elcano = _tether.elcano
+transports = _tether.transports
+VirtualUno = _tether.VirtualUno
+Rover = _tether.Rover
+LinkCounters = _tether.LinkCounters
+__version__ = _tether.__version__
+
+# `import tether.romi` and `from tether.romi import Client` work like for modules on disk.
+for _name in ("romi", "proxy", "elcano", "transports"):
+    _sys.modules[f"{__name__}.{_name}"] = getattr(_tether, _name)
+
+# Installed packages find the images installed with them (share/tether/firmware beside lib/); the build
+# tree's module finds the build's.
+_INSTALLED_FIRMWARE = _os.path.normpath(
+    _os.path.join(_os.path.dirname(__file__), "..", "..", "..", "..", "share", "tether", "firmware"))
+
+
+def firmware_dir():
+    """Where bare image names (``VirtualUno('romi-test')``) are looked up: $TETHER_FIRMWARE_DIR, else the
+    images installed with the package, else the build's."""
+    if _os.environ.get("TETHER_FIRMWARE_DIR"):
+        return _os.environ["TETHER_FIRMWARE_DIR"]
+    if _os.path.isdir(_INSTALLED_FIRMWARE):
+        return _INSTALLED_FIRMWARE
+    return _tether._build_firmware_dir
+
+
+_tether._set_firmware_dir(firmware_dir())
+
+
+def open_rover(path, *, firmware_dir=None):
+    """Opens every device of the rover configuration ``path`` (docs/config.md) and returns the ``Rover``.
+
+    Raises ``ConfigError`` naming the JSON path of the culprit (parse errors, a port that does not exist,
+    a device that does not answer its handshake). Nothing is half-opened."""
+    folder = firmware_dir if firmware_dir is not None else globals()["firmware_dir"]()
+    return _tether._open_rover(_os.fspath(path), _os.fspath(folder))
+
+
+_atexit.register(_tether._interpreter_exiting)
+
+__all__ = ["romi", "proxy", "elcano", "transports", "compat", "VirtualUno", "Rover", "LinkCounters",
+           "open_rover", "firmware_dir", "TetherError", "RomiError", "ProxyError", "ElcanoError",
+           "TransportError", "ConfigError", "ClosedError", "RomiTimeoutError", "ProxyTimeoutError",
+           "ElcanoTimeoutError", "TransportTimeoutError", "RomiCommandError", "ProxyMessageError",
+           "ElcanoMessageError", "__version__"]
