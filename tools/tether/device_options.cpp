@@ -274,7 +274,7 @@ nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds, co
 }
 
 void OpenDevice::close() {
-  if (rover_) rover_->close();
+  if (rover_) std::call_once(*close_once_, [this] { rover_->close(); });
 }
 
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
@@ -301,6 +301,8 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
   progress.show("opening " + devices::describe(target.config.transport) + "...");
   try {
     opened.rover_ = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, open_options));
+    opened.codec_ = opened.rover_->devices().front().codec;
+    opened.client_ = opened.rover_->devices().front().client;
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
     return std::nullopt;

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <variant>
@@ -78,28 +79,32 @@ struct ClientHooks {
 class OpenDevice {
  public:
   /// The codec.
-  devices::Codec codec() const { return device().codec; }
+  devices::Codec codec() const { return codec_; }
   /// One line: `serial /dev/pts/3 115200 (romi)`.
   const std::string& description() const { return description_; }
   /// The client of the codec.
-  const devices::DeviceClient& client() const { return device().client; }
+  const devices::DeviceClient& client() const { return client_; }
   /// The client as `Client` (`romi::Client`), or null when the codec has another.
   template <typename Client>
   std::shared_ptr<Client> client_as() const {
-    const auto* client = std::get_if<std::shared_ptr<Client>>(&device().client);
+    const auto* client = std::get_if<std::shared_ptr<Client>>(&client_);
     return client != nullptr ? *client : nullptr;
   }
   /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`).
   nlohmann::ordered_json counters() const;
-  /// Closes the client (and the device); idempotent.
+  /// Closes the client (and the device); idempotent, and safe from a stop-signal action while another
+  /// thread still reads the client or its counters (they stay readable after the close).
   void close();
 
  private:
   friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                const ClientHooks& hooks, Progress& progress, std::string& error);
-  const devices::RoverDevice& device() const { return rover_->devices().front(); }
+  // Copies of the rover's one device: the rover forgets its devices when it closes.
+  devices::Codec codec_ = devices::Codec::romi;
+  devices::DeviceClient client_;
   std::string description_;
   std::shared_ptr<devices::Rover> rover_;
+  std::shared_ptr<std::once_flag> close_once_ = std::make_shared<std::once_flag>();
 };
 
 /// Opens the device and creates its client: romi (random first id unless the options set one), proxy (waits for
