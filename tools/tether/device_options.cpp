@@ -301,6 +301,8 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
   progress.show("opening " + devices::describe(target.config.transport) + "...");
   try {
     opened.rover_ = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, open_options));
+    opened.device_ = opened.rover_->devices().front();
+    opened.device_.boards.clear();  // the rover owns the boards' lifetime
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
     return std::nullopt;

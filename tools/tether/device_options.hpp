@@ -97,9 +97,12 @@ class OpenDevice {
  private:
   friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                const ClientHooks& hooks, Progress& progress, std::string& error);
-  const devices::RoverDevice& device() const { return rover_->devices().front(); }
+  const devices::RoverDevice& device() const { return device_; }
   std::string description_;
   std::shared_ptr<devices::Rover> rover_;
+  // A copy taken at open: the client stays readable (counters after Ctrl-C) when close() empties the rover,
+  // also from the stop watcher's thread while the command's thread still reads it.
+  devices::RoverDevice device_;
 };
 
 /// Opens the device and creates its client: romi (random first id unless the options set one), proxy (waits for
