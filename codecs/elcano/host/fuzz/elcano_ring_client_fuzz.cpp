@@ -92,18 +92,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   };
 
-  std::vector<uint8_t> chunk;
-  const auto flush = [&] {
-    if (!chunk.empty()) link.deliver(chunk.data(), chunk.size());
-    chunk.clear();
-  };
-  for (size_t i = 1; i < size; ++i) {
-    if (data[i] != 0xFF || i + 1 >= size) {
-      chunk.push_back(data[i]);
-      continue;
-    }
-    flush();
-    const uint8_t command = data[++i];
+  testing::replay_input(link, data, size, [&](uint8_t command, size_t) -> size_t {
     if (command < 0x40) {
       operate(command);
     } else if (command < 0x80) {
@@ -114,12 +103,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       if (!back.empty()) link.deliver(back.data(), back.size());
     } else {
-      std::atomic<bool> caught_up{false};
-      boost::asio::post(client.get_executor(), [&caught_up] { caught_up = true; });
-      TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] { return caught_up.load(); }));
+      testing::catch_up(client.get_executor());
     }
-  }
-  flush();
+    return 0;
+  });
   const Counters counters = client.counters();
   client.close();
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] {

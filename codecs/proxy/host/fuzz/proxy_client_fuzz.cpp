@@ -121,18 +121,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     link.deliver(frame.data(), encoded.value());
   };
 
-  std::vector<uint8_t> chunk;
-  const auto flush = [&] {
-    if (!chunk.empty()) link.deliver(chunk.data(), chunk.size());
-    chunk.clear();
-  };
-  for (size_t i = 1; i < size; ++i) {
-    if (data[i] != 0xFF || i + 1 >= size) {
-      chunk.push_back(data[i]);
-      continue;
-    }
-    flush();
-    const uint8_t command = data[++i];
+  testing::replay_input(link, data, size, [&](uint8_t command, size_t i) -> size_t {
     if (command < 0x20) {
       send(command);
     } else if (command == 0x20) {
@@ -159,14 +148,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } else if (command < 0x80) {
       const size_t length = std::min<size_t>(command - 0x40u, size - i - 1);
       deliver_payload(std::string(reinterpret_cast<const char*>(data + i + 1), length));
-      i += length;
+      return length;
     } else {
-      std::atomic<bool> caught_up{false};
-      boost::asio::post(client.get_executor(), [&caught_up] { caught_up = true; });
-      TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] { return caught_up.load(); }));
+      testing::catch_up(client.get_executor());
     }
-  }
-  flush();
+    return 0;
+  });
   TETHER_FUZZ_CHECK(client.pin_states().size() <= 256);
   client.close();
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] {

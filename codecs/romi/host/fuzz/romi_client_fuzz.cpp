@@ -95,21 +95,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   };
 
-  std::vector<uint8_t> chunk;
-  const auto flush = [&] {
-    if (!chunk.empty()) link.deliver(chunk.data(), chunk.size());
-    chunk.clear();
-  };
-  for (size_t i = 1; i < size; ++i) {
-    if (data[i] != 0xFF || i + 1 >= size) {
-      chunk.push_back(data[i]);
-      continue;
-    }
-    flush();
-    const uint8_t command = data[++i];
+  testing::replay_input(link, data, size, [&](uint8_t command, size_t i) -> size_t {
     if (command < 0x40) {
       start_call(command);
-    } else if (command < 0x80) {
+      return 0;
+    }
+    if (command < 0x80) {
       const size_t length = std::min<size_t>(command - 0x40u, size - i - 1);
       char opcode;
       uint8_t id;
@@ -121,15 +112,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       uint8_t frame[256];
       const auto encoded = encode_response(opcode, ByteView(data + i + 1, length), id, MutableByteView(frame, sizeof frame));
       if (encoded.ok()) link.deliver(frame, encoded.value());
-      i += length;
-    } else {
-      // A round trip through the client's strand: everything delivered before was handled.
-      std::atomic<bool> caught_up{false};
-      boost::asio::post(client.get_executor(), [&caught_up] { caught_up = true; });
-      TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] { return caught_up.load(); }));
+      return length;
     }
-  }
-  flush();
+    testing::catch_up(client.get_executor());
+    return 0;
+  });
   client.close();
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] { return completed.load() == static_cast<int>(calls); }));
   {

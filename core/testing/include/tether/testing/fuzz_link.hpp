@@ -9,8 +9,10 @@
 
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
+#include <boost/asio/post.hpp>
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -73,6 +75,25 @@ class FuzzLink {
   std::thread thread_;
 };
 
+/// Replays a stateful target's input after its first byte (the target's options): bytes go to the client in
+/// runs as the device's output; `0xFF CMD` (not as the last byte) delivers the run so far, then calls
+/// `on_command(CMD, i)` where `i` indexes CMD in `data`; it returns how many bytes after CMD it consumed.
+template <typename OnCommand>
+void replay_input(FuzzLink& link, const std::uint8_t* data, std::size_t size, OnCommand on_command) {
+  std::size_t run_start = 1;
+  const auto flush = [&](std::size_t end) {
+    if (end > run_start) link.deliver(data + run_start, end - run_start);
+  };
+  for (std::size_t i = 1; i < size; ++i) {
+    if (data[i] != 0xFF || i + 1 >= size) continue;
+    flush(i);
+    ++i;
+    i += on_command(data[i], i);
+    run_start = i + 1;
+  }
+  flush(size);
+}
+
 /// Waits until `done()` (polled every 50 us: the I/O thread usually needs microseconds) for at most
 /// `limit`; false when it never held.
 template <typename Predicate>
@@ -83,6 +104,15 @@ bool wait_for_fuzz(Predicate done, std::chrono::milliseconds limit = std::chrono
     std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
   return true;
+}
+
+/// Waits until everything posted to `executor` before this call ran: a round trip through the client's strand,
+/// so all the bytes delivered before were handled.
+template <typename Executor>
+void catch_up(const Executor& executor) {
+  std::atomic<bool> caught_up{false};
+  boost::asio::post(executor, [&caught_up] { caught_up = true; });
+  TETHER_FUZZ_CHECK(wait_for_fuzz([&] { return caught_up.load(); }));
 }
 
 }  // namespace tether::testing
