@@ -9,14 +9,17 @@ namespace tether {
 void Crc8Smbus::reset() { state_ = 0x00; }
 void Crc8Smbus::update(uint8_t byte) { state_ = _crc8_ccitt_update(state_, byte); }
 void Crc8Smbus::update(ByteView bytes) {
-  for (uint8_t byte : bytes) state_ = _crc8_ccitt_update(state_, byte);
+  uint8_t state = state_;  // in a register: the member would be loaded and stored for every byte
+  for (uint8_t byte : bytes) state = _crc8_ccitt_update(state, byte);
+  state_ = state;
 }
 Crc8Smbus::Value Crc8Smbus::value() const { return state_; }
 
 void Crc16Mcrf4xx::reset() { state_ = 0xFFFF; }
-void Crc16Mcrf4xx::update(uint8_t byte) { state_ = _crc_ccitt_update(state_, byte); }
 void Crc16Mcrf4xx::update(ByteView bytes) {
-  for (uint8_t byte : bytes) state_ = _crc_ccitt_update(state_, byte);
+  uint16_t state = state_;  // in registers: the member would be loaded and stored for every byte
+  for (uint8_t byte : bytes) state = _crc_ccitt_update(state, byte);
+  state_ = state;
 }
 Crc16Mcrf4xx::Value Crc16Mcrf4xx::value() const { return state_; }
 

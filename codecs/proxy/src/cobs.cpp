@@ -19,25 +19,9 @@ Result<size_t> cobs_encode(ByteView input, MutableByteView out) {
     }
     if (needed > out.size()) return Status::buffer_too_small;
   }
-  size_t code_at = 0;  // where the current block's code byte goes
-  size_t write = 1;
-  uint8_t code = 1;
-  for (uint8_t byte : input) {
-    if (byte == 0x00) {
-      out[code_at] = code;
-      code_at = write++;
-      code = 1;
-      continue;
-    }
-    out[write++] = byte;
-    if (++code == 0xFF) {  // a full block of 254 data bytes: no zero follows it
-      out[code_at] = code;
-      code_at = write++;
-      code = 1;
-    }
-  }
-  out[code_at] = code;
-  return write;
+  detail::CobsWriter writer(out.data());
+  for (uint8_t byte : input) writer.put(byte);
+  return writer.finish();
 }
 
 Result<size_t> cobs_decode(ByteView input, MutableByteView out) {

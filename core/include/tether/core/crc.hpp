@@ -7,12 +7,23 @@
 ///   proxy protocol's frame check; the same as MAVLink's X.25 checksum.
 ///
 /// Both have the same shape: construct (or `reset`), `update` with bytes in any chunking, read `value`;
-/// or call the static `compute`. Back ends differ per platform and are chosen at link time: the host uses
-/// Boost.CRC (`boost::crc_optimal`, table driven), the AVR uses avr-libc's hand-tuned `util/crc16.h`
+/// or call the static `compute`. Back ends differ per platform: the host uses Boost.CRC
+/// (`boost::crc_optimal`, table driven), the AVR uses avr-libc's hand-tuned `util/crc16.h`
 /// (`_crc8_ccitt_update`, `_crc_ccitt_update`). The register kept between updates is back-end private.
+/// `Crc16Mcrf4xx::update(uint8_t)` is inline (both back ends are headers) so that a codec can fold the
+/// CRC into its own byte loop, with the register in a CPU register, instead of a second pass (issue 17).
 #pragma once
 
 #include <stdint.h>
+
+#if defined(__AVR__)
+#include <util/crc16.h>
+// avr-libc's step is 17 instructions of inline asm; under -Os the compiler otherwise makes it a function
+// called per byte (call, ret and register moves: +~12 cycles a byte). This redeclaration only adds the attribute.
+static __inline__ uint16_t _crc_ccitt_update(uint16_t crc, uint8_t data) __attribute__((always_inline));
+#else
+#include <boost/crc.hpp>
+#endif
 
 #include "tether/core/bytes.hpp"
 
@@ -53,8 +64,14 @@ class Crc16Mcrf4xx {
   Crc16Mcrf4xx() { reset(); }
   /// Forgets all bytes fed so far.
   void reset();
-  /// Feeds one byte.
-  void update(uint8_t byte);
+  /// Feeds one byte (always inline: the per-byte step of codecs' byte loops; -Os would outline it).
+  __attribute__((always_inline)) void update(uint8_t byte) {
+#if defined(__AVR__)
+    state_ = _crc_ccitt_update(state_, byte);
+#else
+    engine_.process_byte(byte);
+#endif
+  }
   /// Feeds bytes; any chunking gives the same result.
   void update(ByteView bytes);
   /// Checksum of all bytes fed since the last reset.
@@ -67,7 +84,12 @@ class Crc16Mcrf4xx {
   }
 
  private:
+#if defined(__AVR__)
   uint16_t state_;
+#else
+  // Boost's engine itself: it keeps its register reflected, so a per-byte step is one table lookup.
+  boost::crc_optimal<16, 0x1021, 0xFFFF, 0x0000, true, true> engine_;
+#endif
 };
 
 /// Name of the back end compiled in ("boost" or "avr-libc"), for diagnostics and benchmarks.

@@ -1,6 +1,6 @@
 /// @file decoder.hpp
-/// Incremental reader of proxy frames (the format: encoder.hpp): COBS, then the CRC-16 check in primary
-/// mode. `feed` returns a `DecodeStatus` (core/decode_status.hpp); on `frame` read `frame()` (the checked
+/// Incremental reader of proxy frames (the format: encoder.hpp): COBS, with the CRC-16 of the payload
+/// computed in the same byte loop in primary mode (checked at the delimiter). `feed` returns a `DecodeStatus` (core/decode_status.hpp); on `frame` read `frame()` (the checked
 /// payload), on `error` read `error()`. Empty frames are ignored. Every drop is counted by cause in
 /// LinkCounters: oversize_frames, framing_errors (bad COBS, a frame too short for its CRC), crc_errors;
 /// frames_ok counts delivered payloads. Undecodable protobuf is the layer above's to count.
@@ -25,17 +25,31 @@ template <size_t MaxPayload>
 class Decoder {
  public:
   /// Decoder in `integrity` mode, counting into `counters` (frames_ok too); `counters` outlives it.
-  Decoder(Integrity integrity, LinkCounters& counters) : integrity_(integrity), counters_(&counters), cobs_(counters) {}
+  Decoder(Integrity integrity, LinkCounters& counters)
+      : integrity_(integrity),
+        counters_(&counters),
+        cobs_(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked) {}
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte) {
     const DecodeStatus cobs = cobs_.feed(byte);
     if (cobs == DecodeStatus::more) return DecodeStatus::more;  // the per-byte path: nothing else to do
-    if (cobs == DecodeStatus::error) return fail(cobs_.error());
-    return check(cobs_.frame());
+    return cobs == DecodeStatus::error ? fail(cobs_.error()) : check(cobs_.frame());
   }
-  /// Consumes `bytes` up to and including the first one that completes a frame or an error.
-  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
+  /// Consumes `bytes` up to and including the first one that completes a frame or an error (exactly as
+  /// feeding them one by one; the COBS stage runs a block's bytes in one loop, the cheap way on the AVR).
+  FeedResult feed(ByteView bytes) {
+    size_t used = 0;
+    while (used < bytes.size()) {
+      const FeedResult fed = cobs_.feed(ByteView(bytes.data() + used, bytes.size() - used));
+      used += fed.consumed;
+      const DecodeStatus status = fed.status == DecodeStatus::more    ? DecodeStatus::more
+                                  : fed.status == DecodeStatus::error ? fail(cobs_.error())
+                                                                      : check(cobs_.frame());
+      if (status != DecodeStatus::more) return FeedResult{status, used};
+    }
+    return FeedResult{DecodeStatus::more, bytes.size()};
+  }
   /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
   ByteView frame() const {
     const ByteView frame = cobs_.frame();
@@ -64,9 +78,8 @@ class Decoder {
       ++counters_->framing_errors;
       return fail(FrameError::framing_error);
     }
-    const ByteView payload = frame.subview(2);
     const uint16_t sent = static_cast<uint16_t>(frame[0] | (frame[1] << 8));
-    if (Crc16Mcrf4xx::compute(payload) != sent) {
+    if (cobs_.checksum() != sent) {  // computed while the bytes arrived: no second pass
       ++counters_->crc_errors;
       return fail(FrameError::crc_mismatch);
     }

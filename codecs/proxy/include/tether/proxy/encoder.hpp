@@ -30,7 +30,9 @@ enum class Integrity : uint8_t {
 /// Bytes a frame of `payload_size` takes on the wire at most (leading and trailing delimiters included).
 constexpr size_t max_frame_size(size_t payload_size) { return cobs_max_encoded_size(payload_size + 2) + 2; }
 
-/// Writes the frame of `payload` into `out`: an optional leading 0x00, COBS(crc ‖ payload), 0x00.
+/// Writes the frame of `payload` into `out`: an optional leading 0x00, COBS(crc ‖ payload), 0x00. One
+/// pass over the payload (COBS and CRC in the same loop); `payload` and `out` must not overlap.
+/// `Status::buffer_too_small` when `out` is shorter than the worst case (`max_frame_size` covers it).
 Result<size_t> encode_frame(ByteView payload, Integrity integrity, bool leading_delimiter, MutableByteView out);
 
 }  // namespace proxy
