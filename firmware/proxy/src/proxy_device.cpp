@@ -16,6 +16,26 @@ static_assert(tether_proxy_ArduinoIn_size <= ProxyDevice::kMaxPayload, "an Ardui
 
 namespace {
 
+// The texts of Error messages, in flash on the AVR.
+const char kDecodeError[] TETHER_IN_FLASH = "decode error";
+const char kUnknownMessage[] TETHER_IN_FLASH = "unknown message";
+const char kPingFailsafe[] TETHER_IN_FLASH = "ping failsafe";
+const char kServoOnPin[] TETHER_IN_FLASH = "servo on pin ";
+const char kD9D10Only[] TETHER_IN_FLASH = ": D9/D10 only";
+const char kPin[] TETHER_IN_FLASH = "pin ";
+const char kPosition[] TETHER_IN_FLASH = ": position ";
+const char kMinus[] TETHER_IN_FLASH = "-";
+const char kNotIn0180[] TETHER_IN_FLASH = " not in 0..180";
+const char kDoesNotExist[] TETHER_IN_FLASH = " does not exist";
+const char kIsTheUart[] TETHER_IN_FLASH = " is the UART";
+const char kNotInitialised[] TETHER_IN_FLASH = " not initialised";
+const char kIsNotAServo[] TETHER_IN_FLASH = " is not a servo";
+const char kIsNotDigital[] TETHER_IN_FLASH = " is not digital";
+const char kDroppedCrc[] TETHER_IN_FLASH = "dropped: crc ";
+const char kCobs[] TETHER_IN_FLASH = " cobs ";
+const char kLong[] TETHER_IN_FLASH = " long ";
+const char kStall[] TETHER_IN_FLASH = " stall ";
+
 tether_proxy_ArduinoOut out_message(pb_size_t which) {
   tether_proxy_ArduinoOut out = tether_proxy_ArduinoOut_init_zero;
   out.which_data = which;
@@ -85,7 +105,7 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
   if (!pb_decode(&stream, tether_proxy_ArduinoIn_fields, &in)) {
     ++counters_.decode_errors;
-    send_error("decode error");
+    send_error(FlashText{kDecodeError});
     return;
   }
   const uint32_t id = in.messageId;
@@ -129,7 +149,7 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
       break;
     default:
       ++counters_.refused;
-      send_error("unknown message");
+      send_error(FlashText{kUnknownMessage});
       break;
   }
   send_ack(id);
@@ -139,7 +159,7 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
 void ProxyDevice::on_failsafe(void* self, Millis) {
   ProxyDevice& device = *static_cast<ProxyDevice*>(self);
   device.outputs_->drive_safe();
-  device.send_error("ping failsafe");
+  device.send_error(FlashText{kPingFailsafe});
   for (uint8_t pin = 0; pin < kPinCount; ++pin) {
     if (device.outputs_->initialised(pin)) device.send_pin_state(pin, true);
   }
@@ -159,7 +179,7 @@ void ProxyDevice::send_ack(uint32_t message_id) {
   send(&out);
 }
 
-void ProxyDevice::send_error(const char* text) {
+void ProxyDevice::send_error(FlashText text) {
   ErrorOut error;
   error.text.text(text);
   send(&error.message);
@@ -188,26 +208,30 @@ void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo, 
   ++counters_.refused;
   ErrorOut error;
   if (result == PinResult::not_servo_pin) {
-    error.text.text("servo on pin ").number(pin).text(": D9/D10 only");
+    error.text.text(FlashText{kServoOnPin}).number(pin).text(FlashText{kD9D10Only});
   } else if (result == PinResult::out_of_range) {
-    error.text.text("pin ").number(pin).text(": position ");
-    if (value < 0) error.text.text("-");
+    error.text.text(FlashText{kPin}).number(pin).text(FlashText{kPosition});
+    if (value < 0) error.text.text(FlashText{kMinus});
     error.text.number(value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value))
-        .text(" not in 0..180");
+        .text(FlashText{kNotIn0180});
   } else {
-    error.text.text("pin ").number(pin);
+    error.text.text(FlashText{kPin}).number(pin);
     switch (result) {
       case PinResult::no_such_pin:
-        error.text.text(" does not exist");
+        error.text.text(FlashText{kDoesNotExist});
         break;
       case PinResult::uart_pin:
-        error.text.text(" is the UART");
+        error.text.text(FlashText{kIsTheUart});
         break;
       case PinResult::not_initialised:
-        error.text.text(" not initialised");
+        error.text.text(FlashText{kNotInitialised});
         break;
       default:  // wrong_kind
-        error.text.text(servo ? " is not a servo" : " is not digital");
+        if (servo) {
+          error.text.text(FlashText{kIsNotAServo});
+        } else {
+          error.text.text(FlashText{kIsNotDigital});
+        }
         break;
     }
   }
@@ -220,8 +244,10 @@ void ProxyDevice::report_drops() {
   if (drops == reported_drops_) return;
   reported_drops_ = drops;
   ErrorOut error;
-  error.text.text("dropped: crc ").number(link.crc_errors).text(" cobs ").number(link.framing_errors);
-  error.text.text(" long ").number(link.oversize_frames).text(" stall ").number(link.partial_timeouts);
+  error.text.text(FlashText{kDroppedCrc}).number(link.crc_errors);
+  error.text.text(FlashText{kCobs}).number(link.framing_errors);
+  error.text.text(FlashText{kLong}).number(link.oversize_frames);
+  error.text.text(FlashText{kStall}).number(link.partial_timeouts);
   send(&error.message);
 }
 

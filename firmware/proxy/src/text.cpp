@@ -23,6 +23,19 @@ TextBuilder& TextBuilder::text(const char* string) {
   return *this;
 }
 
+TextBuilder& TextBuilder::text(FlashText string) {
+  const char* next = string.chars;
+#if defined(__AVR__)
+  for (char c = static_cast<char>(pgm_read_byte(next)); c != '\0' && !truncated_;
+       c = static_cast<char>(pgm_read_byte(++next))) {
+    put(c);
+  }
+#else
+  text(next);
+#endif
+  return *this;
+}
+
 TextBuilder& TextBuilder::number(uint32_t value) {
   char digits[10];
   uint8_t count = 0;

@@ -64,6 +64,7 @@
 #include "tether/core/time.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/proxy/device/outputs.hpp"
+#include "tether/proxy/device/text.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 
@@ -123,7 +124,7 @@ class ProxyDevice {
   void handle_payload(ByteView payload, Millis now);
   bool send(const void* out_message, bool leading_delimiter = false);
   void send_ack(uint32_t message_id);
-  void send_error(const char* text);
+  void send_error(FlashText text);
   void send_pin_state(uint8_t pin, bool failsafe);
   void send_info();
   void report_pin_result(PinResult result, uint32_t pin, bool servo, int32_t value);

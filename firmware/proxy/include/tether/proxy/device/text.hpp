@@ -8,9 +8,27 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#endif
+
 namespace tether {
 namespace proxy {
 namespace device {
+
+/// Puts a `const char[]` in flash on the AVR (`PROGMEM`; nothing on the host): avr-gcc otherwise copies
+/// every string into RAM at boot (the proxy image's messages took ~220 B of the Uno's 2 KB). Named
+/// arrays, not `PSTR`: avr-gcc 5.4's LTO crashes on `PSTR` here.
+#if defined(__AVR__)
+#define TETHER_IN_FLASH PROGMEM
+#else
+#define TETHER_IN_FLASH
+#endif
+
+/// A NUL-terminated string declared `TETHER_IN_FLASH` (read with pgm_read_byte on the AVR).
+struct FlashText {
+  const char* chars;  ///< The string, in program memory on the AVR.
+};
 
 /// Appends text and numbers to `buffer[0..capacity)` (capacity includes the NUL).
 class TextBuilder {
@@ -19,6 +37,8 @@ class TextBuilder {
   TextBuilder(char* buffer, size_t capacity);
   /// Appends a NUL-terminated string (what fits).
   TextBuilder& text(const char* string);
+  /// Appends a string kept in flash (what fits).
+  TextBuilder& text(FlashText string);
   /// Appends `value` in decimal (all digits, or nothing if they do not all fit).
   TextBuilder& number(uint32_t value);
   /// Characters written (the NUL excluded).
