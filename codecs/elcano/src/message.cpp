@@ -18,15 +18,41 @@ class TextWriter {
     ++size_;
   }
   void put_number(int32_t value) {
-    char digits[11];
-    uint8_t count = 0;
-    uint32_t magnitude = value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value);
-    do {
-      digits[count++] = static_cast<char>('0' + magnitude % 10u);
-      magnitude /= 10u;
-    } while (magnitude != 0);
     if (value < 0) put('-');
-    while (count > 0) put(static_cast<uint8_t>(digits[--count]));
+    put_magnitude(value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value));
+  }
+  // Decimal digits without division (on the AVR a 32-bit division is a ~600-cycle library call per
+  // digit) and without a table of powers of ten (a const table would sit in the AVR's RAM): the powers
+  // up to `value` are built by multiplying (shifts and adds), then each digit counts the subtractions
+  // of its power. Below 65536, where the protocol's values usually are, in 16-bit arithmetic.
+  void put_magnitude(uint32_t value) {
+    if (value <= 0xFFFFu) {
+      put_decimal<uint16_t>(static_cast<uint16_t>(value), 10000u);
+    } else {
+      put_decimal<uint32_t>(value, 1000000000u);
+    }
+  }
+  template <typename Unsigned>
+  void put_decimal(Unsigned value, Unsigned largest_power) {
+    Unsigned powers[10];
+    uint8_t count = 0;
+    Unsigned power = 1;
+    for (;;) {
+      powers[count++] = power;
+      if (power == largest_power) break;
+      const Unsigned next = static_cast<Unsigned>((power << 3) + (power << 1));
+      if (next > value) break;
+      power = next;
+    }
+    while (count != 0) {
+      const Unsigned step = powers[--count];
+      uint8_t digit = 0;
+      while (value >= step) {
+        value = static_cast<Unsigned>(value - step);
+        ++digit;
+      }
+      put(static_cast<uint8_t>('0' + digit));
+    }
   }
   void attribute(char letter, int32_t value, bool spaced) {
     if (!set(value)) return;

@@ -44,8 +44,50 @@ class Decoder {
   /// oversize_frames, resyncs); `counters` outlives it.
   Decoder(Generation generation, LinkCounters& counters) : generation_(generation), counters_(&counters) {}
 
-  /// Consumes one byte.
-  DecodeStatus feed(uint8_t byte);
+  /// Consumes one byte. The bytes inside attributes (`{`, a letter, digits, `}`, spaces) take a short
+  /// inline path; headers, line ends and everything unusual go through the state machine (issue 17:
+  /// the per-byte cost on the AVR). Both give the same results.
+  DecodeStatus feed(uint8_t byte) {
+    if (size_ != Capacity) {
+      if (state_ == State::number) {
+        const uint8_t digit = static_cast<uint8_t>(byte - '0');
+        if (digit < 10 && digits_ < kSafeDigits) {
+          // Fewer than 9 digits so far: one more cannot leave int32, no range check needed.
+          value_ = (value_ << 3) + (value_ << 1) + digit;  // * 10 without a 32-bit multiply call
+          ++digits_;
+          buffer_[size_++] = byte;
+          return DecodeStatus::more;
+        }
+        if (byte == '}' && digits_ != 0 && field_ != 0) {
+          *field(field_) = signed_value();
+          buffer_[size_++] = byte;
+          state_ = State::lcurly;
+          return DecodeStatus::more;
+        }
+      } else if (state_ == State::lcurly) {
+        if (byte == '{') {
+          buffer_[size_++] = byte;
+          state_ = State::letter;
+          return DecodeStatus::more;
+        }
+        if (byte == '\n') return finish();
+      } else if (state_ == State::header) {
+        if (byte == 'D' || byte == 'S' || byte == 'G' || byte == 'X') {
+          start(byte);
+          return DecodeStatus::more;
+        }
+      } else if (state_ == State::letter) {
+        const uint8_t field = field_of(byte);
+        if (field != 0) {
+          buffer_[size_++] = byte;
+          begin_number(byte, field);
+          return DecodeStatus::more;
+        }
+      }
+    }
+    if (byte == ' ') return DecodeStatus::more;  // ignored anywhere (rule 1)
+    return feed_slow(byte);
+  }
   /// Consumes `bytes` up to and including the first one that completes a message or an error.
   FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
   /// After `frame`: the message.
@@ -64,30 +106,69 @@ class Decoder {
 
  private:
   enum class State : uint8_t { header, lcurly, letter, number, trailer, skip };
+  // Digits any int32 magnitude can take without a range check (999999999 < 2^31).
+  static constexpr uint8_t kSafeDigits = 9;
 
+  DecodeStatus feed_slow(uint8_t byte);
+  // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
+  // `type` is there); 0 for unknown letters and for generation B `p`, which sets two fields
+  // (store_value). An offset, not a member pointer: a null one is all ones, which would move every
+  // decoder from .bss to .data (flash and a boot copy on the AVR).
+  uint8_t field_of(uint8_t letter) const {
+    const bool d = generation_ == Generation::d;
+    switch (letter) {
+      case 'n': return offsetof(Message, number);
+      case 's': return offsetof(Message, speed);
+      case 'a': return offsetof(Message, angle);
+      case 'b': return offsetof(Message, bearing);
+      case 'r': return offsetof(Message, probability);
+      case 'p': return d ? offsetof(Message, east) : 0;
+      case 'o': return d ? offsetof(Message, obstacle) : 0;
+      case 'q': return d ? offsetof(Message, north) : 0;
+      default: return 0;
+    }
+  }
+  // The int32 field of `message_` at `offset` (from field_of).
+  int32_t* field(uint8_t offset) {
+    return reinterpret_cast<int32_t*>(reinterpret_cast<uint8_t*>(&message_) + offset);
+  }
+  // After an attribute's letter (already kept): its number starts.
+  void begin_number(uint8_t letter, uint8_t field) {
+    letter_ = static_cast<char>(letter);
+    field_ = field;
+    second_ = false;
+    negative_ = false;
+    digits_ = 0;
+    value_ = 0;
+    state_ = State::number;
+  }
   DecodeStatus step(uint8_t byte);
+  void start(uint8_t header);
   DecodeStatus fail(Error error);
   DecodeStatus finish();
   bool keep(uint8_t byte);
   bool store_value();
   int32_t signed_value() const;
 
-  Generation generation_;
-  LinkCounters* counters_;
+  // The per-byte state first and the buffer last: on the AVR a member more than 63 bytes into the
+  // object costs an address computation on every access.
   State state_ = State::header;
-  Error error_ = Error::success;
-  Message message_;
-  uint8_t buffer_[Capacity];
+  Generation generation_;
+  uint8_t digits_ = 0;     // digits of the number so far (saturates at 255)
+  uint8_t field_ = 0;      // what `}` sets: field_of(letter_)
   size_t size_ = 0;
-  size_t crc_end_ = 0;     // bytes covered by the generation D CRC
+  uint32_t value_ = 0;     // magnitude, at most 2^31 (32-bit: the AVR has no cheap 64-bit multiply)
   char letter_ = 0;
   bool second_ = false;    // generation B `p`: reading N after the comma
   bool negative_ = false;
-  bool digits_ = false;
-  uint32_t value_ = 0;     // magnitude, at most 2^31 (32-bit: the AVR has no cheap 64-bit multiply)
-  int32_t first_ = 0;      // generation B `p`: E while N is read
-  uint16_t trailer_ = 0;
   bool trailer_digits_ = false;
+  Error error_ = Error::success;
+  uint16_t trailer_ = 0;
+  int32_t first_ = 0;      // generation B `p`: E while N is read
+  size_t crc_end_ = 0;     // bytes covered by the generation D CRC
+  LinkCounters* counters_;
+  Message message_;
+  uint8_t buffer_[Capacity];
 };
 
 }  // namespace elcano
