@@ -1,9 +1,12 @@
 // COBS and the proxy frame: the spec's vectors, COBS edge cases, resynchronisation, bounds.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+#include <string>
 #include <vector>
 
+#include "tether/core/crc.hpp"
 #include "tether/proxy/cobs.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
@@ -206,7 +209,7 @@ TEST(ProxyFrame, ResynchronisesAfterRandomGarbage) {
 }
 
 TEST(ProxyFrame, RandomPayloadsRoundTripThroughTheFrameLayerInPlace) {
-  // encode_frame stages the payload at the buffer's end and encodes forward over it: check it against
+  // encode_frame folds the CRC into its COBS pass and patches the CRC bytes afterwards: check it against
   // the plain decoder for payloads with all zero densities and block-boundary sizes.
   auto random = tether::testing::seeded_generator(29);
   for (int round = 0; round < 3000; ++round) {
@@ -219,6 +222,97 @@ TEST(ProxyFrame, RandomPayloadsRoundTripThroughTheFrameLayerInPlace) {
     ASSERT_EQ(payloads.size(), payload.empty() && round % 2 == 0 ? 0u : 1u) << "round " << round;
     if (!payloads.empty()) {
       ASSERT_EQ(payloads[0], payload) << "round " << round;
+    }
+  }
+}
+
+// The first payload found by counting through `varying` trailing bytes after `prefix` whose CRC-16 has
+// a zero low byte, high byte, or both (`zero_low`, `zero_high`).
+Bytes payload_with_crc(const Bytes& prefix, bool zero_low, bool zero_high) {
+  Bytes payload = prefix;
+  payload.resize(prefix.size() + 3);
+  for (uint32_t n = 0; n < (1u << 24); ++n) {
+    payload[prefix.size()] = static_cast<uint8_t>(n);
+    payload[prefix.size() + 1] = static_cast<uint8_t>(n >> 8);
+    payload[prefix.size() + 2] = static_cast<uint8_t>(n >> 16);
+    const uint16_t crc = Crc16Mcrf4xx::compute(ByteView(payload.data(), payload.size()));
+    if (((crc & 0xFF) == 0) == zero_low && ((crc >> 8) == 0) == zero_high) return payload;
+  }
+  ADD_FAILURE() << "no payload found";
+  return payload;
+}
+
+TEST(ProxyFrame, ZeroCrcBytesGiveTheCanonicalCobsEncoding) {
+  // encode_frame reserves the CRC's two bytes and patches them after the payload: a zero among them
+  // splits the first block, and a full first block (254 bytes, no zero after it) is encoded again.
+  // Every case must give exactly COBS(crc ‖ payload), and decode back.
+  const Bytes short_prefix = {0x0a, 0x06, 0x08};
+  const Bytes full_block_prefix(252, 0x5a);  // with the CRC: a first block of 254 non-zero bytes
+  for (const Bytes& prefix : {short_prefix, full_block_prefix}) {
+    for (const auto& [zero_low, zero_high] : {std::pair{true, false}, {false, true}, {true, true}, {false, false}}) {
+      const Bytes payload = payload_with_crc(prefix, zero_low, zero_high);
+      const uint16_t crc = Crc16Mcrf4xx::compute(ByteView(payload.data(), payload.size()));
+      Bytes raw = {static_cast<uint8_t>(crc & 0xFF), static_cast<uint8_t>(crc >> 8)};
+      raw.insert(raw.end(), payload.begin(), payload.end());
+      Bytes expected = encode(raw);
+      expected.push_back(0x00);
+      const std::string which = "prefix " + std::to_string(prefix.size()) + ", crc " + std::to_string(crc);
+      EXPECT_EQ(frame(payload, Integrity::crc16, false), expected) << which;
+      const auto [payloads, errors] = receive<300>(frame(payload, Integrity::crc16, true), Integrity::crc16);
+      EXPECT_TRUE(errors.empty()) << which;
+      EXPECT_EQ(payloads, std::vector<Bytes>{payload}) << which;
+    }
+  }
+}
+
+TEST(ProxyFrame, FeedingSpansGivesTheSameEventsAsFeedingBytes) {
+  // Decoder::feed(ByteView) copies a block's data bytes in one loop; it must stop at the same events,
+  // with the same frames, errors and counters, as byte-at-a-time feeding, whatever the chunking.
+  auto random = tether::testing::seeded_generator(31);
+  for (const Integrity integrity : {Integrity::crc16, Integrity::none}) {
+    for (int round = 0; round < 300; ++round) {
+      Bytes wire;
+      for (int part = 0; part < 12; ++part) {
+        Bytes payload(random() % 80);  // some longer than the decoder's 48
+        for (auto& b : payload) b = random() % 4 == 0 ? 0 : static_cast<uint8_t>(random());
+        Bytes f = frame(payload, integrity, random() % 2 == 0);
+        const unsigned damage = static_cast<unsigned>(random() % 4);
+        if (damage == 0 && f.size() > 2) f[random() % (f.size() - 1)] ^= static_cast<uint8_t>(1 + random() % 255);
+        if (damage == 1) f.resize(random() % (f.size() + 1));  // cut short
+        wire.insert(wire.end(), f.begin(), f.end());
+      }
+      LinkCounters byte_counters;
+      Decoder<48> by_byte(integrity, byte_counters);
+      std::vector<std::pair<DecodeStatus, Bytes>> expected;
+      for (size_t i = 0; i < wire.size(); ++i) {
+        const DecodeStatus status = by_byte.feed(wire[i]);
+        if (status == DecodeStatus::frame) expected.emplace_back(status, Bytes(by_byte.frame().begin(), by_byte.frame().end()));
+        if (status == DecodeStatus::error) expected.emplace_back(status, Bytes{static_cast<uint8_t>(by_byte.error()), static_cast<uint8_t>(i)});
+      }
+      LinkCounters span_counters;
+      Decoder<48> by_span(integrity, span_counters);
+      std::vector<std::pair<DecodeStatus, Bytes>> got;
+      size_t at = 0;
+      while (at < wire.size()) {
+        const size_t chunk = std::min<size_t>(wire.size() - at, 1 + random() % 40);
+        ByteView rest(wire.data() + at, chunk);
+        while (!rest.empty()) {
+          const FeedResult fed = by_span.feed(rest);
+          ASSERT_GE(fed.consumed, 1u);
+          const size_t last = at + fed.consumed - 1;
+          if (fed.status == DecodeStatus::frame) got.emplace_back(fed.status, Bytes(by_span.frame().begin(), by_span.frame().end()));
+          if (fed.status == DecodeStatus::error) got.emplace_back(fed.status, Bytes{static_cast<uint8_t>(by_span.error()), static_cast<uint8_t>(last)});
+          at += fed.consumed;
+          rest = rest.subview(fed.consumed);
+        }
+      }
+      ASSERT_EQ(got, expected) << "round " << round;
+      EXPECT_EQ(span_counters.frames_ok, byte_counters.frames_ok);
+      EXPECT_EQ(span_counters.crc_errors, byte_counters.crc_errors);
+      EXPECT_EQ(span_counters.framing_errors, byte_counters.framing_errors);
+      EXPECT_EQ(span_counters.oversize_frames, byte_counters.oversize_frames);
+      EXPECT_EQ(span_counters.resyncs, byte_counters.resyncs);
+      EXPECT_EQ(by_span.in_frame(), by_byte.in_frame());
     }
   }
 }

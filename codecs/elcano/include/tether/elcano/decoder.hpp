@@ -52,9 +52,19 @@ class Decoder {
       if (state_ == State::number) {
         const uint8_t digit = static_cast<uint8_t>(byte - '0');
         if (digit < 10 && digits_ < kSafeDigits) {
-          // Fewer than 9 digits so far: one more cannot leave int32, no range check needed.
-          value_ = (value_ << 3) + (value_ << 1) + digit;  // * 10 without a 32-bit multiply call
+          // Fewer than 9 digits so far: one more cannot leave int32, no range check needed; up to 4
+          // digits in 16-bit arithmetic (the AVR multiplies that inline, 32-bit is a library call).
+          if (digits_ < 4) {
+            value_ = static_cast<uint16_t>(static_cast<uint16_t>(value_) * 10u + digit);
+          } else {
+            value_ = value_ * 10u + digit;
+          }
           ++digits_;
+          buffer_[size_++] = byte;
+          return DecodeStatus::more;
+        }
+        if (byte == '-' && digits_ == 0 && !negative_) {
+          negative_ = true;
           buffer_[size_++] = byte;
           return DecodeStatus::more;
         }
