@@ -44,12 +44,17 @@ void RomiSerial::handle_input() {
   if (in_handler_) return;
   // One clock read per call and one per handler run, none per byte (the AVR's hot path): the bytes
   // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
+  // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
+  // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
   Millis now = clock_ != nullptr ? clock_() : 0;
-  char c;
-  while (in_->available() && in_->read(c)) {
-    if (handle_received(static_cast<uint8_t>(c), now)) now = reply_sent_at_;
-  }
   handle_timeouts(now);
+  char c;
+  while (in_->read(c)) {
+    if (receive(static_cast<uint8_t>(c), now)) {
+      now = reply_sent_at_;
+      handle_timeouts(now);
+    }
+  }
 }
 
 void RomiSerial::handle_timeouts(Millis now) {
@@ -67,11 +72,14 @@ void RomiSerial::handle_timeouts(Millis now) {
   send_code(partial_opcode_, 0, Error::controller_timeout);
 }
 
-void RomiSerial::handle_byte(uint8_t byte, Millis now) { handle_received(byte, now); }
-
-bool RomiSerial::handle_received(uint8_t byte, Millis now) {
-  if (in_handler_) return false;
+void RomiSerial::handle_byte(uint8_t byte, Millis now) {
+  if (in_handler_) return;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
+  receive(byte, now);
+}
+
+bool RomiSerial::receive(uint8_t byte, Millis now) {
+  if (in_handler_) return false;
   if (byte == '#') {
     deadline_.on_frame_start(now);
     partial_opcode_ = '_';
@@ -81,7 +89,12 @@ bool RomiSerial::handle_received(uint8_t byte, Millis now) {
     await_opcode_ = false;
   }
   const DecodeStatus status = decoder_.feed(byte);
-  if (status == DecodeStatus::more) return false;
+  if (status == DecodeStatus::more) {
+    // The frame's '\r' checked out and only its '\n' is missing: fingerprint and parse it now, so the
+    // '\n' leaves only the cache lookup and the dispatch (the turnaround).
+    if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
+    return false;
+  }
   deadline_.on_frame_end();
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
@@ -91,6 +104,14 @@ bool RomiSerial::handle_received(uint8_t byte, Millis now) {
   return handle_frame(frame, now);
 }
 
+void RomiSerial::prepare(const Frame& frame) {
+  prepared_ = !frame.log;
+  if (!prepared_) return;
+  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
+  fingerprint_ = Crc16Mcrf4xx::compute(frame.payload);
+  parsed_ = parse_request(frame.payload, request_);
+}
+
 bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   if (frame.log) {
@@ -98,8 +119,9 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
     send_code('_', id, Error::invalid_opcode);
     return false;
   }
-  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
-  const uint16_t fingerprint = Crc16Mcrf4xx::compute(frame.payload);
+  if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
+  prepared_ = false;
+  const uint16_t fingerprint = fingerprint_;
   if (!frame.manual) {
     const auto lookup = replies_.check(id, fingerprint);
     if (lookup.duplicate && !lookup.cached_reply.empty()) {
@@ -112,7 +134,7 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
 
 bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
   const uint8_t id = frame.has_id ? frame.id : 0;
-  const Error parsed = parse_request(frame.payload, request_);
+  const Error parsed = parsed_;  // parse_request's result at the frame's '\r' (prepare)
   if (parsed != Error::no_error) {
     send_code(frame.opcode, id, parsed);
     return false;
@@ -206,15 +228,18 @@ void RomiSerial::log(const char* text) {
 }
 
 void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
-  Result<size_t> frame = body.size() < sizeof(reply_)
-                             ? encode_response(opcode, body, id, MutableByteView(reply_))
-                             : Result<size_t>(Status::buffer_too_small);
-  if (!frame.ok()) {
+  if (body.size() + kResponseOverhead > sizeof(reply_)) {
     ++counters_.replies_too_long;
-    frame = encode_response(opcode, ByteView::from_literal("[-31]"), id, MutableByteView(reply_));
+    body = ByteView::from_literal("[-31]");
   }
-  reply_size_ = static_cast<uint8_t>(frame.value());
-  write(ByteView(reply_, reply_size_));
+  // Each byte goes to the stream as it is formed (the first one leaves before the CRC is known) and
+  // into `reply_` for the cache.
+  uint8_t size = 0;
+  stream_response(opcode, body, id, [this, &size](uint8_t c) {
+    reply_[size++] = c;
+    out_->write(static_cast<char>(c));
+  });
+  reply_size_ = size;
 }
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {

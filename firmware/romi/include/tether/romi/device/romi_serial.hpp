@@ -158,8 +158,9 @@ class RomiSerial final : public IRomiSerial {
 
  private:
   // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
-  bool handle_received(uint8_t byte, Millis now);
+  bool receive(uint8_t byte, Millis now);  // handle_byte without the timeout check
   bool handle_frame(const Frame& frame, Millis now);
+  void prepare(const Frame& frame);  // fingerprint and parse, at the frame's '\r'
   bool dispatch(const Frame& frame, uint16_t fingerprint, Millis now);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
@@ -178,6 +179,9 @@ class RomiSerial final : public IRomiSerial {
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
   Millis reply_sent_at_ = 0;  // when the last handler's reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
+  Error parsed_ = Error::no_error;  // parse_request's result for request_ (prepare)
+  uint16_t fingerprint_ = 0;        // the frame's fingerprint (prepare)
+  bool prepared_ = false;           // request_, parsed_ and fingerprint_ belong to the frame awaiting '\n'
   uint8_t reply_[kReplyCapacity];
   uint8_t reply_size_ = 0;
   char opcode_ = '_';          // opcode and id of the request being handled
