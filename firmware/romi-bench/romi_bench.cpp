@@ -7,8 +7,10 @@
 
 namespace {
 
-// A request is at most 66 bytes and the host waits for each response.
-using Serial = tether::firmware::Uart0<128, 64>;
+// The device reads each byte as it arrives and a Romi host waits for each response, so the RX ring only
+// holds what comes while a reply waits for room in the TX ring (a re-send: at most a 66-byte request);
+// a full TX ring makes write() sleep until the UART, the bottleneck anyway, takes a byte.
+using Serial = tether::firmware::Uart0<64, 32>;
 constexpr uint32_t kBaud = 115200;
 
 tether::romi::device::UartStream<Serial> serial;

@@ -79,9 +79,21 @@ Result<size_t> encode_manual_request(ByteView payload, MutableByteView out) {
 }
 
 Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out) {
+  // One straight pass, no per-byte calls or bounds checks: the size is known up front. A device's
+  // hot path (every reply).
   if (body.size() + kResponseOverhead > out.size()) return Status::buffer_too_small;
   uint8_t* next = out.data();
-  stream_response(opcode, body, id, [&next](uint8_t c) { *next++ = c; });
+  *next++ = '#';
+  *next++ = static_cast<uint8_t>(opcode);
+  for (uint8_t c : body) *next++ = c == ':' ? static_cast<uint8_t>('-') : c;
+  *next++ = ':';
+  *next++ = hex_digit(static_cast<uint8_t>(id >> 4));
+  *next++ = hex_digit(static_cast<uint8_t>(id & 0xF));
+  const uint8_t crc = Crc8Smbus::compute(ByteView(out.data(), static_cast<size_t>(next - out.data())));
+  *next++ = hex_digit(static_cast<uint8_t>(crc >> 4));
+  *next++ = hex_digit(static_cast<uint8_t>(crc & 0xF));
+  *next++ = '\r';
+  *next++ = '\n';
   return body.size() + kResponseOverhead;
 }
 

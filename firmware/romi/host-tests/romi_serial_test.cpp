@@ -363,6 +363,16 @@ TEST_F(RomiSerialTest, ManualRequestsBypassTheCacheAndDoNotPoisonIdZero) {
   EXPECT_EQ(runs, 4);
 }
 
+// The cache keeps the reply it answers repeats with in the device's one reply buffer: a manual
+// request's reply (different opcode, different body) must not replace it.
+TEST_F(RomiSerialTest, ManualRequestInBetweenDoesNotChangeTheCachedReply) {
+  const std::string cached = exchange(request("e", 9));
+  EXPECT_EQ(cached, response('e', "[0,1,2]", 9));
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(exchange(request("e", 9)), cached);
+  EXPECT_EQ(runs, 2);
+}
+
 // A new host session that starts with the previous one's last id and command (1 in 256 with random
 // first ids) must get its command executed, while every re-send of a call (all within the host's 2 s
 // budget) is still answered from the cache: the cached reply lives exactly 2 s after it was sent.

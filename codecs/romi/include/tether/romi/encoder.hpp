@@ -30,36 +30,15 @@ Result<size_t> encode_manual_request(ByteView payload, MutableByteView out);
 /// metadata. Every ':' in `body` is written as '-' (the reference does the same: ':' ends the payload).
 Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out);
 
-/// Bytes a response frame adds to its body: '#', the opcode, ':', id, CRC, "\r\n".
+/// Bytes a response frame adds to its body: '#', the opcode, ':', id, CRC, "\r\n". A frame always
+/// starts with '#': a device may send that byte before it forms the rest (the reply's turnaround).
 constexpr size_t kResponseOverhead = 9;
 
 /// Lowercase hex digit of `nibble` (0..15), without a table in RAM.
-inline uint8_t hex_digit(uint8_t nibble) {
+__attribute__((always_inline)) inline uint8_t hex_digit(uint8_t nibble) {
   return static_cast<uint8_t>(nibble < 10 ? '0' + nibble : 'a' - 10 + nibble);
 }
 
-/// Hands the bytes of the response frame `encode_response` writes to `put(uint8_t)` one at a time, as
-/// they are formed, with the CRC folded into the same pass: a device streams the first byte to its
-/// UART while it forms the rest (the reply's turnaround). `body.size() + kResponseOverhead` bytes.
-template <typename Put>
-void stream_response(char opcode, ByteView body, uint8_t id, Put&& put) {
-  Crc8Smbus crc;
-  const auto emit = [&](uint8_t c) {
-    put(c);
-    crc.update(c);
-  };
-  emit('#');
-  emit(static_cast<uint8_t>(opcode));
-  for (uint8_t c : body) emit(c == ':' ? static_cast<uint8_t>('-') : c);
-  emit(':');
-  emit(hex_digit(static_cast<uint8_t>(id >> 4)));
-  emit(hex_digit(static_cast<uint8_t>(id & 0xF)));
-  const uint8_t check = crc.value();
-  put(hex_digit(static_cast<uint8_t>(check >> 4)));
-  put(hex_digit(static_cast<uint8_t>(check & 0xF)));
-  put('\r');
-  put('\n');
-}
 /// Writes a log frame `#!text:xxxx\r\n`. CR and LF in `text` become spaces ('#' is kept: hosts find the
 /// metadata at the end of the line, and Tether hosts resynchronise on it anyway).
 Result<size_t> encode_log(ByteView text, MutableByteView out);

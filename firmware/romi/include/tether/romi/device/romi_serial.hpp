@@ -165,6 +165,7 @@ class RomiSerial final : public IRomiSerial {
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
+  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
   void write(ByteView bytes);
 
   IInputStream* in_;
@@ -175,7 +176,9 @@ class RomiSerial final : public IRomiSerial {
   DeviceCounters counters_;  // before the members that count into it
   Decoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
-  session::DuplicateFilter<uint8_t, 1, kReplyCapacity> replies_;
+  // Id and fingerprint of the request whose reply is in reply_ (the cached reply: only handler replies
+  // to requests with an id are written there).
+  session::DuplicateFilter<uint8_t, 1, 0> replies_;
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
   Millis reply_sent_at_ = 0;  // when the last handler's reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
@@ -190,6 +193,7 @@ class RomiSerial final : public IRomiSerial {
   bool await_opcode_ = false;  // the next byte is the first after '#'
   bool in_handler_ = false;
   bool replied_ = false;
+  bool manual_ = false;        // the request being handled is manual: its reply is not cached
 };
 
 }  // namespace device
