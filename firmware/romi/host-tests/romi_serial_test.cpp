@@ -521,6 +521,17 @@ TEST_F(RomiSerialTest, DeadlineWorksAcrossTheClockWrap) {
   EXPECT_EQ(exchange(""), response('a', "[-30]", 0));
 }
 
+// The device parses a frame and looks its handler up at the frame's '\r'; a table replaced before the
+// '\n' arrives is the one that answers.
+TEST_F(RomiSerialTest, HandlersReplacedBetweenTheFramesCrAndLfAreTheOnesUsed) {
+  const std::string frame = request("e", 3);
+  EXPECT_EQ(exchange(frame.substr(0, frame.size() - 1)), "");  // up to the '\r'
+  static const MessageHandler kOnlyA[] = {{'a', 0, false, ok}};
+  device.set_handlers(kOnlyA, 1);
+  EXPECT_EQ(exchange("\n"), response('e', "[-16]", 3));
+  EXPECT_EQ(runs, 0);
+}
+
 TEST(RomiSerialNoClock, WithoutAClockThereIsNoDeadline) {
   StringStreams streams;
   RomiSerial device(streams, streams, kHandlers, kHandlerCount, nullptr);

@@ -38,6 +38,7 @@ RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandle
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
+  prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
 }
 
 void RomiSerial::handle_input() {
@@ -46,8 +47,9 @@ void RomiSerial::handle_input() {
   // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
   // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
   // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
+  // Most calls come within the millisecond of the last check: then nothing can have expired.
   Millis now = clock_ != nullptr ? clock_() : 0;
-  handle_timeouts(now);
+  if (now != timeouts_checked_at_) handle_timeouts(now);
   char c;
   while (in_->read(c)) {
     if (receive(static_cast<uint8_t>(c), now)) {
@@ -59,6 +61,7 @@ void RomiSerial::handle_input() {
 
 void RomiSerial::handle_timeouts(Millis now) {
   if (in_handler_) return;
+  timeouts_checked_at_ = now;
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
   if (cache_expiry_.expired(now)) {
@@ -110,6 +113,21 @@ void RomiSerial::prepare(const Frame& frame) {
   // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
   fingerprint_ = Crc16Mcrf4xx::compute(frame.payload);
   parsed_ = parse_request(frame.payload, request_);
+  if (parsed_ != Error::no_error) return;
+  handler_ = nullptr;
+  for (uint8_t i = 0; i < handler_count_; ++i) {
+    if (handlers_[i].opcode == request_.opcode) {
+      handler_ = &handlers_[i];
+      break;
+    }
+  }
+  if (handler_ == nullptr || handler_->callback == nullptr) {
+    parsed_ = Error::unknown_opcode;
+  } else if (request_.argument_count != handler_->number_arguments) {
+    parsed_ = Error::bad_number_of_arguments;
+  } else if (request_.has_string != handler_->requires_string) {
+    parsed_ = handler_->requires_string ? Error::missing_string : Error::bad_string;
+  }
 }
 
 bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
@@ -135,30 +153,13 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
 
 bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
   const uint8_t id = frame.has_id ? frame.id : 0;
-  const Error parsed = parsed_;  // parse_request's result at the frame's '\r' (prepare)
-  if (parsed != Error::no_error) {
-    send_code(frame.opcode, id, parsed);
+  // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
+  // the frame's).
+  if (parsed_ != Error::no_error) {
+    send_code(frame.opcode, id, parsed_);
     return false;
   }
-  const MessageHandler* handler = nullptr;
-  for (uint8_t i = 0; i < handler_count_; ++i) {
-    if (handlers_[i].opcode == request_.opcode) {
-      handler = &handlers_[i];
-      break;
-    }
-  }
-  Error check = Error::no_error;
-  if (handler == nullptr || handler->callback == nullptr) {
-    check = Error::unknown_opcode;
-  } else if (request_.argument_count != handler->number_arguments) {
-    check = Error::bad_number_of_arguments;
-  } else if (request_.has_string != handler->requires_string) {
-    check = handler->requires_string ? Error::missing_string : Error::bad_string;
-  }
-  if (check != Error::no_error) {
-    send_code(request_.opcode, id, check);
-    return false;
-  }
+  const MessageHandler* handler = handler_;
 
   opcode_ = request_.opcode;
   id_ = id;

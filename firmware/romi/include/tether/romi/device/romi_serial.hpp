@@ -182,7 +182,9 @@ class RomiSerial final : public IRomiSerial {
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
   Millis reply_sent_at_ = 0;  // when the last handler's reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
-  Error parsed_ = Error::no_error;  // parse_request's result for request_ (prepare)
+  Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
+  const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
+  Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
   uint16_t fingerprint_ = 0;        // the frame's fingerprint (prepare)
   bool prepared_ = false;           // request_, parsed_ and fingerprint_ belong to the frame awaiting '\n'
   uint8_t reply_[kReplyCapacity];
