@@ -1,68 +1,310 @@
-// CPU cycles of the codecs on the ATmega328P, measured on the virtual Uno: the bench-codecs image wraps
-// each operation in a pulse on its own pin, and the pulse width in simulated time (at 16 MHz) is its cost.
-// Exact for this simulator (simavr counts AVR instruction cycles); the pin edges add a constant 2 cycles,
-// removed with the baseline pulse on D2. The bytes each operation reads or writes come from the image
-// (`bench_wire_bytes`, filled from the encoders' results), not from this file.
-//   build/benchmarks/tether_avr_cycle_report
+// CPU cycles of the codecs and the Romi device on the ATmega328P, measured on the virtual Uno (simavr
+// counts AVR instruction cycles: exact for the image).
+//   1. The bench-codecs image runs each operation between two writes to GPIOR0 (its row id, then 0;
+//      firmware/bench-codecs/bench_rows.hpp): cycles between the two writes, minus the empty baseline
+//      row. No interrupts; input and output in memory. Byte counts come from the image
+//      (`bench_wire_bytes`, the encoders' results), not from this file.
+//   2. The romi-bench image (4 handlers, Tether's UART driver, 115200) in a closed loop: the host sends
+//      `#e:<id><crc>` as soon as the previous reply's last byte arrived. Turnaround: from the cycle the
+//      firmware reads the request's '\n' from UDR0 to the cycle it writes the reply's first byte to UDR0.
+//      Calls/s against the wire bound: (request + reply bytes) at the simulated UART's byte time.
+//   3. Flash and static RAM of the images (their avr-size -C reports).
+//   build/benchmarks/tether_avr_cycle_report [--json FILE]
+// tools/avr-cycle-table FILE prints the README's markdown table from the JSON.
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
 #include <vector>
 
+#include "bench_rows.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
-int main() {
-  tether::transports::VirtualUnoOptions options;
+namespace {
+
+namespace reg = tether::transports::atmega328p;
+using tether::transports::IoAccess;
+using tether::transports::VirtualUno;
+using tether::transports::VirtualUnoOptions;
+
+struct RowResult {
+  const tether_bench::RowInfo* row;
+  unsigned bytes = 0;
+  double cycles = 0;
+};
+
+struct LoopResult {
+  unsigned calls = 0;
+  unsigned request_bytes = 0;
+  unsigned reply_bytes = 0;
+  std::uint64_t cycles_per_byte = 0;
+  double calls_per_second = 0;
+  double wire_bound = 0;  // calls/s with zero turnaround
+  std::uint64_t turnaround_min = 0, turnaround_median = 0, turnaround_max = 0;
+};
+
+struct ImageSize {
+  std::string image;
+  unsigned flash = 0;
+  unsigned ram = 0;
+};
+
+std::string json_string(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+// Cycles of each row: pairs every write of a row id to GPIOR0 with the next write of 0.
+std::optional<std::vector<std::pair<int, std::uint64_t>>> marker_spans(const std::vector<IoAccess>& accesses) {
+  std::vector<std::pair<int, std::uint64_t>> spans;
+  const IoAccess* open = nullptr;
+  for (const IoAccess& access : accesses) {
+    if (!access.write) continue;
+    if (access.value != 0) {
+      if (open != nullptr) return std::nullopt;  // nested markers: the image is broken
+      open = &access;
+    } else if (open != nullptr) {
+      spans.emplace_back(open->value, access.cycle - open->cycle);
+      open = nullptr;
+    }
+  }
+  return spans;
+}
+
+int measure_rows(std::vector<RowResult>& results, double& baseline) {
+  VirtualUnoOptions options;
   options.firmware = TETHER_FIRMWARE_DIR "/bench-codecs.elf";
-  tether::transports::VirtualUno uno(options);
-  uno.run_for(std::chrono::milliseconds(50));
-  const auto cycles = [&](int pin) {
-    const auto high = uno.pulse_timing(pin).high_time;
-    return static_cast<double>(uno.to_cycles(high));
-  };
+  VirtualUno uno(options);
+  uno.watch_io(reg::GPIOR0);
+  for (int i = 0; i < 50 && uno.cpu_state() != tether::transports::CpuState::halted; ++i) {
+    uno.run_for(std::chrono::milliseconds(10));
+  }
   const auto symbol = uno.symbol("bench_wire_bytes");
-  if (!symbol || symbol->space != tether::transports::FirmwareSymbol::Space::data || symbol->size < 20) {
-    std::fprintf(stderr, "bench-codecs.elf has no bench_wire_bytes[20] in SRAM: rebuild the firmware\n");
+  if (!symbol || symbol->space != tether::transports::FirmwareSymbol::Space::data ||
+      symbol->size < tether_bench::kRowCount) {
+    std::fprintf(stderr, "bench-codecs.elf has no bench_wire_bytes[%d] in SRAM: rebuild the firmware\n",
+                 tether_bench::kRowCount);
     return 1;
   }
-  const std::vector<std::uint8_t> wire_bytes = uno.read_memory(static_cast<std::uint16_t>(symbol->address), 20);
-  const double baseline = cycles(2);
-  struct Row {
-    int pin;  // Arduino pin: D0..D13, then A0..A5 as 14..19
-    const char* what;
-  };
-  const Row rows[] = {
-      {3, "Romi: decode + parse request #s[1234,-567]"},
-      {4, "Romi: encode response #s[0,667]"},
-      {5, "proxy: decode frame (ServoControl, CRC-16)"},
-      {6, "proxy: encode frame (ServoControl, CRC-16)"},
-      {7, "CRC-16/MCRF4XX over 64 bytes (avr-libc)"},
-      {8, "CRC-8/SMBUS over 64 bytes (avr-libc)"},
-      {9, "Elcano B: read drive D{s 50}{a 25}"},
-      {10, "Elcano D: read drive D{s50}{a25}74"},
-      {11, "Elcano B: read segment X{n 4}...{p 3200,-64000}"},
-      {12, "Elcano D: read segment X{n4}...{q-64000}243"},
-      {13, "Elcano B: write drive"},
-      {14, "Elcano D: write drive"},
-      {15, "Elcano B: write segment"},
-      {16, "Elcano D: write segment"},
-      {17, "Elcano B: RingNode feed + forward drive"},
-      {18, "Elcano D: RingNode feed + forward drive"},
-      {19, "Elcano B: RingNode feed + capture drive"},
-  };
-  std::printf("ATmega328P @ 16 MHz, avr-gcc 5.4 -Os LTO (simavr cycle counts; baseline %.0f cycles removed)\n",
-              baseline);
-  std::printf("%-50s %6s %8s %8s %12s\n", "operation", "bytes", "cycles", "us", "cycles/byte");
+  const std::vector<std::uint8_t> wire_bytes =
+      uno.read_memory(static_cast<std::uint16_t>(symbol->address), tether_bench::kRowCount);
+  const auto spans = marker_spans(uno.io_accesses(reg::GPIOR0));
+  if (!spans) {
+    std::fprintf(stderr, "bench-codecs.elf wrote a row id to GPIOR0 inside another row\n");
+    return 1;
+  }
+  std::vector<std::optional<std::uint64_t>> cycles(tether_bench::kRowCount);
+  for (const auto& [row, span] : *spans) {
+    if (row > 0 && row < tether_bench::kRowCount) cycles[static_cast<std::size_t>(row)] = span;
+  }
+  if (!cycles[tether_bench::kBaseline]) {
+    std::fprintf(stderr, "bench-codecs.elf did not run its baseline row\n");
+    return 1;
+  }
+  baseline = static_cast<double>(*cycles[tether_bench::kBaseline]);
   int status = 0;
-  for (const Row& row : rows) {
-    const unsigned bytes = wire_bytes[static_cast<std::size_t>(row.pin)];
-    if (uno.pulse_timing(row.pin).edges < 2 || bytes == 0) {
-      std::printf("%-50s   (no pulse: the image did not run this operation)\n", row.what);
+  for (const auto& row : tether_bench::kRows) {
+    RowResult result{&row};
+    result.bytes = wire_bytes[row.id];
+    if (!cycles[row.id] || result.bytes == 0) {
+      std::fprintf(stderr, "%s: the image did not run this operation, or it failed\n", row.what);
       status = 1;
       continue;
     }
-    const double c = cycles(row.pin) - baseline;
-    std::printf("%-50s %6u %8.0f %8.1f %12.1f\n", row.what, bytes, c, c / 16.0, c / bytes);
+    result.cycles = static_cast<double>(*cycles[row.id]) - baseline;
+    results.push_back(result);
+  }
+  return status;
+}
+
+// CRC-8/SMBUS (poly 0x07, init 0), the Romi frame check, for building requests here.
+std::uint8_t crc8(const std::string& text) {
+  std::uint8_t crc = 0;
+  for (const char c : text) {
+    crc = static_cast<std::uint8_t>(crc ^ static_cast<std::uint8_t>(c));
+    for (int bit = 0; bit < 8; ++bit) {
+      crc = static_cast<std::uint8_t>((crc & 0x80) != 0 ? (crc << 1) ^ 0x07 : crc << 1);
+    }
+  }
+  return crc;
+}
+
+std::string romi_request(const std::string& payload, std::uint8_t id) {
+  char hex[8];
+  std::string frame = "#" + payload + ":";
+  std::snprintf(hex, sizeof hex, "%02x", id);
+  frame += hex;
+  std::snprintf(hex, sizeof hex, "%02x", crc8(frame));
+  return frame + hex + "\r\n";
+}
+
+int closed_loop(LoopResult& result) {
+  VirtualUnoOptions options;
+  options.firmware = TETHER_FIRMWARE_DIR "/romi-bench.elf";
+  options.quantum = std::chrono::microseconds(1);  // the host answers within 16 cycles of a reply's end
+  VirtualUno uno(options);
+  uno.run_for(std::chrono::milliseconds(20));  // boot: the UART is up
+  uno.watch_io(reg::UDR0);
+  constexpr auto kWindow = std::chrono::milliseconds(500);
+  std::uint8_t id = 1;
+  std::string reply;
+  std::uint64_t first_send = uno.cycles();
+  std::uint64_t last_reply = 0;
+  bool bad_reply = false;
+  std::string request = romi_request("e", id);
+  result.request_bytes = static_cast<unsigned>(request.size());
+  uno.set_output_handler([&](const std::uint8_t* data, std::size_t size) {
+    for (std::size_t i = 0; i < size; ++i) {
+      reply += static_cast<char>(data[i]);
+      if (data[i] != '\n') continue;
+      if (reply.rfind("#e[0,1,2]:", 0) != 0) bad_reply = true;
+      result.reply_bytes = static_cast<unsigned>(reply.size());
+      reply.clear();
+      ++result.calls;
+      last_reply = uno.cycles();
+      id = static_cast<std::uint8_t>(id == 255 ? 1 : id + 1);
+      uno.write(romi_request("e", id));
+    }
+  });
+  uno.write(request);
+  uno.run_for(kWindow);
+  uno.set_output_handler({});
+  if (bad_reply || result.calls == 0) {
+    std::fprintf(stderr, "romi-bench.elf did not answer #e with [0,1,2] in the closed loop\n");
+    return 1;
+  }
+  result.cycles_per_byte = uno.uart().cycles_per_byte;
+  const double seconds = static_cast<double>(last_reply - first_send) / uno.frequency_hz();
+  result.calls_per_second = result.calls / seconds;
+  result.wire_bound = static_cast<double>(uno.frequency_hz()) /
+                      static_cast<double>(result.cycles_per_byte * (result.request_bytes + result.reply_bytes));
+  // Turnaround of each call: the read of a request's '\n', then the next write.
+  std::vector<std::uint64_t> turnarounds;
+  std::optional<std::uint64_t> last_byte_read;
+  for (const IoAccess& access : uno.io_accesses(reg::UDR0)) {
+    if (!access.write && access.value == '\n') last_byte_read = access.cycle;
+    if (access.write && last_byte_read) {
+      turnarounds.push_back(access.cycle - *last_byte_read);
+      last_byte_read.reset();
+    }
+  }
+  if (turnarounds.empty()) {
+    std::fprintf(stderr, "romi-bench.elf: no UDR0 read of a '\\n' followed by a write\n");
+    return 1;
+  }
+  std::sort(turnarounds.begin(), turnarounds.end());
+  result.turnaround_min = turnarounds.front();
+  result.turnaround_median = turnarounds[turnarounds.size() / 2];
+  result.turnaround_max = turnarounds.back();
+  return 0;
+}
+
+// avr-size -C writes "Program:   6804 bytes (20.8% Full)" and "Data:        710 bytes (34.7% Full)".
+std::optional<ImageSize> image_size(const std::string& image) {
+  std::ifstream file(std::string(TETHER_FIRMWARE_DIR "/") + image + ".size.txt");
+  if (!file) return std::nullopt;
+  ImageSize size{image};
+  bool flash = false, ram = false;
+  std::string line;
+  while (std::getline(file, line)) {
+    unsigned value = 0;
+    if (std::sscanf(line.c_str(), "Program: %u", &value) == 1) size.flash = value, flash = true;
+    if (std::sscanf(line.c_str(), "Data: %u", &value) == 1) size.ram = value, ram = true;
+  }
+  if (!flash || !ram) return std::nullopt;
+  return size;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* json_path = nullptr;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--json") == 0 && i + 1 < argc) {
+      json_path = argv[++i];
+    } else {
+      std::fprintf(stderr, "usage: %s [--json FILE]\n", argv[0]);
+      return 2;
+    }
+  }
+  std::vector<RowResult> rows;
+  double baseline = 0;
+  int status = measure_rows(rows, baseline);
+  std::printf("ATmega328P @ 16 MHz, avr-gcc 5.4 -Os LTO (simavr cycles between GPIOR0 markers; baseline %.0f "
+              "cycles removed)\n",
+              baseline);
+  std::printf("%-52s %6s %8s %8s %12s\n", "operation", "bytes", "cycles", "us", "cycles/byte");
+  for (const RowResult& r : rows) {
+    std::printf("%-52s %6u %8.0f %8.1f %12.1f\n", r.row->what, r.bytes, r.cycles, r.cycles / 16.0,
+                r.cycles / r.bytes);
+  }
+
+  LoopResult loop;
+  const int loop_status = closed_loop(loop);
+  status |= loop_status;
+  if (loop_status == 0) {
+    std::printf("\nromi-bench closed loop at 115200 (#e, %u + %u bytes, %llu cycles per byte on the wire):\n",
+                loop.request_bytes, loop.reply_bytes, static_cast<unsigned long long>(loop.cycles_per_byte));
+    std::printf("  turnaround (UDR0 read of '\\n' -> first UDR0 write): min %llu, median %llu, max %llu cycles\n",
+                static_cast<unsigned long long>(loop.turnaround_min),
+                static_cast<unsigned long long>(loop.turnaround_median),
+                static_cast<unsigned long long>(loop.turnaround_max));
+    std::printf("  %u calls, %.1f calls/s, wire bound %.1f calls/s: %.1f %%\n", loop.calls, loop.calls_per_second,
+                loop.wire_bound, 100.0 * loop.calls_per_second / loop.wire_bound);
+  }
+
+  std::vector<ImageSize> sizes;
+  std::printf("\n%-16s %8s %8s\n", "image", "flash B", "RAM B");
+  for (const char* image : {"romi-bench", "romi-blink", "romi-test", "proxy", "proxy-compat", "elcano-node"}) {
+    if (const auto size = image_size(image)) {
+      sizes.push_back(*size);
+      std::printf("%-16s %8u %8u\n", image, size->flash, size->ram);
+    } else {
+      std::fprintf(stderr, "%s.size.txt missing or unreadable\n", image);
+      status = 1;
+    }
+  }
+
+  if (json_path != nullptr) {
+    std::ostringstream json;
+    json << "{\n  \"cpu\": \"ATmega328P\", \"clock_hz\": 16000000, \"baseline_cycles\": " << baseline
+         << ",\n  \"rows\": [\n";
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const RowResult& r = rows[i];
+      json << "    {\"key\": " << json_string(r.row->key) << ", \"what\": " << json_string(r.row->what)
+           << ", \"bytes\": " << r.bytes << ", \"cycles\": " << r.cycles << "}" << (i + 1 < rows.size() ? "," : "")
+           << "\n";
+    }
+    json << "  ]";
+    if (loop_status == 0) {
+      json << ",\n  \"romi_closed_loop\": {\"image\": \"romi-bench\", \"baud\": 115200, \"request_bytes\": "
+           << loop.request_bytes << ", \"reply_bytes\": " << loop.reply_bytes
+           << ", \"cycles_per_byte\": " << loop.cycles_per_byte << ", \"calls\": " << loop.calls
+           << ", \"calls_per_second\": " << loop.calls_per_second << ", \"wire_bound\": " << loop.wire_bound
+           << ", \"turnaround_min\": " << loop.turnaround_min << ", \"turnaround_median\": " << loop.turnaround_median
+           << ", \"turnaround_max\": " << loop.turnaround_max << "}";
+    }
+    json << ",\n  \"images\": [\n";
+    for (std::size_t i = 0; i < sizes.size(); ++i) {
+      json << "    {\"image\": " << json_string(sizes[i].image) << ", \"flash\": " << sizes[i].flash
+           << ", \"ram\": " << sizes[i].ram << "}" << (i + 1 < sizes.size() ? "," : "") << "\n";
+    }
+    json << "  ]\n}\n";
+    std::ofstream out(json_path);
+    out << json.str();
+    if (!out) {
+      std::fprintf(stderr, "cannot write %s\n", json_path);
+      return 1;
+    }
   }
   return status;
 }

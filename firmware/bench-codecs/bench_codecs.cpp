@@ -1,15 +1,16 @@
-// bench-codecs: runs each codec operation once between a rising and a falling edge of its own pin, so the
-// host measures the operation's CPU cycles from the pin's pulse width in simulated time
-// (benchmarks/avr_cycle_report.cpp). D2 carries an empty pulse: the baseline to subtract.
-//   D2 baseline | D3 Romi: decode + parse a request | D4 Romi: encode a response | D5 proxy: decode a frame
-//   D6 proxy: encode a frame | D7 CRC-16 over 64 bytes | D8 CRC-8 over 64 bytes
+// bench-codecs: runs each codec operation once between two writes to GPIOR0 (the row id of
+// bench_rows.hpp before it, 0 after it), so the host takes the operation's exact CPU cycles from the
+// cycles of the two writes (benchmarks/avr_cycle_report.cpp watches GPIOR0 on the virtual Uno). The
+// kBaseline row measures nothing: the markers' own cost, subtracted from every row. No interrupts run;
+// input comes from memory and output goes to memory.
+//   Romi: decode + parse a request, encode a response, and whole requests through a RomiSerial device
+//   (romi-bench's four handlers; request in memory -> reply in memory, clock read as shipped).
+//   proxy: decode / encode a frame of 12 B (ServoControl) and 32 B payload; CRC-16 and CRC-8 over 64 B.
 //   Elcano (Decoder<96>, RingNode<96, 256, 4> like the elcano-node image), drive D{s 50}{a 25} and segment
-//   X{n 4}{s 160}{b 80}{p 3200,-64000}: D9/D10 read a drive message (generation B/D), D11/D12 read a
-//   segment message (B/D), D13/A0 write a drive message (B/D), A1/A2 write a segment message (B/D),
-//   A3/A4 RingNode feed + take_output of a forwarded drive message (B/D), A5 RingNode feed of a captured
-//   drive message (B).
-// `bench_wire_bytes[pin]` holds the bytes each operation reads or writes, as the encoders produced them:
-// the host reads it through the ELF symbol table.
+//   X{n 4}{s 160}{b 80}{p 3200,-64000}: read and write them in generation B and D, RingNode forwarding
+//   (B, D) and capture (B).
+// `bench_wire_bytes[row]` holds the bytes each operation reads or writes, as the encoders produced them
+// (0 when the operation did not do its job): the host reads it through the ELF symbol table.
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/sleep.h>
@@ -24,10 +25,14 @@
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/decoder.hpp"
 #include "tether/romi/request_parser.hpp"
+#include "bench_rows.hpp"
+#include "../romi-bench/romi_bench_handlers.hpp"
+
+using namespace tether_bench;
 
 extern "C" {
-/// Bytes on the wire of the operation measured on each Arduino pin (0: no operation on that pin).
-__attribute__((used, externally_visible)) volatile uint8_t bench_wire_bytes[20];
+/// Bytes on the wire of the operation of each row (0: not run, or it did not do its job).
+__attribute__((used, externally_visible)) volatile uint8_t bench_wire_bytes[kRowCount];
 }
 
 namespace {
@@ -45,15 +50,75 @@ uint8_t data[64];
 
 using Node = elcano::RingNode<96, 256, 4>;  // the elcano-node image's node
 
+// The byte count to record for an operation: 0 (flagged by the report) when it did not do its job.
+uint8_t bytes_if(bool ok, size_t bytes) { return ok ? static_cast<uint8_t>(bytes) : static_cast<uint8_t>(0); }
+
+// The memory barriers keep the compiler from moving the work across the markers.
 template <typename Work>
-void measure(uint8_t pin_bit_d, uint8_t pin_bit_b, uint8_t pin_bit_c, Work work) {
-  if (pin_bit_d) PORTD |= pin_bit_d;
-  if (pin_bit_b) PORTB |= pin_bit_b;
-  if (pin_bit_c) PORTC |= pin_bit_c;
+void measure(Row row, Work work) {
+  asm volatile("" ::: "memory");
+  GPIOR0 = row;
+  asm volatile("" ::: "memory");
   work();
-  if (pin_bit_d) PORTD &= static_cast<uint8_t>(~pin_bit_d);
-  if (pin_bit_b) PORTB &= static_cast<uint8_t>(~pin_bit_b);
-  if (pin_bit_c) PORTC &= static_cast<uint8_t>(~pin_bit_c);
+  asm volatile("" ::: "memory");
+  GPIOR0 = 0;
+  asm volatile("" ::: "memory");
+}
+
+// --- Romi device in memory --------------------------------------------------------------------------
+// Input: the bytes of one request; output: a bounded buffer.
+class MemoryInput final : public tether::romi::device::IInputStream {
+ public:
+  void set(const uint8_t* bytes, uint8_t size) {
+    next_ = bytes;
+    end_ = bytes + size;
+  }
+  bool available() override { return next_ != end_; }
+  bool read(char& c) override {
+    if (next_ == end_) return false;
+    c = static_cast<char>(*next_++);
+    return true;
+  }
+
+ private:
+  const uint8_t* next_ = nullptr;
+  const uint8_t* end_ = nullptr;
+};
+
+class MemoryOutput final : public tether::romi::device::IOutputStream {
+ public:
+  bool write(char c) override {
+    if (size_ == sizeof bytes_) return false;
+    bytes_[size_++] = static_cast<uint8_t>(c);
+    return true;
+  }
+  void clear() { size_ = 0; }
+  const uint8_t* data() const { return bytes_; }
+  uint8_t size() const { return size_; }
+
+ private:
+  uint8_t bytes_[80];
+  uint8_t size_ = 0;
+};
+
+MemoryInput romi_input;
+MemoryOutput romi_output;
+romiserial::RomiSerial romi_device(romi_input, romi_output, romi_bench::kHandlers, romi_bench::kHandlerCount);
+uint8_t romi_request[72];
+uint8_t romi_expected[80];
+
+// Runs one request (`payload` with `id`) through the device; records request + reply bytes when the
+// reply is `body` byte for byte.
+void romi_call(Row row, const char* payload, const char* body, uint8_t id) {
+  const tether::ByteView payload_view(reinterpret_cast<const uint8_t*>(payload), __builtin_strlen(payload));
+  const size_t in = tether::romi::encode_request(payload_view, id, romi_request).value();
+  const tether::ByteView body_view(reinterpret_cast<const uint8_t*>(body), __builtin_strlen(body));
+  const size_t expected = tether::romi::encode_response(payload[0], body_view, id, romi_expected).value();
+  romi_input.set(romi_request, static_cast<uint8_t>(in));
+  romi_output.clear();
+  measure(row, [] { romi_device.handle_input(); });
+  const bool ok = romi_output.size() == expected && __builtin_memcmp(romi_output.data(), romi_expected, expected) == 0;
+  bench_wire_bytes[row] = bytes_if(ok, in + expected);
 }
 
 elcano::Message drive_message() {
@@ -75,8 +140,6 @@ elcano::Message segment_message() {
   return m;
 }
 
-// The byte count to record for an operation: 0 (flagged by the report) when it did not do its job.
-uint8_t bytes_if(bool ok, size_t bytes) { return ok ? static_cast<uint8_t>(bytes) : static_cast<uint8_t>(0); }
 
 // Writes `message` into `input` (outside any measurement); returns its size.
 uint8_t prepare_input(const elcano::Message& message, elcano::Generation generation) {
@@ -117,15 +180,19 @@ uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
 }  // namespace
 
 int main() {
-  DDRD = _BV(PD2) | _BV(PD3) | _BV(PD4) | _BV(PD5) | _BV(PD6) | _BV(PD7);
-  DDRB = _BV(PB0) | _BV(PB1) | _BV(PB2) | _BV(PB3) | _BV(PB4) | _BV(PB5);
-  DDRC = _BV(PC0) | _BV(PC1) | _BV(PC2) | _BV(PC3) | _BV(PC4) | _BV(PC5);
   for (uint8_t i = 0; i < sizeof data; ++i) data[i] = static_cast<uint8_t>(i * 37u + 11u);
   tether::LinkCounters counters;
   bool read = false;  // the decoders' outcome: a pin's byte count is recorded only when they did their job
 
-  measure(_BV(PD2), 0, 0, [] {});
-  measure(_BV(PD3), 0, 0, [&] {
+  measure(kBaseline, [] {});
+  bench_wire_bytes[kBaseline] = 1;
+
+  // Whole requests through the device (ids differ: no request repeats the previous one).
+  romi_call(kRomiRequestA, "a", "[0]", 1);
+  romi_call(kRomiRequestE, "e", "[0,1,2]", 2);
+  romi_call(kRomiRequestC, "c[1000,-2000]", "[0]", 3);
+  romi_call(kRomiRequestD, "d[\"Hello there\"]", "[0]", 4);
+  measure(kRomiDecodeParse, [&] {
     tether::romi::Decoder<tether::romi::kDeviceDecoderCapacity> decoder(counters);
     tether::romi::Request request;
     for (size_t i = 0; i + 1 < sizeof kRequest; ++i) {
@@ -136,58 +203,74 @@ int main() {
       }
     }
   });
-  bench_wire_bytes[3] = bytes_if(read, sizeof kRequest - 1);
+  bench_wire_bytes[kRomiDecodeParse] = bytes_if(read, sizeof kRequest - 1);
   size_t written = 0;
-  measure(_BV(PD4), 0, 0, [&] {
+  measure(kRomiEncodeResponse, [&] {
     written = tether::romi::encode_response('s', tether::ByteView::from_literal("[0,667]"), 7, frame).value();
   });
-  bench_wire_bytes[4] = static_cast<uint8_t>(written);
+  bench_wire_bytes[kRomiEncodeResponse] = static_cast<uint8_t>(written);
   const size_t framed = tether::proxy::encode_frame(tether::ByteView(kServoControl, sizeof kServoControl),
                                                     tether::proxy::Integrity::crc16, true, frame)
                             .value();
   read = false;
-  measure(_BV(PD5), 0, 0, [&] {
+  measure(kProxyDecode12, [&] {
     tether::proxy::Decoder<32> decoder(tether::proxy::Integrity::crc16, counters);
     for (size_t i = 0; i < framed; ++i) {
       if (decoder.feed(frame[i]) == tether::DecodeStatus::frame) read = true;
     }
   });
-  bench_wire_bytes[5] = bytes_if(read, framed);
-  measure(_BV(PD6), 0, 0, [&] {
+  bench_wire_bytes[kProxyDecode12] = bytes_if(read, framed);
+  measure(kProxyEncode12, [&] {
     written = tether::proxy::encode_frame(tether::ByteView(kServoControl, sizeof kServoControl),
                                           tether::proxy::Integrity::crc16, true, frame)
                   .value();
   });
-  bench_wire_bytes[6] = static_cast<uint8_t>(written);
-  measure(_BV(PD7), 0, 0, [&] { sink = tether::Crc16Mcrf4xx::compute(tether::ByteView(data, sizeof data)); });
-  bench_wire_bytes[7] = sizeof data;
-  measure(0, _BV(PB0), 0, [&] { sink = tether::Crc8Smbus::compute(tether::ByteView(data, sizeof data)); });
-  bench_wire_bytes[8] = sizeof data;
+  bench_wire_bytes[kProxyEncode12] = static_cast<uint8_t>(written);
+  uint8_t payload32[32];
+  for (uint8_t i = 0; i < sizeof payload32; ++i) payload32[i] = data[i];
+  const tether::ByteView payload32_view(payload32, sizeof payload32);
+  measure(kProxyEncode32, [&] {
+    written = tether::proxy::encode_frame(payload32_view, tether::proxy::Integrity::crc16, true, frame).value();
+  });
+  bench_wire_bytes[kProxyEncode32] = static_cast<uint8_t>(written);
+  const size_t framed32 = written;
+  read = false;
+  measure(kProxyDecode32, [&] {
+    tether::proxy::Decoder<32> decoder(tether::proxy::Integrity::crc16, counters);
+    for (size_t i = 0; i < framed32; ++i) {
+      if (decoder.feed(frame[i]) == tether::DecodeStatus::frame) read = decoder.frame().size() == 32;
+    }
+  });
+  bench_wire_bytes[kProxyDecode32] = bytes_if(read, framed32);
+  measure(kCrc16, [&] { sink = tether::Crc16Mcrf4xx::compute(tether::ByteView(data, sizeof data)); });
+  bench_wire_bytes[kCrc16] = sizeof data;
+  measure(kCrc8, [&] { sink = tether::Crc8Smbus::compute(tether::ByteView(data, sizeof data)); });
+  bench_wire_bytes[kCrc8] = sizeof data;
 
   // --- Elcano -------------------------------------------------------------------------------------------
   const elcano::Message drive = drive_message();
   const elcano::Message segment = segment_message();
   uint8_t size = prepare_input(drive, elcano::Generation::b);
-  measure(0, _BV(PB1), 0, [&] { read = read_input(elcano::Generation::b, size, elcano::Type::drive, counters); });
-  bench_wire_bytes[9] = bytes_if(read, size);
+  measure(kElcanoReadDriveB, [&] { read = read_input(elcano::Generation::b, size, elcano::Type::drive, counters); });
+  bench_wire_bytes[kElcanoReadDriveB] = bytes_if(read, size);
   size = prepare_input(drive, elcano::Generation::d);
-  measure(0, _BV(PB2), 0, [&] { read = read_input(elcano::Generation::d, size, elcano::Type::drive, counters); });
-  bench_wire_bytes[10] = bytes_if(read, size);
+  measure(kElcanoReadDriveD, [&] { read = read_input(elcano::Generation::d, size, elcano::Type::drive, counters); });
+  bench_wire_bytes[kElcanoReadDriveD] = bytes_if(read, size);
   size = prepare_input(segment, elcano::Generation::b);
-  measure(0, _BV(PB3), 0, [&] { read = read_input(elcano::Generation::b, size, elcano::Type::segment, counters); });
-  bench_wire_bytes[11] = bytes_if(read, size);
+  measure(kElcanoReadSegmentB, [&] { read = read_input(elcano::Generation::b, size, elcano::Type::segment, counters); });
+  bench_wire_bytes[kElcanoReadSegmentB] = bytes_if(read, size);
   size = prepare_input(segment, elcano::Generation::d);
-  measure(0, _BV(PB4), 0, [&] { read = read_input(elcano::Generation::d, size, elcano::Type::segment, counters); });
-  bench_wire_bytes[12] = bytes_if(read, size);
+  measure(kElcanoReadSegmentD, [&] { read = read_input(elcano::Generation::d, size, elcano::Type::segment, counters); });
+  bench_wire_bytes[kElcanoReadSegmentD] = bytes_if(read, size);
 
-  measure(0, _BV(PB5), 0, [&] { written = encode_message(drive, elcano::Generation::b, frame).value(); });
-  bench_wire_bytes[13] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC0), [&] { written = encode_message(drive, elcano::Generation::d, frame).value(); });
-  bench_wire_bytes[14] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC1), [&] { written = encode_message(segment, elcano::Generation::b, frame).value(); });
-  bench_wire_bytes[15] = static_cast<uint8_t>(written);
-  measure(0, 0, _BV(PC2), [&] { written = encode_message(segment, elcano::Generation::d, frame).value(); });
-  bench_wire_bytes[16] = static_cast<uint8_t>(written);
+  measure(kElcanoWriteDriveB, [&] { written = encode_message(drive, elcano::Generation::b, frame).value(); });
+  bench_wire_bytes[kElcanoWriteDriveB] = static_cast<uint8_t>(written);
+  measure(kElcanoWriteDriveD, [&] { written = encode_message(drive, elcano::Generation::d, frame).value(); });
+  bench_wire_bytes[kElcanoWriteDriveD] = static_cast<uint8_t>(written);
+  measure(kElcanoWriteSegmentB, [&] { written = encode_message(segment, elcano::Generation::b, frame).value(); });
+  bench_wire_bytes[kElcanoWriteSegmentB] = static_cast<uint8_t>(written);
+  measure(kElcanoWriteSegmentD, [&] { written = encode_message(segment, elcano::Generation::d, frame).value(); });
+  bench_wire_bytes[kElcanoWriteSegmentD] = static_cast<uint8_t>(written);
 
   // Ring nodes are built outside the measurement (their construction is a boot cost, not a per-message one).
   tether::elcano::RingCounters ring;
@@ -198,18 +281,18 @@ int main() {
     config.generation = elcano::Generation::b;
     Node node(config, 0, counters, ring);
     size = prepare_input(drive, elcano::Generation::b);
-    measure(0, 0, _BV(PC3), [&] { out = node_pass(node, size, kind); });
+    measure(kElcanoRingForwardB, [&] { out = node_pass(node, size, kind); });
     const bool ok = kind == elcano::RingEvent::Kind::forwarded && out == without_spaces(size);
-    bench_wire_bytes[17] = bytes_if(ok, size);
+    bench_wire_bytes[kElcanoRingForwardB] = bytes_if(ok, size);
   }
   {
     elcano::RingNodeConfig config;
     config.generation = elcano::Generation::d;
     Node node(config, 0, counters, ring);
     size = prepare_input(drive, elcano::Generation::d);
-    measure(0, 0, _BV(PC4), [&] { out = node_pass(node, size, kind); });
+    measure(kElcanoRingForwardD, [&] { out = node_pass(node, size, kind); });
     const bool ok = kind == elcano::RingEvent::Kind::forwarded && out == size;
-    bench_wire_bytes[18] = bytes_if(ok, size);
+    bench_wire_bytes[kElcanoRingForwardD] = bytes_if(ok, size);
   }
   {
     elcano::RingNodeConfig config;
@@ -217,9 +300,9 @@ int main() {
     config.capture = elcano::TypeSet::of(elcano::Type::drive);
     Node node(config, 0, counters, ring);
     size = prepare_input(drive, elcano::Generation::b);
-    measure(0, 0, _BV(PC5), [&] { out = node_pass(node, size, kind); });
+    measure(kElcanoRingCaptureB, [&] { out = node_pass(node, size, kind); });
     const bool ok = kind == elcano::RingEvent::Kind::captured && out == 0;
-    bench_wire_bytes[19] = bytes_if(ok, size);
+    bench_wire_bytes[kElcanoRingCaptureB] = bytes_if(ok, size);
   }
 
   cli();

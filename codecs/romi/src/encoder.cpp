@@ -7,8 +7,6 @@ namespace tether {
 namespace romi {
 namespace {
 
-const char kHex[] = "0123456789abcdef";
-
 // Sequential writer into a caller's buffer; remembers overflow instead of failing at each step.
 class FrameWriter {
  public:
@@ -21,8 +19,8 @@ class FrameWriter {
     for (uint8_t c : bytes) put(c);
   }
   void put_hex(uint8_t value) {
-    put(static_cast<uint8_t>(kHex[value >> 4]));
-    put(static_cast<uint8_t>(kHex[value & 0xF]));
+    put(hex_digit(static_cast<uint8_t>(value >> 4)));
+    put(hex_digit(static_cast<uint8_t>(value & 0xF)));
   }
   // ':' id crc "\r\n", the CRC covering everything written so far plus ':' and the id.
   void put_metadata(uint8_t id) {
@@ -81,12 +79,22 @@ Result<size_t> encode_manual_request(ByteView payload, MutableByteView out) {
 }
 
 Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out) {
-  FrameWriter writer(out);
-  writer.put('#');
-  writer.put(static_cast<uint8_t>(opcode));
-  for (uint8_t c : body) writer.put(c == ':' ? static_cast<uint8_t>('-') : c);
-  writer.put_metadata(id);
-  return writer.result();
+  // One straight pass, no per-byte calls or bounds checks: the size is known up front. A device's
+  // hot path (every reply).
+  if (body.size() + kResponseOverhead > out.size()) return Status::buffer_too_small;
+  uint8_t* next = out.data();
+  *next++ = '#';
+  *next++ = static_cast<uint8_t>(opcode);
+  for (uint8_t c : body) *next++ = c == ':' ? static_cast<uint8_t>('-') : c;
+  *next++ = ':';
+  *next++ = hex_digit(static_cast<uint8_t>(id >> 4));
+  *next++ = hex_digit(static_cast<uint8_t>(id & 0xF));
+  const uint8_t crc = Crc8Smbus::compute(ByteView(out.data(), static_cast<size_t>(next - out.data())));
+  *next++ = hex_digit(static_cast<uint8_t>(crc >> 4));
+  *next++ = hex_digit(static_cast<uint8_t>(crc & 0xF));
+  *next++ = '\r';
+  *next++ = '\n';
+  return body.size() + kResponseOverhead;
 }
 
 Result<size_t> encode_log(ByteView text, MutableByteView out) {

@@ -6,7 +6,13 @@ namespace tether {
 namespace romi {
 
 Error parse_request(ByteView payload, Request& request) {
-  request = Request();
+  // Not `request = Request()`: zeroing the whole string buffer cost ~300 AVR cycles per request. The
+  // string is a C string: only its first byte needs clearing. Unused arguments stay 0, as before.
+  request.opcode = 0;
+  request.argument_count = 0;
+  for (int16_t& argument : request.arguments) argument = 0;
+  request.has_string = false;
+  request.string[0] = '\0';
   if (payload.empty() || !is_opcode(payload[0])) return Error::invalid_opcode;
   request.opcode = static_cast<char>(payload[0]);
   if (payload.size() == 1) return Error::no_error;
@@ -36,16 +42,19 @@ Error parse_request(ByteView payload, Request& request) {
       const bool negative = c == '-';
       if (negative) ++i;
       if (i >= payload.size() || payload[i] < '0' || payload[i] > '9') return Error::unexpected_char;
-      int32_t value = 0;
+      // 16-bit magnitude (the AVR multiplies 32-bit numbers in a library call): more than 32768 is out
+      // of range for either sign, and checking before the multiply keeps it from wrapping.
+      uint16_t magnitude = 0;
       while (i < payload.size() && payload[i] >= '0' && payload[i] <= '9') {
-        value = value * 10 + (payload[i] - '0');
-        if (value > 32768) return Error::value_out_of_range;  // stop before int32 could overflow
+        if (magnitude > 3276) return Error::value_out_of_range;  // the next digit makes it >= 32770
+        magnitude = static_cast<uint16_t>(magnitude * 10u + static_cast<uint8_t>(payload[i] - '0'));
+        if (magnitude > 32768) return Error::value_out_of_range;
         ++i;
       }
-      if (negative) value = -value;
-      if (value < -32768 || value > 32767) return Error::value_out_of_range;
+      if (magnitude > (negative ? 32768u : 32767u)) return Error::value_out_of_range;
       if (request.argument_count == kMaxArguments) return Error::too_many_arguments;
-      request.arguments[request.argument_count++] = static_cast<int16_t>(value);
+      request.arguments[request.argument_count++] =
+          negative ? static_cast<int16_t>(-static_cast<int32_t>(magnitude)) : static_cast<int16_t>(magnitude);
     } else {
       return Error::unexpected_char;
     }

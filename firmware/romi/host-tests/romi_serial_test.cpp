@@ -363,6 +363,16 @@ TEST_F(RomiSerialTest, ManualRequestsBypassTheCacheAndDoNotPoisonIdZero) {
   EXPECT_EQ(runs, 4);
 }
 
+// The cache keeps the reply it answers repeats with in the device's one reply buffer: a manual
+// request's reply (different opcode, different body) must not replace it.
+TEST_F(RomiSerialTest, ManualRequestInBetweenDoesNotChangeTheCachedReply) {
+  const std::string cached = exchange(request("e", 9));
+  EXPECT_EQ(cached, response('e', "[0,1,2]", 9));
+  EXPECT_EQ(exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(exchange(request("e", 9)), cached);
+  EXPECT_EQ(runs, 2);
+}
+
 // A new host session that starts with the previous one's last id and command (1 in 256 with random
 // first ids) must get its command executed, while every re-send of a call (all within the host's 2 s
 // budget) is still answered from the cache: the cached reply lives exactly 2 s after it was sent.
@@ -509,6 +519,17 @@ TEST_F(RomiSerialTest, DeadlineWorksAcrossTheClockWrap) {
   EXPECT_EQ(exchange(""), "");
   fake_now = 0xFFFFFF00u + 1000u;
   EXPECT_EQ(exchange(""), response('a', "[-30]", 0));
+}
+
+// The device parses a frame and looks its handler up at the frame's '\r'; a table replaced before the
+// '\n' arrives is the one that answers.
+TEST_F(RomiSerialTest, HandlersReplacedBetweenTheFramesCrAndLfAreTheOnesUsed) {
+  const std::string frame = request("e", 3);
+  EXPECT_EQ(exchange(frame.substr(0, frame.size() - 1)), "");  // up to the '\r'
+  static const MessageHandler kOnlyA[] = {{'a', 0, false, ok}};
+  device.set_handlers(kOnlyA, 1);
+  EXPECT_EQ(exchange("\n"), response('e', "[-16]", 3));
+  EXPECT_EQ(runs, 0);
 }
 
 TEST(RomiSerialNoClock, WithoutAClockThereIsNoDeadline) {

@@ -38,22 +38,30 @@ RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandle
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
+  prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
 }
 
 void RomiSerial::handle_input() {
   if (in_handler_) return;
   // One clock read per call and one per handler run, none per byte (the AVR's hot path): the bytes
   // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
+  // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
+  // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
+  // Most calls come within the millisecond of the last check: then nothing can have expired.
   Millis now = clock_ != nullptr ? clock_() : 0;
+  if (now != timeouts_checked_at_) handle_timeouts(now);
   char c;
-  while (in_->available() && in_->read(c)) {
-    if (handle_received(static_cast<uint8_t>(c), now)) now = reply_sent_at_;
+  while (in_->read(c)) {
+    if (receive(static_cast<uint8_t>(c), now)) {
+      now = reply_sent_at_;
+      handle_timeouts(now);
+    }
   }
-  handle_timeouts(now);
 }
 
 void RomiSerial::handle_timeouts(Millis now) {
   if (in_handler_) return;
+  timeouts_checked_at_ = now;
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
   if (cache_expiry_.expired(now)) {
@@ -67,11 +75,14 @@ void RomiSerial::handle_timeouts(Millis now) {
   send_code(partial_opcode_, 0, Error::controller_timeout);
 }
 
-void RomiSerial::handle_byte(uint8_t byte, Millis now) { handle_received(byte, now); }
-
-bool RomiSerial::handle_received(uint8_t byte, Millis now) {
-  if (in_handler_) return false;
+void RomiSerial::handle_byte(uint8_t byte, Millis now) {
+  if (in_handler_) return;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
+  receive(byte, now);
+}
+
+bool RomiSerial::receive(uint8_t byte, Millis now) {
+  if (in_handler_) return false;
   if (byte == '#') {
     deadline_.on_frame_start(now);
     partial_opcode_ = '_';
@@ -81,7 +92,12 @@ bool RomiSerial::handle_received(uint8_t byte, Millis now) {
     await_opcode_ = false;
   }
   const DecodeStatus status = decoder_.feed(byte);
-  if (status == DecodeStatus::more) return false;
+  if (status == DecodeStatus::more) {
+    // The frame's '\r' checked out and only its '\n' is missing: fingerprint and parse it now, so the
+    // '\n' leaves only the cache lookup and the dispatch (the turnaround).
+    if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
+    return false;
+  }
   deadline_.on_frame_end();
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
@@ -91,6 +107,29 @@ bool RomiSerial::handle_received(uint8_t byte, Millis now) {
   return handle_frame(frame, now);
 }
 
+void RomiSerial::prepare(const Frame& frame) {
+  prepared_ = !frame.log;
+  if (!prepared_) return;
+  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
+  fingerprint_ = Crc16Mcrf4xx::compute(frame.payload);
+  parsed_ = parse_request(frame.payload, request_);
+  if (parsed_ != Error::no_error) return;
+  handler_ = nullptr;
+  for (uint8_t i = 0; i < handler_count_; ++i) {
+    if (handlers_[i].opcode == request_.opcode) {
+      handler_ = &handlers_[i];
+      break;
+    }
+  }
+  if (handler_ == nullptr || handler_->callback == nullptr) {
+    parsed_ = Error::unknown_opcode;
+  } else if (request_.argument_count != handler_->number_arguments) {
+    parsed_ = Error::bad_number_of_arguments;
+  } else if (request_.has_string != handler_->requires_string) {
+    parsed_ = handler_->requires_string ? Error::missing_string : Error::bad_string;
+  }
+}
+
 bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   if (frame.log) {
@@ -98,12 +137,14 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
     send_code('_', id, Error::invalid_opcode);
     return false;
   }
-  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
-  const uint16_t fingerprint = Crc16Mcrf4xx::compute(frame.payload);
+  if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
+  prepared_ = false;
+  const uint16_t fingerprint = fingerprint_;
   if (!frame.manual) {
-    const auto lookup = replies_.check(id, fingerprint);
-    if (lookup.duplicate && !lookup.cached_reply.empty()) {
-      write(lookup.cached_reply);  // exactly-once: the same response again, the handler does not run
+    if (replies_.check(id, fingerprint).duplicate) {
+      // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
+      // handler does not run.
+      write(ByteView(reply_, reply_size_));
       return false;
     }
   }
@@ -112,33 +153,17 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
 
 bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
   const uint8_t id = frame.has_id ? frame.id : 0;
-  const Error parsed = parse_request(frame.payload, request_);
-  if (parsed != Error::no_error) {
-    send_code(frame.opcode, id, parsed);
+  // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
+  // the frame's).
+  if (parsed_ != Error::no_error) {
+    send_code(frame.opcode, id, parsed_);
     return false;
   }
-  const MessageHandler* handler = nullptr;
-  for (uint8_t i = 0; i < handler_count_; ++i) {
-    if (handlers_[i].opcode == request_.opcode) {
-      handler = &handlers_[i];
-      break;
-    }
-  }
-  Error check = Error::no_error;
-  if (handler == nullptr || handler->callback == nullptr) {
-    check = Error::unknown_opcode;
-  } else if (request_.argument_count != handler->number_arguments) {
-    check = Error::bad_number_of_arguments;
-  } else if (request_.has_string != handler->requires_string) {
-    check = handler->requires_string ? Error::missing_string : Error::bad_string;
-  }
-  if (check != Error::no_error) {
-    send_code(request_.opcode, id, check);
-    return false;
-  }
+  const MessageHandler* handler = handler_;
 
   opcode_ = request_.opcode;
   id_ = id;
+  manual_ = frame.manual;
   replied_ = false;
   in_handler_ = true;
   ++counters_.executed;
@@ -152,7 +177,7 @@ bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) 
   reply_sent_at_ = clock_ != nullptr ? clock_() : now;
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!frame.manual) {
-    replies_.remember(id, fingerprint, ByteView(reply_, reply_size_));
+    replies_.remember(id, fingerprint, ByteView());  // the reply itself stays in reply_
     cache_expiry_.arm(reply_sent_at_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
   return true;
@@ -205,23 +230,35 @@ void RomiSerial::log(const char* text) {
   write(ByteView::from_literal(":xxxx\r\n"));
 }
 
+uint8_t RomiSerial::emit(char opcode, uint8_t id, ByteView body, MutableByteView frame) {
+  // The frame's first byte leaves at once: the UART sends it (a byte time, ~1500 cycles at 115200)
+  // while the rest is formed in `frame`, which then follows it.
+  out_->write('#');
+  const uint8_t size = static_cast<uint8_t>(encode_response(opcode, body, id, frame).value());
+  write(ByteView(frame.data() + 1, size - 1u));
+  return size;
+}
+
 void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
-  Result<size_t> frame = body.size() < sizeof(reply_)
-                             ? encode_response(opcode, body, id, MutableByteView(reply_))
-                             : Result<size_t>(Status::buffer_too_small);
-  if (!frame.ok()) {
+  if (body.size() + kResponseOverhead > sizeof(reply_)) {
     ++counters_.replies_too_long;
-    frame = encode_response(opcode, ByteView::from_literal("[-31]"), id, MutableByteView(reply_));
+    body = ByteView::from_literal("[-31]");
   }
-  reply_size_ = static_cast<uint8_t>(frame.value());
-  write(ByteView(reply_, reply_size_));
+  if (!manual_) {
+    reply_size_ = emit(opcode, id, body, MutableByteView(reply_));  // the cache's copy
+    return;
+  }
+  uint8_t frame[kReplyCapacity];  // manual requests are not cached: reply_ keeps the cached reply
+  emit(opcode, id, body, MutableByteView(frame));
 }
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   ++counters_.rejected;
-  ArrayText<8> body;  // "[-32768]" never needed: protocol codes have at most 3 characters
+  constexpr uint8_t kCodeText = 8;  // "[-32768]" never needed: protocol codes have at most 3 characters
+  ArrayText<kCodeText> body;
   body.add_int(static_cast<int16_t>(code));
-  send_response(opcode, id, text_view(body.c_str()));
+  uint8_t frame[kCodeText + kResponseOverhead];  // not cached: reply_ keeps the cached reply
+  emit(opcode, id, text_view(body.c_str()), MutableByteView(frame));
 }
 
 void RomiSerial::write(ByteView bytes) {

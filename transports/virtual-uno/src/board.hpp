@@ -39,6 +39,22 @@ struct VirtualUno::Impl {
     int bit;
   };
   PinWatch pin_watch[3][8];
+  // A watched I/O register: the simavr handlers it had, chained behind ours, and what we recorded.
+  struct IoWatch {
+    Impl* board;
+    std::uint16_t address;
+    avr_io_read_t read;  // the register's own handlers (null: plain memory)
+    void* read_param;
+    avr_io_write_t write;
+    void* write_param;
+    std::size_t limit;
+    std::vector<IoAccess> accesses;
+    std::uint64_t dropped = 0;
+    void record(std::uint8_t value, bool is_write);
+  };
+  std::map<std::uint16_t, std::unique_ptr<IoWatch>> io_watches;  // simulation thread only
+  static std::uint8_t on_watched_read(avr_t* avr, avr_io_addr_t address, void* param);
+  static void on_watched_write(avr_t* avr, avr_io_addr_t address, std::uint8_t value, void* param);
 
   // --- group membership (changed only while nobody advances the board) ------------------------------
   std::atomic<VirtualUnoGroup::Impl*> group{nullptr};

@@ -1021,6 +1021,67 @@ void VirtualUno::io_write(std::uint16_t address, std::uint8_t value) {
   });
 }
 
+void Board::IoWatch::record(std::uint8_t value, bool is_write) {
+  if (accesses.size() < limit) {
+    accesses.push_back(IoAccess{board->now(), value, is_write});
+  } else {
+    ++dropped;
+  }
+}
+
+std::uint8_t Board::on_watched_read(avr_t* avr, avr_io_addr_t address, void* param) {
+  auto* watch = static_cast<IoWatch*>(param);
+  const std::uint8_t value = watch->read != nullptr ? watch->read(avr, address, watch->read_param) : avr->data[address];
+  watch->record(value, false);
+  return value;
+}
+
+void Board::on_watched_write(avr_t* avr, avr_io_addr_t address, std::uint8_t value, void* param) {
+  auto* watch = static_cast<IoWatch*>(param);
+  watch->record(value, true);
+  if (watch->write != nullptr) {
+    watch->write(avr, address, value, watch->write_param);
+  } else {
+    avr->data[address] = value;
+  }
+}
+
+void VirtualUno::watch_io(std::uint16_t address, std::size_t limit) {
+  if (address < 0x20 || address > impl_->avr->ioend || address == reg::SREG) {
+    throw std::out_of_range("virtual Uno: watch_io outside the I/O space (SREG excluded)");
+  }
+  impl_->execute([this, address, limit] {
+    auto& slot = impl_->avr->io[AVR_DATA_TO_IO(address)];
+    auto& watch = impl_->io_watches[address];
+    if (!watch) {
+      // simavr keeps one handler per register: ours takes the slot and calls the one it replaces.
+      watch = std::make_unique<Impl::IoWatch>(
+          Impl::IoWatch{impl_.get(), address, slot.r.c, slot.r.param, slot.w.c, slot.w.param, limit, {}, 0});
+      slot.r.c = &Impl::on_watched_read;
+      slot.r.param = watch.get();
+      slot.w.c = &Impl::on_watched_write;
+      slot.w.param = watch.get();
+    }
+    watch->limit = limit;
+    watch->accesses.clear();
+    watch->dropped = 0;
+  });
+}
+
+std::vector<IoAccess> VirtualUno::io_accesses(std::uint16_t address) const {
+  return impl_->execute([this, address] {
+    const auto found = impl_->io_watches.find(address);
+    return found == impl_->io_watches.end() ? std::vector<IoAccess>{} : found->second->accesses;
+  });
+}
+
+std::uint64_t VirtualUno::io_accesses_dropped(std::uint16_t address) const {
+  return impl_->execute([this, address] {
+    const auto found = impl_->io_watches.find(address);
+    return found == impl_->io_watches.end() ? std::uint64_t{0} : found->second->dropped;
+  });
+}
+
 const VirtualUnoOptions& VirtualUno::options() const { return impl_->options; }
 
 // ===================================================================================================

@@ -152,6 +152,45 @@ TEST(VirtualUnoEcho, HandlerMayWriteButNotStop) {
   uno.set_output_handler({});
 }
 
+// --- I/O register watch ------------------------------------------------------------------------------------
+
+TEST(VirtualUnoIoWatch, RecordsEveryUdr0ReadAndWriteInOrderWithoutChangingTheUart) {
+  VirtualUno uno(echo_options());
+  uno.watch_io(atmega328p::UDR0);
+  OutputRecorder recorder(uno);
+  boot(uno, recorder);
+  const std::string payload = "watch\n";
+  uno.write(payload);
+  ASSERT_TRUE(test::run_until(stepper(uno), [&] { return recorder.text().size() >= kEchoBanner.size() + payload.size(); }, 2s, 10ms));
+  EXPECT_EQ(recorder.text(), std::string(kEchoBanner) + payload) << "the UART still works through the watch";
+
+  const std::vector<IoAccess> accesses = uno.io_accesses(atmega328p::UDR0);
+  std::string written, read;
+  for (const IoAccess& access : accesses) (access.write ? written : read) += static_cast<char>(access.value);
+  EXPECT_EQ(written, std::string(kEchoBanner) + payload);
+  EXPECT_EQ(read, payload) << "each received byte read once, with the value the UART delivered";
+  for (std::size_t i = 1; i < accesses.size(); ++i) EXPECT_LE(accesses[i - 1].cycle, accesses[i].cycle);
+  // The echo writes a byte after reading it: the read of the last byte comes before its echo's write.
+  const auto last_read = std::find_if(accesses.rbegin(), accesses.rend(), [](const IoAccess& a) { return !a.write; });
+  ASSERT_NE(last_read, accesses.rend());
+  EXPECT_TRUE(accesses.back().write);
+  EXPECT_LT(last_read->cycle, accesses.back().cycle);
+  EXPECT_EQ(uno.io_accesses_dropped(atmega328p::UDR0), 0u);
+  EXPECT_TRUE(uno.io_accesses(atmega328p::GPIOR0).empty()) << "an unwatched register has no record";
+  EXPECT_THROW(uno.watch_io(atmega328p::SREG), std::out_of_range);
+}
+
+TEST(VirtualUnoIoWatch, KeepsTheFirstLimitAccessesAndCountsTheRest) {
+  VirtualUno uno(echo_options());
+  uno.watch_io(atmega328p::UDR0, 4);
+  OutputRecorder recorder(uno);
+  boot(uno, recorder);
+  const std::vector<IoAccess> accesses = uno.io_accesses(atmega328p::UDR0);
+  ASSERT_EQ(accesses.size(), 4u);
+  EXPECT_EQ(std::string(1, static_cast<char>(accesses[0].value)), std::string(kEchoBanner.substr(0, 1)));
+  EXPECT_EQ(uno.io_accesses_dropped(atmega328p::UDR0), kEchoBanner.size() - 4);
+}
+
 // --- timing ----------------------------------------------------------------------------------------------
 
 TEST(VirtualUnoTiming, BulkTransferTakesElevenBitTimesPerByte) {

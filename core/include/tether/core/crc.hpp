@@ -8,10 +8,11 @@
 ///
 /// Both have the same shape: construct (or `reset`), `update` with bytes in any chunking, read `value`;
 /// or call the static `compute`. Back ends differ per platform: the host uses Boost.CRC
-/// (`boost::crc_optimal`, table driven), the AVR uses avr-libc's hand-tuned `util/crc16.h`
-/// (`_crc8_ccitt_update`, `_crc_ccitt_update`). The register kept between updates is back-end private.
-/// `Crc16Mcrf4xx::update(uint8_t)` is inline (both back ends are headers) so that a codec can fold the
-/// CRC into its own byte loop, with the register in a CPU register, instead of a second pass (issue 17).
+/// (`boost::crc_optimal`, table driven), the AVR a 16-entry flash table for CRC-8 (a third of avr-libc's
+/// `_crc8_ccitt_update` bit loop) and avr-libc's hand-tuned `_crc_ccitt_update` for CRC-16. The register
+/// kept between updates is back-end private. `Crc16Mcrf4xx::update(uint8_t)` is inline (both back ends
+/// are headers) so that a codec can fold the CRC into its own byte loop, with the register in a CPU
+/// register, instead of a second pass (issue 17).
 #pragma once
 
 #include <stdint.h>

@@ -71,10 +71,15 @@ class Decoder {
   }
   /// True between a `#` and the end of that frame: what a partial-frame deadline watches.
   bool in_frame() const { return state_ != State::idle; }
+  /// True after a frame's `\r` when its metadata checked out: only the `\n` is missing, and `frame()`
+  /// already holds the frame, so a device can do the frame's work before its last byte arrives.
+  bool awaiting_end() const { return state_ == State::expect_lf; }
 
  private:
   enum class State : uint8_t { idle, body, expect_lf, skip };
 
+  // Out of line (a GCC/Clang attribute): the rare cases must not weigh on the inlined per-byte path.
+  __attribute__((noinline)) DecodeStatus feed_other(uint8_t byte);
   DecodeStatus finish_line(uint8_t end);
   DecodeStatus fail(Error error);
 

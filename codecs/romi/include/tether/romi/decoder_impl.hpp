@@ -9,7 +9,7 @@ namespace romi {
 namespace detail {
 
 /// Value of a lowercase hex digit, or -1 (uppercase is rejected, as by the reference).
-inline int8_t hex_value(uint8_t c) {
+__attribute__((always_inline)) inline int8_t hex_value(uint8_t c) {
   if (c >= '0' && c <= '9') return static_cast<int8_t>(c - '0');
   if (c >= 'a' && c <= 'f') return static_cast<int8_t>(c - 'a' + 10);
   return -1;
@@ -18,7 +18,22 @@ inline int8_t hex_value(uint8_t c) {
 }  // namespace detail
 
 template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+  // The common case, a byte inside a frame's body, stays small enough to inline into the caller's byte
+  // loop without a stack frame; everything else (frame start and end, errors) is out of line.
+  if (state_ == State::body && byte != '#' && byte != '\r' && byte != '\n' && size_ != Capacity) {
+    if (byte == ':') {
+      seen_colon_ = true;
+      last_colon_ = size_;
+    }
+    buffer_[size_++] = byte;
+    return DecodeStatus::more;
+  }
+  return feed_other(byte);
+}
+
+template <size_t Capacity>
+DecodeStatus Decoder<Capacity>::feed_other(uint8_t byte) {
   if (byte == '#') {
     // A new frame starts anywhere; whatever came before it is dropped.
     if (state_ == State::body || state_ == State::expect_lf || skipping_) ++counters_->resyncs;

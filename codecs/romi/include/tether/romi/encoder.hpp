@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "tether/core/bytes.hpp"
+#include "tether/core/crc.hpp"
 #include "tether/core/status.hpp"
 #include "tether/romi/errors.hpp"
 #include "tether/romi/limits.hpp"
@@ -28,6 +29,16 @@ Result<size_t> encode_manual_request(ByteView payload, MutableByteView out);
 /// Writes a response frame: `opcode`, then `body` (the bracketed array text, e.g. `[0,1,2]`), then the
 /// metadata. Every ':' in `body` is written as '-' (the reference does the same: ':' ends the payload).
 Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out);
+
+/// Bytes a response frame adds to its body: '#', the opcode, ':', id, CRC, "\r\n". A frame always
+/// starts with '#': a device may send that byte before it forms the rest (the reply's turnaround).
+constexpr size_t kResponseOverhead = 9;
+
+/// Lowercase hex digit of `nibble` (0..15), without a table in RAM.
+__attribute__((always_inline)) inline uint8_t hex_digit(uint8_t nibble) {
+  return static_cast<uint8_t>(nibble < 10 ? '0' + nibble : 'a' - 10 + nibble);
+}
+
 /// Writes a log frame `#!text:xxxx\r\n`. CR and LF in `text` become spaces ('#' is kept: hosts find the
 /// metadata at the end of the line, and Tether hosts resynchronise on it anyway).
 Result<size_t> encode_log(ByteView text, MutableByteView out);

@@ -162,7 +162,7 @@ inline constexpr int kCount = 20;
 /// `io_read`, `io_write`).
 namespace atmega328p {
 inline constexpr std::uint16_t PINB = 0x23, DDRB = 0x24, PORTB = 0x25, PINC = 0x26, DDRC = 0x27, PORTC = 0x28,
-                               PIND = 0x29, DDRD = 0x2A, PORTD = 0x2B, SREG = 0x5F, MCUSR = 0x54, WDTCSR = 0x60,
+                               PIND = 0x29, DDRD = 0x2A, PORTD = 0x2B, GPIOR0 = 0x3E, SREG = 0x5F, MCUSR = 0x54, WDTCSR = 0x60,
                                ADCL = 0x78, ADCH = 0x79, ADCSRA = 0x7A, ADCSRB = 0x7B, ADMUX = 0x7C, TCCR1A = 0x80,
                                TCCR1B = 0x81, TCNT1L = 0x84, TCNT1H = 0x85, ICR1L = 0x86, ICR1H = 0x87,
                                OCR1AL = 0x88, OCR1AH = 0x89, OCR1BL = 0x8A, OCR1BH = 0x8B, UCSR0A = 0xC0,
@@ -258,6 +258,13 @@ struct Timer1Registers {
   std::uint16_t ocr1a = 0;
   std::uint16_t ocr1b = 0;
   std::uint16_t icr1 = 0;
+};
+
+/// One access of the firmware to a watched I/O register (`VirtualUno::watch_io`).
+struct IoAccess {
+  std::uint64_t cycle = 0;  ///< CPU cycle at which the accessing instruction started (exact)
+  std::uint8_t value = 0;   ///< the byte written, or the byte the read returned
+  bool write = false;       ///< true for a write (OUT/STS), false for a read (IN/LDS)
 };
 
 /// A symbol of the firmware image's ELF symbol table (`VirtualUno::symbol`).
@@ -391,6 +398,16 @@ class VirtualUno {
   /// ADCL returns a conversion, writing ADCSRA starts one). For tests and tools poking peripherals.
   std::uint8_t io_read(std::uint16_t address);
   void io_write(std::uint16_t address, std::uint8_t value);
+  /// Records every firmware read and write of the I/O register at `address` (0x20..0xFF, SREG excluded)
+  /// with its exact cycle, keeping the first `limit` accesses (later ones are counted, not kept): cycle
+  /// counts between two marker writes (e.g. to GPIOR0, which no peripheral uses), or from reading a UDR0
+  /// byte to writing the next. The register's own behaviour (the UART's FIFO, flags) is unchanged.
+  /// Watching an address again clears its record. Throws std::out_of_range.
+  void watch_io(std::uint16_t address, std::size_t limit = std::size_t{1} << 16);
+  /// The accesses recorded since `watch_io(address)` (empty when it is not watched).
+  std::vector<IoAccess> io_accesses(std::uint16_t address) const;
+  /// Accesses to a watched register that did not fit its `limit`.
+  std::uint64_t io_accesses_dropped(std::uint16_t address) const;
 
   const VirtualUnoOptions& options() const;
 

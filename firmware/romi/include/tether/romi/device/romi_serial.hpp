@@ -158,12 +158,14 @@ class RomiSerial final : public IRomiSerial {
 
  private:
   // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
-  bool handle_received(uint8_t byte, Millis now);
+  bool receive(uint8_t byte, Millis now);  // handle_byte without the timeout check
   bool handle_frame(const Frame& frame, Millis now);
+  void prepare(const Frame& frame);  // fingerprint and parse, at the frame's '\r'
   bool dispatch(const Frame& frame, uint16_t fingerprint, Millis now);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
+  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
   void write(ByteView bytes);
 
   IInputStream* in_;
@@ -174,10 +176,17 @@ class RomiSerial final : public IRomiSerial {
   DeviceCounters counters_;  // before the members that count into it
   Decoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
-  session::DuplicateFilter<uint8_t, 1, kReplyCapacity> replies_;
+  // Id and fingerprint of the request whose reply is in reply_ (the cached reply: only handler replies
+  // to requests with an id are written there).
+  session::DuplicateFilter<uint8_t, 1, 0> replies_;
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
   Millis reply_sent_at_ = 0;  // when the last handler's reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
+  Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
+  const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
+  Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
+  uint16_t fingerprint_ = 0;        // the frame's fingerprint (prepare)
+  bool prepared_ = false;           // request_, parsed_ and fingerprint_ belong to the frame awaiting '\n'
   uint8_t reply_[kReplyCapacity];
   uint8_t reply_size_ = 0;
   char opcode_ = '_';          // opcode and id of the request being handled
@@ -186,6 +195,7 @@ class RomiSerial final : public IRomiSerial {
   bool await_opcode_ = false;  // the next byte is the first after '#'
   bool in_handler_ = false;
   bool replied_ = false;
+  bool manual_ = false;        // the request being handled is manual: its reply is not cached
 };
 
 }  // namespace device
