@@ -95,7 +95,13 @@ py::object asyncio_future(const std::function<void(PyCallback settle, transports
   py::object future = loop.attr("create_future")();
   py::object settle = py::module_::import("tether._asyncio").attr("settle");
   py::object deliver = py::cpp_function([loop, future, settle](py::object failure, py::object value) {
-    loop.attr("call_soon_threadsafe")(settle, future, failure, value);
+    // A loop closed meanwhile (the future was cancelled and asyncio.run returned) has nobody to tell.
+    if (loop.attr("is_closed")().cast<bool>()) return;
+    try {
+      loop.attr("call_soon_threadsafe")(settle, future, failure, value);
+    } catch (py::error_already_set&) {
+      if (!loop.attr("is_closed")().cast<bool>()) throw;  // closed between the check and the call
+    }
   });
   transports::CancellationSignal cancel;
   start(PyCallback(deliver), cancel);
