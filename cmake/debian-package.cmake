@@ -127,18 +127,19 @@ CMake package (find_package(Tether)) and pkg-config files, and an example
 rover service. Virtual boards (Tether::virtual_uno) need libsimavr-dev,
 libelf-dev and the images of tether-firmware.")
 
-  set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-tether)
-  set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
-  set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: libprotobuf, libsimavr, libelf, libstdc++
-  # An extension module loads in the one Python version it was built for (what dh-python's
-  # ${python3:Depends} says for a module of Debian's default python3).
-  string(REGEX MATCH "^([0-9]+)\\.([0-9]+)$" _python_version "${TETHER_PYTHON_VERSION}")
-  math(EXPR _next_minor "${CMAKE_MATCH_2} + 1")
-  set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
-    "python3 (>= ${TETHER_PYTHON_VERSION}~), python3 (<< ${CMAKE_MATCH_1}.${_next_minor})")
-  # Virtual boards (tether.VirtualUno, virtual devices of a rover file) run the images; real boards do not.
-  set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "tether-firmware (= ${PROJECT_VERSION})")
-  set(CPACK_DEBIAN_PYTHON_DESCRIPTION "Python package of Tether (robot host to AVR messaging)
+  if(TARGET _tether)  # the module was built: package it
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-tether)
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: libprotobuf, libsimavr, libelf, libstdc++
+    # An extension module loads in the one Python version it was built for (what dh-python's
+    # ${python3:Depends} says for a module of Debian's default python3).
+    string(REGEX MATCH "^([0-9]+)\\.([0-9]+)$" _python_version "${TETHER_PYTHON_VERSION}")
+    math(EXPR _next_minor "${CMAKE_MATCH_2} + 1")
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
+      "python3 (>= ${TETHER_PYTHON_VERSION}~), python3 (<< ${CMAKE_MATCH_1}.${_next_minor})")
+    # Virtual boards (tether.VirtualUno, virtual devices of a rover file) run the images; real boards do not.
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "tether-firmware (= ${PROJECT_VERSION})")
+    set(CPACK_DEBIAN_PYTHON_DESCRIPTION "Python package of Tether (robot host to AVR messaging)
 Tether carries messages between a robot's host computer and its AVR
 Arduinos over serial links, in three protocols: the Romi text protocol,
 COBS + CRC-16 protobuf (proxy) and the Elcano ring.
@@ -147,6 +148,7 @@ This package has the Python 3 module tether: the library's clients of
 each protocol (blocking and asyncio), rover configurations, transports,
 virtual boards (with tether-firmware) and tether.compat, RomiSerial's
 ControlSerial on Tether.")
+  endif()
 
   include(CPack)
 endfunction()
