@@ -220,7 +220,9 @@ with tether.VirtualUno("romi-test") as board:
       cmake_path(IS_PREFIX SCRATCH "${path}" NORMALIZE in_scratch)
       cmake_path(IS_PREFIX SOURCE "${path}" NORMALIZE in_source)
       cmake_path(IS_PREFIX BINARY "${path}" NORMALIZE in_binary)
-      if(NOT in_scratch AND (in_source OR in_binary))
+      # The folders on the way to the scratch folder (Python looks at each part of its paths) hold nothing.
+      cmake_path(IS_PREFIX path "${SCRATCH}" NORMALIZE above_scratch)
+      if(NOT in_scratch AND NOT above_scratch AND (in_source OR in_binary))
         list(APPEND touched "${path}")
       endif()
     endforeach()
