@@ -5,12 +5,14 @@
 #                    code (avr-libc, arduino-core-avr): lintian accepts another architecture's ELF only in
 #                    an arch-independent package, and the images are the same whatever the host's
 #   libtether-dev    the static libraries, headers, CMake package and pkg-config files, the consumer example
+#   python3-tether   the Python package `tether` (the pybind11 module and its .py/.pyi files) for Debian's
+#                    python3 in /usr/lib/python3/dist-packages, when the build made the module
 # The libraries are static only (0.x: the API still changes between minor versions, so no shared library
 # with a stable SONAME yet); Debian ships static libraries and headers in a -dev package, and a runtime
 # library package would be empty: `tether` links them in.
 #
-# Install rules choose their package with COMPONENT: `tether`, `firmware` or `dev` (the default, for headers
-# and libraries). Tests check that every installed file is in one of the packages (package-tests/deb.cmake).
+# Install rules choose their package with COMPONENT: `tether`, `firmware`, `python` or `dev` (the default,
+# for headers and libraries). Tests check that every installed file is in one of the packages (package-tests/deb.cmake).
 include_guard(GLOBAL)
 
 # The man page of `tether`, generated from its own help at build time (cmake/man-page.cmake).
@@ -44,7 +46,11 @@ function(tether_debian_docs)
     COMMAND ${TETHER_GZIP} -9nc ${PROJECT_BINARY_DIR}/debian/changelog > ${_changelog}
     DEPENDS ${PROJECT_BINARY_DIR}/debian/changelog)
   add_custom_target(tether-debian-changelog ALL DEPENDS ${_changelog})
-  foreach(_component_package tether:tether firmware:tether-firmware dev:libtether-dev)
+  set(_component_packages tether:tether firmware:tether-firmware dev:libtether-dev)
+  if(TARGET _tether)
+    list(APPEND _component_packages python:python3-tether)
+  endif()
+  foreach(_component_package IN LISTS _component_packages)
     string(REPLACE ":" ";" _component_package ${_component_package})
     list(GET _component_package 0 _component)
     list(GET _component_package 1 _package)
@@ -73,6 +79,9 @@ function(tether_debian_package)
   set(CPACK_PACKAGE_DIRECTORY ${PROJECT_BINARY_DIR}/packages)
   set(CPACK_DEB_COMPONENT_INSTALL ON)
   set(CPACK_COMPONENTS_ALL tether firmware dev)
+  if(TARGET _tether)  # python/CMakeLists.txt made the module (pybind11-dev and python3-dev were found)
+    list(APPEND CPACK_COMPONENTS_ALL python)
+  endif()
 
   set(CPACK_DEBIAN_TETHER_PACKAGE_NAME tether)
   set(CPACK_DEBIAN_TETHER_PACKAGE_SECTION electronics)
@@ -117,6 +126,29 @@ This package has the C++20 client libraries (static), their headers, the
 CMake package (find_package(Tether)) and pkg-config files, and an example
 rover service. Virtual boards (Tether::virtual_uno) need libsimavr-dev,
 libelf-dev and the images of tether-firmware.")
+
+  if(TARGET _tether)  # the module was built: package it
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-tether)
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: libprotobuf, libsimavr, libelf, libstdc++
+    # An extension module loads in the one Python version it was built for (what dh-python's
+    # ${python3:Depends} says for a module of Debian's default python3).
+    string(REGEX MATCH "^([0-9]+)\\.([0-9]+)$" _python_version "${TETHER_PYTHON_VERSION}")
+    math(EXPR _next_minor "${CMAKE_MATCH_2} + 1")
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
+      "python3 (>= ${TETHER_PYTHON_VERSION}~), python3 (<< ${CMAKE_MATCH_1}.${_next_minor})")
+    # Virtual boards (tether.VirtualUno, virtual devices of a rover file) run the images; real boards do not.
+    set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "tether-firmware (= ${PROJECT_VERSION})")
+    set(CPACK_DEBIAN_PYTHON_DESCRIPTION "Python package of Tether (robot host to AVR messaging)
+Tether carries messages between a robot's host computer and its AVR
+Arduinos over serial links, in three protocols: the Romi text protocol,
+COBS + CRC-16 protobuf (proxy) and the Elcano ring.
+.
+This package has the Python 3 module tether: the library's clients of
+each protocol (blocking and asyncio), rover configurations, transports,
+virtual boards (with tether-firmware) and tether.compat, RomiSerial's
+ControlSerial on Tether.")
+  endif()
 
   include(CPack)
 endfunction()

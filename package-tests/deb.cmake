@@ -4,8 +4,10 @@
 #   STEP=lintian   lintian on each package: no errors; its warnings are printed
 #   STEP=unpacked  `dpkg -x` the packages into SCRATCH (never dpkg -i: installed headers would shadow the
 #                  tree's) and check: they hold exactly what `cmake --install` installs, the man page covers
-#                  every command, and the unpacked `tether` runs `--version` and `demo --iterations 20` from
-#                  another folder with the build's images hidden, opening nothing in the build or source tree
+#                  every command, the unpacked `tether` runs `--version` and `demo --iterations 20`, and
+#                  Debian's python3 imports the unpacked `tether` module and calls a virtual board with it,
+#                  from another folder with the build's images hidden, opening nothing in the build or
+#                  source tree
 # Skipped (the message says why) when dpkg-deb or lintian is missing: tools/setup installs both.
 foreach(tool dpkg-deb lintian)
   find_program(found_${tool} ${tool})
@@ -32,7 +34,7 @@ function(run_checked)
 endfunction()
 
 set(packages_dir ${BINARY}/packages)
-set(expected_packages tether tether-firmware libtether-dev)
+set(expected_packages tether tether-firmware libtether-dev python3-tether)
 
 if(STEP STREQUAL "build")
   # What Debian's packaging helpers pass (hardening: stack protector, fortify, relro, bindnow), less -g -O2:
@@ -47,7 +49,8 @@ if(STEP STREQUAL "build")
     -DCMAKE_INSTALL_PREFIX=/usr -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DTETHER_SANITIZE=OFF
     -DCMAKE_CXX_COMPILER=${CXX} -DTETHER_NANOPB_SOURCE_DIR=${NANOPB}
     "-DCMAKE_C_FLAGS=${flags_CFLAGS} ${flags_CPPFLAGS}" "-DCMAKE_CXX_FLAGS=${flags_CXXFLAGS} ${flags_CPPFLAGS}"
-    "-DCMAKE_EXE_LINKER_FLAGS=${flags_LDFLAGS}")
+    "-DCMAKE_EXE_LINKER_FLAGS=${flags_LDFLAGS}" "-DCMAKE_MODULE_LINKER_FLAGS=${flags_LDFLAGS}"
+    "-DCMAKE_SHARED_LINKER_FLAGS=${flags_LDFLAGS}")
   if(LAUNCHER)
     list(APPEND configure -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER} -DCMAKE_C_COMPILER_LAUNCHER=${LAUNCHER})
   endif()
@@ -59,7 +62,8 @@ if(STEP STREQUAL "build")
   foreach(package IN LISTS expected_packages)
     file(GLOB deb ${packages_dir}/${package}_*.deb)
     if(NOT deb)
-      message(FATAL_ERROR "cpack made no ${package}_*.deb in ${packages_dir}")
+      message(FATAL_ERROR "cpack made no ${package}_*.deb in ${packages_dir} (python3-tether needs pybind11-dev "
+        "and python3-dev: tools/setup installs them)")
     endif()
     execute_process(COMMAND dpkg-deb --info ${deb} OUTPUT_VARIABLE info)
     message(STATUS "${deb}:\n${info}")
@@ -74,6 +78,16 @@ if(STEP STREQUAL "build")
   foreach(library libprotobuf libedit libelf libsimavr libstdc "tether-firmware \\(= ${VERSION}\\)")
     if(NOT depends MATCHES "${library}")
       message(SEND_ERROR "tether's Depends names no ${library} package: ${depends}")
+    endif()
+  endforeach()
+  # The module loads in the one Python version it was built for: Depends pins Debian's python3 to it.
+  execute_process(COMMAND /usr/bin/python3 -c "import sys; print('%d.%d' % sys.version_info[:2])"
+    OUTPUT_VARIABLE python_version OUTPUT_STRIP_TRAILING_WHITESPACE)
+  file(GLOB deb ${packages_dir}/python3-tether_*.deb)
+  execute_process(COMMAND dpkg-deb --field ${deb} Depends OUTPUT_VARIABLE depends)
+  foreach(library libprotobuf libelf libsimavr libstdc "python3 \\(>= ${python_version}~\\)" "python3 \\(<< ")
+    if(NOT depends MATCHES "${library}")
+      message(SEND_ERROR "python3-tether's Depends names no ${library}: ${depends}")
     endif()
   endforeach()
 elseif(STEP STREQUAL "lintian")
@@ -98,9 +112,8 @@ elseif(STEP STREQUAL "unpacked")
     run_checked(dpkg-deb -x ${deb} ${root})
   endforeach()
 
-  # Nothing installed is left out of the packages, and they hold nothing else. The Python module (install
-  # component `python`) has no Debian package yet: it is compared once it has one.
-  foreach(component tether firmware dev)
+  # Nothing installed is left out of the packages, and they hold nothing else.
+  foreach(component tether firmware dev python)
     run_checked(${CMAKE_COMMAND} --install ${BINARY} --prefix ${SCRATCH}/installed/usr --component ${component})
   endforeach()
   file(GLOB_RECURSE packaged RELATIVE ${root} LIST_DIRECTORIES false ${root}/*)
@@ -119,7 +132,9 @@ elseif(STEP STREQUAL "unpacked")
       usr/share/tether/firmware/proxy.elf usr/share/doc/tether/copyright usr/share/doc/tether/changelog.gz
       usr/share/doc/libtether-dev/copyright usr/share/doc/tether-firmware/changelog.gz
       usr/include/tether/romi/client.hpp
-      usr/share/tether/examples/rover-service/CMakeLists.txt)
+      usr/share/tether/examples/rover-service/CMakeLists.txt
+      usr/lib/python3/dist-packages/tether/__init__.py usr/lib/python3/dist-packages/tether/py.typed
+      usr/share/doc/python3-tether/copyright)
     if(NOT EXISTS ${root}/${file})
       message(SEND_ERROR "not in the packages: /${file}")
     endif()
@@ -155,24 +170,49 @@ elseif(STEP STREQUAL "unpacked")
     message(SEND_ERROR "the unpacked tether looks for its images elsewhere: exit ${result}, '${err}'")
   endif()
 
-  set(hidden ${BINARY}/firmware.hidden-by-package-test)
-  file(RENAME ${BINARY}/firmware ${hidden})
-  set(demo ${tether} demo --iterations 20)
+  # The unpacked Python package, imported by Debian's python3 from the unpacked dist-packages, calls a
+  # virtual board running the unpacked romi-test image.
+  set(dist_packages ${root}/usr/lib/python3/dist-packages)
+  file(WRITE ${elsewhere}/romi_call.py [[
+import sys
+import tether
+module = tether.__file__
+if not module.startswith(sys.argv[1]):
+    sys.exit("tether imported from %s, not from the unpacked package %s" % (module, sys.argv[1]))
+with tether.VirtualUno("romi-test") as board:
+    with tether.romi.Client(board.port, boot_wait=0) as client:
+        print("romi-test e ->", client.call("e"))
+        print("firmware", tether.firmware_dir())
+]])
+
+  # Each run happens with the build's images out of the way (it must use its own), under strace when
+  # there is one: every path it names (opened, stat'ed, executed, ...) outside its unpacked files must be
+  # in neither the build nor the source tree, and it must open an image of the package.
   find_program(strace strace)
-  if(strace)  # every file the run opens, to check none is in the build or source tree
-    set(demo ${strace} -f --seccomp-bpf -qq -s 4096 -e trace=%file -o ${SCRATCH}/demo.strace ${demo})
+  if(NOT strace)
+    message(STATUS "strace not found: files opened by the unpacked programs not checked")
   endif()
-  execute_process(COMMAND ${demo} WORKING_DIRECTORY ${elsewhere} RESULT_VARIABLE result
-    OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 300)
-  file(RENAME ${hidden} ${BINARY}/firmware)
-  message(STATUS "unpacked tether demo --iterations 20: exit ${result}\n${out}${err}")
-  if(NOT result EQUAL 0)
-    message(FATAL_ERROR "the unpacked tether demo failed")
-  endif()
-  if(strace)
-    # Every path the run named (opened, stat'ed, executed, ...), its own unpacked files excepted.
+  set(hidden ${BINARY}/firmware.hidden-by-package-test)
+  function(run_unpacked id name)  # id: the strace file's name
+    set(command ${ARGN})
+    set(trace ${SCRATCH}/${id}.strace)
+    if(strace)
+      set(command ${strace} -f --seccomp-bpf -qq -s 4096 -e trace=%file -o ${trace} ${command})
+    endif()
+    file(RENAME ${BINARY}/firmware ${hidden})
+    execute_process(COMMAND ${command} WORKING_DIRECTORY ${elsewhere} RESULT_VARIABLE result
+      OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 300)
+    file(RENAME ${hidden} ${BINARY}/firmware)
+    message(STATUS "unpacked ${name}: exit ${result}\n${out}${err}")
+    if(NOT result EQUAL 0)
+      message(FATAL_ERROR "the unpacked ${name} failed")
+    endif()
+    set(run_output "${out}" PARENT_SCOPE)
+    if(NOT strace)
+      return()
+    endif()
     # (grep: strace's lines hold brackets, which CMake lists do not take apart reliably.)
-    run_checked(grep -o "\"/[^\"]*\"" ${SCRATCH}/demo.strace OUTPUT paths)
+    run_checked(grep -o "\"/[^\"]*\"" ${trace} OUTPUT paths)
     string(REPLACE "\"" "" paths "${paths}")
     string(REPLACE "\n" ";" paths "${paths}")
     set(touched)
@@ -180,21 +220,30 @@ elseif(STEP STREQUAL "unpacked")
       cmake_path(IS_PREFIX SCRATCH "${path}" NORMALIZE in_scratch)
       cmake_path(IS_PREFIX SOURCE "${path}" NORMALIZE in_source)
       cmake_path(IS_PREFIX BINARY "${path}" NORMALIZE in_binary)
-      if(NOT in_scratch AND (in_source OR in_binary))
+      # The folders on the way to the scratch folder (Python looks at each part of its paths) hold nothing.
+      cmake_path(IS_PREFIX path "${SCRATCH}" NORMALIZE above_scratch)
+      if(NOT in_scratch AND NOT above_scratch AND (in_source OR in_binary))
         list(APPEND touched "${path}")
       endif()
     endforeach()
     if(touched)
       list(REMOVE_DUPLICATES touched)
       list(JOIN touched "\n" touched)
-      message(SEND_ERROR "the unpacked tether demo touched the build or source tree:\n${touched}")
+      message(SEND_ERROR "the unpacked ${name} touched the build or source tree:\n${touched}")
     endif()
-    file(STRINGS ${SCRATCH}/demo.strace images REGEX "${root}/usr/share/tether/firmware/[a-z-]+\\.elf")
+    file(STRINGS ${trace} images REGEX "${root}/usr/share/tether/firmware/[a-z-]+\\.elf")
     if(NOT images)
-      message(SEND_ERROR "the unpacked tether demo opened no image of the package (strace: ${SCRATCH}/demo.strace)")
+      message(SEND_ERROR "the unpacked ${name} opened no image of the package (strace: ${trace})")
     endif()
-  else()
-    message(STATUS "strace not found: files opened by the demo not checked")
+  endfunction()
+
+  run_unpacked(demo "tether demo --iterations 20" ${tether} demo --iterations 20)
+  set(ENV{PYTHONPATH} ${dist_packages})
+  run_unpacked(python "Python package (romi call on a virtual board)"
+    /usr/bin/python3 ${elsewhere}/romi_call.py ${dist_packages})
+  unset(ENV{PYTHONPATH})
+  if(NOT run_output MATCHES "romi-test e -> \\[0, 1, 2\\]\nfirmware ${root}/usr/share/tether/firmware\n")
+    message(SEND_ERROR "the unpacked Python package's romi call answered: ${run_output}")
   endif()
 else()
   message(FATAL_ERROR "unknown STEP '${STEP}'")

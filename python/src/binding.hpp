@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/client_skeleton.hpp"
 #include "tether/transports/io_thread.hpp"
 
 namespace tether::python {
@@ -92,8 +93,10 @@ std::string firmware_path(const std::string& name);
 
 /// Runs an asynchronous operation for asyncio: returns a future of the running loop that `start` completes
 /// (from the io thread, through `loop.call_soon_threadsafe`). `start` gets a callable taking
-/// (exception or None, result).
-py::object asyncio_future(const std::function<void(PyCallback settle)>& start);
+/// (exception or None, result) and the signal its handler is bound to (`transports::bind_cancellation`):
+/// cancelling the future (`task.cancel()`) emits it, so the wire operation is cancelled too (a queued call
+/// never starts, the one in flight stops waiting) instead of holding the device until its timeout.
+py::object asyncio_future(const std::function<void(PyCallback settle, transports::CancellationSignal cancel)>& start);
 
 void register_transports(py::module_& module);
 void register_romi(py::module_& module);

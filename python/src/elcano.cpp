@@ -78,9 +78,11 @@ py::object ring_event(const elcano::Event& ring_event) {
       "request_failed"_a = event.request_failed);
 }
 
-py::object message_future(const std::function<void(elcano::detail::MessageHandler)>& start) {
-  return asyncio_future([&](PyCallback settle) {
-    start([settle](elcano::error_code error, elcano::Message reply) {
+// `start` begins the operation with its handler bound to the future's cancellation.
+py::object message_future(
+    const std::function<void(transports::CancellationSignal, elcano::detail::MessageHandler)>& start) {
+  return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
+    start(std::move(cancel), [settle](elcano::error_code error, elcano::Message reply) {
       if (interpreter_exiting()) return;
       py::gil_scoped_acquire gil;
       if (error) {
@@ -228,7 +230,9 @@ go to ``on_event`` on the io thread. The GIL is released while waiting.)doc")
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
             const elcano::Type reply = type_from(reply_type);
             elcano::RingClient& client = self.get();
-            return message_future([&](elcano::detail::MessageHandler h) { client.async_request(request, reply, std::move(h)); });
+            return message_future([&](transports::CancellationSignal cancel, elcano::detail::MessageHandler h) {
+              client.async_request(request, reply, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("message"), py::kw_only(), py::arg("reply_type"), "``request`` for asyncio.")
       .def(

@@ -92,7 +92,8 @@ py::object event_to_python(const proxy::Event& event) {
 }
 
 using SendCall = std::function<proxy::SendResult(proxy::error_code&)>;
-using AsyncSend = std::function<void(proxy::detail::SendHandler)>;
+// Starts the operation with its handler bound to the future's cancellation (transports::bind_cancellation).
+using AsyncSend = std::function<void(transports::CancellationSignal, proxy::detail::SendHandler)>;
 
 proxy::SendResult blocking(const SendCall& send) {
   proxy::error_code error;
@@ -106,8 +107,8 @@ proxy::SendResult blocking(const SendCall& send) {
 }
 
 py::object asynchronous(const AsyncSend& start) {
-  return asyncio_future([&](PyCallback settle) {
-    start([settle](proxy::error_code error, proxy::SendResult result) {
+  return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
+    start(std::move(cancel), [settle](proxy::error_code error, proxy::SendResult result) {
       if (interpreter_exiting()) return;
       py::gil_scoped_acquire gil;
       if (error) {
@@ -199,7 +200,9 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle safe_position) {
             const auto value = checked_int<std::int32_t>(safe_position, "safe_position");
             auto handle = s.owner->get().servo(s.pin);
-            return asynchronous([&](proxy::detail::SendHandler h) { handle.async_init(value, std::move(h)); });
+            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("safe_position"), "``init`` for asyncio (a future of the running loop).")
       .def(
@@ -207,7 +210,9 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle position) {
             const auto value = checked_int<std::int32_t>(position, "position");
             auto handle = s.owner->get().servo(s.pin);
-            return asynchronous([&](proxy::detail::SendHandler h) { handle.async_set(value, std::move(h)); });
+            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("position"), "``set`` for asyncio (a future of the running loop).")
       .def("state", [](const ServoPin& s) { return pin_status(s.owner->get().servo(s.pin).state()); },
@@ -236,7 +241,9 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle state) {
             const bool value = checked_bool(state, "state");
             auto handle = d.owner->get().digital(d.pin);
-            return asynchronous([&](proxy::detail::SendHandler h) { handle.async_set(value, std::move(h)); });
+            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("state"), "``set`` for asyncio (a future of the running loop).")
       .def("state", [](const DigitalPin& d) { return pin_status(d.owner->get().digital(d.pin).state()); },

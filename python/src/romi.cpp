@@ -302,18 +302,21 @@ its port opens) or a ``tether.transports.Transport``.)doc")
           [](RomiClient& self, const std::string& command, const py::args& args, bool check) {
             romi::Command built = make_command(command, args);
             romi::Client& client = self.get();
-            return asyncio_future([&](PyCallback settle) {
-              client.async_call(std::move(built), [settle, check](romi::error_code error, romi::RomiResponse response) {
-                if (interpreter_exiting()) return;
-                py::gil_scoped_acquire gil;
-                py::object failure;
-                py::object values = answer_or_error(error, response, check, failure);
-                settle(failure ? failure : py::none(), values);
-              });
+            return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
+              client.async_call(std::move(built), transports::bind_cancellation(
+                  std::move(cancel), [settle, check](romi::error_code error, romi::RomiResponse response) {
+                    if (interpreter_exiting()) return;
+                    py::gil_scoped_acquire gil;
+                    py::object failure;
+                    py::object values = answer_or_error(error, response, check, failure);
+                    settle(failure ? failure : py::none(), values);
+                  }));
             });
           },
           py::arg("command"), py::kw_only(), py::arg("check") = true,
-          "``call`` for asyncio: returns a future of the running loop, completed from the io thread.")
+          "``call`` for asyncio: returns a future of the running loop, completed from the io thread. Cancelling it\n"
+          "(``task.cancel()``) cancels the call: queued, it is never sent; in flight, the client stops waiting\n"
+          "for its answer and goes on with the next call.")
       .def(
           "on_log",
           [](RomiClient& self, py::object callback) {

@@ -90,14 +90,25 @@ Transport take_stream(py::handle port_or_transport, const SerialArguments& seria
                        py::str(py::type::of(port_or_transport).attr("__name__")).cast<std::string>());
 }
 
-py::object asyncio_future(const std::function<void(PyCallback settle)>& start) {
+py::object asyncio_future(const std::function<void(PyCallback settle, transports::CancellationSignal cancel)>& start) {
   py::object loop = py::module_::import("asyncio").attr("get_running_loop")();  // RuntimeError outside a loop
   py::object future = loop.attr("create_future")();
   py::object settle = py::module_::import("tether._asyncio").attr("settle");
   py::object deliver = py::cpp_function([loop, future, settle](py::object failure, py::object value) {
-    loop.attr("call_soon_threadsafe")(settle, future, failure, value);
+    // A loop closed meanwhile (the future was cancelled and asyncio.run returned) has nobody to tell.
+    if (loop.attr("is_closed")().cast<bool>()) return;
+    try {
+      loop.attr("call_soon_threadsafe")(settle, future, failure, value);
+    } catch (py::error_already_set&) {
+      if (!loop.attr("is_closed")().cast<bool>()) throw;  // closed between the check and the call
+    }
   });
-  start(PyCallback(deliver));
+  transports::CancellationSignal cancel;
+  start(PyCallback(deliver), cancel);
+  // Only a cancelled future cancels: a completed one has nothing pending (emit would then do nothing anyway).
+  future.attr("add_done_callback")(py::cpp_function([cancel](py::object done) {
+    if (done.attr("cancelled")().cast<bool>()) cancel.emit();
+  }));
   return future;
 }
 

@@ -1,6 +1,10 @@
 """asyncio: futures completed on the loop while the event loop keeps running."""
 
 import asyncio
+import os
+import select
+import time
+import tty
 
 import pytest
 
@@ -49,3 +53,45 @@ def test_proxy_set_async():
     with tether.VirtualUno("proxy", seed=2) as board:
         with tether.proxy.Client(board.port, boot_wait=0) as client:
             assert asyncio.run(main(client)).acked
+
+
+def _wire_line(fd, timeout):
+    """The next line the client wrote to the pty (the device's end), or None after ``timeout`` seconds."""
+    data = b""
+    deadline = time.monotonic() + timeout
+    while not data.endswith(b"\n"):
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            return None
+        data += os.read(fd, 256)
+    return data
+
+
+def test_cancelling_the_task_cancels_the_wire_call():
+    # The test is the device, on the pty's other end, and never answers. A call waits up to an hour for its
+    # answer, so the next call reaches the wire soon only if cancelling the first task cancelled the call.
+    transport = tether.transports.pty()
+    device = os.open(transport.path, os.O_RDWR | os.O_NOCTTY)
+    tty.setraw(device)
+    try:
+        with tether.romi.Client(transport, attempt_timeout=3600, call_budget=3600) as client:
+
+            async def main():
+                loop = asyncio.get_running_loop()
+                first = asyncio.ensure_future(client.call_async("e"))
+                sent = await loop.run_in_executor(None, _wire_line, device, 30)
+                assert sent is not None and sent.startswith(b"#e"), sent
+                first.cancel()
+                with pytest.raises(asyncio.CancelledError):
+                    await first
+                second = asyncio.ensure_future(client.call_async("a"))
+                # Without the cancellation the client still waits for the first answer: nothing is sent.
+                after = await loop.run_in_executor(None, _wire_line, device, 30)
+                second.cancel()
+                return after
+
+            after = asyncio.run(main())
+            assert after is not None, "the cancelled call still held the device: the next call was not sent"
+            assert after.startswith(b"#a"), after
+    finally:
+        os.close(device)
