@@ -111,9 +111,19 @@ std::string format_table(const DemoReport& report) {
   }
 
   std::ostringstream out;
-  out << "tether demo: " << report.rover << ", " << report.iterations << " operations per device, bit error rate "
-      << report.bit_error_rate << (report.reset_halfway ? ", one power cycle per virtual device halfway" : "")
-      << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
+  out << "tether demo: " << report.rover << ", ";
+  if (report.duration.count() > 0) {
+    out << "operations for " << fixed(static_cast<double>(report.duration.count()) / 1000, 0) << " s per device";
+  } else {
+    out << report.iterations << " operations per device";
+  }
+  out << ", bit error rate " << report.bit_error_rate;
+  if (report.reset_every > 0) {
+    out << ", a power cycle per virtual device every " << report.reset_every << " operations";
+  } else if (report.reset_halfway && report.duration.count() == 0) {
+    out << ", one power cycle per virtual device halfway";
+  }
+  out << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
   for (std::size_t row = 0; row < labels.size(); ++row) {
     out << labels[row] << std::string(label_width - labels[row].size(), ' ');
     for (std::size_t c = 0; c < columns.size(); ++c) {
@@ -181,6 +191,8 @@ nlohmann::json to_json(const DemoReport& report) {
           {"iterations", report.iterations},
           {"bit_error_rate", report.bit_error_rate},
           {"reset_halfway", report.reset_halfway},
+          {"duration_ms", report.duration.count()},
+          {"reset_every", report.reset_every},
           {"wall_seconds", report.wall_seconds},
           {"devices", std::move(devices)}};
 }

@@ -444,6 +444,8 @@ DemoReport run_demo(const DemoOptions& options) {
   report.iterations = options.iterations;
   report.bit_error_rate = options.bit_error_rate;
   report.reset_halfway = options.reset_halfway;
+  report.duration = options.duration;
+  report.reset_every = options.reset_every;
   report.devices.resize(rover.devices().size());
   std::vector<std::thread> threads;
   std::mutex error_mutex;

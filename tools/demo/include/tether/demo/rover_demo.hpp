@@ -120,6 +120,8 @@ struct DemoReport {
   unsigned iterations = 0;             ///< Operations per device.
   double bit_error_rate = 0;           ///< Noise.
   bool reset_halfway = false;          ///< Resets injected.
+  std::chrono::milliseconds duration{0};  ///< A timed run's length (0: `iterations` operations).
+  unsigned reset_every = 0;            ///< Power cycles every this many operations (0: halfway or none).
   double wall_seconds = 0;             ///< Duration of the run (opening included).
   std::vector<DeviceReport> devices;   ///< One per device, in config order.
 };
