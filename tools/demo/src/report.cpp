@@ -23,6 +23,23 @@ std::string optional_count(const std::optional<std::uint32_t>& value) {
   return value ? std::to_string(*value) : "n/a";
 }
 
+// One exactly-once figure, "n/a" without a witness.
+std::string witness_figure(const DeviceReport& d, std::uint64_t ExactlyOnce::*figure) {
+  return d.exactly_once ? std::to_string((*d.exactly_once).*figure) : "n/a";
+}
+
+nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures) {
+  if (!figures) return nullptr;
+  return {{"commands", figures->commands},
+          {"confirmed", figures->confirmed},
+          {"executed", figures->executed},
+          {"executed_twice", figures->executed_twice},
+          {"executed_but_failed", figures->executed_but_failed},
+          {"confirmed_not_executed", figures->confirmed_not_executed},
+          {"executed_unsent", figures->executed_unsent},
+          {"unobserved", figures->unobserved}};
+}
+
 }  // namespace
 
 std::string format_table(const DemoReport& report) {
@@ -42,7 +59,15 @@ std::string format_table(const DemoReport& report) {
                                      "resets injected",
                                      "resets detected",
                                      "recovered after (ms)",
-                                     "servo pins (D9, D10)"};
+                                     "servo pins (D9, D10)",
+                                     "device commands issued",
+                                     "  confirmed to the caller",
+                                     "  executed (witness)",
+                                     "  executed twice",
+                                     "  executed, reported failed",
+                                     "  confirmed, not executed",
+                                     "  executed, never sent",
+                                     "  executions not logged"};
   std::vector<std::vector<std::string>> columns;
   for (const DeviceReport& d : report.devices) {
     std::vector<std::string> column;
@@ -68,6 +93,12 @@ std::string format_table(const DemoReport& report) {
                      : d.resets_injected != 0 ? "never"
                                               : "-");
     column.push_back(d.pins_match ? (*d.pins_match ? "match" : "MISMATCH") : "n/a");
+    for (const auto figure : {&ExactlyOnce::commands, &ExactlyOnce::confirmed, &ExactlyOnce::executed,
+                              &ExactlyOnce::executed_twice, &ExactlyOnce::executed_but_failed,
+                              &ExactlyOnce::confirmed_not_executed, &ExactlyOnce::executed_unsent,
+                              &ExactlyOnce::unobserved}) {
+      column.push_back(witness_figure(d, figure));
+    }
     columns.push_back(std::move(column));
   }
   std::size_t label_width = 0;
@@ -80,9 +111,19 @@ std::string format_table(const DemoReport& report) {
   }
 
   std::ostringstream out;
-  out << "tether demo: " << report.rover << ", " << report.iterations << " operations per device, bit error rate "
-      << report.bit_error_rate << (report.reset_halfway ? ", one power cycle per virtual device halfway" : "")
-      << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
+  out << "tether demo: " << report.rover << ", ";
+  if (report.duration.count() > 0) {
+    out << "operations for " << fixed(static_cast<double>(report.duration.count()) / 1000, 0) << " s per device";
+  } else {
+    out << report.iterations << " operations per device";
+  }
+  out << ", bit error rate " << report.bit_error_rate;
+  if (report.reset_every > 0) {
+    out << ", a power cycle per virtual device every " << report.reset_every << " operations";
+  } else if (report.reset_halfway && report.duration.count() == 0) {
+    out << ", one power cycle per virtual device halfway";
+  }
+  out << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
   for (std::size_t row = 0; row < labels.size(); ++row) {
     out << labels[row] << std::string(label_width - labels[row].size(), ' ');
     for (std::size_t c = 0; c < columns.size(); ++c) {
@@ -100,6 +141,15 @@ std::string format_table(const DemoReport& report) {
     }
     if (!d.pins_detail.empty()) out << "  pins measured/expected: " << d.pins_detail << '\n';
     if (!d.first_error.empty()) out << "  first error: " << d.first_error << '\n';
+    if (!d.failure_causes.empty()) {
+      out << "  failures by cause:";
+      const char* separator = " ";
+      for (const auto& [cause, count] : d.failure_causes) {
+        out << separator << cause << " x" << count;
+        separator = ", ";
+      }
+      out << '\n';
+    }
   }
   return out.str();
 }
@@ -132,6 +182,8 @@ nlohmann::json to_json(const DemoReport& report) {
         {"pins_match", d.pins_match ? nlohmann::json(*d.pins_match) : nlohmann::json(nullptr)},
         {"pins_detail", d.pins_detail},
         {"first_error", d.first_error},
+        {"failure_causes", d.failure_causes},
+        {"exactly_once", witness_json(d.exactly_once)},
     };
     devices.push_back(std::move(device));
   }
@@ -139,6 +191,8 @@ nlohmann::json to_json(const DemoReport& report) {
           {"iterations", report.iterations},
           {"bit_error_rate", report.bit_error_rate},
           {"reset_halfway", report.reset_halfway},
+          {"duration_ms", report.duration.count()},
+          {"reset_every", report.reset_every},
           {"wall_seconds", report.wall_seconds},
           {"devices", std::move(devices)}};
 }
