@@ -79,6 +79,12 @@ class MemoryInput final : public tether::romi::device::IInputStream {
     c = static_cast<char>(*next_++);
     return true;
   }
+  // Like UartStream's (one copy per batch).
+  uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
+    uint8_t count = 0;
+    while (count < capacity && next_ != end_) bytes[count++] = *next_++;
+    return count;
+  }
 
  private:
   const uint8_t* next_ = nullptr;
@@ -91,6 +97,10 @@ class MemoryOutput final : public tether::romi::device::IOutputStream {
     if (size_ == sizeof bytes_) return false;
     bytes_[size_++] = static_cast<uint8_t>(c);
     return true;
+  }
+  // Like UartStream's (one copy per batch).
+  void write_all(const uint8_t* bytes, uint8_t size) override {
+    for (uint8_t i = 0; i < size && size_ < sizeof bytes_; ++i) bytes_[size_++] = bytes[i];
   }
   void clear() { size_ = 0; }
   const uint8_t* data() const { return bytes_; }

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <deque>
 #include <string>
+#include <vector>
 
 #include "RomiSerial.h"
 #include "tether/romi/encoder.hpp"
@@ -562,6 +564,27 @@ TEST(ArrayText, BuildsArrays) {
   text.clear();
   text.add_int(INT32_MIN).add_int(INT32_MAX);
   EXPECT_STREQ(text.c_str(), "[-2147483648,2147483647]");
+}
+
+// format_decimal forms digits by subtraction, 32-bit above 65535 and 16-bit below: the values around
+// each power of ten and around the switch between the two must come out as printf writes them.
+TEST(ArrayText, FormatDecimalMatchesPrintfAtEveryPowerOfTenAndTheSixteenBitBoundary) {
+  std::vector<int64_t> values = {0, INT32_MIN, INT32_MAX, 65535, 65536, 99999, 100000, 655350, 4294967};
+  for (int64_t power = 1; power <= 1000000000; power *= 10) {
+    for (int64_t delta = -1; delta <= 1; ++delta) values.push_back(power + delta);
+  }
+  for (int32_t v = -70000; v <= 70000; v += 7) values.push_back(v);
+  for (const int64_t wide : values) {
+    for (const int64_t signed_value : {wide, -wide}) {
+      if (signed_value < INT32_MIN || signed_value > INT32_MAX) continue;
+      const auto value = static_cast<int32_t>(signed_value);
+      char expected[16];
+      std::snprintf(expected, sizeof expected, "%ld", static_cast<long>(value));
+      char out[12];
+      const uint8_t length = tether::romi::device::format_decimal(value, out);
+      ASSERT_EQ(std::string(out, length), expected) << value;
+    }
+  }
 }
 
 TEST(ArrayText, OverflowKeepsAValidArray) {

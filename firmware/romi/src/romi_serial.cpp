@@ -50,11 +50,16 @@ void RomiSerial::handle_input() {
   // Most calls come within the millisecond of the last check: then nothing can have expired.
   Millis now = clock_ != nullptr ? clock_() : 0;
   if (now != timeouts_checked_at_) handle_timeouts(now);
-  char c;
-  while (in_->read(c)) {
-    if (receive(static_cast<uint8_t>(c), now)) {
-      now = reply_sent_at_;
-      handle_timeouts(now);
+  // Bytes come in batches (one virtual call each), handled one by one in arrival order.
+  uint8_t batch[16];
+  for (;;) {
+    const uint8_t count = in_->read_some(batch, sizeof(batch));
+    if (count == 0) return;
+    for (uint8_t i = 0; i < count; ++i) {
+      if (receive(batch[i], now)) {
+        now = reply_sent_at_;
+        handle_timeouts(now);
+      }
     }
   }
 }
@@ -261,9 +266,7 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   emit(opcode, id, text_view(body.c_str()), MutableByteView(frame));
 }
 
-void RomiSerial::write(ByteView bytes) {
-  for (uint8_t byte : bytes) out_->write(static_cast<char>(byte));
-}
+void RomiSerial::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }
 
 }  // namespace device
 }  // namespace romi

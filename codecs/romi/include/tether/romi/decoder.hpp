@@ -80,8 +80,8 @@ class Decoder {
 
   // Out of line (a GCC/Clang attribute): the rare cases must not weigh on the inlined per-byte path.
   __attribute__((noinline)) DecodeStatus feed_other(uint8_t byte);
-  DecodeStatus finish_line(uint8_t end);
-  DecodeStatus fail(Error error);
+  __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
+  __attribute__((noinline)) DecodeStatus fail(Error error);
 
   LinkCounters* counters_;
   State state_ = State::idle;

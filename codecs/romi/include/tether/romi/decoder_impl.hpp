@@ -41,7 +41,14 @@ DecodeStatus Decoder<Capacity>::feed_other(uint8_t byte) {
     state_ = State::body;
     size_ = 0;
     seen_colon_ = false;
-    frame_ = Frame();  // nothing of the previous frame (its id!) may leak into this one
+    // Nothing of the previous frame (its id!) may leak into this one. Field by field: assigning a
+    // fresh Frame() builds a temporary on the AVR's stack first.
+    frame_.payload = ByteView();
+    frame_.log = false;
+    frame_.manual = false;
+    frame_.has_id = false;
+    frame_.id = 0;
+    frame_.opcode = '_';
     return DecodeStatus::more;
   }
   switch (state_) {

@@ -41,16 +41,24 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 403 bytes of static RAM (measured), all bounded at compile time:
+/// One `RomiSerial` is 343 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// compile time:
 ///   - request buffer: 83 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
 ///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
-///   - reply buffer: `kReplyCapacity` = 72 bytes (+1), reply cache: 81 bytes (id, fingerprint, 72 bytes);
-///   - counters: 68 bytes; pointers, deadlines, the reply's send time and state: 37 bytes.
-/// Time: the clock is read once per `handle_input()` and once after each handler, never per byte.
+///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
+///     to requests with an id are formed there, so the cache itself keeps just id and fingerprint;
+///   - counters: 68 bytes; pointers, deadlines, the reply's send time and state: ~50 bytes.
+/// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
+/// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
+/// moved. Bytes are read in batches (`IInputStream::read_some`); a frame is checked, fingerprinted,
+/// parsed and matched to its handler at its '\r', so its '\n' leaves the cache lookup and the call; a
+/// reply's '#' is sent before the rest is formed.
 /// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
-/// in a 72-byte buffer). Measured peaks, interrupts included: 155 bytes (romi-blink), 221 (romi-test).
-/// Nothing is allocated at run time. Flash: ~6.5 KB for the device and the codec it uses.
+/// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
+/// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
+/// (romi-test), interrupts included.
+/// Nothing is allocated at run time. Flash: ~7 KB for the device and the codec it uses.
 #pragma once
 
 #include <stddef.h>

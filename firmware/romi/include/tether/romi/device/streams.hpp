@@ -24,6 +24,15 @@ class IInputStream {
   virtual bool available() = 0;
   /// Stores the next byte in `c` and returns true, or returns false when none is waiting. Must not block.
   virtual bool read(char& c) = 0;
+  /// Stores up to `capacity` waiting bytes in `bytes`; returns how many (0: none waiting). Must not
+  /// block. The default calls `read` per byte; a stream over a buffer overrides it to copy them in one
+  /// call (the device's byte loop then makes one virtual call per batch, not per byte).
+  virtual uint8_t read_some(uint8_t* bytes, uint8_t capacity) {
+    uint8_t count = 0;
+    char c;
+    while (count < capacity && read(c)) bytes[count++] = static_cast<uint8_t>(c);
+    return count;
+  }
 
  protected:
   ~IInputStream() = default;
@@ -36,6 +45,11 @@ class IOutputStream {
   /// silently). Returns false if the byte could not be sent at all (the device ignores the value: a
   /// lost reply byte is repaired by the host's retry and the device's reply cache).
   virtual bool write(char c) = 0;
+  /// Queues `size` bytes, as `write` does each. The default calls `write` per byte; a stream over a
+  /// buffer overrides it to copy them in one call.
+  virtual void write_all(const uint8_t* bytes, uint8_t size) {
+    for (uint8_t i = 0; i < size; ++i) write(static_cast<char>(bytes[i]));
+  }
 
  protected:
   ~IOutputStream() = default;

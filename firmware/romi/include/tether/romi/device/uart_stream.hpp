@@ -13,6 +13,7 @@
 
 #include <stdint.h>
 
+#include "tether/core/bytes.hpp"
 #include "tether/romi/device/streams.hpp"
 
 namespace tether {
@@ -32,11 +33,17 @@ class UartStream final : public IInputStream, public IOutputStream {
     c = static_cast<char>(byte);
     return true;
   }
+  /// Takes up to `capacity` bytes from the RX ring in one pass.
+  uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
+    return static_cast<uint8_t>(Uart::read(MutableByteView(bytes, capacity)));
+  }
   /// Queues `c` on the TX ring; sleeps (IDLE) while the ring is full. Always true.
   bool write(char c) override {
     Uart::write(static_cast<uint8_t>(c));
     return true;
   }
+  /// Queues `bytes` on the TX ring, sleeping while it is full.
+  void write_all(const uint8_t* bytes, uint8_t size) override { Uart::write(ByteView(bytes, size)); }
 };
 
 }  // namespace device
