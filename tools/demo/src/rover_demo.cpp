@@ -1,5 +1,6 @@
 // `tether demo`: runs the servo workload on every device of a rover at once; see rover_demo.hpp.
 #include "tether/demo/rover_demo.hpp"
+#include "tether/demo/workload.hpp"
 
 #include <boost/asio/use_future.hpp>
 
@@ -26,40 +27,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using error_code = boost::system::error_code;
-
-/// Servo pulses an operation should leave on D9/D10 (0: that output is not driven by the workload).
-struct Pulses {
-  std::uint16_t d9 = 0;
-  std::uint16_t d10 = 0;
-};
-
-/// How one operation ended.
-struct Outcome {
-  bool ok = false;       ///< Confirmed with the values sent.
-  bool wrong = false;    ///< Confirmed, but with other values.
-  std::string error;     ///< Why not ok.
-  Pulses expected;       ///< Pulses after it (meaningful when ok).
-};
-
-/// One codec's way of doing the operation.
-class Workload {
- public:
-  virtual ~Workload() = default;
-  /// What one operation is on the wire.
-  virtual std::string operation() const = 0;
-  /// Runs operation `i` (blocking).
-  virtual Outcome run(unsigned i) = 0;
-  /// The client's link counters.
-  virtual LinkCounters link() const = 0;
-  /// Resets detected by the protocol (unset: it cannot tell).
-  virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
-  /// False when a success only means "written" (nothing tells when the device works again).
-  virtual bool confirms() const { return true; }
-  /// After the run (noise off): makes the device's final state deterministic when the protocol cannot
-  /// confirm, and returns the pulses it should show then (unset: nothing to do, the last success stands).
-  /// `rewrites` counts the writes it needed.
-  virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
-};
 
 // Values of operation i: spread over the range, different each time, deterministic.
 std::uint16_t throttle_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 73u) % 800u); }
@@ -214,7 +181,8 @@ class ElcanoWorkload final : public Workload {
   std::shared_ptr<elcano::RingClient> client_;
 };
 
-// The workload of the device's client (the demo drives servos the way each client can).
+}  // namespace
+
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
   return std::visit(
       [&](const auto& client) -> std::unique_ptr<Workload> {
@@ -244,6 +212,8 @@ double percentile(std::vector<double> sorted, double fraction) {
   const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
   return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
 }
+
+namespace {
 
 // The last complete pulse of `pin` (us), or 0 when the pin stopped pulsing: no edge for a servo period and
 // more (a rebooted board that never got its init back still shows its last pulse from before the reset).

@@ -1,0 +1,61 @@
+/// @file workload.hpp
+/// The demo's per-device workload (set the throttle and steering servos, get the confirmation; see
+/// rover_demo.hpp for what it is on each codec's wire), shared with `tether bench` so that both measure the
+/// very same operation.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tether/core/counters.hpp"
+#include "tether/devices/config.hpp"
+#include "tether/devices/rover.hpp"
+
+namespace tether::demo {
+
+/// Servo pulses an operation should leave on D9/D10 (0: that output is not driven by the workload).
+struct Pulses {
+  std::uint16_t d9 = 0;   ///< Throttle pulse (us).
+  std::uint16_t d10 = 0;  ///< Steering pulse (us).
+};
+
+/// How one operation ended.
+struct Outcome {
+  bool ok = false;       ///< Confirmed with the values sent.
+  bool wrong = false;    ///< Confirmed, but with other values.
+  std::string error;     ///< Why not ok.
+  Pulses expected;       ///< Pulses after it (meaningful when ok).
+};
+
+/// One codec's way of doing the operation.
+class Workload {
+ public:
+  virtual ~Workload() = default;
+  /// What one operation is on the wire.
+  virtual std::string operation() const = 0;
+  /// Runs operation `i` (blocking).
+  virtual Outcome run(unsigned i) = 0;
+  /// The client's link counters.
+  virtual LinkCounters link() const = 0;
+  /// Resets detected by the protocol (unset: it cannot tell).
+  virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
+  /// False when a success only means "written" (nothing tells when the device works again).
+  virtual bool confirms() const { return true; }
+  /// After the run (noise off): makes the device's final state deterministic when the protocol cannot
+  /// confirm, and returns the pulses it should show then (unset: nothing to do, the last success stands).
+  /// `rewrites` counts the writes it needed.
+  virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
+};
+
+/// The workload of the device's client (the demo drives servos the way each client can). Throws
+/// std::invalid_argument for a codec without one or a proxy device without a servo init.
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config);
+
+/// Nearest-rank percentile of `samples` (`fraction` 0..1): the smallest value with at least `fraction` of the
+/// samples at or below it; 0 for no samples.
+double percentile(std::vector<double> samples, double fraction);
+
+}  // namespace tether::demo
