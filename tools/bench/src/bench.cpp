@@ -53,6 +53,7 @@ struct MeasuredDevice {
   std::shared_ptr<transports::FaultInjectingStream> link;
   std::unique_ptr<demo::Workload> workload;
   unsigned next_index = 0;  // operation values keep changing across points
+  std::optional<double> idle_share;  // awake share of the boards' time with no operation running
 };
 
 std::uint64_t awake_cycles(const devices::RoverDevice& device) {
@@ -142,7 +143,13 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
   if (!device.boards.empty()) {
     const std::uint64_t awake = awake_cycles(device) - awake_before;
     const std::uint64_t cycles = all_cycles(device) - cycles_before;
-    if (result.operations > 0) result.cpu_cycles_per_op = static_cast<double>(awake) / result.operations;
+    if (result.operations > 0) {
+      result.cpu_cycles_per_op = static_cast<double>(awake) / result.operations;
+      if (measured.idle_share) {
+        result.cpu_cycles_per_op_above_idle =
+            (static_cast<double>(awake) - *measured.idle_share * static_cast<double>(cycles)) / result.operations;
+      }
+    }
     if (cycles > 0) result.cpu_share = static_cast<double>(awake) / static_cast<double>(cycles);
     // The host writes to the first board and reads from the last (a ring); a byte takes its UART's byte time.
     const transports::VirtualUno& first = *device.boards.front();
@@ -308,6 +315,18 @@ BenchReport run_bench(const BenchOptions& options) {
     }
     report.devices.push_back(std::move(summary));
     measured.push_back(std::move(entry));
+  }
+
+  // The background: every device idle for a while, all at once.
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> idle_before;
+  for (const MeasuredDevice& entry : measured) idle_before.emplace_back(awake_cycles(*entry.device), all_cycles(*entry.device));
+  std::this_thread::sleep_for(options.idle_baseline);
+  for (std::size_t k = 0; k < measured.size(); ++k) {
+    const std::uint64_t cycles = all_cycles(*measured[k].device) - idle_before[k].second;
+    if (cycles == 0) continue;  // hardware
+    measured[k].idle_share = static_cast<double>(awake_cycles(*measured[k].device) - idle_before[k].first) /
+                             static_cast<double>(cycles);
+    report.devices[k].cpu_idle_share = measured[k].idle_share;
   }
 
   const std::size_t total = options.bit_error_rates.size() * options.rates.size() * measured.size();

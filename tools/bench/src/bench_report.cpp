@@ -60,6 +60,7 @@ json point_json(const PointResult& p) {
       {"timeouts", p.timeouts},
       {"drops", {{"stale", p.stale}, {"crc", p.crc_errors}, {"framing", p.framing_errors}, {"oversize", p.oversize}}},
       {"cpu_cycles_per_op", optional_json(p.cpu_cycles_per_op)},
+      {"cpu_cycles_per_op_above_idle", optional_json(p.cpu_cycles_per_op_above_idle)},
       {"cpu_share", optional_json(p.cpu_share)},
       {"resets_injected", p.resets_injected},
       {"resets_detected", optional_json(p.resets_detected)},
@@ -158,6 +159,7 @@ json to_json(const BenchReport& report) {
                        {"transport", d.transport},
                        {"operation", d.operation},
                        {"confirmed", d.confirmed},
+                       {"cpu_idle_share", optional_json(d.cpu_idle_share)},
                        {"firmware", std::move(firmware)},
                        {"saturation", std::move(saturation)}});
   }
@@ -187,7 +189,7 @@ std::string to_csv(const BenchReport& report) {
          "throughput_hz,latency_p50_ms,latency_p90_ms,latency_p99_ms,latency_max_ms,bytes_to_device,"
          "bytes_from_device,bytes_per_op_to_device,bytes_per_op_from_device,utilisation_to_device,"
          "utilisation_from_device,bits_flipped,retries,timeouts,drops_stale,drops_crc,drops_framing,drops_oversize,"
-         "cpu_cycles_per_op,cpu_share,resets_injected,resets_detected,recovery_ms\n";
+         "cpu_cycles_per_op,cpu_cycles_per_op_above_idle,cpu_share,resets_injected,resets_detected,recovery_ms\n";
   const auto optional_text = [](const auto& value) {
     if (!value) return std::string();
     std::ostringstream text;
@@ -213,7 +215,8 @@ std::string to_csv(const BenchReport& report) {
         << per_operation(p.bytes_from_device, p.operations) << ',' << optional_text(p.utilisation_to_device) << ','
         << optional_text(p.utilisation_from_device) << ',' << p.bits_flipped << ',' << p.retries << ',' << p.timeouts
         << ',' << p.stale << ',' << p.crc_errors << ',' << p.framing_errors << ',' << p.oversize << ','
-        << optional_text(p.cpu_cycles_per_op) << ',' << optional_text(p.cpu_share) << ',' << p.resets_injected << ','
+        << optional_text(p.cpu_cycles_per_op) << ',' << optional_text(p.cpu_cycles_per_op_above_idle) << ','
+        << optional_text(p.cpu_share) << ',' << p.resets_injected << ','
         << optional_text(p.resets_detected) << ',' << optional_text(p.recovery_ms) << '\n';
   }
   return out.str();

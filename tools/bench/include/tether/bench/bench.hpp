@@ -5,7 +5,9 @@
 ///
 /// The rover opens once; each sweep point (a bit error rate and a rate) then runs the workload on every
 /// selected device at once, or one device at a time (`isolated`), and takes its figures from the
-/// difference of the counters before and after the point. A rate is an open-loop schedule (one operation
+/// difference of the counters before and after the point. Before the first point the devices idle for
+/// `idle_baseline` so the boards' background CPU (timer ticks, pings, state streams) can be told apart from
+/// the operations' own. A rate is an open-loop schedule (one operation
 /// every 1/rate s, or at once when the previous one took longer); `max` is the closed loop (the next
 /// operation as soon as the previous ended), whose throughput is the device's saturation rate.
 ///
@@ -58,6 +60,8 @@ struct BenchOptions {
   bool reset = false;
   /// How long a board stays powered off in a reset.
   std::chrono::milliseconds power_off{100};
+  /// How long the devices idle after opening to measure their background CPU (virtual boards).
+  std::chrono::milliseconds idle_baseline{300};
   /// The Tether version written into the report.
   std::string tether_version;
   /// Progress after each device and point: (done, total) in device-points. May be empty.
@@ -102,6 +106,9 @@ struct PointResult {
   std::uint32_t oversize = 0;       ///< Drops: frames beyond the size bound.
   /// Virtual boards: CPU cycles executed (all the device's boards) per operation. Unset: hardware.
   std::optional<double> cpu_cycles_per_op;
+  /// Virtual boards: `cpu_cycles_per_op` less what the boards spend awake when idle over the same
+  /// simulated time (`DeviceSummary::cpu_idle_share`: ticks, pings, state streams): the operation's own cost.
+  std::optional<double> cpu_cycles_per_op_above_idle;
   /// Virtual boards: share of the boards' time awake.
   std::optional<double> cpu_share;
   std::uint32_t resets_injected = 0;        ///< Power cycles injected.
@@ -123,6 +130,8 @@ struct DeviceSummary {
   std::string operation;   ///< What one operation is on the wire.
   bool confirmed = true;   ///< The device confirms operations (false: proxy-compat).
   std::vector<FirmwareImage> firmware;  ///< Virtual boards' images (one per distinct image).
+  /// Virtual boards: share of the time awake with no operation running, measured once after opening.
+  std::optional<double> cpu_idle_share;
   /// Per swept bit error rate: the highest rate (a swept one, or the closed loop's throughput) held with
   /// >= 99 % success, and the lowest swept rate that was not (where it breaks down). Unset: none.
   struct Saturation {
