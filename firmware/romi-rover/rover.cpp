@@ -6,8 +6,12 @@
 //   A[channel]                 -> replies [0,value]: one 10-bit conversion of A<channel> (0..5), AVcc reference;
 //                                 [2,"no such channel"] otherwise.
 //
+// Every S that moves the servos is recorded in the execution witness with key (throttle_us << 16 | steering_us)
+// (tether/core/execution_witness.hpp): `tether demo` checks that each confirmed call ran exactly once.
+//
 // 115200 8N1, no banner. At boot both servos are driven at 1500 us (neutral), like an ESC expects.
 #include "RomiSerial.h"
+#include "tether/core/execution_witness.hpp"
 #include "tether/firmware/adc.hpp"
 #include "tether/firmware/runtime.hpp"
 #include "tether/firmware/servo_timer1.hpp"
@@ -34,6 +38,7 @@ void set_servos(IRomiSerial* romi, int16_t* args, const char*) {
   }
   tether::firmware::servo_timer1::write(Output::d9, static_cast<uint16_t>(args[0]));
   tether::firmware::servo_timer1::write(Output::d10, static_cast<uint16_t>(args[1]));
+  tether::witness_executed(tether::witness_key(static_cast<uint16_t>(args[0]), static_cast<uint16_t>(args[1])));
   romi->send_ok();
 }
 

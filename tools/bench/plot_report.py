@@ -224,6 +224,15 @@ def number(value, decimals=1):
     return "-" if value is None else f"{value:.{decimals}f}"
 
 
+def witness(point):
+    """The exactly-once figures of a point (the firmware's execution witness), '-' without one."""
+    figures = point.get("exactly_once")
+    if not figures:
+        return "-"
+    return (f"{figures['confirmed']}/{figures['commands']} / {figures['executed']} / {figures['executed_twice']} / "
+            f"{figures['executed_but_failed']} / {figures['confirmed_not_executed']}")
+
+
 def write_html(report, out_dir):
     parameters = report["parameters"]
     parameter_rows = [
@@ -250,7 +259,7 @@ def write_html(report, out_dir):
                            p["retries"],
                            f"{drops['stale']}/{drops['crc']}/{drops['framing']}/{drops['oversize']}",
                            number(p["cpu_cycles_per_op"], 0), number(p["cpu_cycles_per_op_above_idle"], 0),
-                           number(p["recovery_ms"], 0)))
+                           number(p["recovery_ms"], 0), witness(p)))
     device_rows = []
     for d in report["devices"]:
         firmware = "; ".join(f"{os.path.basename(f['path'])} {f['flash_bytes']} B flash, sha256 {f['sha256'][:12]}"
@@ -282,7 +291,8 @@ figure {{ display: inline-block; margin: 0.5em; }}
 <h2>Points</h2>
 {table(("device", "BER", "rate", "ops", "success %", "wrong", "p50 ms", "p90 ms", "p99 ms", "max ms",
         "bytes/op to + from", "link use to %", "retries", "drops stale/crc/framing/oversize", "cycles/op",
-        "cycles/op above idle", "recovery ms"), point_rows)}
+        "cycles/op above idle", "recovery ms",
+        "commands confirmed / executed / twice / executed but failed / confirmed not executed"), point_rows)}
 <h2>Plots</h2>
 {images}
 </body></html>

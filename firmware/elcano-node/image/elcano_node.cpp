@@ -15,6 +15,7 @@
 #include <avr/pgmspace.h>
 
 #include "tether/core/bytes.hpp"
+#include "tether/core/execution_witness.hpp"
 #include "tether/elcano/node/behaviour.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/firmware/servo_timer1.hpp"
@@ -135,6 +136,9 @@ void handle(tether::elcano::RingEvent::Kind kind, tether::Millis now) {
     stats.throttle_us = reaction.throttle_us;
     stats.steering_us = reaction.steering_us;
     ++stats.drives_applied;
+    // Witness key: the drive's raw speed and angle (tether/core/execution_witness.hpp; read by `tether demo`).
+    tether::witness_executed(tether::witness_key(static_cast<uint16_t>(g_node.message().speed),
+                                                 static_cast<uint16_t>(g_node.message().angle)));
   }
   if (reaction.answer) {
     if (g_node.originate(reaction.message, now) == tether::Status::ok) {

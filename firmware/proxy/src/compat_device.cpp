@@ -4,6 +4,7 @@
 #include <pb_decode.h>
 
 #include "rocketry.pb.h"
+#include "tether/core/execution_witness.hpp"
 #include "tether/proxy/device/hardware.hpp"
 
 namespace tether {
@@ -155,6 +156,7 @@ void CompatDevice::control_servo(uint32_t pin, int32_t position) {
   const int16_t value = static_cast<int16_t>(position);  // the deployed firmware's `int`
   servo_position_[pin] = value;
   hardware::any_pin_servo_write(static_cast<uint8_t>(pin), arduino_servo_pulse_us(value));
+  witness_executed(witness_key(static_cast<uint16_t>(pin), static_cast<uint16_t>(value)));  // pin, position
 }
 
 void CompatDevice::init_digital(uint32_t pin, bool safe_high) {

@@ -4,6 +4,7 @@
 #include <pb_decode.h>
 
 #include "tether/core/crc.hpp"
+#include "tether/core/execution_witness.hpp"
 #include "tether/proxy/device/text.hpp"
 #include "tether_proxy.pb.h"
 
@@ -108,7 +109,12 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
     }
     case tether_proxy_ArduinoIn_servoControl_tag: {
       const tether_proxy_ServoControl& control = in.data.servoControl;
-      report_pin_result(outputs_->control_servo(control.pin, control.position), control.pin, true, control.position);
+      const PinResult result = outputs_->control_servo(control.pin, control.position);
+      // Witness key: pin, position (tether/core/execution_witness.hpp; read back by `tether demo`).
+      if (result == PinResult::ok) {
+        witness_executed(witness_key(static_cast<uint16_t>(control.pin), static_cast<uint16_t>(control.position)));
+      }
+      report_pin_result(result, control.pin, true, control.position);
       break;
     }
     case tether_proxy_ArduinoIn_digitalInit_tag: {

@@ -32,6 +32,15 @@ using Clock = std::chrono::steady_clock;
 
 double milliseconds(Clock::duration duration) { return std::chrono::duration<double, std::milli>(duration).count(); }
 
+// Nearest rank: the smallest value with at least `fraction` of the samples at or below it (the run keeps
+// every sample: a point has at most --iterations of them, or what --duration allows).
+double percentile(std::vector<double> samples, double fraction) {
+  if (samples.empty()) return 0;
+  std::sort(samples.begin(), samples.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(samples.size())));
+  return samples[std::min(samples.size(), std::max<std::size_t>(rank, 1)) - 1];
+}
+
 // At most `limit` points of the empirical CDF of `samples`: (value, share at or below), evenly spaced in
 // rank, always ending with the maximum at 1.
 std::vector<std::pair<double, double>> empirical_cdf(std::vector<double> samples, std::size_t limit) {
@@ -54,6 +63,7 @@ struct MeasuredDevice {
   std::unique_ptr<demo::Workload> workload;
   unsigned next_index = 0;  // operation values keep changing across points
   std::optional<double> idle_share;  // awake share of the boards' time with no operation running
+  std::optional<demo::ExecutionWitness> witness;  // the executing board's (a ring's last), when its image has one
 };
 
 std::uint64_t awake_cycles(const devices::RoverDevice& device) {
@@ -95,6 +105,8 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
                            : Clock::duration::zero();
   std::vector<double> latencies;
   std::optional<Clock::time_point> reset_at;
+  demo::ExactlyOnceLedger ledger;
+  if (measured.witness) measured.witness->read();  // executions before the point are not its commands
   const auto started = Clock::now();
   const auto ends = options.duration ? std::optional(started + *options.duration) : std::nullopt;
   const unsigned reset_index = options.iterations / 2;
@@ -105,6 +117,7 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
     next_start = std::max(next_start + period, Clock::now());
     const bool reset_now = ends ? (!reset_at && Clock::now() >= started + *options.duration / 2) : i == reset_index;
     if (options.reset && reset_now && !device.boards.empty() && !reset_at) {
+      if (measured.witness) ledger.add(measured.witness->read());  // the reboot clears what was not read yet
       device.boards.back()->reset(transports::ResetKind::power_cycle, options.power_off);
       reset_at = Clock::now();
       ++result.resets_injected;
@@ -114,6 +127,8 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
     const auto end = Clock::now();
     latencies.push_back(milliseconds(end - start));
     ++result.operations;
+    for (const auto& [key, confirmed] : outcome.commands) ledger.outcome(ledger.issued(key), confirmed);
+    if (measured.witness) ledger.add(measured.witness->read());
     if (outcome.ok) {
       ++result.successes;
       if (reset_at && !result.recovery_ms && workload.confirms()) result.recovery_ms = milliseconds(end - *reset_at);
@@ -124,6 +139,12 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
   }
   result.seconds = std::chrono::duration<double>(Clock::now() - started).count();
   if (measured.link) measured.link->set_faults({}, {});
+  if (measured.witness) {
+    // Re-sends still in flight land within a call budget; as the demo, wait a little before the last read.
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ledger.add(measured.witness->read());
+    result.exactly_once = ledger.figures();
+  }
 
   const LinkCounters after = workload.link();
   result.retries = after.retries - before.retries;
@@ -163,9 +184,9 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
       result.utilisation_from_device = static_cast<double>(result.bytes_from_device) * byte_seconds(last) / result.seconds;
     }
   }
-  result.latency_p50_ms = demo::percentile(latencies, 0.50);
-  result.latency_p90_ms = demo::percentile(latencies, 0.90);
-  result.latency_p99_ms = demo::percentile(latencies, 0.99);
+  result.latency_p50_ms = percentile(latencies, 0.50);
+  result.latency_p90_ms = percentile(latencies, 0.90);
+  result.latency_p99_ms = percentile(latencies, 0.99);
   result.latency_max_ms = latencies.empty() ? 0 : *std::max_element(latencies.begin(), latencies.end());
   result.latency_cdf = empirical_cdf(std::move(latencies), 50);
   return result;
@@ -300,6 +321,7 @@ BenchReport run_bench(const BenchOptions& options) {
     entry.device = &device;
     entry.link = links[k];
     entry.workload = demo::make_workload(device, config.devices[k]);
+    if (!device.boards.empty()) entry.witness = demo::ExecutionWitness::attach(*device.boards.back());
     DeviceSummary summary;
     summary.device = device.name;
     summary.codec = std::string(devices::to_string(device.codec));

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "tether/bench/bench.hpp"
+#include "tether/demo/rover_demo.hpp"
 
 namespace tether::bench {
 
@@ -65,6 +66,7 @@ json point_json(const PointResult& p) {
       {"resets_injected", p.resets_injected},
       {"resets_detected", optional_json(p.resets_detected)},
       {"recovery_ms", optional_json(p.recovery_ms)},
+      {"exactly_once", demo::witness_json(p.exactly_once)},
       {"first_error", p.first_error},
   };
 }
@@ -189,7 +191,8 @@ std::string to_csv(const BenchReport& report) {
          "throughput_hz,latency_p50_ms,latency_p90_ms,latency_p99_ms,latency_max_ms,bytes_to_device,"
          "bytes_from_device,bytes_per_op_to_device,bytes_per_op_from_device,utilisation_to_device,"
          "utilisation_from_device,bits_flipped,retries,timeouts,drops_stale,drops_crc,drops_framing,drops_oversize,"
-         "cpu_cycles_per_op,cpu_cycles_per_op_above_idle,cpu_share,resets_injected,resets_detected,recovery_ms\n";
+         "cpu_cycles_per_op,cpu_cycles_per_op_above_idle,cpu_share,resets_injected,resets_detected,recovery_ms,commands,confirmed,executed,executed_twice,"
+         "executed_but_failed,confirmed_not_executed,executed_unsent\n";
   const auto optional_text = [](const auto& value) {
     if (!value) return std::string();
     std::ostringstream text;
@@ -217,7 +220,16 @@ std::string to_csv(const BenchReport& report) {
         << ',' << p.stale << ',' << p.crc_errors << ',' << p.framing_errors << ',' << p.oversize << ','
         << optional_text(p.cpu_cycles_per_op) << ',' << optional_text(p.cpu_cycles_per_op_above_idle) << ','
         << optional_text(p.cpu_share) << ',' << p.resets_injected << ','
-        << optional_text(p.resets_detected) << ',' << optional_text(p.recovery_ms) << '\n';
+        << optional_text(p.resets_detected) << ',' << optional_text(p.recovery_ms);
+    const auto witness = [&](std::uint64_t demo::ExactlyOnce::*figure) {
+      return p.exactly_once ? std::to_string((*p.exactly_once).*figure) : std::string();
+    };
+    for (const auto figure : {&demo::ExactlyOnce::commands, &demo::ExactlyOnce::confirmed, &demo::ExactlyOnce::executed,
+                              &demo::ExactlyOnce::executed_twice, &demo::ExactlyOnce::executed_but_failed,
+                              &demo::ExactlyOnce::confirmed_not_executed, &demo::ExactlyOnce::executed_unsent}) {
+      out << ',' << witness(figure);
+    }
+    out << '\n';
   }
   return out.str();
 }
@@ -230,18 +242,23 @@ std::string format_table(const BenchReport& report) {
       << (report.reset ? ", a power cycle halfway" : "") << ", seed " << report.seed << " ("
       << fixed(report.wall_seconds, 1) << " s)\n\n";
   char line[256];
-  std::snprintf(line, sizeof line, "%-12s %8s %5s %5s %8s %7s %7s %7s %7s %7s %6s %6s %9s\n", "device", "BER", "rate",
-                "ops", "success%", "wrong", "p50ms", "p99ms", "maxms", "B/op", "retry", "drops", "cyc/op");
+  std::snprintf(line, sizeof line, "%-12s %8s %5s %5s %8s %7s %7s %7s %7s %7s %6s %6s %9s %9s\n", "device", "BER",
+                "rate", "ops", "success%", "wrong", "p50ms", "p99ms", "maxms", "B/op", "retry", "drops", "cyc/op",
+                "twice/lost");
   out << line;
   for (const PointResult& p : report.points) {
     char ber[32];
     std::snprintf(ber, sizeof ber, "%g", p.bit_error_rate);
-    std::snprintf(line, sizeof line, "%-12.12s %8s %5s %5u %8.1f %7u %7.1f %7.1f %7.1f %7.1f %6u %6u %9s\n",
+    // Exactly-once: commands executed twice / confirmed but never executed.
+    const std::string witness = p.exactly_once ? std::to_string(p.exactly_once->executed_twice) + "/" +
+                                                     std::to_string(p.exactly_once->confirmed_not_executed)
+                                               : "-";
+    std::snprintf(line, sizeof line, "%-12.12s %8s %5s %5u %8.1f %7u %7.1f %7.1f %7.1f %7.1f %6u %6u %9s %9s\n",
                   p.device.c_str(), ber, rate_text(p.rate_hz).c_str(), p.operations, 100.0 * p.success_share(),
                   p.wrong, p.latency_p50_ms, p.latency_p99_ms, p.latency_max_ms,
                   per_operation(p.bytes_to_device + p.bytes_from_device, p.operations), p.retries,
                   p.stale + p.crc_errors + p.framing_errors + p.oversize,
-                  p.cpu_cycles_per_op ? fixed(*p.cpu_cycles_per_op, 0).c_str() : "-");
+                  p.cpu_cycles_per_op ? fixed(*p.cpu_cycles_per_op, 0).c_str() : "-", witness.c_str());
     out << line;
   }
   out << '\n';

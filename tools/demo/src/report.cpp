@@ -23,7 +23,24 @@ std::string optional_count(const std::optional<std::uint32_t>& value) {
   return value ? std::to_string(*value) : "n/a";
 }
 
+// One exactly-once figure, "n/a" without a witness.
+std::string witness_figure(const DeviceReport& d, std::uint64_t ExactlyOnce::*figure) {
+  return d.exactly_once ? std::to_string((*d.exactly_once).*figure) : "n/a";
+}
+
 }  // namespace
+
+nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures) {
+  if (!figures) return nullptr;
+  return {{"commands", figures->commands},
+          {"confirmed", figures->confirmed},
+          {"executed", figures->executed},
+          {"executed_twice", figures->executed_twice},
+          {"executed_but_failed", figures->executed_but_failed},
+          {"confirmed_not_executed", figures->confirmed_not_executed},
+          {"executed_unsent", figures->executed_unsent},
+          {"unobserved", figures->unobserved}};
+}
 
 std::string format_table(const DemoReport& report) {
   std::vector<std::string> labels = {"",
@@ -42,7 +59,15 @@ std::string format_table(const DemoReport& report) {
                                      "resets injected",
                                      "resets detected",
                                      "recovered after (ms)",
-                                     "servo pins (D9, D10)"};
+                                     "servo pins (D9, D10)",
+                                     "device commands issued",
+                                     "  confirmed to the caller",
+                                     "  executed (witness)",
+                                     "  executed twice",
+                                     "  executed, reported failed",
+                                     "  confirmed, not executed",
+                                     "  executed, never sent",
+                                     "  executions not logged"};
   std::vector<std::vector<std::string>> columns;
   for (const DeviceReport& d : report.devices) {
     std::vector<std::string> column;
@@ -68,6 +93,12 @@ std::string format_table(const DemoReport& report) {
                      : d.resets_injected != 0 ? "never"
                                               : "-");
     column.push_back(d.pins_match ? (*d.pins_match ? "match" : "MISMATCH") : "n/a");
+    for (const auto figure : {&ExactlyOnce::commands, &ExactlyOnce::confirmed, &ExactlyOnce::executed,
+                              &ExactlyOnce::executed_twice, &ExactlyOnce::executed_but_failed,
+                              &ExactlyOnce::confirmed_not_executed, &ExactlyOnce::executed_unsent,
+                              &ExactlyOnce::unobserved}) {
+      column.push_back(witness_figure(d, figure));
+    }
     columns.push_back(std::move(column));
   }
   std::size_t label_width = 0;
@@ -100,6 +131,15 @@ std::string format_table(const DemoReport& report) {
     }
     if (!d.pins_detail.empty()) out << "  pins measured/expected: " << d.pins_detail << '\n';
     if (!d.first_error.empty()) out << "  first error: " << d.first_error << '\n';
+    if (!d.failure_causes.empty()) {
+      out << "  failures by cause:";
+      const char* separator = " ";
+      for (const auto& [cause, count] : d.failure_causes) {
+        out << separator << cause << " x" << count;
+        separator = ", ";
+      }
+      out << '\n';
+    }
   }
   return out.str();
 }
@@ -132,6 +172,8 @@ nlohmann::json to_json(const DemoReport& report) {
         {"pins_match", d.pins_match ? nlohmann::json(*d.pins_match) : nlohmann::json(nullptr)},
         {"pins_detail", d.pins_detail},
         {"first_error", d.first_error},
+        {"failure_causes", d.failure_causes},
+        {"exactly_once", witness_json(d.exactly_once)},
     };
     devices.push_back(std::move(device));
   }

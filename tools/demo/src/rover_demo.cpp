@@ -15,6 +15,8 @@
 #include <type_traits>
 #include <variant>
 
+#include "tether/core/execution_witness.hpp"
+#include "tether/demo/exactly_once.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/elcano/node/behaviour.hpp"
 #include "tether/proxy/device/pins.hpp"
@@ -48,9 +50,11 @@ class RomiWorkload final : public Workload {
       outcome.error = error.message();
     } else if (response.code != 0) {
       outcome.error = "device answered " + response.values.dump();
+      outcome.cause = "device answered code " + std::to_string(response.code);
     } else {
       outcome.ok = true;
     }
+    outcome.commands.emplace_back(witness_key(outcome.expected.d9, outcome.expected.d10), outcome.ok);
     return outcome;
   }
   LinkCounters link() const override { return client_->counters().link; }
@@ -82,13 +86,18 @@ class ProxyWorkload final : public Workload {
       sends.push_back(client_->servo(pins_[k]).async_set(position, boost::asio::use_future));
     }
     outcome.ok = true;
-    for (auto& send : sends) {
+    for (std::size_t k = 0; k < sends.size(); ++k) {
+      bool sent = true;
       try {
-        send.get();
+        sends[k].get();
       } catch (const boost::system::system_error& error) {  // what use_future throws for an error_code
         if (outcome.ok) outcome.error = error.code().message();
         outcome.ok = false;
+        sent = false;
       }
+      // The firmware's key: pin, position.
+      outcome.commands.emplace_back(
+          witness_key(static_cast<std::uint16_t>(pins_[k]), static_cast<std::uint16_t>(last_positions_[k])), sent);
     }
     return outcome;
   }
@@ -168,11 +177,15 @@ class ElcanoWorkload final : public Workload {
       outcome.error = error.message();
     } else if (reply.speed != drive.speed || reply.angle != drive.angle) {
       outcome.wrong = true;
+      outcome.cause = "wrong answer";
       outcome.error = "report s=" + std::to_string(reply.speed) + " a=" + std::to_string(reply.angle) +
                       " for s=" + std::to_string(drive.speed) + " a=" + std::to_string(drive.angle);
     } else {
       outcome.ok = true;
     }
+    // The drive node's key: the drive's speed and angle.
+    outcome.commands.emplace_back(
+        witness_key(static_cast<std::uint16_t>(drive.speed), static_cast<std::uint16_t>(drive.angle)), outcome.ok);
     return outcome;
   }
   LinkCounters link() const override { return client_->counters().link; }
@@ -205,15 +218,44 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
       device.client);
 }
 
-double percentile(std::vector<double> sorted, double fraction) {
-  if (sorted.empty()) return 0;
-  std::sort(sorted.begin(), sorted.end());
-  // Nearest rank: the smallest value with at least `fraction` of the samples at or below it.
-  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
-  return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
-}
-
 namespace {
+
+// Operation times in bounded memory (a soak runs for hours): buckets 0.5 % wide from 1 us up, so a
+// percentile is the nearest-rank sample's bucket bound, within 0.5 % of it; the maximum is exact.
+class LatencyHistogram {
+ public:
+  void add(double ms) {
+    max_ = std::max(max_, ms);
+    ++count_;
+    ++buckets_[bucket(ms)];
+  }
+  double max() const { return max_; }
+  // Nearest rank: the smallest value with at least `fraction` of the samples at or below it.
+  double percentile(double fraction) const {
+    if (count_ == 0) return 0;
+    const auto rank = std::max<std::uint64_t>(
+        1, static_cast<std::uint64_t>(std::ceil(fraction * static_cast<double>(count_))));
+    std::uint64_t seen = 0;
+    for (std::size_t b = 0; b < buckets_.size(); ++b) {
+      seen += buckets_[b];
+      if (seen >= rank) return std::min(kFloorMs * std::pow(kRatio, static_cast<double>(b)), max_);
+    }
+    return max_;
+  }
+
+ private:
+  static constexpr double kFloorMs = 0.001;
+  static constexpr double kRatio = 1.005;
+  static constexpr std::size_t kBuckets = 4200;  // up to ~22 min
+  static std::size_t bucket(double ms) {
+    if (!(ms > kFloorMs)) return 0;
+    const double index = std::ceil(std::log(ms / kFloorMs) / std::log(kRatio));
+    return std::min(kBuckets - 1, static_cast<std::size_t>(index));
+  }
+  std::vector<std::uint64_t> buckets_ = std::vector<std::uint64_t>(kBuckets);
+  std::uint64_t count_ = 0;
+  double max_ = 0;
+};
 
 // The last complete pulse of `pin` (us), or 0 when the pin stopped pulsing: no edge for a servo period and
 // more (a rebooted board that never got its init back still shows its last pulse from before the reset).
@@ -257,24 +299,40 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
   const LinkCounters before = workload->link();
   const std::optional<std::uint32_t> resets_before = workload->resets_detected();
 
-  std::vector<double> latencies;
+  // The device that executes the commands: a ring's last board drives the servos.
+  std::optional<ExecutionWitness> witness;
+  if (!device.boards.empty()) witness = ExecutionWitness::attach(*device.boards.back());
+  if (witness) witness->read();  // what opening did (nothing the workload sent) is not counted
+  ExactlyOnceLedger ledger;
+
+  LatencyHistogram latencies;
   std::optional<Pulses> last_ok;
   std::optional<Clock::time_point> reset_at;
   const unsigned reset_index = options.iterations / 2;
+  const bool timed = options.duration.count() > 0;
+  const auto stop_at = Clock::now() + options.duration;
+  const auto reset_now = [&](unsigned i) {
+    if (options.reset_every > 0) return i > 0 && i % options.reset_every == 0;
+    return options.reset_halfway && !timed && i == reset_index;
+  };
   auto next_start = Clock::now();
-  for (unsigned i = 0; i < options.iterations; ++i) {
+  for (unsigned i = 0; timed ? Clock::now() < stop_at : i < options.iterations; ++i) {
     std::this_thread::sleep_until(next_start);
     next_start = std::max(next_start + options.period, Clock::now());
-    if (options.reset_halfway && i == reset_index && !device.boards.empty()) {
+    if (reset_now(i) && !device.boards.empty()) {
+      if (witness) ledger.add(witness->read());  // the reboot clears what was not read yet
       device.boards.back()->reset(transports::ResetKind::power_cycle, options.power_off);
       reset_at = Clock::now();
+      report.recovery_ms.reset();  // the latest reset's recovery
       ++report.resets_injected;
     }
     const auto start = Clock::now();
     const Outcome outcome = workload->run(i);
     const auto end = Clock::now();
-    latencies.push_back(std::chrono::duration<double, std::milli>(end - start).count());
+    latencies.add(std::chrono::duration<double, std::milli>(end - start).count());
     ++report.operations;
+    for (const auto& [key, confirmed] : outcome.commands) ledger.outcome(ledger.issued(key), confirmed);
+    if (witness) ledger.add(witness->read());
     if (outcome.ok) {
       ++report.successes;
       last_ok = outcome.expected;
@@ -288,10 +346,23 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
         ++report.failures;
       }
       if (report.first_error.empty()) report.first_error = "operation " + std::to_string(i) + ": " + outcome.error;
+      const std::string& cause = outcome.cause.empty() ? outcome.error : outcome.cause;
+      if (report.failure_causes.size() < kMaxFailureCauses || report.failure_causes.count(cause) != 0) {
+        ++report.failure_causes[cause];
+      } else {
+        ++report.failure_causes["other"];
+      }
     }
-    if (options.progress) options.progress(device.name, i + 1, options.iterations);
+    if (options.progress) options.progress(device.name, i + 1, timed ? 0 : options.iterations);
   }
   if (link) link->set_faults({}, {});
+  if (witness) {
+    // Re-sends still in flight land within a call budget (2 s); the compat settle's re-writes are not the
+    // workload's and are not counted.
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ledger.add(witness->read());
+    report.exactly_once = ledger.figures();
+  }
   if (const std::optional<Pulses> settled = workload->settle(report.final_rewrites)) last_ok = settled;
 
   const LinkCounters after = workload->link();
@@ -307,9 +378,9 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     report.bytes_from_device = from.bytes_in;
     report.bits_flipped = to.bits_flipped + from.bits_flipped;
   }
-  report.latency_p50_ms = percentile(latencies, 0.50);
-  report.latency_p99_ms = percentile(latencies, 0.99);
-  report.latency_max_ms = latencies.empty() ? 0 : *std::max_element(latencies.begin(), latencies.end());
+  report.latency_p50_ms = latencies.percentile(0.50);
+  report.latency_p99_ms = latencies.percentile(0.99);
+  report.latency_max_ms = latencies.max();
   if (!device.boards.empty()) check_pins(report, *device.boards.back(), last_ok);
 }
 

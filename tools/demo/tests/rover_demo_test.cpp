@@ -22,6 +22,36 @@ DemoOptions short_run() {
   return options;
 }
 
+// The exactly-once figures of a device add up: every execution the witness logged belongs to a command
+// (confirmed or not), and protocols with a duplicate filter (romi's reply cache, proxy's messageId filter)
+// never run a command twice, even re-sent through noise and a reset.
+void expect_exactly_once_adds_up(const DeviceReport& d) {
+  ASSERT_TRUE(d.exactly_once.has_value()) << "the demo images carry the execution witness";
+  const ExactlyOnce& e = *d.exactly_once;
+  std::printf("%s: commands %llu confirmed %llu executed %llu twice %llu failed-but-executed %llu "
+              "confirmed-not-executed %llu unsent %llu unobserved %llu\n",
+              d.device.c_str(), static_cast<unsigned long long>(e.commands),
+              static_cast<unsigned long long>(e.confirmed), static_cast<unsigned long long>(e.executed),
+              static_cast<unsigned long long>(e.executed_twice), static_cast<unsigned long long>(e.executed_but_failed),
+              static_cast<unsigned long long>(e.confirmed_not_executed),
+              static_cast<unsigned long long>(e.executed_unsent), static_cast<unsigned long long>(e.unobserved));
+  EXPECT_GE(e.commands, d.operations);
+  EXPECT_LE(e.confirmed, e.commands);
+  EXPECT_LE(e.executed, e.commands);
+  EXPECT_LE(e.executed_twice, e.executed);
+  // confirmed and executed + confirmed, not executed == confirmed; + executed, reported failed == executed.
+  EXPECT_EQ(e.confirmed - e.confirmed_not_executed, e.executed - e.executed_but_failed);
+  EXPECT_EQ(e.unobserved, 0u) << "the demo reads the log after every operation";
+  if (d.confirmed) {
+    // A confirmation is sent after the command ran.
+    EXPECT_EQ(e.confirmed_not_executed, 0u);
+    EXPECT_GT(e.executed, 0u);
+  }
+  if (d.codec == "romi" || d.codec == "proxy") {
+    EXPECT_EQ(e.executed_twice, 0u);
+  }
+}
+
 TEST(RoverDemo, EveryCodecRunsTheWorkloadThroughNoiseAndAReset) {
   const DemoReport report = run_demo(short_run());
   std::printf("%s", format_table(report).c_str());
@@ -42,6 +72,7 @@ TEST(RoverDemo, EveryCodecRunsTheWorkloadThroughNoiseAndAReset) {
     EXPECT_TRUE(*d.pins_match) << d.pins_detail;
     EXPECT_GT(d.latency_p99_ms, 0.0);
     EXPECT_GE(d.latency_p99_ms, d.latency_p50_ms);
+    expect_exactly_once_adds_up(d);
   }
   // The protocol that has sessions sees the reset.
   EXPECT_EQ(report.devices[1].codec, "proxy");
@@ -66,6 +97,16 @@ TEST(RoverDemo, WithoutFaultsEveryOperationSucceedsAndTheJsonCarriesTheFigures) 
     EXPECT_EQ(d["bits_flipped"], 0);
     EXPECT_TRUE(d["recovery_ms"].is_null());
     EXPECT_GT(d["bytes_to_device"].get<std::uint64_t>(), 0u);
+    // Clean links: every command confirmed ran, and (romi and proxy filter re-sends) ran once.
+    const auto& e = d["exactly_once"];
+    ASSERT_TRUE(e.is_object());
+    EXPECT_EQ(e["confirmed"], e["commands"]);
+    EXPECT_EQ(e["executed"], e["commands"]);
+    EXPECT_EQ(e["confirmed_not_executed"], 0);
+    EXPECT_EQ(e["executed_unsent"], 0);
+    if (d["codec"] != "elcano") {
+      EXPECT_EQ(e["executed_twice"], 0);
+    }
   }
 }
 

@@ -29,6 +29,7 @@
 #include <utility>
 #include <vector>
 
+#include "tether/demo/exactly_once.hpp"
 #include "tether/devices/config.hpp"
 
 namespace tether::bench {
@@ -115,6 +116,9 @@ struct PointResult {
   std::optional<std::uint32_t> resets_detected;  ///< By the protocol; unset: it cannot tell.
   std::optional<double> recovery_ms;        ///< From the reset to the next confirmed operation.
   std::string first_error;                  ///< The first failure, for the notes.
+  /// Commands confirmed against executed at this point, from the firmware's execution witness
+  /// (tether/demo/exactly_once.hpp). Unset: the device has none (hardware, an image without it).
+  std::optional<demo::ExactlyOnce> exactly_once;
 
   /// successes / operations (0 with no operations).
   double success_share() const;

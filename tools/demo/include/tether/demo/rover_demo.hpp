@@ -31,10 +31,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "tether/demo/exactly_once.hpp"
 #include "tether/devices/config.hpp"
 
 namespace tether::demo {
@@ -47,6 +49,10 @@ struct DemoOptions {
   std::filesystem::path firmware_dir;
   /// Operations per device.
   unsigned iterations = 200;
+  /// Run for this long instead of `iterations` operations (0: use `iterations`). A soak (tools/soak).
+  std::chrono::milliseconds duration{0};
+  /// Power-cycle each virtual device every `reset_every` operations (0: once, halfway, per `reset_halfway`).
+  unsigned reset_every = 0;
   /// One operation starts every `period` (a 50 Hz control loop), or at once when the previous one took
   /// longer: every codec sees the same timeline, and the reset lands at the same moment for all.
   std::chrono::milliseconds period{20};
@@ -58,9 +64,13 @@ struct DemoOptions {
   std::chrono::milliseconds power_off{100};
   /// Seed of the noise.
   std::uint64_t seed = 1;
-  /// Progress: called from the device threads with (device, operations done, iterations). May be empty.
+  /// Progress: called from the device threads with (device, operations done, iterations; 0 with a
+  /// `duration`). May be empty.
   std::function<void(const std::string& device, unsigned done, unsigned total)> progress;
 };
+
+/// Distinct failure causes a DeviceReport keeps apart.
+inline constexpr std::size_t kMaxFailureCauses = 16;
 
 /// What one device did.
 struct DeviceReport {
@@ -76,7 +86,7 @@ struct DeviceReport {
   std::uint64_t bytes_to_device = 0;    ///< Bytes the host wrote.
   std::uint64_t bytes_from_device = 0;  ///< Bytes the host read.
   std::uint64_t bits_flipped = 0;       ///< Noise injected, both directions.
-  double latency_p50_ms = 0;  ///< Median operation time (wall clock).
+  double latency_p50_ms = 0;  ///< Median operation time (wall clock; percentiles to 0.5 %, bounded memory).
   double latency_p99_ms = 0;  ///< 99th percentile.
   double latency_max_ms = 0;  ///< Slowest.
   std::uint32_t retries = 0;     ///< Re-sends by the session engine.
@@ -97,6 +107,11 @@ struct DeviceReport {
   std::optional<bool> pins_match;
   std::string pins_detail;  ///< Measured vs expected pulses.
   std::string first_error;  ///< The first error seen, for the notes.
+  /// Failed and wrong operations by cause (the error's kind; at most kMaxFailureCauses, then "other").
+  std::map<std::string, std::uint32_t> failure_causes;
+  /// Confirmed against executed, from the firmware's execution witness (exactly_once.hpp). Unset: the
+  /// device has no witness (hardware, or an image without the recorder).
+  std::optional<ExactlyOnce> exactly_once;
 };
 
 /// A whole run.
@@ -115,6 +130,8 @@ DemoReport run_demo(const DemoOptions& options);
 
 /// The side-by-side table (one column per device) and notes, for a terminal.
 std::string format_table(const DemoReport& report);
+/// Exactly-once figures as a JSON object (null when unset): `tether demo --json` and `tether bench`.
+nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures);
 /// The report as JSON (`tether demo --json`).
 nlohmann::json to_json(const DemoReport& report);
 /// `to_json` as one line of text. Device texts that are not valid UTF-8 (names, first errors quoting what a

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tether/core/counters.hpp"
@@ -27,7 +28,11 @@ struct Outcome {
   bool ok = false;       ///< Confirmed with the values sent.
   bool wrong = false;    ///< Confirmed, but with other values.
   std::string error;     ///< Why not ok.
+  std::string cause;     ///< The error's kind, from a small set (failure_causes); empty: `error` is one.
   Pulses expected;       ///< Pulses after it (meaningful when ok).
+  /// The device commands it issued: witness key (execution_witness.hpp) and whether the caller was told
+  /// it succeeded.
+  std::vector<std::pair<std::uint32_t, bool>> commands;
 };
 
 /// One codec's way of doing the operation.
@@ -53,9 +58,5 @@ class Workload {
 /// The workload of the device's client (the demo drives servos the way each client can). Throws
 /// std::invalid_argument for a codec without one or a proxy device without a servo init.
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config);
-
-/// Nearest-rank percentile of `samples` (`fraction` 0..1): the smallest value with at least `fraction` of the
-/// samples at or below it; 0 for no samples.
-double percentile(std::vector<double> samples, double fraction);
 
 }  // namespace tether::demo
