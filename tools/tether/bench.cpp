@@ -52,6 +52,8 @@ const CommandText& command_text() {
       "at a time. Per device and point: operations, success %, wrong answers, p50/p90/p99/max latency and\n"
       "its CDF, wire bytes per operation each way and link utilisation, retries, timeouts, drops by cause\n"
       "(stale, CRC, framing, oversize), resets detected and recovery time (--reset), and on virtual boards\n"
+      "the exactly-once figures of the firmware's execution witness (commands confirmed, executed, executed\n"
+      "twice, executed but failed, confirmed but not executed),\n"
       "the device CPU per operation (cycles the simulated Unos executed, sleep left out; and the same less\n"
       "their background while idle, measured for 0.3 s after opening) and the firmware's size and SHA-256.\n"
       "Per device and bit error rate: the highest rate sustained with >= 99 % success and\n"

@@ -289,15 +289,8 @@ BenchReport run_bench(const BenchOptions& options) {
   }
 
   transports::IoThread io;
-  // wrap_stream runs on this thread, once per device in config order: links[k] is device k's.
   std::vector<std::shared_ptr<transports::FaultInjectingStream>> links;
-  devices::OpenOptions open_options;
-  std::uint64_t stream_seed = options.seed;
-  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
-    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
-    return std::shared_ptr<transports::ByteStream>(links.back());
-  };
-  devices::Rover rover = devices::open_rover(config, io.executor(), open_options);
+  devices::Rover rover = demo::open_rover_with_fault_links(config, io.executor(), options.seed, links);
 
   BenchReport report;
   report.rover = config.name;

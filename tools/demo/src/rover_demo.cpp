@@ -196,6 +196,20 @@ class ElcanoWorkload final : public Workload {
 
 }  // namespace
 
+devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
+                                           const boost::asio::any_io_executor& executor, std::uint64_t seed,
+                                           std::vector<std::shared_ptr<transports::FaultInjectingStream>>& links) {
+  // wrap_stream runs on this thread, once per device in config order (open_rover blocks).
+  links.clear();
+  devices::OpenOptions open_options;
+  std::uint64_t stream_seed = seed;
+  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
+    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
+    return std::shared_ptr<transports::ByteStream>(links.back());
+  };
+  return devices::open_rover(config, executor, open_options);
+}
+
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
   return std::visit(
       [&](const auto& client) -> std::unique_ptr<Workload> {
@@ -394,16 +408,8 @@ DemoReport run_demo(const DemoOptions& options) {
       options.config ? *options.config : devices::parse_config(devices::default_virtual_rover_config(), parse);
 
   transports::IoThread io;
-  // wrap_stream runs on this thread, once per device in config order (open_rover blocks): links[k] is device k's.
   std::vector<std::shared_ptr<transports::FaultInjectingStream>> links;
-  devices::OpenOptions open_options;
-  std::uint64_t stream_seed = options.seed;
-  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
-    // Clean while opening (handshakes, inits); the workload turns the noise on.
-    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
-    return std::shared_ptr<transports::ByteStream>(links.back());
-  };
-  devices::Rover rover = devices::open_rover(config, io.executor(), open_options);
+  devices::Rover rover = open_rover_with_fault_links(config, io.executor(), options.seed, links);
 
   DemoReport report;
   report.rover = config.name;

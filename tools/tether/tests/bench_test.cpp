@@ -112,6 +112,11 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
     }
     EXPECT_GT(point["cpu_cycles_per_op"].get<double>(), 0.0) << "virtual boards: cycles executed";
     EXPECT_GT(point["utilisation_to_device"].get<double>(), 0.0);
+    // The demo images carry the execution witness: commands issued and confirmed, what ran.
+    const json& witness = point["exactly_once"];
+    ASSERT_TRUE(witness.is_object()) << "the virtual rover's images record what they execute";
+    EXPECT_GE(witness["commands"].get<int>(), 8) << "at least one device command per operation";
+    EXPECT_LE(witness["confirmed"].get<int>(), witness["commands"].get<int>());
     const json& latency = point["latency_ms"];
     EXPECT_LE(latency["p50"].get<double>(), latency["p90"].get<double>());
     EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());

@@ -14,6 +14,7 @@
 #include "tether/core/counters.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
+#include "tether/transports/fault_injecting_stream.hpp"
 
 namespace tether::demo {
 
@@ -54,6 +55,14 @@ class Workload {
   /// `rewrites` counts the writes it needed.
   virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
 };
+
+/// Opens `config` with every device's host link wrapped in a `transports::FaultInjectingStream` (which also
+/// counts the wire bytes), clean while opening (handshakes, inits): a workload turns the noise on.
+/// `links[k]` is device k's (config order); link k's noise is seeded `seed + k`. Throws as
+/// `devices::open_rover`.
+devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
+                                           const boost::asio::any_io_executor& executor, std::uint64_t seed,
+                                           std::vector<std::shared_ptr<transports::FaultInjectingStream>>& links);
 
 /// The workload of the device's client (the demo drives servos the way each client can). Throws
 /// std::invalid_argument for a codec without one or a proxy device without a servo init.
