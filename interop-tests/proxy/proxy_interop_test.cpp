@@ -9,7 +9,9 @@
 #include <chrono>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
+#include <string>
 #include <thread>
 #include <variant>
 #include <vector>
@@ -219,25 +221,34 @@ TEST(ProxyInterop, UnderLineNoiseEveryAckedCommandRanExactlyOnce) {
   client.close();
 }
 
-// Between the client and the board: holds each device frame until its delimiter and drops every
-// `drop_every`-th Ack (a lost ack: the client re-sends the message, which the device must not run again).
+// Between the client and the board: holds each frame until its delimiter. Device to host: drops every
+// `drop_ack_every`-th Ack (a lost ack: the client re-sends the message, which the device must not run again).
+// Host to device (0: off): every `duplicate_every`-th frame goes twice in a row (a duplicated frame). Reset
+// frames are never repeated.
+struct WireFaults {
+  unsigned drop_ack_every = 0;
+  unsigned duplicate_every = 0;
+};
+
 class AckDropper {
  public:
   AckDropper(std::shared_ptr<transports::ByteStream> host_side, std::shared_ptr<transports::ByteStream> device,
-             unsigned drop_every)
-      : drop_every_(drop_every),
+             WireFaults faults)
+      : faults_(faults),
         decoder_(Integrity::crc16, counters_),
+        host_decoder_(Integrity::crc16, host_counters_),
         tap_(std::move(host_side), std::move(device),
              [this](bool from_device, std::uint8_t byte, std::vector<std::uint8_t>& out) {
                if (!from_device) {
-                 out.push_back(byte);
+                 from_host(byte, out);
                  return;
                }
                frame_.push_back(byte);
                const bool payload = decoder_.feed(byte) == DecodeStatus::frame;
                if (byte != 0) return;
                if (payload) observe(decoder_.frame());
-               if (payload && is_ack(decoder_.frame()) && ++acks_ % drop_every_ == 0) {
+               if (payload && faults_.drop_ack_every != 0 && is_ack(decoder_.frame()) &&
+                   ++acks_ % faults_.drop_ack_every == 0) {
                  ++dropped_;
                } else {
                  out.insert(out.end(), frame_.begin(), frame_.end());
@@ -245,6 +256,7 @@ class AckDropper {
                frame_.clear();
              }) {}
   unsigned dropped() const { return dropped_; }
+  unsigned duplicated() const { return duplicated_; }
   // Every control the device executed, seen on the wire before any drop: a PinState, then the Ack of the
   // message that caused it (the device sends them in that order; a re-send it recognises gets the Ack
   // alone). By messageId, the boot (ResetEvents seen) of each execution.
@@ -252,8 +264,42 @@ class AckDropper {
     std::lock_guard lock(mutex_);
     return executions_;
   }
+  // The messageIds this wire duplicated.
+  std::set<std::uint32_t> repeated_ids() {
+    std::lock_guard lock(mutex_);
+    return repeated_ids_;
+  }
 
  private:
+  void from_host(std::uint8_t byte, std::vector<std::uint8_t>& out) {
+    if (faults_.duplicate_every == 0) {
+      out.push_back(byte);
+      return;
+    }
+    host_frame_.push_back(byte);
+    const bool payload = host_decoder_.feed(byte) == DecodeStatus::frame;
+    if (byte != 0) return;
+    std::optional<std::uint32_t> id;
+    ArduinoIn in;
+    // Not a Reset: the device forgets its filter when it reboots, so a repeated Reset reboots it again (a
+    // limit of the protocol, whose messages carry no sessionId), and the test is about the filter.
+    if (payload && in.ParseFromArray(host_decoder_.frame().data(), static_cast<int>(host_decoder_.frame().size())) &&
+        !in.has_reset()) {
+      id = in.messageid();
+    }
+    out.insert(out.end(), host_frame_.begin(), host_frame_.end());
+    ++host_frames_;
+    if (id && faults_.duplicate_every != 0 && host_frames_ % faults_.duplicate_every == 0) {
+      out.insert(out.end(), host_frame_.begin(), host_frame_.end());
+      ++duplicated_;
+      remember_repeat(*id);
+    }
+    host_frame_.clear();
+  }
+  void remember_repeat(std::uint32_t id) {
+    std::lock_guard lock(mutex_);
+    repeated_ids_.insert(id);
+  }
   void observe(ByteView payload) {
     ArduinoOut out;
     if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) return;
@@ -270,6 +316,7 @@ class AckDropper {
   }
   std::mutex mutex_;
   std::map<std::uint32_t, std::vector<int>> executions_;
+  std::set<std::uint32_t> repeated_ids_;
   int boot_ = 0;
   bool pin_state_ = false;
 
@@ -278,12 +325,17 @@ class AckDropper {
     return out.ParseFromArray(payload.data(), static_cast<int>(payload.size())) && out.has_ack();
   }
 
-  unsigned drop_every_;
+  WireFaults faults_;
   LinkCounters counters_;
-  Decoder<kMaxPayload> decoder_;  // device direction only
+  Decoder<kMaxPayload> decoder_;  // device direction
   std::vector<std::uint8_t> frame_;
   unsigned acks_ = 0;
   std::atomic<unsigned> dropped_{0};
+  LinkCounters host_counters_;
+  Decoder<kMaxPayload> host_decoder_;  // host direction (only its thread)
+  std::vector<std::uint8_t> host_frame_;
+  unsigned host_frames_ = 0;
+  std::atomic<unsigned> duplicated_{0};
   tether::testing::WireTap tap_;  // last: its threads stop before the state above goes
 };
 
@@ -296,12 +348,12 @@ class AckDropper {
 // acked message ran, none twice in one boot. Before the client's id window (kIdWindow), a re-send arriving
 // after 8 other ids had run was executed again; before the window counted from each message's anchor, a
 // loaded machine still saw it (an older message running late).
-TEST(ProxyInterop, ManyInFlightWithLostAcksAndResetsEveryAckedCommandRanExactlyOnce) {
+void many_in_flight_through_resets(WireFaults faults) {
   IoThread io;
   auto device = VirtualUnoStream::open(io.executor(), board("proxy.elf", Pacing::real_time));
   auto& uno = device->board();
   auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
-  AckDropper wire(wire_end, device, 7);
+  AckDropper wire(wire_end, device, faults);
   EventLog log;
   std::mutex mutex;  // outcomes, per pin; declared before the client, whose close may still complete sends
   std::map<std::uint32_t, int> acked;
@@ -365,23 +417,54 @@ TEST(ProxyInterop, ManyInFlightWithLostAcksAndResetsEveryAckedCommandRanExactlyO
   }
   // By messageId: every acked message ran, none twice in one boot of the device; one that ran in two boots
   // (in flight at a reset: the rebooted device cannot know it) was not reported acked.
+  // (A frame this wire duplicated may reach a rebooted device, which cannot know it: not the protocol's doing.)
   const auto executions = wire.executions();
+  const std::set<std::uint32_t> repeated = wire.repeated_ids();
   for (const std::uint32_t id : acked_ids) EXPECT_EQ(executions.count(id), 1u) << "acked id " << id << " never ran";
+  std::size_t ran_twice_in_a_boot = 0;
   for (const auto& [id, boots] : executions) {
-    EXPECT_EQ(std::set<int>(boots.begin(), boots.end()).size(), boots.size()) << "id " << id << " ran twice in one boot";
-    if (boots.size() > 1) {
+    if (std::set<int>(boots.begin(), boots.end()).size() != boots.size()) ++ran_twice_in_a_boot;
+    std::string seen;
+    for (const int boot : boots) seen += " " + std::to_string(boot);
+    EXPECT_EQ(std::set<int>(boots.begin(), boots.end()).size(), boots.size())
+        << "id " << id << " ran twice in one boot (boots" << seen << (repeated.count(id) ? "; repeated by the wire)" : ")");
+    if (boots.size() > 1 && repeated.count(id) == 0) {
       EXPECT_EQ(acked_ids.count(id), 0u) << "id " << id << " ran in two boots but was acked";
     }
   }
   const LinkCounters link = client.counters().link;
-  std::printf("%d of %d acked, %u acks dropped, %u re-sends, %zu resets detected\n", total_acked,
-              kBatches * kRounds * static_cast<int>(lanes.size()), wire.dropped(), link.retries,
+  std::printf("%d of %d acked, %zu ids executed (%zu twice in a boot), %u acks dropped, %u frames duplicated, "
+              "%u re-sends, %zu resets detected\n",
+              total_acked, kBatches * kRounds * static_cast<int>(lanes.size()), executions.size(),
+              ran_twice_in_a_boot, wire.dropped(), wire.duplicated(), link.retries,
               log.all<events::ResetDetected>().size());
-  EXPECT_GE(total_acked, kBatches * kRounds * static_cast<int>(lanes.size()) * 8 / 10);
+  const transports::VirtualUnoStats board_stats = uno.stats();
+  std::printf("board: %llu boots (%llu power cycles, %llu watchdog), %llu bytes lost at the receiver\n",
+              static_cast<unsigned long long>(board_stats.boots), static_cast<unsigned long long>(board_stats.power_cycles),
+              static_cast<unsigned long long>(board_stats.firmware_watchdog_resets),
+              static_cast<unsigned long long>(board_stats.rx_bytes_lost));
+  // Enough happened for the test to mean something (it fails when nothing arrives).
+  EXPECT_GE(executions.size(), static_cast<std::size_t>(total_acked));
+  if (faults.duplicate_every != 0) {
+    EXPECT_GE(wire.duplicated(), 20u);
+  }
+  // At least a third acked: the boards run in real time, and a loaded 2-core machine (load 20) acked 59 % in
+  // one run where an idle one acks ~95 %; the minimum is there so that a run where nothing arrives fails.
+  EXPECT_GE(total_acked, kBatches * kRounds * static_cast<int>(lanes.size()) / 3);
   EXPECT_GE(wire.dropped(), 20u);
   EXPECT_GE(link.retries, wire.dropped() / 2);
   EXPECT_GE(log.all<events::ResetDetected>().size(), 2u);
   client.close();
+}
+
+TEST(ProxyInterop, ManyInFlightWithLostAcksAndResetsEveryAckedCommandRanExactlyOnce) {
+  many_in_flight_through_resets(WireFaults{7, 0});
+}
+
+// The same under pressure from the wire itself: besides the lost acks, every fifth frame duplicated back to
+// back, across the resets. Every copy the filter lets through shows up as a second execution in one boot.
+TEST(ProxyInterop, DuplicatedFramesAmongManyInFlightRunOncePerBoot) {
+  many_in_flight_through_resets(WireFaults{7, 5});
 }
 
 TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
