@@ -12,6 +12,7 @@ constexpr Command kCommands[] = {
     {"shell", run_shell, "interactive terminal for a device: type messages, see answers and what it sends"},
     {"monitor", run_monitor, "decode and print everything a device sends, with timestamps (passive)"},
     {"demo", run_demo, "compare the protocols: the same servo workload on every device of a (virtual) rover, with noise and resets"},
+    {"bench", run_bench, "benchmark the protocols over noise and rates: latency, bytes, CPU, saturation; JSON, CSV, plots, report.html"},
     {"flash", run_flash, "upload a firmware image through the board's bootloader (avrdude, optiboot), verified"},
     {"stats", run_stats, "run a session with a device for a while and print its link and codec counters"},
 };

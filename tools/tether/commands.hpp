@@ -26,6 +26,7 @@ int run_shell(int argc, char** argv);
 int run_monitor(int argc, char** argv);
 int run_stats(int argc, char** argv);
 int run_demo(int argc, char** argv);
+int run_bench(int argc, char** argv);
 int run_flash(int argc, char** argv);
 
 }  // namespace tether::cli

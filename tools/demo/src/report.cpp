@@ -28,6 +28,8 @@ std::string witness_figure(const DeviceReport& d, std::uint64_t ExactlyOnce::*fi
   return d.exactly_once ? std::to_string((*d.exactly_once).*figure) : "n/a";
 }
 
+}  // namespace
+
 nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures) {
   if (!figures) return nullptr;
   return {{"commands", figures->commands},
@@ -39,8 +41,6 @@ nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures) {
           {"executed_unsent", figures->executed_unsent},
           {"unobserved", figures->unobserved}};
 }
-
-}  // namespace
 
 std::string format_table(const DemoReport& report) {
   std::vector<std::string> labels = {"",

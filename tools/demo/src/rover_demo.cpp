@@ -1,5 +1,6 @@
 // `tether demo`: runs the servo workload on every device of a rover at once; see rover_demo.hpp.
 #include "tether/demo/rover_demo.hpp"
+#include "tether/demo/workload.hpp"
 
 #include <boost/asio/use_future.hpp>
 
@@ -28,44 +29,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using error_code = boost::system::error_code;
-
-/// Servo pulses an operation should leave on D9/D10 (0: that output is not driven by the workload).
-struct Pulses {
-  std::uint16_t d9 = 0;
-  std::uint16_t d10 = 0;
-};
-
-/// How one operation ended.
-struct Outcome {
-  bool ok = false;       ///< Confirmed with the values sent.
-  bool wrong = false;    ///< Confirmed, but with other values.
-  std::string error;     ///< Why not ok.
-  std::string cause;     ///< The error's kind, from a small set (failure_causes); empty: `error` is one.
-  Pulses expected;       ///< Pulses after it (meaningful when ok).
-  /// The device commands it issued: witness key (execution_witness.hpp) and whether the caller was told
-  /// it succeeded.
-  std::vector<std::pair<std::uint32_t, bool>> commands;
-};
-
-/// One codec's way of doing the operation.
-class Workload {
- public:
-  virtual ~Workload() = default;
-  /// What one operation is on the wire.
-  virtual std::string operation() const = 0;
-  /// Runs operation `i` (blocking).
-  virtual Outcome run(unsigned i) = 0;
-  /// The client's link counters.
-  virtual LinkCounters link() const = 0;
-  /// Resets detected by the protocol (unset: it cannot tell).
-  virtual std::optional<std::uint32_t> resets_detected() const { return std::nullopt; }
-  /// False when a success only means "written" (nothing tells when the device works again).
-  virtual bool confirms() const { return true; }
-  /// After the run (noise off): makes the device's final state deterministic when the protocol cannot
-  /// confirm, and returns the pulses it should show then (unset: nothing to do, the last success stands).
-  /// `rewrites` counts the writes it needed.
-  virtual std::optional<Pulses> settle(std::uint32_t& /*rewrites*/) { return std::nullopt; }
-};
 
 // Values of operation i: spread over the range, different each time, deterministic.
 std::uint16_t throttle_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 73u) % 800u); }
@@ -231,7 +194,22 @@ class ElcanoWorkload final : public Workload {
   std::shared_ptr<elcano::RingClient> client_;
 };
 
-// The workload of the device's client (the demo drives servos the way each client can).
+}  // namespace
+
+devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
+                                           const boost::asio::any_io_executor& executor, std::uint64_t seed,
+                                           std::vector<std::shared_ptr<transports::FaultInjectingStream>>& links) {
+  // wrap_stream runs on this thread, once per device in config order (open_rover blocks).
+  links.clear();
+  devices::OpenOptions open_options;
+  std::uint64_t stream_seed = seed;
+  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
+    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
+    return std::shared_ptr<transports::ByteStream>(links.back());
+  };
+  return devices::open_rover(config, executor, open_options);
+}
+
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
   return std::visit(
       [&](const auto& client) -> std::unique_ptr<Workload> {
@@ -253,6 +231,8 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
       },
       device.client);
 }
+
+namespace {
 
 // Operation times in bounded memory (a soak runs for hours): buckets 0.5 % wide from 1 us up, so a
 // percentile is the nearest-rank sample's bucket bound, within 0.5 % of it; the maximum is exact.
@@ -428,16 +408,8 @@ DemoReport run_demo(const DemoOptions& options) {
       options.config ? *options.config : devices::parse_config(devices::default_virtual_rover_config(), parse);
 
   transports::IoThread io;
-  // wrap_stream runs on this thread, once per device in config order (open_rover blocks): links[k] is device k's.
   std::vector<std::shared_ptr<transports::FaultInjectingStream>> links;
-  devices::OpenOptions open_options;
-  std::uint64_t stream_seed = options.seed;
-  open_options.wrap_stream = [&](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
-    // Clean while opening (handshakes, inits); the workload turns the noise on.
-    links.push_back(transports::FaultInjectingStream::wrap(std::move(stream), {}, {}, stream_seed++));
-    return std::shared_ptr<transports::ByteStream>(links.back());
-  };
-  devices::Rover rover = devices::open_rover(config, io.executor(), open_options);
+  devices::Rover rover = open_rover_with_fault_links(config, io.executor(), options.seed, links);
 
   DemoReport report;
   report.rover = config.name;

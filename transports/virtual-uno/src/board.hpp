@@ -123,6 +123,7 @@ struct VirtualUno::Impl {
   std::uint8_t driven_mask[3] = {};   // pins driven from outside (set_input_level)
   std::uint8_t driven_value[3] = {};
   VirtualUnoStats stats;               // fault counts are filled in by stats()
+  std::uint64_t slept_cycles = 0;      // cycles SLEEP skipped (no_sleep), to leave out of stats.awake_cycles
   std::unique_ptr<detail::Pty> pty;
   bool pty_poll_due = false;
   std::vector<std::uint8_t> scratch;

@@ -54,8 +54,11 @@ void core_reset_hook(avr_t* avr) {
   if (t_board != nullptr && t_board->avr == avr) t_board->on_core_reset();
 }
 
-// Pacing is ours: simavr must never sleep.
-void no_sleep(avr_t* /*avr*/, avr_cycle_count_t /*how_long*/) {}
+// Pacing is ours: simavr must never sleep. The cycles a SLEEP skips are counted, so that
+// `VirtualUnoStats::awake_cycles` leaves them out.
+void no_sleep(avr_t* avr, avr_cycle_count_t how_long) {
+  if (t_board != nullptr && t_board->avr == avr) t_board->slept_cycles += how_long;
+}
 
 // A cycle timer that does nothing: it only bounds how far a sleeping CPU jumps ahead.
 avr_cycle_count_t stop_timer(avr_t* /*avr*/, avr_cycle_count_t /*when*/, void* /*param*/) { return 0; }
@@ -411,7 +414,10 @@ void Board::run_until(std::uint64_t target) {
     avr_cycle_timer_register(avr, next - t, stop_timer, this);
     wake = false;
     while (avr->cycle < next && !wake) {
+      const std::uint64_t cycle_before = avr->cycle;
+      const std::uint64_t slept_before = slept_cycles;
       avr_run(avr);
+      stats.awake_cycles += (avr->cycle - cycle_before) - (slept_cycles - slept_before);
       const int after = avr->state;
       if (after != cpu_Running && after != cpu_Sleeping) break;
     }

@@ -247,6 +247,32 @@ TEST(VirtualUnoTiming, TimeKeepsRunningWhenTheCpuHalts) {
   EXPECT_EQ(uno.simulated_time(), uno.to_duration(uno.cycles()));
 }
 
+TEST(VirtualUnoTiming, AwakeCyclesLeaveOutSleepAndHaltAndGrowWithWork) {
+  VirtualUno uno(echo_options());
+  OutputRecorder recorder(uno);
+  boot(uno, recorder);
+  // Idle, echo.elf sleeps until an interrupt (Timer0's millis tick wakes it ~1000 times a second).
+  auto before = uno.stats().awake_cycles;
+  uno.run_for(100ms);
+  const std::uint64_t idle = uno.stats().awake_cycles - before;
+  EXPECT_GT(idle, 0u) << "the tick interrupts run";
+  EXPECT_LT(idle, uno.to_cycles(100ms) / 20) << "asleep most of the time";
+  // Echoing 200 bytes in the same 100 ms costs cycles on top of the ticks.
+  before = uno.stats().awake_cycles;
+  const SimDuration window_end = uno.simulated_time() + 100ms;
+  uno.write(random_payload(200, 3));
+  ASSERT_TRUE(test::run_until(stepper(uno), [&] { return recorder.text().size() >= kEchoBanner.size() + 200; }, 2s, 1ms));
+  ASSERT_LT(uno.simulated_time(), window_end);
+  uno.run_for(window_end - uno.simulated_time());
+  EXPECT_GT(uno.stats().awake_cycles - before, idle + 200u * 20u) << "at least ~20 cycles per byte in and out";
+
+  VirtualUno halted({.firmware = firmware_path("avr-selftest.elf"), .pacing = Pacing::fast});
+  ASSERT_TRUE(test::run_until(stepper(halted), [&] { return halted.cpu_state() == CpuState::halted; }, 5s, 10ms));
+  before = halted.stats().awake_cycles;
+  halted.run_for(100ms);
+  EXPECT_EQ(halted.stats().awake_cycles, before) << "a halted CPU executes nothing";
+}
+
 // --- flow control ---------------------------------------------------------------------------------------
 
 TEST(VirtualUnoFlowControl, InjectionWaitsWhileTheRxFifoIsFullAndResumesOnXon) {

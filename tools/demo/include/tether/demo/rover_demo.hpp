@@ -132,6 +132,8 @@ DemoReport run_demo(const DemoOptions& options);
 
 /// The side-by-side table (one column per device) and notes, for a terminal.
 std::string format_table(const DemoReport& report);
+/// Exactly-once figures as a JSON object (null when unset): `tether demo --json` and `tether bench`.
+nlohmann::json witness_json(const std::optional<ExactlyOnce>& figures);
 /// The report as JSON (`tether demo --json`).
 nlohmann::json to_json(const DemoReport& report);
 /// `to_json` as one line of text. Device texts that are not valid UTF-8 (names, first errors quoting what a

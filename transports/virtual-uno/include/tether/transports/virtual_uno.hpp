@@ -288,6 +288,9 @@ struct VirtualUnoStats {
   std::uint64_t rx_bytes_lost = 0;   ///< bytes that arrived while the receiver was disabled or off
   std::uint64_t tx_bytes = 0;        ///< bytes the firmware wrote to UDR0 (before from_mcu faults)
   std::uint64_t host_bytes_discarded = 0;  ///< read-buffer / pty overflow
+  /// CPU cycles spent executing: not asleep (idle sleep until an interrupt), powered off or halted. The
+  /// firmware's CPU load (`tether bench`'s device CPU per operation), where `cycles()` is only time.
+  std::uint64_t awake_cycles = 0;
   FaultCounts to_mcu;    ///< what the to_mcu fault model did
   FaultCounts from_mcu;  ///< what the from_mcu fault model did
 };

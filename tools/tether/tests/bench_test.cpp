@@ -1,0 +1,255 @@
+// `tether bench` through the real binary: a short run's bench.json adds up, its CSV, plots and report.html
+// are what the issue asks for, `--compare` of a run with itself flags nothing (and a changed run is flagged),
+// headless Chromium renders the report with its tables and images, and bad input gets a clear error.
+// Outputs are kept in the build tree (bench-test-output/<test>/), screenshots included.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <chrono>
+#include <optional>
+#include <utility>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tether/testing/child_process.hpp"
+#include "tether_process.hpp"
+
+#ifndef BENCH_TEST_OUTPUT_DIR
+#error "BENCH_TEST_OUTPUT_DIR must name the folder the bench tests write into"
+#endif
+
+namespace tether::cli::testing {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+const std::array<const char*, 5> kPlots = {"latency_cdf.png", "success_vs_ber.png", "p99_vs_rate.png",
+                                           "bytes_per_op.png", "cpu_per_op.png"};
+
+// A fresh output folder for this test.
+fs::path output_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(BENCH_TEST_OUTPUT_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::ostringstream content;
+  content << file.rdbuf();
+  return content.str();
+}
+
+// Width and height of a PNG from its IHDR chunk; {0, 0} when the file is not a PNG.
+std::pair<std::uint32_t, std::uint32_t> png_size(const fs::path& path) {
+  const std::string bytes = read_text(path);
+  if (bytes.size() < 24 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || bytes.compare(12, 4, "IHDR") != 0) {
+    return {0, 0};
+  }
+  const auto be32 = [&](std::size_t at) {
+    std::uint32_t value = 0;
+    for (std::size_t k = 0; k < 4; ++k) value = (value << 8) | static_cast<unsigned char>(bytes[at + k]);
+    return value;
+  };
+  return {be32(16), be32(20)};
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
+  return n;
+}
+
+// Runs chromium with `argv` to its end: its exit status (nothing after 60 s) and stdout.
+std::pair<std::optional<int>, std::string> run_chromium(const std::vector<std::string>& argv) {
+  ::tether::testing::ChildProcess process(argv, /*capture_stdout=*/true);
+  std::string out;
+  while (const auto line = process.read_line(std::chrono::seconds(60))) out += *line + "\n";
+  return {process.wait(std::chrono::seconds(60)), out};
+}
+
+TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  const fs::path out = output_dir();
+  const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", "8",
+                                  "--seed", "3", "--out", out.string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  EXPECT_NE(run.out.find("report: " + (out / "report.html").string()), std::string::npos) << run.out;
+
+  const json report = json::parse(read_text(out / "bench.json"));
+  EXPECT_EQ(report["parameters"]["seed"], 3);
+  EXPECT_EQ(report["parameters"]["iterations"], 8);
+  EXPECT_EQ(report["parameters"]["rates_hz"], json::parse(R"([100.0, "max"])"));
+  EXPECT_EQ(report["tether_version"], TETHER_VERSION);
+  ASSERT_EQ(report["devices"].size(), 5u);
+  ASSERT_EQ(report["points"].size(), 5u * 2 * 2);
+  for (const json& device : report["devices"]) {
+    SCOPED_TRACE(device["device"].get<std::string>());
+    ASSERT_FALSE(device["firmware"].empty());
+    for (const json& image : device["firmware"]) {
+      EXPECT_EQ(image["sha256"].get<std::string>().size(), 64u);
+      EXPECT_GT(image["flash_bytes"].get<int>(), 1000);
+    }
+    EXPECT_EQ(device["saturation"].size(), 2u) << "one per BER";
+  }
+  for (const json& point : report["points"]) {
+    SCOPED_TRACE(point["device"].get<std::string>() + " " + point.dump().substr(0, 120));
+    EXPECT_EQ(point["operations"], 8);
+    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 8);
+    EXPECT_GT(point["bytes_to_device"].get<int>(), 0);
+    // Every confirmed operation brings bytes back; proxy-compat's only come with its 50 ms state stream.
+    if (point["device"] != "legacy") {
+      EXPECT_GT(point["bytes_from_device"].get<int>(), 0);
+    }
+    EXPECT_GT(point["cpu_cycles_per_op"].get<double>(), 0.0) << "virtual boards: cycles executed";
+    EXPECT_GT(point["utilisation_to_device"].get<double>(), 0.0);
+    // The demo images carry the execution witness: commands issued and confirmed, what ran.
+    const json& witness = point["exactly_once"];
+    ASSERT_TRUE(witness.is_object()) << "the virtual rover's images record what they execute";
+    EXPECT_GE(witness["commands"].get<int>(), 8) << "at least one device command per operation";
+    EXPECT_LE(witness["confirmed"].get<int>(), witness["commands"].get<int>());
+    const json& latency = point["latency_ms"];
+    EXPECT_LE(latency["p50"].get<double>(), latency["p90"].get<double>());
+    EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
+    EXPECT_LE(latency["p99"].get<double>(), latency["max"].get<double>());
+    const json& cdf = point["latency_cdf"];
+    ASSERT_EQ(cdf.size(), 8u) << "every sample when there are fewer than 50";
+    for (std::size_t k = 1; k < cdf.size(); ++k) {
+      EXPECT_LE(cdf[k - 1][0].get<double>(), cdf[k][0].get<double>()) << "CDF latencies ascend";
+      EXPECT_LT(cdf[k - 1][1].get<double>(), cdf[k][1].get<double>()) << "CDF shares ascend";
+    }
+    EXPECT_EQ(cdf.back()[1].get<double>(), 1.0);
+    EXPECT_EQ(cdf.back()[0].get<double>(), latency["max"].get<double>());
+  }
+
+  const std::string csv = read_text(out / "bench.csv");
+  EXPECT_EQ(count(csv, "\n"), 1u + report["points"].size()) << csv;
+  EXPECT_EQ(csv.rfind("device,codec,bit_error_rate,rate_hz,operations,successes", 0), 0u) << csv;
+
+  const std::string html = read_text(out / "report.html");
+  for (const char* plot : kPlots) {
+    SCOPED_TRACE(plot);
+    EXPECT_EQ(png_size(out / plot), std::make_pair(800u, 450u)) << "a PNG of 800 x 450 pixels";
+    EXPECT_NE(html.find(std::string("src=\"") + plot + "\""), std::string::npos);
+  }
+  for (const char* expected : {"Lowest latency", "Fewest bytes", "Most robust under noise", "Lowest device CPU",
+                               "<h2>Parameters</h2>", "<h2>Points</h2>"}) {
+    EXPECT_NE(html.find(expected), std::string::npos) << expected;
+  }
+
+  const std::string path = (out / "bench.json").string();
+  const Outcome same = run_tether({"bench", "--compare", path, path});
+  EXPECT_EQ(same.status, 0) << same.err << same.out;
+  EXPECT_NE(same.out.find("no differences beyond run-to-run noise; 20 point(s) in common"), std::string::npos)
+      << same.out;
+  EXPECT_EQ(same.out.find(" *"), std::string::npos) << same.out;
+
+  // The same run with one device's latencies tripled and its bytes doubled: flagged, exit status 1.
+  json changed = report;
+  for (json& point : changed["points"]) {
+    if (point["device"] != "arm") continue;
+    for (const char* p : {"p50", "p90", "p99"}) point["latency_ms"][p] = point["latency_ms"][p].get<double>() * 3 + 5;
+    point["bytes_per_op_to_device"] = point["bytes_per_op_to_device"].get<double>() * 2;
+  }
+  const fs::path changed_path = out / "changed.json";
+  std::ofstream(changed_path) << changed.dump();
+  const Outcome different = run_tether({"bench", "--compare", path, changed_path.string(), "--json"});
+  EXPECT_EQ(different.status, 1) << different.err << different.out;
+  const json comparison = json::parse(different.out);
+  EXPECT_EQ(comparison["flagged"], 4 * 3) << "p50, p99 and bytes at arm's four points";
+  for (const json& point : comparison["points"]) {
+    EXPECT_EQ(point["flagged"]["latency_p50"], point["device"] == "arm") << point;
+    EXPECT_FALSE(point["flagged"]["success"].get<bool>()) << point;
+  }
+}
+
+TEST(TetherBench, HeadlessChromiumRendersTheReportWithItsTablesAndImages) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path chromium = "/usr/bin/chromium";
+  if (!fs::exists(chromium)) GTEST_SKIP() << chromium << " is not installed (Debian: chromium)";
+  const fs::path out = output_dir();
+  const Outcome run = run_tether({"bench", "--devices", "arm,servos", "--sweep", "ber=0", "--iterations", "5",
+                                  "--isolated", "--out", out.string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+
+  const fs::path profile = out / "chromium-profile";
+  const std::vector<std::string> common = {chromium.string(),
+                                           "--headless",
+                                           "--no-sandbox",
+                                           "--disable-gpu",
+                                           "--disable-background-networking",
+                                           "--disable-component-update",
+                                           "--disable-sync",
+                                           "--no-first-run",
+                                           "--user-data-dir=" + profile.string()};
+  const std::string url = "file://" + fs::absolute(out / "report.html").string();
+  auto dump = common;
+  dump.insert(dump.end(), {"--dump-dom", url});
+  const auto [dom_status, dom] = run_chromium(dump);
+  ASSERT_TRUE(dom_status.has_value()) << "chromium did not finish";
+  EXPECT_EQ(*dom_status, 0);
+  EXPECT_EQ(count(dom, "<table"), 4u) << "parameters, verdict, devices, points\n" << dom.substr(0, 2000);
+  EXPECT_EQ(count(dom, "<img "), 5u) << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("Lowest latency"), std::string::npos);
+
+  auto shot = common;
+  const fs::path screenshot = out / "report-screenshot.png";
+  shot.insert(shot.end(), {"--window-size=1280,2400", "--screenshot=" + screenshot.string(), url});
+  const auto shot_status = run_chromium(shot).first;
+  ASSERT_TRUE(shot_status.has_value()) << "chromium did not finish";
+  EXPECT_EQ(png_size(screenshot), std::make_pair(1280u, 2400u));
+}
+
+TEST(TetherBench, BadInputGetsAClearError) {
+  const fs::path out = output_dir();
+  struct Case {
+    std::vector<std::string> arguments;
+    std::string message;
+  };
+  const std::string not_a_dir = (out / "file").string();
+  std::ofstream(not_a_dir) << "x";
+  const std::string malformed = (out / "malformed.json").string();
+  std::ofstream(malformed) << "{\"points\": [";
+  const std::string pointless = (out / "pointless.json").string();
+  std::ofstream(pointless) << R"({"points": [{"device": "arm", "bit_error_rate": 0, "rate_hz": null}]})";
+  const std::vector<Case> cases = {
+      {{"bench", "--sweep", "noise=1"}, "--sweep: unknown key 'noise' (known: ber, rate)"},
+      {{"bench", "--sweep", "ber"}, "--sweep needs KEY=VALUES"},
+      {{"bench", "--sweep", "ber=0,lots"}, "--sweep ber: 'lots' is not a bit error rate 0..0.01"},
+      {{"bench", "--sweep", "ber=0.5"}, "--sweep ber: '0.5' is not a bit error rate"},
+      {{"bench", "--sweep", "rate=fast"}, "--sweep rate: 'fast' is not a rate 0.1..10000 (operations per second) or max"},
+      {{"bench", "--sweep", "rate=10,"}, "--sweep rate: '' is not a rate"},
+      {{"bench", "--iterations", "0"}, "--iterations needs a number 1..100000"},
+      {{"bench", "--iterations", "5", "--duration", "1"}, "--iterations and --duration exclude each other"},
+      {{"bench", "--payload", "large"}, "unknown option --payload"},
+      {{"bench", "--out", not_a_dir + "/sub"}, "--out " + not_a_dir + "/sub: "},
+      {{"bench", "--compare", malformed, malformed}, malformed + ": invalid JSON"},
+      {{"bench", "--compare", not_a_dir + ".missing", malformed}, not_a_dir + ".missing: No such file or directory"},
+      {{"bench", "--compare", pointless, pointless}, pointless + ".points[0]: no \"operations\""},
+      {{"bench", "--compare", malformed}, "--compare needs two files"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.arguments.back());
+    const Outcome run = run_tether(c.arguments);
+    EXPECT_EQ(run.status, 2) << run.out;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
+  }
+  // An unknown device is named, before anything runs long.
+  if (fs::exists(firmware("elcano-node"))) {
+    const Outcome run = run_tether({"bench", "--devices", "arm,wheel", "--out", (out / "run").string()});
+    EXPECT_EQ(run.status, 2);
+    EXPECT_NE(run.err.find("no device named 'wheel'"), std::string::npos) << run.err;
+  }
+}
+
+}  // namespace
+}  // namespace tether::cli::testing
