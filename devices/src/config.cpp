@@ -905,7 +905,7 @@ json parse_json_text(std::string_view json_text) {
   try {
     document = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
                            /*ignore_comments=*/true);
-  } catch (const json::parse_error& error) {
+  } catch (const json::exception& error) {  // parse_error, and out_of_range for a number too large for a double
     std::string text = error.what();
     // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep "parse error at line L, column C: ...".
     if (const auto end = text.find("] "); text.rfind("[json.exception.", 0) == 0 && end != std::string::npos) {

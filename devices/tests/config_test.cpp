@@ -420,6 +420,12 @@ TEST(DevicesConfigErrors, JsonSyntaxErrorsGiveLineAndColumn) {
   EXPECT_EQ(message.rfind("invalid JSON: parse error at line 3, column 18: ", 0), 0u) << message;
 }
 
+// Found by fuzz_config_loader: a number beyond a double's range threw nlohmann's out_of_range, not a ConfigError.
+TEST(DevicesConfigErrors, NumberTooLargeForADoubleIsInvalidJson) {
+  EXPECT_EQ(error_of(R"({"devices": [], "x": 888888888E8888888})"),
+            "invalid JSON: number overflow parsing '888888888E8888888'");
+}
+
 TEST(DevicesConfigErrors, LoadConfigNamesTheFile) {
   const auto directory = std::filesystem::temp_directory_path() / ("tether-devices-" + std::to_string(::getpid()));
   std::filesystem::create_directories(directory);
