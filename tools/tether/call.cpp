@@ -155,7 +155,7 @@ int run_call(int argc, char** argv) {
   boost::system::error_code error;
   if (!command.valid()) {
     error = command.error();
-    response = romi_rejected_response(command);
+    response = romi::failed_response(error, command.opcode());  // what the client would complete with
   } else {
     transports::IoThread io;
     Progress progress("call");
@@ -163,7 +163,7 @@ int run_call(int argc, char** argv) {
     hooks.on_client = [](const devices::DeviceClient& client) {
       std::get<std::shared_ptr<romi::Client>>(client)->on_event([](const romi::Event& event) {
         if (const auto* log = std::get_if<romi::events::Log>(&event)) {
-          std::fprintf(stderr, "log: %.*s\n", static_cast<int>(log->text.size()), log->text.data());
+          std::fprintf(stderr, "%s\n", romi_log_line(log->text).text.c_str());  // the shell's form
         }
       });
     };
@@ -186,7 +186,7 @@ int run_call(int argc, char** argv) {
   std::fflush(stdout);
   if (response.code != 0) {
     std::string line = std::to_string(response.code) + " " + response.message;
-    if (romi_answer_unreadable(response)) {
+    if (response.unreadable_answer()) {
       line += " (received: " + response.raw + ")";
     }
     std::fprintf(stderr, "tether call: %s\n", line.c_str());

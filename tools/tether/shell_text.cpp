@@ -25,22 +25,6 @@ ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& r
   return {text, object};
 }
 
-bool romi_answer_unreadable(const romi::RomiResponse& response) {
-  const auto code = static_cast<romi::Error>(response.code);
-  return response.answered && (code == romi::Error::client_empty_response ||
-                               code == romi::Error::client_invalid_json ||
-                               code == romi::Error::client_bad_response);
-}
-
-romi::RomiResponse romi_rejected_response(const romi::Command& command) {
-  romi::RomiResponse response;
-  response.code = static_cast<std::int16_t>(command.error().value());
-  response.message = command.error().message();
-  response.values = nlohmann::json::array({response.code, response.message});
-  response.opcode = command.opcode();
-  return response;
-}
-
 ShellLine proxy_event_line(const proxy::Event& event) {
   namespace ev = proxy::events;
   if (const auto* error = std::get_if<ev::DeviceError>(&event)) {

@@ -24,12 +24,6 @@ struct ShellLine {
 ShellLine romi_log_line(std::string_view text);
 /// The answer array of a romi call (`[0,1,2]`, `[-16]  error -16: unknown opcode`) for the typed `command`.
 ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& response);
-/// True when the device answered but its array could not be read (-23 no array, -26 invalid JSON, -27 not
-/// an array starting with a code): what arrived (`response.raw`) is worth showing.
-bool romi_answer_unreadable(const romi::RomiResponse& response);
-/// What a call of `command` returns when the command is invalid (rejected before anything is written, as the
-/// client does): for checking a command before the device is opened.
-romi::RomiResponse romi_rejected_response(const romi::Command& command);
 /// A proxy client's event (`servo 9 = 90`, `device error: ...`, `session 7 established`, ...).
 ShellLine proxy_event_line(const proxy::Event& event);
 /// An Elcano ring client's event (`undeliverable D{s 50}{a 25} (...)`, `read error: bad_crc`, ...).

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cctype>
 #include <filesystem>
+#include <future>
 #include <random>
 #include <string>
 #include <thread>
@@ -90,14 +91,17 @@ TEST(SerialPortStream, ExclusiveAccessIsRequested) {
 TEST(SerialPortStream, WaitsForTheReadyBannerAndKeepsWhatFollows) {
   IoThread io;
   auto pty = PtyStream::open(io.executor());
-  std::thread device([&] {
-    std::this_thread::sleep_for(50ms);
-    pty->write(asio::buffer(std::string("\x00\xff boot noise\r\ntether echo\r\nfirst", 33)));
-  });
   SerialOptions options;
   options.ready_banner = "tether echo\r\n";
-  auto port = SerialPortStream::open(io.executor(), pty->slave_path(), options);
-  device.join();
+  auto opened = std::make_shared<std::promise<std::shared_ptr<SerialPortStream>>>();  // outlives a failed wait
+  SerialPortStream::async_open(io.executor(), pty->slave_path(), options,
+                               [opened](error_code, std::shared_ptr<SerialPortStream> port) { opened->set_value(port); });
+  // The device boots after the open started (no wait for it: the bytes stay in the pty until read).
+  pty->write(asio::buffer(std::string("\x00\xff boot noise\r\ntether echo\r\nfirst", 33)));
+  auto future = opened->get_future();
+  ASSERT_EQ(future.wait_for(5s), std::future_status::ready);
+  auto port = future.get();
+  ASSERT_NE(port, nullptr);
   EXPECT_EQ(read_exactly(*port, 5), "first");
   port->close();
   pty->close();
@@ -132,14 +136,14 @@ TEST(SerialPortStream, VanishedDeviceEndsAPendingReadWithAnError) {
   IoThread io;
   auto pty = PtyStream::open(io.executor());
   auto port = SerialPortStream::open(io.executor(), pty->slave_path());
-  std::thread vanish([&] {
-    std::this_thread::sleep_for(50ms);
-    pty->close();  // the other end of the line disappears (like a USB adapter unplugged)
-  });
   std::vector<uint8_t> buffer(8);
-  error_code error;
-  port->read_some(asio::buffer(buffer), 5s, error);
-  vanish.join();
+  auto ended = std::make_shared<std::promise<error_code>>();  // outlives a failed wait
+  port->async_read_some(asio::buffer(buffer), std::chrono::steady_clock::now() + 5s,
+                        [ended](error_code e, std::size_t) { ended->set_value(e); });
+  pty->close();  // once the read is started: the other end of the line disappears (a USB adapter unplugged)
+  auto future = ended->get_future();
+  ASSERT_EQ(future.wait_for(10s), std::future_status::ready);
+  const error_code error = future.get();
   EXPECT_TRUE(error);
   EXPECT_NE(error, make_error_code(TransportError::timed_out)) << error.message();
   port->close();
@@ -206,17 +210,22 @@ TEST(TcpStream, PeerClosingEndsAPendingReadWithEof) {
   IoThread io;
   asio::io_context server_io;
   asio::ip::tcp::acceptor acceptor(server_io, {asio::ip::make_address("127.0.0.1"), 0});
+  std::promise<void> reading;
   std::thread server([&] {
     asio::ip::tcp::socket peer(server_io);
     acceptor.accept(peer);
-    std::this_thread::sleep_for(50ms);
+    reading.get_future().wait_for(5s);  // the client's read is started
   });  // peer closes when the thread ends
   auto stream = TcpStream::connect(io.executor(), "127.0.0.1", acceptor.local_endpoint().port());
   std::vector<uint8_t> buffer(4);
-  error_code error;
-  stream->read_some(asio::buffer(buffer), 5s, error);
+  auto ended = std::make_shared<std::promise<error_code>>();  // outlives a failed wait
+  stream->async_read_some(asio::buffer(buffer), std::chrono::steady_clock::now() + 5s,
+                          [ended](error_code e, std::size_t) { ended->set_value(e); });
+  reading.set_value();
+  auto future = ended->get_future();
+  ASSERT_EQ(future.wait_for(10s), std::future_status::ready);
   server.join();
-  EXPECT_EQ(error, asio::error::eof);
+  EXPECT_EQ(future.get(), asio::error::eof);
   stream->close();
 }
 

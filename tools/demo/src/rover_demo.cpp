@@ -120,6 +120,7 @@ class ProxyWorkload final : public Workload {
     const auto give_up = Clock::now() + std::chrono::seconds(5);
     while (Clock::now() < give_up) {
       const auto written = Clock::now();
+      const Millis written_ms = client_->now();  // the clock of the pins' `updated`
       for (std::size_t k = 0; k < pins_.size(); ++k) {
         error_code error;
         client_->servo(pins_[k]).init(inits_[k].safe_value, error);
@@ -128,7 +129,7 @@ class ProxyWorkload final : public Workload {
       }
       const auto wait_until = std::min(give_up, written + std::chrono::milliseconds(300));
       while (Clock::now() < wait_until) {
-        if (reported_since(written)) return expected;
+        if (reported_since(written_ms)) return expected;
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }
     }
@@ -136,10 +137,13 @@ class ProxyWorkload final : public Workload {
   }
 
  private:
-  bool reported_since(Clock::time_point written) const {
+  bool reported_since(Millis written) const {
     for (std::size_t k = 0; k < pins_.size(); ++k) {
       const std::optional<proxy::PinStatus> state = client_->servo(pins_[k]).state();
-      if (!state || !state->has_value || state->updated <= written || state->value != last_positions_[k]) return false;
+      if (!state || !state->has_value || tick_difference(state->updated, written) <= 0 ||
+          state->value != last_positions_[k]) {
+        return false;
+      }
     }
     return true;
   }

@@ -300,8 +300,7 @@ class ClientImpl final : public transports::ClientLink {
     std::vector<std::unique_ptr<Pending>> waiters;
   };
   struct PinEntry {
-    PinStatus status;
-    Millis updated_ms = 0;  // engine clock of `status.updated`
+    PinStatus status;  // `updated` on the link's clock: the staleness rule counts from it
   };
   // A message sent without the table (ping, Reset): its ack is expected and not stale.
   enum class Untracked : std::uint8_t { ping, reset };
@@ -364,8 +363,7 @@ class ClientImpl final : public transports::ClientLink {
     if (inserted) {
       it->second.status.kind = pin.first;
       it->second.status.pin = pin.second;
-      it->second.status.updated = std::chrono::steady_clock::now();
-      it->second.updated_ms = now;  // the staleness rule counts from the init
+      it->second.status.updated = now;  // the staleness rule counts from the init
     }
     return true;
   }
@@ -852,8 +850,7 @@ class ClientImpl final : public transports::ClientLink {
     entry.status.value = value;
     entry.status.failsafe = failsafe;
     entry.status.stale = false;
-    entry.status.updated = std::chrono::steady_clock::now();
-    entry.updated_ms = now;
+    entry.status.updated = now;
     return news;
   }
 
@@ -912,7 +909,7 @@ class ClientImpl final : public transports::ClientLink {
       std::lock_guard lock(mutex_);
       for (auto& [key, entry] : pins_) {
         if (entry.status.stale) continue;
-        const std::int32_t silent = tick_difference(now, entry.updated_ms);
+        const std::int32_t silent = tick_difference(now, entry.status.updated);
         if (silent >= static_cast<std::int32_t>(options_.timing.stale_after)) {
           entry.status.stale = true;
           lost.push_back(events::PinLost{key.first, key.second, static_cast<Duration>(silent)});
@@ -950,7 +947,7 @@ class ClientImpl final : public transports::ClientLink {
     } else {
       std::lock_guard lock(mutex_);
       for (const auto& [key, entry] : pins_) {
-        if (!entry.status.stale) consider(wakeup, deadline_at(static_cast<Millis>(entry.updated_ms + options_.timing.stale_after)));
+        if (!entry.status.stale) consider(wakeup, deadline_at(static_cast<Millis>(entry.status.updated + options_.timing.stale_after)));
       }
     }
     ClientLink::arm_timer(wakeup);

@@ -133,22 +133,21 @@ TEST(ProxyClient, MissingAckIsResentWithTheSameMessageId) {
   IoThread io;
   Options options = test_options();
   options.timing.processing_margin = 100;
-  auto clock = ManualClock::create();
-  options.clock = clock;
   Link link(io.executor(), options, standard_device(100, [](const DeviceFrame& frame) {
               return is_servo_control(frame) && frame.repeat == 1;  // the first copy is "lost"
             }));
+  ManualClock& clock = *link.clock;
   ASSERT_TRUE(link.established());
-  const Millis sent = clock->now();
+  const Millis sent = clock.now();
   std::future<SendResult> future = link.client->servo(9).async_set(45, asio::use_future);
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
   // The attempt window of this frame (+1: the host's leading 0x00 is not in `wire`), exactly.
   const Duration window = options.timing.ack_timeout(link.device->frames().back().wire.size() + 1);
   Millis due = 0;
-  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(sent + window), due)) << "+" << due - sent << " for " << window;
-  clock->advance(window - 1);
-  EXPECT_EQ(clock->pending(), 1u);  // not due yet: no re-send
-  clock->advance(1);
+  ASSERT_TRUE(clock.wait_for_due(static_cast<Millis>(sent + window), due)) << "+" << due - sent << " for " << window;
+  clock.advance(window - 1);
+  EXPECT_EQ(clock.pending(), 1u);  // not due yet: no re-send
+  clock.advance(1);
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   const SendResult result = future.get();
   EXPECT_TRUE(result.acked);
@@ -166,19 +165,18 @@ TEST(ProxyClient, OutOfBudgetTimesOut) {
   Options options = test_options();
   options.timing.processing_margin = 50;
   options.timing.send_budget = 400;
-  auto clock = ManualClock::create();
-  options.clock = clock;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
+  ManualClock& clock = *link.clock;
   ASSERT_TRUE(link.established());
-  const Millis sent = clock->now();
+  const Millis sent = clock.now();
   Completions done;
   link.client->servo(9).async_set(45, done.handler(0));
   // Once the device has the frame, the client armed its window (one I/O thread): advance from there.
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
-  ASSERT_TRUE(clock->advance_until([&] { return done.calls() == 1; }));  // deadline by deadline
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() == 1; }));  // deadline by deadline
   const error_code error = done.at(0).error;
   const SendResult result = done.at(0).result;
-  EXPECT_EQ(tick_difference(clock->now(), sent), 400);  // the budget ended it, to the millisecond
+  EXPECT_EQ(tick_difference(clock.now(), sent), 400);  // the budget ended it, to the millisecond
   EXPECT_EQ(error, ProxyError::timed_out);
   EXPECT_EQ(error, boost::system::errc::timed_out);
   EXPECT_FALSE(result.acked);
@@ -189,7 +187,7 @@ TEST(ProxyClient, OutOfBudgetTimesOut) {
   EXPECT_EQ(link.client->counters().link.timeouts, 1u);
   // The throwing form throws (on another thread: the clock moves only when this one advances it).
   auto throwing = std::async(std::launch::async, [&] { link.client->servo(9).set(46); });
-  const bool ended = clock->advance_until([&] { return throwing.wait_for(0ms) == std::future_status::ready; });
+  const bool ended = link.advance_until([&] { return throwing.wait_for(0ms) == std::future_status::ready; });
   if (!ended) link.client->close();  // never a hang: close ends the blocking call
   EXPECT_TRUE(ended);
   EXPECT_THROW(throwing.get(), boost::system::system_error);
@@ -201,10 +199,18 @@ TEST(ProxyClient, MaxSendsBoundsTheAttempts) {
   options.timing.processing_margin = 30;
   options.timing.max_sends = 2;
   Link link(io.executor(), options, standard_device(100, is_servo_control));
-  error_code error;
-  const SendResult result = link.client->servo(9).set(45, error);
-  EXPECT_EQ(error, ProxyError::timed_out);
-  EXPECT_EQ(result.attempts, 2);
+  ASSERT_TRUE(link.established());
+  const Millis sent = link.clock->now();
+  Completions done;
+  link.client->servo(9).async_set(45, done.handler(0));
+  // Once the device has the frame, the client armed its window (one I/O thread): advance from there.
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() == 1; }));
+  EXPECT_EQ(done.at(0).error, ProxyError::timed_out);
+  EXPECT_EQ(done.at(0).result.attempts, 2);
+  // Two attempt windows, far from the budget.
+  const Duration window = options.timing.ack_timeout(link.device->frames().back().wire.size() + 1);
+  EXPECT_EQ(tick_difference(link.clock->now(), sent), static_cast<std::int32_t>(2 * window));
 }
 
 TEST(ProxyClient, DuplicateAndStaleAcksAreCountedAndIgnored) {
@@ -235,14 +241,21 @@ TEST(ProxyClient, PingsAtTheConfiguredPeriod) {
   Options options = test_options();
   options.timing.ping_period = 100;
   Link link(io.executor(), options, standard_device());
+  const Millis start = link.clock->now();
+  for (std::size_t beat = 1; beat < 6; ++beat) {  // the device has each ping before the clock moves on
+    ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, beat), kPrompt));
+    Millis due = 0;
+    ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(start + beat * 100), due)) << "+" << due - start;
+  }
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 6), kPrompt));
   const auto pings = frames_of(link.device->frames(), ArduinoIn::kPing);
+  ASSERT_EQ(pings.size(), 6u);
   std::set<std::uint32_t> ids;
   for (const auto& ping : pings) ids.insert(ping.in.messageid());
   EXPECT_EQ(ids.size(), pings.size());  // each ping has its own messageId
-  const auto span = std::chrono::duration_cast<std::chrono::milliseconds>(pings[5].at - pings[0].at).count();
-  EXPECT_GE(span, 5 * 100 - 20);  // fixed rate: five periods
-  EXPECT_LT(span, 5 * 100 + 300);
+  for (std::size_t beat = 0; beat < 6; ++beat) {
+    EXPECT_EQ(tick_difference(pings[beat].at, start), static_cast<std::int32_t>(beat * 100)) << beat;  // fixed rate
+  }
   EXPECT_TRUE(eventually([&] { return link.client->counters().ping_acks >= 6; }));
   EXPECT_GE(link.client->counters().pings_sent, 6u);
   EXPECT_EQ(link.client->counters().link.stale, 0u);  // ping acks are expected, not stale
@@ -254,29 +267,38 @@ TEST(ProxyClient, PingsDefaultToOneSecond) {
   options.timing.ping_period = ProxyTiming().ping_period;
   EXPECT_EQ(options.timing.ping_period, 1000u);
   Link link(io.executor(), options, standard_device());
+  const Millis start = link.clock->now();
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 1), kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(start + 1000), due)) << "+" << due - start;
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kPing, 2), kPrompt));
   const auto pings = frames_of(link.device->frames(), ArduinoIn::kPing);
-  const auto gap = std::chrono::duration_cast<std::chrono::milliseconds>(pings[1].at - pings[0].at).count();
-  EXPECT_GE(gap, 980);
-  EXPECT_LT(gap, 1500);
+  EXPECT_EQ(tick_difference(pings[0].at, start), 0);  // the first at once, the next one period later
+  EXPECT_EQ(tick_difference(pings[1].at, start), 1000);
 }
 
 // --- session ----------------------------------------------------------------------------------------------
 
 TEST(ProxyClient, HandshakeReplaysInitsInRegistrationOrderThenSendsTheQueue) {
   IoThread io;
+  Options options = test_options();
+  options.timing.queue_timeout = 500;  // before the Reset's 1000 ms: the earliest deadline once a send is taken
   // The device acks but announces its session only when the test says so.
-  Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
+  Link link(io.executor(), options, [](const DeviceFrame& frame, FakeDevice& device) {
     if (frame.decoded) device.send(FakeDevice::ack(frame.in.messageid()));
   });
+  const Millis start = link.clock->now();
   Completions done;
   link.client->servo(9).async_init(90, done.handler(0));
   link.client->digital(13).async_init(false, done.handler(1));
   link.client->servo(10).async_init(45, done.handler(2));
   link.client->servo(9).async_set(120, done.handler(3));  // waits for the session
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kReset), kPrompt));
-  std::this_thread::sleep_for(50ms);
+  // The client took the sends (their queue deadline is armed) and, the clock standing still, sent none.
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 500), due, kPrompt)) << "+" << due - start;
   EXPECT_EQ(done.calls(), 0u);
+  EXPECT_EQ(link.client->counters().messages_sent, 0u);
   EXPECT_EQ(link.device->frames().size(), 1u);  // only the Reset before the ResetEvent
   EXPECT_FALSE(link.client->session().established);
   link.device->send(FakeDevice::reset_event(0xABC));
@@ -381,11 +403,15 @@ TEST(ProxyClient, UnansweredResetIsSentAgain) {
   Link link(io.executor(), options, standard_device(100, [first](const DeviceFrame& frame) {
               return frame.in.has_reset() && first->exchange(false);  // the first Reset is lost
             }));
+  const Millis start = link.clock->now();
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kReset), kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
   ASSERT_TRUE(link.established());
   const auto resets = frames_of(link.device->frames(), ArduinoIn::kReset);
   ASSERT_EQ(resets.size(), 2u);
   EXPECT_NE(resets[0].in.messageid(), resets[1].in.messageid());  // each Reset is a new message
-  EXPECT_GE(std::chrono::duration_cast<std::chrono::milliseconds>(resets[1].at - resets[0].at).count(), 140);
+  EXPECT_EQ(tick_difference(resets[1].at, resets[0].at), 150);  // exactly the reset timeout
   EXPECT_EQ(link.client->counters().resets_sent, 2u);
 }
 
@@ -402,9 +428,18 @@ TEST(ProxyClient, UnacknowledgedReplayRestartsTheHandshake) {
               if (frame.in.has_reset()) return ++*resets == 1;   // the first Reset goes unanswered
               return frame.in.has_servoinit() && *resets == 2;  // the first session ignores the init
             }));
+  const Millis start = link.clock->now();
   Completions done;
-  // Registered now on the client's strand; the Reset's re-send fires there 1 s later.
-  link.client->servo(3).async_init(0, done.handler(0));
+  link.client->servo(3).async_init(0, done.handler(0));  // registered while the first Reset waits
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kReset), kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(start + 1000), due)) << "+" << due - start;  // Reset again
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoInit), kPrompt));  // the replay session 100 ignores
+  const Millis replayed = link.clock->now();
+  // Its re-sends, then its budget: the handshake starts over (no deadline of the client lies beyond it
+  // before then, so advancing deadline by deadline stops there).
+  ASSERT_TRUE(link.advance_until([&] { return tick_difference(link.clock->now(), replayed) >= 200; }));
+  EXPECT_EQ(tick_difference(link.clock->now(), replayed), 200);
   ASSERT_TRUE(done.wait_for(1));
   EXPECT_FALSE(done.at(0).error);
   const auto established = link.log.of<events::SessionEstablished>();
@@ -446,7 +481,16 @@ TEST(ProxyClient, DamagedAndGarbageFramesAreCountedNeverDelivered) {
     }
     standard_device()(frame, device);
   });
-  const SendResult result = link.client->servo(9).set(30);
+  ASSERT_TRUE(link.established());
+  const Millis sent = link.clock->now();
+  Completions done;
+  link.client->servo(9).async_set(30, done.handler(0));
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl), kPrompt));
+  const Duration window = options.timing.ack_timeout(link.device->frames().back().wire.size() + 1);
+  Millis due = 0;
+  ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(sent + window), due)) << "+" << due - sent;  // the re-send
+  ASSERT_TRUE(done.wait_for(1));
+  const SendResult result = done.at(0).result;
   EXPECT_TRUE(result.acked);
   EXPECT_EQ(result.attempts, 2);  // the damaged ack did not complete it
   const LinkCounters counters = link.client->counters().link;
@@ -517,6 +561,19 @@ TEST(ProxyClient, DeviceReportsBecomeEvents) {
   EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kPingFailsafeReset).size(), 1u);
 }
 
+TEST(ProxyClient, PinStatesAreStampedOnTheClientsClock) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  link.client->servo(9).init(90);
+  const Millis inited = link.clock->now();
+  EXPECT_EQ(link.client->now(), inited);
+  EXPECT_EQ(link.client->servo(9).state()->updated, inited);  // from its init until a report
+  link.clock->advance(123);
+  link.device->send(FakeDevice::pin_state(9, 45, false));
+  ASSERT_TRUE(link.log.wait_for<events::PinReport>(1));
+  EXPECT_EQ(link.client->servo(9).state()->updated, static_cast<Millis>(inited + 123));
+}
+
 TEST(ProxyClient, SeveralHandlersAndRemoval) {
   IoThread io;
   Link link(io.executor(), test_options(), standard_device(100));
@@ -547,6 +604,11 @@ TEST(ProxyClient, MessagesToOnePinKeepTheirOrderOthersPass) {
   link.client->servo(9).async_set(10, done.handler(0));  // first copy lost
   link.client->servo(9).async_set(20, done.handler(1));  // must not overtake it
   link.client->servo(8).async_set(30, done.handler(2));  // another pin: not held back
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
+  ASSERT_TRUE(done.wait_for(1));  // 30, acked at once
+  const Duration window = options.timing.ack_timeout(frames_of(link.device->frames(), ArduinoIn::kServoControl)[0].wire.size() + 1);
+  Millis due = 0;
+  ASSERT_TRUE(link.advance_to_due(static_cast<Millis>(link.clock->now() + window), due));  // 10 again, then 20
   ASSERT_TRUE(done.wait_for(3));
   for (std::size_t i = 0; i < 3; ++i) EXPECT_FALSE(done.at(i).error) << i;
   std::vector<std::int32_t> positions;
@@ -570,7 +632,8 @@ TEST(ProxyClient, AtMostEightInFlight) {
   Completions done;
   for (std::uint32_t pin = 0; pin < 10; ++pin) link.client->servo(pin).async_set(1, done.handler(pin));
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, kMaxInFlight), kPrompt));
-  std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(link.clock->advance_to_next(kPrompt));  // their attempt window (one instant: sent together)
+  ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2 * kMaxInFlight), kPrompt));
   std::set<std::uint32_t> pins;
   for (const auto& frame : frames_of(link.device->frames(), ArduinoIn::kServoControl)) {
     pins.insert(frame.in.servocontrol().pin());
@@ -613,7 +676,16 @@ TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
   }
   // Ids after the held one (sends and pings) are acked at once, until the window is full.
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
-  std::this_thread::sleep_for(300ms);  // the held message is re-sent meanwhile (~160 ms window)
+  // 300 ms of simulated time: the held message is re-sent meanwhile (~160 ms window), pings fall due.
+  const Millis from = link.clock->now();
+  ASSERT_TRUE(link.advance_until([&] { return tick_difference(link.clock->now(), from) >= 300; }));
+  ASSERT_TRUE(link.device->wait_for(  // the last re-send reached the device
+      [](const std::vector<DeviceFrame>& seen) {
+        std::size_t copies = 0;
+        for (const auto& frame : frames_of(seen, ArduinoIn::kServoControl)) copies += frame.in.servocontrol().pin() == 0;
+        return copies >= 2;
+      },
+      kPrompt));
   const std::vector<DeviceFrame> frames = link.device->frames();
   std::uint32_t held_id = 0;
   for (const auto& frame : frames_of(frames, ArduinoIn::kServoControl)) {
@@ -630,9 +702,10 @@ TEST(ProxyClient, NoIdGoesOutMoreThanSevenIdsAfterTheOldestUnackedOne) {
   EXPECT_GE(held_sends, 2);  // it was re-sent: the case the window protects
   EXPECT_LE(later_ids.size(), std::size_t{kIdWindow} - 1);
   for (const std::uint32_t id : later_ids) EXPECT_LT(id - held_id, std::uint32_t{kIdWindow}) << id;
-  // Released: everything goes through, the held message acked on its next re-send.
+  // Released: everything goes through, the held message acked on its next re-send. The rest needs acks
+  // from the device: the clock moves 1 ms per step, never far past a deadline before its ack is back.
   *held = false;
-  ASSERT_TRUE(done.wait_for(sends, 5000ms));
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() == sends; }, kStepWithAcks));
   for (std::size_t i = 0; i < sends; ++i) EXPECT_FALSE(done.at(i).error) << i << ": " << done.at(i).error.message();
 }
 
@@ -661,14 +734,15 @@ TEST(ProxyClient, IdWindowCountsFromTheOldestMessageInFlightWhenTheHeldOneWasSen
   for (int round = 0; round < 4; ++round) {
     for (std::uint32_t pin = 2; pin <= 9; ++pin) link.client->servo(pin).async_set(round, done.handler(sends++));
   }
-  ASSERT_TRUE(done.wait_for(1));
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() >= 1; }, kStepWithAcks));  // W's re-send, acked
   EXPECT_FALSE(done.at(0).error);  // W acked: the window must still not move past W + 7
-  std::this_thread::sleep_for(400ms);
+  const Millis from = link.clock->now();  // 400 ms more of X's re-sends
+  ASSERT_TRUE(link.advance_until([&] { return tick_difference(link.clock->now(), from) >= 400; }));
   const auto controls = frames_of(link.device->frames(), ArduinoIn::kServoControl);
   const std::uint32_t w = controls.at(0).in.messageid();
   for (const auto& frame : controls) EXPECT_LT(frame.in.messageid() - w, std::uint32_t{kIdWindow}) << frame.in.messageid();
   *held = false;
-  ASSERT_TRUE(done.wait_for(sends, 5000ms));
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() == sends; }, kStepWithAcks));
   for (std::size_t i = 0; i < sends; ++i) EXPECT_FALSE(done.at(i).error) << i << ": " << done.at(i).error.message();
 }
 
@@ -733,9 +807,8 @@ TEST(ProxyClient, BlockingCallFromAHandlerWouldDeadlock) {
 
 TEST(ProxyClient, CancellingOneSendLeavesTheOthersAlone) {
   IoThread io;
-  Options options = test_options();
-  options.clock = ManualClock::create();  // no re-send or timeout while the test runs: only cancellations
-  Link link(io.executor(), options, standard_device(100, is_servo_control));  // controls are never acked
+  // The clock stands still: no re-send or timeout while the test runs, only cancellations.
+  Link link(io.executor(), test_options(), standard_device(100, is_servo_control));  // controls are never acked
   ASSERT_TRUE(link.established());
   Completions done;
   transports::CancellationSignal cancel_first, cancel_queued;
@@ -794,7 +867,9 @@ TEST(ProxyClient, DestructionDuringTheHandshakeCompletesWaitingSends) {
   auto device = FakeDevice::start(device_end, Integrity::crc16);  // never answers
   Completions done;
   {
-    Client client(host_end, test_options());
+    Options options = test_options();
+    options.clock = ManualClock::create();  // the Reset is never sent again
+    Client client(host_end, options);
     client.servo(9).async_init(90, done.handler(0));  // waits for the replay
     client.servo(9).async_set(100, done.handler(1));  // waits for the session
     ASSERT_TRUE(device->wait_for(has(ArduinoIn::kReset), kPrompt));
@@ -809,21 +884,20 @@ TEST(ProxyClient, WaitingForTheSessionIsBounded) {
   IoThread io;
   Options options = test_options();
   options.timing.queue_timeout = 200;
-  auto clock = ManualClock::create();
-  options.clock = clock;
   Link link(io.executor(), options, [](const DeviceFrame&, FakeDevice&) {});  // a silent device
-  const Millis start = clock->now();
+  ManualClock& clock = *link.clock;
+  const Millis start = clock.now();
   Completions done;
   link.client->servo(9).async_set(1, done.handler(0));
   Millis due = 0;
-  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 200), due)) << "+" << due - start;
+  ASSERT_TRUE(clock.wait_for_due(static_cast<Millis>(start + 200), due)) << "+" << due - start;
   EXPECT_EQ(done.calls(), 0u);
-  clock->advance_to(due);
+  clock.advance_to(due);
   ASSERT_TRUE(done.wait_for(1));
   EXPECT_EQ(done.at(0).error, ProxyError::queue_timeout);
   EXPECT_EQ(done.at(0).error, boost::system::errc::timed_out);
   link.client->digital(3).async_init(true, done.handler(1));
-  ASSERT_TRUE(clock->advance_until([&] { return done.calls() == 2; }));
+  ASSERT_TRUE(link.advance_until([&] { return done.calls() == 2; }));
   EXPECT_EQ(done.at(1).error, ProxyError::queue_timeout);
 }
 

@@ -132,10 +132,9 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   IoThread io;
   Options options = compat_test_options();
   options.timing.stale_after = 200;
-  auto clock = transports::testing::ManualClock::create();
-  options.clock = clock;
   Link link(io.executor(), options, silent());
-  const Millis start = clock->now();
+  transports::testing::ManualClock& clock = *link.clock;
+  const Millis start = clock.now();
   link.client->digital(8).init(false);
   link.client->servo(3).init(0);  // never reports
   // The device sends DigitalState{8, true} every 20 ms (simulated) from 0 to 380 ms, then stops.
@@ -144,7 +143,7 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   out.mutable_digitalstate()->set_activated(true);
   const std::string state = FakeDevice::frame_bytes(out.SerializeAsString(), Integrity::none);
   for (std::uint32_t i = 0; i < 20; ++i) {
-    if (i > 0) clock->advance(20);
+    if (i > 0) clock.advance(20);
     link.device->send(state);
     ASSERT_TRUE(eventually([&] { return link.client->counters().link.frames_ok == i + 1; }));
     // The servo is lost exactly 200 ms after its init, and not before.
@@ -161,8 +160,8 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   EXPECT_FALSE(servo->has_value);
   // The digital pin was refreshed all along; it goes stale 200 ms after the last state (sent at 380 ms).
   Millis due = 0;
-  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 380 + 200), due)) << "+" << due - start;
-  clock->advance_to(due);
+  ASSERT_TRUE(clock.wait_for_due(static_cast<Millis>(start + 380 + 200), due)) << "+" << due - start;
+  clock.advance_to(due);
   ASSERT_TRUE(link.log.wait_for<events::PinLost>(2));
   lost = link.log.of<events::PinLost>();
   EXPECT_EQ(lost[1].kind, PinKind::digital);
@@ -176,8 +175,8 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   ASSERT_TRUE(link.log.wait_for<events::PinReport>(2));
   EXPECT_FALSE(link.client->digital(8).state()->stale);
   EXPECT_EQ(link.log.of<events::PinReport>()[1].value, 1);
-  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 580 + 200), due)) << "+" << due - start;
-  clock->advance_to(due);
+  ASSERT_TRUE(clock.wait_for_due(static_cast<Millis>(start + 580 + 200), due)) << "+" << due - start;
+  clock.advance_to(due);
   ASSERT_TRUE(link.log.wait_for<events::PinLost>(3));
   EXPECT_EQ(link.log.of<events::PinLost>().size(), 3u);  // the silent servo is not reported twice
 }
@@ -210,8 +209,10 @@ TEST(ProxyCompat, PrimaryOnlyOperationsAreRejected) {
   EXPECT_THROW(link.client->reset_failsafe(), boost::system::system_error);
   link.client->send(RocketryProto::ArduinoIn(), error);
   EXPECT_EQ(error, ProxyError::invalid_message);
-  std::this_thread::sleep_for(20ms);
-  EXPECT_TRUE(link.device->received().empty());
+  // A valid message after them completes when written: it is the first and only frame on the wire.
+  link.client->digital(13).set(true);
+  ASSERT_TRUE(link.device->wait_for([](const auto& frames) { return frames.size() == 1; }, kPrompt));
+  EXPECT_EQ(hex(link.device->received()), "00 07 22 04 08 0d 10 01 00");  // DigitalControl{13, true}
 }
 
 TEST(ProxyCompat, RestartSessionWritesReset) {

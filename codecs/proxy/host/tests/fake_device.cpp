@@ -7,15 +7,19 @@
 namespace tether::proxy::testing {
 
 std::shared_ptr<FakeDevice> FakeDevice::start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-                                              Script script) {
-  auto device = std::make_shared<FakeDevice>(std::move(end), integrity, 0);
+                                              Script script, std::shared_ptr<transports::LinkClock> clock) {
+  auto device = std::make_shared<FakeDevice>(std::move(end), integrity, std::move(clock));
   device->on_frame(std::move(script));
   device->ScriptedPeer::start();
   return device;
 }
 
-FakeDevice::FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity, int)
-    : ScriptedDevice(std::move(end)), integrity_(integrity), decoder_(integrity, counters_) {}
+FakeDevice::FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
+                       std::shared_ptr<transports::LinkClock> clock)
+    : ScriptedDevice(std::move(end)),
+      integrity_(integrity),
+      clock_(clock ? std::move(clock) : transports::steady_link_clock()),
+      decoder_(integrity, counters_) {}
 
 std::string FakeDevice::frame_bytes(const std::string& payload, Integrity integrity) {
   std::vector<std::uint8_t> out(max_frame_size(payload.size()));
@@ -71,7 +75,7 @@ void FakeDevice::on_bytes(const std::uint8_t* data, std::size_t size) {
     }
     DeviceFrame frame;
     frame.wire = frame_;
-    frame.at = std::chrono::steady_clock::now();
+    frame.at = clock_->now();
     frame_.clear();
     if (status == DecodeStatus::error) {
       frame.damaged = true;

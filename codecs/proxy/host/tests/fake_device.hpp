@@ -16,6 +16,7 @@
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 #include "tether_proxy.pb.h"
 
@@ -30,7 +31,7 @@ struct DeviceFrame {
   ArduinoIn in;                       ///< primary mode
   RocketryProto::ArduinoIn compat;    ///< compat mode
   int repeat = 1;                     ///< how many times this exact payload arrived so far (1 the first time)
-  std::chrono::steady_clock::time_point at;  ///< arrival
+  Millis at = 0;                      ///< arrival, on the device's clock (the test's manual clock)
 };
 
 /// Scripted device; create with `start`, always `close` (or drop) it. `send`, `send_after`, `close` and
@@ -40,10 +41,12 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
   /// Called on the device's strand for every frame received (good or damaged).
   using Script = ScriptedDevice::Script;
 
-  /// Device reading from `end` at once, decoding with `integrity` (crc16: primary, none: compat).
+  /// Device reading from `end` at once, decoding with `integrity` (crc16: primary, none: compat), stamping
+  /// each frame's arrival with `clock` (null: the steady clock), the client's clock in a test.
   static std::shared_ptr<FakeDevice> start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-                                           Script script = {});
-  FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity, int);  // for make_shared
+                                           Script script = {}, std::shared_ptr<transports::LinkClock> clock = nullptr);
+  FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
+             std::shared_ptr<transports::LinkClock> clock);  // for make_shared
 
   /// Sets the script (any thread, before the frames it should see).
   void on_frame(Script script) { set_script(std::move(script)); }
@@ -72,6 +75,7 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
 
   // Strand only.
   Integrity integrity_;
+  std::shared_ptr<transports::LinkClock> clock_;
   LinkCounters counters_;
   Decoder<512> decoder_;
   std::string frame_;  // bytes of the frame in progress

@@ -19,16 +19,24 @@
 #include "tether/testing/eventually.hpp"
 #include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 
 namespace tether::proxy::testing {
 
 using namespace std::chrono_literals;
 
-/// Generous bound for "happens promptly" (no timing assertion is tighter than this, ASan included).
-inline constexpr auto kPrompt = std::chrono::milliseconds(3000);
+/// Bound for "happens promptly": against hangs, never a timing assertion (time is simulated), so wide
+/// enough for an ASan build on a 2-core machine at load 25, where a test's steps can take seconds.
+inline constexpr auto kPrompt = std::chrono::milliseconds(10000);
+
+/// The step of `Link::advance_until` while progress needs the device's answers: 1 ms of simulated time per
+/// step (and a 1 ms pause), so a deadline passes before its answer is back only if the machine stalls for
+/// as long as the deadline's whole window of wall time. (Deadline by deadline, the test thread could
+/// run a message's re-sends and its budget out between the device's ack and its arrival.)
+inline constexpr Duration kStepWithAcks = 1;
 
 /// Primary-mode options for tests: the protocol's shape, scaled down. No pings unless a test wants them
-/// (so messageIds are predictable); a margin wide enough that a loaded machine does not re-send.
+/// (so messageIds are predictable). Time is simulated (`Link`): these are instants a test advances to.
 inline Options test_options() {
   Options options;
   options.timing.processing_margin = 150;
@@ -50,12 +58,17 @@ inline Options compat_test_options() {
 using EventLog = transports::testing::EventLog<Event>;
 using ::tether::testing::eventually;
 
-/// A client and a fake device on the two ends of an in-memory pair.
+/// A client and a fake device on the two ends of an in-memory pair, on a manual clock: no ack window, budget
+/// or ping period passes unless the test advances `clock`, so a loaded machine cannot re-send or time out a
+/// message behind a test's back, and timing assertions are on simulated time (the device stamps frames
+/// with it).
 struct Link {
-  Link(boost::asio::any_io_executor executor, const Options& options, FakeDevice::Script script) {
+  Link(boost::asio::any_io_executor executor, Options options, FakeDevice::Script script)
+      : clock(transports::testing::ManualClock::create()) {
+    options.clock = clock;
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end, options.mode == Mode::primary ? Integrity::crc16 : Integrity::none,
-                               std::move(script));
+                               std::move(script), clock);
     client.emplace(host_end, options, log.handler());
   }
   ~Link() {
@@ -68,6 +81,22 @@ struct Link {
   /// Waits for the (next) SessionEstablished: `count` of them in all.
   bool established(std::size_t count = 1) const { return log.wait_for<events::SessionEstablished>(count); }
 
+  /// Advances the clock deadline by deadline until `done()` holds (false if it does not within 10 s of
+  /// wall time): for what needs re-sends or timeouts to happen. `max_step` as in
+  /// `ManualClock::advance_until` (`kStepWithAcks` when the device's answers must keep up).
+  bool advance_until(const std::function<bool()>& done, Duration max_step = 0) const {
+    return clock->advance_until(done, std::chrono::milliseconds(10000), max_step);
+  }
+
+  /// Advances the clock to `at` once the client's earliest deadline is exactly `at` (it armed that one and
+  /// none before it); false, with the instant it did arm in `seen`, otherwise (`ManualClock::wait_for_due`).
+  bool advance_to_due(Millis at, Millis& seen) const {
+    if (!clock->wait_for_due(at, seen, kPrompt)) return false;
+    clock->advance_to(at);
+    return true;
+  }
+
+  std::shared_ptr<transports::testing::ManualClock> clock;
   EventLog log;
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;

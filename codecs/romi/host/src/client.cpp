@@ -67,16 +67,6 @@ RomiResponse failure(std::int16_t code, char opcode) {
   return response;
 }
 
-// The response for an error_code without an answer: Romi codes keep theirs, anything else is -33.
-RomiResponse failure(const error_code& error, char opcode) {
-  if (error.category() == romi_category()) return failure(static_cast<std::int16_t>(error.value()), opcode);
-  RomiResponse response;
-  response.opcode = opcode;
-  const auto code = static_cast<std::int16_t>(Error::transport_error);
-  describe_failure(response, code, std::string(romi::describe(code)) + ": " + error.message());
-  return response;
-}
-
 // Reads an intact answer frame: `payload` is the opcode followed by the JSON array.
 RomiResponse parse_answer(ByteView payload, char opcode) {
   RomiResponse response;
@@ -129,6 +119,22 @@ bool opcode_matches(char call_opcode, char answer_opcode, std::int16_t code) {
 
 }  // namespace
 
+// Romi codes keep theirs, anything else is -33.
+RomiResponse failed_response(const error_code& error, char opcode) {
+  if (error.category() == romi_category()) return failure(static_cast<std::int16_t>(error.value()), opcode);
+  RomiResponse response;
+  response.opcode = opcode;
+  const auto code = static_cast<std::int16_t>(Error::transport_error);
+  describe_failure(response, code, std::string(romi::describe(code)) + ": " + error.message());
+  return response;
+}
+
+bool RomiResponse::unreadable_answer() const {
+  const auto error = static_cast<Error>(code);
+  return answered &&
+         (error == Error::client_empty_response || error == Error::client_invalid_json || error == Error::client_bad_response);
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The implementation
 
@@ -148,12 +154,12 @@ class ClientImpl final : public transports::ClientLink {
     const char opcode = command.opcode();
     // Off the strand: these completions touch no state (and must not publish the counters).
     if (!command.valid()) {
-      post_completion(std::move(handler), command.error(), failure(command.error(), opcode));
+      post_completion(std::move(handler), command.error(), failed_response(command.error(), opcode));
       return;
     }
     if (!is_open()) {
       const error_code aborted = asio::error::operation_aborted;
-      post_completion(std::move(handler), aborted, failure(aborted, opcode));
+      post_completion(std::move(handler), aborted, failed_response(aborted, opcode));
       return;
     }
     auto call = std::make_unique<Call>();
@@ -217,7 +223,7 @@ class ClientImpl final : public transports::ClientLink {
       queue_.pop_front();
       if (!is_open() || link_error()) {
         const error_code error = link_error() ? link_error() : error_code(asio::error::operation_aborted);
-        complete(std::move(call->handler), error, failure(error, call->opcode));
+        complete(std::move(call->handler), error, failed_response(error, call->opcode));
         continue;
       }
       const Millis started = now();
@@ -264,19 +270,19 @@ class ClientImpl final : public transports::ClientLink {
       case session::CallOutcome::remote_error:
         if (call->failed_without_answer) {
           error = make_romi_error_code(completion.code);  // every answer arrived damaged
-          response = failure(error, call->opcode);
+          response = failed_response(error, call->opcode);
         } else {
           response = std::move(call->answer);
         }
         break;
       case session::CallOutcome::timeout:
         error = make_error_code(Error::client_timeout);
-        response = failure(error, call->opcode);
+        response = failed_response(error, call->opcode);
         describe_failure(response, response.code, timeout_message(waited, completion.attempts));
         break;
       case session::CallOutcome::cancelled:
         error = asio::error::operation_aborted;
-        response = failure(error, call->opcode);
+        response = failed_response(error, call->opcode);
         break;
     }
     response.id = call->id;
@@ -290,7 +296,7 @@ class ClientImpl final : public transports::ClientLink {
   void abort_current(const error_code& error) {
     const Result<Table::Completion> cancelled = table_.cancel(current_->id);
     std::unique_ptr<Call> call = std::move(current_);
-    RomiResponse response = failure(error, call->opcode);
+    RomiResponse response = failed_response(error, call->opcode);
     response.id = call->id;
     response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
     complete(std::move(call->handler), error, std::move(response));
@@ -301,7 +307,7 @@ class ClientImpl final : public transports::ClientLink {
     while (!queue_.empty()) {
       std::unique_ptr<Call> call = std::move(queue_.front());
       queue_.pop_front();
-      complete(std::move(call->handler), error, failure(error, call->opcode));
+      complete(std::move(call->handler), error, failed_response(error, call->opcode));
     }
   }
 
@@ -343,7 +349,7 @@ class ClientImpl final : public transports::ClientLink {
     if (queued == queue_.end()) return;
     std::unique_ptr<Call> call = std::move(*queued);
     queue_.erase(queued);
-    complete(std::move(call->handler), aborted, failure(aborted, call->opcode));
+    complete(std::move(call->handler), aborted, failed_response(aborted, call->opcode));
   }
 
   void on_event(DecodeStatus status) {
@@ -514,7 +520,7 @@ RomiResponse Client::blocking_call(const Command& command, bool manual, error_co
       link(), [&](transports::ClientLink::OperationId operation, detail::CallHandler handler) {
         detail::start_call(impl(), operation, std::move(handler), command, manual);
       }, error);
-  if (error == transports::TransportError::would_deadlock) return failure(error, command.opcode());
+  if (error == transports::TransportError::would_deadlock) return failed_response(error, command.opcode());
   return response;
 }
 

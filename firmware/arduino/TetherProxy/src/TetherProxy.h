@@ -20,27 +20,9 @@
 
 #include <Arduino.h>
 
-// Arduino.h defines function-like macros (bit, min, max, ...) that would rewrite Tether's members of those
-// names: they are set aside while Tether's headers are read.
-#pragma push_macro("bit")
-#pragma push_macro("min")
-#pragma push_macro("max")
-#pragma push_macro("abs")
-#pragma push_macro("round")
-#pragma push_macro("constrain")
-#undef bit
-#undef min
-#undef max
-#undef abs
-#undef round
-#undef constrain
+#include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names
 #include "tether/proxy/device.hpp"
-#pragma pop_macro("constrain")
-#pragma pop_macro("round")
-#pragma pop_macro("abs")
-#pragma pop_macro("max")
-#pragma pop_macro("min")
-#pragma pop_macro("bit")
+#include "TetherRestoreArduinoMacros.h"
 
 namespace tether {
 namespace arduino {

@@ -250,6 +250,9 @@ class ClientFront {
   }
   /// False after `close()`.
   bool is_open() const { return ref_.link() && ref_.link()->is_open(); }
+  /// The client's clock (its `Options::clock`) in wrap-safe milliseconds: the time base of what it stamps
+  /// (`proxy::PinStatus::updated`) and of its deadlines. Any thread.
+  Millis now() const { return ref_.link()->now(); }
 
   /// Adds an event handler (an empty one is not added and gets 0); it receives every event from now on
   /// (events are not queued for handlers added later: the constructor's handler sees the first ones).

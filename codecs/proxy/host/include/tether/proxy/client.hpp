@@ -263,7 +263,9 @@ struct PinStatus {
   std::int32_t value = 0;           ///< Last reported position / level.
   bool failsafe = false;            ///< Primary: the device drives it to its safe value (failsafe).
   bool stale = false;               ///< Compat: not refreshed for `stale_after` (set until it reports again).
-  std::chrono::steady_clock::time_point updated;  ///< Last report (or its init, before any report).
+  /// Last report (or its init, before any report) on the client's clock (`Client::now()`, wrap-safe ms:
+  /// compare with `tick_difference`), the clock of its deadlines, so a test's manual clock stamps it too.
+  Millis updated = 0;
 };
 
 /// Events to the application; each type is one alternative of `Event`.

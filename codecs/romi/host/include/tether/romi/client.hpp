@@ -175,7 +175,16 @@ struct RomiResponse {
   bool ok() const { return code == 0; }
   /// True for a positive (application) code.
   bool application_error() const { return code > 0; }
+  /// True when the device answered but its array could not be read (-23 empty, -26 invalid JSON, -27 not
+  /// an array starting with a code): `raw` holds what arrived, worth showing.
+  bool unreadable_answer() const;
 };
+
+/// The response a call completes with when `error` ends it without an answer (`values` = `[code,
+/// message]`, `opcode` kept): a Romi error keeps its code and text (an invalid `Command`, -25 no answer in
+/// time), any other error is -33 with its message. Public so a tool can reject an invalid command before it
+/// opens a device and report it exactly as a call would (`tether call`).
+RomiResponse failed_response(const error_code& error, char opcode);
 
 /// How a client behaves; every field has the spec's value by default.
 struct Options {
