@@ -15,6 +15,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/write.hpp>
 
+#include <sys/resource.h>
 #include <time.h>
 
 #include <algorithm>
@@ -59,6 +60,25 @@ std::chrono::nanoseconds thread_cpu() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
   return std::chrono::seconds(now.tv_sec) + std::chrono::nanoseconds(now.tv_nsec);
 }
+
+// The calling thread's user and system CPU and its context switches (getrusage).
+struct ThreadUsage {
+  double user_us = 0;
+  double system_us = 0;
+  long voluntary_switches = 0;
+  long involuntary_switches = 0;
+
+  static ThreadUsage now() {
+    rusage usage{};
+    getrusage(RUSAGE_THREAD, &usage);
+    const auto us = [](const timeval& t) { return static_cast<double>(t.tv_sec) * 1e6 + static_cast<double>(t.tv_usec); };
+    return {us(usage.ru_utime), us(usage.ru_stime), usage.ru_nvcsw, usage.ru_nivcsw};
+  }
+  ThreadUsage operator-(const ThreadUsage& start) const {
+    return {user_us - start.user_us, system_us - start.system_us, voluntary_switches - start.voluntary_switches,
+            involuntary_switches - start.involuntary_switches};
+  }
+};
 
 // --- fake devices (device thread) ----------------------------------------------------------------------
 
@@ -333,6 +353,8 @@ int main(int argc, char** argv) {
   std::thread device_thread([&] { device_io.run(); });
   std::chrono::nanoseconds device_cpu{0};
   std::promise<std::chrono::nanoseconds> host_cpu;
+  ThreadUsage usage_at_start;
+  ThreadUsage host_usage;
 
   // A warm-up second (sessions open, the proxy handshake, first allocations), then the measured run.
   const Clock::time_point start = Clock::now() + std::chrono::seconds(1);
@@ -342,6 +364,7 @@ int main(int argc, char** argv) {
   begin.expires_at(start);
   begin.async_wait([&](error_code) {
     cpu_at_start = thread_cpu();
+    usage_at_start = ThreadUsage::now();
     for (std::size_t i = 0; i < callers.size(); ++i) {
       callers[i]->run(start + period * static_cast<int>(i) / static_cast<int>(callers.size()), start + duration);
     }
@@ -349,6 +372,7 @@ int main(int argc, char** argv) {
   asio::steady_timer finish(host_io);
   finish.expires_at(start + duration + std::chrono::seconds(3));  // the last calls complete
   finish.async_wait([&](error_code) {
+    host_usage = ThreadUsage::now() - usage_at_start;
     host_cpu.set_value(thread_cpu() - cpu_at_start);
     for (auto& c : romi_clients) c->close();
     for (auto& c : proxy_clients) c->close();
@@ -377,6 +401,11 @@ int main(int argc, char** argv) {
               static_cast<double>(host.count()) / 1e6, static_cast<unsigned long long>(calls),
               calls ? static_cast<double>(host.count()) / 1e3 / static_cast<double>(calls) : 0.0,
               100.0 * static_cast<double>(host.count()) / 1e9 / (seconds + 3));
+  const double per_call = calls ? 1.0 / static_cast<double>(calls) : 0.0;
+  std::printf("  per call (getrusage): user %.2f us, system %.2f us, %.2f voluntary + %.2f involuntary context switches\n",
+              host_usage.user_us * per_call, host_usage.system_us * per_call,
+              static_cast<double>(host_usage.voluntary_switches) * per_call,
+              static_cast<double>(host_usage.involuntary_switches) * per_call);
   std::printf("  device thread CPU (fake devices, whole run): %.1f ms\n", static_cast<double>(device_cpu.count()) / 1e6);
   print("romi", romi_tally);
   print("proxy", proxy_tally);

@@ -2,6 +2,7 @@
 // nlohmann's); a JSON document is built only for nested arrays/objects and on conversion.
 #include "tether/romi/response.hpp"
 
+#include <charconv>
 #include <limits>
 #include <ostream>
 #include <stdexcept>
@@ -212,6 +213,50 @@ class AnswerReader {
 };
 
 // ---------------------------------------------------------------------------------------------------------
+// The common shape, read directly
+
+// What Romi devices send nearly always: a flat array of integers and plain strings, no whitespace
+// (`[0,1,2]`, `[101,"I will try again tomorrow"]`). Read without a lexer: integers with from_chars,
+// strings of printable ASCII without escapes copied as they are. Returns false, leaving `values` to be
+// cleared, at the first thing outside that shape (valid JSON or not): nlohmann's SAX parser then reads
+// the whole body, so anything accepted here is JSON that nlohmann reads to the same values.
+bool read_plain_array(std::string_view body, Values& values) {
+  const char* at = body.data();
+  const char* const end = at + body.size();
+  if (end - at < 2 || *at != '[' || end[-1] != ']') return false;
+  ++at;
+  if (*at == ']') return false;  // empty: the SAX path and the caller's checks decide
+  for (;;) {
+    if (*at == '"') {
+      const char* const text = ++at;
+      while (at < end && *at != '"') {
+        const auto c = static_cast<unsigned char>(*at);
+        if (c < 0x20 || c > 0x7e || c == '\\') return false;  // escapes, control, UTF-8: SAX
+        ++at;
+      }
+      if (at == end) return false;
+      values.push_back(Value(std::string(text, static_cast<std::size_t>(at - text))));
+      ++at;
+    } else {
+      const char* const digits = *at == '-' ? at + 1 : at;
+      if (digits == end || *digits < '0' || *digits > '9') return false;
+      if (*digits == '0' && digits + 1 < end && digits[1] >= '0' && digits[1] <= '9') return false;  // 01
+      std::int64_t number = 0;
+      const std::from_chars_result read = std::from_chars(at, end, number);
+      if (read.ec != std::errc()) return false;  // beyond int64: SAX reads it unsigned or as a float
+      at = read.ptr;
+      if (*at == '.' || *at == 'e' || *at == 'E') return false;  // a float
+      values.push_back(Value(number));
+    }
+    if (*at == ',' && at + 1 < end - 1) {
+      ++at;
+      continue;
+    }
+    return at == end - 1;  // the closing bracket, and nothing after it
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
 // Answers
 
 void describe_failure(RomiResponse& response, std::int16_t code, std::string message) {
@@ -233,14 +278,19 @@ RomiResponse parse_answer(ByteView payload, char opcode) {
     describe_failure(response, code, romi::describe(code));
     return response;
   }
-  AnswerReader reader(response.values);
-  if (!json::sax_parse(body.data(), body.data() + body.size(), &reader)) {  // defect B5: the reference throws
-    const auto code = static_cast<std::int16_t>(Error::client_invalid_json);
-    describe_failure(response, code, romi::describe(code));
-    return response;
+  bool array = read_plain_array(body, response.values);
+  if (!array) {
+    response.values = Values();
+    AnswerReader reader(response.values);
+    if (!json::sax_parse(body.data(), body.data() + body.size(), &reader)) {  // defect B5: the reference throws
+      const auto code = static_cast<std::int16_t>(Error::client_invalid_json);
+      describe_failure(response, code, romi::describe(code));
+      return response;
+    }
+    array = reader.was_array();
   }
   const Values& values = response.values;
-  const bool has_code = reader.was_array() && !values.empty() && values[0].kind() == Value::Kind::integer &&
+  const bool has_code = array && !values.empty() && values[0].kind() == Value::Kind::integer &&
                         values[0].integer() >= std::numeric_limits<std::int16_t>::min() &&
                         values[0].integer() <= std::numeric_limits<std::int16_t>::max();
   if (!has_code) {

@@ -5,11 +5,13 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "tether/romi/errors.hpp"
+#include "tether/testing/random_seed.hpp"
 #include "tether/romi/response.hpp"
 
 namespace tether::romi {
@@ -62,7 +64,8 @@ TEST(RomiResponse, TypedValuesConvertToTheDocumentOfTheBody) {
       "[0]", "[0,1,2]", "[101,\"I will try again tomorrow\"]", "[0,512,-3,\"text\",1.5]", "[0,1e3,-2.5E-3,0.0]",
       "[0,\"\\\\ \\/ \\b\\f\\n\\r\\t \\ud83d\\ude00\"]", "[0,[],{},[[]],{\"a\":{}}]",
       "[0,{\"k\":1,\"k\":2}]", " [ 0 , 1 ] ", "[0,9223372036854775807,-9223372036854775808,9223372036854775808]",
-      "[0,true,false,null]"};
+      "[0,true,false,null]", "[-0]", "[0,\"\"]", "[0,\"a]b\",\"c,d\"]", "[0,\"\xc3\xa9\"]", "[0,-1,-32768]",
+      "[-9223372036854775808,1]", "[0,1.0]", "[0,2e2]", "[0,\"\\\"\"]", "[0,\"x\"]"};
   for (const std::string& body : bodies) {
     const RomiResponse response = parse("r" + body);
     const json document = json::parse(body);
@@ -71,6 +74,47 @@ TEST(RomiResponse, TypedValuesConvertToTheDocumentOfTheBody) {
     EXPECT_EQ(response.values.dump(), document.dump()) << body;
     const json converted = response.values;  // the implicit conversion
     EXPECT_EQ(converted, document) << body;
+  }
+}
+
+// What an answer body means, read through a nlohmann document (the parse path before typed values, with
+// codes above int64 rejected like every code outside int16).
+struct Meaning {
+  std::int16_t code = 0;
+  json values;
+};
+Meaning through_a_document(const std::string& body) {
+  const json document = json::parse(body, nullptr, /*allow_exceptions=*/false);
+  if (document.is_discarded()) return {static_cast<std::int16_t>(Error::client_invalid_json), json()};
+  const bool integer = document.is_array() && !document.empty() && document[0].is_number_integer();
+  const bool in_range =
+      integer && (document[0].is_number_unsigned() ? document[0].get<std::uint64_t>() <= 32767u
+                                                   : document[0].get<std::int64_t>() >= -32768 &&
+                                                         document[0].get<std::int64_t>() <= 32767);
+  if (!in_range) return {static_cast<std::int16_t>(Error::client_bad_response), json()};
+  return {static_cast<std::int16_t>(document[0].get<std::int64_t>()), document};
+}
+
+// Random short bodies from JSON's and Romi's characters: the typed reading (its direct path and the SAX
+// path) means exactly what the document means, for valid and invalid text alike.
+TEST(RomiResponse, RandomBodiesMeanWhatTheirDocumentMeans) {
+  std::mt19937_64 random = testing::seeded_generator(17);
+  const std::string alphabet = "[[[]]],,,,\"\"\"-0123456789.eE \\atrufnl{}:xu";
+  for (int i = 0; i < 20000; ++i) {
+    std::string body = i % 2 == 0 ? "[" : "";
+    const auto length = static_cast<int>(random() % 12);
+    for (int k = 0; k < length; ++k) body.push_back(alphabet[random() % alphabet.size()]);
+    if (i % 3 == 0) body.push_back(']');
+    const RomiResponse response = parse("e" + body);
+    const Meaning meaning = through_a_document(body);
+    if (body.empty()) continue;  // -23, tested above
+    ASSERT_EQ(response.code, meaning.code) << "body " << body;
+    if (meaning.code == static_cast<std::int16_t>(Error::client_invalid_json) ||
+        meaning.code == static_cast<std::int16_t>(Error::client_bad_response)) {
+      ASSERT_EQ(response.values, json::array({meaning.code, describe(meaning.code)})) << "body " << body;
+    } else {
+      ASSERT_EQ(response.values, meaning.values) << "body " << body;
+    }
   }
 }
 
@@ -94,6 +138,10 @@ TEST(RomiResponse, UnreadableAnswersGetHostCodes) {
       {"e5", Error::client_bad_response},      {"e{\"a\":[1]}", Error::client_bad_response},
       {"e[]", Error::client_bad_response},     {"e[1.5]", Error::client_bad_response},
       {"e[40000]", Error::client_bad_response}, {"e[-32769,1]", Error::client_bad_response},
+      {"e[0,]", Error::client_invalid_json},   {"e[-]", Error::client_invalid_json},
+      {"e[0x1]", Error::client_invalid_json},  {"e[0\"x\"]", Error::client_invalid_json},
+      {"e[0,\"a]", Error::client_invalid_json}, {"e[0,\"a\tb\"]", Error::client_invalid_json},
+      {"e[0] x", Error::client_invalid_json},  {"e[+1]", Error::client_invalid_json},
       {"e[\"0\"]", Error::client_bad_response}, {"e[[0]]", Error::client_bad_response},
       // Above int64: nlohmann reads it unsigned; taking it as int64 made it -1, a device error code.
       {"e[18446744073709551615]", Error::client_bad_response}};

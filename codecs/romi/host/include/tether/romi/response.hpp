@@ -1,8 +1,14 @@
 /// @file response.hpp
 /// What a Romi call returns (`RomiResponse`) and how an answer's JSON array becomes one: read straight
-/// into typed values (`Value`, `Values`) with nlohmann's SAX parser, no JSON document on the way. A
+/// into typed values (`Value`, `Values`), no JSON document on the way. The common shape (a flat array of
+/// integers and escape-free ASCII strings: `[0,1,2]`, `[101,"I will try again tomorrow"]`) is read
+/// directly; anything else goes through nlohmann's SAX parser, so the JSON grammar stays nlohmann's. A
 /// `nlohmann::json` is a conversion (`Values::to_json`, `nlohmann::json j = response.values`), made only by
 /// code that asks for one: building the document cost more than the rest of a response's handling.
+///
+/// `RomiResponse::values` was a `nlohmann::json`; `Values` keeps what code used of it: `==` with a JSON
+/// document, `dump()`, `size()`, `[i]`/`at(i)` (a `Value` with `is_string()`, `get<T>()`, `==` with JSON),
+/// assignment from a document, and implicit conversion to `nlohmann::json`/`ordered_json`.
 #pragma once
 
 #include <boost/container/small_vector.hpp>
