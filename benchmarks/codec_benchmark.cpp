@@ -198,6 +198,68 @@ BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_b, elcano_drive(), elcano
 BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_d, elcano_drive(), elcano::Generation::d, false);
 BENCHMARK_CAPTURE(BM_ElcanoRingNode, capture_drive_gen_b, elcano_drive(), elcano::Generation::b, true);
 
+// --- A ~32-byte frame per codec: encode, then decode byte by byte with the host's decoder -------------
+// The per-frame cost a host pays in the portable codecs (the clients add their own bookkeeping on top).
+// Romi: the request `#s[1234,-567,890,-12,345]:<id><crc>\r\n` (32 bytes). Proxy: a 28-byte payload,
+// CRC-16 and COBS (32 bytes with the delimiter). Elcano: the segment `X{n 4}{s 160}{b 80}{p 3200,-64000}\n`
+// (generation B, 34 bytes).
+
+void BM_Frame32_Romi(benchmark::State& state) {
+  uint8_t frame[64];
+  LinkCounters counters;
+  romi::Decoder<romi::kHostDecoderCapacity> decoder(counters);
+  uint8_t id = 0;
+  size_t size = 0;
+  for (auto _ : state) {
+    romi::RequestBuilder builder('s');
+    builder.add_int(1234).add_int(-567).add_int(890).add_int(-12).add_int(345);
+    const Result<size_t> encoded = romi::encode_request(builder.payload(), id++, frame);
+    size = encoded.ok() ? encoded.value() : 0;
+    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
+  }
+  if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["wire_bytes"] = static_cast<double>(size);
+}
+BENCHMARK(BM_Frame32_Romi);
+
+void BM_Frame32_Proxy(benchmark::State& state) {
+  std::vector<uint8_t> payload(28);
+  for (size_t i = 0; i < payload.size(); ++i) payload[i] = static_cast<uint8_t>(i * 37 + 1);
+  payload[9] = 0;  // a zero in the payload, as protobuf varints carry them
+  uint8_t frame[64];
+  LinkCounters counters;
+  proxy::Decoder<64> decoder(proxy::Integrity::crc16, counters);
+  size_t size = 0;
+  for (auto _ : state) {
+    const Result<size_t> encoded =
+        proxy::encode_frame(ByteView(payload.data(), payload.size()), proxy::Integrity::crc16, false, frame);
+    size = encoded.ok() ? encoded.value() : 0;
+    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
+  }
+  if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["wire_bytes"] = static_cast<double>(size);
+}
+BENCHMARK(BM_Frame32_Proxy);
+
+void BM_Frame32_Elcano(benchmark::State& state) {
+  const elcano::Message message = elcano_segment();
+  uint8_t out[96];
+  LinkCounters counters;
+  elcano::Decoder<96> decoder(elcano::Generation::b, counters);
+  size_t size = 0;
+  for (auto _ : state) {
+    const Result<size_t> encoded = elcano::encode_message(message, elcano::Generation::b, out);
+    size = encoded.ok() ? encoded.value() : 0;
+    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(out[i]));
+  }
+  if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["wire_bytes"] = static_cast<double>(size);
+}
+BENCHMARK(BM_Frame32_Elcano);
+
 // --- One job in each protocol: drive both servos (throttle D9, steering D10) ---------------------------
 // Host cost of encoding the job and its bytes on the wire, computed from the encoders:
 //   to_device: what the host sends; to_host: what the device answers (romi: the response line; proxy: a

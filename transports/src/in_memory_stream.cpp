@@ -52,11 +52,16 @@ struct InMemoryStream::Channel {
 
 std::pair<std::shared_ptr<InMemoryStream>, std::shared_ptr<InMemoryStream>> InMemoryStream::make_pair(
     executor_type executor, std::size_t capacity) {
+  return make_pair(executor, executor, capacity);
+}
+
+std::pair<std::shared_ptr<InMemoryStream>, std::shared_ptr<InMemoryStream>> InMemoryStream::make_pair(
+    executor_type executor_a, executor_type executor_b, std::size_t capacity) {
   const std::size_t bound = capacity == 0 ? 1 : capacity;
   auto a_to_b = std::make_shared<Channel>(bound);
   auto b_to_a = std::make_shared<Channel>(bound);
-  return {std::make_shared<InMemoryStream>(executor, b_to_a, a_to_b, "in-memory end A"),
-          std::make_shared<InMemoryStream>(executor, a_to_b, b_to_a, "in-memory end B")};
+  return {std::make_shared<InMemoryStream>(std::move(executor_a), b_to_a, a_to_b, "in-memory end A"),
+          std::make_shared<InMemoryStream>(std::move(executor_b), a_to_b, b_to_a, "in-memory end B")};
 }
 
 InMemoryStream::InMemoryStream(executor_type executor, std::shared_ptr<Channel> incoming,

@@ -48,6 +48,30 @@ TEST(ByteStream, BytesWrittenOnOneEndAreReadOnTheOther) {
   EXPECT_EQ(got, "hello");
 }
 
+// Each end of a pair made with two executors completes on its own: here, each on its own io_context, run
+// one after the other: the host's run completes the write and leaves the read to the device's.
+TEST(ByteStream, EachEndOfAPairCanCompleteOnItsOwnExecutor) {
+  asio::io_context host;
+  asio::io_context device;
+  auto [a, b] = InMemoryStream::make_pair(host.get_executor(), device.get_executor());
+  std::vector<uint8_t> buffer(64);
+  std::string got;
+  bool written = false;
+  asio::async_write(*a, asio::buffer(persistent("ping")), [&](error_code error, std::size_t) {
+    EXPECT_FALSE(error);
+    written = true;
+  });
+  asio::async_read(*b, asio::buffer(buffer, 4), [&](error_code error, std::size_t size) {
+    EXPECT_FALSE(error);
+    got = as_string(buffer, size);
+  });
+  host.run();
+  EXPECT_TRUE(written);  // the write completed in the host's context...
+  EXPECT_EQ(got, "");    // ...and the read waits for the device's
+  device.run();
+  EXPECT_EQ(got, "ping");
+}
+
 TEST(ByteStream, CompletionIsNeverInvokedInsideTheInitiatingCall) {
   asio::io_context io;
   auto [a, b] = InMemoryStream::make_pair(io.get_executor());

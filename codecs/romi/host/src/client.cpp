@@ -24,7 +24,6 @@
 namespace tether::romi {
 
 namespace asio = boost::asio;
-using nlohmann::json;
 using transports::ByteStream;
 
 // ---------------------------------------------------------------------------------------------------------
@@ -53,53 +52,10 @@ namespace {
 // ---------------------------------------------------------------------------------------------------------
 // Responses
 
-// A response describing `code` without a device answer (or with an unreadable one): [code, message].
-void describe_failure(RomiResponse& response, std::int16_t code, std::string message) {
-  response.code = code;
-  response.message = std::move(message);
-  response.values = json::array({code, response.message});
-}
-
 RomiResponse failure(std::int16_t code, char opcode) {
   RomiResponse response;
   response.opcode = opcode;
   describe_failure(response, code, romi::describe(code));
-  return response;
-}
-
-// Reads an intact answer frame: `payload` is the opcode followed by the JSON array.
-RomiResponse parse_answer(ByteView payload, char opcode) {
-  RomiResponse response;
-  response.answered = true;
-  response.opcode = opcode;
-  response.raw.assign(reinterpret_cast<const char*>(payload.data()), payload.size());
-  const std::string_view body = payload.size() > 1 ? std::string_view(response.raw).substr(1) : std::string_view();
-  if (body.empty()) {
-    const auto code = static_cast<std::int16_t>(Error::client_empty_response);
-    describe_failure(response, code, romi::describe(code));
-    return response;
-  }
-  json values = json::parse(body.begin(), body.end(), nullptr, /*allow_exceptions=*/false);
-  if (values.is_discarded()) {  // defect B5: the reference throws here
-    const auto code = static_cast<std::int16_t>(Error::client_invalid_json);
-    describe_failure(response, code, romi::describe(code));
-    return response;
-  }
-  const bool has_code = values.is_array() && !values.empty() && values[0].is_number_integer();
-  const std::int64_t first = has_code ? values[0].get<std::int64_t>() : 0;
-  const bool in_range =
-      first >= std::numeric_limits<std::int16_t>::min() && first <= std::numeric_limits<std::int16_t>::max();
-  if (!has_code || !in_range) {
-    const auto code = static_cast<std::int16_t>(Error::client_bad_response);
-    describe_failure(response, code, romi::describe(code));
-    return response;
-  }
-  response.code = static_cast<std::int16_t>(first);
-  if (response.code != 0) {
-    response.message = values.size() > 1 && values[1].is_string() ? values[1].get<std::string>()
-                                                                   : std::string(romi::describe(response.code));
-  }
-  response.values = std::move(values);
   return response;
 }
 
@@ -127,12 +83,6 @@ RomiResponse failed_response(const error_code& error, char opcode) {
   const auto code = static_cast<std::int16_t>(Error::transport_error);
   describe_failure(response, code, std::string(romi::describe(code)) + ": " + error.message());
   return response;
-}
-
-bool RomiResponse::unreadable_answer() const {
-  const auto error = static_cast<Error>(code);
-  return answered &&
-         (error == Error::client_empty_response || error == Error::client_invalid_json || error == Error::client_bad_response);
 }
 
 // ---------------------------------------------------------------------------------------------------------

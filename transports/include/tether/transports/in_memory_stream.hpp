@@ -22,6 +22,10 @@ class InMemoryStream final : public ByteStream {
   /// Two connected ends; both complete on strands of `executor`.
   static std::pair<std::shared_ptr<InMemoryStream>, std::shared_ptr<InMemoryStream>> make_pair(
       executor_type executor, std::size_t capacity = 4096);
+  /// Two connected ends on different executors (end A completes on `executor_a`, end B on `executor_b`),
+  /// so each side can run on its own thread: a benchmark's host and its fake devices.
+  static std::pair<std::shared_ptr<InMemoryStream>, std::shared_ptr<InMemoryStream>> make_pair(
+      executor_type executor_a, executor_type executor_b, std::size_t capacity = 4096);
 
   std::string description() const override { return name_; }
 

@@ -103,6 +103,7 @@
 #include "tether/core/session/request_table.hpp"
 #include "tether/romi/error_category.hpp"
 #include "tether/romi/errors.hpp"
+#include "tether/romi/response.hpp"
 #include "tether/romi/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/client_skeleton.hpp"
@@ -148,36 +149,6 @@ class Command {
  private:
   std::string payload_;
   error_code error_;
-};
-
-/// What a call produced. See the file overview for which outcomes carry an error_code.
-struct RomiResponse {
-  /// First value of the answer: 0 success, > 0 application error, < 0 protocol error (device or host).
-  std::int16_t code = 0;
-  /// The whole answer array as JSON, code included: `[0,1,2]`, `[101,"I will try again tomorrow"]`.
-  /// Without an intact answer (and for -23/-26/-27): `[code, message]`.
-  nlohmann::json values = nlohmann::json::array();
-  /// Empty for code 0. Otherwise the device's message (second value, when it is a string), else the
-  /// text of the code (`romi::describe(code)`; for transport failures the transport error's message).
-  std::string message;
-  /// The opcode of the answer (the request's opcode when there was no answer).
-  char opcode = '\0';
-  /// The wire id of the call (0 for manual calls and for commands rejected before sending).
-  std::uint8_t id = 0;
-  /// Frames sent for this call (0 when rejected before sending; > 1 after re-sends).
-  std::uint8_t attempts = 0;
-  /// True when an intact answer of the device is in `values` (false exactly when the error_code is set).
-  bool answered = false;
-  /// The answer's payload as received (opcode + array text), empty without an answer.
-  std::string raw;
-
-  /// True for code 0.
-  bool ok() const { return code == 0; }
-  /// True for a positive (application) code.
-  bool application_error() const { return code > 0; }
-  /// True when the device answered but its array could not be read (-23 empty, -26 invalid JSON, -27 not
-  /// an array starting with a code): `raw` holds what arrived, worth showing.
-  bool unreadable_answer() const;
 };
 
 /// The response a call completes with when `error` ends it without an answer (`values` = `[code,

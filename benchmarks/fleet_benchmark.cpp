@@ -1,0 +1,415 @@
+// One host io_context thread drives 16 in-memory fake devices (8 Romi, 4 proxy, 4 Elcano rings), each
+// called at 100 requests/s, and reports the host thread's CPU per call and the calls' latency
+// percentiles. The fake devices run on a second thread (their end of each in-memory pair completes on
+// its own io_context), so the host figure holds the clients, their timers and the in-memory link only.
+//
+//   tether_fleet_benchmark [seconds=10] [rate_per_device=100]
+//
+// Romi: `e` answered `[0,1,2]`. Proxy (primary mode): `servo(9).set(90)` acknowledged (the handshake's
+// Reset answered with a ResetEvent). Elcano: a goal `G{n 1}{b 90}{p 100,200}` answered by the ring with a
+// segment (`async_request(goal, Type::segment)`). Latency: from starting the call to its completion
+// handler, both on the host thread. A call still in flight when its device's next tick comes is not
+// started again (counted as `skipped`), so the load never exceeds the rate.
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
+
+#include <sys/resource.h>
+#include <time.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <functional>
+#include <future>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tether/elcano/client.hpp"
+#include "tether/elcano/decoder.hpp"
+#include "tether/elcano/encoder.hpp"
+#include "tether/proxy/client.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/romi/client.hpp"
+#include "tether/romi/decoder.hpp"
+#include "tether/romi/encoder.hpp"
+#include "tether/transports/in_memory_stream.hpp"
+#include "tether_proxy.pb.h"
+
+namespace {
+
+namespace asio = boost::asio;
+using namespace tether;
+using Clock = std::chrono::steady_clock;
+using error_code = boost::system::error_code;
+using transports::ByteStream;
+using transports::InMemoryStream;
+
+// CPU time of the calling thread.
+std::chrono::nanoseconds thread_cpu() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return std::chrono::seconds(now.tv_sec) + std::chrono::nanoseconds(now.tv_nsec);
+}
+
+// The calling thread's user and system CPU and its context switches (getrusage).
+struct ThreadUsage {
+  double user_us = 0;
+  double system_us = 0;
+  long voluntary_switches = 0;
+  long involuntary_switches = 0;
+
+  static ThreadUsage now() {
+    rusage usage{};
+    getrusage(RUSAGE_THREAD, &usage);
+    const auto us = [](const timeval& t) { return static_cast<double>(t.tv_sec) * 1e6 + static_cast<double>(t.tv_usec); };
+    return {us(usage.ru_utime), us(usage.ru_stime), usage.ru_nvcsw, usage.ru_nivcsw};
+  }
+  ThreadUsage operator-(const ThreadUsage& start) const {
+    return {user_us - start.user_us, system_us - start.system_us, voluntary_switches - start.voluntary_switches,
+            involuntary_switches - start.involuntary_switches};
+  }
+};
+
+// --- fake devices (device thread) ----------------------------------------------------------------------
+
+// A device end: reads continuously, hands bytes to `on_bytes`, writes answers in order.
+class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
+ public:
+  explicit FakeDevice(std::shared_ptr<ByteStream> end) : end_(std::move(end)) {}
+  virtual ~FakeDevice() = default;
+
+  void start() { read(); }
+  void close() {
+    asio::post(end_->get_executor(), [self = shared_from_this()] { self->end_->close(); });
+  }
+
+ protected:
+  virtual void on_bytes(const std::uint8_t* data, std::size_t size) = 0;
+
+  void send(const std::uint8_t* data, std::size_t size) {
+    outbox_.emplace_back(reinterpret_cast<const char*>(data), size);
+    if (outbox_.size() == 1) write_front();
+  }
+
+ private:
+  void read() {
+    end_->async_read_some(asio::buffer(input_), [self = shared_from_this()](error_code error, std::size_t size) {
+      if (error) return;
+      self->on_bytes(self->input_.data(), size);
+      self->read();
+    });
+  }
+  void write_front() {
+    asio::async_write(*end_, asio::buffer(outbox_.front()), [self = shared_from_this()](error_code error, std::size_t) {
+      if (error) return;
+      self->outbox_.pop_front();
+      if (!self->outbox_.empty()) self->write_front();
+    });
+  }
+
+  std::shared_ptr<ByteStream> end_;
+  std::array<std::uint8_t, 512> input_{};
+  std::deque<std::string> outbox_;
+};
+
+class RomiDevice final : public FakeDevice {
+ public:
+  using FakeDevice::FakeDevice;
+
+ private:
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
+    for (std::size_t i = 0; i < size; ++i) {
+      if (decoder_.feed(data[i]) != DecodeStatus::frame) continue;
+      const romi::Frame& frame = decoder_.frame();
+      std::uint8_t out[64];
+      const Result<size_t> answer = romi::encode_response(frame.opcode, ByteView::from_literal("[0,1,2]"), frame.id, out);
+      if (answer.ok()) send(out, answer.value());
+    }
+  }
+  LinkCounters counters_;
+  romi::Decoder<romi::kDeviceDecoderCapacity> decoder_{counters_};
+};
+
+class ProxyDevice final : public FakeDevice {
+ public:
+  using FakeDevice::FakeDevice;
+
+ private:
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
+    for (std::size_t i = 0; i < size; ++i) {
+      if (decoder_.feed(data[i]) != DecodeStatus::frame) continue;
+      const ByteView payload = decoder_.frame();
+      proxy::ArduinoIn in;
+      if (!in.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) continue;
+      proxy::ArduinoOut ack;
+      ack.mutable_ack()->set_messageid(in.messageid());
+      answer(ack);
+      if (in.has_reset()) {
+        proxy::ArduinoOut reset;
+        reset.mutable_resetevent()->set_sessionid(++session_);
+        answer(reset);
+      }
+    }
+  }
+  void answer(const proxy::ArduinoOut& message) {
+    const std::string payload = message.SerializeAsString();
+    std::uint8_t out[128];
+    const Result<size_t> frame = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
+                                                     proxy::Integrity::crc16, false, out);
+    if (frame.ok()) send(out, frame.value());
+  }
+  LinkCounters counters_;
+  proxy::Decoder<512> decoder_{proxy::Integrity::crc16, counters_};
+  std::uint32_t session_ = 100;
+};
+
+// The rest of the ring: every goal the host writes comes back as a segment with the goal's number.
+class ElcanoRing final : public FakeDevice {
+ public:
+  using FakeDevice::FakeDevice;
+
+ private:
+  void on_bytes(const std::uint8_t* data, std::size_t size) override {
+    for (std::size_t i = 0; i < size; ++i) {
+      if (decoder_.feed(data[i]) != DecodeStatus::frame) continue;
+      const elcano::Message& goal = decoder_.frame();
+      if (goal.type != elcano::Type::goal) continue;
+      elcano::Message segment;
+      segment.type = elcano::Type::segment;
+      segment.number = goal.number;
+      segment.speed = 160;
+      segment.bearing = 80;
+      segment.east = 3200;
+      segment.north = -64000;
+      std::uint8_t out[96];
+      const Result<size_t> bytes = elcano::encode_message(segment, elcano::Generation::b, out);
+      if (bytes.ok()) send(out, bytes.value());
+    }
+  }
+  LinkCounters counters_;
+  elcano::Decoder<96> decoder_{elcano::Generation::b, counters_};
+};
+
+// --- host side (host thread) ----------------------------------------------------------------------------
+
+struct Tally {
+  std::vector<double> latencies_us;
+  std::uint64_t calls = 0;
+  std::uint64_t errors = 0;
+  std::uint64_t skipped = 0;
+};
+
+// One device's caller: a tick every period starts a call unless the previous one is still in flight.
+class Caller {
+ public:
+  using Start = std::function<void(std::function<void(bool ok)>)>;
+
+  Caller(asio::io_context& io, Clock::duration period, Start start, Tally& tally)
+      : timer_(io), period_(period), start_(std::move(start)), tally_(tally) {}
+
+  void run(Clock::time_point first, Clock::time_point end) {
+    next_ = first;
+    end_ = end;
+    tick();
+  }
+
+ private:
+  void tick() {
+    if (next_ >= end_) return;
+    timer_.expires_at(next_);
+    timer_.async_wait([this](error_code error) {
+      if (error) return;
+      next_ += period_;
+      if (busy_) {
+        ++tally_.skipped;
+      } else {
+        busy_ = true;
+        const Clock::time_point started = Clock::now();
+        start_([this, started](bool ok) {
+          busy_ = false;
+          tally_.latencies_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - started).count());
+          ++tally_.calls;
+          if (!ok) ++tally_.errors;
+        });
+      }
+      tick();
+    });
+  }
+
+  asio::steady_timer timer_;
+  Clock::duration period_;
+  Start start_;
+  Tally& tally_;
+  Clock::time_point next_;
+  Clock::time_point end_;
+  bool busy_ = false;
+};
+
+double percentile(std::vector<double> sorted, double fraction) {
+  if (sorted.empty()) return 0;
+  const auto index = static_cast<std::size_t>(fraction * static_cast<double>(sorted.size() - 1) + 0.5);
+  return sorted[std::min(index, sorted.size() - 1)];
+}
+
+void print(const char* name, const Tally& tally) {
+  std::vector<double> sorted = tally.latencies_us;
+  std::sort(sorted.begin(), sorted.end());
+  std::printf("  %-8s calls %7llu  errors %llu  skipped %llu  latency us: p50 %7.1f  p90 %7.1f  p99 %7.1f  max %8.1f\n",
+              name, static_cast<unsigned long long>(tally.calls), static_cast<unsigned long long>(tally.errors),
+              static_cast<unsigned long long>(tally.skipped), percentile(sorted, 0.50), percentile(sorted, 0.90),
+              percentile(sorted, 0.99), sorted.empty() ? 0.0 : sorted.back());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const double seconds = argc > 1 ? std::atof(argv[1]) : 10.0;
+  const double rate = argc > 2 ? std::atof(argv[2]) : 100.0;
+  if (!(seconds > 0) || !(rate > 0)) {
+    std::fprintf(stderr, "usage: %s [seconds > 0] [requests per second per device > 0]\n", argv[0]);
+    return 2;
+  }
+  constexpr int kRomi = 8;
+  constexpr int kProxy = 4;
+  constexpr int kElcano = 4;
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+
+  asio::io_context host_io(1);
+  asio::io_context device_io(1);
+  auto host_work = asio::make_work_guard(host_io);
+  auto device_work = asio::make_work_guard(device_io);
+
+  std::vector<std::shared_ptr<FakeDevice>> devices;
+  std::vector<std::shared_ptr<ByteStream>> host_ends;
+  auto connect = [&](auto make_device) {
+    auto [host_end, device_end] = InMemoryStream::make_pair(host_io.get_executor(), device_io.get_executor());
+    std::shared_ptr<FakeDevice> device = make_device(std::shared_ptr<ByteStream>(device_end));
+    device->start();
+    devices.push_back(device);
+    host_ends.push_back(host_end);
+    return std::shared_ptr<ByteStream>(host_end);
+  };
+
+  std::vector<std::unique_ptr<romi::Client>> romi_clients;
+  std::vector<std::unique_ptr<proxy::Client>> proxy_clients;
+  std::vector<std::unique_ptr<elcano::RingClient>> elcano_clients;
+  for (int i = 0; i < kRomi; ++i) {
+    romi_clients.push_back(std::make_unique<romi::Client>(
+        connect([](std::shared_ptr<ByteStream> end) { return std::make_shared<RomiDevice>(std::move(end)); })));
+  }
+  for (int i = 0; i < kProxy; ++i) {
+    proxy_clients.push_back(std::make_unique<proxy::Client>(
+        connect([](std::shared_ptr<ByteStream> end) { return std::make_shared<ProxyDevice>(std::move(end)); })));
+  }
+  for (int i = 0; i < kElcano; ++i) {
+    elcano_clients.push_back(std::make_unique<elcano::RingClient>(
+        connect([](std::shared_ptr<ByteStream> end) { return std::make_shared<ElcanoRing>(std::move(end)); })));
+  }
+
+  Tally romi_tally;
+  Tally proxy_tally;
+  Tally elcano_tally;
+  std::vector<std::unique_ptr<Caller>> callers;
+  for (auto& client : romi_clients) {
+    callers.push_back(std::make_unique<Caller>(host_io, period, [c = client.get()](std::function<void(bool)> done) {
+      c->async_call("e", [done = std::move(done)](romi::error_code error, romi::RomiResponse response) {
+        done(!error && response.ok() && response.values.size() == 3);
+      });
+    }, romi_tally));
+  }
+  for (auto& client : proxy_clients) {
+    callers.push_back(std::make_unique<Caller>(host_io, period, [c = client.get()](std::function<void(bool)> done) {
+      c->servo(9).async_set(90, [done = std::move(done)](proxy::error_code error, proxy::SendResult result) {
+        done(!error && result.acked);
+      });
+    }, proxy_tally));
+  }
+  std::int32_t goal_number = 0;
+  for (auto& client : elcano_clients) {
+    callers.push_back(std::make_unique<Caller>(host_io, period, [c = client.get(), &goal_number](std::function<void(bool)> done) {
+      elcano::Message goal;
+      goal.type = elcano::Type::goal;
+      goal.number = ++goal_number % 1000;
+      goal.bearing = 90;
+      goal.east = 100;
+      goal.north = 200;
+      c->async_request(goal, elcano::Type::segment,
+                       [done = std::move(done), number = goal.number](elcano::error_code error, elcano::Message reply) {
+                         done(!error && reply.number == number);
+                       });
+    }, elcano_tally));
+  }
+
+  std::thread device_thread([&] { device_io.run(); });
+  std::chrono::nanoseconds device_cpu{0};
+  std::promise<std::chrono::nanoseconds> host_cpu;
+  ThreadUsage usage_at_start;
+  ThreadUsage host_usage;
+
+  // A warm-up second (sessions open, the proxy handshake, first allocations), then the measured run.
+  const Clock::time_point start = Clock::now() + std::chrono::seconds(1);
+  const auto duration = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  std::chrono::nanoseconds cpu_at_start{0};
+  asio::steady_timer begin(host_io);
+  begin.expires_at(start);
+  begin.async_wait([&](error_code) {
+    cpu_at_start = thread_cpu();
+    usage_at_start = ThreadUsage::now();
+    for (std::size_t i = 0; i < callers.size(); ++i) {
+      callers[i]->run(start + period * static_cast<int>(i) / static_cast<int>(callers.size()), start + duration);
+    }
+  });
+  asio::steady_timer finish(host_io);
+  finish.expires_at(start + duration + std::chrono::seconds(3));  // the last calls complete
+  finish.async_wait([&](error_code) {
+    host_usage = ThreadUsage::now() - usage_at_start;
+    host_cpu.set_value(thread_cpu() - cpu_at_start);
+    for (auto& c : romi_clients) c->close();
+    for (auto& c : proxy_clients) c->close();
+    for (auto& c : elcano_clients) c->close();
+    for (auto& d : devices) d->close();
+    asio::post(device_io, [&] { device_cpu = thread_cpu(); });
+    host_work.reset();
+    device_work.reset();
+  });
+  std::thread host_thread([&] { host_io.run(); });
+  const std::chrono::nanoseconds host = host_cpu.get_future().get();
+  host_thread.join();
+  device_thread.join();
+
+  const std::uint64_t calls = romi_tally.calls + proxy_tally.calls + elcano_tally.calls;
+  Tally all;
+  for (const Tally* tally : {&romi_tally, &proxy_tally, &elcano_tally}) {
+    all.latencies_us.insert(all.latencies_us.end(), tally->latencies_us.begin(), tally->latencies_us.end());
+    all.calls += tally->calls;
+    all.errors += tally->errors;
+    all.skipped += tally->skipped;
+  }
+  std::printf("fleet: 16 devices (8 romi, 4 proxy, 4 elcano) at %.0f requests/s each for %.1f s, one host thread\n",
+              rate, seconds);
+  std::printf("  host thread CPU: %.1f ms for %llu calls = %.2f us per call (%.1f %% of one core)\n",
+              static_cast<double>(host.count()) / 1e6, static_cast<unsigned long long>(calls),
+              calls ? static_cast<double>(host.count()) / 1e3 / static_cast<double>(calls) : 0.0,
+              100.0 * static_cast<double>(host.count()) / 1e9 / (seconds + 3));
+  const double per_call = calls ? 1.0 / static_cast<double>(calls) : 0.0;
+  std::printf("  per call (getrusage): user %.2f us, system %.2f us, %.2f voluntary + %.2f involuntary context switches\n",
+              host_usage.user_us * per_call, host_usage.system_us * per_call,
+              static_cast<double>(host_usage.voluntary_switches) * per_call,
+              static_cast<double>(host_usage.involuntary_switches) * per_call);
+  std::printf("  device thread CPU (fake devices, whole run): %.1f ms\n", static_cast<double>(device_cpu.count()) / 1e6);
+  print("romi", romi_tally);
+  print("proxy", proxy_tally);
+  print("elcano", elcano_tally);
+  print("all", all);
+  return all.errors == 0 && all.calls > 0 ? 0 : 1;
+}
