@@ -151,6 +151,55 @@ TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {
   client.close();
 }
 
+// A board advanced by its own thread at a third of real time or less (5 ms of simulation, then 10 ms of
+// sleep): what a loaded machine does to a board paced in real time, made reproducible.
+class SlowBoard {
+ public:
+  explicit SlowBoard(VirtualUnoOptions options) : board_(std::move(options)) {
+    const auto give_up = std::chrono::steady_clock::now() + 20s;  // wall time: only against a hang
+    while (!board_.uart().rx_enabled && std::chrono::steady_clock::now() < give_up) board_.run_for(1ms);
+    thread_ = std::thread([this] {
+      while (running_) {
+        board_.run_for(5ms);
+        std::this_thread::sleep_for(10ms);
+      }
+    });
+  }
+  ~SlowBoard() {
+    running_ = false;
+    thread_.join();
+  }
+  transports::VirtualUno& board() { return board_; }
+
+ private:
+  transports::VirtualUno board_;
+  std::atomic<bool> running_{true};
+  std::thread thread_;
+};
+
+// The test above on a board slower than the wall clock, as under load: with the host's deadlines on the
+// steady clock the second call's 2 s budget ended while the device was still in its 1.5 s of simulated
+// busy wait (client_timeout); on the board's clock the windows measure the device's seconds.
+TEST(RomiInterop, LateAnswerOnABoardSlowerThanRealTimeStillGoesToTheStaleCounter) {
+  IoThread io;
+  SlowBoard slow(romi_test_board(Pacing::fast));  // pacing unused: the test's thread advances it
+  auto stream = VirtualUnoStream::attach(io.executor(), slow.board());
+  Options options;
+  options.clock = transports::VirtualUnoClock::create(slow.board());
+  Client client(stream, options);
+  error_code error;
+  const auto started = slow.board().simulated_time();
+  const RomiResponse late = client.call("w[1500]", error);
+  EXPECT_EQ(error, make_error_code(Error::client_timeout)) << error.message();
+  EXPECT_EQ(late.code, -25);
+  EXPECT_LT(slow.board().simulated_time() - started, 1500ms);  // the device is still busy
+  const RomiResponse own = client.call("s[20,22]", error);
+  ASSERT_FALSE(error) << error.message();
+  EXPECT_EQ(own.values, json::parse("[0,42]"));
+  EXPECT_GE(client.counters().link.stale, 1u);
+  client.close();
+}
+
 TEST(RomiInterop, LogFloodBetweenRequestAndAnswer) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::fast));
