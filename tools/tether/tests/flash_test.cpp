@@ -157,7 +157,7 @@ TEST(TetherFlash, PortBusy) {
 // starts the sketch at once (dropping the byte), and a node skips the tail of a message whose head it
 // missed without a word (docs/elcano.md), so only whole requests are answered; a re-sent drive message is
 // answered again, harmlessly. The port stays open throughout, so it resets the board only once.
-std::string exchange(const std::string& port, const std::string& request) {
+std::string answer_after_reset(const std::string& port, const std::string& request) {
   const int fd = ::open(port.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
   if (fd < 0) return "(cannot open " + port + ")";
   ::tcflush(fd, TCIFLUSH);  // what an earlier client left unread came before this reset
@@ -189,13 +189,13 @@ TEST(TetherFlash, ElcanoNodeConfigurationFromJson) {
   SimBoard board(std::vector<std::string>{"--bootloader", "optiboot"});
   Outcome flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "elcano-node"});
   ASSERT_EQ(flash.status, 0) << flash.err;
-  EXPECT_EQ(exchange(board.pty(), "D{s 50}{a 25}\n"), "D{s50}{a25}\n");  // forwarded (whitespace-stripped)
+  EXPECT_EQ(answer_after_reset(board.pty(), "D{s 50}{a 25}\n"), "D{s50}{a25}\n");  // forwarded (whitespace-stripped)
 
   const auto node = temp_file("node.json");
   std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["report_drive_as_sensor"], "node_number": 7})";
   flash = run_tether({"flash", "--port", board.pty(), "--reopen", "4", "elcano-node", "--eeprom", node.string()});
   ASSERT_EQ(flash.status, 0) << flash.err;
-  EXPECT_EQ(exchange(board.pty(), "D{s 50}{a 25}\n"), "S{s 50}{a 25}{b 0}{p 0,0}\n");
+  EXPECT_EQ(answer_after_reset(board.pty(), "D{s 50}{a 25}\n"), "S{s 50}{a 25}{b 0}{p 0,0}\n");
 
   // A bad file is refused, naming the key, before anything is sent.
   std::ofstream(node) << R"({"capture": ["drive"], "behaviours": ["fly"]})";
