@@ -26,6 +26,8 @@
 #include "tether/transports/io_thread.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/transports/transport_error.hpp"
+#include "tether/transports/virtual_uno_clock.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
 namespace tether::romi {
@@ -43,6 +45,13 @@ VirtualUnoOptions romi_test_board(Pacing pacing) {
   options.firmware = TETHER_FIRMWARE_DIR "/romi-test.elf";
   options.pacing = pacing;
   options.seed = tether::testing::random_seed();
+  return options;
+}
+
+// A client's options with its deadlines on the board's simulated time: a board paced in real time falls
+// behind the wall clock on a loaded machine, and the host's windows must measure the firmware's seconds.
+Options on_board_time(const std::shared_ptr<VirtualUnoStream>& stream, Options options = Options()) {
+  options.clock = transports::VirtualUnoClock::create(stream);
   return options;
 }
 
@@ -127,15 +136,64 @@ TEST(RomiInterop, RoverImageDrivesItsServosAndReadsItsSensors) {
 }
 
 TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {
-  // Real-time pacing: the firmware's 1.5 s busy wait and the host's 1 s attempt window share one clock.
+  // The firmware's 1.5 s busy wait and the host's 1 s attempt window share one clock: the board's.
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
-  Client client(stream);
+  Client client(stream, on_board_time(stream));
   error_code error;
   const RomiResponse late = client.call("w[1500]", error);
   EXPECT_EQ(error, make_error_code(Error::client_timeout)) << error.message();
   EXPECT_EQ(late.code, -25);
   const RomiResponse own = client.call("s[20,22]", error);  // sent while the device still waits
+  ASSERT_FALSE(error) << error.message();
+  EXPECT_EQ(own.values, json::parse("[0,42]"));
+  EXPECT_GE(client.counters().link.stale, 1u);
+  client.close();
+}
+
+// A board advanced by its own thread at a third of real time or less (5 ms of simulation, then 10 ms of
+// sleep): what a loaded machine does to a board paced in real time, made reproducible.
+class SlowBoard {
+ public:
+  explicit SlowBoard(VirtualUnoOptions options) : board_(std::move(options)) {
+    const auto give_up = std::chrono::steady_clock::now() + 20s;  // wall time: only against a hang
+    while (!board_.uart().rx_enabled && std::chrono::steady_clock::now() < give_up) board_.run_for(1ms);
+    thread_ = std::thread([this] {
+      while (running_) {
+        board_.run_for(5ms);
+        std::this_thread::sleep_for(10ms);
+      }
+    });
+  }
+  ~SlowBoard() {
+    running_ = false;
+    thread_.join();
+  }
+  transports::VirtualUno& board() { return board_; }
+
+ private:
+  transports::VirtualUno board_;
+  std::atomic<bool> running_{true};
+  std::thread thread_;
+};
+
+// The test above on a board slower than the wall clock, as under load: with the host's deadlines on the
+// steady clock the second call's 2 s budget ended while the device was still in its 1.5 s of simulated
+// busy wait (client_timeout); on the board's clock the windows measure the device's seconds.
+TEST(RomiInterop, LateAnswerOnABoardSlowerThanRealTimeStillGoesToTheStaleCounter) {
+  IoThread io;
+  SlowBoard slow(romi_test_board(Pacing::fast));  // pacing unused: the test's thread advances it
+  auto stream = VirtualUnoStream::attach(io.executor(), slow.board());
+  Options options;
+  options.clock = transports::VirtualUnoClock::create(slow.board());
+  Client client(stream, options);
+  error_code error;
+  const auto started = slow.board().simulated_time();
+  const RomiResponse late = client.call("w[1500]", error);
+  EXPECT_EQ(error, make_error_code(Error::client_timeout)) << error.message();
+  EXPECT_EQ(late.code, -25);
+  EXPECT_LT(slow.board().simulated_time() - started, 1500ms);  // the device is still busy
+  const RomiResponse own = client.call("s[20,22]", error);
   ASSERT_FALSE(error) << error.message();
   EXPECT_EQ(own.values, json::parse("[0,42]"));
   EXPECT_GE(client.counters().link.stale, 1u);
@@ -164,17 +222,17 @@ TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinI
   noise.drop_rate = 2e-3;
   stream->board().set_faults(transports::Direction::to_mcu, noise);
   stream->board().set_faults(transports::Direction::from_mcu, noise);
-  Client client(stream);
+  Client client(stream, on_board_time(stream));
   auto random = tether::testing::seeded_generator(404);
   int answered = 0;
   int failed = 0;
   for (int i = 0; i < 120; ++i) {
     const int a = static_cast<int>(random() % 2000);
     const int b = static_cast<int>(random() % 2000);
-    const auto started = std::chrono::steady_clock::now();
+    const auto started = stream->board().simulated_time();  // the budget's clock
     error_code error;
     const RomiResponse response = client.call(Command('s', {a, b}), error);
-    const auto took = std::chrono::steady_clock::now() - started;
+    const auto took = stream->board().simulated_time() - started;
     EXPECT_LT(took, 2s + 500ms) << "call " << i << " exceeded its 2 s budget";
     if (error) {
       ++failed;  // a clear failure (timeout, damaged every time) is allowed; a wrong answer is not
@@ -265,12 +323,13 @@ struct FaultedCall {
 
 FaultedCall call_through_fault(FaultyWire::Fault fault, const Options& options = Options()) {
   IoThread io;
-  // Real time: the firmware's reply cache lives for the host's 2 s call budget in the device's time, so
-  // the re-send must come within it in simulated time too (fast pacing runs seconds ahead in a few ms).
+  // The firmware's reply cache lives for the host's 2 s call budget in the device's time, so the re-send
+  // must come within it in simulated time too: real-time pacing, and the client's deadlines on the board's
+  // clock (fast pacing would run seconds ahead in a few ms of the host's attempt window).
   auto board = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
   auto [client_end, wire_end] = transports::InMemoryStream::make_pair(io.executor());
   FaultyWire wire(wire_end, board);
-  Client client(client_end, options);
+  Client client(client_end, on_board_time(board, options));
   LogRecorder logs;
   client.on_event(logs.handler());
   FaultedCall result;
@@ -429,9 +488,15 @@ TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) 
   Decoder<kHostDecoderCapacity> decoder(counters);
   std::vector<uint8_t> buffer(64);
   std::string payload;
+  // Wall time only against a hang: a loaded machine runs the board slower than real time.
+  const auto give_up = std::chrono::steady_clock::now() + 60s;
   while (payload.empty()) {
     boost::system::error_code error;
-    const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 5s, error);
+    const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 1s, error);
+    if (error == transports::make_error_code(transports::TransportError::timed_out)) {
+      ASSERT_LT(std::chrono::steady_clock::now(), give_up) << "no answer to the half request";
+      continue;
+    }
     ASSERT_FALSE(error) << error.message();
     for (std::size_t i = 0; i < got; ++i) {
       if (decoder.feed(buffer[i]) == DecodeStatus::frame && !decoder.frame().log) {
@@ -445,7 +510,7 @@ TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) 
   EXPECT_GE(waited, 1s);
   EXPECT_LT(waited, 1s + 500ms);
   // The device is ready for the next request at once.
-  Client client(stream);
+  Client client(stream, on_board_time(stream));
   EXPECT_EQ(client.call("s[1,2]").values, json::parse("[0,3]"));
   client.close();
 }

@@ -1,7 +1,9 @@
 /// @file link_clock.hpp
 /// The time source of a `ClientLink`: a clock in the session engines' wrap-safe milliseconds and one-shot
 /// timers on it. Injectable so that client tests run on a manual clock (`transports::testing::ManualClock`)
-/// and assert on simulated time; programs use `steady_link_clock()`, the default of every client.
+/// and assert on simulated time; programs use `steady_link_clock()`, the default of every client. Tests and
+/// simulations whose host deadlines must share a virtual board's clock use `VirtualUnoClock`
+/// (virtual_uno_clock.hpp, Tether::simulator).
 #pragma once
 
 #include <boost/asio/any_io_executor.hpp>
