@@ -215,6 +215,41 @@ void summarise_saturation(BenchReport& report) {
   }
 }
 
+// The saturation ramp of one device at one bit error rate (BenchOptions::saturation_ramp): doubling
+// open-loop rates until one is not sustained; the result replaces the sweep's saturation figures.
+void ramp_saturation(const BenchOptions& options, MeasuredDevice& measured, double ber, DeviceSummary& summary) {
+  DeviceSummary::Saturation saturation;
+  saturation.bit_error_rate = ber;
+  double rate = options.ramp_start_hz;
+  for (unsigned step = 0; step < options.ramp_steps; ++step, rate *= 2) {
+    const PointResult point = run_point(options, measured, ber, rate);
+    DeviceSummary::Saturation::RampStep ramp_step;
+    ramp_step.rate_hz = rate;
+    ramp_step.achieved_hz = point.throughput_hz();
+    ramp_step.operations = point.operations;
+    ramp_step.successes = point.successes;
+    ramp_step.latency_p99_ms = point.latency_p99_ms;
+    const bool succeeds = point.operations > 0 && point.success_share() >= kSustainedSuccess;
+    const bool keeps_up = ramp_step.achieved_hz >= kSustainedThroughput * rate;
+    ramp_step.sustained = succeeds && keeps_up;
+    saturation.ramp.push_back(ramp_step);
+    if (ramp_step.sustained) {
+      saturation.sustained_hz = rate;
+      continue;
+    }
+    saturation.breaks_down_hz = rate;
+    saturation.breaks_down_because = succeeds ? "throughput" : "success";
+    break;
+  }
+  const auto same_ber = std::find_if(summary.saturation.begin(), summary.saturation.end(),
+                                     [&](const DeviceSummary::Saturation& s) { return s.bit_error_rate == ber; });
+  if (same_ber == summary.saturation.end()) {
+    summary.saturation.push_back(std::move(saturation));
+  } else {
+    *same_ber = std::move(saturation);
+  }
+}
+
 std::string hex(const unsigned char* bytes, unsigned size) {
   std::string text;
   char pair[3];
@@ -300,6 +335,7 @@ BenchReport run_bench(const BenchOptions& options) {
   if (options.duration) report.duration_s = std::chrono::duration<double>(*options.duration).count();
   report.isolated = options.isolated;
   report.reset = options.reset;
+  report.saturation_ramp = options.saturation_ramp;
   report.bit_error_rates = options.bit_error_rates;
   report.rates = options.rates;
 
@@ -383,9 +419,35 @@ BenchReport run_bench(const BenchOptions& options) {
       for (PointResult& result : results) report.points.push_back(std::move(result));
     }
   }
+  summarise_saturation(report);
+  if (options.saturation_ramp) {
+    // Each device ramps on its own (a device that breaks down early stops while the others go on).
+    const auto ramp_device = [&](std::size_t k) {
+      for (const double ber : options.bit_error_rates) ramp_saturation(options, measured[k], ber, report.devices[k]);
+    };
+    if (options.isolated) {
+      for (std::size_t k = 0; k < measured.size(); ++k) ramp_device(k);
+    } else {
+      std::vector<std::thread> threads;
+      for (std::size_t k = 0; k < measured.size(); ++k) {
+        threads.emplace_back([&, k] {
+          try {
+            ramp_device(k);
+          } catch (...) {
+            std::lock_guard lock(mutex);
+            if (!first_exception) first_exception = std::current_exception();
+          }
+        });
+      }
+      for (std::thread& thread : threads) thread.join();
+      if (first_exception) {
+        rover.close();
+        std::rethrow_exception(first_exception);
+      }
+    }
+  }
   measured.clear();
   rover.close();
-  summarise_saturation(report);
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
   return report;
 }

@@ -153,8 +153,16 @@ json to_json(const BenchReport& report) {
     }
     json saturation = json::array();
     for (const DeviceSummary::Saturation& s : d.saturation) {
+      json ramp = json::array();
+      for (const DeviceSummary::Saturation::RampStep& step : s.ramp) {
+        ramp.push_back({{"rate_hz", step.rate_hz}, {"achieved_hz", step.achieved_hz}, {"operations", step.operations},
+                        {"successes", step.successes}, {"latency_p99_ms", step.latency_p99_ms},
+                        {"sustained", step.sustained}});
+      }
       saturation.push_back({{"bit_error_rate", s.bit_error_rate}, {"sustained_hz", optional_json(s.sustained_hz)},
-                            {"breaks_down_hz", optional_json(s.breaks_down_hz)}});
+                            {"breaks_down_hz", optional_json(s.breaks_down_hz)},
+                            {"source", s.ramp.empty() ? "sweep" : "ramp"}, {"ramp", std::move(ramp)},
+                            {"breaks_down_because", s.breaks_down_because}});
     }
     devices.push_back({{"device", d.device},
                        {"codec", d.codec},
@@ -179,7 +187,9 @@ json to_json(const BenchReport& report) {
             {"reset", report.reset},
             {"bit_error_rates", report.bit_error_rates},
             {"rates_hz", std::move(rates)},
-            {"sustained_success", kSustainedSuccess}}},
+            {"sustained_success", kSustainedSuccess},
+            {"saturation_ramp", report.saturation_ramp},
+            {"sustained_throughput", kSustainedThroughput}}},
           {"wall_seconds", report.wall_seconds},
           {"devices", std::move(devices)},
           {"points", std::move(points)}};
@@ -273,7 +283,9 @@ std::string format_table(const BenchReport& report) {
       std::snprintf(ber, sizeof ber, "%g", s.bit_error_rate);
       out << "  BER " << ber << ": sustained (>= 99 % success) "
           << (s.sustained_hz ? fixed(*s.sustained_hz, 1) + " op/s" : std::string("at no rate"))
-          << (s.breaks_down_hz ? ", breaks down at " + rate_text(s.breaks_down_hz) + " op/s" : std::string()) << '\n';
+          << (s.breaks_down_hz ? ", breaks down at " + rate_text(s.breaks_down_hz) + " op/s" : std::string())
+          << (s.breaks_down_because.empty() ? std::string() : " (" + s.breaks_down_because + ")")
+          << (s.ramp.empty() ? std::string() : " [ramp of " + std::to_string(s.ramp.size()) + " step(s)]") << '\n';
     }
   }
   return out.str();

@@ -81,7 +81,7 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
   TETHER_REQUIRE_FIRMWARE("elcano-node");
   const fs::path out = output_dir();
   const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", "8",
-                                  "--seed", "3", "--out", out.string()});
+                                  "--seed", "3", "--saturation", "--out", out.string()});
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   EXPECT_NE(run.out.find("report: " + (out / "report.html").string()), std::string::npos) << run.out;
 
@@ -99,8 +99,38 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
       EXPECT_EQ(image["sha256"].get<std::string>().size(), 64u);
       EXPECT_GT(image["flash_bytes"].get<int>(), 1000);
     }
-    EXPECT_EQ(device["saturation"].size(), 2u) << "one per BER";
+    // --saturation: a ramp per BER, 10 Hz doubling, that stops at the first step not sustained.
+    ASSERT_EQ(device["saturation"].size(), 2u) << "one per BER";
+    for (const json& saturation : device["saturation"]) {
+      EXPECT_EQ(saturation["source"], "ramp");
+      const json& ramp = saturation["ramp"];
+      ASSERT_GE(ramp.size(), 1u);
+      ASSERT_LE(ramp.size(), 7u) << "bounded";
+      json last_sustained = nullptr;
+      for (std::size_t k = 0; k < ramp.size(); ++k) {
+        const json& step = ramp[k];
+        EXPECT_EQ(step["rate_hz"].get<double>(), 10.0 * static_cast<double>(1u << k));
+        EXPECT_EQ(step["operations"], 8);
+        EXPECT_LE(step["successes"].get<int>(), 8);
+        EXPECT_EQ(step["sustained"].get<bool>(), k + 1 < ramp.size() || saturation["breaks_down_hz"].is_null())
+            << "every step before the last is sustained; the last one is unless the ramp broke down there";
+        if (step["sustained"].get<bool>()) last_sustained = step["rate_hz"];
+        // Sustained means >= 99 % success and >= 95 % of the asked rate achieved.
+        EXPECT_EQ(step["sustained"].get<bool>(),
+                  step["successes"].get<int>() == 8 && step["achieved_hz"].get<double>() >= 0.95 * step["rate_hz"].get<double>());
+      }
+      EXPECT_EQ(saturation["sustained_hz"], last_sustained);
+      if (saturation["breaks_down_hz"].is_null()) {
+        EXPECT_EQ(ramp.size(), 7u) << "a ramp that never broke down ran every step";
+        EXPECT_EQ(saturation["breaks_down_because"], "");
+      } else {
+        EXPECT_EQ(saturation["breaks_down_hz"], ramp.back()["rate_hz"]);
+        const bool all_succeeded = ramp.back()["successes"] == 8;
+        EXPECT_EQ(saturation["breaks_down_because"], all_succeeded ? "throughput" : "success");
+      }
+    }
   }
+  EXPECT_EQ(report["parameters"]["saturation_ramp"], true);
   for (const json& point : report["points"]) {
     SCOPED_TRACE(point["device"].get<std::string>() + " " + point.dump().substr(0, 120));
     EXPECT_EQ(point["operations"], 8);

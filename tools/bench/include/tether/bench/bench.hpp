@@ -36,6 +36,9 @@ namespace tether::bench {
 
 /// The success share a rate must hold to count as sustained (99 %).
 inline constexpr double kSustainedSuccess = 0.99;
+/// The share of an asked rate a ramp step must achieve to count as sustained: below it the device (or the
+/// blocking request/reply) cannot keep up, whatever its success share.
+inline constexpr double kSustainedThroughput = 0.95;
 
 /// What to run.
 struct BenchOptions {
@@ -63,6 +66,13 @@ struct BenchOptions {
   std::chrono::milliseconds power_off{100};
   /// How long the devices idle after opening to measure their background CPU (virtual boards).
   std::chrono::milliseconds idle_baseline{300};
+  /// After the sweep, per device and bit error rate: a saturation ramp (`--saturation`), open-loop rates
+  /// `ramp_start_hz`, twice that, ... at most `ramp_steps` of them, stopping at the first step that is not
+  /// sustained (< 99 % success or < 95 % of the asked rate achieved). Each step runs `iterations` (or
+  /// `duration`), like a sweep point.
+  bool saturation_ramp = false;
+  double ramp_start_hz = 10.0;  ///< The ramp's first rate.
+  unsigned ramp_steps = 7;      ///< At most this many steps (10 Hz .. 640 Hz by default).
   /// The Tether version written into the report.
   std::string tether_version;
   /// Progress after each device and point: (done, total) in device-points. May be empty.
@@ -142,6 +152,21 @@ struct DeviceSummary {
     double bit_error_rate = 0;                 ///< The noise.
     std::optional<double> sustained_hz;        ///< Highest rate with >= 99 % success.
     std::optional<double> breaks_down_hz;      ///< Lowest rate below 99 % success.
+    /// One step of the saturation ramp (BenchOptions::saturation_ramp).
+    struct RampStep {
+      double rate_hz = 0;           ///< Asked.
+      double achieved_hz = 0;       ///< Operations per second done.
+      std::uint32_t operations = 0; ///< Attempted.
+      std::uint32_t successes = 0;  ///< Confirmed with the right values.
+      double latency_p99_ms = 0;    ///< 99th percentile operation time.
+      bool sustained = false;       ///< >= 99 % success and >= 95 % of the asked rate achieved.
+    };
+    /// The ramp's steps in order (empty: no ramp). With a ramp, `sustained_hz` and `breaks_down_hz` are
+    /// the ramp's (its last sustained step, the step that was not) rather than the sweep's.
+    std::vector<RampStep> ramp;
+    /// Why the ramp's last step was not sustained: "success" (< 99 %) or "throughput" (< 95 % of the
+    /// asked rate); empty: the ramp ended sustained (the device holds the highest step).
+    std::string breaks_down_because;
   };
   std::vector<Saturation> saturation;  ///< One per swept bit error rate.
 };
@@ -155,6 +180,7 @@ struct BenchReport {
   std::optional<double> duration_s;  ///< Per device and point, instead of iterations.
   bool isolated = false;             ///< One device at a time.
   bool reset = false;                ///< Power cycles injected halfway through every point.
+  bool saturation_ramp = false;      ///< A saturation ramp ran (DeviceSummary::Saturation::ramp).
   std::vector<double> bit_error_rates;          ///< Swept.
   std::vector<std::optional<double>> rates;     ///< Swept (unset: max).
   double wall_seconds = 0;           ///< The whole run.
