@@ -43,7 +43,7 @@ const CommandText& command_text() {
       "bench",
       "usage: tether bench [--config FILE] [--devices A,B] [--sweep ber=R,...] [--sweep rate=HZ,...|max]\n"
       "                    [--iterations N | --duration S] [--seed N] [--isolated] [--reset] [--out DIR]\n"
-      "                    [--saturation] [--no-plots] [--json]\n"
+      "                    [--workload servo|sensor] [--saturation] [--no-plots] [--json]\n"
       "   or: tether bench --compare A.json B.json [--json]\n"
       "\n"
       "Measures the protocols side by side: the demo's workload (set the throttle and steering servos and get\n"
@@ -76,6 +76,12 @@ const CommandText& command_text() {
       "  --iterations N     operations per device and point (default 100)\n"
       "  --duration S       seconds per device and point instead of a count (0.1..3600)\n"
       "  --seed N           seed of the injected noise (default 1)\n"
+      "  --workload W       the operation measured (each point's `workload` in bench.json):\n"
+      "                     servo (default) the demo's: set the servos and get the confirmation; an\n"
+      "                       Elcano ring: a drive request answered by the drive node's sensor report\n"
+      "                     sensor: read a sensor value: Romi A[channel] -> [0,value] (the romi-rover\n"
+      "                       image's ADC, A0..A5); the proxy images (pins only in their state stream) and\n"
+      "                       Elcano rings (sensor reports answer drives) have none: listed as skipped\n"
       "  --isolated         one device at a time (default: all at once, as on a rover)\n"
       "  --saturation       after the sweep, per device and BER: a ramp of open-loop rates 10, 20, 40 ... 640\n"
       "                     op/s (each step --iterations or --duration long) that stops at the first step\n"
@@ -251,6 +257,16 @@ int run_bench(int argc, char** argv) {
       json = true;
     } else if (arg == "--isolated") {
       options.isolated = true;
+    } else if (arg == "--workload") {
+      const char* kind = value();
+      const std::string text = kind == nullptr ? "" : kind;
+      if (text == "servo") {
+        options.workload = bench::WorkloadKind::servo;
+      } else if (text == "sensor") {
+        options.workload = bench::WorkloadKind::sensor;
+      } else {
+        return command_text().usage_error("--workload needs servo or sensor, got '" + text + "'");
+      }
     } else if (arg == "--saturation") {
       options.saturation_ramp = true;
     } else if (arg == "--reset") {

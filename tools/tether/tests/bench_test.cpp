@@ -239,6 +239,67 @@ TEST(TetherBench, HeadlessChromiumRendersTheReportWithItsTablesAndImages) {
   EXPECT_EQ(png_size(screenshot), std::make_pair(1280u, 2400u));
 }
 
+TEST(TetherBench, SensorWorkloadReadsRomiAnalogInputsAndSkipsDevicesWithoutARead) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path out = output_dir();
+  const Outcome run = run_tether({"bench", "--workload", "sensor", "--devices", "arm,ring", "--sweep", "ber=0",
+                                  "--sweep", "rate=max", "--iterations", "6", "--no-plots", "--json", "--out",
+                                  out.string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["parameters"]["workload"], "sensor");
+  ASSERT_EQ(report["devices"].size(), 1u);
+  EXPECT_EQ(report["devices"][0]["device"], "arm");
+  EXPECT_EQ(report["devices"][0]["operation"], "call A[channel 0..5] -> [0,value 0..1023]");
+  ASSERT_EQ(report["skipped"].size(), 1u);
+  EXPECT_EQ(report["skipped"][0]["device"], "ring");
+  EXPECT_NE(report["skipped"][0]["why"].get<std::string>().find("no sensor read"), std::string::npos);
+  ASSERT_EQ(report["points"].size(), 1u);
+  const json& point = report["points"][0];
+  EXPECT_EQ(point["workload"], "sensor");
+  EXPECT_EQ(point["operations"], 6);
+  EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
+  EXPECT_EQ(point["wrong"], 0) << "every reading is [0, 0..1023] on a clean line";
+  EXPECT_GT(point["bytes_from_device"].get<int>(), 0);
+  EXPECT_EQ(point["exactly_once"]["commands"], 0) << "a read executes no command";
+
+  // Only devices without a read: nothing to measure, a clear error.
+  const Outcome none = run_tether({"bench", "--workload", "sensor", "--devices", "ring", "--sweep", "ber=0",
+                                   "--iterations", "1", "--no-plots", "--out", (out / "none").string()});
+  EXPECT_EQ(none.status, 2);
+  EXPECT_NE(none.err.find("no selected device has the sensor workload; ring: no sensor read"), std::string::npos)
+      << none.err;
+}
+
+// The hardware path: a config of serial ports, here a `tether sim` board's pty. No simulated CPU or
+// firmware figures (the bench cannot see into the board), link use from the configured baud.
+TEST(TetherBench, SerialPortConfigMeasuresThroughThePortWithLinkUseFromTheBaud) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path out = output_dir();
+  SimBoard board("romi-rover");
+  const fs::path config = out / "rover.json";
+  std::ofstream(config) << R"({"name": "bench-pty", "devices": [{"name": "arm", "codec": "romi",
+      "transport": {"serial": {"path": ")" << board.pty() << R"(", "baud": 115200, "boot_wait_ms": 0}}}]})";
+  const Outcome run = run_tether({"bench", "--config", config.string(), "--sweep", "ber=0", "--sweep", "rate=max",
+                                  "--iterations", "6", "--no-plots", "--json", "--out", (out / "run").string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["rover"], "bench-pty");
+  ASSERT_EQ(report["devices"].size(), 1u);
+  EXPECT_TRUE(report["devices"][0]["firmware"].empty()) << "hardware: no image to describe";
+  ASSERT_EQ(report["points"].size(), 1u);
+  const json& point = report["points"][0];
+  EXPECT_EQ(point["operations"], 6);
+  EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
+  EXPECT_GT(point["successes"].get<int>(), 0) << point["first_error"];
+  EXPECT_TRUE(point["cpu_cycles_per_op"].is_null()) << "no simulated CPU through a port";
+  EXPECT_TRUE(point["exactly_once"].is_null());
+  // 8N1 at 115200 baud: a byte takes 10 / 115200 s.
+  const double expected = point["bytes_to_device"].get<double>() * 10.0 / 115200.0 / point["seconds"].get<double>();
+  EXPECT_NEAR(point["utilisation_to_device"].get<double>(), expected, 1e-9 + 1e-6 * expected);
+  EXPECT_GT(point["utilisation_from_device"].get<double>(), 0.0);
+}
+
 TEST(TetherBench, BadInputGetsAClearError) {
   const fs::path out = output_dir();
   struct Case {
@@ -261,6 +322,7 @@ TEST(TetherBench, BadInputGetsAClearError) {
       {{"bench", "--iterations", "0"}, "--iterations needs a number 1..100000"},
       {{"bench", "--iterations", "5", "--duration", "1"}, "--iterations and --duration exclude each other"},
       {{"bench", "--payload", "large"}, "unknown option --payload"},
+      {{"bench", "--workload", "temperature"}, "--workload needs servo or sensor, got 'temperature'"},
       {{"bench", "--out", not_a_dir + "/sub"}, "--out " + not_a_dir + "/sub: "},
       {{"bench", "--compare", malformed, malformed}, malformed + ": invalid JSON"},
       {{"bench", "--compare", not_a_dir + ".missing", malformed}, not_a_dir + ".missing: No such file or directory"},

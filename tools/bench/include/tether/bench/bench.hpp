@@ -40,8 +40,19 @@ inline constexpr double kSustainedSuccess = 0.99;
 /// blocking request/reply) cannot keep up, whatever its success share.
 inline constexpr double kSustainedThroughput = 0.95;
 
+/// Which operation a run measures.
+enum class WorkloadKind {
+  servo,   ///< Set the servos and get the confirmation (the demo's; a ring: a request round the ring).
+  sensor,  ///< Read a sensor value (demo::make_sensor_workload: the devices whose images answer one).
+};
+/// `servo` / `sensor`.
+const char* to_string(WorkloadKind kind);
+
 /// What to run.
 struct BenchOptions {
+  /// The operation measured; devices without it (sensor: proxy, elcano) are listed in
+  /// BenchReport::skipped and not measured.
+  WorkloadKind workload = WorkloadKind::servo;
   /// The rover; default (unset): the embedded virtual rover (devices::default_virtual_rover_config()).
   std::optional<devices::RoverConfig> config;
   /// Firmware folder for the embedded config's image names.
@@ -90,6 +101,7 @@ struct FirmwareImage {
 /// One device at one sweep point.
 struct PointResult {
   std::string device;               ///< Name in the config.
+  WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
   double bit_error_rate = 0;        ///< The point's noise.
   std::optional<double> rate_hz;    ///< The point's rate; unset: max (closed loop).
   std::uint32_t operations = 0;     ///< Operations attempted.
@@ -105,7 +117,8 @@ struct PointResult {
   std::vector<std::pair<double, double>> latency_cdf;
   std::uint64_t bytes_to_device = 0;    ///< Bytes the host wrote.
   std::uint64_t bytes_from_device = 0;  ///< Bytes the host read.
-  /// Share of the line's capacity used, each way (virtual boards: their UART's byte time). Unset: unknown.
+  /// Share of the line's capacity used, each way (virtual boards: their UART's byte time; a serial port:
+  /// its configured baud, 10 bits a byte for 8N1). Unset: unknown (TCP bridges).
   std::optional<double> utilisation_to_device;
   std::optional<double> utilisation_from_device;  ///< See `utilisation_to_device`.
   std::uint64_t bits_flipped = 0;   ///< Noise injected, both directions.
@@ -181,11 +194,18 @@ struct BenchReport {
   bool isolated = false;             ///< One device at a time.
   bool reset = false;                ///< Power cycles injected halfway through every point.
   bool saturation_ramp = false;      ///< A saturation ramp ran (DeviceSummary::Saturation::ramp).
+  WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
   std::vector<double> bit_error_rates;          ///< Swept.
   std::vector<std::optional<double>> rates;     ///< Swept (unset: max).
   double wall_seconds = 0;           ///< The whole run.
   std::vector<DeviceSummary> devices;  ///< In config order.
   std::vector<PointResult> points;     ///< Per point (BER-major, then rate), each measured device.
+  /// A device not measured because it has no such workload.
+  struct Skipped {
+    std::string device;  ///< Name in the config.
+    std::string why;     ///< What its images lack.
+  };
+  std::vector<Skipped> skipped;  ///< Selected devices the workload does not apply to.
 };
 
 /// Opens the rover, runs every point, closes. Throws devices::ConfigError when the rover does not open,
