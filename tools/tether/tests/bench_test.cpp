@@ -77,17 +77,21 @@ std::pair<std::optional<int>, std::string> run_chromium(const std::vector<std::s
   return {process.wait(std::chrono::seconds(60)), out};
 }
 
+// Operations per device and point of the short runs: few, so that the bench tests stay short on a loaded
+// 2-core machine; every figure's check holds for any count.
+constexpr int kShortRun = 5;
+
 TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself) {
   TETHER_REQUIRE_FIRMWARE("elcano-node");
   const fs::path out = output_dir();
-  const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", "8",
+  const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", std::to_string(kShortRun),
                                   "--seed", "3", "--saturation", "--out", out.string()});
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   EXPECT_NE(run.out.find("report: " + (out / "report.html").string()), std::string::npos) << run.out;
 
   const json report = json::parse(read_text(out / "bench.json"));
   EXPECT_EQ(report["parameters"]["seed"], 3);
-  EXPECT_EQ(report["parameters"]["iterations"], 8);
+  EXPECT_EQ(report["parameters"]["iterations"], kShortRun);
   EXPECT_EQ(report["parameters"]["rates_hz"], json::parse(R"([100.0, "max"])"));
   EXPECT_EQ(report["tether_version"], TETHER_VERSION);
   ASSERT_EQ(report["devices"].size(), 5u);
@@ -110,14 +114,14 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
       for (std::size_t k = 0; k < ramp.size(); ++k) {
         const json& step = ramp[k];
         EXPECT_EQ(step["rate_hz"].get<double>(), 10.0 * static_cast<double>(1u << k));
-        EXPECT_EQ(step["operations"], 8);
-        EXPECT_LE(step["successes"].get<int>(), 8);
+        EXPECT_EQ(step["operations"], kShortRun);
+        EXPECT_LE(step["successes"].get<int>(), kShortRun);
         EXPECT_EQ(step["sustained"].get<bool>(), k + 1 < ramp.size() || saturation["breaks_down_hz"].is_null())
             << "every step before the last is sustained; the last one is unless the ramp broke down there";
         if (step["sustained"].get<bool>()) last_sustained = step["rate_hz"];
         // Sustained means >= 99 % success and >= 95 % of the asked rate achieved.
         EXPECT_EQ(step["sustained"].get<bool>(),
-                  step["successes"].get<int>() == 8 && step["achieved_hz"].get<double>() >= 0.95 * step["rate_hz"].get<double>());
+                  step["successes"].get<int>() == kShortRun && step["achieved_hz"].get<double>() >= 0.95 * step["rate_hz"].get<double>());
       }
       EXPECT_EQ(saturation["sustained_hz"], last_sustained);
       if (saturation["breaks_down_hz"].is_null()) {
@@ -125,7 +129,7 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
         EXPECT_EQ(saturation["breaks_down_because"], "");
       } else {
         EXPECT_EQ(saturation["breaks_down_hz"], ramp.back()["rate_hz"]);
-        const bool all_succeeded = ramp.back()["successes"] == 8;
+        const bool all_succeeded = ramp.back()["successes"] == kShortRun;
         EXPECT_EQ(saturation["breaks_down_because"], all_succeeded ? "throughput" : "success");
       }
     }
@@ -133,8 +137,8 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
   EXPECT_EQ(report["parameters"]["saturation_ramp"], true);
   for (const json& point : report["points"]) {
     SCOPED_TRACE(point["device"].get<std::string>() + " " + point.dump().substr(0, 120));
-    EXPECT_EQ(point["operations"], 8);
-    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 8);
+    EXPECT_EQ(point["operations"], kShortRun);
+    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), kShortRun);
     EXPECT_GT(point["bytes_to_device"].get<int>(), 0);
     // Every confirmed operation brings bytes back; proxy-compat's only come with its 50 ms state stream.
     if (point["device"] != "legacy") {
@@ -145,14 +149,14 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
     // The demo images carry the execution witness: commands issued and confirmed, what ran.
     const json& witness = point["exactly_once"];
     ASSERT_TRUE(witness.is_object()) << "the virtual rover's images record what they execute";
-    EXPECT_GE(witness["commands"].get<int>(), 8) << "at least one device command per operation";
+    EXPECT_GE(witness["commands"].get<int>(), kShortRun) << "at least one device command per operation";
     EXPECT_LE(witness["confirmed"].get<int>(), witness["commands"].get<int>());
     const json& latency = point["latency_ms"];
     EXPECT_LE(latency["p50"].get<double>(), latency["p90"].get<double>());
     EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
     EXPECT_LE(latency["p99"].get<double>(), latency["max"].get<double>());
     const json& cdf = point["latency_cdf"];
-    ASSERT_EQ(cdf.size(), 8u) << "every sample when there are fewer than 50";
+    ASSERT_EQ(cdf.size(), static_cast<std::size_t>(kShortRun)) << "every sample when there are fewer than 50";
     for (std::size_t k = 1; k < cdf.size(); ++k) {
       EXPECT_LE(cdf[k - 1][0].get<double>(), cdf[k][0].get<double>()) << "CDF latencies ascend";
       EXPECT_LT(cdf[k - 1][1].get<double>(), cdf[k][1].get<double>()) << "CDF shares ascend";
