@@ -244,6 +244,9 @@ def write_html(report, out_dir):
          else f"{parameters['iterations']} operations"),
         ("devices", "one at a time" if parameters["isolated"] else "all at once"),
         ("resets", "a power cycle halfway through every point" if parameters["reset"] else "none"),
+        ("workload", parameters.get("workload", "servo")),
+        ("saturation", "a ramp per device and BER" if parameters.get("saturation_ramp") else "from the swept rates"),
+        ("skipped", "; ".join(f"{d['device']}: {d['why']}" for d in report.get("skipped", [])) or "none"),
         ("seed", parameters["seed"]),
         ("wall time", f"{report['wall_seconds']:.1f} s"),
     ]
@@ -266,6 +269,7 @@ def write_html(report, out_dir):
                              for f in d["firmware"]) or "-"
         saturation = "; ".join(f"BER {s['bit_error_rate']:g}: {number(s['sustained_hz'])} op/s"
                                + (f", breaks down at {number(s['breaks_down_hz'])}" if s["breaks_down_hz"] else "")
+                               + (f" ({s['breaks_down_because']})" if s.get("breaks_down_because") else "")
                                for s in d["saturation"]) or "-"
         device_rows.append((d["device"], d["codec"], d["operation"], firmware, saturation))
     verdict_rows = verdicts(report)

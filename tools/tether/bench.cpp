@@ -43,7 +43,7 @@ const CommandText& command_text() {
       "bench",
       "usage: tether bench [--config FILE] [--devices A,B] [--sweep ber=R,...] [--sweep rate=HZ,...|max]\n"
       "                    [--iterations N | --duration S] [--seed N] [--isolated] [--reset] [--out DIR]\n"
-      "                    [--no-plots] [--json]\n"
+      "                    [--workload servo|sensor] [--saturation] [--no-plots] [--json]\n"
       "   or: tether bench --compare A.json B.json [--json]\n"
       "\n"
       "Measures the protocols side by side: the demo's workload (set the throttle and steering servos and get\n"
@@ -57,7 +57,8 @@ const CommandText& command_text() {
       "(cycles the simulated Unos executed, sleep left out; and the same less their background while idle,\n"
       "measured for 0.3 s after opening) and the firmware's size and SHA-256. Per device and bit error\n"
       "rate: the highest rate sustained with >= 99 % success and the lowest swept rate where it breaks down\n"
-      "(`rate=max` runs the closed loop: its throughput is the saturation rate).\n"
+"(`rate=max` runs the closed loop: its throughput is the saturation rate); with --saturation, found by\n"
+      "a ramp instead.\n"
       "\n"
       "Outputs in --out DIR: bench.json (every figure, the parameters, seed, firmware hashes, the Tether\n"
       "version), bench.csv (one row per device and point), the plots latency_cdf.png, success_vs_ber.png,\n"
@@ -75,7 +76,17 @@ const CommandText& command_text() {
       "  --iterations N     operations per device and point (default 100)\n"
       "  --duration S       seconds per device and point instead of a count (0.1..3600)\n"
       "  --seed N           seed of the injected noise (default 1)\n"
+      "  --workload W       the operation measured (each point's `workload` in bench.json):\n"
+      "                     servo (default) the demo's: set the servos and get the confirmation; an\n"
+      "                       Elcano ring: a drive request answered by the drive node's sensor report\n"
+      "                     sensor: read a sensor value: Romi A[channel] -> [0,value] (the romi-rover\n"
+      "                       image's ADC, A0..A5); the proxy images (pins only in their state stream) and\n"
+      "                       Elcano rings (sensor reports answer drives) have none: listed as skipped\n"
       "  --isolated         one device at a time (default: all at once, as on a rover)\n"
+      "  --saturation       after the sweep, per device and BER: a ramp of open-loop rates 10, 20, 40 ... 640\n"
+      "                     op/s (each step --iterations or --duration long) that stops at the first step\n"
+      "                     not sustained (< 99 % success, or < 95 % of the rate achieved): the highest\n"
+      "                     sustained rate, where it breaks down and why, every step in bench.json\n"
       "  --reset            power-cycle each virtual device halfway through every point\n"
       "  --out DIR          where the outputs go (created; default ./tether-bench)\n"
       "  --no-plots         write bench.json and bench.csv only\n"
@@ -246,6 +257,18 @@ int run_bench(int argc, char** argv) {
       json = true;
     } else if (arg == "--isolated") {
       options.isolated = true;
+    } else if (arg == "--workload") {
+      const char* kind = value();
+      const std::string text = kind == nullptr ? "" : kind;
+      if (text == "servo") {
+        options.workload = bench::WorkloadKind::servo;
+      } else if (text == "sensor") {
+        options.workload = bench::WorkloadKind::sensor;
+      } else {
+        return command_text().usage_error("--workload needs servo or sensor, got '" + text + "'");
+      }
+    } else if (arg == "--saturation") {
+      options.saturation_ramp = true;
     } else if (arg == "--reset") {
       options.reset = true;
     } else if (arg == "--no-plots") {

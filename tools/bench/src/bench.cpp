@@ -64,6 +64,7 @@ struct MeasuredDevice {
   unsigned next_index = 0;  // operation values keep changing across points
   std::optional<double> idle_share;  // awake share of the boards' time with no operation running
   std::optional<demo::ExecutionWitness> witness;  // the executing board's (a ring's last), when its image has one
+  std::optional<double> serial_byte_seconds;  // a serial port's configured byte time (8N1: 10 bits per byte)
 };
 
 std::uint64_t awake_cycles(const devices::RoverDevice& device) {
@@ -79,11 +80,14 @@ std::uint64_t all_cycles(const devices::RoverDevice& device) {
 }
 
 // Runs one device at one point.
-PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, double ber, std::optional<double> rate) {
+// `witness`: read the execution witness (a ramp step, which reports no exactly-once figures, saves its wait).
+PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, double ber, std::optional<double> rate,
+                      bool witness = true) {
   const devices::RoverDevice& device = *measured.device;
   demo::Workload& workload = *measured.workload;
   PointResult result;
   result.device = device.name;
+  result.workload = options.workload;
   result.bit_error_rate = ber;
   result.rate_hz = rate;
 
@@ -139,7 +143,7 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
   }
   result.seconds = std::chrono::duration<double>(Clock::now() - started).count();
   if (measured.link) measured.link->set_faults({}, {});
-  if (measured.witness) {
+  if (measured.witness && witness) {
     // Re-sends still in flight land within a call budget; as the demo, wait a little before the last read.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     ledger.add(measured.witness->read());
@@ -160,6 +164,11 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
     result.bytes_to_device = to.bytes_in - to_before.bytes_in;
     result.bytes_from_device = from.bytes_in - from_before.bytes_in;
     result.bits_flipped = (to.bits_flipped - to_before.bits_flipped) + (from.bits_flipped - from_before.bits_flipped);
+  }
+  if (measured.serial_byte_seconds && result.seconds > 0) {
+    result.utilisation_to_device = static_cast<double>(result.bytes_to_device) * *measured.serial_byte_seconds / result.seconds;
+    result.utilisation_from_device =
+        static_cast<double>(result.bytes_from_device) * *measured.serial_byte_seconds / result.seconds;
   }
   if (!device.boards.empty()) {
     const std::uint64_t awake = awake_cycles(device) - awake_before;
@@ -215,6 +224,41 @@ void summarise_saturation(BenchReport& report) {
   }
 }
 
+// The saturation ramp of one device at one bit error rate (BenchOptions::saturation_ramp): doubling
+// open-loop rates until one is not sustained; the result replaces the sweep's saturation figures.
+void ramp_saturation(const BenchOptions& options, MeasuredDevice& measured, double ber, DeviceSummary& summary) {
+  DeviceSummary::Saturation saturation;
+  saturation.bit_error_rate = ber;
+  double rate = options.ramp_start_hz;
+  for (unsigned step = 0; step < options.ramp_steps; ++step, rate *= 2) {
+    const PointResult point = run_point(options, measured, ber, rate, /*witness=*/false);
+    DeviceSummary::Saturation::RampStep ramp_step;
+    ramp_step.rate_hz = rate;
+    ramp_step.achieved_hz = point.throughput_hz();
+    ramp_step.operations = point.operations;
+    ramp_step.successes = point.successes;
+    ramp_step.latency_p99_ms = point.latency_p99_ms;
+    const bool succeeds = point.operations > 0 && point.success_share() >= kSustainedSuccess;
+    const bool keeps_up = ramp_step.achieved_hz >= kSustainedThroughput * rate;
+    ramp_step.sustained = succeeds && keeps_up;
+    saturation.ramp.push_back(ramp_step);
+    if (ramp_step.sustained) {
+      saturation.sustained_hz = rate;
+      continue;
+    }
+    saturation.breaks_down_hz = rate;
+    saturation.breaks_down_because = succeeds ? "throughput" : "success";
+    break;
+  }
+  const auto same_ber = std::find_if(summary.saturation.begin(), summary.saturation.end(),
+                                     [&](const DeviceSummary::Saturation& s) { return s.bit_error_rate == ber; });
+  if (same_ber == summary.saturation.end()) {
+    summary.saturation.push_back(std::move(saturation));
+  } else {
+    *same_ber = std::move(saturation);
+  }
+}
+
 std::string hex(const unsigned char* bytes, unsigned size) {
   std::string text;
   char pair[3];
@@ -226,6 +270,8 @@ std::string hex(const unsigned char* bytes, unsigned size) {
 }
 
 }  // namespace
+
+const char* to_string(WorkloadKind kind) { return kind == WorkloadKind::sensor ? "sensor" : "servo"; }
 
 double PointResult::success_share() const {
   return operations == 0 ? 0.0 : static_cast<double>(successes) / operations;
@@ -300,6 +346,8 @@ BenchReport run_bench(const BenchOptions& options) {
   if (options.duration) report.duration_s = std::chrono::duration<double>(*options.duration).count();
   report.isolated = options.isolated;
   report.reset = options.reset;
+  report.saturation_ramp = options.saturation_ramp;
+  report.workload = options.workload;
   report.bit_error_rates = options.bit_error_rates;
   report.rates = options.rates;
 
@@ -313,8 +361,20 @@ BenchReport run_bench(const BenchOptions& options) {
     MeasuredDevice entry;
     entry.device = &device;
     entry.link = links[k];
-    entry.workload = demo::make_workload(device, config.devices[k]);
+    if (options.workload == WorkloadKind::sensor) {
+      std::string why;
+      entry.workload = demo::make_sensor_workload(device, why);
+      if (!entry.workload) {
+        report.skipped.push_back({device.name, why});
+        continue;
+      }
+    } else {
+      entry.workload = demo::make_workload(device, config.devices[k]);
+    }
     if (!device.boards.empty()) entry.witness = demo::ExecutionWitness::attach(*device.boards.back());
+    if (const auto* serial = std::get_if<devices::SerialTransport>(&config.devices[k].transport)) {
+      entry.serial_byte_seconds = 10.0 / static_cast<double>(serial->options.baud);  // start + 8 data + stop bits
+    }
     DeviceSummary summary;
     summary.device = device.name;
     summary.codec = std::string(devices::to_string(device.codec));
@@ -330,6 +390,14 @@ BenchReport run_bench(const BenchOptions& options) {
     }
     report.devices.push_back(std::move(summary));
     measured.push_back(std::move(entry));
+  }
+
+  if (measured.empty()) {
+    rover.close();
+    std::string why;
+    for (const BenchReport::Skipped& device : report.skipped) why += "; " + device.device + ": " + device.why;
+    throw std::invalid_argument(std::string("no selected device has the ") + to_string(options.workload) +
+                                " workload" + why);
   }
 
   // The background: every device idle for a while, all at once.
@@ -383,9 +451,35 @@ BenchReport run_bench(const BenchOptions& options) {
       for (PointResult& result : results) report.points.push_back(std::move(result));
     }
   }
+  summarise_saturation(report);
+  if (options.saturation_ramp) {
+    // Each device ramps on its own (a device that breaks down early stops while the others go on).
+    const auto ramp_device = [&](std::size_t k) {
+      for (const double ber : options.bit_error_rates) ramp_saturation(options, measured[k], ber, report.devices[k]);
+    };
+    if (options.isolated) {
+      for (std::size_t k = 0; k < measured.size(); ++k) ramp_device(k);
+    } else {
+      std::vector<std::thread> threads;
+      for (std::size_t k = 0; k < measured.size(); ++k) {
+        threads.emplace_back([&, k] {
+          try {
+            ramp_device(k);
+          } catch (...) {
+            std::lock_guard lock(mutex);
+            if (!first_exception) first_exception = std::current_exception();
+          }
+        });
+      }
+      for (std::thread& thread : threads) thread.join();
+      if (first_exception) {
+        rover.close();
+        std::rethrow_exception(first_exception);
+      }
+    }
+  }
   measured.clear();
   rover.close();
-  summarise_saturation(report);
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
   return report;
 }

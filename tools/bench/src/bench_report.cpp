@@ -38,6 +38,7 @@ json point_json(const PointResult& p) {
   for (const auto& [ms, share] : p.latency_cdf) cdf.push_back({ms, share});
   return {
       {"device", p.device},
+      {"workload", to_string(p.workload)},
       {"bit_error_rate", p.bit_error_rate},
       {"rate_hz", optional_json(p.rate_hz)},
       {"operations", p.operations},
@@ -123,7 +124,12 @@ std::map<PointKey, ComparedPoint> read_points(const json& run, const std::string
     point.p99 = number(latency, "p99", where + ".latency_ms");
     point.bytes_per_op = number(p, "bytes_per_op_to_device", where) + number(p, "bytes_per_op_from_device", where);
     point.cpu_per_op = optional_number(p, "cpu_cycles_per_op", where);
-    result[{device.get<std::string>(), number(p, "bit_error_rate", where), rate_text(rate)}] = point;
+    // Points of different workloads are different measurements; a run without the field measured servos.
+    std::string key_device = device.get<std::string>();
+    if (p.contains("workload") && p["workload"].is_string() && p["workload"] != "servo") {
+      key_device += " (" + p["workload"].get<std::string>() + ")";
+    }
+    result[{key_device, number(p, "bit_error_rate", where), rate_text(rate)}] = point;
   }
   return result;
 }
@@ -153,8 +159,16 @@ json to_json(const BenchReport& report) {
     }
     json saturation = json::array();
     for (const DeviceSummary::Saturation& s : d.saturation) {
+      json ramp = json::array();
+      for (const DeviceSummary::Saturation::RampStep& step : s.ramp) {
+        ramp.push_back({{"rate_hz", step.rate_hz}, {"achieved_hz", step.achieved_hz}, {"operations", step.operations},
+                        {"successes", step.successes}, {"latency_p99_ms", step.latency_p99_ms},
+                        {"sustained", step.sustained}});
+      }
       saturation.push_back({{"bit_error_rate", s.bit_error_rate}, {"sustained_hz", optional_json(s.sustained_hz)},
-                            {"breaks_down_hz", optional_json(s.breaks_down_hz)}});
+                            {"breaks_down_hz", optional_json(s.breaks_down_hz)},
+                            {"source", s.ramp.empty() ? "sweep" : "ramp"}, {"ramp", std::move(ramp)},
+                            {"breaks_down_because", s.breaks_down_because}});
     }
     devices.push_back({{"device", d.device},
                        {"codec", d.codec},
@@ -167,6 +181,8 @@ json to_json(const BenchReport& report) {
   }
   json points = json::array();
   for (const PointResult& p : report.points) points.push_back(point_json(p));
+  json skipped = json::array();
+  for (const BenchReport::Skipped& device : report.skipped) skipped.push_back({{"device", device.device}, {"why", device.why}});
   json rates = json::array();
   for (const auto& rate : report.rates) rates.push_back(rate ? json(*rate) : json("max"));
   return {{"tether_version", report.tether_version},
@@ -179,10 +195,14 @@ json to_json(const BenchReport& report) {
             {"reset", report.reset},
             {"bit_error_rates", report.bit_error_rates},
             {"rates_hz", std::move(rates)},
-            {"sustained_success", kSustainedSuccess}}},
+            {"sustained_success", kSustainedSuccess},
+            {"workload", to_string(report.workload)},
+            {"saturation_ramp", report.saturation_ramp},
+            {"sustained_throughput", kSustainedThroughput}}},
           {"wall_seconds", report.wall_seconds},
           {"devices", std::move(devices)},
-          {"points", std::move(points)}};
+          {"points", std::move(points)},
+          {"skipped", std::move(skipped)}};
 }
 
 std::string to_csv(const BenchReport& report) {
@@ -239,8 +259,10 @@ std::string format_table(const BenchReport& report) {
   out << "tether bench: " << report.rover << ", "
       << (report.duration_s ? fixed(*report.duration_s, 1) + " s" : std::to_string(report.iterations) + " operations")
       << " per device and point, " << (report.isolated ? "one device at a time" : "all devices at once")
-      << (report.reset ? ", a power cycle halfway" : "") << ", seed " << report.seed << " ("
-      << fixed(report.wall_seconds, 1) << " s)\n\n";
+      << (report.reset ? ", a power cycle halfway" : "") << ", seed " << report.seed << ", workload "
+      << to_string(report.workload) << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
+  for (const BenchReport::Skipped& device : report.skipped) out << device.device << ": skipped, " << device.why << '\n';
+  if (!report.skipped.empty()) out << '\n';
   char line[256];
   std::snprintf(line, sizeof line, "%-12s %8s %5s %5s %8s %7s %7s %7s %7s %7s %6s %6s %9s %9s\n", "device", "BER",
                 "rate", "ops", "success%", "wrong", "p50ms", "p99ms", "maxms", "B/op", "retry", "drops", "cyc/op",
@@ -273,7 +295,9 @@ std::string format_table(const BenchReport& report) {
       std::snprintf(ber, sizeof ber, "%g", s.bit_error_rate);
       out << "  BER " << ber << ": sustained (>= 99 % success) "
           << (s.sustained_hz ? fixed(*s.sustained_hz, 1) + " op/s" : std::string("at no rate"))
-          << (s.breaks_down_hz ? ", breaks down at " + rate_text(s.breaks_down_hz) + " op/s" : std::string()) << '\n';
+          << (s.breaks_down_hz ? ", breaks down at " + rate_text(s.breaks_down_hz) + " op/s" : std::string())
+          << (s.breaks_down_because.empty() ? std::string() : " (" + s.breaks_down_because + ")")
+          << (s.ramp.empty() ? std::string() : " [ramp of " + std::to_string(s.ramp.size()) + " step(s)]") << '\n';
     }
   }
   return out.str();

@@ -63,6 +63,37 @@ class RomiWorkload final : public Workload {
   std::shared_ptr<romi::Client> client_;
 };
 
+class RomiSensorWorkload final : public Workload {
+ public:
+  explicit RomiSensorWorkload(std::shared_ptr<romi::Client> client) : client_(std::move(client)) {}
+  std::string operation() const override { return "call A[channel 0..5] -> [0,value 0..1023]"; }
+  Outcome run(unsigned i) override {
+    Outcome outcome;
+    error_code error;
+    const romi::RomiResponse response = client_->call("A[" + std::to_string(i % kChannels) + "]", error);
+    if (error) {
+      outcome.error = error.message();
+    } else if (response.code != 0) {
+      outcome.error = "device answered " + response.values.dump();
+      outcome.cause = "device answered code " + std::to_string(response.code);
+    } else if (response.values.size() != 2 || !response.values[1].is_number_integer() ||
+               response.values[1].get<int>() < 0 || response.values[1].get<int>() > kAdcMax) {
+      outcome.wrong = true;
+      outcome.cause = "wrong answer";
+      outcome.error = "reading " + response.values.dump() + " is not [0, 0..1023]";
+    } else {
+      outcome.ok = true;
+    }
+    return outcome;
+  }
+  LinkCounters link() const override { return client_->counters().link; }
+
+ private:
+  static constexpr unsigned kChannels = 6;  // A0..A5
+  static constexpr int kAdcMax = 1023;      // 10-bit ADC
+  std::shared_ptr<romi::Client> client_;
+};
+
 class ProxyWorkload final : public Workload {
  public:
   ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<devices::PinInit> servo_inits, bool compat)
@@ -234,6 +265,15 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
         }
       },
       device.client);
+}
+
+std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why) {
+  if (const auto* romi = std::get_if<std::shared_ptr<romi::Client>>(&device.client)) {
+    return std::make_unique<RomiSensorWorkload>(*romi);
+  }
+  why = "no sensor read in the " + std::string(devices::to_string(device.codec)) +
+        " demo images (proxy: pins are reported only in the state stream; elcano: the sensor report answers a drive)";
+  return nullptr;
 }
 
 namespace {

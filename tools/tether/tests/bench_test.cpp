@@ -77,17 +77,21 @@ std::pair<std::optional<int>, std::string> run_chromium(const std::vector<std::s
   return {process.wait(std::chrono::seconds(60)), out};
 }
 
+// Operations per device and point of the short runs: few, so that the bench tests stay short on a loaded
+// 2-core machine; every figure's check holds for any count.
+constexpr int kShortRun = 5;
+
 TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself) {
   TETHER_REQUIRE_FIRMWARE("elcano-node");
   const fs::path out = output_dir();
-  const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", "8",
-                                  "--seed", "3", "--out", out.string()});
+  const Outcome run = run_tether({"bench", "--sweep", "ber=0,1e-3", "--sweep", "rate=100,max", "--iterations", std::to_string(kShortRun),
+                                  "--seed", "3", "--saturation", "--out", out.string()});
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   EXPECT_NE(run.out.find("report: " + (out / "report.html").string()), std::string::npos) << run.out;
 
   const json report = json::parse(read_text(out / "bench.json"));
   EXPECT_EQ(report["parameters"]["seed"], 3);
-  EXPECT_EQ(report["parameters"]["iterations"], 8);
+  EXPECT_EQ(report["parameters"]["iterations"], kShortRun);
   EXPECT_EQ(report["parameters"]["rates_hz"], json::parse(R"([100.0, "max"])"));
   EXPECT_EQ(report["tether_version"], TETHER_VERSION);
   ASSERT_EQ(report["devices"].size(), 5u);
@@ -99,12 +103,42 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
       EXPECT_EQ(image["sha256"].get<std::string>().size(), 64u);
       EXPECT_GT(image["flash_bytes"].get<int>(), 1000);
     }
-    EXPECT_EQ(device["saturation"].size(), 2u) << "one per BER";
+    // --saturation: a ramp per BER, 10 Hz doubling, that stops at the first step not sustained.
+    ASSERT_EQ(device["saturation"].size(), 2u) << "one per BER";
+    for (const json& saturation : device["saturation"]) {
+      EXPECT_EQ(saturation["source"], "ramp");
+      const json& ramp = saturation["ramp"];
+      ASSERT_GE(ramp.size(), 1u);
+      ASSERT_LE(ramp.size(), 7u) << "bounded";
+      json last_sustained = nullptr;
+      for (std::size_t k = 0; k < ramp.size(); ++k) {
+        const json& step = ramp[k];
+        EXPECT_EQ(step["rate_hz"].get<double>(), 10.0 * static_cast<double>(1u << k));
+        EXPECT_EQ(step["operations"], kShortRun);
+        EXPECT_LE(step["successes"].get<int>(), kShortRun);
+        EXPECT_EQ(step["sustained"].get<bool>(), k + 1 < ramp.size() || saturation["breaks_down_hz"].is_null())
+            << "every step before the last is sustained; the last one is unless the ramp broke down there";
+        if (step["sustained"].get<bool>()) last_sustained = step["rate_hz"];
+        // Sustained means >= 99 % success and >= 95 % of the asked rate achieved.
+        EXPECT_EQ(step["sustained"].get<bool>(),
+                  step["successes"].get<int>() == kShortRun && step["achieved_hz"].get<double>() >= 0.95 * step["rate_hz"].get<double>());
+      }
+      EXPECT_EQ(saturation["sustained_hz"], last_sustained);
+      if (saturation["breaks_down_hz"].is_null()) {
+        EXPECT_EQ(ramp.size(), 7u) << "a ramp that never broke down ran every step";
+        EXPECT_EQ(saturation["breaks_down_because"], "");
+      } else {
+        EXPECT_EQ(saturation["breaks_down_hz"], ramp.back()["rate_hz"]);
+        const bool all_succeeded = ramp.back()["successes"] == kShortRun;
+        EXPECT_EQ(saturation["breaks_down_because"], all_succeeded ? "throughput" : "success");
+      }
+    }
   }
+  EXPECT_EQ(report["parameters"]["saturation_ramp"], true);
   for (const json& point : report["points"]) {
     SCOPED_TRACE(point["device"].get<std::string>() + " " + point.dump().substr(0, 120));
-    EXPECT_EQ(point["operations"], 8);
-    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 8);
+    EXPECT_EQ(point["operations"], kShortRun);
+    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), kShortRun);
     EXPECT_GT(point["bytes_to_device"].get<int>(), 0);
     // Every confirmed operation brings bytes back; proxy-compat's only come with its 50 ms state stream.
     if (point["device"] != "legacy") {
@@ -115,14 +149,14 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
     // The demo images carry the execution witness: commands issued and confirmed, what ran.
     const json& witness = point["exactly_once"];
     ASSERT_TRUE(witness.is_object()) << "the virtual rover's images record what they execute";
-    EXPECT_GE(witness["commands"].get<int>(), 8) << "at least one device command per operation";
+    EXPECT_GE(witness["commands"].get<int>(), kShortRun) << "at least one device command per operation";
     EXPECT_LE(witness["confirmed"].get<int>(), witness["commands"].get<int>());
     const json& latency = point["latency_ms"];
     EXPECT_LE(latency["p50"].get<double>(), latency["p90"].get<double>());
     EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
     EXPECT_LE(latency["p99"].get<double>(), latency["max"].get<double>());
     const json& cdf = point["latency_cdf"];
-    ASSERT_EQ(cdf.size(), 8u) << "every sample when there are fewer than 50";
+    ASSERT_EQ(cdf.size(), static_cast<std::size_t>(kShortRun)) << "every sample when there are fewer than 50";
     for (std::size_t k = 1; k < cdf.size(); ++k) {
       EXPECT_LE(cdf[k - 1][0].get<double>(), cdf[k][0].get<double>()) << "CDF latencies ascend";
       EXPECT_LT(cdf[k - 1][1].get<double>(), cdf[k][1].get<double>()) << "CDF shares ascend";
@@ -209,6 +243,67 @@ TEST(TetherBench, HeadlessChromiumRendersTheReportWithItsTablesAndImages) {
   EXPECT_EQ(png_size(screenshot), std::make_pair(1280u, 2400u));
 }
 
+TEST(TetherBench, SensorWorkloadReadsRomiAnalogInputsAndSkipsDevicesWithoutARead) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path out = output_dir();
+  const Outcome run = run_tether({"bench", "--workload", "sensor", "--devices", "arm,ring", "--sweep", "ber=0",
+                                  "--sweep", "rate=max", "--iterations", "6", "--no-plots", "--json", "--out",
+                                  out.string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["parameters"]["workload"], "sensor");
+  ASSERT_EQ(report["devices"].size(), 1u);
+  EXPECT_EQ(report["devices"][0]["device"], "arm");
+  EXPECT_EQ(report["devices"][0]["operation"], "call A[channel 0..5] -> [0,value 0..1023]");
+  ASSERT_EQ(report["skipped"].size(), 1u);
+  EXPECT_EQ(report["skipped"][0]["device"], "ring");
+  EXPECT_NE(report["skipped"][0]["why"].get<std::string>().find("no sensor read"), std::string::npos);
+  ASSERT_EQ(report["points"].size(), 1u);
+  const json& point = report["points"][0];
+  EXPECT_EQ(point["workload"], "sensor");
+  EXPECT_EQ(point["operations"], 6);
+  EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
+  EXPECT_EQ(point["wrong"], 0) << "every reading is [0, 0..1023] on a clean line";
+  EXPECT_GT(point["bytes_from_device"].get<int>(), 0);
+  EXPECT_EQ(point["exactly_once"]["commands"], 0) << "a read executes no command";
+
+  // Only devices without a read: nothing to measure, a clear error.
+  const Outcome none = run_tether({"bench", "--workload", "sensor", "--devices", "ring", "--sweep", "ber=0",
+                                   "--iterations", "1", "--no-plots", "--out", (out / "none").string()});
+  EXPECT_EQ(none.status, 2);
+  EXPECT_NE(none.err.find("no selected device has the sensor workload; ring: no sensor read"), std::string::npos)
+      << none.err;
+}
+
+// The hardware path: a config of serial ports, here a `tether sim` board's pty. No simulated CPU or
+// firmware figures (the bench cannot see into the board), link use from the configured baud.
+TEST(TetherBench, SerialPortConfigMeasuresThroughThePortWithLinkUseFromTheBaud) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path out = output_dir();
+  SimBoard board("romi-rover");
+  const fs::path config = out / "rover.json";
+  std::ofstream(config) << R"({"name": "bench-pty", "devices": [{"name": "arm", "codec": "romi",
+      "transport": {"serial": {"path": ")" << board.pty() << R"(", "baud": 115200, "boot_wait_ms": 0}}}]})";
+  const Outcome run = run_tether({"bench", "--config", config.string(), "--sweep", "ber=0", "--sweep", "rate=max",
+                                  "--iterations", "6", "--no-plots", "--json", "--out", (out / "run").string()});
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["rover"], "bench-pty");
+  ASSERT_EQ(report["devices"].size(), 1u);
+  EXPECT_TRUE(report["devices"][0]["firmware"].empty()) << "hardware: no image to describe";
+  ASSERT_EQ(report["points"].size(), 1u);
+  const json& point = report["points"][0];
+  EXPECT_EQ(point["operations"], 6);
+  EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
+  EXPECT_GT(point["successes"].get<int>(), 0) << point["first_error"];
+  EXPECT_TRUE(point["cpu_cycles_per_op"].is_null()) << "no simulated CPU through a port";
+  EXPECT_TRUE(point["exactly_once"].is_null());
+  // 8N1 at 115200 baud: a byte takes 10 / 115200 s.
+  const double expected = point["bytes_to_device"].get<double>() * 10.0 / 115200.0 / point["seconds"].get<double>();
+  EXPECT_NEAR(point["utilisation_to_device"].get<double>(), expected, 1e-9 + 1e-6 * expected);
+  EXPECT_GT(point["utilisation_from_device"].get<double>(), 0.0);
+}
+
 TEST(TetherBench, BadInputGetsAClearError) {
   const fs::path out = output_dir();
   struct Case {
@@ -231,6 +326,7 @@ TEST(TetherBench, BadInputGetsAClearError) {
       {{"bench", "--iterations", "0"}, "--iterations needs a number 1..100000"},
       {{"bench", "--iterations", "5", "--duration", "1"}, "--iterations and --duration exclude each other"},
       {{"bench", "--payload", "large"}, "unknown option --payload"},
+      {{"bench", "--workload", "temperature"}, "--workload needs servo or sensor, got 'temperature'"},
       {{"bench", "--out", not_a_dir + "/sub"}, "--out " + not_a_dir + "/sub: "},
       {{"bench", "--compare", malformed, malformed}, malformed + ": invalid JSON"},
       {{"bench", "--compare", not_a_dir + ".missing", malformed}, not_a_dir + ".missing: No such file or directory"},

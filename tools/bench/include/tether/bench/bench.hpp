@@ -36,9 +36,23 @@ namespace tether::bench {
 
 /// The success share a rate must hold to count as sustained (99 %).
 inline constexpr double kSustainedSuccess = 0.99;
+/// The share of an asked rate a ramp step must achieve to count as sustained: below it the device (or the
+/// blocking request/reply) cannot keep up, whatever its success share.
+inline constexpr double kSustainedThroughput = 0.95;
+
+/// Which operation a run measures.
+enum class WorkloadKind {
+  servo,   ///< Set the servos and get the confirmation (the demo's; a ring: a request round the ring).
+  sensor,  ///< Read a sensor value (demo::make_sensor_workload: the devices whose images answer one).
+};
+/// `servo` / `sensor`.
+const char* to_string(WorkloadKind kind);
 
 /// What to run.
 struct BenchOptions {
+  /// The operation measured; devices without it (sensor: proxy, elcano) are listed in
+  /// BenchReport::skipped and not measured.
+  WorkloadKind workload = WorkloadKind::servo;
   /// The rover; default (unset): the embedded virtual rover (devices::default_virtual_rover_config()).
   std::optional<devices::RoverConfig> config;
   /// Firmware folder for the embedded config's image names.
@@ -63,6 +77,13 @@ struct BenchOptions {
   std::chrono::milliseconds power_off{100};
   /// How long the devices idle after opening to measure their background CPU (virtual boards).
   std::chrono::milliseconds idle_baseline{300};
+  /// After the sweep, per device and bit error rate: a saturation ramp (`--saturation`), open-loop rates
+  /// `ramp_start_hz`, twice that, ... at most `ramp_steps` of them, stopping at the first step that is not
+  /// sustained (< 99 % success or < 95 % of the asked rate achieved). Each step runs `iterations` (or
+  /// `duration`), like a sweep point.
+  bool saturation_ramp = false;
+  double ramp_start_hz = 10.0;  ///< The ramp's first rate.
+  unsigned ramp_steps = 7;      ///< At most this many steps (10 Hz .. 640 Hz by default).
   /// The Tether version written into the report.
   std::string tether_version;
   /// Progress after each device and point: (done, total) in device-points. May be empty.
@@ -80,6 +101,7 @@ struct FirmwareImage {
 /// One device at one sweep point.
 struct PointResult {
   std::string device;               ///< Name in the config.
+  WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
   double bit_error_rate = 0;        ///< The point's noise.
   std::optional<double> rate_hz;    ///< The point's rate; unset: max (closed loop).
   std::uint32_t operations = 0;     ///< Operations attempted.
@@ -95,7 +117,8 @@ struct PointResult {
   std::vector<std::pair<double, double>> latency_cdf;
   std::uint64_t bytes_to_device = 0;    ///< Bytes the host wrote.
   std::uint64_t bytes_from_device = 0;  ///< Bytes the host read.
-  /// Share of the line's capacity used, each way (virtual boards: their UART's byte time). Unset: unknown.
+  /// Share of the line's capacity used, each way (virtual boards: their UART's byte time; a serial port:
+  /// its configured baud, 10 bits a byte for 8N1). Unset: unknown (TCP bridges).
   std::optional<double> utilisation_to_device;
   std::optional<double> utilisation_from_device;  ///< See `utilisation_to_device`.
   std::uint64_t bits_flipped = 0;   ///< Noise injected, both directions.
@@ -142,6 +165,21 @@ struct DeviceSummary {
     double bit_error_rate = 0;                 ///< The noise.
     std::optional<double> sustained_hz;        ///< Highest rate with >= 99 % success.
     std::optional<double> breaks_down_hz;      ///< Lowest rate below 99 % success.
+    /// One step of the saturation ramp (BenchOptions::saturation_ramp).
+    struct RampStep {
+      double rate_hz = 0;           ///< Asked.
+      double achieved_hz = 0;       ///< Operations per second done.
+      std::uint32_t operations = 0; ///< Attempted.
+      std::uint32_t successes = 0;  ///< Confirmed with the right values.
+      double latency_p99_ms = 0;    ///< 99th percentile operation time.
+      bool sustained = false;       ///< >= 99 % success and >= 95 % of the asked rate achieved.
+    };
+    /// The ramp's steps in order (empty: no ramp). With a ramp, `sustained_hz` and `breaks_down_hz` are
+    /// the ramp's (its last sustained step, the step that was not) rather than the sweep's.
+    std::vector<RampStep> ramp;
+    /// Why the ramp's last step was not sustained: "success" (< 99 %) or "throughput" (< 95 % of the
+    /// asked rate); empty: the ramp ended sustained (the device holds the highest step).
+    std::string breaks_down_because;
   };
   std::vector<Saturation> saturation;  ///< One per swept bit error rate.
 };
@@ -155,11 +193,19 @@ struct BenchReport {
   std::optional<double> duration_s;  ///< Per device and point, instead of iterations.
   bool isolated = false;             ///< One device at a time.
   bool reset = false;                ///< Power cycles injected halfway through every point.
+  bool saturation_ramp = false;      ///< A saturation ramp ran (DeviceSummary::Saturation::ramp).
+  WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
   std::vector<double> bit_error_rates;          ///< Swept.
   std::vector<std::optional<double>> rates;     ///< Swept (unset: max).
   double wall_seconds = 0;           ///< The whole run.
   std::vector<DeviceSummary> devices;  ///< In config order.
   std::vector<PointResult> points;     ///< Per point (BER-major, then rate), each measured device.
+  /// A device not measured because it has no such workload.
+  struct Skipped {
+    std::string device;  ///< Name in the config.
+    std::string why;     ///< What its images lack.
+  };
+  std::vector<Skipped> skipped;  ///< Selected devices the workload does not apply to.
 };
 
 /// Opens the rover, runs every point, closes. Throws devices::ConfigError when the rover does not open,

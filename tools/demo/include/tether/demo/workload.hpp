@@ -68,4 +68,11 @@ devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
 /// std::invalid_argument for a codec without one or a proxy device without a servo init.
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config);
 
+/// A sensor read on the device's client, beside the servo workload (`tether bench --workload sensor`):
+/// Romi `A[channel]` -> `[0, value]` (an ADC reading 0..1023 of A0..A5, cycling; a value out of range or
+/// another shape is a wrong answer). Null, with `why` set, for a codec whose demo images answer no read:
+/// the proxy images report pins only in their unrequested state stream, and an Elcano ring's sensor
+/// report answers a drive (the servo workload's operation).
+std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why);
+
 }  // namespace tether::demo
