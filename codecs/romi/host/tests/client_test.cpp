@@ -28,7 +28,7 @@ namespace asio = boost::asio;
 using IoThread = ::tether::transports::IoThread;
 
 // Generous bound for "completes promptly" (no timing assertion tighter than this, ASan included).
-constexpr auto kPrompt = 3000ms;
+constexpr auto kPrompt = 10000ms;  // "promptly": a bound against hangs, never a timing assertion
 
 // --- reference vectors ------------------------------------------------------------------------------------
 
@@ -312,7 +312,7 @@ TEST(RomiClient, EnvelopeErrorUnderAnotherIdSendsTheSameBytesAgain) {
 // id, the call times out (no answer), the errors are not delivered as the device's answer.
 TEST(RomiClient, EnvelopeErrorsUnderAnotherIdNeverCompleteTheCall) {
   IoThread io;
-  Options options = short_timing(200, 5000);
+  Options options = on_wall_clock(short_timing(200, 5000));
   Link link(io.executor(), options.first_id(0x50));
   link.device->on_request([](const DeviceRequest&, FakeDevice& device) {
     device.send(FakeDevice::response('_', "[-4]", 0x33));
@@ -328,7 +328,7 @@ TEST(RomiClient, EnvelopeErrorsUnderAnotherIdNeverCompleteTheCall) {
 
 TEST(RomiClient, LateErrorOfATimedOutCallIsNotPinnedOnTheNextCall) {
   IoThread io;
-  Link link(io.executor(), short_timing(150, 300));
+  Link link(io.executor(), on_wall_clock(short_timing(150, 300)));
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
     if (request.id == 0) return;  // the first call gets no answer in time
     // The first call's late error arrives just before the second call's own answer.
@@ -615,7 +615,7 @@ TEST(RomiClient, CancellingOneCallLeavesTheOthersAlone) {
 
 TEST(RomiClient, TimeoutSaysHowLongTheCallWaitedForAnAnswer) {
   IoThread io;
-  Link link(io.executor(), short_timing(150, 5000));
+  Link link(io.executor(), on_wall_clock(short_timing(150, 5000)));
   error_code error;
   const RomiResponse response = link.client->call("a", error);
   EXPECT_EQ(error, Error::client_timeout);
@@ -628,7 +628,7 @@ TEST(RomiClient, TimeoutSaysHowLongTheCallWaitedForAnAnswer) {
 
 TEST(RomiClient, SilentAttemptIsSentAgainWhenRetryOnTimeoutIsSet) {
   IoThread io;
-  Options options = short_timing(150, 3000);
+  Options options = on_wall_clock(short_timing(150, 3000));
   options.timing.retry_on_timeout = true;
   Link link(io.executor(), options);
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
@@ -647,7 +647,7 @@ TEST(RomiClient, SilentAttemptIsSentAgainWhenRetryOnTimeoutIsSet) {
 
 TEST(RomiClient, SilentDeviceWithRetryOnTimeoutStopsAtTheBudget) {
   IoThread io;
-  Options options = short_timing(150, 400);
+  Options options = on_wall_clock(short_timing(150, 400));
   options.timing.retry_on_timeout = true;
   Link link(io.executor(), options);
   error_code error;
@@ -1034,7 +1034,7 @@ TEST(RomiClient, ManualCallReceivesDeviceErrors) {
 
 TEST(RomiClient, ManualCallIsBoundedByTheEngine) {
   IoThread io;
-  Link link(io.executor(), short_timing(100, 200));
+  Link link(io.executor(), on_wall_clock(short_timing(100, 200)));
   error_code error;
   link.client->call_manual("a", error);
   EXPECT_EQ(error, Error::client_timeout);

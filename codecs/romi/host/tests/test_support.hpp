@@ -15,6 +15,8 @@
 #include "tether/romi/client.hpp"
 #include "tether/romi/encoder.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/transports/link_clock.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 
 namespace tether::romi::testing {
 
@@ -40,9 +42,20 @@ inline EventHandler on_link_failed(std::function<void(error_code)> handler) {
   };
 }
 
-/// A client and a fake device on the two ends of an in-memory pair.
+/// Options whose deadlines run on the wall clock: only for tests that wait for a timeout with a blocking call
+/// (every other test runs on `Link`'s manual clock, where no deadline passes unless the test advances it).
+inline Options on_wall_clock(Options options) {
+  options.clock = transports::steady_link_clock();
+  return options;
+}
+
+/// A client and a fake device on the two ends of an in-memory pair. The client runs on `clock`, a manual
+/// clock, unless `options` name another: no attempt window or budget passes behind a test's back, so a
+/// loaded machine cannot time a call out.
 struct Link {
-  explicit Link(boost::asio::any_io_executor executor, const Options& options = short_timing()) {
+  explicit Link(boost::asio::any_io_executor executor, Options options = short_timing())
+      : clock(transports::testing::ManualClock::create()) {
+    if (!options.clock) options.clock = clock;
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end);
     client.emplace(host_end, options);
@@ -54,6 +67,7 @@ struct Link {
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
 
+  std::shared_ptr<transports::testing::ManualClock> clock;
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;
 };

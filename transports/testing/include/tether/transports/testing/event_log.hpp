@@ -46,7 +46,7 @@ class EventLog {
   }
   /// Waits until `count` events of type T were recorded; false after `timeout`.
   template <typename T>
-  bool wait_for(std::size_t count = 1, std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const {
+  bool wait_for(std::size_t count = 1, std::chrono::milliseconds timeout = std::chrono::milliseconds(10000)) const {
     std::unique_lock lock(state_->mutex);
     return state_->changed.wait_for(lock, timeout, [&] {
       std::size_t seen = 0;
