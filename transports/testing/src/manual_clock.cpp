@@ -127,6 +127,12 @@ bool ManualClock::wait_for_due(Millis at, Millis& seen, std::chrono::millisecond
   }
 }
 
+bool ManualClock::advance_to_due(Millis at, Millis& seen, std::chrono::milliseconds timeout) {
+  if (!wait_for_due(at, seen, timeout)) return false;
+  advance_to(at);
+  return true;
+}
+
 bool ManualClock::advance_to_next(std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   Millis at = 0;

@@ -4,8 +4,9 @@
 //
 // Time: tests about deadlines (re-sends, timeouts, the send and receive timeouts, pacing) run the client
 // on a `ManualClock` and assert on simulated time: the deadline the client armed is exactly the one the
-// spec names, and nothing happens before the clock reaches it. The others run on the steady clock and
-// never bound elapsed time: `kPrompt` only says "it happened at all"; where a test must show that
+// spec names, and nothing happens before the clock reaches it. Every other test runs on `Link`'s manual
+// clock too (no deadline passes), except those whose pacing must see time pass (`on_steady_clock`, with
+// windows far beyond `kPrompt`). None bounds elapsed time: `kPrompt` only says "it happened at all"; where a test must show that
 // something did NOT wait for a deadline, the deadline is far longer than `kPrompt` and the outcome tells.
 #include <gtest/gtest.h>
 
@@ -28,7 +29,6 @@ namespace {
 
 namespace asio = boost::asio;
 using IoThread = transports::IoThread;
-using transports::testing::ManualClock;
 using namespace std::chrono_literals;
 
 bool same(const Message& a, const Message& b) { return wire(a, Generation::d) == wire(b, Generation::d); }
@@ -75,7 +75,7 @@ TEST(RingClient, RequestIsAnsweredByTheFirstMessageOfTheReplyType) {
 
 TEST(RingClient, RequestWorksWithEveryCompletionForm) {
   IoThread io;
-  Link link(io.executor(), test_options(), answer_goals_with_segment(3));
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)), answer_goals_with_segment(3));
   std::future<Message> future = link.client->async_request(goal(1), Type::segment, asio::use_future);
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   EXPECT_TRUE(same(future.get(), segment(3)));
@@ -156,7 +156,7 @@ TEST(RingClient, SilentRingTimesOutAfterEveryAttempt) {
 TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
   IoThread io;
   // Attempt window and budget far beyond kPrompt: a timeout cannot be what ends the call.
-  Link link(io.executor(), test_options(20000, 40000), echo_goals());
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)), echo_goals());
   std::future<Message> future = link.client->async_request(goal(1), Type::segment, asio::use_future);
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   try {
@@ -184,7 +184,7 @@ TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
 
 TEST(RingClient, UndeliverableSendIsReportedOnce) {
   IoThread io;
-  Link link(io.executor(), test_options(), [](const RingRecord& record, FakeRing& ring) {
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)), [](const RingRecord& record, FakeRing& ring) {
     if (record.ok && record.message.type == Type::drive) ring.send(record.wire);  // nobody takes drives
   });
   link.client->send(drive(50, 25));
@@ -204,7 +204,7 @@ TEST(RingClient, UndeliverableSendIsReportedOnce) {
 
 TEST(RingClient, ReplyTypeIsCapturedOnlyWhileARequestAwaitsIt) {
   IoThread io;
-  Link link(io.executor(), test_options());
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)));
   // No request: a segment passes through.
   link.ring->send(wire(segment(1)));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
@@ -230,7 +230,7 @@ TEST(RingClient, ReplyTypeIsCapturedOnlyWhileARequestAwaitsIt) {
 
 TEST(RingClient, SecondRequestForTheSameReplyTypeIsBusy) {
   IoThread io;
-  Link link(io.executor(), test_options(20000, 40000));  // nobody answers
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)));  // nobody answers
   Completions completions;
   link.client->async_request(goal(1), Type::segment, completions.message_handler(0));
   link.client->async_request(goal(2), Type::segment, completions.message_handler(1));
@@ -402,7 +402,7 @@ TEST(RingClient, CaptureSetCanChange) {
 
 TEST(RingClient, UncapturedMessagesAreForwardedByteForByte) {
   IoThread io;
-  Options options = test_options();
+  Options options = on_steady_clock(test_options(20000, 40000));
   options.node.capture = TypeSet::of(Type::sensor);
   Link link(io.executor(), options);
   const std::string passing = "D{s50}{a25}\nG{n1}{b90}{p100,200}\nX{n4}{s160}{b80}{p3200,-64000}\n";
@@ -418,7 +418,7 @@ TEST(RingClient, UncapturedMessagesAreForwardedByteForByte) {
 
 TEST(RingClient, ForwardedAndOriginatedMessagesLeaveWhole) {
   IoThread io;
-  Link link(io.executor(), test_options());
+  Link link(io.executor(), on_steady_clock(test_options(20000, 40000)));
   Completions completions;
   for (int i = 0; i < 5; ++i) {
     link.ring->send(wire(goal(i)));
@@ -503,7 +503,7 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
 
 TEST(RingClient, PartialMessageIsDroppedAtItsDeadline) {
   IoThread io;
-  Options options = test_options();
+  Options options = on_steady_clock(test_options(20000, 40000));  // the 50 ms partial deadline passes in real time
   options.node.partial_message_timeout = 50;
   Link link(io.executor(), options);
   link.ring->send("D{s 5");
@@ -534,7 +534,7 @@ TEST(RingClient, ReadErrorsAreReportedAndNotForwarded) {
 
 TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
   IoThread io;
-  Options options = test_options();
+  Options options = on_steady_clock(test_options(20000, 40000));
   options.node.generation = Generation::d;
   Link link(io.executor(), options, answer_goals_with_segment(4, Generation::d));
   const Message reply = link.client->request(goal(1), Type::segment);

@@ -105,6 +105,11 @@ Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<tr
   return options;
 }
 
+Options on_steady_clock(Options options) {
+  options.clock = transports::steady_link_clock();
+  return options;
+}
+
 session::LinkPacing trickle() {
   session::LinkPacing pacing;
   pacing.baud = 10;
@@ -152,7 +157,9 @@ std::optional<Outcome> Completions::at(std::size_t index) const {
 
 // --- Link --------------------------------------------------------------------------------------------------
 
-Link::Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script) {
+Link::Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script)
+    : clock(ManualClock::create()) {
+  if (!options.clock) options.clock = clock;
   auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor);
   ring = FakeRing::start(ring_end, options.node.generation, std::move(script));
   client.emplace(host_end, options, log.handler());

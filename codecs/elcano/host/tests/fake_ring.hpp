@@ -26,6 +26,7 @@
 #include "tether/transports/link_clock.hpp"
 #include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/testing/manual_clock.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::elcano::testing {
@@ -108,6 +109,11 @@ Message segment(std::int32_t number);
 Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000,
                      std::shared_ptr<transports::LinkClock> clock = nullptr);
 
+/// `options` on the steady clock, for tests whose pacing must see time pass (on `Link`'s manual clock the
+/// pacer holds the second message back until the test advances it). Their attempt windows and budgets
+/// are far beyond `kPrompt` when they make requests, so load cannot make one pass.
+Options on_steady_clock(Options options);
+
 /// Pacing of 1 byte per second (a 2-byte receiver at 10 baud): nothing but the first byte leaves within a
 /// test, so the node's output queue stays as the test filled it.
 session::LinkPacing trickle();
@@ -115,6 +121,7 @@ session::LinkPacing trickle();
 /// Records every event; tests wait for the ones they expect.
 using EventLog = transports::testing::EventLog<Event>;
 using ::tether::testing::eventually;
+using transports::testing::ManualClock;
 
 /// The outcome of an asynchronous operation.
 struct Outcome {
@@ -150,11 +157,15 @@ class Completions {
 
 /// A client and the rest of the ring on the two ends of an in-memory pair.
 struct Link {
-  Link(boost::asio::any_io_executor executor, const Options& options, FakeRing::Script script = {});
+  /// The client runs on `clock`, a manual clock, unless `options` name another: no attempt window, budget or
+  /// timeout passes behind a test's back, so a loaded machine cannot re-send or time out an operation; tests
+  /// about deadlines (and pacing beyond the bucket) advance `clock`.
+  Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script = {});
   ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
 
+  std::shared_ptr<ManualClock> clock;
   EventLog log;
   std::shared_ptr<FakeRing> ring;
   std::optional<RingClient> client;

@@ -323,13 +323,20 @@ TEST(RomiClient, EnvelopeErrorUnderAnotherIdSendsTheSameBytesAgain) {
 // id, the call times out (no answer), the errors are not delivered as the device's answer.
 TEST(RomiClient, EnvelopeErrorsUnderAnotherIdNeverCompleteTheCall) {
   IoThread io;
-  Options options = on_wall_clock(short_timing(200, 5000));
+  Options options = short_timing(200, 5000);
   Link link(io.executor(), options.first_id(0x50));
   link.device->on_request([](const DeviceRequest&, FakeDevice& device) {
     device.send(FakeDevice::response('_', "[-4]", 0x33));
   });
-  error_code error;
-  const RomiResponse response = link.client->call("a", error);
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a");
+  // The three sends and their errors take no simulated time; the third send's window then ends the call.
+  ASSERT_TRUE(link.device->wait_for_requests(3, kPrompt));
+  ASSERT_TRUE(::tether::testing::eventually([&] { return link.client->counters().link.stale == 1; }, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->advance_to_due(static_cast<Millis>(start + 200), due)) << "+" << due - start;
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);
+  const auto [error, response] = outcome.get();
   EXPECT_EQ(error, Error::client_timeout);
   EXPECT_FALSE(response.answered);
   EXPECT_EQ(response.attempts, 3);
@@ -339,17 +346,22 @@ TEST(RomiClient, EnvelopeErrorsUnderAnotherIdNeverCompleteTheCall) {
 
 TEST(RomiClient, LateErrorOfATimedOutCallIsNotPinnedOnTheNextCall) {
   IoThread io;
-  Link link(io.executor(), on_wall_clock(short_timing(150, 300)));
+  Link link(io.executor(), short_timing(150, 300));
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
     if (request.id == 0) return;  // the first call gets no answer in time
     // The first call's late error arrives just before the second call's own answer.
     device.send(FakeDevice::response('a', R"([-16,"late"])", 0));
     device.send(FakeDevice::response(request.opcode, "[0,2]", request.id));
   });
+  const Millis start = link.clock->now();
+  auto first = start_call(*link.client, "a");
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->advance_to_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  ASSERT_EQ(first.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(first.get().error, Error::client_timeout);
   error_code error;
-  link.client->call("a", error);
-  EXPECT_EQ(error, Error::client_timeout);
-  const RomiResponse second = link.client->call("b", error);
+  const RomiResponse second = link.client->call("b", error);  // the clock stands still: it cannot time out
   EXPECT_FALSE(error);
   EXPECT_EQ(second.values, json::parse("[0,2]"));
   EXPECT_EQ(second.id, 1);
@@ -433,6 +445,45 @@ TEST(RomiClient, LongAnswersAndLogLinesAreRead) {
   EXPECT_EQ(logs[0], long_log);
 }
 
+TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
+  IoThread io;
+  // Six log lines 300 ms apart, then the answer: 1950 ms after the request, twice the attempt window.
+  Link link(io.executor(), short_timing(1000, 5000));
+  std::mutex mutex;
+  std::vector<std::string> logs;
+  link.client->on_event(on_log([&](std::string_view text) {
+    std::lock_guard lock(mutex);
+    logs.emplace_back(text);
+  }));
+  const auto log_count = [&] {
+    std::lock_guard lock(mutex);
+    return logs.size();
+  };
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a");
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 1000), due)) << "+" << due - start;
+  for (std::size_t step = 1; step <= 6; ++step) {
+    link.clock->advance(300);
+    link.device->send(FakeDevice::log("step " + std::to_string(step)));
+    ASSERT_TRUE(::tether::testing::eventually([&] { return log_count() == step; }, kPrompt));
+    // The line re-armed the window: due 1000 ms after it, not after the request.
+    ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 300 * step + 1000), due))
+        << step << ": +" << due - start;
+  }
+  link.clock->advance(150);  // 1950 ms: past the first window, inside the re-armed one
+  const auto requests = link.device->requests();
+  ASSERT_EQ(requests.size(), 1u);
+  link.device->send(FakeDevice::response(requests[0].opcode, "[0]", requests[0].id));
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);
+  const auto [error, response] = outcome.get();
+  EXPECT_FALSE(error) << error.message();
+  EXPECT_TRUE(response.ok());
+  std::lock_guard lock(mutex);
+  EXPECT_EQ(logs, (std::vector<std::string>{"step 1", "step 2", "step 3", "step 4", "step 5", "step 6"}));
+}
+
 TEST(RomiClient, LogLinesBetweenCallsGoToTheSink) {
   IoThread io;
   Link link(io.executor());
@@ -493,89 +544,32 @@ TEST(RomiClient, TheDeprecatedLogSetterReplacesItsHandler) {
 
 // --- timing -----------------------------------------------------------------------------------------------
 
-// A call's outcome, captured from its completion handler.
-struct Outcome {
-  error_code error;
-  RomiResponse response;
-};
-
-// A client on a manual clock: deadlines pass only when the test advances it, so the tests below assert on
-// simulated time and a loaded machine cannot move a deadline.
-struct ManualLink {
-  explicit ManualLink(boost::asio::any_io_executor executor, Options options)
-      : clock(transports::testing::ManualClock::create()), link(executor, (options.clock = clock, options)) {}
-  // Advances to the next pending deadline once the client armed it (false if it never does).
-  bool armed() const {
-    return ::tether::testing::eventually([&] { return clock->pending() > 0; }, kPrompt);
-  }
-  std::shared_ptr<transports::testing::ManualClock> clock;
-  Link link;
-};
-
-TEST(RomiClient, LogLinesBetweenRequestAndAnswerReArmTheAttemptWindow) {
-  IoThread io;
-  // Six log lines 200 ms apart in a 250 ms attempt window, then the answer 200 ms after the last: 1400 ms
-  // after the request, more than five windows, and still one attempt.
-  std::promise<Outcome> done;  // before the link: a completion at its close still finds it
-  ManualLink manual(io.executor(), short_timing(250, 5000));
-  Link& link = manual.link;
-  std::mutex mutex;
-  std::vector<std::string> logs;
-  link.client->on_event(on_log([&](std::string_view text) {
-    std::lock_guard lock(mutex);
-    logs.emplace_back(text);
-  }));
-  const auto logged = [&] {
-    std::lock_guard lock(mutex);
-    return logs.size();
-  };
-  const Millis start = manual.clock->now();
-  link.client->async_call("a", [&](error_code e, RomiResponse r) { done.set_value({e, std::move(r)}); });
-  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
-  const DeviceRequest request = link.device->requests()[0];
-  for (std::size_t step = 1; step <= 6; ++step) {
-    Millis due = 0;  // the window of the request or of the last line, armed before the clock moves
-    ASSERT_TRUE(manual.clock->wait_for_due(static_cast<Millis>(start + 200 * (step - 1) + 250), due, kPrompt))
-        << "+" << due - start;
-    manual.clock->advance(200);
-    link.device->send(FakeDevice::log("step " + std::to_string(step)));
-    ASSERT_TRUE(::tether::testing::eventually([&] { return logged() == step; }, kPrompt));
-  }
-  Millis due = 0;
-  ASSERT_TRUE(manual.clock->wait_for_due(static_cast<Millis>(start + 1200 + 250), due, kPrompt)) << "+" << due - start;
-  manual.clock->advance(200);
-  link.device->send(FakeDevice::response(request.opcode, "[0]", request.id));
-  auto future = done.get_future();
-  ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
-  const Outcome outcome = future.get();
-  EXPECT_FALSE(outcome.error) << outcome.error.message();
-  EXPECT_TRUE(outcome.response.ok());
-  EXPECT_EQ(outcome.response.attempts, 1);
-  std::lock_guard lock(mutex);
-  EXPECT_EQ(logs, (std::vector<std::string>{"step 1", "step 2", "step 3", "step 4", "step 5", "step 6"}));
-}
+// Every Link runs on a manual clock: deadlines pass only when a test advances it, so the tests below assert
+// on simulated time and a loaded machine cannot move a deadline.
 
 TEST(RomiClient, LogLinesNeverStretchACallPastItsBudget) {
   IoThread io;
   // The spec's case scaled by 4: attempt 250 ms, budget 500 ms, a log line every 200 ms, never an answer.
   std::atomic<int> logs{0};
-  std::promise<Outcome> done;  // before the link: a completion at its close still finds it
-  ManualLink manual(io.executor(), short_timing(250, 500));
-  Link& link = manual.link;
+  Link link(io.executor(), short_timing(250, 500));
   link.client->on_event(on_log([&](std::string_view) { ++logs; }));
-  link.client->async_call("a", [&](error_code e, RomiResponse r) { done.set_value({e, std::move(r)}); });
+  const Millis start = link.clock->now();
+  auto future = start_call(*link.client, "a");
   ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
-  auto future = done.get_future();
-  for (int step = 1; step <= 2; ++step) {  // at 200 and 400 ms a log line re-arms the 250 ms window
-    ASSERT_TRUE(manual.armed());
-    manual.clock->advance(200);
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 250), due)) << "+" << due - start;
+  // At 200 and 400 ms a log line re-arms the 250 ms window: due at 450 ms, then the budget's 500 ms first.
+  const Millis earliest[] = {450, 500};
+  for (int step = 1; step <= 2; ++step) {
+    link.clock->advance(200);
     link.device->send(FakeDevice::log("busy"));
     ASSERT_TRUE(::tether::testing::eventually([&] { return logs.load() == step; }, kPrompt));
+    ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + earliest[step - 1]), due))
+        << step << ": +" << due - start;
   }
-  ASSERT_TRUE(manual.armed());
-  manual.clock->advance(99);  // 499 ms: the window (re-armed at 400 ms) and the budget still run
+  link.clock->advance(99);  // 499 ms: the window (re-armed at 400 ms) and the budget still run
   EXPECT_NE(future.wait_for(20ms), std::future_status::ready);
-  manual.clock->advance(1);  // 500 ms: the budget ends, not 400 + 250
+  link.clock->advance(1);  // 500 ms: the budget ends, not 400 + 250
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   const Outcome outcome = future.get();
   EXPECT_EQ(outcome.error, Error::client_timeout);
@@ -588,16 +582,15 @@ TEST(RomiClient, LogLinesNeverStretchACallPastItsBudget) {
 
 TEST(RomiClient, SilentDeviceTimesOutAfterTheAttemptWindow) {
   IoThread io;
-  std::promise<Outcome> done;  // before the link: a completion at its close still finds it
-  ManualLink manual(io.executor(), short_timing(150, 5000));
-  Link& link = manual.link;
-  link.client->async_call("a", [&](error_code e, RomiResponse r) { done.set_value({e, std::move(r)}); });
-  auto future = done.get_future();
+  Link link(io.executor(), short_timing(150, 5000));
+  const Millis start = link.clock->now();
+  auto future = start_call(*link.client, "a");
   ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
-  ASSERT_TRUE(manual.armed());
-  manual.clock->advance(149);
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  link.clock->advance(149);
   EXPECT_NE(future.wait_for(20ms), std::future_status::ready);
-  manual.clock->advance(1);  // the attempt window, far from the 5 s budget
+  link.clock->advance(1);  // the attempt window, far from the 5 s budget
   ASSERT_EQ(future.wait_for(kPrompt), std::future_status::ready);
   const Outcome outcome = future.get();
   EXPECT_EQ(outcome.error, Error::client_timeout);
@@ -613,8 +606,7 @@ TEST(RomiClient, CancellingOneCallLeavesTheOthersAlone) {
   IoThread io;
   std::promise<Outcome> first, second, third;  // before the link: completions at its close find them
   transports::CancellationSignal cancel_second, cancel_first;
-  ManualLink manual(io.executor(), short_timing(250, 500));
-  Link& link = manual.link;
+  Link link(io.executor(), short_timing(250, 500));
   link.client->async_call("a", transports::bind_cancellation(cancel_first, [&](error_code e, RomiResponse r) {
                             first.set_value({e, std::move(r)});
                           }));
@@ -647,9 +639,15 @@ TEST(RomiClient, CancellingOneCallLeavesTheOthersAlone) {
 
 TEST(RomiClient, TimeoutSaysHowLongTheCallWaitedForAnAnswer) {
   IoThread io;
-  Link link(io.executor(), on_wall_clock(short_timing(150, 5000)));
-  error_code error;
-  const RomiResponse response = link.client->call("a", error);
+  Link link(io.executor(), short_timing(150, 5000));
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a");
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->wait_for_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  link.clock->advance(400);  // the timer fires 250 ms after its deadline
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);
+  const auto [error, response] = outcome.get();
   EXPECT_EQ(error, Error::client_timeout);
   EXPECT_EQ(error.message(), "client: no reply from the device");
   EXPECT_EQ(response.code, -25);
@@ -660,14 +658,19 @@ TEST(RomiClient, TimeoutSaysHowLongTheCallWaitedForAnAnswer) {
 
 TEST(RomiClient, SilentAttemptIsSentAgainWhenRetryOnTimeoutIsSet) {
   IoThread io;
-  Options options = on_wall_clock(short_timing(150, 3000));
+  Options options = short_timing(150, 3000);
   options.timing.retry_on_timeout = true;
   Link link(io.executor(), options);
   link.device->on_request([](const DeviceRequest& request, FakeDevice& device) {
     if (request.repeat > 1) device.send(FakeDevice::response(request.opcode, "[0]", request.id));  // 1st lost
   });
-  error_code error;
-  const RomiResponse response = link.client->call("a", error);
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a");
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->advance_to_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);  // sent again at 150 ms, answered
+  const auto [error, response] = outcome.get();
   EXPECT_FALSE(error) << error.message();
   EXPECT_TRUE(response.ok());
   EXPECT_EQ(response.attempts, 2);
@@ -679,18 +682,25 @@ TEST(RomiClient, SilentAttemptIsSentAgainWhenRetryOnTimeoutIsSet) {
 
 TEST(RomiClient, SilentDeviceWithRetryOnTimeoutStopsAtTheBudget) {
   IoThread io;
-  Options options = on_wall_clock(short_timing(150, 400));
+  Options options = short_timing(150, 400);
   options.timing.retry_on_timeout = true;
   Link link(io.executor(), options);
-  error_code error;
-  const RomiResponse response = link.client->call("a", error);
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a");
+  // Sends at 0, 150 and 300 ms; the third window (to 450 ms) is cut at the 400 ms budget.
+  const Millis deadlines[] = {150, 300, 400};
+  for (std::size_t send = 1; send <= 3; ++send) {
+    ASSERT_TRUE(link.device->wait_for_requests(send, kPrompt)) << send;
+    Millis due = 0;
+    ASSERT_TRUE(link.clock->advance_to_due(static_cast<Millis>(start + deadlines[send - 1]), due))
+        << send << ": +" << due - start;
+  }
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);
+  const auto [error, response] = outcome.get();
   EXPECT_EQ(error, Error::client_timeout);
-  EXPECT_GE(response.attempts, 2);
-  EXPECT_LE(response.attempts, 3);
-  // The last window is cut at the budget (its start depends on how late the re-sends were; the end not).
-  EXPECT_EQ(response.message, "client: no reply from the device within 400 ms (" +
-                                  std::to_string(response.attempts) + " sends)");
-  EXPECT_EQ(link.device->requests().size(), response.attempts);
+  EXPECT_EQ(response.attempts, 3);
+  EXPECT_EQ(response.message, "client: no reply from the device within 400 ms (3 sends)");
+  EXPECT_EQ(link.device->requests().size(), 3u);
 }
 
 TEST(RomiClient, DefaultTimingIsTheSpecs) {
@@ -1066,10 +1076,14 @@ TEST(RomiClient, ManualCallReceivesDeviceErrors) {
 
 TEST(RomiClient, ManualCallIsBoundedByTheEngine) {
   IoThread io;
-  Link link(io.executor(), on_wall_clock(short_timing(100, 200)));
-  error_code error;
-  link.client->call_manual("a", error);
-  EXPECT_EQ(error, Error::client_timeout);
+  Link link(io.executor(), short_timing(100, 200));
+  const Millis start = link.clock->now();
+  auto outcome = start_call(*link.client, "a", /*manual=*/true);
+  ASSERT_TRUE(link.device->wait_for_requests(1, kPrompt));
+  Millis due = 0;
+  ASSERT_TRUE(link.clock->advance_to_due(static_cast<Millis>(start + 100), due)) << "+" << due - start;
+  ASSERT_EQ(outcome.wait_for(kPrompt), std::future_status::ready);
+  EXPECT_EQ(outcome.get().error, Error::client_timeout);
 }
 
 // --- error category and counters --------------------------------------------------------------------------

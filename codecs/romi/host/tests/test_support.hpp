@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <functional>
+#include <future>
 #include <string_view>
 #include <variant>
 #include <memory>
@@ -42,16 +43,9 @@ inline EventHandler on_link_failed(std::function<void(error_code)> handler) {
   };
 }
 
-/// Options whose deadlines run on the wall clock: only for tests that wait for a timeout with a blocking call
-/// (every other test runs on `Link`'s manual clock, where no deadline passes unless the test advances it).
-inline Options on_wall_clock(Options options) {
-  options.clock = transports::steady_link_clock();
-  return options;
-}
-
 /// A client and a fake device on the two ends of an in-memory pair. The client runs on `clock`, a manual
 /// clock, unless `options` name another: no attempt window or budget passes behind a test's back, so a
-/// loaded machine cannot time a call out.
+/// loaded machine cannot time a call out; tests about timeouts advance `clock` and assert on its time.
 struct Link {
   explicit Link(boost::asio::any_io_executor executor, Options options = short_timing())
       : clock(transports::testing::ManualClock::create()) {
@@ -71,6 +65,28 @@ struct Link {
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;
 };
+
+/// A call's outcome, captured from its completion handler.
+struct Outcome {
+  error_code error;
+  RomiResponse response;
+};
+
+/// Starts `command` (`manual`: in manual form) and returns its outcome to come: a test then moves the
+/// manual clock while the call waits, which a blocking call on the test's thread could not.
+inline std::future<Outcome> start_call(Client& client, std::string command, bool manual = false) {
+  auto promise = std::make_shared<std::promise<Outcome>>();  // shared: the completion may outlive the test's frame
+  auto outcome = promise->get_future();
+  auto complete = [promise](error_code error, RomiResponse response) {
+    promise->set_value({error, std::move(response)});
+  };
+  if (manual) {
+    client.async_call_manual(std::move(command), std::move(complete));
+  } else {
+    client.async_call(std::move(command), std::move(complete));
+  }
+  return outcome;
+}
 
 /// The request frame a client writes for `payload` with `id`.
 inline std::string request_frame(const std::string& payload, std::uint8_t id) {

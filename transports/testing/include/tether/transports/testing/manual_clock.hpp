@@ -38,6 +38,9 @@ class ManualClock final : public LinkClock, public std::enable_shared_from_this<
   /// `now()` when none was pending). A test asserts on simulated time with it: "the re-send is due exactly
   /// 200 ms after the send".
   bool wait_for_due(Millis at, Millis& seen, std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const;
+  /// `wait_for_due(at, seen, timeout)`, then advances the clock to `at`: "the re-send went out exactly at
+  /// `at`" asserted and caused in one step. False (the clock unmoved) when the client armed another instant.
+  bool advance_to_due(Millis at, Millis& seen, std::chrono::milliseconds timeout = std::chrono::milliseconds(10000));
   /// Waits (wall clock, at most `timeout`) until some wait is pending and advances the clock to the earliest
   /// one. False when none came.
   bool advance_to_next(std::chrono::milliseconds timeout = std::chrono::milliseconds(5000));
