@@ -1,4 +1,3 @@
-#!/usr/bin/python3
 """Plots and report.html of a `tether bench` run, from its bench.json (matplotlib).
 
 usage: plot_report.py BENCH_JSON OUT_DIR
