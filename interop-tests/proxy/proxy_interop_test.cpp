@@ -123,8 +123,14 @@ TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas
   ArduinoIn raw;  // what a host without tether send's checks can put on the wire
   raw.mutable_servocontrol()->set_pin(9);
   raw.mutable_servocontrol()->set_position(999);
-  const SendResult sent = client.async_send(raw, boost::asio::use_future).get();
-  EXPECT_TRUE(sent.acked);  // received and refused: acked, with the Error before the Ack
+  boost::system::error_code refused;
+  try {
+    client.async_send(raw, boost::asio::use_future).get();
+  } catch (const boost::system::system_error& error) {
+    refused = error.code();
+  }
+  // Received and refused: the Error, then an Ack that says refused, and the send fails (issue 16).
+  EXPECT_EQ(refused, tether::proxy::ProxyError::refused) << refused.message();
   std::vector<events::DeviceError> errors = log.all<events::DeviceError>();
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(errors[0].text, "pin 9: position 999 not in 0..180");
@@ -388,8 +394,9 @@ class AckDropper {
       candidates_.clear();
       passed_unacked_.clear();
     }
-    // Every id the device executes is acked, in the order it ran (the order of its filter).
-    if (out.has_ack() && first_acked_.emplace(out.ack().messageid(), first_acks_).second) {
+    // Every id the device executes is acked, in the order it ran (the order of its filter; a refused one
+    // ran nothing and is not remembered).
+    if (out.has_ack() && !out.ack().refused() && first_acked_.emplace(out.ack().messageid(), first_acks_).second) {
       ++first_acks_;
       passed_unacked_.erase(out.ack().messageid());
     }

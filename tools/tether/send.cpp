@@ -4,7 +4,7 @@
 // Output contract: one line per message on stdout (`servo-control: acked, message id 7, 1 attempt; pin 9
 // = 120`), with --json one JSON object per message and line instead; errors on stderr as
 // `tether send: ...`. Exit status: 0 every message acked (compat: written) and no device error reported
-// for it; 1 the device reported an error for one (e.g. `pin 5 not initialised`); 2 usage errors, a device
+// for it; 1 the device reported an error for one or acked it as refused (e.g. `pin 5 not initialised`); 2 usage errors, a device
 // that cannot be opened, a send that failed (timed out, link failure).
 #include <cctype>
 #include <chrono>
@@ -264,6 +264,8 @@ int run_send(int argc, char** argv) {
       if (mode == proxy::Mode::primary && sent.message_id != 0) result["message_id"] = sent.message_id;
       result["attempts"] = sent.attempts;
       if (send_error) result["error"] = send_error.message();
+      // The device acked it as refused: its Error says why (exit 1, like any device error), not a failed send.
+      if (send_error == proxy::ProxyError::refused) result["refused"] = true;
     }
     progress.clear();
 
@@ -282,7 +284,11 @@ int run_send(int argc, char** argv) {
         result["device_answered"] = seen->compat_answers > 0;
       }
     }
-    if (send_error) {
+    const bool refused = result.contains("refused");
+    if (refused) {
+      line += "refused, message id " + std::to_string(result["message_id"].get<std::uint32_t>()) + ", " +
+              plural(result["attempts"].get<std::uint32_t>(), "attempt");
+    } else if (send_error) {
       line += "failed: " + result["error"].get<std::string>();
     } else if (command.reset && mode == proxy::Mode::primary) {
       line += "new session " + std::to_string(result["session_id"].get<std::uint32_t>());
@@ -308,12 +314,12 @@ int run_send(int argc, char** argv) {
     } else {
       out().line(line);
     }
-    if (send_error) {
+    if (send_error && !refused) {
       std::fprintf(stderr, "tether send: %s: %s\n", command.name.c_str(), result["error"].get<std::string>().c_str());
       status = 2;
       break;
     }
-    if (!result["device_errors"].empty()) status = 1;
+    if (refused || !result["device_errors"].empty()) status = 1;
   }
   device->close();
   return status;

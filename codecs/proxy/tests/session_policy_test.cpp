@@ -36,13 +36,13 @@ Polled poll_until(RequestTable& table, Millis from, Millis to) {
 }
 
 TEST(ProxySessionPolicy, AckTimeoutIsBothFramesOnTheWirePlusTheMargin) {
-  EXPECT_EQ(kAckFrameBytes, 14u);  // ArduinoOut{ack{messageId}}: 9 payload bytes, CRC, COBS, two delimiters
+  EXPECT_EQ(kAckFrameBytes, 16u);  // ArduinoOut{ack{messageId, refused}}: 11 payload bytes, CRC, COBS, two delimiters
   const AckTiming timing;  // 115200 baud, 11 bits per byte, 50 ms margin
-  // (20 + 14) * 11 bits = 374 bits -> 3.25 ms, rounded up to 4, + 50.
+  // (20 + 16) * 11 bits = 396 bits -> 3.44 ms, rounded up to 4, + 50.
   EXPECT_EQ(ack_timeout(timing, 20), 54u);
   AckTiming slow = timing;
   slow.baud = 57600;
-  EXPECT_EQ(ack_timeout(slow, 20), 57u);  // 6.49 ms -> 7, + 50
+  EXPECT_EQ(ack_timeout(slow, 20), 57u);  // 6.88 ms -> 7, + 50
   AckTiming absurd = timing;
   absurd.baud = 1;
   absurd.bits_per_byte = 0xFFFFFFFFu;

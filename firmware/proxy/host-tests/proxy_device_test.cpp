@@ -56,7 +56,7 @@ In digital_control(uint32_t id, uint32_t pin, bool state) {
 std::string describe(const Out& out) {
   switch (out.which_data) {
     case tether_proxy_ArduinoOut_ack_tag:
-      return "ack " + std::to_string(out.data.ack.messageId);
+      return "ack " + std::to_string(out.data.ack.messageId) + (out.data.ack.refused ? " refused" : "");
     case tether_proxy_ArduinoOut_error_tag:
       return std::string(out.data.error.level == tether_proxy_Error_Level_WARNING ? "warning " : "fatal ") +
              out.data.error.text;
@@ -133,13 +133,13 @@ TEST_F(ProxyDeviceTest, EveryMessageIsAckedAfterWhatItCauses) {
   send(servo_control(3, 9, 180));
   EXPECT_EQ(take(), (Lines{"pin 9 = 180", "ack 3"}));
   EXPECT_EQ(hw.pins[9].pulse_us, 2000);
-  send(servo_control(4, 9, 999));  // out of range: refused (acked: it was received), the servo stays
-  EXPECT_EQ(take(), (Lines{"warning pin 9: position 999 not in 0..180", "ack 4"}));
+  send(servo_control(4, 9, 999));  // out of range: acked as refused, the servo stays
+  EXPECT_EQ(take(), (Lines{"warning pin 9: position 999 not in 0..180", "ack 4 refused"}));
   EXPECT_EQ(hw.pins[9].pulse_us, 2000);
   send(servo_control(40, 9, -5));
-  EXPECT_EQ(take(), (Lines{"warning pin 9: position -5 not in 0..180", "ack 40"}));
+  EXPECT_EQ(take(), (Lines{"warning pin 9: position -5 not in 0..180", "ack 40 refused"}));
   send(servo_init(41, 10, 200));
-  EXPECT_EQ(take(), (Lines{"warning pin 10: position 200 not in 0..180", "ack 41"}));
+  EXPECT_EQ(take(), (Lines{"warning pin 10: position 200 not in 0..180", "ack 41 refused"}));
   send(digital_init(5, 13, false));
   EXPECT_EQ(take(), (Lines{"pin 13 = 0", "ack 5"}));
   send(digital_control(6, 13, true));
@@ -212,16 +212,16 @@ TEST_F(ProxyDeviceTest, RefusalsAreWarningsNamingThePin) {
   send(servo_init(8, 9, 0));
   send(digital_control(9, 9, true));
   send(digital_init(10, 20, true));
-  EXPECT_EQ(take(), (Lines{"warning servo on pin 5: D9/D10 only", "ack 1",
-                           "warning pin 1823 does not exist", "ack 2",
-                           "warning pin 1 is the UART", "ack 3",
-                           "warning pin 13 not initialised", "ack 4",
-                           "warning pin 9 not initialised", "ack 5",
+  EXPECT_EQ(take(), (Lines{"warning servo on pin 5: D9/D10 only", "ack 1 refused",
+                           "warning pin 1823 does not exist", "ack 2 refused",
+                           "warning pin 1 is the UART", "ack 3 refused",
+                           "warning pin 13 not initialised", "ack 4 refused",
+                           "warning pin 9 not initialised", "ack 5 refused",
                            "pin 10 = 0", "ack 6",
-                           "warning pin 10 is not a servo", "ack 7",
+                           "warning pin 10 is not a servo", "ack 7 refused",
                            "pin 9 = 0", "ack 8",
-                           "warning pin 9 is not digital", "ack 9",
-                           "warning pin 20 does not exist", "ack 10"}));
+                           "warning pin 9 is not digital", "ack 9 refused",
+                           "warning pin 20 does not exist", "ack 10 refused"}));
   EXPECT_EQ(device.counters().refused, 8u);
   EXPECT_FALSE(hw.pins[5].output);
 }
@@ -229,7 +229,20 @@ TEST_F(ProxyDeviceTest, RefusalsAreWarningsNamingThePin) {
 TEST_F(ProxyDeviceTest, UnknownMessage) {
   take();
   send(message(42, 0));  // only a messageId (or a oneof case this device does not know)
-  EXPECT_EQ(take(), (Lines{"warning unknown message", "ack 42"}));
+  EXPECT_EQ(take(), (Lines{"warning unknown message", "ack 42 refused"}));
+}
+
+// Issue 16: a rebooted device got re-sends of controls before the host saw its ResetEvent and replayed the
+// inits; it acked them without running them and the caller was told they took effect. The ack says so now,
+// and a refused message is not remembered: its re-send after the init runs.
+TEST_F(ProxyDeviceTest, AControlOfAnUninitialisedPinIsAckedAsRefusedAndItsResendRunsOnceInitialised) {
+  take();
+  send(servo_control(5, 9, 40));
+  EXPECT_EQ(take(), (Lines{"warning pin 9 not initialised", "ack 5 refused"}));
+  send(servo_init(6, 9, 90));
+  send(servo_control(5, 9, 40));  // the same message again: not a duplicate, it never ran
+  send(servo_control(5, 9, 40));  // now it is
+  EXPECT_EQ(take(), (Lines{"pin 9 = 90", "ack 6", "pin 9 = 40", "ack 5", "ack 5"}));
 }
 
 TEST_F(ProxyDeviceTest, UndecodablePayloadIsReportedNotAcked) {

@@ -115,8 +115,8 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
     send_ack(id);  // a re-send: ack again, execute nothing
     return;
   }
-  executed_.remember(id, fingerprint, ByteView());
   ++counters_.executed;
+  const uint32_t refused_before = counters_.refused;
   bool restart = false;
   switch (in.which_data) {
     case tether_proxy_ArduinoIn_ping_tag:
@@ -158,7 +158,11 @@ void ProxyDevice::handle_payload(ByteView payload, Millis now) {
       send_error(FlashText{kUnknownMessage});
       break;
   }
-  send_ack(id);
+  const bool refused = counters_.refused != refused_before;
+  // Only what took effect is remembered: a re-send of a refused message is looked at again (it may run now
+  // that its pin was initialised), and its ack still says whether it ran.
+  if (!refused) executed_.remember(id, fingerprint, ByteView());
+  send_ack(id, refused);
   if (restart && restart_ != nullptr) restart_(restart_context_);  // on the AVR: flush, reset, no return
 }
 
@@ -179,9 +183,10 @@ bool ProxyDevice::send(const void* out_message, bool leading_delimiter) {
   return false;
 }
 
-void ProxyDevice::send_ack(uint32_t message_id) {
+void ProxyDevice::send_ack(uint32_t message_id, bool refused) {
   tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_ack_tag);
   out.data.ack.messageId = message_id;
+  out.data.ack.refused = refused;
   send(&out);
 }
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <deque>
 #include <future>
 #include <memory>
 #include <mutex>
@@ -323,7 +324,7 @@ double pulse_us(transports::VirtualUno& board, int pin) {
   return std::chrono::duration<double, std::micro>(timing.high_time).count();
 }
 
-// Compares the pins with the last successful operation, once the servo period has passed (20 ms).
+// Compares the pins with `last` (the command the pins should show), once the servo period has passed (20 ms).
 void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::optional<Pulses>& last) {
   if (!last) return;
   const auto settled = Clock::now() + std::chrono::seconds(2);
@@ -365,6 +366,23 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
 
   LatencyHistogram latencies;
   std::optional<Pulses> last_ok;
+  // Operations that are one device command: what the pins show is the last one the witness saw EXECUTED,
+  // confirmed or not (issue 16: an arm call whose answer was lost after it ran left the pins at its values,
+  // and the check against the last confirmed one reported a mismatch). Newest last; a key repeats only
+  // after hundreds of operations.
+  std::deque<std::pair<std::uint32_t, Pulses>> single_commands;
+  std::optional<Pulses> last_executed;
+  const auto note_executions = [&](const ExecutionWitness::Reading& reading) {
+    ledger.add(reading);
+    if (reading.keys.empty()) return;
+    for (auto command = single_commands.rbegin(); command != single_commands.rend(); ++command) {
+      if (command->first == reading.keys.back()) {
+        last_executed = command->second;
+        return;
+      }
+    }
+    last_executed.reset();  // an execution no single command explains: fall back to the last success
+  };
   std::optional<Clock::time_point> reset_at;
   const unsigned reset_index = options.iterations / 2;
   const bool timed = options.duration.count() > 0;
@@ -378,7 +396,7 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     std::this_thread::sleep_until(next_start);
     next_start = std::max(next_start + options.period, Clock::now());
     if (reset_now(i) && !device.boards.empty()) {
-      if (witness) ledger.add(witness->read());  // the reboot clears what was not read yet
+      if (witness) note_executions(witness->read());  // the reboot clears what was not read yet
       device.boards.back()->reset(transports::ResetKind::power_cycle, options.power_off);
       reset_at = Clock::now();
       report.recovery_ms.reset();  // the latest reset's recovery
@@ -390,7 +408,11 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     latencies.add(std::chrono::duration<double, std::milli>(end - start).count());
     ++report.operations;
     for (const auto& [key, confirmed] : outcome.commands) ledger.outcome(ledger.issued(key), confirmed);
-    if (witness) ledger.add(witness->read());
+    if (outcome.commands.size() == 1) {
+      single_commands.emplace_back(outcome.commands.front().first, outcome.expected);
+      if (single_commands.size() > ExactlyOnceLedger::kAttributionWindow) single_commands.pop_front();
+    }
+    if (witness) note_executions(witness->read());
     if (outcome.ok) {
       ++report.successes;
       last_ok = outcome.expected;
@@ -418,9 +440,10 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
     // Re-sends still in flight land within a call budget (2 s); the compat settle's re-writes are not the
     // workload's and are not counted.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    ledger.add(witness->read());
+    note_executions(witness->read());
     report.exactly_once = ledger.figures();
   }
+  if (last_executed) last_ok = last_executed;
   if (const std::optional<Pulses> settled = workload->settle(report.final_rewrites)) last_ok = settled;
 
   const LinkCounters after = workload->link();

@@ -66,7 +66,7 @@ TEST(TetherSend, DeviceErrorExitsOne) {
   // A fresh session: pin 5 was never initialised (and a servo can only be on D9/D10).
   const Outcome run = run_tether({"send", "--virtual", "proxy", "servo-control", "pin=5", "position=10"});
   EXPECT_EQ(run.status, 1) << run.err;
-  EXPECT_NE(run.out.find("servo-control: acked"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("servo-control: refused"), std::string::npos) << run.out;  // acked as refused
   EXPECT_NE(run.out.find("device error: pin 5 not initialised"), std::string::npos) << run.out;
 }
 

@@ -589,15 +589,19 @@ class ClientImpl final : public transports::ClientLink {
         error = asio::error::operation_aborted;
         break;
       case session::CallOutcome::timeout:
-      case session::CallOutcome::remote_error:  // not produced: acks carry no status
         error = ProxyError::timed_out;
+        break;
+      case session::CallOutcome::remote_error:  // the only status an ack carries
+        error = ProxyError::refused;
         break;
     }
     if (pending->replay_key == 0) {
       complete(std::move(pending->handler), error, result);
       return;
     }
-    if (error) {
+    // A replayed init the device refuses (a bad pin) was refused to its caller the first time: restarting
+    // the session would only have it refused again, forever.
+    if (error && error != ProxyError::refused) {
       // The device does not take its inits: start over (Reset, ResetEvent, replay).
       lose_session();
       monitor_.start(now);
@@ -759,7 +763,7 @@ class ClientImpl final : public transports::ClientLink {
     }
     switch (out.data_case()) {
       case ArduinoOut::kAck:
-        on_ack(out.ack().messageid(), now);
+        on_ack(out.ack().messageid(), out.ack().refused(), now);
         return;
       case ArduinoOut::kError:
         emit(events::DeviceError{out.error().text(),
@@ -780,9 +784,9 @@ class ClientImpl final : public transports::ClientLink {
     }
   }
 
-  void on_ack(std::uint32_t id, Millis now) {
+  void on_ack(std::uint32_t id, bool refused, Millis now) {
     if (table_.contains(id)) {
-      const Table::ReplyResult reply = table_.on_reply(id, 0, now);
+      const Table::ReplyResult reply = table_.on_reply(id, refused ? SessionPolicy::kRefused : SessionPolicy::kAcked, now);
       if (reply.verdict == Table::Verdict::completed) on_completion(reply.completion, now);
       return;
     }

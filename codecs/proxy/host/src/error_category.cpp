@@ -11,6 +11,7 @@ class ProxyCategory final : public boost::system::error_category {
   std::string message(int value) const override {
     switch (static_cast<ProxyError>(value)) {
       case ProxyError::timed_out: return "no ack within the send budget";
+      case ProxyError::refused: return "the device refused the message (it did not act on it)";
       case ProxyError::queue_timeout: return "waited too long before the first send";
       case ProxyError::device_reset: return "the device restarted while the message was in flight";
       case ProxyError::wrong_mode: return "not available in this client mode";

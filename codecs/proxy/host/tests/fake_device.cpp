@@ -30,9 +30,10 @@ std::string FakeDevice::frame_bytes(const std::string& payload, Integrity integr
 
 std::string FakeDevice::frame(const ArduinoOut& out) { return frame_bytes(out.SerializeAsString(), Integrity::crc16); }
 
-std::string FakeDevice::ack(std::uint32_t message_id) {
+std::string FakeDevice::ack(std::uint32_t message_id, bool refused) {
   ArduinoOut out;
   out.mutable_ack()->set_messageid(message_id);
+  out.mutable_ack()->set_refused(refused);
   return frame(out);
 }
 

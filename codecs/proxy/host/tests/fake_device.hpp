@@ -64,7 +64,7 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
   /// A primary-mode frame of `out`.
   static std::string frame(const ArduinoOut& out);
   /// Primary-mode frames of the common messages.
-  static std::string ack(std::uint32_t message_id);
+  static std::string ack(std::uint32_t message_id, bool refused = false);
   static std::string reset_event(std::uint32_t session_id);
   static std::string info(std::uint32_t session_id, bool failsafe);
   static std::string error(const std::string& text, Error::Level level);

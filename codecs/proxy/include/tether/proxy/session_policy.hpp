@@ -23,7 +23,11 @@ namespace proxy {
 /// RequestTable policy: messageIds, acks.
 struct SessionPolicy {
   using Id = uint32_t;  ///< messageId.
-  using Code = uint8_t;  ///< 0: acked (an ack has no status).
+  using Code = uint8_t;  ///< `kAcked` or `kRefused` (the ack's `refused` flag).
+  /// An ack that says the device acted on the message.
+  static constexpr Code kAcked = 0;
+  /// An ack of a message the device did not act on (completes it with an error, not with success).
+  static constexpr Code kRefused = 1;
   /// An ack completes the message.
   static bool is_success(Code code) { return code == 0; }
   /// Nothing in an ack asks for a re-send.
@@ -32,8 +36,9 @@ struct SessionPolicy {
 
 /// Messages in flight at once (the device's duplicate filter remembers 8).
 constexpr uint8_t kMaxInFlight = 8;
-/// Bytes of the longest ack frame (`ArduinoOut{ack{messageId}}`, 9-byte payload), delimiters included.
-constexpr size_t kAckFrameBytes = max_frame_size(9);
+/// Bytes of the longest ack frame (`ArduinoOut{ack{messageId, refused}}`, 11-byte payload), delimiters
+/// included.
+constexpr size_t kAckFrameBytes = max_frame_size(11);
 
 /// What the attempt window and the budget depend on; the protocol's values by default.
 struct AckTiming {

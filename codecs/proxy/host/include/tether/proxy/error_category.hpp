@@ -29,6 +29,8 @@ enum class ProxyError {
   reserved_message,   ///< Primary mode: `Reset` belongs to the session handshake; use `restart_session()`.
   message_too_large,  ///< The encoded message exceeds `kMaxPayload` bytes.
   too_many_inits,     ///< `kMaxInits` different inits are registered already.
+  refused,            ///< Primary mode: the device acked the message without acting on it (bad or
+                      ///< uninitialised pin, e.g. just rebooted; its Error report says which).
 };
 
 /// The "tether.proxy" category.

@@ -123,7 +123,7 @@ class ProxyDevice {
   static void on_failsafe(void* self, Millis now);
   void handle_payload(ByteView payload, Millis now);
   bool send(const void* out_message, bool leading_delimiter = false);
-  void send_ack(uint32_t message_id);
+  void send_ack(uint32_t message_id, bool refused = false);
   void send_error(FlashText text);
   void send_pin_state(uint8_t pin, bool failsafe);
   void send_info();
