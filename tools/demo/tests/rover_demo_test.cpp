@@ -111,6 +111,15 @@ TEST(RoverDemo, WithoutFaultsEveryOperationSucceedsAndTheJsonCarriesTheFigures) 
   }
 }
 
+// The embedded virtual rover with only its device `name` (none when it has no such device).
+devices::RoverConfig embedded_rover_with_only(const DemoOptions& options, const std::string& name) {
+  devices::ParseOptions parse;
+  parse.firmware_dir = options.firmware_dir;
+  devices::RoverConfig config = devices::parse_config(devices::default_virtual_rover_config(), parse);
+  std::erase_if(config.devices, [&](const devices::DeviceConfig& device) { return device.name != name; });
+  return config;
+}
+
 // The compat device has no acks: a rebooted device whose RESET announcement the host misses keeps no init,
 // and every command after is refused. The demo writes the inits and last positions again after the run
 // until the device's state stream shows them, so the pins end at a known command whatever was lost.
@@ -120,16 +129,9 @@ TEST(RoverDemo, TheCompatDeviceEndsAtTheLastCommandEvenWhenItsInitsWereLostInThe
   DemoOptions options = short_run();
   options.iterations = 20;
   options.bit_error_rate = 0;
-  devices::ParseOptions parse;
-  parse.firmware_dir = options.firmware_dir;
-  devices::RoverConfig config = devices::parse_config(devices::default_virtual_rover_config(), parse);
-  std::vector<devices::DeviceConfig> legacy;
-  for (devices::DeviceConfig& device : config.devices) {
-    if (device.name == "legacy") legacy.push_back(device);
-  }
-  ASSERT_EQ(legacy.size(), 1u);
-  std::get<devices::ProxyDeviceOptions>(legacy[0].options).client.compat_replay_on_reset = false;
-  config.devices = legacy;
+  devices::RoverConfig config = embedded_rover_with_only(options, "legacy");
+  ASSERT_EQ(config.devices.size(), 1u);
+  std::get<devices::ProxyDeviceOptions>(config.devices[0].options).client.compat_replay_on_reset = false;
   options.config = config;
   const DemoReport report = run_demo(options);
   ASSERT_EQ(report.devices.size(), 1u);
@@ -149,16 +151,8 @@ TEST(RoverDemo, TheProxyDeviceConfirmsOnlyWhatItRanAcrossRepeatedPowerCycles) {
   DemoOptions options = short_run();
   options.iterations = 64;
   options.reset_every = 8;
-  devices::ParseOptions parse;
-  parse.firmware_dir = options.firmware_dir;
-  devices::RoverConfig config = devices::parse_config(devices::default_virtual_rover_config(), parse);
-  std::vector<devices::DeviceConfig> servos;
-  for (devices::DeviceConfig& device : config.devices) {
-    if (device.name == "servos") servos.push_back(device);
-  }
-  ASSERT_EQ(servos.size(), 1u);
-  config.devices = servos;
-  options.config = config;
+  options.config = embedded_rover_with_only(options, "servos");
+  ASSERT_EQ(options.config->devices.size(), 1u);
   const DemoReport report = run_demo(options);
   std::printf("%s", format_table(report).c_str());
   ASSERT_EQ(report.devices.size(), 1u);
