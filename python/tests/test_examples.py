@@ -17,7 +17,7 @@ def run_example(name, *args):
                           timeout=120, env=os.environ.copy())
 
 
-def test_blink_turns_the_led_on_and_off():
+def test_blink_turns_the_led_on_and_off(patient_romi):
     with tether.VirtualUno("romi-blink") as board:
         result = run_example("blink.py", board.port, "2", "0.3")
         assert result.returncode == 0, result.stderr
@@ -25,7 +25,7 @@ def test_blink_turns_the_led_on_and_off():
         assert not board.pin(13).level  # the last command turned it off
         # And the LED follows the command, through the same compat class the example uses.
         from tether.compat import ControlSerial
-        with ControlSerial(board.port, boot_wait=0) as serial:
+        with ControlSerial(board.port, boot_wait=0, **patient_romi) as serial:
             assert serial.execute('L', 1) == [0]
             assert board.pin(13).level
             assert serial.execute('L', 0) == [0]
@@ -44,10 +44,10 @@ def test_analogread_prints_the_sensor_value():
             assert abs(int(line.split(": ")[1]) - 512) <= 1
 
 
-def test_control_serial_raises_on_device_errors():
+def test_control_serial_raises_on_device_errors(patient_romi):
     from tether.compat import ControlSerial
     with tether.VirtualUno("romi-blink") as board:
-        with ControlSerial(board.port, boot_wait=0) as serial:
+        with ControlSerial(board.port, boot_wait=0, **patient_romi) as serial:
             serial.set_debug(True)
             with pytest.raises(tether.RomiError) as caught:
                 serial.execute('Z')
