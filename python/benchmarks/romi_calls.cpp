@@ -12,6 +12,7 @@
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <iostream>
 #include <string>
 #include <thread>
@@ -80,7 +81,7 @@ void timed_calls(const std::string& port, long calls) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   if (argc == 2 && std::string(argv[1]) == "--fake-device") return fake_device();
   if (argc == 4 && std::string(argv[1]) == "--port") {
     timed_calls(argv[2], std::strtol(argv[3], nullptr, 10));
@@ -99,4 +100,13 @@ int main(int argc, char** argv) {
   while (!board.uart().rx_enabled) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   timed_calls(port, std::strtol(argv[2], nullptr, 10));
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& error) {  // a missing image, a port that does not open, a failed call
+    std::fprintf(stderr, "%s: %s\n", argv[0], error.what());
+    return 1;
+  }
 }
