@@ -1,7 +1,8 @@
 /// @file bench.hpp
 /// `tether bench`: the demo's workload (tether/demo/workload.hpp: set the servos, get the confirmation; on
 /// a ring, a request round the ring) swept over line noise and request rates on every device of a rover,
-/// with the figures a team needs to pick a protocol per device.
+/// with the figures a team needs to pick a protocol per device; or a read instead, and the smallest or the
+/// largest operation of either kind (workloads.hpp: `--workload`, `--payload`).
 ///
 /// The rover opens once; each sweep point (a bit error rate and a rate) then runs the workload on every
 /// selected device at once, or one device at a time (`isolated`), and takes its figures from the
