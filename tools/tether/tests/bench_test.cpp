@@ -391,6 +391,20 @@ TEST(TetherBench, BadInputGetsAClearError) {
     EXPECT_EQ(run.status, 2) << run.out;
     EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
   }
+  // A proxy whose config inits no digital pin has no small operation: skipped, and alone a clear error.
+  if (fs::exists(firmware("proxy"))) {
+    const fs::path config = out / "servos-only.json";
+    std::ofstream(config) << R"({"name": "servos-only", "devices": [{"name": "servos", "codec": "proxy",
+        "transport": {"virtual": {"firmware": "proxy", "pacing": "real_time", "seed": 2}},
+        "options": {"inits": [{"kind": "servo", "pin": 9, "safe_position": 90}]}}]})";
+    const Outcome run = run_tether({"bench", "--config", config.string(), "--payload", "small", "--sweep", "ber=0",
+                                    "--iterations", "1", "--no-plots", "--out", (out / "small").string()});
+    EXPECT_EQ(run.status, 2);
+    EXPECT_NE(run.err.find("no selected device has the servo workload with the small payload; servos: its config "
+                           "inits no digital pin for the small operation"),
+              std::string::npos)
+        << run.err;
+  }
   // An unknown device is named, before anything runs long.
   if (fs::exists(firmware("elcano-node"))) {
     const Outcome run = run_tether({"bench", "--devices", "arm,wheel", "--out", (out / "run").string()});
