@@ -194,7 +194,7 @@ class ProxyControlWorkload final : public demo::Workload {
   // the pin's value). A report with another value is a wrong answer.
   bool reported_after(std::uint64_t before, std::int32_t value, demo::Outcome& outcome) const {
     const PinReports::Last last =
-        reports_->wait_for(pin_, before, value, Clock::now() + std::chrono::milliseconds(100));
+        reports_->wait_for(pin_, before, value, Clock::now() + std::chrono::milliseconds(500));
     if (last.count > before && last.value == value) return true;
     if (last.count > before) {
       outcome.wrong = true;
