@@ -258,6 +258,17 @@ the simulation cannot time a call out while the device has not had its time.)doc
           "Advances a ``start=False`` board by ``seconds`` of simulated time on the calling thread, as fast as it "
           "can (the GIL released); its clients' deadlines move with it. One caller at a time.")
       .def(
+          "stats",
+          [](VirtualBoard& b) {
+            const transports::VirtualUnoStats stats = b.get().stats();
+            return py::module_::import("types").attr("SimpleNamespace")(
+                "boots"_a = stats.boots, "rx_bytes"_a = stats.rx_bytes, "rx_bytes_lost"_a = stats.rx_bytes_lost,
+                "tx_bytes"_a = stats.tx_bytes, "host_bytes_discarded"_a = stats.host_bytes_discarded,
+                "awake_cycles"_a = stats.awake_cycles);
+          },
+          "The board's counters: ``boots``, ``rx_bytes`` (entered its UART), ``rx_bytes_lost``, ``tx_bytes`` (the "
+          "firmware wrote), ``host_bytes_discarded``, ``awake_cycles`` (CPU cycles not asleep).")
+      .def(
           "pin",
           [](VirtualBoard& b, int pin) {
             if (pin < 0 || pin > 19) throw py::value_error("Arduino pins are 0..19 (A0..A5 = 14..19)");
