@@ -73,7 +73,7 @@ std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock) {
 }
 
 Transport board_transport(const std::shared_ptr<VirtualBoard>& board, unsigned baud) {
-  transports::VirtualUno& uno = board->get();
+  board->get();  // ClosedError for a closed board
   Transport transport;
   if (board->started) {
     transport = open_serial(board->port, SerialArguments{baud, 0.0, {}});
@@ -82,11 +82,13 @@ Transport board_transport(const std::shared_ptr<VirtualBoard>& board, unsigned b
       throw py::value_error("a board made with start=False serves one client at a time (close the other first)");
     }
     transport.io = io_thread();
-    auto stream = transports::VirtualUnoStream::attach(transport.io->executor(), uno);
+    // Holding the board (not owning its running: it never runs on its own): the stream may outlive the
+    // VirtualBoard by a handler on the io thread, and its destructor still clears the board's output handler.
+    auto stream = std::make_shared<transports::VirtualUnoStream>(transport.io->executor(), board->board, false);
     board->attached = stream;
     transport.stream = std::move(stream);
   }
-  transport.keep_alive = board;  // the stream of a start=False board refers to it
+  transport.keep_alive = board;
   transport.board = board;
   return transport;
 }

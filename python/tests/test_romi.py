@@ -165,6 +165,14 @@ def test_board_time_is_the_clients_clock_on_a_running_board(romi_board):
         assert romi_board.simulated_time - sent >= 0.299  # the clock counts whole milliseconds
 
 
+def test_a_client_keeps_the_board_it_was_opened_on():
+    client = tether.romi.Client(tether.VirtualUno("romi-test", seed=1))  # no other reference to the board
+    try:
+        assert client.call("e") == [0, 1, 2]
+    finally:
+        client.close()
+
+
 def test_closing_the_board_closes_the_clients_on_its_clock(held_board, call_in_thread):
     # A closed board's time stands still: its clients' waits would never end, so they are closed with it.
     client = tether.romi.Client(held_board)
