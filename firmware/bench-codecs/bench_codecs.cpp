@@ -163,16 +163,19 @@ uint8_t without_spaces(uint8_t size) {
   return count;
 }
 
-// Reads `size` bytes of `input` with a fresh Decoder<96>, as an elcano-node board would; true when they
-// made one message of `type`.
+// Reads `size` bytes of `input` with a fresh Decoder<96>, as one span (feed(bytes): the run of bytes a UART
+// read returns); true when they made one message of `type`.
 bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, tether::LinkCounters& counters) {
   elcano::Decoder<96> reader(generation, counters);
   bool read = false;
-  for (uint8_t i = 0; i < size; ++i) {
-    if (reader.feed(input[i]) == tether::DecodeStatus::frame) {
+  tether::ByteView rest(input, size);
+  while (!rest.empty()) {
+    const tether::FeedResult fed = reader.feed(rest);
+    if (fed.status == tether::DecodeStatus::frame) {
       sink = static_cast<uint16_t>(reader.frame().speed + static_cast<int32_t>(reader.forward().size()));
       read = reader.frame().type == type;
     }
+    rest = rest.subview(fed.consumed);
   }
   return read;
 }
