@@ -39,12 +39,8 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
   const size_t room = Capacity - size_;
   if (static_cast<size_t>(end - next) > room) end = next + room;
   uint8_t* out = buffer_ + size_;
-  // The number's members in registers too (the AVR reaches members through a pointer it runs out of).
   State state = state_;
   uint8_t digits = digits_;
-  uint8_t field = field_;
-  bool negative = negative_;
-  uint32_t value = value_;
   while (next != end) {
     const uint8_t byte = *next;
     if (byte == ' ') {  // ignored anywhere (rule 1)
@@ -57,7 +53,7 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
         if (digits >= kSafeDigits) break;  // the range check is feed(byte)'s
         if (digits < 4) {
           // Up to 4 digits in 16 bits (9999 fits; the AVR multiplies that inline).
-          uint16_t small = static_cast<uint16_t>(value);
+          uint16_t small = static_cast<uint16_t>(value_);
           for (;;) {
             small = static_cast<uint16_t>(small * 10u + digit);
             *out++ = *next++;
@@ -66,19 +62,20 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
             digit = static_cast<uint8_t>(*next - '0');
             if (digit >= 10) break;
           }
-          value = small;
+          value_ = small;
         } else {
           // Fewer than 9 digits so far: one more stays in int32. value * 10 as (value * 5) * 2 in shifts
           // (a 32-bit multiply is a library call on the AVR).
-          value = (((value << 2) + value) << 1) + digit;
+          const uint32_t value = value_;
+          value_ = (((value << 2) + value) << 1) + digit;
           *out++ = byte;
           ++next;
           ++digits;
         }
       } else if (byte == '}' && digits != 0) {
-        const int32_t number = negative ? static_cast<int32_t>(0u - value) : static_cast<int32_t>(value);
-        if (field != 0) {
-          *this->field(field) = number;
+        const int32_t number = signed_value();
+        if (field_ != 0) {
+          *field(field_) = number;
         } else if (second_) {  // generation B `p E,N` (field_of has no single field for it)
           message_.east = first_;
           message_.north = number;
@@ -88,17 +85,17 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
         *out++ = byte;
         ++next;
         state = State::lcurly;
-      } else if (byte == ',' && field == 0 && !second_ && digits != 0) {
+      } else if (byte == ',' && field_ == 0 && !second_ && digits != 0) {
         // Generation B `p E,N`: E is kept while N is read (field 0 in generation B means `p`).
-        first_ = negative ? static_cast<int32_t>(0u - value) : static_cast<int32_t>(value);
+        first_ = signed_value();
         second_ = true;
-        negative = false;
+        negative_ = false;
         digits = 0;
-        value = 0;
+        value_ = 0;
         *out++ = byte;
         ++next;
-      } else if (byte == '-' && digits == 0 && !negative) {
-        negative = true;
+      } else if (byte == '-' && digits == 0 && !negative_) {
+        negative_ = true;
         *out++ = byte;
         ++next;
       } else {
@@ -123,16 +120,13 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
       *out++ = byte;
       ++next;
     } else if (state == State::letter) {
-      field = field_of(byte);
+      const uint8_t field = field_of(byte);
       // field_of has 0 for generation B `p` (two fields: E,N); every other 0 is an unknown letter.
       if (field == 0 && (byte != 'p' || generation_ != Generation::b)) break;
       *out++ = byte;
       ++next;
-      letter_ = static_cast<char>(byte);  // begin_number, with the number in registers
-      second_ = false;
-      negative = false;
+      begin_number(byte, field);
       digits = 0;
-      value = 0;
       state = State::number;
     } else if (state == State::header && detail::is_header(byte)) {
       start(byte);  // keeps the header: the buffer starts over
@@ -145,9 +139,6 @@ __attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(cons
   }
   state_ = state;
   digits_ = digits;
-  field_ = field;
-  negative_ = negative;
-  value_ = value;
   size_ = static_cast<size_t>(out - buffer_);
   return next;
 }
