@@ -183,9 +183,11 @@ bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, 
 // Feeds `size` bytes of `input` to `node` and takes its output (the forwarded message, when any); `kind` is
 // the last event the bytes produced. Returns the output's size.
 uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
-  for (uint8_t i = 0; i < size; ++i) {
-    const elcano::RingEvent::Kind event = node.consume(input[i], 0);  // the fast path, as elcano-node uses
+  for (tether::ByteView rest(input, size); !rest.empty();) {  // one span, as elcano-node feeds a UART read
+    size_t used = 0;
+    const elcano::RingEvent::Kind event = node.consume(rest, 0, used);
     if (event != elcano::RingEvent::Kind::none) kind = event;
+    rest = rest.subview(used);
   }
   return static_cast<uint8_t>(node.take_output(frame, 0));
 }

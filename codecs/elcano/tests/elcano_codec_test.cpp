@@ -386,7 +386,9 @@ Trace trace_by_span(const std::string& bytes, Generation generation, std::mt1993
       if (result.consumed == 0) return trace;
       rest = rest.subview(result.consumed);
       record(trace, reader, result.status, counters);
-      if (result.status == DecodeStatus::more) EXPECT_TRUE(rest.empty());
+      if (result.status == DecodeStatus::more) {
+        EXPECT_TRUE(rest.empty());
+      }
     }
   }
   return trace;
