@@ -188,6 +188,13 @@ bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) 
   return true;
 }
 
+// The handlers' interface forwards to the one implementation (handler.hpp: not virtual, so unused
+// replies are not linked).
+void IRomiSerial::send_ok() { static_cast<RomiSerial*>(this)->send_ok(); }
+void IRomiSerial::send_error(int code, const char* message) { static_cast<RomiSerial*>(this)->send_error(code, message); }
+void IRomiSerial::send(const char* message) { static_cast<RomiSerial*>(this)->send(message); }
+void IRomiSerial::log(const char* text) { static_cast<RomiSerial*>(this)->log(text); }
+
 void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
 
 void RomiSerial::send_error(int code, const char* message) {
@@ -259,11 +266,23 @@ void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   ++counters_.rejected;
-  constexpr uint8_t kCodeText = 8;  // "[-32768]" never needed: protocol codes have at most 3 characters
-  ArrayText<kCodeText> body;
-  body.add_int(static_cast<int16_t>(code));
-  uint8_t frame[kCodeText + kResponseOverhead];  // not cached: reply_ keeps the cached reply
-  emit(opcode, id, text_view(body.c_str()), MutableByteView(frame));
+  // Protocol codes are -1..-99: "[-" one or two digits "]", formed here without the general number
+  // formatter (its 32-bit digit loop would be linked into every image for this alone).
+  uint8_t magnitude = static_cast<uint8_t>(-static_cast<int16_t>(code));
+  uint8_t body[5] = {'[', '-'};
+  uint8_t size = 2;
+  if (magnitude >= 10) {
+    uint8_t tens = 0;
+    while (magnitude >= 10) {
+      magnitude = static_cast<uint8_t>(magnitude - 10u);
+      ++tens;
+    }
+    body[size++] = static_cast<uint8_t>('0' + tens);
+  }
+  body[size++] = static_cast<uint8_t>('0' + magnitude);
+  body[size++] = ']';
+  uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
+  emit(opcode, id, ByteView(body, size), MutableByteView(frame));
 }
 
 void RomiSerial::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }

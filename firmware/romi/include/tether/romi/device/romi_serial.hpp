@@ -151,13 +151,13 @@ class RomiSerial final : public IRomiSerial {
   void handle_timeouts(Millis now);
 
   /// See `IRomiSerial::send_ok`.
-  void send_ok() override;
+  void send_ok();
   /// See `IRomiSerial::send_error`.
-  void send_error(int code, const char* message) override;
+  void send_error(int code, const char* message);
   /// See `IRomiSerial::send`.
-  void send(const char* message) override;
+  void send(const char* message);
   /// See `IRomiSerial::log`.
-  void log(const char* text) override;
+  void log(const char* text);
 
   /// The diagnostics counters.
   const DeviceCounters& counters() const { return counters_; }
