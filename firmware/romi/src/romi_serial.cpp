@@ -48,18 +48,21 @@ void RomiSerial::handle_input() {
   // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
   // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
   // Most calls come within the millisecond of the last check: then nothing can have expired.
-  Millis now = clock_ != nullptr ? clock_() : 0;
-  if (now != timeouts_checked_at_) handle_timeouts(now);
-  // Bytes come in batches (one virtual call each), handled one by one in arrival order.
+  now_ = clock_ != nullptr ? clock_() : 0;
+  if (now_ != timeouts_checked_at_) handle_timeouts(now_);
+  // Bytes come in batches (one virtual call each), handled one by one in arrival order. A byte inside
+  // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
+  // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
   uint8_t batch[16];
   for (;;) {
     const uint8_t count = in_->read_some(batch, sizeof(batch));
     if (count == 0) return;
     for (uint8_t i = 0; i < count; ++i) {
-      if (receive(batch[i], now)) {
-        now = reply_sent_at_;
-        handle_timeouts(now);
-      }
+      const uint8_t byte = batch[i];
+      if (decoder_.feed_body(byte)) continue;
+      // After a handler nothing is left to time out (its frame ended the partial-frame deadline, the
+      // cache's lifetime starts now): the later bytes of the batch are only dated by its reply (now_).
+      receive(byte);
     }
   }
 }
@@ -75,41 +78,39 @@ void RomiSerial::handle_timeouts(Millis now) {
   }
   if (!deadline_.poll(now)) return;
   // The request being received is too late: drop it, say so, wait for the next '#'.
+  const char opcode = decoder_.partial_opcode();
   decoder_.reset();
-  await_opcode_ = false;
-  send_code(partial_opcode_, 0, Error::controller_timeout);
+  send_code(opcode, 0, Error::controller_timeout);
 }
 
 void RomiSerial::handle_byte(uint8_t byte, Millis now) {
   if (in_handler_) return;
+  now_ = now;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
-  receive(byte, now);
+  if (!decoder_.feed_body(byte)) receive(byte);
 }
 
-bool RomiSerial::receive(uint8_t byte, Millis now) {
-  if (in_handler_) return false;
-  if (byte == '#') {
-    deadline_.on_frame_start(now);
-    partial_opcode_ = '_';
-    await_opcode_ = true;
-  } else if (await_opcode_) {
-    partial_opcode_ = is_opcode(byte) ? static_cast<char>(byte) : '_';
-    await_opcode_ = false;
-  }
-  const DecodeStatus status = decoder_.feed(byte);
+void RomiSerial::receive(uint8_t byte) {
+  if (byte == '#') deadline_.on_frame_start(now_);
+  const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: fingerprint and parse it now, so the
     // '\n' leaves only the cache lookup and the dispatch (the turnaround).
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
-    return false;
+    return;
   }
   deadline_.on_frame_end();
+  // A frame or an error: a response follows, and every frame the device sends (the response, or a
+  // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
+  // parse checks and the handler: the turnaround is this path, not the handler's.
+  out_->write('#');
+  hash_sent_ = true;
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
     send_code(frame.opcode, frame.has_id ? frame.id : 0, decoder_.error());
-    return false;
+    return;
   }
-  return handle_frame(frame, now);
+  handle_frame(frame);
 }
 
 void RomiSerial::prepare(const Frame& frame) {
@@ -135,12 +136,12 @@ void RomiSerial::prepare(const Frame& frame) {
   }
 }
 
-bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
+void RomiSerial::handle_frame(const Frame& frame) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   if (frame.log) {
     // "#!text": '!' is no opcode; the reference's message parser says the same.
     send_code('_', id, Error::invalid_opcode);
-    return false;
+    return;
   }
   if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
   prepared_ = false;
@@ -149,20 +150,21 @@ bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
     if (replies_.check(id, fingerprint).duplicate) {
       // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
       // handler does not run.
-      write(ByteView(reply_, reply_size_));
-      return false;
+      start_frame();
+      write(ByteView(reply_ + 1, reply_size_ - 1u));
+      return;
     }
   }
-  return dispatch(frame, fingerprint, now);
+  dispatch(frame, fingerprint);
 }
 
-bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
+void RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
   // the frame's).
   if (parsed_ != Error::no_error) {
     send_code(frame.opcode, id, parsed_);
-    return false;
+    return;
   }
   const MessageHandler* handler = handler_;
 
@@ -179,13 +181,12 @@ bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) 
     send_response(opcode_, id_, ByteView::from_literal("[-20]"));
   }
   // The handler may have taken a while: the cache's lifetime starts when the reply went out.
-  reply_sent_at_ = clock_ != nullptr ? clock_() : now;
+  if (clock_ != nullptr) now_ = clock_();
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!frame.manual) {
     replies_.remember(id, fingerprint, ByteView());  // the reply itself stays in reply_
-    cache_expiry_.arm(reply_sent_at_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
+    cache_expiry_.arm(now_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
-  return true;
 }
 
 // The handlers' interface forwards to the one implementation (handler.hpp: not virtual, so unused
@@ -234,7 +235,7 @@ void RomiSerial::handler_reply(ByteView body) {
 }
 
 void RomiSerial::log(const char* text) {
-  out_->write('#');
+  start_frame();
   out_->write('!');
   if (text != nullptr) {
     for (; *text != '\0'; ++text) out_->write(*text == '\r' || *text == '\n' ? ' ' : *text);
@@ -243,9 +244,9 @@ void RomiSerial::log(const char* text) {
 }
 
 uint8_t RomiSerial::emit(char opcode, uint8_t id, ByteView body, MutableByteView frame) {
-  // The frame's first byte leaves at once: the UART sends it (a byte time, ~1500 cycles at 115200)
-  // while the rest is formed in `frame`, which then follows it.
-  out_->write('#');
+  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
+  // byte time, ~1500 cycles at 115200) while the rest is formed in `frame`, which then follows it.
+  start_frame();
   const uint8_t size = static_cast<uint8_t>(encode_response(opcode, body, id, frame).value());
   write(ByteView(frame.data() + 1, size - 1u));
   return size;
@@ -283,6 +284,14 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   body[size++] = ']';
   uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
   emit(opcode, id, ByteView(body, size), MutableByteView(frame));
+}
+
+void RomiSerial::start_frame() {
+  if (hash_sent_) {
+    hash_sent_ = false;
+  } else {
+    out_->write('#');
+  }
 }
 
 void RomiSerial::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }

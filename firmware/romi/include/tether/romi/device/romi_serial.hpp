@@ -165,15 +165,17 @@ class RomiSerial final : public IRomiSerial {
   bool in_handler() const { return in_handler_; }
 
  private:
-  // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
-  bool receive(uint8_t byte, Millis now);  // handle_byte without the timeout check
-  bool handle_frame(const Frame& frame, Millis now);
+  // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
+  // without the timeout check. Out of line: the per-byte loop stays small.
+  __attribute__((noinline)) void receive(uint8_t byte);
+  void handle_frame(const Frame& frame);
   void prepare(const Frame& frame);  // fingerprint and parse, at the frame's '\r'
-  bool dispatch(const Frame& frame, uint16_t fingerprint, Millis now);
+  void dispatch(const Frame& frame, uint16_t fingerprint);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
   uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
   IInputStream* in_;
@@ -188,7 +190,7 @@ class RomiSerial final : public IRomiSerial {
   // to requests with an id are written there).
   session::DuplicateFilter<uint8_t, 1, 0> replies_;
   Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
-  Millis reply_sent_at_ = 0;  // when the last handler's reply went out
+  Millis now_ = 0;  // when the bytes being handled arrived; after a handler, when its reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
   Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
   const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
@@ -199,11 +201,10 @@ class RomiSerial final : public IRomiSerial {
   uint8_t reply_size_ = 0;
   char opcode_ = '_';          // opcode and id of the request being handled
   uint8_t id_ = 0;
-  char partial_opcode_ = '_';  // first character of the frame being received, for -30
-  bool await_opcode_ = false;  // the next byte is the first after '#'
   bool in_handler_ = false;
   bool replied_ = false;
   bool manual_ = false;        // the request being handled is manual: its reply is not cached
+  bool hash_sent_ = false;     // the '#' of the next frame out left already (receive(), at a frame's end)
 };
 
 }  // namespace device
