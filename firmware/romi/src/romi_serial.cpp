@@ -12,6 +12,7 @@ namespace romi {
 namespace device {
 
 static_assert(RomiSerial::kReplyCapacity >= 16, "room for every protocol error response");
+static_assert(kDeviceDecoderCapacity - 5 == kMaxDevicePayload, "the cache key holds every payload the decoder takes");
 
 constexpr uint8_t RomiSerial::kReplyCapacity;
 constexpr Duration RomiSerial::kRequestDeadlineMs;
@@ -32,8 +33,7 @@ RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandle
       clock_(clock),
       counters_(),
       decoder_(counters_.link),
-      deadline_(kRequestDeadlineMs, counters_.link),
-      replies_(counters_.link) {}
+      deadline_(kRequestDeadlineMs, counters_.link) {}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
@@ -72,10 +72,7 @@ void RomiSerial::handle_timeouts(Millis now) {
   timeouts_checked_at_ = now;
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
-  if (cache_expiry_.expired(now)) {
-    cache_expiry_.disarm();
-    replies_.clear();
-  }
+  if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
   if (!deadline_.poll(now)) return;
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
@@ -94,7 +91,7 @@ void RomiSerial::receive(uint8_t byte) {
   if (byte == '#') deadline_.on_frame_start(now_);
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
-    // The frame's '\r' checked out and only its '\n' is missing: fingerprint and parse it now, so the
+    // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
     // '\n' leaves only the cache lookup and the dispatch (the turnaround).
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
     return;
@@ -116,8 +113,6 @@ void RomiSerial::receive(uint8_t byte) {
 void RomiSerial::prepare(const Frame& frame) {
   prepared_ = !frame.log;
   if (!prepared_) return;
-  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
-  fingerprint_ = Crc16Mcrf4xx::compute(frame.payload);
   parsed_ = parse_request(frame.payload, request_);
   if (parsed_ != Error::no_error) return;
   handler_ = nullptr;
@@ -145,20 +140,28 @@ void RomiSerial::handle_frame(const Frame& frame) {
   }
   if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
   prepared_ = false;
-  const uint16_t fingerprint = fingerprint_;
-  if (!frame.manual) {
-    if (replies_.check(id, fingerprint).duplicate) {
-      // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
-      // handler does not run.
-      start_frame();
-      write(ByteView(reply_ + 1, reply_size_ - 1u));
-      return;
-    }
+  if (!frame.manual && is_repeat(id, frame.payload)) {
+    // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
+    // handler does not run.
+    ++counters_.link.duplicates;
+    start_frame();
+    write(ByteView(reply_ + 1, reply_size_ - 1u));
+    return;
   }
-  dispatch(frame, fingerprint);
+  dispatch(frame);
 }
 
-void RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint) {
+bool RomiSerial::is_repeat(uint8_t id, ByteView payload) const {
+  // The exact key: id first (a host's next call has another id, so the bytes are compared only for a
+  // re-send or a new host session that starts with the same id), then every byte of the payload.
+  if (!cache_expiry_.armed() || id != cached_id_ || payload.size() != cached_request_size_) return false;
+  for (uint8_t i = 0; i < cached_request_size_; ++i) {
+    if (payload[i] != cached_request_[i]) return false;
+  }
+  return true;
+}
+
+void RomiSerial::dispatch(const Frame& frame) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
   // the frame's).
@@ -184,7 +187,11 @@ void RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint) {
   if (clock_ != nullptr) now_ = clock_();
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!frame.manual) {
-    replies_.remember(id, fingerprint, ByteView());  // the reply itself stays in reply_
+    // The key is the request itself (the reply stays in reply_). A complete frame's payload always
+    // fits: the decoder holds at most kMaxDevicePayload characters before the ':'.
+    cached_id_ = id;
+    cached_request_size_ = static_cast<uint8_t>(frame.payload.size());
+    for (uint8_t i = 0; i < cached_request_size_; ++i) cached_request_[i] = frame.payload[i];
     cache_expiry_.arm(now_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
 }

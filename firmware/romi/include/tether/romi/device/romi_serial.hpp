@@ -66,7 +66,6 @@
 
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
-#include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/romi/device/handler.hpp"
@@ -169,8 +168,9 @@ class RomiSerial final : public IRomiSerial {
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
   void handle_frame(const Frame& frame);
-  void prepare(const Frame& frame);  // fingerprint and parse, at the frame's '\r'
-  void dispatch(const Frame& frame, uint16_t fingerprint);
+  void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
+  bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
+  void dispatch(const Frame& frame);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
@@ -186,17 +186,18 @@ class RomiSerial final : public IRomiSerial {
   DeviceCounters counters_;  // before the members that count into it
   Decoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
-  // Id and fingerprint of the request whose reply is in reply_ (the cached reply: only handler replies
+  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
   // to requests with an id are written there).
-  session::DuplicateFilter<uint8_t, 1, 0> replies_;
-  Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
+  uint8_t cached_id_ = 0;
+  uint8_t cached_request_size_ = 0;
+  uint8_t cached_request_[kMaxDevicePayload];
+  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
   Millis now_ = 0;  // when the bytes being handled arrived; after a handler, when its reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
   Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
   const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
   Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
-  uint16_t fingerprint_ = 0;        // the frame's fingerprint (prepare)
-  bool prepared_ = false;           // request_, parsed_ and fingerprint_ belong to the frame awaiting '\n'
+  bool prepared_ = false;           // request_ and parsed_ belong to the frame awaiting '\n'
   uint8_t reply_[kReplyCapacity];
   uint8_t reply_size_ = 0;
   char opcode_ = '_';          // opcode and id of the request being handled
