@@ -41,24 +41,27 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 343 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 386 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
 /// compile time:
-///   - request buffer: 83 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
+///   - request buffer: 76 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
 ///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
-///     to requests with an id are formed there, so the cache itself keeps just id and fingerprint;
-///   - counters: 68 bytes; pointers, deadlines, the reply's send time and state: ~50 bytes.
+///     to requests with an id are formed there;
+///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
+///     CRC-16 of the payload in 2 bytes was cheaper in RAM, but two requests can share it);
+///   - counters: 68 bytes; pointers, deadlines, the clock's last reading and state: ~47 bytes.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
-/// moved. Bytes are read in batches (`IInputStream::read_some`); a frame is checked, fingerprinted,
-/// parsed and matched to its handler at its '\r', so its '\n' leaves the cache lookup and the call; a
-/// reply's '#' is sent before the rest is formed.
+/// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
+/// decoder's inline path only; a frame is checked, parsed and matched to its handler at its '\r'; at its
+/// '\n' the response's '#' is sent first (every frame the device sends starts with it), then the cache
+/// lookup (the id, then the bytes) and the call; the rest of a reply is formed with its CRC in one pass.
 /// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
 /// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
 /// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
-/// Nothing is allocated at run time. Flash: ~7 KB for the device and the codec it uses.
+/// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
 
 #include <stddef.h>
