@@ -88,7 +88,14 @@ void RomiSerial::handle_byte(uint8_t byte, Millis now) {
 }
 
 void RomiSerial::receive(uint8_t byte) {
-  if (byte == '#') deadline_.on_frame_start(now_);
+  if (byte == '#') {
+    deadline_.on_frame_start(now_);
+  } else if (byte == '\n' && decoder_.awaiting_end()) {
+    // This '\n' completes a frame: the response's '#' (see below) leaves before the decoder's
+    // bookkeeping, as the first thing the turnaround does.
+    out_->write('#');
+    hash_sent_ = true;
+  }
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -100,8 +107,10 @@ void RomiSerial::receive(uint8_t byte) {
   // A frame or an error: a response follows, and every frame the device sends (the response, or a
   // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
   // parse checks and the handler: the turnaround is this path, not the handler's.
-  out_->write('#');
-  hash_sent_ = true;
+  if (!hash_sent_) {
+    out_->write('#');
+    hash_sent_ = true;
+  }
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
     send_code(frame.opcode, frame.has_id ? frame.id : 0, decoder_.error());
