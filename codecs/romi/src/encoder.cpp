@@ -98,13 +98,13 @@ Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableBy
     crc.update(sent);
     *next++ = sent;
   }
-  const uint8_t meta[3] = {':', hex_digit(static_cast<uint8_t>(id >> 4)), hex_digit(static_cast<uint8_t>(id & 0xF))};
+  const uint8_t meta[3] = {':', hex_digit(high_nibble(id)), hex_digit(static_cast<uint8_t>(id & 0xF))};
   for (const uint8_t c : meta) {
     crc.update(c);
     *next++ = c;
   }
   const uint8_t crc_value = crc.value();
-  *next++ = hex_digit(static_cast<uint8_t>(crc_value >> 4));
+  *next++ = hex_digit(high_nibble(crc_value));
   *next++ = hex_digit(static_cast<uint8_t>(crc_value & 0xF));
   *next++ = '\r';
   *next++ = '\n';
