@@ -8,7 +8,7 @@
 ///
 /// Both have the same shape: construct (or `reset`), `update` with bytes in any chunking, read `value`;
 /// or call the static `compute`. Back ends differ per platform: the host uses Boost.CRC
-/// (`boost::crc_optimal`, table driven), the AVR a 16-entry flash table for CRC-8 (a third of avr-libc's
+/// (`boost::crc_optimal`, table driven), the AVR a 256-entry flash table for CRC-8 (a quarter of avr-libc's
 /// `_crc8_ccitt_update` bit loop) and avr-libc's hand-tuned `_crc_ccitt_update` for CRC-16. The register
 /// kept between updates is back-end private. `Crc16Mcrf4xx::update(uint8_t)` is inline (both back ends
 /// are headers) so that a codec can fold the CRC into its own byte loop, with the register in a CPU
@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #if defined(__AVR__)
+#include <avr/pgmspace.h>
 #include <util/crc16.h>
 // avr-libc's step is 17 instructions of inline asm; under -Os the compiler otherwise makes it a function
 // called per byte (call, ret and register moves: +~12 cycles a byte). This redeclaration only adds the attribute.
@@ -30,6 +31,13 @@ static __inline__ uint16_t _crc_ccitt_update(uint16_t crc, uint8_t data) __attri
 
 namespace tether {
 
+#if defined(__AVR__)
+namespace detail {
+/// CRC-8/SMBUS by whole bytes: entry i is the register after shifting byte i through it (src/crc8_avr.cpp).
+extern const uint8_t kCrc8SmbusTable[256] PROGMEM;
+}  // namespace detail
+#endif
+
 /// CRC-8/SMBUS, incremental.
 class Crc8Smbus {
  public:
@@ -39,8 +47,14 @@ class Crc8Smbus {
   Crc8Smbus() { reset(); }
   /// Forgets all bytes fed so far.
   void reset();
-  /// Feeds one byte.
+  /// Feeds one byte (inline on the AVR, one flash lookup: a codec folds it into its own byte loop).
+#if defined(__AVR__)
+  __attribute__((always_inline)) void update(uint8_t byte) {
+    state_ = pgm_read_byte(&detail::kCrc8SmbusTable[static_cast<uint8_t>(state_ ^ byte)]);
+  }
+#else
   void update(uint8_t byte);
+#endif
   /// Feeds bytes; any chunking gives the same result.
   void update(ByteView bytes);
   /// Checksum of all bytes fed since the last reset.
