@@ -115,8 +115,11 @@ class SlicedCrc {
   // for a CRC-8, two for a CRC-16), and every byte's share comes from its row.
   static Value step8(Value crc, const uint8_t* in) {
     const Slices& t = Slices::get();
-    const unsigned head = crc ^ static_cast<unsigned>(in[0] | (in[1] << 8));
-    return static_cast<Value>(t.row[7][head & 0xFF] ^ t.row[6][head >> 8] ^ t.row[5][in[2]] ^ t.row[4][in[3]] ^
+    // Byte by byte, not one 16-bit load: bytes fed one at a time were just stored one by one, and a wider
+    // load of them would wait for the stores to retire instead of being forwarded.
+    const unsigned first = (crc ^ in[0]) & 0xFFu;
+    const unsigned second = ((crc >> 8) ^ in[1]) & 0xFFu;
+    return static_cast<Value>(t.row[7][first] ^ t.row[6][second] ^ t.row[5][in[2]] ^ t.row[4][in[3]] ^
                               t.row[3][in[4]] ^ t.row[2][in[5]] ^ t.row[1][in[6]] ^ t.row[0][in[7]]);
   }
 
