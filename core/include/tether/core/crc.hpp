@@ -117,8 +117,9 @@ class SlicedCrc {
     const Slices& t = Slices::get();
     // Byte by byte, not one 16-bit load: bytes fed one at a time were just stored one by one, and a wider
     // load of them would wait for the stores to retire instead of being forwarded.
-    const unsigned first = (crc ^ in[0]) & 0xFFu;
-    const unsigned second = ((crc >> 8) ^ in[1]) & 0xFFu;
+    const unsigned reg = crc;
+    const unsigned first = (reg ^ in[0]) & 0xFFu;
+    const unsigned second = ((reg >> 8) ^ in[1]) & 0xFFu;
     return static_cast<Value>(t.row[7][first] ^ t.row[6][second] ^ t.row[5][in[2]] ^ t.row[4][in[3]] ^
                               t.row[3][in[4]] ^ t.row[2][in[5]] ^ t.row[1][in[6]] ^ t.row[0][in[7]]);
   }
