@@ -79,10 +79,13 @@ class MemoryInput final : public tether::romi::device::IInputStream {
     c = static_cast<char>(*next_++);
     return true;
   }
-  // Like UartStream's (one copy per batch).
+  // Like UartStream's (one copy per batch; the pointers in registers, an 8-bit count).
   uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
-    uint8_t count = 0;
-    while (count < capacity && next_ != end_) bytes[count++] = *next_++;
+    const uint8_t* next = next_;
+    const uint8_t waiting = static_cast<uint8_t>(end_ - next);
+    const uint8_t count = waiting < capacity ? waiting : capacity;
+    for (uint8_t i = count; i != 0; --i) *bytes++ = *next++;
+    next_ = next;
     return count;
   }
 
@@ -98,9 +101,13 @@ class MemoryOutput final : public tether::romi::device::IOutputStream {
     bytes_[size_++] = static_cast<uint8_t>(c);
     return true;
   }
-  // Like UartStream's (one copy per batch).
+  // Like UartStream's (one copy per batch; the pointers in registers, an 8-bit count).
   void write_all(const uint8_t* bytes, uint8_t size) override {
-    for (uint8_t i = 0; i < size && size_ < sizeof bytes_; ++i) bytes_[size_++] = bytes[i];
+    const uint8_t room = static_cast<uint8_t>(sizeof bytes_ - size_);
+    const uint8_t count = size < room ? size : room;
+    uint8_t* next = bytes_ + size_;
+    for (uint8_t i = count; i != 0; --i) *next++ = *bytes++;
+    size_ = static_cast<uint8_t>(size_ + count);
   }
   void clear() { size_ = 0; }
   const uint8_t* data() const { return bytes_; }

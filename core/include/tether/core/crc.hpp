@@ -7,11 +7,11 @@
 ///   proxy protocol's frame check; the same as MAVLink's X.25 checksum.
 ///
 /// Both have the same shape: construct (or `reset`), `update` with bytes in any chunking, read `value`;
-/// or call the static `compute`. Back ends differ per platform. The AVR: a 16-entry flash table for
-/// CRC-8 (a third of avr-libc's `_crc8_ccitt_update` bit loop) and avr-libc's hand-tuned
+/// or call the static `compute`. Back ends differ per platform. The AVR: a 256-entry flash table for
+/// CRC-8 (a quarter of avr-libc's `_crc8_ccitt_update` bit loop) and avr-libc's hand-tuned
 /// `_crc_ccitt_update` for CRC-16. The host: tables computed by Boost.CRC (`boost::crc_optimal`), taken
-/// eight bytes per step ("slicing by 8", `detail::SlicedCrc`), all inline. `Crc16Mcrf4xx::update(uint8_t)`
-/// is inline on both so that a codec can fold the CRC into its own byte loop instead of a second pass.
+/// eight bytes per step ("slicing by 8", `detail::SlicedCrc`), all inline. `update(uint8_t)` is inline
+/// on both so that a codec can fold the CRC into its own byte loop instead of a second pass.
 ///
 /// Why slicing on the host (issue 17): a byte-table CRC is one dependent table load per byte (~1.7 ns
 /// here), which alone made a ~32-byte frame's encode + decode cost more than its 100 ns budget. Slicing
@@ -22,6 +22,7 @@
 #include <stdint.h>
 
 #if defined(__AVR__)
+#include <avr/pgmspace.h>
 #include <util/crc16.h>
 // avr-libc's step is 17 instructions of inline asm; under -Os the compiler otherwise makes it a function
 // called per byte (call, ret and register moves: +~12 cycles a byte). This redeclaration only adds the attribute.
@@ -34,7 +35,12 @@ static __inline__ uint16_t _crc_ccitt_update(uint16_t crc, uint8_t data) __attri
 
 namespace tether {
 
-#if !defined(__AVR__)
+#if defined(__AVR__)
+namespace detail {
+/// CRC-8/SMBUS by whole bytes: entry i is the register after shifting byte i through it (src/crc8_avr.cpp).
+extern const uint8_t kCrc8SmbusTable[256] PROGMEM;
+}  // namespace detail
+#else
 namespace detail {
 
 /// Host tables of a CRC whose register is `Value` and whose byte step is
@@ -142,8 +148,10 @@ class Crc8Smbus {
   Crc8Smbus() { reset(); }
   /// Forgets all bytes fed so far.
   void reset();
-  /// Feeds one byte.
-  void update(uint8_t byte);
+  /// Feeds one byte (inline, one flash lookup: a codec folds it into its own byte loop).
+  __attribute__((always_inline)) void update(uint8_t byte) {
+    state_ = pgm_read_byte(&detail::kCrc8SmbusTable[static_cast<uint8_t>(state_ ^ byte)]);
+  }
   /// Feeds bytes; any chunking gives the same result.
   void update(ByteView bytes);
   /// Checksum of all bytes fed since the last reset.
