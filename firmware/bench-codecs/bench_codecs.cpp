@@ -190,16 +190,19 @@ uint8_t without_spaces(uint8_t size) {
   return count;
 }
 
-// Reads `size` bytes of `input` with a fresh Decoder<96>, as an elcano-node board would; true when they
-// made one message of `type`.
+// Reads `size` bytes of `input` with a fresh Decoder<96>, as one span (feed(bytes): the run of bytes a UART
+// read returns); true when they made one message of `type`.
 bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, tether::LinkCounters& counters) {
   elcano::Decoder<96> reader(generation, counters);
   bool read = false;
-  for (uint8_t i = 0; i < size; ++i) {
-    if (reader.feed(input[i]) == tether::DecodeStatus::frame) {
+  tether::ByteView rest(input, size);
+  while (!rest.empty()) {
+    const tether::FeedResult fed = reader.feed(rest);
+    if (fed.status == tether::DecodeStatus::frame) {
       sink = static_cast<uint16_t>(reader.frame().speed + static_cast<int32_t>(reader.forward().size()));
       read = reader.frame().type == type;
     }
+    rest = rest.subview(fed.consumed);
   }
   return read;
 }
@@ -207,9 +210,11 @@ bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, 
 // Feeds `size` bytes of `input` to `node` and takes its output (the forwarded message, when any); `kind` is
 // the last event the bytes produced. Returns the output's size.
 uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
-  for (uint8_t i = 0; i < size; ++i) {
-    const elcano::RingEvent::Kind event = node.consume(input[i], 0);  // the fast path, as elcano-node uses
+  for (tether::ByteView rest(input, size); !rest.empty();) {  // one span, as elcano-node feeds a UART read
+    size_t used = 0;
+    const elcano::RingEvent::Kind event = node.consume(rest, 0, used);
     if (event != elcano::RingEvent::Kind::none) kind = event;
+    rest = rest.subview(used);
   }
   return static_cast<uint8_t>(node.take_output(frame, 0));
 }
