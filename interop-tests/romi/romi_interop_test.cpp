@@ -133,6 +133,18 @@ TEST(RomiInterop, RoverImageDrivesItsServosAndReadsItsSensors) {
   EXPECT_NEAR(a0.values.at(1).get<int>(), 512, 2);
   EXPECT_NEAR(client.call("A[3]").values.at(1).get<int>(), 1023, 1);
   EXPECT_EQ(client.call("A[6]").code, 2);
+
+  // `tether bench --payload large`: a labelled S near the frame limit, and all six channels at once.
+  EXPECT_EQ(client.call("L[1300,1700,\"manoeuvre-7-....................\"]").values, json::parse("[0,32]"));
+  EXPECT_TRUE(tether::testing::eventually([&] { return std::abs(pulse_us(9) - 1300.0) < 2.0; }, 10s)) << pulse_us(9);
+  EXPECT_TRUE(tether::testing::eventually([&] { return std::abs(pulse_us(10) - 1700.0) < 2.0; }, 10s))
+      << pulse_us(10);
+  EXPECT_EQ(client.call("L[2001,1500,\"x\"]").code, 1);
+  const RomiResponse all = client.call("R");
+  ASSERT_EQ(all.code, 0);
+  ASSERT_EQ(all.values.size(), 7u);
+  EXPECT_NEAR(all.values.at(1).get<int>(), 512, 2);
+  EXPECT_NEAR(all.values.at(4).get<int>(), 1023, 1);
 }
 
 TEST(RomiInterop, LateAnswerIsDroppedAsStaleAndTheNextCallGetsItsOwn) {

@@ -68,12 +68,16 @@ py::object error_object(const boost::system::error_code& error, const std::strin
 /// Raises `tether.ClosedError` for an operation on a closed client or rover.
 [[noreturn]] void raise_closed(const char* what);
 
+struct VirtualBoard;
+
 /// A byte stream as Python sees it (`tether.transports.Transport`): what a client is opened on.
 struct Transport {
   std::shared_ptr<transports::IoThread> io;  ///< Runs the stream.
   std::shared_ptr<transports::ByteStream> stream;  ///< Null once a client took it.
   std::string path;  ///< A pty's slave path, a serial port's path; empty otherwise.
   std::shared_ptr<void> keep_alive;  ///< A virtual board the stream belongs to.
+  /// The virtual board a client was opened on (`Client(board)`): its clock is the client's by default.
+  std::shared_ptr<VirtualBoard> board;
 };
 
 /// Serial port options from keyword arguments (`baud`, `boot_wait` seconds, `ready_banner`).
@@ -82,8 +86,9 @@ struct SerialArguments {
   double boot_wait = 2.0;
   std::string ready_banner;
 };
-/// The stream a client opens on: a `Transport` (taken: one client per stream) or a port path (opened as a
-/// serial port with `serial`). Raises TypeError for anything else.
+/// The stream a client opens on: a `Transport` (taken: one client per stream), a port path (opened as a
+/// serial port with `serial`) or a `tether.VirtualUno` (its pty without a boot wait, or, for a board made
+/// with `start=False`, its UART directly; `Transport::board` set). Raises TypeError for anything else.
 Transport take_stream(py::handle port_or_transport, const SerialArguments& serial);
 /// Opens a serial port (GIL released while opening and waiting for the boot).
 Transport open_serial(const std::string& path, const SerialArguments& serial);

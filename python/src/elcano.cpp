@@ -6,6 +6,7 @@
 
 #include "binding.hpp"
 #include "clients.hpp"
+#include "virtual_board.hpp"
 
 namespace tether::python {
 
@@ -183,17 +184,21 @@ The stream's TX goes to the first board, its RX comes from the last. Messages of
 plus a request's reply type while it waits) are consumed; every other message is forwarded. A request is
 re-sent after each silent attempt (0.5 s) within its budget (2 s); one that comes back round the ring fails
 at once (undeliverable). Events (undeliverable, read_error, forward_dropped, receive_overflow, link_failed)
-go to ``on_event`` on the io thread. The GIL is released while waiting.)doc")
+go to ``on_event`` on the io thread. The GIL is released while waiting.
+On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, every deadline runs on the
+board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, const std::string& generation, std::vector<std::string> capture,
-                       unsigned baud, double boot_wait, py::object on_event) {
+                       unsigned baud, double boot_wait, py::object on_event, py::object clock) {
              elcano::Options options;
              options.node.generation = generation_from(generation);
              for (const auto& name : capture) options.node.capture = options.node.capture.with(type_from(py::str(name)));
              options.node.pacing.baud = baud;
+             std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}});
+             const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
+             options.clock = link_clock(board);
              auto wrapper = std::make_shared<RingClient>();
              wrapper->io = transport.io;
-             wrapper->owner = transport.keep_alive;
              elcano::EventHandler handler;
              if (!on_event.is_none()) {
                handler = [callback = PyCallback(on_event)](const elcano::Event& event) {
@@ -203,11 +208,12 @@ go to ``on_event`` on the io thread. The GIL is released while waiting.)doc")
                };
              }
              wrapper->client = std::make_shared<elcano::RingClient>(transport.stream, options, std::move(handler));
+             wrapper->owner = join_board(board, wrapper->client, transport.keep_alive);
              return wrapper;
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("generation") = "B",
            py::arg("capture") = std::vector<std::string>{}, py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
-           py::arg("on_event") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none())
       .def(
           "request",
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {

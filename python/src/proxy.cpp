@@ -6,6 +6,7 @@
 
 #include "binding.hpp"
 #include "clients.hpp"
+#include "virtual_board.hpp"
 
 namespace tether::python {
 
@@ -255,18 +256,23 @@ Primary mode: the client resets the device, waits for its session, pings every s
 every message, and after a device reset replays every init without the application. ``compat=True`` speaks
 the deployed variant (57600 baud, no CRC, no acks: a send completes when written). Events (acks are the
 sends' completions; device errors, pin reports, session changes, ...) go to ``on_event(event)`` on the io
-thread, as ``types.SimpleNamespace`` objects with a ``kind``. The GIL is released while waiting.)doc")
+thread, as ``types.SimpleNamespace`` objects with a ``kind``. The GIL is released while waiting.
+On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, every deadline runs on the
+board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, bool compat, std::optional<unsigned> baud, double boot_wait,
-                       double send_budget, std::optional<std::uint32_t> first_message_id, py::object on_event) {
+                       double send_budget, std::optional<std::uint32_t> first_message_id, py::object on_event,
+                       py::object clock) {
              if (!(send_budget > 0.0) || send_budget > 3600.0) throw py::value_error("send_budget must be 0 < t <= 3600 s");
              proxy::Options options = compat ? proxy::Options::compat() : proxy::Options::primary();
              if (baud) options.timing.baud = *baud;
              options.timing.send_budget = static_cast<Duration>(std::lround(send_budget * 1000.0));
              options.first_message_id = first_message_id;
+             std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{options.timing.baud, boot_wait, {}});
+             const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
+             options.clock = link_clock(board);
              auto wrapper = std::make_shared<ProxyClient>();
              wrapper->io = transport.io;
-             wrapper->owner = transport.keep_alive;
              proxy::EventHandler handler;
              if (!on_event.is_none()) {
                handler = [callback = PyCallback(on_event)](const proxy::Event& event) {
@@ -276,11 +282,12 @@ thread, as ``types.SimpleNamespace`` objects with a ``kind``. The GIL is release
                };
              }
              wrapper->client = std::make_shared<proxy::Client>(transport.stream, options, std::move(handler));
+             wrapper->owner = join_board(board, wrapper->client, transport.keep_alive);
              return wrapper;
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("compat") = false, py::arg("baud") = py::none(),
            py::arg("boot_wait") = 2.0, py::arg("send_budget") = 1.0, py::arg("first_message_id") = py::none(),
-           py::arg("on_event") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none())
       .def(
           "servo",
           [](const std::shared_ptr<ProxyClient>& self, py::handle pin) {

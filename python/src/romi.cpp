@@ -12,6 +12,7 @@
 
 #include "binding.hpp"
 #include "clients.hpp"
+#include "virtual_board.hpp"
 #include "tether/romi/client.hpp"
 
 namespace tether::python {
@@ -250,18 +251,24 @@ attempt is re-sent only with ``retry_on_timeout`` (Tether firmware answers a rep
 reference firmware answers -15). Log lines (``#!text``) go to ``on_log``. The GIL is released while waiting.
 
 ``port_or_transport``: a serial port path (opened with ``baud`` and ``boot_wait`` seconds: an Uno resets when
-its port opens) or a ``tether.transports.Transport``.)doc")
+its port opens), a ``tether.transports.Transport``, or a ``tether.VirtualUno``: its UART, and its simulated
+time as the clock of every deadline. ``clock=board.clock`` puts a client opened otherwise on a board's time
+(None: the board it was opened on, else the steady clock). On a board's clock the windows are the device's
+seconds, exact whatever the machine's load; the board's ``close()`` closes the client.)doc")
       .def(py::init([](py::object port, unsigned baud, double boot_wait, double attempt_timeout, double call_budget,
-                       int max_attempts, bool retry_on_timeout, py::object on_log) {
+                       int max_attempts, bool retry_on_timeout, py::object on_log, py::object clock) {
              const session::CallTiming timing = timing_from(attempt_timeout, call_budget, max_attempts, retry_on_timeout);
+             std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}});
+             const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              auto wrapper = std::make_shared<RomiClient>();
              wrapper->io = transport.io;
-             wrapper->owner = transport.keep_alive;
              romi::Options options;
              options.timing = timing;
              options.last_id = static_cast<std::uint8_t>(romi::random_first_id() - 1u);
+             options.clock = link_clock(board);
              wrapper->client = std::make_shared<romi::Client>(transport.stream, options);
+             wrapper->owner = join_board(board, wrapper->client, transport.keep_alive);
              if (!on_log.is_none()) {
                RomiLogFanout& fanout = wrapper->log_fanout();
                std::lock_guard lock(fanout.mutex);
@@ -271,7 +278,7 @@ its port opens) or a ``tether.transports.Transport``.)doc")
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
            py::arg("attempt_timeout") = 1.0, py::arg("call_budget") = 2.0, py::arg("max_attempts") = 3,
-           py::arg("retry_on_timeout") = false, py::arg("on_log") = py::none())
+           py::arg("retry_on_timeout") = false, py::arg("on_log") = py::none(), py::arg("clock") = py::none())
       .def(
           "call",
           [](RomiClient& self, const std::string& command, const py::args& args, bool check) {

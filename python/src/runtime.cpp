@@ -5,6 +5,7 @@
 
 #include "binding.hpp"
 #include "tether/transports/serial_port_stream.hpp"
+#include "virtual_board.hpp"
 
 namespace tether::python {
 
@@ -86,7 +87,10 @@ Transport take_stream(py::handle port_or_transport, const SerialArguments& seria
     given.stream.reset();
     return taken;
   }
-  throw py::type_error("expected a port path (str) or a tether.transports.Transport, got " +
+  if (py::isinstance<VirtualBoard>(port_or_transport)) {
+    return board_transport(port_or_transport.cast<std::shared_ptr<VirtualBoard>>(), serial.baud);
+  }
+  throw py::type_error("expected a port path (str), a tether.transports.Transport or a tether.VirtualUno, got " +
                        py::str(py::type::of(port_or_transport).attr("__name__")).cast<std::string>());
 }
 

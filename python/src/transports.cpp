@@ -10,26 +10,90 @@
 #include "tether/transports/pty_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/virtual_uno.hpp"
+#include "tether/transports/virtual_uno_stream.hpp"
+#include "virtual_board.hpp"
 
 namespace tether::python {
 
 void set_firmware_dir(const std::string& dir);
 
-namespace {
+bool BoardClients::add(std::weak_ptr<void> alive, std::function<void()> close) {
+  std::lock_guard lock(mutex_);
+  if (closed_) return false;
+  std::erase_if(entries_, [](const auto& entry) { return entry.first.expired(); });
+  entries_.emplace_back(std::move(alive), std::move(close));
+  return true;
+}
 
-// A simulated board running on its own thread, its UART on a pty (`port`).
-struct VirtualBoard {
-  std::shared_ptr<transports::VirtualUno> board;
-  std::string port;
-  ~VirtualBoard() {
-    py::gil_scoped_release release;
+void BoardClients::close_all() {
+  std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> entries;
+  {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+    entries.swap(entries_);
+  }
+  for (const auto& entry : entries) entry.second();
+}
+
+VirtualBoard::~VirtualBoard() {
+  const auto shut_down = [this] {
+    clients->close_all();
+    clock.reset();
     board.reset();
+  };
+  if (PyGILState_Check() != 0) {
+    py::gil_scoped_release release;
+    shut_down();
+  } else {
+    shut_down();
   }
-  transports::VirtualUno& get() {
-    if (!board) raise_closed("the virtual board");
-    return *board;
+}
+
+transports::VirtualUno& VirtualBoard::get() {
+  if (closed.load() || !board) raise_closed("the virtual board");
+  return *board;
+}
+
+void VirtualBoard::close() {
+  if (closed.exchange(true) || !board) return;
+  py::gil_scoped_release release;
+  board->stop();  // the pty too: clients on it see the hang-up
+  clients->close_all();
+}
+
+std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock) {
+  if (clock.is_none()) return nullptr;
+  if (!py::isinstance<BoardClock>(clock)) {
+    throw py::type_error("clock must be a tether.VirtualUnoClock (board.clock) or None, got " +
+                         py::str(py::type::of(clock).attr("__name__")).cast<std::string>());
   }
-};
+  std::shared_ptr<VirtualBoard> board = clock.cast<const BoardClock&>().board;
+  board->get();  // ClosedError for a closed board
+  return board;
+}
+
+Transport board_transport(const std::shared_ptr<VirtualBoard>& board, unsigned baud) {
+  board->get();  // ClosedError for a closed board
+  Transport transport;
+  if (board->started) {
+    transport = open_serial(board->port, SerialArguments{baud, 0.0, {}});
+  } else {
+    if (const auto attached = board->attached.lock(); attached && attached->is_open()) {
+      throw py::value_error("a board made with start=False serves one client at a time (close the other first)");
+    }
+    transport.io = io_thread();
+    // Holding the board (not owning its running: it never runs on its own): the stream may outlive the
+    // VirtualBoard by a handler on the io thread, and its destructor still clears the board's output handler.
+    auto stream = std::make_shared<transports::VirtualUnoStream>(transport.io->executor(), board->board, false);
+    board->attached = stream;
+    transport.stream = std::move(stream);
+  }
+  transport.keep_alive = board;
+  transport.board = board;
+  return transport;
+}
+
+namespace {
 
 [[noreturn]] void raise_std_error(const std::error_code& error, const std::string& message) {
   if (error.category() == std::generic_category() || error.category() == std::system_category()) {
@@ -100,13 +164,31 @@ void register_transports(py::module_& parent) {
 
   parent.def("_set_firmware_dir", &set_firmware_dir, py::arg("path"));
 
-  py::class_<VirtualBoard, std::shared_ptr<VirtualBoard>>(parent, "VirtualUno", R"doc(A simulated Arduino Uno (libsimavr) running a firmware image, its UART on a pty.
+  py::class_<BoardClock>(parent, "VirtualUnoClock", R"doc(A virtual board's simulated time, for a client's ``clock=`` argument (``board.clock``).
+
+A client on it measures its deadlines (attempt windows, call budgets, pings) in the board's seconds, the
+clock the firmware's own timeouts run on: a board paced in real time falls behind the wall clock on a
+loaded machine, and a host window on the wall clock can then end before the device has had its time.
+Closing the board closes the clients on its clock (its time stops with it).)doc")
+      .def_property_readonly("board", [](const BoardClock& c) { return c.board; }, "The board whose time it is.")
+      .def("__repr__", [](const BoardClock& c) {
+        return "<tether.VirtualUnoClock of " + (c.board->board ? c.board->board->options().name : std::string("?")) +
+               (c.board->closed.load() ? " (closed)>" : ">");
+      });
+
+  py::class_<VirtualBoard, std::shared_ptr<VirtualBoard>>(parent, "VirtualUno", R"doc(A simulated Arduino Uno (libsimavr) running a firmware image.
 
 ``VirtualUno('romi-test')`` looks the image up in the firmware folder ($TETHER_FIRMWARE_DIR, the installed
 images, or the build's); a path is used as is. The board runs on its own thread from construction until
-``close()`` (or the end of a ``with`` block); ``port`` is ready once the firmware listens.
-``fast=True`` runs as fast as the host can instead of in real time.)doc")
-      .def(py::init([](const std::string& image, bool fast, std::optional<std::uint64_t> seed) {
+``close()`` (or the end of a ``with`` block), its UART on a pty: ``port`` is ready once the firmware listens.
+``fast=True`` runs as fast as the host can instead of in real time. ``start=False`` makes a board that runs
+only when ``run_for`` advances it (slower than real time, frozen, in steps: the caller paces it); it has no
+pty, clients open on the board itself.
+
+Open clients on the board itself, ``tether.romi.Client(board)``: the client uses the board's UART (no boot
+wait) and runs its deadlines on the board's simulated time (``board.clock``), so a loaded machine that slows
+the simulation cannot time a call out while the device has not had its time.)doc")
+      .def(py::init([](const std::string& image, bool fast, std::optional<std::uint64_t> seed, bool start) {
              transports::VirtualUnoOptions options;
              options.firmware = firmware_path(image);
              options.pacing = fast ? transports::Pacing::fast : transports::Pacing::real_time;
@@ -114,29 +196,80 @@ images, or the build's); a path is used as is. The board runs on its own thread 
              std::error_code error;
              std::string message;
              auto wrapper = std::make_shared<VirtualBoard>();
+             wrapper->started = start;
              {
                py::gil_scoped_release release;
-               wrapper->board = transports::VirtualUno::create(options, error, &message);
-               if (wrapper->board) {
-                 wrapper->port = wrapper->board->open_pty(error);
+               std::shared_ptr<transports::VirtualUno> board = transports::VirtualUno::create(options, error, &message);
+               wrapper->board = board;
+               // Ready means the firmware listens: bytes written before it enables its receiver are lost.
+               if (board && start) {
+                 wrapper->port = board->open_pty(error);
                  if (!error) {
-                   wrapper->board->start();
-                   // Ready means the firmware listens: bytes written before it enables its receiver are lost.
+                   board->start();
                    const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-                   while (!wrapper->board->uart().rx_enabled && std::chrono::steady_clock::now() < limit) {
+                   while (!board->uart().rx_enabled && std::chrono::steady_clock::now() < limit) {
                      std::this_thread::sleep_for(std::chrono::milliseconds(1));
                    }
-                   if (!wrapper->board->uart().rx_enabled) message = "the firmware did not enable its UART within 5 s";
+                   if (!board->uart().rx_enabled) message = "the firmware did not enable its UART within 5 s";
+                 }
+               } else if (board) {
+                 while (!board->uart().rx_enabled && board->simulated_time() < std::chrono::seconds(5)) {
+                   board->run_for(std::chrono::milliseconds(1));
+                 }
+                 if (!board->uart().rx_enabled) {
+                   message = "the firmware did not enable its UART within 5 s of simulated time";
                  }
                }
+               if (board) wrapper->clock = transports::VirtualUnoClock::create(board);
              }
              if (!wrapper->board || error) raise_std_error(error, message.empty() ? error.message() : message);
              if (!message.empty()) throw py::value_error(options.firmware.string() + ": " + message);
              return wrapper;
            }),
-           py::arg("image"), py::kw_only(), py::arg("fast") = false, py::arg("seed") = py::none())
-      .def_property_readonly("port", [](const VirtualBoard& b) { return b.port; },
-                             "The pty's path: open it like a serial port (``boot_wait=0``).")
+           py::arg("image"), py::kw_only(), py::arg("fast") = false, py::arg("seed") = py::none(),
+           py::arg("start") = true)
+      .def_property_readonly("port", [](const VirtualBoard& b) {
+             if (!b.started) {
+               throw py::value_error("a board made with start=False has no pty: open clients on the board itself "
+                                     "(tether.romi.Client(board))");
+             }
+             return b.port;
+           },
+           "The pty's path: open it like a serial port (``boot_wait=0``), or from another program.")
+      .def_property_readonly("clock", [](const std::shared_ptr<VirtualBoard>& b) {
+             b->get();
+             return BoardClock{b};
+           },
+           "The board's simulated time as a client's clock: ``tether.romi.Client(board.port, boot_wait=0, "
+           "clock=board.clock)`` (what ``Client(board)`` does).")
+      .def_property_readonly("simulated_time", [](VirtualBoard& b) {
+             return std::chrono::duration<double>(b.get().simulated_time()).count();
+           },
+           "Seconds the board has run since its creation (its clock; at most 1 ms old while it runs).")
+      .def(
+          "run_for",
+          [](VirtualBoard& b, double seconds) {
+            if (b.started) throw py::value_error("run_for advances a board made with start=False; this one runs on its own");
+            if (!(seconds >= 0.0) || seconds > 3600.0) throw py::value_error("seconds must be 0..3600");
+            const std::shared_ptr<transports::VirtualUno> board = b.board;  // close() may come meanwhile
+            b.get();
+            py::gil_scoped_release release;
+            board->run_for(std::chrono::duration_cast<transports::SimDuration>(std::chrono::duration<double>(seconds)));
+          },
+          py::arg("seconds"),
+          "Advances a ``start=False`` board by ``seconds`` of simulated time on the calling thread, as fast as it "
+          "can (the GIL released); its clients' deadlines move with it. One caller at a time.")
+      .def(
+          "stats",
+          [](VirtualBoard& b) {
+            const transports::VirtualUnoStats stats = b.get().stats();
+            return py::module_::import("types").attr("SimpleNamespace")(
+                "boots"_a = stats.boots, "rx_bytes"_a = stats.rx_bytes, "rx_bytes_lost"_a = stats.rx_bytes_lost,
+                "tx_bytes"_a = stats.tx_bytes, "host_bytes_discarded"_a = stats.host_bytes_discarded,
+                "awake_cycles"_a = stats.awake_cycles);
+          },
+          "The board's counters: ``boots``, ``rx_bytes`` (entered its UART), ``rx_bytes_lost``, ``tx_bytes`` (the "
+          "firmware wrote), ``host_bytes_discarded``, ``awake_cycles`` (CPU cycles not asleep).")
       .def(
           "pin",
           [](VirtualBoard& b, int pin) {
@@ -153,15 +286,11 @@ images, or the build's); a path is used as is. The board runs on its own thread 
             b.get().set_analog_input(channel, volts);
           },
           py::arg("channel"), py::arg("volts"), "Drives an analog input (A0 = channel 0) with ``volts``.")
-      .def("close", [](VirtualBoard& b) {
-        py::gil_scoped_release release;
-        b.board.reset();
-      }, "Stops the board and closes its pty. Idempotent.")
+      .def("close", &VirtualBoard::close,
+           "Stops the board and closes its pty and the clients on its clock (their calls raise ClosedError). "
+           "Idempotent.")
       .def("__enter__", [](py::object self) { return self; })
-      .def("__exit__", [](VirtualBoard& b, py::args) {
-        py::gil_scoped_release release;
-        b.board.reset();
-      });
+      .def("__exit__", [](VirtualBoard& b, py::args) { b.close(); });
 }
 
 }  // namespace tether::python

@@ -1,4 +1,10 @@
-"""Fixtures of the binding's tests: virtual boards of every codec (real-time pacing, like hardware)."""
+"""Fixtures of the binding's tests: virtual boards of every codec (real-time pacing, like hardware).
+
+Clients are opened on the board itself (``tether.romi.Client(board)``): their deadlines run on the board's
+simulated time, so a loaded machine that slows the simulation cannot time a call out before the device has
+had its time (with the wall clock, a call to a real-time board timed out once that way at load ~5)."""
+
+import threading
 
 import pytest
 
@@ -11,20 +17,35 @@ def romi_board():
         yield board
 
 
-# Romi timing for tests that are not about timeouts: the boards run in real time, and on a loaded machine a
-# simulation can fall behind the wall clock by more than the spec's 1 s window (a call to a virtual board timed
-# out once that way at load ~5). Windows this long only bound a hang; tests of timeouts set their own.
-PATIENT_ROMI = {"attempt_timeout": 10.0, "call_budget": 20.0}
-
-
-@pytest.fixture
-def patient_romi():
-    """Keyword arguments for romi.Client / ControlSerial in tests that are not about timeouts."""
-    return dict(PATIENT_ROMI)
-
-
 @pytest.fixture
 def romi_client(romi_board):
-    # A pty from a virtual board has no DTR reset: no boot wait.
-    with tether.romi.Client(romi_board.port, boot_wait=0, **PATIENT_ROMI) as client:
+    with tether.romi.Client(romi_board) as client:
         yield client
+
+
+@pytest.fixture
+def held_board():
+    """A romi-test board that moves only when the test advances it (``run_for``)."""
+    with tether.VirtualUno("romi-test", seed=1, start=False) as board:
+        yield board
+
+
+class Call(threading.Thread):
+    """A blocking call on a thread of its own, so that the test can advance a held board meanwhile."""
+
+    def __init__(self, function, *args):
+        super().__init__(daemon=True)
+        self.function, self.args = function, args
+        self.result = self.error = None
+        self.start()
+
+    def run(self):
+        try:
+            self.result = self.function(*self.args)
+        except Exception as error:  # the test asserts on it
+            self.error = error
+
+
+@pytest.fixture
+def call_in_thread():
+    return Call

@@ -51,7 +51,7 @@ def test_proxy_set_async():
         return await client.servo(9).set_async(100)
 
     with tether.VirtualUno("proxy", seed=2) as board:
-        with tether.proxy.Client(board.port, boot_wait=0) as client:
+        with tether.proxy.Client(board) as client:
             assert asyncio.run(main(client)).acked
 
 

@@ -54,7 +54,7 @@ def test_bad_options_are_value_errors(romi_board):
 
 
 def test_closed_client_raises_closed_error(romi_board):
-    client = tether.romi.Client(romi_board.port, boot_wait=0)
+    client = tether.romi.Client(romi_board)
     client.close()
     client.close()  # idempotent
     assert not client.is_open
@@ -64,13 +64,42 @@ def test_closed_client_raises_closed_error(romi_board):
         client.counters()
 
 
-def test_close_from_another_thread_ends_a_waiting_call(romi_board):
-    client = tether.romi.Client(romi_board.port, boot_wait=0)
-    timer = threading.Timer(0.2, client.close)
-    timer.start()
-    with pytest.raises(tether.ClosedError):
-        client.call("w", 1500)
-    timer.join()
+def test_close_from_another_thread_ends_a_waiting_call(held_board, call_in_thread):
+    # The board stands still: the call cannot time out, only the close can end it.
+    client = tether.romi.Client(held_board)
+    call = call_in_thread(client.call, "e")
+    call.join(0.2)
+    client.close()
+    call.join(60)
+    assert isinstance(call.error, tether.ClosedError), call.error
+
+
+def test_bad_clocks_and_boards(romi_board, held_board):
+    with pytest.raises(TypeError):
+        tether.romi.Client(romi_board, clock=1.0)
+    with pytest.raises(TypeError):
+        tether.proxy.Client(romi_board, clock="board")
+    with pytest.raises(TypeError):
+        tether.elcano.RingClient(romi_board, clock=object())
+    with pytest.raises(ValueError):
+        held_board.port  # no pty: clients open on the board itself
+    with pytest.raises(ValueError):
+        romi_board.run_for(0.1)  # it runs on its own thread
+    with pytest.raises(ValueError):
+        held_board.run_for(-1)
+    with pytest.raises(TypeError):
+        held_board.run_for("soon")
+    with tether.romi.Client(held_board):
+        with pytest.raises(ValueError):
+            tether.romi.Client(held_board)  # its UART serves one client at a time
+    with tether.romi.Client(held_board):
+        pass  # the first one closed: free again
+    clock = romi_board.clock
+    romi_board.close()
+    for closed in (lambda: tether.romi.Client(romi_board), lambda: romi_board.clock,
+                   lambda: tether.romi.Client(held_board, clock=clock), lambda: romi_board.simulated_time):
+        with pytest.raises(tether.ClosedError):
+            closed()
 
 
 def test_missing_port_and_missing_image():
@@ -98,7 +127,7 @@ def test_bad_config_names_the_json_path(tmp_path):
 
 def test_proxy_bad_values():
     with tether.VirtualUno("proxy", seed=2) as board:
-        with tether.proxy.Client(board.port, boot_wait=0) as client:
+        with tether.proxy.Client(board) as client:
             with pytest.raises(ValueError):
                 client.servo(-1)
             with pytest.raises(ValueError):

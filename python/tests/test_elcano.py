@@ -115,7 +115,7 @@ def test_ring_client_on_a_pty_port_requests_forwards_and_receives():
 def test_ring_client_on_a_virtual_boards_port_reports_an_undeliverable_request():
     # One unconfigured elcano-node forwards everything: the drive comes back to the host, no node took it.
     with tether.VirtualUno("elcano-node") as board:
-        with tether.elcano.RingClient(board.port, boot_wait=0) as ring:
+        with tether.elcano.RingClient(board) as ring:
             with pytest.raises(tether.ElcanoError) as caught:
                 ring.request(tether.elcano.Message(type="drive", speed=5, angle=2), reply_type="sensor")
             assert caught.value.code == 2  # undeliverable

@@ -1,5 +1,9 @@
 """examples/python/blink.py and analogread.py, run as programs against virtual romi-blink and
-romi-analogread boards (a bounded number of iterations)."""
+romi-analogread boards (a bounded number of iterations).
+
+The programs are RomiSerial's, unchanged but for their import: they open the board's pty by its path in a
+process of their own, so their calls run on the wall clock (another process cannot share the board's);
+the in-process checks open ControlSerial on the board itself, on its clock."""
 
 import os
 import subprocess
@@ -17,15 +21,16 @@ def run_example(name, *args):
                           timeout=120, env=os.environ.copy())
 
 
-def test_blink_turns_the_led_on_and_off(patient_romi):
+def test_blink_turns_the_led_on_and_off():
     with tether.VirtualUno("romi-blink") as board:
         result = run_example("blink.py", board.port, "2", "0.3")
         assert result.returncode == 0, result.stderr
         assert result.stdout.strip() == "blinked 2 times"
         assert not board.pin(13).level  # the last command turned it off
-        # And the LED follows the command, through the same compat class the example uses.
+        # And the LED follows the command, through the same compat class the example uses (on the board
+        # itself: its UART and its clock).
         from tether.compat import ControlSerial
-        with ControlSerial(board.port, boot_wait=0, **patient_romi) as serial:
+        with ControlSerial(board) as serial:
             assert serial.execute('L', 1) == [0]
             assert board.pin(13).level
             assert serial.execute('L', 0) == [0]
@@ -44,10 +49,10 @@ def test_analogread_prints_the_sensor_value():
             assert abs(int(line.split(": ")[1]) - 512) <= 1
 
 
-def test_control_serial_raises_on_device_errors(patient_romi):
+def test_control_serial_raises_on_device_errors():
     from tether.compat import ControlSerial
     with tether.VirtualUno("romi-blink") as board:
-        with ControlSerial(board.port, boot_wait=0, **patient_romi) as serial:
+        with ControlSerial(board) as serial:
             serial.set_debug(True)
             with pytest.raises(tether.RomiError) as caught:
                 serial.execute('Z')

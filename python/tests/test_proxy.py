@@ -27,7 +27,7 @@ def test_primary_servo_and_digital_are_acked_and_reach_the_pins():
             established.set()
 
     with tether.VirtualUno("proxy", seed=2) as board:
-        with tether.proxy.Client(board.port, boot_wait=0, on_event=on_event) as client:
+        with tether.proxy.Client(board, on_event=on_event) as client:
             assert not client.compat
             result = client.servo(9).init(90)
             assert result.acked and result.message_id != 0 and result.attempts >= 1
@@ -46,7 +46,7 @@ def test_primary_servo_and_digital_are_acked_and_reach_the_pins():
 
 def test_compat_mode_writes_without_acks():
     with tether.VirtualUno("proxy-compat", seed=3) as board:
-        with tether.proxy.Client(board.port, compat=True, boot_wait=0) as client:
+        with tether.proxy.Client(board, compat=True) as client:
             assert client.compat
             client.digital(7).init(False)
             result = client.digital(7).set(True)
@@ -57,7 +57,7 @@ def test_compat_mode_writes_without_acks():
 
 def test_reset_failsafe_is_primary_only():
     with tether.VirtualUno("proxy-compat", seed=3) as board:
-        with tether.proxy.Client(board.port, compat=True, boot_wait=0) as client:
+        with tether.proxy.Client(board, compat=True) as client:
             with pytest.raises(tether.ProxyMessageError) as caught:
                 client.reset_failsafe()
             assert caught.value.code == 4  # wrong_mode

@@ -1,6 +1,7 @@
 """tether.romi.Client against the romi-test image on a virtual Uno, through its pty (a serial port)."""
 
 import threading
+import time
 
 import pytest
 
@@ -106,12 +107,83 @@ def test_counters(romi_client):
     assert counters.link.crc_errors == 0
 
 
-def test_silent_device_times_out_as_timeout_error(romi_board):
-    with tether.romi.Client(romi_board.port, boot_wait=0, attempt_timeout=0.3, call_budget=0.5) as client:
-        with pytest.raises(TimeoutError) as caught:
-            client.call("w", 1500)  # busy-waits 1.5 s of simulated time: never within 0.5 s
-        assert isinstance(caught.value, tether.RomiTimeoutError)
-        assert caught.value.code == -25
+def advance_until(board, done, limit, step=0.0005):
+    """Advances a held board in steps until ``done()``, at most ``limit`` seconds of its time; returns its time."""
+    start = board.simulated_time
+    while not done():
+        assert board.simulated_time - start < limit, "the board ran for its limit without it happening"
+        board.run_for(step)
+        time.sleep(0.001)  # let the io thread write what it has to write
+    return board.simulated_time
+
+
+def test_silent_device_times_out_exactly_at_its_window_in_board_time(held_board, call_in_thread):
+    # The board moves only when the test advances it: the 0.3 s attempt window is the board's 0.3 s.
+    with tether.romi.Client(held_board, attempt_timeout=0.3, call_budget=0.5) as client:
+        received = held_board.stats().rx_bytes
+        call = call_in_thread(client.call, "w", 1500)  # busy-waits 1.5 s of simulated time: never answers in time
+        # The request went out at most one step before its first byte reached the board.
+        arrived = advance_until(held_board, lambda: held_board.stats().rx_bytes > received, limit=1.0)
+        held_board.run_for(0.29)
+        call.join(0.5)  # half a second of wall time: a steady-clock window would have ended
+        assert call.is_alive(), call.error
+        held_board.run_for(0.02)  # past the window: the board stands still at arrival + 0.31 s
+        call.join(60)
+        assert isinstance(call.error, TimeoutError) and isinstance(call.error, tether.RomiTimeoutError), call.error
+        assert call.error.code == -25
+        assert held_board.simulated_time - arrived == pytest.approx(0.31, abs=1e-6)
+        assert client.counters().link.timeouts == 1
+
+
+def test_a_board_slower_than_real_time_does_not_time_its_calls_out(held_board, call_in_thread):
+    # Regression: clients on a virtual board ran on the wall clock, so a board slowed by a loaded machine
+    # could have a call time out before the device had run for its window. Here the board stands still for
+    # five windows of wall time while the call waits, then runs: the call gets its answer.
+    with tether.romi.Client(held_board, attempt_timeout=0.2, call_budget=0.4) as client:
+        written = held_board.stats().tx_bytes
+        call = call_in_thread(client.call, "s", 20, 22)
+        call.join(1.0)
+        assert call.is_alive(), call.error
+        # Run the board until the firmware has written its answer and the line has carried it (~2 ms of
+        # board time), then hold it, far inside the window: only the answer can end the call now, however
+        # late the io thread gets to it.
+        advance_until(held_board, lambda: held_board.stats().tx_bytes > written, limit=0.1)
+        held_board.run_for(0.005)
+        call.join(60)
+        assert call.error is None
+        assert call.result == [0, 42]
+        assert client.counters().link.timeouts == 0
+
+
+def test_board_time_is_the_clients_clock_on_a_running_board(romi_board):
+    # Opened on the port with clock=board.clock, or on the board (which implies it): a window never ends
+    # before the board has run for it, whatever the machine's load.
+    with tether.romi.Client(romi_board.port, boot_wait=0, attempt_timeout=0.3, clock=romi_board.clock) as client:
+        sent = romi_board.simulated_time
+        with pytest.raises(tether.RomiTimeoutError):
+            client.call("w", 1500)
+        assert romi_board.simulated_time - sent >= 0.299  # the clock counts whole milliseconds
+
+
+def test_a_client_keeps_the_board_it_was_opened_on():
+    client = tether.romi.Client(tether.VirtualUno("romi-test", seed=1))  # no other reference to the board
+    try:
+        assert client.call("e") == [0, 1, 2]
+    finally:
+        client.close()
+
+
+def test_closing_the_board_closes_the_clients_on_its_clock(held_board, call_in_thread):
+    # A closed board's time stands still: its clients' waits would never end, so they are closed with it.
+    client = tether.romi.Client(held_board)
+    call = call_in_thread(client.call, "e")
+    call.join(0.2)
+    held_board.close()
+    call.join(60)
+    assert isinstance(call.error, tether.ClosedError), call.error
+    assert not client.is_open
+    with pytest.raises(tether.ClosedError):
+        tether.romi.Client(held_board)
 
 
 def test_calls_from_several_threads_are_serialised(romi_client):
@@ -133,6 +205,6 @@ def test_calls_from_several_threads_are_serialised(romi_client):
 def test_transport_objects_are_accepted(romi_board):
     transport = tether.transports.serial(romi_board.port, boot_wait=0)
     assert transport.path == romi_board.port
-    with tether.romi.Client(transport) as client:
+    with tether.romi.Client(transport, clock=romi_board.clock) as client:
         assert client.call("a") == [0]
     assert transport.taken

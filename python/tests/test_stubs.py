@@ -69,7 +69,7 @@ def test_package_stub_matches():
     public = {name for name in tether.__all__ if name not in ("romi", "proxy", "elcano", "transports", "compat")}
     top = {name for name in declared if "." not in name}
     assert top == public
-    for cls in (tether.VirtualUno, tether.Rover, tether.LinkCounters):
+    for cls in (tether.VirtualUno, tether.VirtualUnoClock, tether.Rover, tether.LinkCounters):
         runtime = {f"{cls.__name__}.{m}" for m in dir(cls)
                    if not m.startswith("_") or m in ("__enter__", "__exit__")}
         runtime.discard(f"{cls.__name__}.__init__")

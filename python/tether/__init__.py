@@ -2,7 +2,7 @@
 
     import tether
     with tether.VirtualUno('romi-test') as board:
-        with tether.romi.Client(board.port, boot_wait=0) as client:
+        with tether.romi.Client(board) as client:   # deadlines on the board's simulated time
             print(client.call('e'))          # [0, 1, 2]
 
 Submodules: ``tether.romi`` (Client), ``tether.proxy`` (Client), ``tether.elcano`` (RingClient, Message),
@@ -25,6 +25,7 @@ proxy = _tether.proxy
 elcano = _tether.elcano
 transports = _tether.transports
 VirtualUno = _tether.VirtualUno
+VirtualUnoClock = _tether.VirtualUnoClock
 Rover = _tether.Rover
 LinkCounters = _tether.LinkCounters
 __version__ = _tether.__version__
@@ -63,7 +64,7 @@ def open_rover(path, *, firmware_dir=None):
 
 _atexit.register(_tether._interpreter_exiting)
 
-__all__ = ["romi", "proxy", "elcano", "transports", "compat", "VirtualUno", "Rover", "LinkCounters",
+__all__ = ["romi", "proxy", "elcano", "transports", "compat", "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
            "open_rover", "firmware_dir", "TetherError", "RomiError", "ProxyError", "ElcanoError",
            "TransportError", "ConfigError", "ClosedError", "RomiTimeoutError", "ProxyTimeoutError",
            "ElcanoTimeoutError", "TransportTimeoutError", "RomiCommandError", "ProxyMessageError",

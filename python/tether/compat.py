@@ -12,8 +12,9 @@ from ._errors import RomiError
 class ControlSerial:
     """A Romi device on a serial port: ``execute(opcode, *args)`` returns the answer list, code first.
 
-    ``device`` is the port path (an Uno resets when it opens: ``boot_wait`` seconds, 2 by default) or a
-    ``tether.transports.Transport``. An answer with a non-zero code raises ``RomiError`` (its ``code``,
+    ``device`` is the port path (an Uno resets when it opens: ``boot_wait`` seconds, 2 by default), a
+    ``tether.transports.Transport``, or a ``tether.VirtualUno`` (its UART and its simulated time as the
+    clock of the call windows). ``options`` go to ``tether.romi.Client`` (``attempt_timeout``, ``clock``...). An answer with a non-zero code raises ``RomiError`` (its ``code``,
     ``message`` and ``response``); so does a call without an answer (``RomiTimeoutError``)."""
 
     def __init__(self, device, baudrate=115200, *, boot_wait=2.0, **options):

@@ -1,11 +1,12 @@
 from typing import Any, Union
 
 from ._errors import RomiError as RomiError
+from . import VirtualUno
 from .transports import Transport
 
 class ControlSerial:
     """RomiSerial's Python host on Tether: ``execute(opcode, *args)`` returns the answer list."""
-    def __init__(self, device: Union[str, Transport], baudrate: int = 115200, *, boot_wait: float = 2.0,
+    def __init__(self, device: Union[str, Transport, VirtualUno], baudrate: int = 115200, *, boot_wait: float = 2.0,
                  **options: Any) -> None: ...
     def set_debug(self, value: bool) -> None: ...
     def execute(self, opcode: str, *args: Union[int, str]) -> list: ...

@@ -1,7 +1,7 @@
 from types import SimpleNamespace
 from typing import Awaitable, Callable, Optional, Sequence, Union
 
-from . import LinkCounters
+from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
 
 class Message:
@@ -47,9 +47,10 @@ class Counters:
 
 class RingClient:
     """The host's node in an Elcano ring."""
-    def __init__(self, port_or_transport: Union[str, Transport], *, generation: str = "B",
+    def __init__(self, port_or_transport: Union[str, Transport, VirtualUno], *, generation: str = "B",
                  capture: Sequence[str] = (), baud: int = 115200, boot_wait: float = 2.0,
-                 on_event: Optional[Callable[[SimpleNamespace], None]] = None) -> None: ...
+                 on_event: Optional[Callable[[SimpleNamespace], None]] = None,
+                 clock: Optional[VirtualUnoClock] = None) -> None: ...
     def request(self, message: Message, *, reply_type: str) -> Message: ...
     def request_async(self, message: Message, *, reply_type: str) -> Awaitable[Message]: ...
     def send(self, message: Message) -> None: ...

@@ -1,7 +1,7 @@
 from types import SimpleNamespace
 from typing import Awaitable, Callable, Optional, Union
 
-from . import LinkCounters
+from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
 
 class SendResult:
@@ -44,9 +44,10 @@ class Digital:
 
 class Client:
     """Proxy client for one device (primary, or ``compat=True`` for the deployed variant)."""
-    def __init__(self, port_or_transport: Union[str, Transport], *, compat: bool = False, baud: Optional[int] = None,
+    def __init__(self, port_or_transport: Union[str, Transport, VirtualUno], *, compat: bool = False, baud: Optional[int] = None,
                  boot_wait: float = 2.0, send_budget: float = 1.0, first_message_id: Optional[int] = None,
-                 on_event: Optional[Callable[[SimpleNamespace], None]] = None) -> None: ...
+                 on_event: Optional[Callable[[SimpleNamespace], None]] = None,
+                 clock: Optional[VirtualUnoClock] = None) -> None: ...
     def servo(self, pin: int) -> Servo: ...
     def digital(self, pin: int) -> Digital: ...
     def add_event_handler(self, callback: Callable[[SimpleNamespace], None]) -> int: ...

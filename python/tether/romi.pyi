@@ -1,6 +1,6 @@
 from typing import Awaitable, Callable, Iterator, Optional, Union
 
-from . import LinkCounters
+from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
 
 class Counters:
@@ -17,9 +17,10 @@ class LogLines(Iterator[str]):
 
 class Client:
     """Romi client for one device: ``call('L[1]')``, ``call('M', 16, 'Shutdown')``."""
-    def __init__(self, port_or_transport: Union[str, Transport], *, baud: int = 115200, boot_wait: float = 2.0,
+    def __init__(self, port_or_transport: Union[str, Transport, VirtualUno], *, baud: int = 115200, boot_wait: float = 2.0,
                  attempt_timeout: float = 1.0, call_budget: float = 2.0, max_attempts: int = 3,
-                 retry_on_timeout: bool = False, on_log: Optional[Callable[[str], None]] = None) -> None: ...
+                 retry_on_timeout: bool = False, on_log: Optional[Callable[[str], None]] = None,
+                 clock: Optional[VirtualUnoClock] = None) -> None: ...
     def call(self, command: str, *args: Union[int, str], check: bool = True) -> list: ...
     def call_async(self, command: str, *args: Union[int, str], check: bool = True) -> Awaitable[list]: ...
     def on_log(self, callback: Optional[Callable[[str], None]]) -> None: ...

@@ -244,6 +244,7 @@ def write_html(report, out_dir):
         ("devices", "one at a time" if parameters["isolated"] else "all at once"),
         ("resets", "a power cycle halfway through every point" if parameters["reset"] else "none"),
         ("workload", parameters.get("workload", "servo")),
+        ("payload", parameters.get("payload", "demo")),
         ("saturation", "a ramp per device and BER" if parameters.get("saturation_ramp") else "from the swept rates"),
         ("skipped", "; ".join(f"{d['device']}: {d['why']}" for d in report.get("skipped", [])) or "none"),
         ("seed", parameters["seed"]),

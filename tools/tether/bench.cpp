@@ -43,7 +43,8 @@ const CommandText& command_text() {
       "bench",
       "usage: tether bench [--config FILE] [--devices A,B] [--sweep ber=R,...] [--sweep rate=HZ,...|max]\n"
       "                    [--iterations N | --duration S] [--seed N] [--isolated] [--reset] [--out DIR]\n"
-      "                    [--workload servo|sensor] [--saturation] [--no-plots] [--json]\n"
+      "                    [--workload servo|sensor] [--payload small|large] [--saturation] [--no-plots]\n"
+      "                    [--json]\n"
       "   or: tether bench --compare A.json B.json [--json]\n"
       "\n"
       "Measures the protocols side by side: the demo's workload (set the throttle and steering servos and get\n"
@@ -79,9 +80,19 @@ const CommandText& command_text() {
       "  --workload W       the operation measured (each point's `workload` in bench.json):\n"
       "                     servo (default) the demo's: set the servos and get the confirmation; an\n"
       "                       Elcano ring: a drive request answered by the drive node's sensor report\n"
-      "                     sensor: read a sensor value: Romi A[channel] -> [0,value] (the romi-rover\n"
-      "                       image's ADC, A0..A5); the proxy images (pins only in their state stream) and\n"
-      "                       Elcano rings (sensor reports answer drives) have none: listed as skipped\n"
+      "                     sensor: read a value back: Romi A[channel] -> [0,value] (the romi-rover\n"
+      "                       image's ADC); proxy: a control, done when the device's PinState (compat:\n"
+      "                       its state stream) reports the new value; Elcano: a goal round the ring\n"
+      "                       (goal -> segment -> drive nodes) answered by the drive node's sensor report\n"
+      "  --payload P        the operation's size (each point's `payload` in bench.json):\n"
+      "                     demo (default) the demo's operation (sensor: as small)\n"
+      "                     small: Romi S[t,s] / A[ch]; proxy one DigitalControl; Elcano D{s}{a} (sensor:\n"
+      "                       a goal with short values)\n"
+      "                     large: Romi L[t,s,\"32-char label\"] (a 55-byte frame) / R -> all six ADC\n"
+      "                       channels; proxy one ServoControl with a two-byte position; Elcano a segment\n"
+      "                       X{n}{s}{b}{p} through the segment node (sensor: a goal with 7-digit\n"
+      "                       positions and {r})\n"
+      "                     A device that cannot do it (a proxy config without the pin) is skipped\n"
       "  --isolated         one device at a time (default: all at once, as on a rover)\n"
       "  --saturation       after the sweep, per device and BER: a ramp of open-loop rates 10, 20, 40 ... 640\n"
       "                     op/s (each step --iterations or --duration long) that stops at the first step\n"
@@ -266,6 +277,18 @@ int run_bench(int argc, char** argv) {
         options.workload = bench::WorkloadKind::sensor;
       } else {
         return command_text().usage_error("--workload needs servo or sensor, got '" + text + "'");
+      }
+    } else if (arg == "--payload") {
+      const char* size = value();
+      const std::string text = size == nullptr ? "" : size;
+      if (text == "small") {
+        options.payload = bench::Payload::small;
+      } else if (text == "large") {
+        options.payload = bench::Payload::large;
+      } else if (text == "demo") {
+        options.payload = bench::Payload::demo;
+      } else {
+        return command_text().usage_error("--payload needs small, large or demo, got '" + text + "'");
       }
     } else if (arg == "--saturation") {
       options.saturation_ramp = true;

@@ -86,8 +86,8 @@ CodecCommands romi_commands() {
   row.shell_help = [](const devices::DeviceConfig&) {
     return std::string(
                "Type a Romi command: an opcode and its arguments, the device's own (romi-test: e, s[2,3], t[\"hello\"],\n"
-               "g[2]; romi-blink: L[1]; romi-rover: S[1500,1500], A[0]). The id, CRC and framing are added; the\n"
-               "answer array is printed. Log lines from the device appear as `log: text`.\n") +
+               "g[2]; romi-blink: L[1]; romi-rover: S[1500,1500], A[0], L[1500,1500,\"label\"], R). The id, CRC and\n"
+               "framing are added; the answer array is printed. Log lines from the device appear as `log: text`.\n") +
            kShellCommands;
   };
   row.open_shell = [](const devices::DeviceClient& client, const devices::DeviceConfig&, const ShellContext& context) {

@@ -88,6 +88,7 @@ PointResult run_point(const BenchOptions& options, MeasuredDevice& measured, dou
   PointResult result;
   result.device = device.name;
   result.workload = options.workload;
+  result.payload = options.payload;
   result.bit_error_rate = ber;
   result.rate_hz = rate;
 
@@ -271,8 +272,6 @@ std::string hex(const unsigned char* bytes, unsigned size) {
 
 }  // namespace
 
-const char* to_string(WorkloadKind kind) { return kind == WorkloadKind::sensor ? "sensor" : "servo"; }
-
 double PointResult::success_share() const {
   return operations == 0 ? 0.0 : static_cast<double>(successes) / operations;
 }
@@ -348,6 +347,7 @@ BenchReport run_bench(const BenchOptions& options) {
   report.reset = options.reset;
   report.saturation_ramp = options.saturation_ramp;
   report.workload = options.workload;
+  report.payload = options.payload;
   report.bit_error_rates = options.bit_error_rates;
   report.rates = options.rates;
 
@@ -361,15 +361,11 @@ BenchReport run_bench(const BenchOptions& options) {
     MeasuredDevice entry;
     entry.device = &device;
     entry.link = links[k];
-    if (options.workload == WorkloadKind::sensor) {
-      std::string why;
-      entry.workload = demo::make_sensor_workload(device, why);
-      if (!entry.workload) {
-        report.skipped.push_back({device.name, why});
-        continue;
-      }
-    } else {
-      entry.workload = demo::make_workload(device, config.devices[k]);
+    std::string why;
+    entry.workload = make_bench_workload(device, config.devices[k], options.workload, options.payload, why);
+    if (!entry.workload) {
+      report.skipped.push_back({device.name, why});
+      continue;
     }
     if (!device.boards.empty()) entry.witness = demo::ExecutionWitness::attach(*device.boards.back());
     if (const auto* serial = std::get_if<devices::SerialTransport>(&config.devices[k].transport)) {
@@ -397,7 +393,7 @@ BenchReport run_bench(const BenchOptions& options) {
     std::string why;
     for (const BenchReport::Skipped& device : report.skipped) why += "; " + device.device + ": " + device.why;
     throw std::invalid_argument(std::string("no selected device has the ") + to_string(options.workload) +
-                                " workload" + why);
+                                " workload with the " + to_string(options.payload) + " payload" + why);
   }
 
   // The background: every device idle for a while, all at once.

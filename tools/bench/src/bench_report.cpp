@@ -39,6 +39,7 @@ json point_json(const PointResult& p) {
   return {
       {"device", p.device},
       {"workload", to_string(p.workload)},
+      {"payload", to_string(p.payload)},
       {"bit_error_rate", p.bit_error_rate},
       {"rate_hz", optional_json(p.rate_hz)},
       {"operations", p.operations},
@@ -124,10 +125,14 @@ std::map<PointKey, ComparedPoint> read_points(const json& run, const std::string
     point.p99 = number(latency, "p99", where + ".latency_ms");
     point.bytes_per_op = number(p, "bytes_per_op_to_device", where) + number(p, "bytes_per_op_from_device", where);
     point.cpu_per_op = optional_number(p, "cpu_cycles_per_op", where);
-    // Points of different workloads are different measurements; a run without the field measured servos.
+    // Points of different workloads or payloads are different measurements; a run without the fields
+    // measured the demo's servo operation.
     std::string key_device = device.get<std::string>();
     if (p.contains("workload") && p["workload"].is_string() && p["workload"] != "servo") {
       key_device += " (" + p["workload"].get<std::string>() + ")";
+    }
+    if (p.contains("payload") && p["payload"].is_string() && p["payload"] != "demo") {
+      key_device += " [" + p["payload"].get<std::string>() + "]";
     }
     result[{key_device, number(p, "bit_error_rate", where), rate_text(rate)}] = point;
   }
@@ -197,6 +202,7 @@ json to_json(const BenchReport& report) {
             {"rates_hz", std::move(rates)},
             {"sustained_success", kSustainedSuccess},
             {"workload", to_string(report.workload)},
+            {"payload", to_string(report.payload)},
             {"saturation_ramp", report.saturation_ramp},
             {"sustained_throughput", kSustainedThroughput}}},
           {"wall_seconds", report.wall_seconds},
@@ -212,7 +218,7 @@ std::string to_csv(const BenchReport& report) {
          "bytes_from_device,bytes_per_op_to_device,bytes_per_op_from_device,utilisation_to_device,"
          "utilisation_from_device,bits_flipped,retries,timeouts,drops_stale,drops_crc,drops_framing,drops_oversize,"
          "cpu_cycles_per_op,cpu_cycles_per_op_above_idle,cpu_share,resets_injected,resets_detected,recovery_ms,commands,confirmed,executed,executed_twice,"
-         "executed_but_failed,confirmed_not_executed,executed_unsent\n";
+         "executed_but_failed,confirmed_not_executed,executed_unsent,workload,payload\n";
   const auto optional_text = [](const auto& value) {
     if (!value) return std::string();
     std::ostringstream text;
@@ -249,7 +255,7 @@ std::string to_csv(const BenchReport& report) {
                               &demo::ExactlyOnce::confirmed_not_executed, &demo::ExactlyOnce::executed_unsent}) {
       out << ',' << witness(figure);
     }
-    out << '\n';
+    out << ',' << to_string(p.workload) << ',' << to_string(p.payload) << '\n';
   }
   return out.str();
 }
@@ -260,7 +266,8 @@ std::string format_table(const BenchReport& report) {
       << (report.duration_s ? fixed(*report.duration_s, 1) + " s" : std::to_string(report.iterations) + " operations")
       << " per device and point, " << (report.isolated ? "one device at a time" : "all devices at once")
       << (report.reset ? ", a power cycle halfway" : "") << ", seed " << report.seed << ", workload "
-      << to_string(report.workload) << " (" << fixed(report.wall_seconds, 1) << " s)\n\n";
+      << to_string(report.workload) << ", payload " << to_string(report.payload) << " ("
+      << fixed(report.wall_seconds, 1) << " s)\n\n";
   for (const BenchReport::Skipped& device : report.skipped) out << device.device << ": skipped, " << device.why << '\n';
   if (!report.skipped.empty()) out << '\n';
   char line[256];

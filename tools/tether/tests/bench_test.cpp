@@ -243,36 +243,93 @@ TEST(TetherBench, HeadlessChromiumRendersTheReportWithItsTablesAndImages) {
   EXPECT_EQ(png_size(screenshot), std::make_pair(1280u, 2400u));
 }
 
-TEST(TetherBench, SensorWorkloadReadsRomiAnalogInputsAndSkipsDevicesWithoutARead) {
-  TETHER_REQUIRE_FIRMWARE("romi-rover");
+// Every codec has a read: Romi's ADC, the proxy's PinState read-back (compat: its state stream), the Elcano
+// goal round the ring answered by the drive node's sensor report; every answer is checked.
+TEST(TetherBench, SensorWorkloadReadsEveryCodecAndChecksTheAnswers) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
   const fs::path out = output_dir();
-  const Outcome run = run_tether({"bench", "--workload", "sensor", "--devices", "arm,ring", "--sweep", "ber=0",
-                                  "--sweep", "rate=max", "--iterations", "6", "--no-plots", "--json", "--out",
-                                  out.string()});
+  const Outcome run = run_tether({"bench", "--workload", "sensor", "--devices", "arm,servos,legacy,ring", "--sweep",
+                                  "ber=0", "--sweep", "rate=max", "--iterations", "6", "--no-plots", "--json",
+                                  "--out", out.string()});
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   const json report = json::parse(run.out);
   EXPECT_EQ(report["parameters"]["workload"], "sensor");
-  ASSERT_EQ(report["devices"].size(), 1u);
-  EXPECT_EQ(report["devices"][0]["device"], "arm");
+  EXPECT_EQ(report["parameters"]["payload"], "demo");
+  EXPECT_TRUE(report["skipped"].empty()) << report["skipped"];
+  ASSERT_EQ(report["devices"].size(), 4u);
   EXPECT_EQ(report["devices"][0]["operation"], "call A[channel 0..5] -> [0,value 0..1023]");
-  ASSERT_EQ(report["skipped"].size(), 1u);
-  EXPECT_EQ(report["skipped"][0]["device"], "ring");
-  EXPECT_NE(report["skipped"][0]["why"].get<std::string>().find("no sensor read"), std::string::npos);
-  ASSERT_EQ(report["points"].size(), 1u);
-  const json& point = report["points"][0];
-  EXPECT_EQ(point["workload"], "sensor");
-  EXPECT_EQ(point["operations"], 6);
-  EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
-  EXPECT_EQ(point["wrong"], 0) << "every reading is [0, 0..1023] on a clean line";
-  EXPECT_GT(point["bytes_from_device"].get<int>(), 0);
-  EXPECT_EQ(point["exactly_once"]["commands"], 0) << "a read executes no command";
+  EXPECT_EQ(report["devices"][1]["operation"], "DigitalControl{pin 13, toggled} -> PinState (then Ack)");
+  EXPECT_EQ(report["devices"][2]["operation"], "DigitalControl{pin 7, toggled} -> its state-stream report");
+  EXPECT_NE(report["devices"][3]["operation"].get<std::string>().find("round the ring"), std::string::npos);
+  ASSERT_EQ(report["points"].size(), 4u);
+  for (const json& point : report["points"]) {
+    SCOPED_TRACE(point["device"].get<std::string>());
+    EXPECT_EQ(point["workload"], "sensor");
+    EXPECT_EQ(point["operations"], 6);
+    EXPECT_EQ(point["successes"].get<int>() + point["failures"].get<int>() + point["wrong"].get<int>(), 6);
+    // A clean line: every answer right (a failure can only be a timeout on a very loaded machine).
+    EXPECT_GT(point["successes"].get<int>(), 0) << point["first_error"];
+    EXPECT_EQ(point["wrong"], 0) << point["first_error"];
+    EXPECT_GT(point["bytes_from_device"].get<int>(), 0);
+  }
+  EXPECT_EQ(report["points"][0]["exactly_once"]["commands"], 0) << "a Romi read executes no command";
+  EXPECT_GE(report["points"][3]["exactly_once"]["executed"], report["points"][3]["successes"])
+      << "each goal answered ends in a drive at the drive node";
+}
 
-  // Only devices without a read: nothing to measure, a clear error.
-  const Outcome none = run_tether({"bench", "--workload", "sensor", "--devices", "ring", "--sweep", "ber=0",
-                                   "--iterations", "1", "--no-plots", "--out", (out / "none").string()});
-  EXPECT_EQ(none.status, 2);
-  EXPECT_NE(none.err.find("no selected device has the sensor workload; ring: no sensor read"), std::string::npos)
-      << none.err;
+// --payload small|large: per codec the smallest and the largest operation, their wire bytes apart, with a
+// sweep; recorded in bench.json and the CSV.
+TEST(TetherBench, PayloadSmallAndLargeDifferInWireBytesAndCombineWithASweep) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  const fs::path out = output_dir();
+  // The proxy's two differ by ~2 bytes per operation (a ServoControl's two-byte position against a
+  // DigitalControl's 0/1); over 12 operations that is ~24 bytes, more than the one or two pings (~9 bytes
+  // each, one a second) that may fall in one run and not the other, but not more than re-sends (~12 bytes
+  // each), which a loaded machine can cause even on a clean line: compared without them.
+  const auto bench = [&](const std::string& payload, const std::string& bers) {
+    return run_tether({"bench", "--payload", payload, "--devices", "arm,servos,ring", "--sweep", "ber=" + bers,
+                       "--sweep", "rate=max", "--iterations", "12", "--no-plots", "--out", (out / payload).string()});
+  };
+  const Outcome small = bench("small", "0");
+  ASSERT_EQ(small.status, 0) << small.err << small.out;
+  const Outcome large = bench("large", "0,1e-4");
+  ASSERT_EQ(large.status, 0) << large.err << large.out;
+  EXPECT_NE(large.out.find("payload large"), std::string::npos) << large.out;
+  const json a = json::parse(read_text(out / "small" / "bench.json"));
+  const json b = json::parse(read_text(out / "large" / "bench.json"));
+  EXPECT_EQ(a["parameters"]["payload"], "small");
+  EXPECT_EQ(b["parameters"]["payload"], "large");
+  ASSERT_EQ(a["points"].size(), 3u);
+  ASSERT_EQ(b["points"].size(), 3u * 2) << "the sweep's two bit error rates";
+  EXPECT_EQ(a["devices"][0]["operation"], "call S[throttle_us,steering_us] -> [0]");
+  EXPECT_EQ(b["devices"][0]["operation"], "call L[throttle_us,steering_us,\"32-char label\"] -> [0,32]");
+  EXPECT_EQ(a["devices"][1]["operation"], "DigitalControl{pin 13, toggled} -> Ack");
+  EXPECT_EQ(b["devices"][1]["operation"], "ServoControl{pin 9, position 128..180} -> Ack");
+  for (std::size_t k = 0; k < 3; ++k) {
+    const json& s = a["points"][k];
+    const json& l = b["points"][k];  // BER 0: the first three
+    SCOPED_TRACE(s["device"].get<std::string>());
+    EXPECT_EQ(s["payload"], "small");
+    EXPECT_EQ(l["payload"], "large");
+    EXPECT_EQ(l["bit_error_rate"], 0.0);
+    EXPECT_GT(s["successes"].get<int>(), 0) << s["first_error"];
+    EXPECT_GT(l["successes"].get<int>(), 0) << l["first_error"];
+    EXPECT_EQ(s["wrong"].get<int>() + l["wrong"].get<int>(), 0) << s["first_error"] << l["first_error"];
+    if (s["device"] != "servos") {
+      EXPECT_GT(l["bytes_per_op_to_device"].get<double>(), s["bytes_per_op_to_device"].get<double>() + 10.0);
+    } else if (s["retries"] == 0 && l["retries"] == 0) {
+      EXPECT_GT(l["bytes_per_op_to_device"].get<double>(), s["bytes_per_op_to_device"].get<double>());
+    }
+  }
+  // Romi's large request is near the 64-byte frame limit: 55 bytes, S[t,s] ~22.
+  EXPECT_GT(b["points"][0]["bytes_per_op_to_device"].get<double>(), 50.0);
+  // Elcano's segment also travels one node further: the segment node's drive, then the drive node's report.
+  // (>=: a reply late on a loaded machine makes a re-send, which the ring runs again.)
+  EXPECT_GE(b["points"][2]["exactly_once"]["executed"], b["points"][2]["successes"]);
+  EXPECT_GT(b["points"][2]["exactly_once"]["executed"], 0);
+  const std::string csv = read_text(out / "large" / "bench.csv");
+  EXPECT_NE(csv.find(",workload,payload\n"), std::string::npos);
+  EXPECT_EQ(count(csv, ",servo,large\n"), 6u) << csv;
 }
 
 // The hardware path: a config of serial ports, here a `tether sim` board's pty. No simulated CPU or
@@ -325,7 +382,8 @@ TEST(TetherBench, BadInputGetsAClearError) {
       {{"bench", "--sweep", "rate=10,"}, "--sweep rate: '' is not a rate"},
       {{"bench", "--iterations", "0"}, "--iterations needs a number 1..100000"},
       {{"bench", "--iterations", "5", "--duration", "1"}, "--iterations and --duration exclude each other"},
-      {{"bench", "--payload", "large"}, "unknown option --payload"},
+      {{"bench", "--payload", "huge"}, "--payload needs small, large or demo, got 'huge'"},
+      {{"bench", "--payload"}, "--payload needs small, large or demo, got ''"},
       {{"bench", "--workload", "temperature"}, "--workload needs servo or sensor, got 'temperature'"},
       {{"bench", "--out", not_a_dir + "/sub"}, "--out " + not_a_dir + "/sub: "},
       {{"bench", "--compare", malformed, malformed}, malformed + ": invalid JSON"},
@@ -338,6 +396,20 @@ TEST(TetherBench, BadInputGetsAClearError) {
     const Outcome run = run_tether(c.arguments);
     EXPECT_EQ(run.status, 2) << run.out;
     EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
+  }
+  // A proxy whose config inits no digital pin has no small operation: skipped, and alone a clear error.
+  if (fs::exists(firmware("proxy"))) {
+    const fs::path config = out / "servos-only.json";
+    std::ofstream(config) << R"({"name": "servos-only", "devices": [{"name": "servos", "codec": "proxy",
+        "transport": {"virtual": {"firmware": "proxy", "pacing": "real_time", "seed": 2}},
+        "options": {"inits": [{"kind": "servo", "pin": 9, "safe_position": 90}]}}]})";
+    const Outcome run = run_tether({"bench", "--config", config.string(), "--payload", "small", "--sweep", "ber=0",
+                                    "--iterations", "1", "--no-plots", "--out", (out / "small").string()});
+    EXPECT_EQ(run.status, 2);
+    EXPECT_NE(run.err.find("no selected device has the servo workload with the small payload; servos: its config "
+                           "inits no digital pin for the small operation"),
+              std::string::npos)
+        << run.err;
   }
   // An unknown device is named, before anything runs long.
   if (fs::exists(firmware("elcano-node"))) {

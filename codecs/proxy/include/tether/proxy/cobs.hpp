@@ -149,11 +149,16 @@ class CobsDecoder {
     const uint8_t* const end = begin + bytes.size();
     while (in != end) {
       if (!skipping_) {
-        in = take_run(in, end);
-        if (in == end) break;
+        // At most 255 bytes per run (its 8-bit counts); the run loop takes every byte it can.
+        const uint8_t* const stop = static_cast<size_t>(end - in) > 255 ? in + 255 : end;
+        const RunEnd run = take_run(in, stop);
+        in = run.next;
+        if (run.frame) return FeedResult{DecodeStatus::frame, static_cast<size_t>(in - begin)};
+        if (in == stop) continue;
       }
-      // What the run loop leaves (a frame's delimiter, errors, resynchronisation) byte by byte.
-      const DecodeStatus status = feed(*in++);
+      // What the run loop leaves (errors, resynchronisation) byte by byte: never a data byte that fits
+      // when the buffer's room is an 8-bit count too, so then straight to the rare path.
+      const DecodeStatus status = Capacity < 255 ? feed_rare(*in++) : feed(*in++);
       if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(in - begin)};
     }
     return FeedResult{DecodeStatus::more, bytes.size()};
@@ -226,13 +231,18 @@ class CobsDecoder {
     left_ = 0;
     return status;
   }
-  // The bytes from `in` (before `end`) that need no event, as feed(uint8_t) would take them: data bytes,
-  // code bytes (a frame's first, or between blocks with their implied zero stored) and delimiters between
-  // frames; returns where it stopped, at the delimiter that completes a frame, a zero inside a block (bad
-  // COBS), a full buffer or `end`, for feed(uint8_t). Not while skipping. The state stays in registers for
+  // The bytes from `in` (before `end`) as feed(uint8_t) would take them: data bytes, code bytes (a frame's
+  // first, or between blocks with their implied zero stored), delimiters between frames and the one that
+  // completes a frame (it stops after that one: `frame`); otherwise it stops at a zero inside a block (bad
+  // COBS), a full buffer or `end`, leaving that byte to feed(uint8_t). Not while skipping. The state stays in registers for
   // the whole run (the CRC too), 8-bit counts (a block holds at most 254 data bytes); out of line so that
   // it gets the registers to itself whatever the caller is.
-  __attribute__((noinline)) const uint8_t* take_run(const uint8_t* in, const uint8_t* end) {
+  // Where take_run stopped, and whether the delimiter before it completed a frame (returned in registers).
+  struct RunEnd {
+    const uint8_t* next;
+    bool frame;
+  };
+  __attribute__((noinline)) RunEnd take_run(const uint8_t* in, const uint8_t* end) {
     const bool checked = checked_from_ != kUncheckedIndex;
     detail::CobsCrc crc = crc_;
     uint8_t* out = buffer_ + size_;
@@ -245,6 +255,7 @@ class CobsDecoder {
     uint8_t left = left_;
     uint8_t last_code = last_code_;
     bool started = started_;
+    bool frame = false;
     for (;;) {
       uint8_t count = left;
       if (avail < count) count = avail;
@@ -274,10 +285,14 @@ class CobsDecoder {
       if (left != 0 || avail == 0) break;  // a zero inside the block, a full buffer, or all used
       const uint8_t code = *in;
       if (code == 0x00) {
-        if (started) break;  // completes the frame: feed(uint8_t) reports it
+        ++in;
+        if (started) {  // completes the frame (end_frame's case of a frame)
+          started = false;
+          frame = true;
+          break;
+        }
         room = static_cast<uint8_t>(room + (out - buffer_));  // a delimiter between frames (end_frame
         out = buffer_;                                        // without a frame): size 0
-        ++in;
         --avail;
         continue;
       }
@@ -302,7 +317,7 @@ class CobsDecoder {
     last_code_ = last_code;
     started_ = started;
     size_ = static_cast<Index>(out - buffer_);
-    return in;
+    return RunEnd{in, frame};
   }
   // Copies up to `count` (>= 1) bytes from `in` to `out`, stopping before a zero; advances `out` past
   // what it copied. The run loop of a decoder without checksum.

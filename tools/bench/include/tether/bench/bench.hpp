@@ -1,7 +1,8 @@
 /// @file bench.hpp
 /// `tether bench`: the demo's workload (tether/demo/workload.hpp: set the servos, get the confirmation; on
 /// a ring, a request round the ring) swept over line noise and request rates on every device of a rover,
-/// with the figures a team needs to pick a protocol per device.
+/// with the figures a team needs to pick a protocol per device; or a read instead, and the smallest or the
+/// largest operation of either kind (workloads.hpp: `--workload`, `--payload`).
 ///
 /// The rover opens once; each sweep point (a bit error rate and a rate) then runs the workload on every
 /// selected device at once, or one device at a time (`isolated`), and takes its figures from the
@@ -29,6 +30,7 @@
 #include <utility>
 #include <vector>
 
+#include "tether/bench/workloads.hpp"
 #include "tether/demo/exactly_once.hpp"
 #include "tether/devices/config.hpp"
 
@@ -40,19 +42,13 @@ inline constexpr double kSustainedSuccess = 0.99;
 /// blocking request/reply) cannot keep up, whatever its success share.
 inline constexpr double kSustainedThroughput = 0.95;
 
-/// Which operation a run measures.
-enum class WorkloadKind {
-  servo,   ///< Set the servos and get the confirmation (the demo's; a ring: a request round the ring).
-  sensor,  ///< Read a sensor value (demo::make_sensor_workload: the devices whose images answer one).
-};
-/// `servo` / `sensor`.
-const char* to_string(WorkloadKind kind);
-
 /// What to run.
 struct BenchOptions {
-  /// The operation measured; devices without it (sensor: proxy, elcano) are listed in
-  /// BenchReport::skipped and not measured.
+  /// The operation measured (workloads.hpp); devices without it are listed in BenchReport::skipped and
+  /// not measured.
   WorkloadKind workload = WorkloadKind::servo;
+  /// Its size: the demo's operation, or the smallest / largest of its kind (workloads.hpp).
+  Payload payload = Payload::demo;
   /// The rover; default (unset): the embedded virtual rover (devices::default_virtual_rover_config()).
   std::optional<devices::RoverConfig> config;
   /// Firmware folder for the embedded config's image names.
@@ -102,6 +98,7 @@ struct FirmwareImage {
 struct PointResult {
   std::string device;               ///< Name in the config.
   WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
+  Payload payload = Payload::demo;  ///< Its size.
   double bit_error_rate = 0;        ///< The point's noise.
   std::optional<double> rate_hz;    ///< The point's rate; unset: max (closed loop).
   std::uint32_t operations = 0;     ///< Operations attempted.
@@ -195,6 +192,7 @@ struct BenchReport {
   bool reset = false;                ///< Power cycles injected halfway through every point.
   bool saturation_ramp = false;      ///< A saturation ramp ran (DeviceSummary::Saturation::ramp).
   WorkloadKind workload = WorkloadKind::servo;  ///< The operation measured.
+  Payload payload = Payload::demo;              ///< Its size.
   std::vector<double> bit_error_rates;          ///< Swept.
   std::vector<std::optional<double>> rates;     ///< Swept (unset: max).
   double wall_seconds = 0;           ///< The whole run.

@@ -70,9 +70,9 @@ std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, cons
 
 /// A sensor read on the device's client, beside the servo workload (`tether bench --workload sensor`):
 /// Romi `A[channel]` -> `[0, value]` (an ADC reading 0..1023 of A0..A5, cycling; a value out of range or
-/// another shape is a wrong answer). Null, with `why` set, for a codec whose demo images answer no read:
-/// the proxy images report pins only in their unrequested state stream, and an Elcano ring's sensor
-/// report answers a drive (the servo workload's operation).
+/// another shape is a wrong answer). Null, with `why` set, for the other codecs: their reads are not a
+/// request with an answer (the proxy reports a pin's state after a control, an Elcano ring answers a goal
+/// with the drive node's report), so `tether bench` builds them itself (tools/bench workloads.hpp).
 std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why);
 
 }  // namespace tether::demo

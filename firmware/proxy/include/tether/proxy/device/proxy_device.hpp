@@ -47,8 +47,8 @@
 ///      5 s). When the failsafe and an ArduinoInfo fall due in the same poll, the failsafe goes first, so
 ///      that ArduinoInfo already shows the flag.
 ///
-/// ## Memory (ATmega328P, measured): 268 bytes of static RAM per device (counters 64, frame decoder ~75,
-/// duplicate filter ~76, watchdog, deadlines and state ~50), plus the OutputTable (60). No heap. Stack:
+/// ## Memory (ATmega328P, measured): 245 bytes of static RAM per device (counters 64, frame decoder ~72,
+/// duplicate filter 51, watchdog, deadlines and state ~58), plus the OutputTable (54). No heap. Stack:
 /// sending a message needs ~450 bytes at the peak (nanopb's encoder ~250, the payload and frame buffers of
 /// io.hpp ~160, an ArduinoOut ~55); the `proxy` image peaks at ~615 bytes, interrupts included.
 #pragma once
