@@ -47,29 +47,7 @@ class Decoder {
   /// Consumes one byte. The bytes inside attributes (`{`, a letter, digits, `}`, spaces) take a short
   /// inline path; headers, line ends and everything unusual go through the state machine (issue 17:
   /// the per-byte cost on the AVR). Both give the same results.
-  DecodeStatus feed(uint8_t byte) { return feed_inline(byte); }
-  /// Consumes `bytes` up to and including the first one that completes a message or an error, with
-  /// exactly the results of feeding them one at a time. The bytes inside a message (attributes, the
-  /// generation D trailer) are taken in one loop with the write position, the state and the number in
-  /// registers: on the AVR a call per byte, and members reached through a pointer, cost more than the
-  /// parsing itself (issue 17). Prefer it wherever bytes arrive in runs.
-  FeedResult feed(ByteView bytes);
-  /// After `frame`: the message.
-  const Message& frame() const { return message_; }
-  /// After `frame`: the message's bytes to forward (see the file overview); valid until the next byte.
-  ByteView forward() const { return ByteView(buffer_, size_); }
-  /// After `error`: why the message was dropped.
-  Error error() const { return error_; }
-  /// Drops the message in progress (e.g. its deadline passed); skips to the next header.
-  void reset() {
-    state_ = State::skip;
-    size_ = 0;
-  }
-  /// True while a message is in progress (what a partial-message deadline watches).
-  bool in_frame() const { return state_ != State::header && state_ != State::skip; }
-
- private:
-  __attribute__((always_inline)) DecodeStatus feed_inline(uint8_t byte) {
+  DecodeStatus feed(uint8_t byte) {
     if (size_ != Capacity) {
       if (state_ == State::number) {
         const uint8_t digit = static_cast<uint8_t>(byte - '0');
@@ -120,6 +98,27 @@ class Decoder {
     if (byte == ' ') return DecodeStatus::more;  // ignored anywhere (rule 1)
     return feed_slow(byte);
   }
+  /// Consumes `bytes` up to and including the first one that completes a message or an error, with
+  /// exactly the results of feeding them one at a time. The bytes inside a message (attributes, the
+  /// generation D trailer) are taken in one loop with the write position, the state and the digit count
+  /// in registers (issue 17: on the AVR the call per byte and the members' loads and stores cost more
+  /// than the parsing itself). Prefer it wherever bytes arrive in runs.
+  FeedResult feed(ByteView bytes);
+  /// After `frame`: the message.
+  const Message& frame() const { return message_; }
+  /// After `frame`: the message's bytes to forward (see the file overview); valid until the next byte.
+  ByteView forward() const { return ByteView(buffer_, size_); }
+  /// After `error`: why the message was dropped.
+  Error error() const { return error_; }
+  /// Drops the message in progress (e.g. its deadline passed); skips to the next header.
+  void reset() {
+    state_ = State::skip;
+    size_ = 0;
+  }
+  /// True while a message is in progress (what a partial-message deadline watches).
+  bool in_frame() const { return state_ != State::header && state_ != State::skip; }
+
+ private:
   enum class State : uint8_t { header, lcurly, letter, number, trailer, skip };
   // Digits any int32 magnitude can take without a range check (999999999 < 2^31).
   static constexpr uint8_t kSafeDigits = 9;
@@ -127,7 +126,7 @@ class Decoder {
   DecodeStatus feed_slow(uint8_t byte);
   // feed(bytes)'s loop over the bytes inside attributes; returns the first byte it did not take.
   const uint8_t* run(const uint8_t* next, const uint8_t* end);
-  // feed(bytes) on the bytes run() leaves: feed(byte), out of line (the run keeps its registers).
+  // feed(bytes) on the bytes run() leaves: feed(byte) out of line (the run keeps its registers).
   DecodeStatus feed_outside_run(uint8_t byte);
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
   // `type` is there); 0 for unknown letters and for generation B `p`, which sets two fields

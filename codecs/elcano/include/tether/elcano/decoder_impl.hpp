@@ -26,7 +26,7 @@ __attribute__((noinline)) FeedResult Decoder<Capacity>::feed(ByteView bytes) {
 
 template <size_t Capacity>
 __attribute__((noinline)) DecodeStatus Decoder<Capacity>::feed_outside_run(uint8_t byte) {
-  return feed_inline(byte);
+  return feed(byte);
 }
 
 template <size_t Capacity>
