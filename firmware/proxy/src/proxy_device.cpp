@@ -198,7 +198,9 @@ bool ProxyDevice::send(const void* out_message, bool leading_delimiter) {
   return false;
 }
 
-void ProxyDevice::send_ack(uint32_t message_id, bool refused) {
+// Out of line (send_ack, report_drops): LTO inlined each into its callers in main, every copy with its own
+// zeroing of a 55-byte ArduinoOut; one copy costs a call per message (proxy.elf -124 B).
+__attribute__((noinline)) void ProxyDevice::send_ack(uint32_t message_id, bool refused) {
   tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_ack_tag);
   out.data.ack.messageId = message_id;
   out.data.ack.refused = refused;
@@ -264,7 +266,7 @@ void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo, 
   send(&error.message);
 }
 
-void ProxyDevice::report_drops() {
+__attribute__((noinline)) void ProxyDevice::report_drops() {
   const LinkCounters& link = counters_.link;
   const uint32_t drops = link.crc_errors + link.framing_errors + link.oversize_frames + link.partial_timeouts;
   if (drops == reported_drops_) return;

@@ -18,7 +18,8 @@ void EntropyPool::add(ByteView bytes) {
   for (size_t i = 0; i < bytes.size(); ++i) add(bytes[i]);
 }
 
-uint32_t mix32(uint32_t x) {
+// Out of line: two 32-bit multiplies (libgcc calls); the boot derives two, one copy is enough.
+__attribute__((noinline)) uint32_t mix32(uint32_t x) {
   x ^= x >> 16;
   x *= 0x85EBCA6Bu;
   x ^= x >> 13;
