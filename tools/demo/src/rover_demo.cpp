@@ -325,9 +325,13 @@ double pulse_us(transports::VirtualUno& board, int pin) {
 }
 
 // Compares the pins with `last` (the command the pins should show), once the servo period has passed (20 ms).
+// The wait is in the board's time (500 ms: 25 periods), not the wall clock's, so that how many pulses are
+// looked at does not depend on the machine's load (a loaded suite once ended a 2 s wall-clock window on
+// "D9 2190/2193 us": cause not pinned down). The wall-clock bound only ends the wait on a stopped board.
 void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::optional<Pulses>& last) {
   if (!last) return;
-  const auto settled = Clock::now() + std::chrono::seconds(2);
+  const auto settled = board.simulated_time() + std::chrono::milliseconds(500);
+  const auto stalled = Clock::now() + std::chrono::seconds(30);
   bool match = false;
   double d9 = 0;
   double d10 = 0;
@@ -335,7 +339,7 @@ void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::
     d9 = pulse_us(board, 9);
     d10 = pulse_us(board, 10);
     match = (last->d9 == 0 || std::abs(d9 - last->d9) < 2.0) && (last->d10 == 0 || std::abs(d10 - last->d10) < 2.0);
-    if (match || Clock::now() > settled) break;
+    if (match || board.simulated_time() > settled || Clock::now() > stalled) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   report.pins_match = match;
