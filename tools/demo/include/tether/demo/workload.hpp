@@ -22,6 +22,9 @@ namespace tether::demo {
 struct Pulses {
   std::uint16_t d9 = 0;   ///< Throttle pulse (us).
   std::uint16_t d10 = 0;  ///< Steering pulse (us).
+  /// How far a measured pulse may be from these and still show this command (us): less than half the
+  /// step between two commands the workload can send, so no other command passes for this one.
+  double tolerance_us = 2.0;
 };
 
 /// How one operation ended.
