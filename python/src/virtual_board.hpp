@@ -73,7 +73,7 @@ std::shared_ptr<VirtualBoard> board_at_port(const std::string& path);
 std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock);
 
 /// The board a client's deadlines run on: `chosen` (its `clock=`), else the board it was opened on
-/// (`Client(board)`), else null (the steady clock).
+/// (`Client(board)`, or its pty by path: `board_at_port`), else null (the steady clock).
 inline std::shared_ptr<VirtualBoard> deadline_board(std::shared_ptr<VirtualBoard> chosen, const Transport& transport) {
   return chosen ? chosen : transport.board;
 }
