@@ -198,11 +198,12 @@ BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_b, elcano_drive(), elcano
 BENCHMARK_CAPTURE(BM_ElcanoRingNode, forward_drive_gen_d, elcano_drive(), elcano::Generation::d, false);
 BENCHMARK_CAPTURE(BM_ElcanoRingNode, capture_drive_gen_b, elcano_drive(), elcano::Generation::b, true);
 
-// --- A ~32-byte frame per codec: encode, then decode byte by byte with the host's decoder -------------
+// --- A ~32-byte frame per codec: encode, then decode as the host client does ---------------------------
 // The per-frame cost a host pays in the portable codecs (the clients add their own bookkeeping on top).
-// Romi: the request `#s[1234,-567,890,-12,345]:<id><crc>\r\n` (32 bytes). Proxy: a 28-byte payload,
-// CRC-16 and COBS (32 bytes with the delimiter). Elcano: the segment `X{n 4}{s 160}{b 80}{p 3200,-64000}\n`
-// (generation B, 34 bytes).
+// Romi: the request `#s[1234,-567,890,-12,345]:<id><crc>\r\n` (32 bytes), decoded byte by byte. Proxy: a
+// 28-byte payload, CRC-16 and COBS (32 bytes with the delimiter), decoded a received run at a time
+// (`Decoder::feed(ByteView)`, as the proxy client feeds it). Elcano: the segment
+// `X{n 4}{s 160}{b 80}{p 3200,-64000}\n` (generation B, 34 bytes), decoded byte by byte.
 
 void BM_Frame32_Romi(benchmark::State& state) {
   uint8_t frame[64];
@@ -235,7 +236,7 @@ void BM_Frame32_Proxy(benchmark::State& state) {
     const Result<size_t> encoded =
         proxy::encode_frame(ByteView(payload.data(), payload.size()), proxy::Integrity::crc16, false, frame);
     size = encoded.ok() ? encoded.value() : 0;
-    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
+    benchmark::DoNotOptimize(decoder.feed(ByteView(frame, size)));
   }
   if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));

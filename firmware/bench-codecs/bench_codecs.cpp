@@ -5,7 +5,8 @@
 // input comes from memory and output goes to memory.
 //   Romi: decode + parse a request, encode a response, and whole requests through a RomiSerial device
 //   (romi-bench's four handlers; request in memory -> reply in memory, clock read as shipped).
-//   proxy: decode / encode a frame of 12 B (ServoControl) and 32 B payload; CRC-16 and CRC-8 over 64 B.
+//   proxy: decode (in runs, as the proxy device: ProxyDevice::handle_bytes) / encode a frame of 12 B
+//   (ServoControl) and 32 B payload; CRC-16 and CRC-8 over 64 B.
 //   Elcano (Decoder<96>, RingNode<96, 256, 4> like the elcano-node image), drive D{s 50}{a 25} and segment
 //   X{n 4}{s 160}{b 80}{p 3200,-64000}: read and write them in generation B and D, RingNode forwarding
 //   (B, D) and capture (B).
@@ -79,10 +80,13 @@ class MemoryInput final : public tether::romi::device::IInputStream {
     c = static_cast<char>(*next_++);
     return true;
   }
-  // Like UartStream's (one copy per batch).
+  // Like UartStream's (one copy per batch; the pointers in registers, an 8-bit count).
   uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
-    uint8_t count = 0;
-    while (count < capacity && next_ != end_) bytes[count++] = *next_++;
+    const uint8_t* next = next_;
+    const uint8_t waiting = static_cast<uint8_t>(end_ - next);
+    const uint8_t count = waiting < capacity ? waiting : capacity;
+    for (uint8_t i = count; i != 0; --i) *bytes++ = *next++;
+    next_ = next;
     return count;
   }
 
@@ -98,9 +102,13 @@ class MemoryOutput final : public tether::romi::device::IOutputStream {
     bytes_[size_++] = static_cast<uint8_t>(c);
     return true;
   }
-  // Like UartStream's (one copy per batch).
+  // Like UartStream's (one copy per batch; the pointers in registers, an 8-bit count).
   void write_all(const uint8_t* bytes, uint8_t size) override {
-    for (uint8_t i = 0; i < size && size_ < sizeof bytes_; ++i) bytes_[size_++] = bytes[i];
+    const uint8_t room = static_cast<uint8_t>(sizeof bytes_ - size_);
+    const uint8_t count = size < room ? size : room;
+    uint8_t* next = bytes_ + size_;
+    for (uint8_t i = count; i != 0; --i) *next++ = *bytes++;
+    size_ = static_cast<uint8_t>(size_ + count);
   }
   void clear() { size_ = 0; }
   const uint8_t* data() const { return bytes_; }
@@ -129,6 +137,25 @@ void romi_call(Row row, const char* payload, const char* body, uint8_t id) {
   measure(row, [] { romi_device.handle_input(); });
   const bool ok = romi_output.size() == expected && __builtin_memcmp(romi_output.data(), romi_expected, expected) == 0;
   bench_wire_bytes[row] = bytes_if(ok, in + expected);
+}
+
+// The proxy device's decoder (ProxyDevice: Decoder<64>, crc16), long-lived as on the device: built once,
+// outside the measurements.
+tether::LinkCounters proxy_counters;
+tether::proxy::Decoder<64> proxy_decoder(tether::proxy::Integrity::crc16, proxy_counters);
+
+// Decodes the `size` bytes of `frame` as the proxy device does (ProxyDevice::handle_bytes): the bytes its
+// UART ring holds, handed over as runs (one here: the whole frame is there), each fed to the decoder up to
+// the event it completes. True when they made one frame of `payload` bytes.
+bool proxy_decode(size_t size, size_t payload) {
+  bool read = false;
+  size_t used = 0;
+  while (used < size) {
+    const tether::FeedResult fed = proxy_decoder.feed(tether::ByteView(frame + used, size - used));
+    used += fed.consumed;
+    if (fed.status == tether::DecodeStatus::frame) read = proxy_decoder.frame().size() == payload;
+  }
+  return read;
 }
 
 elcano::Message drive_message() {
@@ -163,16 +190,19 @@ uint8_t without_spaces(uint8_t size) {
   return count;
 }
 
-// Reads `size` bytes of `input` with a fresh Decoder<96>, as an elcano-node board would; true when they
-// made one message of `type`.
+// Reads `size` bytes of `input` with a fresh Decoder<96>, as one span (feed(bytes): the run of bytes a UART
+// read returns); true when they made one message of `type`.
 bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, tether::LinkCounters& counters) {
   elcano::Decoder<96> reader(generation, counters);
   bool read = false;
-  for (uint8_t i = 0; i < size; ++i) {
-    if (reader.feed(input[i]) == tether::DecodeStatus::frame) {
+  tether::ByteView rest(input, size);
+  while (!rest.empty()) {
+    const tether::FeedResult fed = reader.feed(rest);
+    if (fed.status == tether::DecodeStatus::frame) {
       sink = static_cast<uint16_t>(reader.frame().speed + static_cast<int32_t>(reader.forward().size()));
       read = reader.frame().type == type;
     }
+    rest = rest.subview(fed.consumed);
   }
   return read;
 }
@@ -180,9 +210,11 @@ bool read_input(elcano::Generation generation, uint8_t size, elcano::Type type, 
 // Feeds `size` bytes of `input` to `node` and takes its output (the forwarded message, when any); `kind` is
 // the last event the bytes produced. Returns the output's size.
 uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
-  for (uint8_t i = 0; i < size; ++i) {
-    const elcano::RingEvent::Kind event = node.consume(input[i], 0);  // the fast path, as elcano-node uses
+  for (tether::ByteView rest(input, size); !rest.empty();) {  // one span, as elcano-node feeds a UART read
+    size_t used = 0;
+    const elcano::RingEvent::Kind event = node.consume(rest, 0, used);
     if (event != elcano::RingEvent::Kind::none) kind = event;
+    rest = rest.subview(used);
   }
   return static_cast<uint8_t>(node.take_output(frame, 0));
 }
@@ -223,12 +255,7 @@ int main() {
                                                     tether::proxy::Integrity::crc16, true, frame)
                             .value();
   read = false;
-  measure(kProxyDecode12, [&] {
-    tether::proxy::Decoder<32> decoder(tether::proxy::Integrity::crc16, counters);
-    for (size_t i = 0; i < framed; ++i) {
-      if (decoder.feed(frame[i]) == tether::DecodeStatus::frame) read = true;
-    }
-  });
+  measure(kProxyDecode12, [&] { read = proxy_decode(framed, sizeof kServoControl); });
   bench_wire_bytes[kProxyDecode12] = bytes_if(read, framed);
   measure(kProxyEncode12, [&] {
     written = tether::proxy::encode_frame(tether::ByteView(kServoControl, sizeof kServoControl),
@@ -245,12 +272,7 @@ int main() {
   bench_wire_bytes[kProxyEncode32] = static_cast<uint8_t>(written);
   const size_t framed32 = written;
   read = false;
-  measure(kProxyDecode32, [&] {
-    tether::proxy::Decoder<32> decoder(tether::proxy::Integrity::crc16, counters);
-    for (size_t i = 0; i < framed32; ++i) {
-      if (decoder.feed(frame[i]) == tether::DecodeStatus::frame) read = decoder.frame().size() == 32;
-    }
-  });
+  measure(kProxyDecode32, [&] { read = proxy_decode(framed32, 32); });
   bench_wire_bytes[kProxyDecode32] = bytes_if(read, framed32);
   measure(kCrc16, [&] { sink = tether::Crc16Mcrf4xx::compute(tether::ByteView(data, sizeof data)); });
   bench_wire_bytes[kCrc16] = sizeof data;

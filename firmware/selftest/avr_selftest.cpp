@@ -3,6 +3,8 @@
 //   2. CRCs of pseudo-random buffers (seed from EEPROM bytes 0..3) for the host to compare with Boost.
 //   3. The device half of the session engine (duplicate filter, partial-frame deadline, failsafe watchdog)
 //      and the host half's 8-bit id wrap, with 16-bit int arithmetic.
+//   4. The proxy frame decoder's run path (its AVR assembly) against its per-byte path, on pseudo-random
+//      frames with zeros, damage and oversize ones, fed in runs of every length.
 // Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
 // Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
 #include <avr/eeprom.h>
@@ -16,6 +18,8 @@
 #include "tether/core/session/failsafe_watchdog.hpp"
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
 
 namespace {
 
@@ -133,6 +137,88 @@ void check_request_ids() {
   report("request_ids", ok);
 }
 
+// One decoder event, compared between the two paths: status, error or the frame's size and CRC-16.
+struct ProxyEvent {
+  uint8_t status;
+  uint8_t detail;
+  uint16_t digest;
+  bool operator!=(const ProxyEvent& other) const {
+    return status != other.status || detail != other.detail || digest != other.digest;
+  }
+};
+
+template <typename Decoder>
+ProxyEvent proxy_event(tether::DecodeStatus status, const Decoder& decoder) {
+  ProxyEvent event{static_cast<uint8_t>(status), 0, 0};
+  if (status == tether::DecodeStatus::frame) {
+    event.detail = static_cast<uint8_t>(decoder.frame().size());
+    event.digest = tether::Crc16Mcrf4xx::compute(decoder.frame());
+  } else if (status == tether::DecodeStatus::error) {
+    event.detail = static_cast<uint8_t>(decoder.error());
+  }
+  return event;
+}
+
+void check_proxy_runs(uint32_t seed) {
+  using tether::proxy::Integrity;
+  tether::selftest::Xorshift32 random(seed ^ 0x5A5A5A5Au);
+  bool ok = true;
+  uint16_t frames = 0;
+  for (uint8_t round = 0; round < 24 && ok; ++round) {
+    const Integrity integrity = round % 3 == 2 ? Integrity::none : Integrity::crc16;
+    uint8_t wire[160];
+    uint8_t size = 0;
+    while (true) {  // frames until the buffer is full: payloads of 0..52 bytes (the decoders hold 40)
+      uint8_t payload[52];
+      const uint8_t length = static_cast<uint8_t>(random.next() % (sizeof payload + 1));
+      for (uint8_t i = 0; i < length; ++i) payload[i] = random.next() % 4 == 0 ? 0 : random.next_byte();
+      uint8_t frame[64];
+      const auto framed = tether::proxy::encode_frame(tether::ByteView(payload, length), integrity,
+                                                      random.next() % 2 == 0, tether::MutableByteView(frame));
+      if (!framed.ok() || size + framed.value() > sizeof wire) break;
+      uint8_t used = static_cast<uint8_t>(framed.value());
+      const uint8_t damage = static_cast<uint8_t>(random.next() % 5);
+      if (damage == 0) {
+        const uint8_t at = static_cast<uint8_t>(random.next() % used);
+        frame[at] = static_cast<uint8_t>(frame[at] ^ (1u + random.next() % 255u));
+      }
+      if (damage == 1) used = static_cast<uint8_t>(random.next() % used);  // cut short
+      for (uint8_t i = 0; i < used; ++i) wire[size++] = frame[i];
+    }
+    tether::LinkCounters byte_counters;
+    tether::LinkCounters run_counters;
+    tether::proxy::Decoder<40> by_byte(integrity, byte_counters);
+    tether::proxy::Decoder<40> by_run(integrity, run_counters);
+    ProxyEvent expected[48];
+    uint8_t events = 0;
+    for (uint8_t i = 0; i < size && events < 48; ++i) {
+      const tether::DecodeStatus status = by_byte.feed(wire[i]);
+      if (status != tether::DecodeStatus::more) expected[events++] = proxy_event(status, by_byte);
+    }
+    uint8_t seen = 0;
+    uint8_t at = 0;
+    while (at < size && ok) {
+      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
+      if (end > size) end = size;
+      while (at < end && ok) {
+        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
+        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
+        at = static_cast<uint8_t>(at + fed.consumed);
+        if (fed.status != tether::DecodeStatus::more) {
+          ok = ok && seen < events && !(proxy_event(fed.status, by_run) != expected[seen]);
+          ++seen;
+        }
+      }
+    }
+    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
+         run_counters.crc_errors == byte_counters.crc_errors &&
+         run_counters.framing_errors == byte_counters.framing_errors &&
+         run_counters.oversize_frames == byte_counters.oversize_frames && by_run.in_frame() == by_byte.in_frame();
+    frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
+  }
+  report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
+}
+
 }  // namespace
 
 int main() {
@@ -147,6 +233,7 @@ int main() {
   check_watchdog();
   check_partial_frame();
   check_request_ids();
+  check_proxy_runs(seed);
   put("selftest end failures ");
   put_hex(failures, 2);
   put("\n");

@@ -293,9 +293,13 @@ bool add_node_configuration(transports::HexImage& image, const std::filesystem::
 
 bool contains(const std::string& text, std::string_view what) { return text.find(what) != std::string::npos; }
 
-// avrdude got no STK500 answer (at the start or in the middle of the upload).
+// avrdude got no STK500 answer (at the start or in the middle of the upload), or other bytes than STK500's
+// sync/OK answers: the bootloader timed out mid-upload and started the half-written application, which
+// talks (an echo image sends the page data back: "protocol expects sync byte 0x14 but got 0x65").
 bool lost_bootloader(const AvrdudeRun& run) {
-  return run.status > 0 && (contains(run.output, "not in sync") || contains(run.output, "not responding"));
+  return run.status > 0 && (contains(run.output, "not in sync") || contains(run.output, "not responding") ||
+                            contains(run.output, "protocol expects sync byte") ||
+                            contains(run.output, "protocol expects OK byte"));
 }
 
 // What went wrong, from avrdude's words (avrdude 7.1).

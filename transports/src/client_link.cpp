@@ -117,8 +117,13 @@ void ClientLink::arm_timer(const Deadline& wakeup) {
   if (timer_armed_ && timer_at_ == wakeup.at()) return;
   timer_armed_ = true;
   timer_at_ = wakeup.at();
-  timer_->wait_until(wakeup.at(), [self = shared_from_this()](error_code error) {
+  // Weak, like the read loop: a LinkTimer may keep the pending wait's handler itself (VirtualUnoClock,
+  // ManualClock), and the link owns its timer and its clock, so a strong capture is a cycle that outlives
+  // an io_context stopped before the close's cancel_timer ran (LeakSanitizer saw it after passing tests).
+  timer_->wait_until(wakeup.at(), [weak = weak_from_this()](error_code error) {
     if (error) return;  // re-armed or cancelled
+    const auto self = weak.lock();
+    if (!self) return;
     self->timer_armed_ = false;
     self->on_timer();
   });

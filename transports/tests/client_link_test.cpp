@@ -15,6 +15,7 @@
 
 #include "tether/transports/client_link.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/transports/testing/manual_clock.hpp"
 
 namespace tether::transports {
 namespace {
@@ -24,7 +25,8 @@ using namespace std::chrono_literals;
 // A client with no protocol: records what the link reports and exposes the protected interface.
 class RecordingLink final : public ClientLink {
  public:
-  explicit RecordingLink(std::shared_ptr<ByteStream> stream) : ClientLink(std::move(stream)) {}
+  explicit RecordingLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock = nullptr)
+      : ClientLink(std::move(stream), std::move(clock)) {}
 
   void start() {
     post_to_strand([this] { start_reading(); });
@@ -289,6 +291,31 @@ TEST(ClientLink, ClosedLinkIsFreedOnceTheIoContextRan) {
   }
   near.reset();
   io.run();
+  EXPECT_TRUE(weak.expired());
+}
+
+// A clock whose timers keep the pending wait's handler (ManualClock, VirtualUnoClock) and an io_context
+// that stops before the close's posted work ran (IoThread's destructor): the link must still be freed. It
+// was not while the timer's handler held the link strongly (link -> clock -> wait -> handler -> link):
+// LeakSanitizer failed interop.ProxyInterop.AnMcuResetIsDetected... after it passed, now and then.
+TEST(ClientLink, APendingWaitKeptByItsClockDoesNotKeepTheLinkAlive) {
+  std::weak_ptr<RecordingLink> weak;
+  {
+    asio::io_context io;
+    auto [near, far] = InMemoryStream::make_pair(io.get_executor());
+    auto clock = testing::ManualClock::create();
+    {
+      auto link = std::make_shared<RecordingLink>(near, clock);
+      weak = link;
+      link->start();
+      link->arm_in(60000);
+      io.poll();  // the wait is pending, its handler held by the clock
+      ASSERT_EQ(clock->pending(), 1u);
+      link->close();  // its cancel_timer is posted, never run: the io_context is destroyed first
+    }
+    near.reset();
+    far.reset();
+  }
   EXPECT_TRUE(weak.expired());
 }
 

@@ -1,5 +1,6 @@
-// Fuzz target of the Elcano reader (both generations). Invariants: no crash; forwarded bytes stay within
-// the reader; writing what was read, reading that and writing again gives the same bytes. (The reader,
+// Fuzz target of the Elcano reader (both generations). Invariants: no crash; span feeding (its own loop
+// over the bytes inside a message) reports exactly what byte-at-a-time feeding does: the same events at
+// the same bytes, the same messages, forwards, errors and counters; forwarded bytes stay within the reader; writing what was read, reading that and writing again gives the same bytes. (The reader,
 // like the reference, accepts attributes a type does not carry, `D{s 1}{a 2}{b 3}`; the writer writes
 // only the type's own, so fields are not compared one by one. Nodes forward the original bytes anyway.)
 #include <cstddef>
@@ -18,10 +19,32 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const Generation generation : {Generation::b, Generation::d}) {
     LinkCounters counters;
     Decoder<> reader(generation, counters);
+    LinkCounters single_counters;
+    Decoder<> single(generation, single_counters);  // the same bytes one at a time
     ByteView rest(data, size);
     while (!rest.empty()) {  // span feeding: stops at each message or error
       const FeedResult fed = reader.feed(rest);
       TETHER_FUZZ_CHECK(fed.consumed >= 1 && fed.consumed <= rest.size());
+      TETHER_FUZZ_CHECK(fed.status != DecodeStatus::more || fed.consumed == rest.size());
+      for (size_t i = 0; i < fed.consumed; ++i) {
+        const DecodeStatus one = single.feed(rest[i]);
+        TETHER_FUZZ_CHECK(one == (i + 1 == fed.consumed ? fed.status : DecodeStatus::more));
+      }
+      TETHER_FUZZ_CHECK(counters.frames_ok == single_counters.frames_ok &&
+                        counters.crc_errors == single_counters.crc_errors &&
+                        counters.framing_errors == single_counters.framing_errors &&
+                        counters.oversize_frames == single_counters.oversize_frames &&
+                        counters.resyncs == single_counters.resyncs);
+      TETHER_FUZZ_CHECK(reader.in_frame() == single.in_frame());
+      if (fed.status == DecodeStatus::error) TETHER_FUZZ_CHECK(reader.error() == single.error());
+      if (fed.status == DecodeStatus::frame) {
+        const Message& a = reader.frame();
+        const Message& b = single.frame();
+        TETHER_FUZZ_CHECK(a.type == b.type && a.number == b.number && a.speed == b.speed && a.angle == b.angle &&
+                          a.obstacle == b.obstacle && a.bearing == b.bearing && a.probability == b.probability &&
+                          a.east == b.east && a.north == b.north);
+        TETHER_FUZZ_CHECK(reader.forward().equals(single.forward()));
+      }
       rest = rest.subview(fed.consumed);
       if (fed.status != DecodeStatus::frame) continue;
       TETHER_FUZZ_CHECK(reader.forward().size() <= 96);

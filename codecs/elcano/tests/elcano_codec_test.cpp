@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "tether/elcano/encoder.hpp"
 #include "tether/elcano/message.hpp"
 #include "tether/elcano/reader.hpp"  // the deprecated names, tested for one release
+#include "tether/testing/random_seed.hpp"
 
 namespace tether::elcano {
 namespace {
@@ -328,6 +330,104 @@ TEST(ElcanoReader, SpanFeedingStopsAtEachMessageAndError) {
     }
     EXPECT_EQ(forwarded, expected.forwarded) << "chunk " << chunk;
     EXPECT_EQ(errors, expected.errors) << "chunk " << chunk;
+  }
+}
+
+// Everything a decoder reports, in order: each event with its message or error, its forward bytes and
+// the counters after it.
+struct Trace {
+  std::vector<std::string> events;
+  bool operator==(const Trace&) const = default;
+};
+
+template <size_t Capacity>
+void record(Trace& trace, const Decoder<Capacity>& reader, DecodeStatus status, const LinkCounters& counters) {
+  if (status == DecodeStatus::more) return;
+  std::string event;
+  if (status == DecodeStatus::frame) {
+    const Message& m = reader.frame();
+    event = "frame " + std::string(1, static_cast<char>(m.type));
+    for (const int32_t field : {m.number, m.speed, m.angle, m.obstacle, m.bearing, m.probability, m.east, m.north}) {
+      event += " " + std::to_string(field);
+    }
+    event += " [" + std::string(reinterpret_cast<const char*>(reader.forward().data()), reader.forward().size()) + "]";
+  } else {
+    event = "error " + std::to_string(static_cast<int>(reader.error()));
+  }
+  event += " ok=" + std::to_string(counters.frames_ok) + " crc=" + std::to_string(counters.crc_errors) +
+           " framing=" + std::to_string(counters.framing_errors) + " oversize=" + std::to_string(counters.oversize_frames) +
+           " resyncs=" + std::to_string(counters.resyncs);
+  trace.events.push_back(event);
+}
+
+template <size_t Capacity>
+Trace trace_by_byte(const std::string& bytes, Generation generation) {
+  LinkCounters counters;
+  Decoder<Capacity> reader(generation, counters);
+  Trace trace;
+  for (const char c : bytes) record(trace, reader, reader.feed(static_cast<uint8_t>(c)), counters);
+  return trace;
+}
+
+// The same bytes in chunks of random sizes through feed(bytes) (its loop over runs of attribute bytes).
+template <size_t Capacity>
+Trace trace_by_span(const std::string& bytes, Generation generation, std::mt19937_64& random) {
+  LinkCounters counters;
+  Decoder<Capacity> reader(generation, counters);
+  Trace trace;
+  std::uniform_int_distribution<size_t> chunk_size(1, 40);
+  for (size_t at = 0; at < bytes.size();) {
+    const size_t chunk = std::min(chunk_size(random), bytes.size() - at);
+    ByteView rest = ByteView::from_chars(bytes.data() + at, chunk);
+    at += chunk;
+    while (!rest.empty()) {
+      const FeedResult result = reader.feed(rest);
+      EXPECT_GE(result.consumed, 1u);
+      if (result.consumed == 0) return trace;
+      rest = rest.subview(result.consumed);
+      record(trace, reader, result.status, counters);
+      if (result.status == DecodeStatus::more) {
+        EXPECT_TRUE(rest.empty());
+      }
+    }
+  }
+  return trace;
+}
+
+// A stream of valid messages of both generations, some with extra spaces, and bytes changed at random:
+// digits, signs, separators, headers, line ends, the trailer, long numbers, overlong messages.
+std::string random_stream(std::mt19937_64& random) {
+  static const std::vector<std::string> pieces = {
+      "D{s 50}{a 25}\n", "X{n 4}{s 160}{b 80}{p 3200,-64000}\n", "D{s50}{a25}74\n",
+      "X{n4}{s160}{b80}{p3200}{q-64000}243\n", "S{s 1}{a -2}{b 3}{p -4,5}\n", "G{n 1}{b 2}{p 3,4}{r 5}\n",
+      "D{ s 5 0 }{a\t25}\r\n", "D{s 2147483647}{a 1}\n", "D{s -2147483648}{a 99999999}\n", "D{s 2147483648}\n",
+      "D{s 1234567890}{a -123456789}\n", "{", "}", "-", ",", " ", "\n", "D", "X", "7", "0", "9", "p", "q", "o", "z",
+      "\t", "\r", std::string(1, '\0'), "D{s50}{a25}999\n", "D{p 1,2,3}\n", "D{s --1}\n", "G{n1}{b2}{p3}{q4}{o5}88\n",
+      std::string(120, '1'), "D{s " + std::string(100, '5') + "}\n"};
+  std::uniform_int_distribution<size_t> pick(0, pieces.size() - 1);
+  std::uniform_int_distribution<int> count(1, 30);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::uniform_int_distribution<int> percent(0, 99);
+  std::string stream;
+  for (int i = count(random); i > 0; --i) stream += pieces[pick(random)];
+  for (char& c : stream) {
+    if (percent(random) < 3) c = static_cast<char>(byte(random));
+  }
+  return stream;
+}
+
+TEST(ElcanoReader, SpanFeedingReportsExactlyWhatByteFeedingDoes) {
+  // feed(bytes) runs its own loop over attribute bytes (issue 17: the AVR's cycles); it must be
+  // indistinguishable from feeding the bytes one at a time, whatever the input and the chunking.
+  std::mt19937_64 random = testing::seeded_generator(17);
+  for (int round = 0; round < 1000; ++round) {
+    const std::string stream = random_stream(random);
+    for (const Generation generation : {Generation::b, Generation::d}) {
+      ASSERT_EQ(trace_by_span<96>(stream, generation, random).events, trace_by_byte<96>(stream, generation).events)
+          << "round " << round << " generation " << (generation == Generation::b ? 'B' : 'D');
+      ASSERT_EQ(trace_by_span<20>(stream, generation, random).events, trace_by_byte<20>(stream, generation).events)
+          << "capacity 20, round " << round << " generation " << (generation == Generation::b ? 'B' : 'D');
+    }
   }
 }
 

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <random>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -322,6 +324,76 @@ TEST(RingNode, AMalformedMessageOfAnUncapturedTypeIsDroppedNotForwarded) {
 }
 
 // A ring under random traffic: everything originated is captured or comes back undeliverable exactly once.
+// What a node did, as text: every event with its message or error, then the output and the counters.
+std::string describe(const RingEvent::Kind kind, const Node& node) {
+  if (kind == RingEvent::Kind::none) return "";
+  std::string text = std::string(to_string(kind));
+  if (kind == RingEvent::Kind::dropped) text += " error " + std::to_string(static_cast<int>(node.error()));
+  if (kind != RingEvent::Kind::dropped || node.error() == Error::queue_full) {
+    const Message& m = node.message();
+    text += " " + std::string(1, static_cast<char>(m.type));
+    for (const int32_t field : {m.number, m.speed, m.angle, m.obstacle, m.bearing, m.probability, m.east, m.north}) {
+      text += " " + std::to_string(field);
+    }
+  }
+  return text + "\n";
+}
+
+TEST(RingNode, SpanConsumeDoesExactlyWhatByteConsumeDoes) {
+  // consume(bytes) (the firmware's: the reader's span loop, the deadline followed once per span) against
+  // consume(byte) byte by byte: the same events, output, deadlines and counters, chunk after chunk.
+  std::mt19937_64 random = testing::seeded_generator(171);
+  const std::vector<std::string> pieces = {"D{s 50}{a 25}\n", "X{n 4}{s 160}{b 80}{p 3200,-64000}\n", "D{s50}{a25}74\n",
+                                           "G{n 1}{b 2}{p 3,4}\n", "D{s 5", "}{a 1}\n", "Q{s 1}\n", "D{s 1x}\n",
+                                           "  ", "\n", "D{s 1}D{s 2}{a 3}\n", "S{s1}{a2}{b3}{p4}{q5}27\n"};
+  std::uniform_int_distribution<size_t> pick(0, pieces.size() - 1);
+  std::uniform_int_distribution<size_t> chunk_size(1, 24);
+  std::uniform_int_distribution<int> step(0, 200);
+  for (int round = 0; round < 200; ++round) {
+    const Generation generation = round % 2 == 0 ? Generation::b : Generation::d;
+    const TypeSet capture = TypeSet::from_bits(static_cast<uint8_t>(round / 2 % 16));
+    LinkCounters link_a, link_b;
+    RingCounters ring_a, ring_b;
+    Node by_byte(config(capture, generation), 0, link_a, ring_a);
+    Node by_span(config(capture, generation), 0, link_b, ring_b);
+    // Some of the node's own messages, so that some come back.
+    ASSERT_EQ(by_byte.originate(drive(7, 8), 0), by_span.originate(drive(7, 8), 0));
+    std::string stream;
+    for (int i = 0; i < 12; ++i) stream += pieces[pick(random)];
+    stream += generation == Generation::b ? "D{s 7}{a 8}\n" : "D{s7}{a8}247\n";
+    Millis now = 0;
+    std::string a, b;
+    for (size_t at = 0; at < stream.size();) {
+      now += static_cast<Millis>(step(random));
+      const size_t chunk = std::min(chunk_size(random), stream.size() - at);
+      for (size_t i = 0; i < chunk; ++i) a += describe(by_byte.consume(static_cast<uint8_t>(stream[at + i]), now), by_byte);
+      ByteView rest = ByteView::from_chars(stream.data() + at, chunk);
+      while (!rest.empty()) {
+        size_t used = 0;
+        b += describe(by_span.consume(rest, now, used), by_span);
+        ASSERT_GE(used, 1u);
+        rest = rest.subview(used);
+      }
+      at += chunk;
+      for (RingEvent e = by_byte.poll(now); e.kind != RingEvent::Kind::none; e = by_byte.poll(now)) a += to_string(e.kind);
+      for (RingEvent e = by_span.poll(now); e.kind != RingEvent::Kind::none; e = by_span.poll(now)) b += to_string(e.kind);
+      a += output(by_byte, now) + (by_byte.in_message() ? " open" : " closed");
+      b += output(by_span, now) + (by_span.in_message() ? " open" : " closed");
+      const Deadline wake_a = by_byte.next_wakeup(now), wake_b = by_span.next_wakeup(now);
+      a += wake_a.armed() ? " wake " + std::to_string(wake_a.at()) + "\n" : " idle\n";
+      b += wake_b.armed() ? " wake " + std::to_string(wake_b.at()) + "\n" : " idle\n";
+      ASSERT_EQ(a, b) << "round " << round << ", stream " << stream;
+    }
+    EXPECT_EQ(ring_a.captured, ring_b.captured);
+    EXPECT_EQ(ring_a.forwarded, ring_b.forwarded);
+    EXPECT_EQ(ring_a.undeliverable, ring_b.undeliverable);
+    EXPECT_EQ(link_a.frames_ok, link_b.frames_ok);
+    EXPECT_EQ(link_a.framing_errors, link_b.framing_errors);
+    EXPECT_EQ(link_a.partial_timeouts, link_b.partial_timeouts);
+    EXPECT_EQ(link_a.resyncs, link_b.resyncs);
+  }
+}
+
 TEST(RingNode, RandomTrafficOnARingIsDeliveredOrReturnedExactlyOnce) {
   const uint64_t seed = testing::random_seed();
   std::mt19937_64 random(seed);

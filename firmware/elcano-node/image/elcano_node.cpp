@@ -189,7 +189,12 @@ int main() {
       for (;;) {
         const size_t count = Serial::read(tether::MutableByteView(chunk));
         if (count == 0) break;
-        for (size_t i = 0; i < count; ++i) handle(g_node.consume(chunk[i], now), now);  // no copy per byte
+        // The whole chunk through the reader's span loop; each event handled where it happened.
+        for (tether::ByteView rest(chunk, count); !rest.empty();) {
+          size_t used = 0;
+          handle(g_node.consume(rest, now, used), now);
+          rest = rest.subview(used);
+        }
       }
     }
     while (g_node.poll(now).kind != tether::elcano::RingEvent::Kind::none) {

@@ -9,6 +9,7 @@
 #include "fake_hardware.hpp"
 #include "tether/core/crc.hpp"
 #include "tether/proxy/device/proxy_device.hpp"
+#include "tether/testing/random_seed.hpp"
 #include "tether_proxy.pb.h"
 #include "wire.hpp"
 
@@ -382,3 +383,70 @@ TEST_F(ProxyDeviceTest, LeadingDelimitersAndEmptyFramesAreIgnored) {
 }
 
 }  // namespace
+
+TEST(ProxyDeviceRuns, HandlingRunsOfBytesIsHandlingThemOneByOne) {
+  // The image hands the device what its UART ring holds (handle_bytes); it must answer, count and time
+  // out partial frames exactly as byte-by-byte feeding does, whatever the runs' lengths.
+  auto random = tether::testing::seeded_generator(17);
+  for (int round = 0; round < 60; ++round) {
+    wire::Bytes stream;
+    for (uint32_t id = 1; id <= 10; ++id) {
+      In in = random() % 2 == 0 ? servo_init(id, 9 + static_cast<uint32_t>(random() % 2), static_cast<int32_t>(random() % 200))
+                                : digital_control(id, static_cast<uint32_t>(random() % 22), random() % 2 == 0);
+      if (random() % 5 == 0) in = ping(id - 1);  // an id already seen: a re-send, or a new message
+      wire::Bytes frame = wire::frame(wire::encode(tether_proxy_ArduinoIn_fields, &in), Integrity::crc16);
+      const unsigned damage = static_cast<unsigned>(random() % 6);
+      if (damage == 0) frame[random() % (frame.size() - 1)] ^= static_cast<uint8_t>(1 + random() % 255);
+      if (damage == 1) frame.resize(random() % frame.size());  // cut short: the next frame follows at once
+      if (damage == 2) frame.insert(frame.begin(), static_cast<uint8_t>(random()));  // line noise before it
+      stream.insert(stream.end(), frame.begin(), frame.end());
+    }
+    // Time passes between some bytes: a frame cut short may stall past the partial-frame deadline.
+    std::vector<Millis> at(stream.size());
+    Millis now = 0;
+    for (Millis& t : at) {
+      if (random() % 16 == 0) now += static_cast<Millis>(random() % 150);
+      t = now;
+    }
+    fake::reset();
+    wire::Recorder by_byte_out;
+    OutputTable by_byte_outputs;
+    ProxyDevice by_byte{by_byte_outputs, by_byte_out.sink()};
+    by_byte.begin(1, 0);
+    for (size_t i = 0; i < stream.size(); ++i) {
+      by_byte.poll(at[i]);
+      by_byte.handle_byte(stream[i], at[i]);
+    }
+    fake::reset();
+    wire::Recorder by_run_out;
+    OutputTable by_run_outputs;
+    ProxyDevice by_run{by_run_outputs, by_run_out.sink()};
+    by_run.begin(1, 0);
+    size_t i = 0;
+    while (i < stream.size()) {
+      // A run never spans a change of time: the image reads the clock once per run.
+      size_t end = i + 1 + static_cast<size_t>(random() % 40);
+      if (end > stream.size()) end = stream.size();
+      for (size_t j = i + 1; j < end; ++j) {
+        if (at[j] != at[i]) end = j;
+      }
+      by_run.poll(at[i]);
+      while (i < end) {
+        const size_t used = by_run.handle_bytes(tether::ByteView(stream.data() + i, end - i), at[i]);
+        ASSERT_GE(used, 1u);
+        ASSERT_LE(used, end - i);
+        i += used;
+      }
+    }
+    ASSERT_EQ(by_run_out.bytes, by_byte_out.bytes) << "round " << round;
+    const tether::LinkCounters& a = by_run.counters().link;
+    const tether::LinkCounters& b = by_byte.counters().link;
+    EXPECT_EQ(a.frames_ok, b.frames_ok);
+    EXPECT_EQ(a.crc_errors, b.crc_errors);
+    EXPECT_EQ(a.framing_errors, b.framing_errors);
+    EXPECT_EQ(a.oversize_frames, b.oversize_frames);
+    EXPECT_EQ(a.partial_timeouts, b.partial_timeouts);
+    EXPECT_EQ(a.duplicates, b.duplicates);
+    EXPECT_EQ(by_run.counters().executed, by_byte.counters().executed);
+  }
+}

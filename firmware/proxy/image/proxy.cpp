@@ -36,12 +36,13 @@ int main() {
   const uint32_t session_id = tether::proxy::device::boot_session_id();
   tether::firmware::runtime_init<Serial>(kBaud);
   device.begin(session_id, tether::firmware::millis());  // end of setup: ResetEvent
-  uint8_t chunk[16];
   for (;;) {
-    const size_t count = Serial::read(tether::MutableByteView(chunk));
-    const tether::Millis now = tether::firmware::millis();
-    for (size_t i = 0; i < count; ++i) device.handle_byte(chunk[i], now);
+    // What the RX ring holds, read in place: a run of data bytes goes through the decoder's tight loop.
+    const tether::ByteView received = Serial::peek();
+    if (!received.empty()) {
+      Serial::consume(static_cast<uint8_t>(device.handle_bytes(received, tether::firmware::millis())));
+    }
     device.poll(tether::firmware::millis());
-    if (count == 0) tether::firmware::idle<Serial>();
+    if (received.empty()) tether::firmware::idle<Serial>();
   }
 }

@@ -6,7 +6,9 @@ namespace tether {
 namespace proxy {
 namespace device {
 
-void EntropyPool::add(uint8_t byte) { state_ = (state_ ^ byte) * 16777619u; }  // FNV prime
+// Out of line: a 32-bit multiply is a library call with its own register setup, inlined at each of the
+// boot code's many call sites it cost flash (the boot runs once; the call costs nothing that matters).
+__attribute__((noinline)) void EntropyPool::add(uint8_t byte) { state_ = (state_ ^ byte) * 16777619u; }  // FNV prime
 
 void EntropyPool::add_word(uint32_t value) {
   for (uint8_t i = 0; i < 4; ++i) add(static_cast<uint8_t>(value >> (8u * i)));
@@ -16,7 +18,8 @@ void EntropyPool::add(ByteView bytes) {
   for (size_t i = 0; i < bytes.size(); ++i) add(bytes[i]);
 }
 
-uint32_t mix32(uint32_t x) {
+// Out of line: two 32-bit multiplies (libgcc calls); the boot derives two, one copy is enough.
+__attribute__((noinline)) uint32_t mix32(uint32_t x) {
   x ^= x >> 16;
   x *= 0x85EBCA6Bu;
   x ^= x >> 13;

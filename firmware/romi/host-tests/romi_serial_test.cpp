@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "RomiSerial.h"
+#include "tether/core/crc.hpp"
 #include "tether/romi/encoder.hpp"
 
 namespace {
@@ -339,6 +340,20 @@ TEST_F(RomiSerialTest, SameIdDifferentRequestRuns) {
   EXPECT_EQ(exchange(request("c[1,3]", 5)), response('c', "[0]", 5));
   EXPECT_EQ(last_args[1], 3);
   EXPECT_EQ(runs, 2);
+}
+
+TEST_F(RomiSerialTest, SameIdAndSameFingerprintButOtherBytesRuns) {
+  // The two payloads have the same length and the same CRC-16/MCRF4XX (0x9754, checked below): the
+  // cache used to key on (id, that CRC) and answered the second with the first's reply, unexecuted.
+  const tether::ByteView first = tether::ByteView::from_literal("c[1888,1005]");
+  const tether::ByteView second = tether::ByteView::from_literal("c[2260,1000]");
+  ASSERT_EQ(tether::Crc16Mcrf4xx::compute(first), tether::Crc16Mcrf4xx::compute(second));
+  EXPECT_EQ(exchange(request("c[1888,1005]", 9)), response('c', "[0]", 9));
+  EXPECT_EQ(exchange(request("c[2260,1000]", 9)), response('c', "[0]", 9));
+  EXPECT_EQ(last_args[0], 2260);
+  EXPECT_EQ(last_args[1], 1000);
+  EXPECT_EQ(runs, 2);
+  EXPECT_EQ(device.counters().link.duplicates, 0u);
 }
 
 TEST_F(RomiSerialTest, OnlyTheLastRequestIsRemembered) {

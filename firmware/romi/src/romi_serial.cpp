@@ -12,6 +12,7 @@ namespace romi {
 namespace device {
 
 static_assert(RomiSerial::kReplyCapacity >= 16, "room for every protocol error response");
+static_assert(kDeviceDecoderCapacity - 5 == kMaxDevicePayload, "the cache key holds every payload the decoder takes");
 
 constexpr uint8_t RomiSerial::kReplyCapacity;
 constexpr Duration RomiSerial::kRequestDeadlineMs;
@@ -32,8 +33,7 @@ RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandle
       clock_(clock),
       counters_(),
       decoder_(counters_.link),
-      deadline_(kRequestDeadlineMs, counters_.link),
-      replies_(counters_.link) {}
+      deadline_(kRequestDeadlineMs, counters_.link) {}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
@@ -48,18 +48,21 @@ void RomiSerial::handle_input() {
   // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
   // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
   // Most calls come within the millisecond of the last check: then nothing can have expired.
-  Millis now = clock_ != nullptr ? clock_() : 0;
-  if (now != timeouts_checked_at_) handle_timeouts(now);
-  // Bytes come in batches (one virtual call each), handled one by one in arrival order.
+  now_ = clock_ != nullptr ? clock_() : 0;
+  if (now_ != timeouts_checked_at_) handle_timeouts(now_);
+  // Bytes come in batches (one virtual call each), handled one by one in arrival order. A byte inside
+  // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
+  // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
   uint8_t batch[16];
   for (;;) {
     const uint8_t count = in_->read_some(batch, sizeof(batch));
     if (count == 0) return;
     for (uint8_t i = 0; i < count; ++i) {
-      if (receive(batch[i], now)) {
-        now = reply_sent_at_;
-        handle_timeouts(now);
-      }
+      const uint8_t byte = batch[i];
+      if (decoder_.feed_body(byte)) continue;
+      // After a handler nothing is left to time out (its frame ended the partial-frame deadline, the
+      // cache's lifetime starts now): the later bytes of the batch are only dated by its reply (now_).
+      receive(byte);
     }
   }
 }
@@ -69,54 +72,56 @@ void RomiSerial::handle_timeouts(Millis now) {
   timeouts_checked_at_ = now;
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
-  if (cache_expiry_.expired(now)) {
-    cache_expiry_.disarm();
-    replies_.clear();
-  }
+  if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
   if (!deadline_.poll(now)) return;
   // The request being received is too late: drop it, say so, wait for the next '#'.
+  const char opcode = decoder_.partial_opcode();
   decoder_.reset();
-  await_opcode_ = false;
-  send_code(partial_opcode_, 0, Error::controller_timeout);
+  send_code(opcode, 0, Error::controller_timeout);
 }
 
 void RomiSerial::handle_byte(uint8_t byte, Millis now) {
   if (in_handler_) return;
+  now_ = now;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
-  receive(byte, now);
+  if (!decoder_.feed_body(byte)) receive(byte);
 }
 
-bool RomiSerial::receive(uint8_t byte, Millis now) {
-  if (in_handler_) return false;
+void RomiSerial::receive(uint8_t byte) {
   if (byte == '#') {
-    deadline_.on_frame_start(now);
-    partial_opcode_ = '_';
-    await_opcode_ = true;
-  } else if (await_opcode_) {
-    partial_opcode_ = is_opcode(byte) ? static_cast<char>(byte) : '_';
-    await_opcode_ = false;
+    deadline_.on_frame_start(now_);
+  } else if (byte == '\n' && decoder_.awaiting_end()) {
+    // This '\n' completes a frame: the response's '#' (see below) leaves before the decoder's
+    // bookkeeping, as the first thing the turnaround does.
+    out_->write('#');
+    hash_sent_ = true;
   }
-  const DecodeStatus status = decoder_.feed(byte);
+  const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
-    // The frame's '\r' checked out and only its '\n' is missing: fingerprint and parse it now, so the
+    // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
     // '\n' leaves only the cache lookup and the dispatch (the turnaround).
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
-    return false;
+    return;
   }
   deadline_.on_frame_end();
+  // A frame or an error: a response follows, and every frame the device sends (the response, or a
+  // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
+  // parse checks and the handler: the turnaround is this path, not the handler's.
+  if (!hash_sent_) {
+    out_->write('#');
+    hash_sent_ = true;
+  }
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
     send_code(frame.opcode, frame.has_id ? frame.id : 0, decoder_.error());
-    return false;
+    return;
   }
-  return handle_frame(frame, now);
+  handle_frame(frame);
 }
 
 void RomiSerial::prepare(const Frame& frame) {
   prepared_ = !frame.log;
   if (!prepared_) return;
-  // The fingerprint tells a re-sent request (same bytes) from a new one that reuses the id.
-  fingerprint_ = Crc16Mcrf4xx::compute(frame.payload);
   parsed_ = parse_request(frame.payload, request_);
   if (parsed_ != Error::no_error) return;
   handler_ = nullptr;
@@ -135,34 +140,43 @@ void RomiSerial::prepare(const Frame& frame) {
   }
 }
 
-bool RomiSerial::handle_frame(const Frame& frame, Millis now) {
+void RomiSerial::handle_frame(const Frame& frame) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   if (frame.log) {
     // "#!text": '!' is no opcode; the reference's message parser says the same.
     send_code('_', id, Error::invalid_opcode);
-    return false;
+    return;
   }
   if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
   prepared_ = false;
-  const uint16_t fingerprint = fingerprint_;
-  if (!frame.manual) {
-    if (replies_.check(id, fingerprint).duplicate) {
-      // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
-      // handler does not run.
-      write(ByteView(reply_, reply_size_));
-      return false;
-    }
+  if (!frame.manual && is_repeat(id, frame.payload)) {
+    // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
+    // handler does not run.
+    ++counters_.link.duplicates;
+    start_frame();
+    write(ByteView(reply_ + 1, reply_size_ - 1u));
+    return;
   }
-  return dispatch(frame, fingerprint, now);
+  dispatch(frame);
 }
 
-bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) {
+bool RomiSerial::is_repeat(uint8_t id, ByteView payload) const {
+  // The exact key: id first (a host's next call has another id, so the bytes are compared only for a
+  // re-send or a new host session that starts with the same id), then every byte of the payload.
+  if (!cache_expiry_.armed() || id != cached_id_ || payload.size() != cached_request_size_) return false;
+  for (uint8_t i = 0; i < cached_request_size_; ++i) {
+    if (payload[i] != cached_request_[i]) return false;
+  }
+  return true;
+}
+
+void RomiSerial::dispatch(const Frame& frame) {
   const uint8_t id = frame.has_id ? frame.id : 0;
   // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
   // the frame's).
   if (parsed_ != Error::no_error) {
     send_code(frame.opcode, id, parsed_);
-    return false;
+    return;
   }
   const MessageHandler* handler = handler_;
 
@@ -179,14 +193,24 @@ bool RomiSerial::dispatch(const Frame& frame, uint16_t fingerprint, Millis now) 
     send_response(opcode_, id_, ByteView::from_literal("[-20]"));
   }
   // The handler may have taken a while: the cache's lifetime starts when the reply went out.
-  reply_sent_at_ = clock_ != nullptr ? clock_() : now;
+  if (clock_ != nullptr) now_ = clock_();
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!frame.manual) {
-    replies_.remember(id, fingerprint, ByteView());  // the reply itself stays in reply_
-    cache_expiry_.arm(reply_sent_at_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
+    // The key is the request itself (the reply stays in reply_). A complete frame's payload always
+    // fits: the decoder holds at most kMaxDevicePayload characters before the ':'.
+    cached_id_ = id;
+    cached_request_size_ = static_cast<uint8_t>(frame.payload.size());
+    for (uint8_t i = 0; i < cached_request_size_; ++i) cached_request_[i] = frame.payload[i];
+    cache_expiry_.arm(now_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
   }
-  return true;
 }
+
+// The handlers' interface forwards to the one implementation (handler.hpp: not virtual, so unused
+// replies are not linked).
+void IRomiSerial::send_ok() { static_cast<RomiSerial*>(this)->send_ok(); }
+void IRomiSerial::send_error(int code, const char* message) { static_cast<RomiSerial*>(this)->send_error(code, message); }
+void IRomiSerial::send(const char* message) { static_cast<RomiSerial*>(this)->send(message); }
+void IRomiSerial::log(const char* text) { static_cast<RomiSerial*>(this)->log(text); }
 
 void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
 
@@ -227,7 +251,7 @@ void RomiSerial::handler_reply(ByteView body) {
 }
 
 void RomiSerial::log(const char* text) {
-  out_->write('#');
+  start_frame();
   out_->write('!');
   if (text != nullptr) {
     for (; *text != '\0'; ++text) out_->write(*text == '\r' || *text == '\n' ? ' ' : *text);
@@ -236,9 +260,9 @@ void RomiSerial::log(const char* text) {
 }
 
 uint8_t RomiSerial::emit(char opcode, uint8_t id, ByteView body, MutableByteView frame) {
-  // The frame's first byte leaves at once: the UART sends it (a byte time, ~1500 cycles at 115200)
-  // while the rest is formed in `frame`, which then follows it.
-  out_->write('#');
+  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
+  // byte time, ~1500 cycles at 115200) while the rest is formed in `frame`, which then follows it.
+  start_frame();
   const uint8_t size = static_cast<uint8_t>(encode_response(opcode, body, id, frame).value());
   write(ByteView(frame.data() + 1, size - 1u));
   return size;
@@ -259,11 +283,31 @@ void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   ++counters_.rejected;
-  constexpr uint8_t kCodeText = 8;  // "[-32768]" never needed: protocol codes have at most 3 characters
-  ArrayText<kCodeText> body;
-  body.add_int(static_cast<int16_t>(code));
-  uint8_t frame[kCodeText + kResponseOverhead];  // not cached: reply_ keeps the cached reply
-  emit(opcode, id, text_view(body.c_str()), MutableByteView(frame));
+  // Protocol codes are -1..-99: "[-" one or two digits "]", formed here without the general number
+  // formatter (its 32-bit digit loop would be linked into every image for this alone).
+  uint8_t magnitude = static_cast<uint8_t>(-static_cast<int16_t>(code));
+  uint8_t body[5] = {'[', '-'};
+  uint8_t size = 2;
+  if (magnitude >= 10) {
+    uint8_t tens = 0;
+    while (magnitude >= 10) {
+      magnitude = static_cast<uint8_t>(magnitude - 10u);
+      ++tens;
+    }
+    body[size++] = static_cast<uint8_t>('0' + tens);
+  }
+  body[size++] = static_cast<uint8_t>('0' + magnitude);
+  body[size++] = ']';
+  uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
+  emit(opcode, id, ByteView(body, size), MutableByteView(frame));
+}
+
+void RomiSerial::start_frame() {
+  if (hash_sent_) {
+    hash_sent_ = false;
+  } else {
+    out_->write('#');
+  }
 }
 
 void RomiSerial::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }

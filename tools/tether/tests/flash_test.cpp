@@ -138,6 +138,37 @@ TEST(TetherFlash, MissingAvrdude) {
   EXPECT_NE(run.err.find("avrdude not found on PATH: install Debian's avrdude"), std::string::npos) << run.err;
 }
 
+// The bootloader timed out mid-upload (a stalled host) and the half-written application answers instead:
+// avrdude 7.1 reports a wrong sync byte, and `tether flash` must open the port again (resetting the board
+// into optiboot) as it does for no answer at all. An avrdude stand-in fails that way on its first run and
+// succeeds on the second, so the reopen is tested without depending on the machine's load (under load the
+// real echo image failed JsonReportsTheWrittenImage with this message now and then).
+TEST(TetherFlash, AWrongSyncByteMidUploadOpensThePortAgain) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  SimBoard board("echo");  // any pty that passes the port checks
+  const auto runs = temp_file("runs");
+  const auto avrdude = temp_file("avrdude");
+  std::filesystem::remove(runs);
+  std::ofstream(avrdude) << "#!/bin/sh\n"
+                            "echo run >> '" << runs.string() << "'\n"
+                            "if [ \"$(wc -l < '" << runs.string() << "')\" -eq 1 ]; then\n"
+                            "  echo 'avrdude error: protocol expects sync byte 0x14 but got 0x65'; exit 1\n"
+                            "fi\n"
+                            "echo 'avrdude: 1234 bytes of flash verified'\n";
+  std::filesystem::permissions(avrdude, std::filesystem::perms::owner_all);
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--avrdude", avrdude.string(), "--reopen", "1",
+                                    "romi-test"});
+  EXPECT_EQ(flash.status, 0) << flash.err;
+  EXPECT_NE(flash.err.find("the bootloader stopped answering; opening the port again"), std::string::npos) << flash.err;
+  std::ifstream count(runs);
+  std::string line;
+  int lines = 0;
+  while (std::getline(count, line)) ++lines;
+  EXPECT_EQ(lines, 2);
+  std::filesystem::remove(runs);
+  std::filesystem::remove(avrdude);
+}
+
 // Another program holds the port exclusively (TIOCEXCL, as Tether's serial transport and pyserial set it).
 TEST(TetherFlash, PortBusy) {
   TETHER_REQUIRE_FLASH_TOOLS();

@@ -683,13 +683,17 @@ class ClientImpl final : public transports::ClientLink {
 
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
     const Millis now = this->now();
-    for (std::size_t i = 0; i < size && is_open() && !link_error(); ++i) {
-      if (decoder_.feed(data[i]) == DecodeStatus::frame) {
-        if (primary()) {
-          on_primary_payload(decoder_.frame(), now);
-        } else {
-          on_compat_payload(decoder_.frame(), now);
-        }
+    // A run of bytes per decoder call (its tight COBS + CRC loop) up to each frame; only a frame's
+    // handling can close the client or fail the link, so they are checked after each one.
+    std::size_t used = 0;
+    while (used < size && is_open() && !link_error()) {
+      const FeedResult fed = decoder_.feed(ByteView(data + used, size - used));
+      used += fed.consumed;
+      if (fed.status != DecodeStatus::frame) continue;
+      if (primary()) {
+        on_primary_payload(decoder_.frame(), now);
+      } else {
+        on_compat_payload(decoder_.frame(), now);
       }
     }
     pump(now);

@@ -11,10 +11,11 @@
 /// strand, never inside the call that caused them (`close()` included).
 ///
 /// Lifetime: create the derived client with `std::make_shared`, then start the read loop on the strand
-/// (`post_to_strand([this] { start_reading(); })`). Handlers of writes, the timer and posted work hold the
-/// link strongly and are owned by the io_context (released when they run or when it is destroyed). The
-/// read loop holds it weakly, because a pending read is owned by the stream, which the link owns: a strong
-/// capture would be a cycle that outlives an io_context that stopped. The read buffer is shared with the
+/// (`post_to_strand([this] { start_reading(); })`). Handlers of writes and posted work hold the link
+/// strongly and are owned by the io_context (released when they run or when it is destroyed). The read
+/// loop and the timer hold it weakly, because a pending read is owned by the stream and a pending wait may
+/// be owned by the timer or its clock (`ManualClock`, `VirtualUnoClock` keep the handler), all of which the
+/// link owns: a strong capture would be a cycle that outlives an io_context that stopped. The read buffer is shared with the
 /// pending read, so a read completing after the link died never writes into freed memory. Dropping the
 /// last reference without `close()` destroys the link (and the stream) once no handler holds it.
 ///

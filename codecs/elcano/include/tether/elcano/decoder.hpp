@@ -98,8 +98,12 @@ class Decoder {
     if (byte == ' ') return DecodeStatus::more;  // ignored anywhere (rule 1)
     return feed_slow(byte);
   }
-  /// Consumes `bytes` up to and including the first one that completes a message or an error.
-  FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
+  /// Consumes `bytes` up to and including the first one that completes a message or an error, with
+  /// exactly the results of feeding them one at a time. The bytes inside a message (attributes, the
+  /// generation D trailer) are taken in one loop with the write position, the state and the digit count
+  /// in registers (issue 17: on the AVR the call per byte and the members' loads and stores cost more
+  /// than the parsing itself). Prefer it wherever bytes arrive in runs.
+  FeedResult feed(ByteView bytes);
   /// After `frame`: the message.
   const Message& frame() const { return message_; }
   /// After `frame`: the message's bytes to forward (see the file overview); valid until the next byte.
@@ -120,6 +124,10 @@ class Decoder {
   static constexpr uint8_t kSafeDigits = 9;
 
   DecodeStatus feed_slow(uint8_t byte);
+  // feed(bytes)'s loop over the bytes inside attributes; returns the first byte it did not take.
+  const uint8_t* run(const uint8_t* next, const uint8_t* end);
+  // feed(bytes) on the bytes run() leaves: feed(byte) out of line (the run keeps its registers).
+  DecodeStatus feed_outside_run(uint8_t byte);
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
   // `type` is there); 0 for unknown letters and for generation B `p`, which sets two fields
   // (store_value). An offset, not a member pointer: a null one is all ones, which would move every

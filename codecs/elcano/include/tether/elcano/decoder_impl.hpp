@@ -11,6 +11,139 @@ inline bool is_ignored(uint8_t c) { return c == ' ' || c == '\t' || c == '\r' ||
 }  // namespace detail
 
 template <size_t Capacity>
+__attribute__((noinline)) FeedResult Decoder<Capacity>::feed(ByteView bytes) {
+  const uint8_t* const begin = bytes.data();
+  const uint8_t* const end = begin + bytes.size();
+  const uint8_t* next = begin;
+  while (next != end) {
+    next = run(next, end);
+    if (next == end) break;
+    const DecodeStatus status = feed_outside_run(*next++);
+    if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(next - begin)};
+  }
+  return FeedResult{DecodeStatus::more, bytes.size()};
+}
+
+template <size_t Capacity>
+__attribute__((noinline)) DecodeStatus Decoder<Capacity>::feed_outside_run(uint8_t byte) {
+  return feed(byte);
+}
+
+template <size_t Capacity>
+__attribute__((always_inline)) inline const uint8_t* Decoder<Capacity>::run(const uint8_t* next, const uint8_t* end) {
+  // Exactly what feed(byte) does with these bytes, with the write cursor and the state in registers. It
+  // stops before any byte it does not take (`\n`, a tenth digit, anything unusual), so that feed(byte)
+  // sees that byte with the members in step. Each byte keeps at most one: limiting the run to the room
+  // left keeps every write inside the buffer without a check per byte (the byte that would not fit goes
+  // through feed(byte), which reports it).
+  const size_t room = Capacity - size_;
+  if (static_cast<size_t>(end - next) > room) end = next + room;
+  uint8_t* out = buffer_ + size_;
+  State state = state_;
+  uint8_t digits = digits_;
+  while (next != end) {
+    const uint8_t byte = *next;
+    if (byte == ' ') {  // ignored anywhere (rule 1)
+      ++next;
+      continue;
+    }
+    if (state == State::number) {
+      uint8_t digit = static_cast<uint8_t>(byte - '0');
+      if (digit < 10) {
+        if (digits >= kSafeDigits) break;  // the range check is feed(byte)'s
+        if (digits < 4) {
+          // Up to 4 digits in 16 bits (9999 fits; the AVR multiplies that inline).
+          uint16_t small = static_cast<uint16_t>(value_);
+          for (;;) {
+            small = static_cast<uint16_t>(small * 10u + digit);
+            *out++ = *next++;
+            ++digits;
+            if (next == end || digits == 4) break;
+            digit = static_cast<uint8_t>(*next - '0');
+            if (digit >= 10) break;
+          }
+          value_ = small;
+        } else {
+          // Fewer than 9 digits so far: one more stays in int32. value * 10 as (value * 5) * 2 in shifts
+          // (a 32-bit multiply is a library call on the AVR).
+          const uint32_t value = value_;
+          value_ = (((value << 2) + value) << 1) + digit;
+          *out++ = byte;
+          ++next;
+          ++digits;
+        }
+      } else if (byte == '}' && digits != 0) {
+        const int32_t number = signed_value();
+        if (field_ != 0) {
+          *field(field_) = number;
+        } else if (second_) {  // generation B `p E,N` (field_of has no single field for it)
+          message_.east = first_;
+          message_.north = number;
+        } else {
+          break;  // `{p E}` without N: feed(byte)'s bad_number
+        }
+        *out++ = byte;
+        ++next;
+        state = State::lcurly;
+      } else if (byte == ',' && field_ == 0 && !second_ && digits != 0) {
+        // Generation B `p E,N`: E is kept while N is read (field 0 in generation B means `p`).
+        first_ = signed_value();
+        second_ = true;
+        negative_ = false;
+        digits = 0;
+        value_ = 0;
+        *out++ = byte;
+        ++next;
+      } else if (byte == '-' && digits == 0 && !negative_) {
+        negative_ = true;
+        *out++ = byte;
+        ++next;
+      } else {
+        break;
+      }
+    } else if (state == State::lcurly) {
+      if (byte == '{') {
+        *out++ = byte;
+        ++next;
+        state = State::letter;
+      } else if (generation_ == Generation::d && static_cast<uint8_t>(byte - '0') < 10 && out != buffer_ + 1) {
+        crc_end_ = static_cast<size_t>(out - buffer_);  // the generation D trailer starts
+        state = State::trailer;
+      } else {
+        break;
+      }
+    } else if (state == State::trailer) {
+      const uint8_t digit = static_cast<uint8_t>(byte - '0');
+      if (digit >= 10 || trailer_ > 25) break;  // feed(byte) reports bad_crc
+      trailer_ = static_cast<uint16_t>(trailer_ * 10u + digit);
+      trailer_digits_ = true;
+      *out++ = byte;
+      ++next;
+    } else if (state == State::letter) {
+      const uint8_t field = field_of(byte);
+      // field_of has 0 for generation B `p` (two fields: E,N); every other 0 is an unknown letter.
+      if (field == 0 && (byte != 'p' || generation_ != Generation::b)) break;
+      *out++ = byte;
+      ++next;
+      begin_number(byte, field);
+      digits = 0;
+      state = State::number;
+    } else if (state == State::header && detail::is_header(byte)) {
+      start(byte);  // keeps the header: the buffer starts over
+      ++next;
+      out = buffer_ + 1;
+      state = State::lcurly;
+    } else {
+      break;
+    }
+  }
+  state_ = state;
+  digits_ = digits;
+  size_ = static_cast<size_t>(out - buffer_);
+  return next;
+}
+
+template <size_t Capacity>
 bool Decoder<Capacity>::keep(uint8_t byte) {
   if (size_ == Capacity) return false;
   buffer_[size_++] = byte;

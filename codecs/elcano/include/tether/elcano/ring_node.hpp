@@ -156,6 +156,10 @@ class RingNode {
   /// `forwarded`, `undeliverable` and a `queue_full` drop read `message()`, on `dropped` read `error()`,
   /// before the next byte.
   RingEvent::Kind consume(uint8_t byte, Millis now);
+  /// Consumes `bytes` up to and including the first one that produces an event; `consumed` says how
+  /// many were used (feed the rest after handling the event). The same events as `consume(byte, now)`
+  /// byte by byte, through the reader's span loop (issue 17: a call per byte dominates the AVR's cost).
+  RingEvent::Kind consume(ByteView bytes, Millis now, size_t& consumed);
   /// The message of the last event that had one (valid until the next byte).
   const Message& message() const { return reader_.frame(); }
   /// Why the last `dropped` event dropped.
@@ -197,6 +201,8 @@ class RingNode {
   static uint16_t signature_crc(ByteView stripped) { return Crc16Mcrf4xx::compute(stripped); }
   bool enqueue(ByteView bytes);
   bool came_back(ByteView stripped);
+  // What the reader's status after a byte (or a span) means for the node.
+  RingEvent::Kind on_read(DecodeStatus read, Millis now);
 
   RingNodeConfig config_;
   Decoder<MessageCapacity> reader_;

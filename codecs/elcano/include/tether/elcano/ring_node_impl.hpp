@@ -36,7 +36,21 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView 
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::consume(uint8_t byte, Millis now) {
-  const DecodeStatus read = reader_.feed(byte);
+  return on_read(reader_.feed(byte), now);
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::consume(ByteView bytes, Millis now,
+                                                                                 size_t& consumed) {
+  const FeedResult read = reader_.feed(bytes);
+  consumed = read.consumed;
+  // The deadline is followed once for the span, not per byte: every byte has the same `now`, and a span
+  // ends at the byte of an event, so the open/closed changes inside it come out as they would byte by byte.
+  return on_read(read.status, now);
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::on_read(DecodeStatus read, Millis now) {
   // The partial-message deadline follows the reader: armed when a message starts, off when none is open.
   if (reader_.in_frame()) {
     if (!partial_.in_frame()) partial_.on_frame_start(now);

@@ -26,9 +26,7 @@ class Decoder {
  public:
   /// Decoder in `integrity` mode, counting into `counters` (frames_ok too); `counters` outlives it.
   Decoder(Integrity integrity, LinkCounters& counters)
-      : integrity_(integrity),
-        counters_(&counters),
-        cobs_(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked) {}
+      : cobs_(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked) {}
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte) {
@@ -53,37 +51,42 @@ class Decoder {
   /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
   ByteView frame() const {
     const ByteView frame = cobs_.frame();
-    return integrity_ == Integrity::crc16 ? frame.subview(2) : frame;
+    return checked() ? frame.subview(2) : frame;
   }
+  /// After `frame` in crc16 mode: the payload's CRC-16/MCRF4XX (it matched the frame's), computed while the
+  /// bytes arrived: a device's duplicate filter keys on it without a second pass. 0xFFFF in `none` mode.
+  uint16_t checksum() const { return cobs_.checksum(); }
   /// After `error`: why the frame was dropped (frame_too_long, framing_error or crc_mismatch).
   FrameError error() const { return error_; }
   /// Forgets the frame in progress; waits for the next delimiter.
   void reset() { cobs_.reset(); }
+  /// Forgets the frame in progress; the next byte starts a new frame (no delimiter needed first).
+  void restart() { cobs_.restart(); }
   /// True while a frame is being received.
   bool in_frame() const { return cobs_.in_frame(); }
 
  private:
   // A complete COBS frame: the payload after its CRC check (primary) or as is (compatibility mode).
   DecodeStatus check(ByteView frame) {
-    if (integrity_ == Integrity::none) {
+    if (!checked()) {
       if (frame.empty()) return DecodeStatus::more;  // `01 00` carries nothing: an empty frame, ignored
       if (frame.size() > MaxPayload) {  // the COBS stage has room for a CRC this mode does not send
-        ++counters_->oversize_frames;
+        ++cobs_.counters().oversize_frames;
         return fail(FrameError::frame_too_long);
       }
-      ++counters_->frames_ok;
+      ++cobs_.counters().frames_ok;
       return DecodeStatus::frame;
     }
     if (frame.size() < 2) {
-      ++counters_->framing_errors;
+      ++cobs_.counters().framing_errors;
       return fail(FrameError::framing_error);
     }
     const uint16_t sent = static_cast<uint16_t>(frame[0] | (frame[1] << 8));
     if (cobs_.checksum() != sent) {  // computed while the bytes arrived: no second pass
-      ++counters_->crc_errors;
+      ++cobs_.counters().crc_errors;
       return fail(FrameError::crc_mismatch);
     }
-    ++counters_->frames_ok;
+    ++cobs_.counters().frames_ok;
     return DecodeStatus::frame;
   }
   DecodeStatus fail(FrameError error) {
@@ -91,8 +94,10 @@ class Decoder {
     return DecodeStatus::error;
   }
 
-  Integrity integrity_;
-  LinkCounters* counters_;
+  // The mode is the COBS stage's: a checksum from offset 2 (the CRC field) on, or none (no member for it:
+  // the device's static RAM).
+  bool checked() const { return cobs_.checked(); }
+
   CobsDecoder<MaxPayload + 2> cobs_;
   FrameError error_ = FrameError::none;
 };

@@ -57,6 +57,13 @@ class Decoder {
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte);
+  /// Consumes `byte` and returns true when it is an ordinary byte inside a frame's body (the common
+  /// case: stored, status `more`, nothing else happens); false, consuming nothing, for any other byte,
+  /// which the caller then gives to `feed_special`. Small enough to inline into a device's byte loop.
+  bool feed_body(uint8_t byte);
+  /// Consumes a byte `feed_body` refused (frame start and end, errors, bytes outside frames). Out of
+  /// line: the rare cases must not weigh on the inlined per-byte path.
+  __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);
   /// Consumes `bytes` up to and including the first one that completes a frame or an error.
   FeedResult feed(ByteView bytes) { return feed_until_event(*this, bytes); }
   /// After `frame`: the frame; after `error`: what was parsed of it (see the file overview).
@@ -74,12 +81,23 @@ class Decoder {
   /// True after a frame's `\r` when its metadata checked out: only the `\n` is missing, and `frame()`
   /// already holds the frame, so a device can do the frame's work before its last byte arrives.
   bool awaiting_end() const { return state_ == State::expect_lf; }
+  /// While in a frame: its opcode so far (its first byte when that is an opcode character, else '_').
+  char partial_opcode() const;
 
  private:
   enum class State : uint8_t { idle, body, expect_lf, skip };
+  // Buffer positions in 8 bits when they fit: the AVR handles a 16-bit index in two instructions a step.
+  template <bool Small, typename = void>
+  struct IndexOf {
+    using type = size_t;
+  };
+  template <typename Unused>
+  struct IndexOf<true, Unused> {
+    using type = uint8_t;
+  };
+  using Index = typename IndexOf<(Capacity < 256)>::type;
 
-  // Out of line (a GCC/Clang attribute): the rare cases must not weigh on the inlined per-byte path.
-  __attribute__((noinline)) DecodeStatus feed_other(uint8_t byte);
+  // Out of line (a GCC/Clang attribute), as feed_special.
   __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
   __attribute__((noinline)) DecodeStatus fail(Error error);
 
@@ -87,8 +105,8 @@ class Decoder {
   State state_ = State::idle;
   Error error_ = Error::no_error;
   uint8_t buffer_[Capacity];
-  size_t size_ = 0;
-  size_t last_colon_ = 0;
+  Index size_ = 0;
+  Index last_colon_ = 0;
   bool seen_colon_ = false;
   bool skipping_ = false;  // bytes are being ignored: the next '#' counts as a resync
   Frame frame_;            // the frame being completed (waiting for its '\n'), complete, or failed

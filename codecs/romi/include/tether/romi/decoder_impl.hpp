@@ -18,22 +18,32 @@ __attribute__((always_inline)) inline int8_t hex_value(uint8_t c) {
 }  // namespace detail
 
 template <size_t Capacity>
-__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+__attribute__((always_inline)) inline bool Decoder<Capacity>::feed_body(uint8_t byte) {
   // The common case, a byte inside a frame's body, stays small enough to inline into the caller's byte
   // loop without a stack frame; everything else (frame start and end, errors) is out of line.
-  if (state_ == State::body && byte != '#' && byte != '\r' && byte != '\n' && size_ != Capacity) {
-    if (byte == ':') {
-      seen_colon_ = true;
-      last_colon_ = size_;
-    }
-    buffer_[size_++] = byte;
-    return DecodeStatus::more;
+  const Index size = size_;
+  if (state_ != State::body || byte == '#' || byte == '\r' || byte == '\n' || size == Capacity) return false;
+  if (byte == ':') {
+    seen_colon_ = true;
+    last_colon_ = size;
   }
-  return feed_other(byte);
+  buffer_[size] = byte;
+  size_ = static_cast<Index>(size + 1u);
+  return true;
 }
 
 template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::feed_other(uint8_t byte) {
+__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+  return feed_body(byte) ? DecodeStatus::more : feed_special(byte);
+}
+
+template <size_t Capacity>
+char Decoder<Capacity>::partial_opcode() const {
+  return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
+}
+
+template <size_t Capacity>
+DecodeStatus Decoder<Capacity>::feed_special(uint8_t byte) {
   if (byte == '#') {
     // A new frame starts anywhere; whatever came before it is dropped.
     if (state_ == State::body || state_ == State::expect_lf || skipping_) ++counters_->resyncs;
@@ -63,7 +73,8 @@ DecodeStatus Decoder<Capacity>::feed_other(uint8_t byte) {
         seen_colon_ = true;
         last_colon_ = size_;
       }
-      buffer_[size_++] = byte;
+      buffer_[size_] = byte;
+      size_ = static_cast<Index>(size_ + 1u);
       return DecodeStatus::more;
     case State::expect_lf:
       if (byte != '\n') return fail(Error::expected_end);
@@ -78,10 +89,10 @@ template <size_t Capacity>
 DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
   if (!seen_colon_) return fail(Error::missing_metadata);
   const uint8_t* meta = buffer_ + last_colon_ + 1;
-  const size_t meta_size = size_ - last_colon_ - 1;
+  const Index meta_size = static_cast<Index>(size_ - last_colon_ - 1);
   if (meta_size > 0 && meta[0] == 'x') {
     // Manual frame: exactly "xxxx".
-    for (size_t i = 0; i < 4; ++i) {
+    for (uint8_t i = 0; i < 4; ++i) {
       if (i >= meta_size || meta[i] != 'x') return fail(Error::invalid_dummy_metadata);
     }
     frame_.manual = true;
@@ -97,7 +108,7 @@ DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
     if (meta_size == 4) {
       Crc8Smbus crc;
       crc.update('#');
-      crc.update(ByteView(buffer_, last_colon_ + 3));  // payload, ':' and the id
+      crc.update(ByteView(buffer_, last_colon_ + 3u));  // payload, ':' and the id
       if (crc.value() != static_cast<uint8_t>((crc_high << 4) | crc_low)) {
         ++counters_->crc_errors;
         return fail(Error::crc_mismatch);
@@ -108,7 +119,7 @@ DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
   if (meta_size > 4 || end != '\r') return fail(Error::expected_end);
   const bool is_log = last_colon_ > 0 && buffer_[0] == '!';
   frame_.log = is_log;
-  frame_.payload = is_log ? ByteView(buffer_ + 1, last_colon_ - 1) : ByteView(buffer_, last_colon_);
+  frame_.payload = is_log ? ByteView(buffer_ + 1, last_colon_ - 1u) : ByteView(buffer_, last_colon_);
   frame_.opcode = !is_log && last_colon_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
   state_ = State::expect_lf;
   return DecodeStatus::more;

@@ -34,6 +34,15 @@ Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableBy
 /// starts with '#': a device may send that byte before it forms the rest (the reply's turnaround).
 constexpr size_t kResponseOverhead = 9;
 
+/// The upper four bits of `value` (0..15). On the AVR one SWAP: -Os shifts a promoted int by 4 in a loop.
+__attribute__((always_inline)) inline uint8_t high_nibble(uint8_t value) {
+#if defined(__AVR__)
+  return static_cast<uint8_t>(__builtin_avr_swap(value) & 0x0F);
+#else
+  return static_cast<uint8_t>(value >> 4);
+#endif
+}
+
 /// Lowercase hex digit of `nibble` (0..15), without a table in RAM.
 __attribute__((always_inline)) inline uint8_t hex_digit(uint8_t nibble) {
   return static_cast<uint8_t>(nibble < 10 ? '0' + nibble : 'a' - 10 + nibble);

@@ -44,7 +44,7 @@ class DuplicateFilter {
       if (entry.id == id && entry.fingerprint == fingerprint) {
         ++counters_->duplicates;
         lookup.duplicate = true;
-        lookup.cached_reply = ByteView(entry.reply, entry.reply_size);
+        lookup.cached_reply = entry.reply();
         return lookup;
       }
     }
@@ -59,9 +59,7 @@ class DuplicateFilter {
     if (count_ < Depth) ++count_;
     entry.id = id;
     entry.fingerprint = fingerprint;
-    const bool fits = reply.size() <= ReplyCapacity;
-    entry.reply_size = fits ? static_cast<uint16_t>(reply.size()) : 0;
-    for (uint16_t i = 0; i < entry.reply_size; ++i) entry.reply[i] = reply[i];
+    const bool fits = entry.keep(reply);
     return fits ? Status::ok : Status::buffer_too_small;
   }
 
@@ -74,12 +72,29 @@ class DuplicateFilter {
   uint8_t size() const { return count_; }
 
  private:
-  static constexpr uint16_t kStorage = ReplyCapacity > 0 ? ReplyCapacity : 1;
-  struct Entry {
+  // A remembered request's reply bytes; none at all (not even a size) without a reply capacity: the
+  // proxy device's 8 entries are then 6 bytes each instead of 9.
+  template <uint16_t Capacity, bool kKept = (Capacity > 0)>
+  struct Reply {
+    uint16_t size = 0;
+    uint8_t bytes[Capacity] = {};
+    ByteView reply() const { return ByteView(bytes, size); }
+    // Keeps `reply` when it fits (else an empty one); false when it did not fit.
+    bool keep(ByteView reply) {
+      const bool fits = reply.size() <= Capacity;
+      size = fits ? static_cast<uint16_t>(reply.size()) : 0;
+      for (uint16_t i = 0; i < size; ++i) bytes[i] = reply[i];
+      return fits;
+    }
+  };
+  template <uint16_t Capacity>
+  struct Reply<Capacity, false> {
+    ByteView reply() const { return ByteView(); }
+    bool keep(ByteView reply) const { return reply.empty(); }
+  };
+  struct Entry : Reply<ReplyCapacity> {
     Id id = 0;
     uint16_t fingerprint = 0;
-    uint16_t reply_size = 0;
-    uint8_t reply[kStorage] = {};
   };
 
   LinkCounters* counters_;

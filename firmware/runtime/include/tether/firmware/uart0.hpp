@@ -144,6 +144,23 @@ class Uart0 {
     return count;
   }
 
+  /// The oldest received bytes that lie contiguously in the RX ring (up to its end; empty when none), to
+  /// read in place: no copy. The ISR never writes into them until `consume` hands them back, so a reader
+  /// that executes a frame in between keeps them out of the ring's free space meanwhile.
+  static ByteView peek() {
+    const uint8_t tail = rx_.tail;
+    const uint8_t used = static_cast<uint8_t>(rx_.head - tail);
+    compiler_barrier();  // read the slots only after seeing the head that published them
+    const uint8_t offset = static_cast<uint8_t>(tail & ByteRing<RxSize>::kMask);
+    const uint16_t to_end = static_cast<uint16_t>(RxSize - offset);
+    return ByteView(&rx_.bytes[offset], used < to_end ? used : to_end);
+  }
+  /// Hands the first `count` bytes of the last `peek` back to the ring (count <= its size).
+  static void consume(uint8_t count) {
+    compiler_barrier();  // after the reads of the slots
+    rx_.tail = static_cast<uint8_t>(rx_.tail + count);
+  }
+
   // --- sending ----------------------------------------------------------------------------------
 
   /// Bytes `write()` can queue now without waiting.

@@ -63,11 +63,11 @@ class OutputTable {
   void drive_safe();
 
   /// What `pin` is (none for a pin outside 0..19).
-  OutputKind kind(uint32_t pin) const { return pin_exists(pin) ? slots_[pin].kind : OutputKind::none; }
+  OutputKind kind(uint32_t pin) const { return can_drive_digital(pin) ? slot(pin).kind : OutputKind::none; }
   /// Value `pin` is driven to: degrees for a servo, 0/1 for a digital output, 0 when not initialised.
-  uint8_t value(uint32_t pin) const { return pin_exists(pin) ? slots_[pin].value : 0; }
+  uint8_t value(uint32_t pin) const { return can_drive_digital(pin) ? slot(pin).value : 0; }
   /// Safe value of `pin` (same units as `value`).
-  uint8_t safe_value(uint32_t pin) const { return pin_exists(pin) ? slots_[pin].safe : 0; }
+  uint8_t safe_value(uint32_t pin) const { return can_drive_digital(pin) ? slot(pin).safe : 0; }
   /// True when `pin` is initialised.
   bool initialised(uint32_t pin) const { return kind(pin) != OutputKind::none; }
   /// Number of initialised pins.
@@ -81,8 +81,11 @@ class OutputTable {
   };
   PinResult check_control(uint32_t pin, OutputKind expected) const;
   void drive(uint8_t pin, uint8_t value);
+  // The slot of an output pin (kFirstOutputPin..kPinCount-1: the UART pins never get one).
+  Slot& slot(uint32_t pin) { return slots_[pin - kFirstOutputPin]; }
+  const Slot& slot(uint32_t pin) const { return slots_[pin - kFirstOutputPin]; }
 
-  Slot slots_[kPinCount];
+  Slot slots_[kPinCount - kFirstOutputPin];
 };
 
 }  // namespace device

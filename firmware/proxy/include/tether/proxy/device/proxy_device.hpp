@@ -7,7 +7,7 @@
 ///     OutputTable outputs;
 ///     ProxyDevice device(outputs, FrameSink{write_to_uart, nullptr}, flush_and_reset, nullptr);
 ///     device.begin(boot_session_id(), millis());        // end of setup: sends ResetEvent
-///     for (;;) { while (byte available) device.handle_byte(byte, millis()); device.poll(millis()); idle(); }
+///     for (;;) { consume(device.handle_bytes(received_bytes, millis())); device.poll(millis()); idle(); }
 ///
 /// ## Wire behaviour
 ///   1. Boot: `begin` sends `ResetEvent{sessionId}`, preceded by one 0x00 (flushes whatever half frame the
@@ -47,8 +47,8 @@
 ///      5 s). When the failsafe and an ArduinoInfo fall due in the same poll, the failsafe goes first, so
 ///      that ArduinoInfo already shows the flag.
 ///
-/// ## Memory (ATmega328P, measured): 268 bytes of static RAM per device (counters 64, frame decoder ~75,
-/// duplicate filter ~76, watchdog, deadlines and state ~50), plus the OutputTable (60). No heap. Stack:
+/// ## Memory (ATmega328P, measured): 245 bytes of static RAM per device (counters 64, frame decoder ~72,
+/// duplicate filter 51, watchdog, deadlines and state ~58), plus the OutputTable (54). No heap. Stack:
 /// sending a message needs ~450 bytes at the peak (nanopb's encoder ~250, the payload and frame buffers of
 /// io.hpp ~160, an ArduinoOut ~55); the `proxy` image peaks at ~615 bytes, interrupts included.
 #pragma once
@@ -108,6 +108,11 @@ class ProxyDevice {
   void begin(uint32_t session_id, Millis now);
   /// Handles one received byte at `now`; a completed frame is executed at once.
   void handle_byte(uint8_t byte, Millis now);
+  /// Handles received bytes at `now` up to and including the first one that completes a frame (executed
+  /// at once) or drops one; returns how many it used: call again with the rest. The same as handing them
+  /// to `handle_byte` one by one, but a run of data bytes goes through the decoder's tight loop; the image
+  /// hands it what its UART ring holds in place (`Uart0::peek`), with no copy.
+  size_t handle_bytes(ByteView bytes, Millis now);
   /// Handles time: failsafe, ArduinoInfo, drop reports, partial-frame deadline. Call every loop pass
   /// (at least every few ms: the failsafe fires at the first poll past its limit).
   void poll(Millis now);
@@ -121,7 +126,8 @@ class ProxyDevice {
 
  private:
   static void on_failsafe(void* self, Millis now);
-  void handle_payload(ByteView payload, Millis now);
+  void track_frame(bool was_in_frame, Millis now);  // the partial-frame deadline after a feed
+  void handle_payload(ByteView payload, uint16_t fingerprint, Millis now);
   bool send(const void* out_message, bool leading_delimiter = false);
   void send_ack(uint32_t message_id, bool refused = false);
   void send_error(FlashText text);

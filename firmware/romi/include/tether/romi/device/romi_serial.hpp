@@ -41,24 +41,27 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 343 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 386 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
 /// compile time:
-///   - request buffer: 83 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
+///   - request buffer: 76 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
 ///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
-///     to requests with an id are formed there, so the cache itself keeps just id and fingerprint;
-///   - counters: 68 bytes; pointers, deadlines, the reply's send time and state: ~50 bytes.
+///     to requests with an id are formed there;
+///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
+///     CRC-16 of the payload in 2 bytes was cheaper in RAM, but two requests can share it);
+///   - counters: 68 bytes; pointers, deadlines, the clock's last reading and state: ~47 bytes.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
-/// moved. Bytes are read in batches (`IInputStream::read_some`); a frame is checked, fingerprinted,
-/// parsed and matched to its handler at its '\r', so its '\n' leaves the cache lookup and the call; a
-/// reply's '#' is sent before the rest is formed.
+/// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
+/// decoder's inline path only; a frame is checked, parsed and matched to its handler at its '\r'; at its
+/// '\n' the response's '#' is sent first (every frame the device sends starts with it), then the cache
+/// lookup (the id, then the bytes) and the call; the rest of a reply is formed with its CRC in one pass.
 /// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
 /// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
 /// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
-/// Nothing is allocated at run time. Flash: ~7 KB for the device and the codec it uses.
+/// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
 
 #include <stddef.h>
@@ -66,7 +69,6 @@
 
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
-#include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/romi/device/handler.hpp"
@@ -151,13 +153,13 @@ class RomiSerial final : public IRomiSerial {
   void handle_timeouts(Millis now);
 
   /// See `IRomiSerial::send_ok`.
-  void send_ok() override;
+  void send_ok();
   /// See `IRomiSerial::send_error`.
-  void send_error(int code, const char* message) override;
+  void send_error(int code, const char* message);
   /// See `IRomiSerial::send`.
-  void send(const char* message) override;
+  void send(const char* message);
   /// See `IRomiSerial::log`.
-  void log(const char* text) override;
+  void log(const char* text);
 
   /// The diagnostics counters.
   const DeviceCounters& counters() const { return counters_; }
@@ -165,15 +167,18 @@ class RomiSerial final : public IRomiSerial {
   bool in_handler() const { return in_handler_; }
 
  private:
-  // These return true when a handler ran (then `reply_sent_at_` is the time its reply went out).
-  bool receive(uint8_t byte, Millis now);  // handle_byte without the timeout check
-  bool handle_frame(const Frame& frame, Millis now);
-  void prepare(const Frame& frame);  // fingerprint and parse, at the frame's '\r'
-  bool dispatch(const Frame& frame, uint16_t fingerprint, Millis now);
+  // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
+  // without the timeout check. Out of line: the per-byte loop stays small.
+  __attribute__((noinline)) void receive(uint8_t byte);
+  void handle_frame(const Frame& frame);
+  void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
+  bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
+  void dispatch(const Frame& frame);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
   uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
   IInputStream* in_;
@@ -184,26 +189,26 @@ class RomiSerial final : public IRomiSerial {
   DeviceCounters counters_;  // before the members that count into it
   Decoder<kDeviceDecoderCapacity> decoder_;
   session::PartialFrameDeadline deadline_;
-  // Id and fingerprint of the request whose reply is in reply_ (the cached reply: only handler replies
+  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
   // to requests with an id are written there).
-  session::DuplicateFilter<uint8_t, 1, 0> replies_;
-  Deadline cache_expiry_;     // when the cached reply stops answering repeats (disarmed: nothing cached)
-  Millis reply_sent_at_ = 0;  // when the last handler's reply went out
+  uint8_t cached_id_ = 0;
+  uint8_t cached_request_size_ = 0;
+  uint8_t cached_request_[kMaxDevicePayload];
+  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
+  Millis now_ = 0;  // when the bytes being handled arrived; after a handler, when its reply went out
   Request request_;  // the request being handled (its arguments are the handler's `args`)
   Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
   const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
   Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
-  uint16_t fingerprint_ = 0;        // the frame's fingerprint (prepare)
-  bool prepared_ = false;           // request_, parsed_ and fingerprint_ belong to the frame awaiting '\n'
+  bool prepared_ = false;           // request_ and parsed_ belong to the frame awaiting '\n'
   uint8_t reply_[kReplyCapacity];
   uint8_t reply_size_ = 0;
   char opcode_ = '_';          // opcode and id of the request being handled
   uint8_t id_ = 0;
-  char partial_opcode_ = '_';  // first character of the frame being received, for -30
-  bool await_opcode_ = false;  // the next byte is the first after '#'
   bool in_handler_ = false;
   bool replied_ = false;
   bool manual_ = false;        // the request being handled is manual: its reply is not cached
+  bool hash_sent_ = false;     // the '#' of the next frame out left already (receive(), at a frame's end)
 };
 
 }  // namespace device
