@@ -59,8 +59,10 @@ transports::VirtualUno& VirtualBoard::get() {
 void VirtualBoard::close() {
   if (closed.exchange(true) || !board) return;
   py::gil_scoped_release release;
-  board->stop();  // the pty too: clients on it see the hang-up
+  // Clients on its clock first, so a client opened on its pty by path gets ClosedError like one opened
+  // on the board, not the pty's hang-up (which raced the close_all, ConnectionError under load).
   clients->close_all();
+  board->stop();  // the pty too: other clients on it see the hang-up
 }
 
 namespace {

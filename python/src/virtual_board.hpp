@@ -47,7 +47,8 @@ struct VirtualBoard {
   ~VirtualBoard();
   /// The board; raises ClosedError after `close()`.
   transports::VirtualUno& get();
-  /// Stops the board, closes its pty and the clients on its clock. Idempotent; call with the GIL.
+  /// Closes the clients on its clock (ClosedError, before the pty hangs up), then stops the board and its
+  /// pty. Idempotent; call with the GIL.
   void close();
 };
 
