@@ -17,9 +17,12 @@ void validate_romi(const CodecOptions& options, const std::string& options_path)
 void validate_proxy(const CodecOptions& options, const std::string& options_path, Codec codec);
 void validate_elcano(const CodecOptions& options, const std::string& options_path);
 
-DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device);
-DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device);
-DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device);
+DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                         std::shared_ptr<transports::LinkClock> clock);
+DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                         std::shared_ptr<transports::LinkClock> clock);
+DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                         std::shared_ptr<transports::LinkClock> clock);
 
 /// Proxy: the configured inits and, in primary mode, the session handshake, within the open timeout.
 void await_proxy(const DeviceClient& client, const DeviceConfig& device, const std::string& device_path);

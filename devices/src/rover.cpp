@@ -165,25 +165,32 @@ void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, 
   }
 }
 
-DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
+DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                       std::shared_ptr<transports::LinkClock> clock) {
   const auto& options = std::get<RomiOptions>(device.options);
   romi::Options client_options;
   client_options.timing = options.timing;
+  client_options.clock = std::move(clock);
   client_options.first_id(options.first_id ? *options.first_id : romi::random_first_id());
   return std::make_shared<romi::Client>(std::move(stream), client_options);
 }
 
-DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
-  return std::make_shared<proxy::Client>(std::move(stream), std::get<ProxyDeviceOptions>(device.options).client);
+DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                        std::shared_ptr<transports::LinkClock> clock) {
+  proxy::Options client_options = std::get<ProxyDeviceOptions>(device.options).client;
+  client_options.clock = std::move(clock);
+  return std::make_shared<proxy::Client>(std::move(stream), std::move(client_options));
 }
 
-DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device) {
+DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                         std::shared_ptr<transports::LinkClock> clock) {
   const auto& options = std::get<ElcanoOptions>(device.options);
   elcano::Options client_options;
   client_options.node.generation = options.generation;
   client_options.node.capture = options.capture;
   client_options.node.pacing = options.pacing;
   client_options.timing = options.timing;
+  client_options.clock = std::move(clock);
   return std::make_shared<elcano::RingClient>(std::move(stream), client_options);
 }
 
@@ -233,9 +240,10 @@ class RoverOpener {
     opened.codec = device.codec;
     opened.transport = describe(device.transport);
     opened.boards = std::move(boards);
+    opened.clock = transport.clock;
     try {
       const CodecRow& codec = codec_row(device.codec);
-      opened.client = codec.open(stream, device);
+      opened.client = codec.open(stream, device, std::move(transport.clock));
       // Registered before waiting: a failure below closes it with the others.
       rover.devices_.push_back(std::move(opened));
       if (stop) rover.stops_.push_back(std::move(stop));

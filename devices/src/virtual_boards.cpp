@@ -16,6 +16,7 @@
 #include "tether/transports/fault_model.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/virtual_uno.hpp"
+#include "tether/transports/virtual_uno_clock.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 #include "virtual_boards.hpp"
 
@@ -130,12 +131,16 @@ OpenedTransport open_virtual_device(const DeviceConfig& device, const std::strin
   if (const auto* virt = std::get_if<VirtualTransport>(&device.transport)) {
     auto board_stream = open_virtual(*virt, transport_path + ".virtual", executor);
     opened.boards.emplace_back(board_stream, &board_stream->board());  // shares the stream's ownership
+    opened.clock = transports::VirtualUnoClock::create(board_stream);
     opened.stream = std::move(board_stream);
   } else {
     const ElcanoOptions* elcano = std::get_if<ElcanoOptions>(&device.options);
     opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
                                       elcano != nullptr ? *elcano : ElcanoOptions(), device.name,
                                       transport_path + ".virtual_ring", executor, opened.stop, opened.boards);
+    // The group keeps its boards in lockstep, so any board's time is the ring's: the first, which the host
+    // writes to (as VirtualUnoClock::create(stream) picks). It keeps the ring alive, as the stream does.
+    opened.clock = transports::VirtualUnoClock::create(opened.boards.front());
   }
   return opened;
 }

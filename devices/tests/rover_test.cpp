@@ -6,16 +6,19 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/use_future.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <optional>
 
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "tether/devices/rover.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/virtual_uno_clock.hpp"
 
 namespace tether::devices {
 namespace {
@@ -249,8 +252,67 @@ TEST(DevicesRover, TheDefaultVirtualRoverOpensEveryCodecIncludingTheElcanoRing) 
   EXPECT_EQ(sensor.speed, 150) << "the segment's cruise speed, driven and reported";
   EXPECT_EQ(sensor.angle, 45) << "bearing 90 from heading 0, clamped to the steering limit";
 
+  // Every client runs on its board's time; the ring's is its first board's (the group keeps them in step).
+  for (const RoverDevice& device : rover.devices()) {
+    EXPECT_NE(std::dynamic_pointer_cast<transports::VirtualUnoClock>(device.clock), nullptr) << device.name;
+  }
+
   rover.close();
   EXPECT_FALSE(ring->is_open());
+}
+
+// Takes over a rover's running virtual board and advances it from a thread of its own at a third of real
+// time or less (5 ms of simulation, then 10 ms of sleep): what a loaded machine does to a board paced in
+// real time, made reproducible. Stop it before the rover closes.
+class SlowedBoard {
+ public:
+  explicit SlowedBoard(std::shared_ptr<transports::VirtualUno> board) : board_(std::move(board)) {
+    board_->stop();
+    thread_ = std::thread([this] {
+      while (running_) {
+        board_->run_for(std::chrono::milliseconds(5));
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    });
+  }
+  ~SlowedBoard() { stop(); }
+  SlowedBoard(const SlowedBoard&) = delete;
+  SlowedBoard& operator=(const SlowedBoard&) = delete;
+  void stop() {
+    running_ = false;
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  std::shared_ptr<transports::VirtualUno> board_;
+  std::atomic<bool> running_{true};
+  std::thread thread_;
+};
+
+// A rover's virtual device whose board runs slower than real time, as under load: the first call's 1 s
+// window ends (on board time) while the device is in 1.5 s of simulated busy wait, and the second call gets
+// its answer once the late one went to the stale counter. With the client on the steady clock the second
+// call's 2 s budget ended while the device was still busy (client_timeout).
+TEST(DevicesRover, AVirtualDeviceOnABoardSlowerThanRealTimeKeepsItsDeadlinesOnBoardTime) {
+  IoThread io;
+  Rover rover = open_rover(rover_of({romi_device()}), io.executor());
+  const RoverDevice& device = rover.devices().front();
+  ASSERT_EQ(device.boards.size(), 1u);
+  const auto client = rover.romi("arm");
+  SlowedBoard slow(device.boards.front());
+  const auto started = device.boards.front()->simulated_time();
+  boost::system::error_code error;
+  const romi::RomiResponse late = client->call("w[1500]", error);
+  EXPECT_EQ(error, make_error_code(romi::Error::client_timeout)) << error.message();
+  EXPECT_EQ(late.code, -25);
+  EXPECT_LT(device.boards.front()->simulated_time() - started, std::chrono::milliseconds(1500))
+      << "the device is still busy";
+  const romi::RomiResponse own = client->call("s[20,22]", error);
+  ASSERT_FALSE(error) << error.message();
+  EXPECT_EQ(own.values, nlohmann::json::parse("[0,42]"));
+  EXPECT_GE(client->counters().link.stale, 1u);
+  slow.stop();
+  rover.close();
 }
 
 TEST(DevicesRover, AMissingRingImageFailsTheOpenAndClosesTheDevicesOpenedBefore) {

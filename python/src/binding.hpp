@@ -87,8 +87,9 @@ struct SerialArguments {
   std::string ready_banner;
 };
 /// The stream a client opens on: a `Transport` (taken: one client per stream), a port path (opened as a
-/// serial port with `serial`) or a `tether.VirtualUno` (its pty without a boot wait, or, for a board made
-/// with `start=False`, its UART directly; `Transport::board` set). Raises TypeError for anything else.
+/// serial port with `serial`; `Transport::board` set when it is an in-process board's pty, `board_at_port`)
+/// or a `tether.VirtualUno` (its pty without a boot wait, or, for a board made with `start=False`, its UART
+/// directly; `Transport::board` set). Raises TypeError for anything else.
 Transport take_stream(py::handle port_or_transport, const SerialArguments& serial);
 /// Opens a serial port (GIL released while opening and waiting for the boot).
 Transport open_serial(const std::string& path, const SerialArguments& serial);

@@ -253,8 +253,8 @@ reference firmware answers -15). Log lines (``#!text``) go to ``on_log``. The GI
 ``port_or_transport``: a serial port path (opened with ``baud`` and ``boot_wait`` seconds: an Uno resets when
 its port opens), a ``tether.transports.Transport``, or a ``tether.VirtualUno``: its UART, and its simulated
 time as the clock of every deadline. ``clock=board.clock`` puts a client opened otherwise on a board's time
-(None: the board it was opened on, else the steady clock). On a board's clock the windows are the device's
-seconds, exact whatever the machine's load; the board's ``close()`` closes the client.)doc")
+(None: the board it was opened on, or whose pty it opened by path in this process, else the steady clock). On a
+board's clock the windows are the device's seconds, exact whatever the machine's load; the board's ``close()`` closes the client.)doc")
       .def(py::init([](py::object port, unsigned baud, double boot_wait, double attempt_timeout, double call_budget,
                        int max_attempts, bool retry_on_timeout, py::object on_log, py::object clock) {
              const session::CallTiming timing = timing_from(attempt_timeout, call_budget, max_attempts, retry_on_timeout);

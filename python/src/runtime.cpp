@@ -74,11 +74,26 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   return transport;
 }
 
+namespace {
+
+// A port opened by its path; when the path is an in-process board's pty, the client is that board's.
+Transport open_port(const std::string& path, const SerialArguments& serial) {
+  std::shared_ptr<VirtualBoard> board = board_at_port(path);
+  Transport transport = open_serial(path, serial);
+  if (board) {
+    transport.keep_alive = board;
+    transport.board = std::move(board);
+  }
+  return transport;
+}
+
+}  // namespace
+
 Transport take_stream(py::handle port_or_transport, const SerialArguments& serial) {
-  if (py::isinstance<py::str>(port_or_transport)) return open_serial(port_or_transport.cast<std::string>(), serial);
+  if (py::isinstance<py::str>(port_or_transport)) return open_port(port_or_transport.cast<std::string>(), serial);
   if (py::isinstance(port_or_transport, py::module_::import("os").attr("PathLike"))) {
-    return open_serial(py::str(py::module_::import("os").attr("fspath")(port_or_transport)).cast<std::string>(),
-                       serial);
+    return open_port(py::str(py::module_::import("os").attr("fspath")(port_or_transport)).cast<std::string>(),
+                     serial);
   }
   if (py::isinstance<Transport>(port_or_transport)) {
     auto& given = port_or_transport.cast<Transport&>();

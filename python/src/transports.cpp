@@ -3,6 +3,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <mutex>
 #include <system_error>
 #include <thread>
 
@@ -57,8 +59,51 @@ transports::VirtualUno& VirtualBoard::get() {
 void VirtualBoard::close() {
   if (closed.exchange(true) || !board) return;
   py::gil_scoped_release release;
-  board->stop();  // the pty too: clients on it see the hang-up
+  // Clients on its clock first, so a client opened on its pty by path gets ClosedError like one opened
+  // on the board, not the pty's hang-up (which raced the close_all, ConnectionError under load).
   clients->close_all();
+  board->stop();  // the pty too: other clients on it see the hang-up
+}
+
+namespace {
+
+// The started boards of this process, for `board_at_port`; expired entries are dropped as new ones come.
+struct BoardPorts {
+  std::mutex mutex;
+  std::vector<std::weak_ptr<VirtualBoard>> boards;
+};
+
+BoardPorts& board_ports() {
+  static BoardPorts ports;
+  return ports;
+}
+
+// `path` resolved (symlinks, `..`), or as given when it cannot be.
+std::string resolved(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(path, error);
+  return error ? path : canonical.string();
+}
+
+}  // namespace
+
+void register_board_port(const std::shared_ptr<VirtualBoard>& board) {
+  BoardPorts& ports = board_ports();
+  std::lock_guard lock(ports.mutex);
+  std::erase_if(ports.boards, [](const auto& entry) { return entry.expired(); });
+  ports.boards.push_back(board);
+}
+
+std::shared_ptr<VirtualBoard> board_at_port(const std::string& path) {
+  const std::string wanted = resolved(path);
+  BoardPorts& ports = board_ports();
+  std::lock_guard lock(ports.mutex);
+  for (const auto& entry : ports.boards) {
+    std::shared_ptr<VirtualBoard> board = entry.lock();
+    if (!board || board->closed.load() || board->port.empty()) continue;
+    if (board->port == path || resolved(board->port) == wanted) return board;
+  }
+  return nullptr;
 }
 
 std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock) {
@@ -224,6 +269,7 @@ the simulation cannot time a call out while the device has not had its time.)doc
              }
              if (!wrapper->board || error) raise_std_error(error, message.empty() ? error.message() : message);
              if (!message.empty()) throw py::value_error(options.firmware.string() + ": " + message);
+             if (start) register_board_port(wrapper);
              return wrapper;
            }),
            py::arg("image"), py::kw_only(), py::arg("fast") = false, py::arg("seed") = py::none(),

@@ -47,7 +47,8 @@ struct VirtualBoard {
   ~VirtualBoard();
   /// The board; raises ClosedError after `close()`.
   transports::VirtualUno& get();
-  /// Stops the board, closes its pty and the clients on its clock. Idempotent; call with the GIL.
+  /// Closes the clients on its clock (ClosedError, before the pty hangs up), then stops the board and its
+  /// pty. Idempotent; call with the GIL.
   void close();
 };
 
@@ -60,12 +61,20 @@ struct BoardClock {
 /// boot wait, or the UART of a `start=False` board (one client at a time: ValueError for a second).
 Transport board_transport(const std::shared_ptr<VirtualBoard>& board, unsigned baud);
 
+/// Remembers a started board's pty (`port`) for `board_at_port`, for as long as the board lives.
+void register_board_port(const std::shared_ptr<VirtualBoard>& board);
+
+/// The live, open board of this process whose pty is `path` (compared as given and resolved), else null:
+/// a client that opens a board's `port` by its path (a program written for serial ports, run in-process)
+/// runs on that board's clock and is closed with it, as if opened on the board.
+std::shared_ptr<VirtualBoard> board_at_port(const std::string& path);
+
 /// The board of a client's `clock=` argument (a `tether.VirtualUnoClock`), null for None. Raises TypeError
 /// for another type, ClosedError for a closed board (before the client opens its port).
 std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock);
 
 /// The board a client's deadlines run on: `chosen` (its `clock=`), else the board it was opened on
-/// (`Client(board)`), else null (the steady clock).
+/// (`Client(board)`, or its pty by path: `board_at_port`), else null (the steady clock).
 inline std::shared_ptr<VirtualBoard> deadline_board(std::shared_ptr<VirtualBoard> chosen, const Transport& transport) {
   return chosen ? chosen : transport.board;
 }

@@ -13,8 +13,9 @@
 ///   row.name = "line-echo";
 ///   row.option_keys = {"timeout_ms"};
 ///   row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions { ... };
-///   row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device)
-///       -> devices::DeviceClient { return std::make_shared<LineEchoClient>(stream, ...); };
+///   row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
+///                 std::shared_ptr<transports::LinkClock> clock)
+///       -> devices::DeviceClient { return std::make_shared<LineEchoClient>(stream, ..., clock); };
 ///   const devices::Codec line_echo = devices::register_codec(row);
 /// @endcode
 ///
@@ -77,8 +78,12 @@ struct CodecRow {
   /// Checks options built in code (what parsing guarantees); throws `ConfigError` at `options_path`'s keys.
   /// Unset: nothing to check.
   std::function<void(const CodecOptions& options, const std::string& options_path)> validate;
-  /// The client of `device` on its opened byte stream (which it owns from then on).
-  std::function<DeviceClient(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device)> open;
+  /// The client of `device` on its opened byte stream (which it owns from then on), its deadlines on
+  /// `clock`: a virtual device's board time (rover.hpp, "Clocks of virtual devices"), null for hardware
+  /// (the steady clock, every client's default).
+  std::function<DeviceClient(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
+                             std::shared_ptr<transports::LinkClock> clock)>
+      open;
   /// Waits until the new client is ready for the application (proxy: handshake and inits), within the
   /// device's limits; throws `ConfigError` under `device_path` (`devices[1]`). Unset: ready when created.
   std::function<void(const DeviceClient& client, const DeviceConfig& device, const std::string& device_path)>

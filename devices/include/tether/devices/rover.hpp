@@ -66,6 +66,7 @@
 #include "tether/proxy/client.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -94,6 +95,10 @@ struct RoverDevice {
   /// The simulated boards behind a virtual device (one, or a ring's in ring order); empty for hardware.
   /// For fault injection, resets and pin checks (`tether demo`); each keeps its board alive.
   std::vector<std::shared_ptr<transports::VirtualUno>> boards;
+  /// What the client's deadlines run on: a virtual device's board time (`transports::VirtualUnoClock`,
+  /// see "Clocks of virtual devices"); null for hardware (the steady clock). For a program's own
+  /// deadlines that must agree with the client's.
+  std::shared_ptr<transports::LinkClock> clock;
 };
 
 /// Hooks of `open_rover`.
@@ -165,6 +170,9 @@ struct OpenedTransport {
   std::vector<std::shared_ptr<transports::VirtualUno>> boards;
   /// Stops what closing the stream does not (a virtual ring's simulation thread); empty when nothing.
   std::function<void()> stop;
+  /// The clock a client of this stream runs its deadlines on (see `RoverDevice::clock`): the board's
+  /// simulated time for a virtual board or ring, null for hardware (the steady clock).
+  std::shared_ptr<transports::LinkClock> clock;
 };
 
 /// Opens only `device`'s transport, as `open_rover` does (serial port with its boot wait, TCP, a virtual

@@ -142,8 +142,8 @@ devices::Codec register_line_echo() {
       }
       return devices::ExtensionOptions{options};
     };
-    row.open = [](std::shared_ptr<transports::ByteStream> stream,
-                  const devices::DeviceConfig& device) -> devices::DeviceClient {
+    row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
+                  std::shared_ptr<transports::LinkClock>) -> devices::DeviceClient {  // its timeout is steady
       return std::make_shared<Client>(std::move(stream), options_of(device));
     };
 
