@@ -295,7 +295,8 @@ std::optional<FirmwareImage> describe_firmware(const std::filesystem::path& elf,
   }
   image.sha256 = hex(digest, digest_size);
 
-  // Section sizes as avr-size counts them: flash = .text + .data, RAM = .data + .bss.
+  // Section sizes as avr-size counts them: flash = .text + .data, RAM = .data + .bss + .noinit (.noinit holds
+  // what survives a warm reset, e.g. the proxy's session-id entropy: static RAM all the same).
   if (elf_version(EV_CURRENT) == EV_NONE) {
     error = "libelf: " + std::string(elf_errmsg(-1));
     return std::nullopt;
@@ -314,7 +315,7 @@ std::optional<FirmwareImage> describe_firmware(const std::filesystem::path& elf,
     if (name == nullptr) continue;
     const std::string_view section_name(name);
     if (section_name == ".text" || section_name == ".data") image.flash_bytes += header.sh_size;
-    if (section_name == ".data" || section_name == ".bss") image.ram_bytes += header.sh_size;
+    if (section_name == ".data" || section_name == ".bss" || section_name == ".noinit") image.ram_bytes += header.sh_size;
   }
   elf_end(handle);
   return image;

@@ -77,6 +77,18 @@ std::pair<std::optional<int>, std::string> run_chromium(const std::vector<std::s
   return {process.wait(std::chrono::seconds(60)), out};
 }
 
+// avr-size's Berkeley figures for `elf`: {text + data (flash), data + bss (static RAM; its bss counts .noinit)}.
+std::pair<long, long> avr_size(const std::string& elf) {
+  ::tether::testing::ChildProcess process({"avr-size", elf}, /*capture_stdout=*/true);
+  std::string out;
+  while (const auto line = process.read_line(std::chrono::seconds(60))) out += *line + "\n";
+  EXPECT_EQ(process.wait(std::chrono::seconds(60)), 0) << out;
+  std::istringstream rows(out.substr(out.find('\n') + 1));
+  long text = 0, data = 0, bss = 0;
+  rows >> text >> data >> bss;
+  return {text + data, data + bss};
+}
+
 // Operations per device and point of the short runs: few, so that the bench tests stay short on a loaded
 // 2-core machine; every figure's check holds for any count.
 constexpr int kShortRun = 5;
@@ -102,6 +114,10 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
     for (const json& image : device["firmware"]) {
       EXPECT_EQ(image["sha256"].get<std::string>().size(), 64u);
       EXPECT_GT(image["flash_bytes"].get<int>(), 1000);
+      // The same figures as avr-size (the proxy image's .noinit was once left out of its RAM: 799 for 816 B).
+      const auto [flash, ram] = avr_size(image["path"].get<std::string>());
+      EXPECT_EQ(image["flash_bytes"].get<long>(), flash);
+      EXPECT_EQ(image["ram_bytes"].get<long>(), ram);
     }
     // --saturation: a ramp per BER, 10 Hz doubling, that stops at the first step not sustained.
     ASSERT_EQ(device["saturation"].size(), 2u) << "one per BER";

@@ -91,7 +91,7 @@ struct FirmwareImage {
   std::string path;             ///< The .elf file.
   std::string sha256;           ///< Of the file, hex.
   std::uint64_t flash_bytes = 0;  ///< .text + .data: what the image takes in flash.
-  std::uint64_t ram_bytes = 0;    ///< .data + .bss: static RAM.
+  std::uint64_t ram_bytes = 0;    ///< .data + .bss + .noinit: static RAM, as avr-size counts it.
 };
 
 /// One device at one sweep point.
