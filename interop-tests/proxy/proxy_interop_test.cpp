@@ -279,8 +279,10 @@ class AckDropper {
                const bool payload = decoder_.feed(byte) == DecodeStatus::frame;
                if (byte != 0) return;
                if (payload) observe(decoder_.frame());
-               if (payload && faults_.drop_ack_every != 0 && is_ack(decoder_.frame()) &&
-                   ++acks_ % faults_.drop_ack_every == 0) {
+               const std::optional<std::uint32_t> ack = payload ? acked_id(decoder_.frame()) : std::nullopt;
+               const bool drop = ack && faults_.drop_ack_every != 0 && ++acks_ % faults_.drop_ack_every == 0;
+               if (ack) note_ack(*ack, drop);
+               if (drop) {
                  ++dropped_;
                } else {
                  out.insert(out.end(), frame_.begin(), frame_.end());
@@ -299,6 +301,17 @@ class AckDropper {
     std::lock_guard lock(mutex_);
     return executions_;
   }
+  // How many copies of `id` the host wrote (first send and its re-sends; the wire's own copies left out).
+  unsigned host_sends(std::uint32_t id) {
+    std::lock_guard lock(mutex_);
+    const auto found = host_sends_.find(id);
+    return found == host_sends_.end() ? 0 : found->second;
+  }
+  // The messageIds whose first ack from the device this wire dropped.
+  std::set<std::uint32_t> first_ack_dropped() {
+    std::lock_guard lock(mutex_);
+    return first_ack_dropped_;
+  }
   // The messageIds this wire duplicated.
   std::set<std::uint32_t> repeated_ids() {
     std::lock_guard lock(mutex_);
@@ -307,17 +320,18 @@ class AckDropper {
 
  private:
   void from_host(std::uint8_t byte, std::vector<std::uint8_t>& out) {
+    const bool payload = host_decoder_.feed(byte) == DecodeStatus::frame;
+    ArduinoIn in;
+    const bool parsed =
+        payload && in.ParseFromArray(host_decoder_.frame().data(), static_cast<int>(host_decoder_.frame().size()));
+    if (parsed && !in.has_reset()) count_host_send(in.messageid());
     if (faults_.duplicate_every == 0 && !faults_.replay) {
       out.push_back(byte);
       return;
     }
     host_frame_.push_back(byte);
-    const bool payload = host_decoder_.feed(byte) == DecodeStatus::frame;
     if (byte != 0) return;
     std::optional<std::uint32_t> id;
-    ArduinoIn in;
-    const bool parsed =
-        payload && in.ParseFromArray(host_decoder_.frame().data(), static_cast<int>(host_decoder_.frame().size()));
     // Not a Reset: the device forgets its filter when it reboots, so a repeated Reset reboots it again (a
     // limit of the protocol, whose messages carry no sessionId), and the test is about the filter.
     if (parsed && !in.has_reset()) {
@@ -378,6 +392,10 @@ class AckDropper {
     }
     if (candidates_.size() > 64) candidates_.erase(candidates_.begin());  // never acked (lost, failed)
   }
+  void count_host_send(std::uint32_t id) {
+    std::lock_guard lock(mutex_);
+    ++host_sends_[id];
+  }
   void remember_repeat(std::uint32_t id) {
     std::lock_guard lock(mutex_);
     repeated_ids_.insert(id);
@@ -407,6 +425,9 @@ class AckDropper {
     }
   }
   std::mutex mutex_;
+  std::map<std::uint32_t, unsigned> host_sends_;     // copies of each messageId the host wrote (not the wire's)
+  std::set<std::uint32_t> first_ack_seen_;           // ids the device acked at least once
+  std::set<std::uint32_t> first_ack_dropped_;        // ids whose first ack this wire dropped
   std::map<std::uint32_t, std::vector<int>> executions_;
   std::set<std::uint32_t> repeated_ids_;
   int boot_ = 0;
@@ -420,9 +441,14 @@ class AckDropper {
   std::atomic<unsigned> replayed_{0};
   std::atomic<unsigned> replays_too_late_{0};
 
-  static bool is_ack(ByteView payload) {
+  static std::optional<std::uint32_t> acked_id(ByteView payload) {
     ArduinoOut out;
-    return out.ParseFromArray(payload.data(), static_cast<int>(payload.size())) && out.has_ack();
+    if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size())) || !out.has_ack()) return std::nullopt;
+    return out.ack().messageid();
+  }
+  void note_ack(std::uint32_t id, bool dropped) {
+    std::lock_guard lock(mutex_);
+    if (first_ack_seen_.insert(id).second && dropped) first_ack_dropped_.insert(id);
   }
 
   WireFaults faults_;
@@ -564,9 +590,26 @@ void many_in_flight_through_resets(WireFaults faults) {
   // one run where an idle one acks ~95 %; the minimum is there so that a run where nothing arrives fails.
   EXPECT_GE(total_acked, kBatches * kRounds * static_cast<int>(lanes.size()) / 3);
   EXPECT_GE(wire.dropped(), 20u);
-  // Dropped acks led to re-sends. Not a share of the drops: an ack lost shortly before a reset ends its send
-  // with the session instead (41 re-sends for 52 drops in one loaded run, against the former "half" minimum).
-  EXPECT_GE(link.retries, 10u);
+  // What the protocol promises for a lost ack: the host re-sends the message until it sees an ack. So a
+  // message reported acked whose first ack this wire dropped was written again by the host, unless a copy
+  // this wire made itself (duplicate, replay) brought the device's second ack. Not a share of the drops
+  // (the former ">= dropped / 2" failed once, 41 re-sends for 52 drops): in replay mode the wire's replays
+  // of acked frames answer for lost acks and their own acks are among the dropped, and an ack lost before a
+  // reset ends its send with the session instead.
+  std::size_t resent_for_lost_acks = 0;
+  for (const std::uint32_t id : wire.first_ack_dropped()) {
+    if (acked_ids.count(id) == 0 || repeated.count(id) != 0) continue;
+    EXPECT_GE(wire.host_sends(id), 2u) << "id " << id << ": acked, its first ack lost, never re-sent";
+    ++resent_for_lost_acks;
+  }
+  std::printf("%zu of the %u dropped acks were an id's first; %zu of those ids acked with no copy from the wire\n",
+              wire.first_ack_dropped().size(), wire.dropped(), resent_for_lost_acks);
+  // The check above had something to look at (in replay mode nearly every acked frame is replayed, so the
+  // replay's second ack can stand in for a lost first one: few ids are left to the host's re-sends there).
+  if (!faults.replay) {
+    EXPECT_GE(resent_for_lost_acks, 5u);
+  }
+  EXPECT_GE(link.retries, resent_for_lost_acks);
   EXPECT_GE(log.all<events::ResetDetected>().size(), 2u);
   client.close();
 }
@@ -742,6 +785,118 @@ TEST(ProxyCompatPins, ASecondServoInitIsIgnoredAndAnUninitialisedControlIsOnlyAn
     EXPECT_EQ(m.errormessage().type(), RocketryProto::PIN_NOT_INITIALIZED);
     EXPECT_EQ(m.errormessage().data(), 4);
   }
+}
+
+// What the compat image's servo pulses promise (firmware/runtime servo_interrupt.hpp): each compare
+// interrupt sets the next compare from the previous one, so a width is exactly its ticks, and an edge comes
+// a fixed number of cycles after its compare unless another interrupt routine (the UART's, the millisecond
+// clock's) or an atomic block holds it off. The demo once measured D9 at 2190 us for 2193 (position 160);
+// this pins that down at the firmware level: every D9 edge's cycle (its PORTB write) against its compare
+// (the OCR1A value its interrupt read, TCNT1 running at clk/8), over 2 s of board time with the ~50 ms state
+// stream going out and controls coming in. Measured: the compares are always exactly the ticks apart, and a
+// pulse is off its ticks only by the difference of its two edges' delays; an edge that met the UART's
+// routine at its compare came up to 74 cycles (4.6 us) late, so that pulse was up to 4.25 us short. Less than
+// half the compat scale's degree step (10.3 us): the demo's 5 us pin tolerance for this device.
+TEST(ProxyCompatPins, AServoPulseIsItsTicksGiveOrTakeTheInterruptThatDelayedAnEdge) {
+  namespace reg = transports::atmega328p;
+  constexpr std::uint64_t kCyclesPerTick = 8;                 // 16 MHz, Timer1 at clk/8
+  constexpr std::uint64_t kTimerWrap = 65536 * kCyclesPerTick;  // TCNT1's period in cycles
+  constexpr std::uint32_t kPulseUs = 2193;                    // position 160 on the Servo library's 544..2400 us
+  CompatBoard board;
+  board.send(servo_init(9));
+  board.send(servo_control(9, 160));
+  board.run(100);
+  ASSERT_NEAR(board.pulse_us(9), kPulseUs, 5.0);
+  auto& uno = board.uno();
+  for (const std::uint16_t address : {reg::PORTB, reg::OCR1AL, reg::OCR1AH, reg::UDR0}) uno.watch_io(address);
+  // 2 s: 100 servo frames. A control every millisecond (~75 % of the line) keeps the UART's receive routine
+  // busy beside the state stream; at one control a frame no edge met another routine in 2 s (~0.5 % of the
+  // CPU is the UART's), so the cause would not show.
+  for (int ms = 0; ms < 2000; ++ms) {
+    board.send(servo_control(9, 160));
+    board.run(1);
+    board.received();
+  }
+  struct Edge {
+    std::uint64_t cycle;
+    bool rising;
+    std::uint16_t compare;  // the OCR1A value its interrupt read
+  };
+  const auto latest_read = [](const std::vector<transports::IoAccess>& accesses, std::uint64_t before) {
+    std::optional<transports::IoAccess> found;
+    for (const auto& access : accesses) {
+      if (access.cycle >= before) break;
+      if (!access.write) found = access;
+    }
+    return found;
+  };
+  const auto low = uno.io_accesses(reg::OCR1AL);
+  const auto high = uno.io_accesses(reg::OCR1AH);
+  const auto uart = uno.io_accesses(reg::UDR0);
+  std::vector<Edge> edges;
+  std::optional<bool> level;
+  for (const auto& access : uno.io_accesses(reg::PORTB)) {
+    if (!access.write) continue;
+    const bool d9 = (access.value & 0x02) != 0;  // PB1
+    if (level && *level != d9) {
+      const auto l = latest_read(low, access.cycle);
+      const auto h = latest_read(high, access.cycle);
+      ASSERT_TRUE(l && h) << "an edge at cycle " << access.cycle << " with no OCR1A read before it";
+      edges.push_back({access.cycle, d9, static_cast<std::uint16_t>(l->value | h->value << 8)});
+    }
+    level = d9;
+  }
+  for (const std::uint16_t address : {reg::PORTB, reg::OCR1AL, reg::OCR1AH, reg::UDR0}) {
+    ASSERT_EQ(uno.io_accesses_dropped(address), 0u);
+  }
+  // Each edge's cycles after its compare, up to a constant (TCNT1's phase); the least is the undelayed edge.
+  const auto after_compare = [&](const Edge& edge) {
+    return (edge.cycle - edge.compare * kCyclesPerTick) % kTimerWrap;
+  };
+  std::uint64_t undelayed[2] = {UINT64_MAX, UINT64_MAX};
+  for (const Edge& edge : edges) undelayed[edge.rising] = std::min(undelayed[edge.rising], after_compare(edge));
+  const auto delay = [&](const Edge& edge) { return after_compare(edge) - undelayed[edge.rising]; };
+  int pulses = 0;
+  int off = 0;
+  std::int64_t worst_deviation = 0;
+  std::uint64_t worst_delay = 0;
+  int delayed = 0;
+  int delayed_by_uart = 0;
+  for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
+    const Edge& rise = edges[k];
+    const Edge& fall = edges[k + 1];
+    if (!rise.rising || fall.rising) continue;
+    ++pulses;
+    // The firmware programs the width exactly: the falling edge's compare is the rising one's plus the ticks.
+    EXPECT_EQ(static_cast<std::uint16_t>(fall.compare - rise.compare), 2 * kPulseUs) << "pulse at cycle " << rise.cycle;
+    const auto width = static_cast<std::int64_t>(fall.cycle - rise.cycle);
+    const std::int64_t deviation = width - static_cast<std::int64_t>(2 * kPulseUs * kCyclesPerTick);
+    // ... and what the pin shows is off only by how much later one edge came after its compare than the other.
+    EXPECT_EQ(deviation, static_cast<std::int64_t>(delay(fall)) - static_cast<std::int64_t>(delay(rise)) +
+                             static_cast<std::int64_t>(undelayed[0]) - static_cast<std::int64_t>(undelayed[1]));
+    if (std::abs(deviation) > std::abs(worst_deviation)) worst_deviation = deviation;
+    if (std::abs(deviation) >= 8) ++off;  // half a microsecond: more than an instruction's wait
+  }
+  for (const Edge& edge : edges) {
+    const std::uint64_t late = delay(edge);
+    worst_delay = std::max(worst_delay, late);
+    if (late < 8) continue;  // within an instruction or two: the interrupt waited for the one running
+    ++delayed;
+    // Another routine ran when the compare came: the UART's reads or writes UDR0 between compare and edge.
+    const std::uint64_t compare_cycle = edge.cycle - undelayed[edge.rising] - late;
+    if (std::any_of(uart.begin(), uart.end(),
+                    [&](const auto& a) { return a.cycle + 200 >= compare_cycle && a.cycle < edge.cycle; })) {
+      ++delayed_by_uart;
+    }
+  }
+  std::printf("%d pulses of %u us: %d off their ticks by 0.5 us or more, worst by %.3f us; %zu edges, %d held off 8+ cycles "
+              "(%d with the UART's routine at the compare), the longest by %llu cycles (%.3f us); UDR0 accessed "
+              "%zu times\n",
+              pulses, kPulseUs, off, static_cast<double>(worst_deviation) / 16.0, edges.size(), delayed, delayed_by_uart,
+              static_cast<unsigned long long>(worst_delay), static_cast<double>(worst_delay) / 16.0, uart.size());
+  EXPECT_GE(pulses, 95);
+  EXPECT_LT(std::abs(static_cast<double>(worst_deviation) / 16.0), 5.0);  // no pulse passes for another degree
+  EXPECT_GE(delayed_by_uart, 1);  // the cause showed: an edge held off by the UART's routine
 }
 
 TEST(ProxyCompatPins, DigitalOutputOnD1KeepsTheUartWorking) {

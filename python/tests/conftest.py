@@ -11,10 +11,29 @@ import pytest
 import tether
 
 
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    report = (yield).get_result()
+    if report.when == "call":
+        item.call_failed = report.failed
+
+
+def print_board_if_failed(request, board):
+    """After a failed test, the board's side of the story (teardown output, shown with the failure): a
+    call that timed out with no byte received means the request never reached the board, bytes sent
+    mean it answered and the answer was not taken in time."""
+    if getattr(request.node, "call_failed", False):
+        try:
+            print(f"board after the failure: {board.simulated_time:.3f} s of board time, {board.stats()}")
+        except tether.ClosedError:
+            print("board after the failure: closed")
+
+
 @pytest.fixture
-def romi_board():
+def romi_board(request):
     with tether.VirtualUno("romi-test", seed=1) as board:
         yield board
+        print_board_if_failed(request, board)
 
 
 @pytest.fixture
@@ -24,10 +43,11 @@ def romi_client(romi_board):
 
 
 @pytest.fixture
-def held_board():
+def held_board(request):
     """A romi-test board that moves only when the test advances it (``run_for``)."""
     with tether.VirtualUno("romi-test", seed=1, start=False) as board:
         yield board
+        print_board_if_failed(request, board)
 
 
 class Call(threading.Thread):

@@ -148,9 +148,11 @@ class ProxyWorkload final : public Workload {
   std::optional<Pulses> settle(std::uint32_t& rewrites) override {
     if (!compat_ || last_positions_.empty()) return std::nullopt;
     Pulses expected;
-    // Degrees on the deployed Servo library's 544..2400 us: 10.3 us a degree. Its timer-interrupt pulses come
-    // a few cycles late when a UART interrupt (the state stream) runs at an edge: the pin check saw 2190 us
-    // for 2193 (48 cycles), which a 2 us tolerance counted as another command.
+    // Degrees on the deployed Servo library's 544..2400 us: 10.3 us a degree. Its timer-interrupt pulses are
+    // exact but for an edge whose compare meets the UART's interrupt routine: held off up to 74 cycles, that
+    // pulse is up to 4.25 us short (ProxyCompatPins.AServoPulseIsItsTicksGiveOrTakeTheInterruptThatDelayedAnEdge,
+    // edge cycles against compares in simavr). The pin check saw one such pulse, 2190 us for 2193, which a
+    // 2 us tolerance counted as another command.
     expected.tolerance_us = 5.0;
     for (std::size_t k = 0; k < pins_.size(); ++k) set_expected(expected, pins_[k], pulse_us(last_positions_[k]));
     const auto give_up = Clock::now() + std::chrono::seconds(5);
