@@ -226,7 +226,12 @@ TEST(RomiInterop, LogFloodBetweenRequestAndAnswer) {
   client.close();
 }
 
-TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinItsBudget) {
+// A CRC-8 cannot see every damage: a frame that lost a byte or took two flipped bits still passes its check
+// once in ~256 (seen: RANDOM_SEED=4237690610280131874, call 18's `[0,705]` arrived as `[0,75]` with a valid
+// CRC). So the promise tested is the one the protocol makes: a wrong answer only ever follows damage the wire
+// really did around that call (never from the client's own bookkeeping: stale answers, ids, the cache), and
+// every call ends within its budget, answered or with a clear error.
+TEST(RomiInterop, UnderLineNoiseAWrongAnswerOnlyFollowsDamageAndEveryCallEndsWithinItsBudget) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), romi_test_board(Pacing::real_time));
   transports::FaultConfig noise;
@@ -236,38 +241,51 @@ TEST(RomiInterop, UnderLineNoiseNoCallReturnsAWrongAnswerAndEveryCallEndsWithinI
   stream->board().set_faults(transports::Direction::from_mcu, noise);
   Client client(stream, on_board_time(stream));
   auto random = tether::testing::seeded_generator(404);
+  const auto damage_so_far = [&] {
+    const auto stats = stream->board().stats();
+    return stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped + stats.to_mcu.bytes_dropped +
+           stats.from_mcu.bytes_dropped;
+  };
   int answered = 0;
   int failed = 0;
+  int wrong = 0;
+  std::uint64_t damage_before_previous_call = damage_so_far();
   for (int i = 0; i < 120; ++i) {
     const int a = static_cast<int>(random() % 2000);
     const int b = static_cast<int>(random() % 2000);
+    const std::uint64_t damage_before = damage_so_far();
     const auto started = stream->board().simulated_time();  // the budget's clock
     error_code error;
     const RomiResponse response = client.call(Command('s', {a, b}), error);
     const auto took = stream->board().simulated_time() - started;
     EXPECT_LT(took, 2s + 500ms) << "call " << i << " exceeded its 2 s budget";
     if (error) {
-      ++failed;  // a clear failure (timeout, damaged every time) is allowed; a wrong answer is not
-      continue;
-    }
-    if (response.code == 0) {
-      EXPECT_EQ(response.values, json::array({0, a + b})) << "call " << i;
-      ++answered;
+      ++failed;  // a clear failure (timeout, damaged every time) is allowed
+    } else if (response.code == 0) {
+      if (response.values == json::array({0, a + b})) {
+        ++answered;
+      } else {
+        ++wrong;
+        // Damage on this call's bytes, or on the previous call's (a late answer to it), passed the CRC.
+        EXPECT_GT(damage_so_far(), damage_before_previous_call)
+            << "call " << i << ": " << response.values.dump() << " for " << a << "+" << b << " with no damage on the wire";
+      }
     } else {
       // The device saw our request damaged (-4 after every re-send, -8.., -2): an honest protocol error.
       EXPECT_LT(response.code, 0) << "call " << i;
     }
+    damage_before_previous_call = damage_before;
   }
   const auto stats = stream->board().stats();
-  std::printf("noise: %d answered, %d failed; injected %llu bit flips, %llu drops; retries %u stale %u\n", answered,
-              failed, static_cast<unsigned long long>(stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped),
+  std::printf("noise: %d answered, %d failed, %d wrong (damage the CRC-8 did not see); injected %llu bit flips, "
+              "%llu drops; retries %u stale %u\n",
+              answered, failed, wrong,
+              static_cast<unsigned long long>(stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped),
               static_cast<unsigned long long>(stats.to_mcu.bytes_dropped + stats.from_mcu.bytes_dropped),
               client.counters().link.retries, client.counters().link.stale);
   EXPECT_GT(answered, 60);
   // The noise was really there (flips and drops together: zero of both is vanishingly unlikely).
-  EXPECT_GT(stats.to_mcu.bits_flipped + stats.from_mcu.bits_flipped + stats.to_mcu.bytes_dropped +
-                stats.from_mcu.bytes_dropped,
-            0u);
+  EXPECT_GT(damage_so_far(), 0u);
   client.close();
 }
 
