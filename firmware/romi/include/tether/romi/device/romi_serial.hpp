@@ -170,14 +170,20 @@ class RomiSerial final : public IRomiSerial {
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
+  __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
   void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
   bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
   void dispatch(const Frame& frame);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
+  // A reply that must not touch the cache (manual requests), formed on the stack. Out of line: its
+  // 72-byte frame stays off the common path.
+  __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  // Forms the response into `frame` (room for body + kResponseOverhead) and sends it.
+  __attribute__((noinline)) void emit(char opcode, uint8_t id, ByteView body, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
