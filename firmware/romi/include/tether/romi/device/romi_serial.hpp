@@ -207,12 +207,10 @@ class RomiSerial final : public IRomiSerial {
   void dispatch(const Frame& frame);
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
-  // A reply that must not touch the cache (manual requests), formed on the stack. Out of line: its
-  // 72-byte frame stays off the common path.
-  __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  // Forms the response into `frame` (room for body + kResponseOverhead) and sends it.
-  __attribute__((noinline)) void emit(char opcode, uint8_t id, ByteView body, uint8_t* frame);
+  // Forms the response and sends it; `cached`: into reply_ (the cache's copy), else on the stack. One
+  // function for every response: the inlined formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, bool cached);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
