@@ -63,6 +63,10 @@ class Decoder {
   /// case: stored, status `more`, nothing else happens); false, consuming nothing, for any other byte,
   /// which the caller then gives to `feed_special`. Small enough to inline into a device's byte loop.
   bool feed_body(uint8_t byte);
+  /// Consumes the ordinary body bytes at the start of `bytes[0..count)` exactly as `feed_body` would one
+  /// by one, and returns how many (0 when the first is not one, or no frame is open); the byte after them
+  /// goes to `feed_special`. A device's byte loop: the frame's position stays in a register for the run.
+  uint8_t feed_body_run(const uint8_t* bytes, uint8_t count);
   /// Consumes a byte `feed_body` refused (frame start and end, errors, bytes outside frames). Out of
   /// line: the rare cases must not weigh on the inlined per-byte path.
   __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);

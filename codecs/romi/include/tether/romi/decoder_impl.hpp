@@ -33,6 +33,30 @@ __attribute__((always_inline)) inline bool Decoder<Capacity, Counters>::feed_bod
 }
 
 template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline uint8_t Decoder<Capacity, Counters>::feed_body_run(const uint8_t* bytes, uint8_t count) {
+  if (state_ != State::body) return 0;
+  const Index size = size_;
+  const Index room = static_cast<Index>(Capacity - size);  // a full buffer ends the run: feed_special says -1
+  uint8_t left = count < room ? count : static_cast<uint8_t>(room);
+  const uint8_t* in = bytes;
+  uint8_t* out = buffer_ + size;
+  for (; left != 0; --left) {
+    const uint8_t byte = *in;
+    // One compare for the usual bytes: every special one is at most '#' (0x23).
+    if (byte <= '#' && (byte == '#' || byte == '\r' || byte == '\n')) break;
+    if (byte == ':') {
+      seen_colon_ = true;
+      last_colon_ = static_cast<Index>(out - buffer_);
+    }
+    *out++ = byte;
+    ++in;
+  }
+  const uint8_t used = static_cast<uint8_t>(in - bytes);
+  size_ = static_cast<Index>(size + used);
+  return used;
+}
+
+template <size_t Capacity, typename Counters>
 __attribute__((always_inline)) inline DecodeStatus Decoder<Capacity, Counters>::feed(uint8_t byte) {
   return feed_body(byte) ? DecodeStatus::more : feed_special(byte);
 }

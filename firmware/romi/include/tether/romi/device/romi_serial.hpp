@@ -60,13 +60,14 @@
 /// a diverging frame would run the good copy twice) = 188 bytes, plus the 48 bytes of 32-bit counters.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
-/// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
-/// decoder's inline path only; a frame is checked, parsed and matched to its handler at its '\r'; at its
-/// '\n' the response's '#' is sent first (every frame the device sends starts with it), then the cache
-/// lookup (the id, then the bytes) and the call; the rest of a reply is formed with its CRC in one pass.
-/// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
-/// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
-/// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
+/// moved. Bytes are read in batches (`IInputStream::read_some`; a batch short of 16 ends the call); the
+/// body bytes of a frame go through the decoder's run loop (`Decoder::feed_body_run`) and nothing else;
+/// a frame is checked, parsed and matched to its handler at its '\r'; at its '\n' the response's '#' is
+/// sent first (every frame the device sends starts with it), then the cache lookup (the id, then the
+/// bytes) and the call; the rest of a reply is formed with its CRC in one pass, in place in the cache's
+/// copy. Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its
+/// text in a 72-byte buffer; every response is formed by one function with a 72-byte buffer on the
+/// stack, used for manual requests' and error replies, which leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
 /// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
@@ -234,6 +235,8 @@ class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
+  __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
   void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
   bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
@@ -241,7 +244,9 @@ class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  // Forms the response and sends it; `cached`: into reply_ (the cache's copy), else on the stack. One
+  // function for every response: the inlined formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, bool cached);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
