@@ -148,26 +148,28 @@ constexpr uint8_t RomiSerialReplyCapacity = 72;
 /// cost nothing, instead of one store per member (4 bytes of flash each): romi-bench's static
 /// constructor went from 296 to 186 bytes.
 struct RomiSerialState {
-  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
-  // to requests with an id are written there).
-  uint8_t cached_id_;
-  uint8_t cached_request_size_;
-  uint8_t cached_request_[kMaxDevicePayload];
-  Millis now_;  // when the bytes being handled arrived; after a handler, when its reply went out
-  Error parsed_;  // parse_request's result for request_, then the dispatch check (prepare)
-  const MessageHandler* handler_;  // request_'s handler when parsed_ is no_error (prepare)
-  Millis timeouts_checked_at_;     // `now` of the last handle_timeouts
-  bool prepared_;                  // request_ and parsed_ belong to the frame awaiting '\n'
-  uint8_t reply_[RomiSerialReplyCapacity];
-  uint8_t reply_size_;
-  char opcode_;  // opcode and id of the request being handled ('_' until the first)
-  uint8_t id_;
+  // The small members first: a handler's reply path reaches them through `this` with a displacement,
+  // which the AVR's ldd/std take only up to 63.
   bool in_handler_;
   bool replied_;
   bool manual_;     // the request being handled is manual: its reply is not cached
   bool hash_sent_;  // the '#' of the next frame out left already (receive(), at a frame's end)
-  Deadline frame_deadline_;  // the request being received must end by then (armed at its '#')
+  char opcode_;     // opcode and id of the request being handled ('_' until the first)
+  uint8_t id_;
+  uint8_t reply_size_;
+  bool prepared_;  // request_ and parsed_ belong to the frame awaiting '\n'
+  Error parsed_;   // parse_request's result for request_, then the dispatch check (prepare)
+  const MessageHandler* handler_;  // request_'s handler when parsed_ is no_error (prepare)
+  Millis now_;  // when the bytes being handled arrived; after a handler, when its reply went out
+  Millis timeouts_checked_at_;  // `now` of the last handle_timeouts
+  Deadline frame_deadline_;     // the request being received must end by then (armed at its '#')
   Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
+  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
+  // to requests with an id are written there).
+  uint8_t cached_id_;
+  uint8_t cached_request_size_;
+  uint8_t reply_[RomiSerialReplyCapacity];
+  uint8_t cached_request_[kMaxDevicePayload];
   Request request_;  // the request being handled (its arguments are the handler's `args`)
   DeviceCounters counters_;  // a base's member: constructed before the decoder that counts into it
 };
