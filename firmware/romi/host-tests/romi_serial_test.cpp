@@ -4,7 +4,9 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <deque>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -178,6 +180,27 @@ TEST_F(RomiSerialTest, EveryEnvelopeErrorIsAnsweredWithItsCode) {
   EXPECT_EQ(exchange("#a:xxxx\rX"), response('a', "[-5]", 0));        // no LF after CR
   EXPECT_EQ(exchange("#a:xxyy\r\n"), response('a', "[-7]", 0));       // bad dummy metadata
   EXPECT_EQ(runs, 0);
+}
+
+TEST(DeviceLinkCounters, ConvertToLinkCountersFieldByField) {
+  tether::romi::device::DeviceLinkCounters device;
+  device.frames_ok = 1;
+  device.crc_errors = 2;
+  device.framing_errors = 3;
+  device.oversize_frames = 4;
+  device.resyncs = 5;
+  device.partial_timeouts = 6;
+  device.duplicates = 7;
+  const tether::LinkCounters link = device;
+  EXPECT_EQ(link.frames_ok, 1u);
+  EXPECT_EQ(link.crc_errors, 2u);
+  EXPECT_EQ(link.framing_errors, 3u);
+  EXPECT_EQ(link.oversize_frames, 4u);
+  EXPECT_EQ(link.resyncs, 5u);
+  EXPECT_EQ(link.partial_timeouts, 6u);
+  EXPECT_EQ(link.duplicates, 7u);
+  // What a device never counts stays 0.
+  EXPECT_EQ(link.stale + link.retries + link.timeouts + link.resets + link.failsafes, 0u);
 }
 
 TEST_F(RomiSerialTest, GarbageBeforeTheFrameIsIgnored) {
@@ -556,6 +579,26 @@ TEST(RomiSerialNoClock, WithoutAClockThereIsNoDeadline) {
   device.handle_input();
   device.handle_timeouts(1000000);  // sans-I/O use can still pass its own time
   EXPECT_EQ(streams.take(), response('a', "[-30]", 0));
+}
+
+TEST(RomiSerialFreshState, ADeviceBuiltOverUsedMemoryStartsFresh) {
+  // The device's zero state is its own doing (a value-initialized base), not static storage's zeros: a
+  // device on the stack or in reused memory starts as fresh as a static one.
+  alignas(RomiSerial) unsigned char storage[sizeof(RomiSerial)];
+  std::memset(storage, 0xa5, sizeof storage);
+  StringStreams streams;
+  fake_now = 0;
+  runs = 0;
+  RomiSerial* device = new (storage) RomiSerial(streams, streams, kHandlers, kHandlerCount, fake_clock);
+  EXPECT_FALSE(device->in_handler());
+  EXPECT_EQ(device->counters().executed + device->counters().link.duplicates, 0u);
+  // Not a repeat of anything, not refused as a call from inside a handler: it runs.
+  const std::string first = request("a", 0xa5);
+  streams.input.assign(first.begin(), first.end());
+  device->handle_input();
+  EXPECT_EQ(streams.take(), response('a', "[0]", 0xa5));
+  EXPECT_EQ(runs, 1);
+  device->~RomiSerial();
 }
 
 TEST(RomiSerialNoHandlers, EverythingIsUnknown) {

@@ -26,19 +26,30 @@ ByteView text_view(const char* text) { return ByteView::from_chars(text, text ==
 
 RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
                        ClockFunction clock)
-    : in_(&in),
+    : RomiSerialState(),  // all zero (see there)
+      in_(&in),
       out_(&out),
       handlers_(handlers),
       handler_count_(count),
       clock_(clock),
-      counters_(),
-      decoder_(counters_.link),
-      deadline_(kRequestDeadlineMs, counters_.link) {}
+      decoder_(counters_.link) {
+  opcode_ = '_';
+}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
   prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
+}
+
+inline void RomiSerial::receive_special(uint8_t byte) {
+  if (byte == '\n' && decoder_.awaiting_end()) {
+    // This '\n' completes a frame: the response's '#' (see receive) leaves first, before the call
+    // into the out-of-line path, as the first thing the turnaround does.
+    out_->write('#');
+    hash_sent_ = true;
+  }
+  receive(byte);
 }
 
 void RomiSerial::handle_input() {
@@ -54,15 +65,21 @@ void RomiSerial::handle_input() {
   // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
   // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
   uint8_t batch[16];
-  for (;;) {
-    const uint8_t count = in_->read_some(batch, sizeof(batch));
-    if (count == 0) return;
-    for (uint8_t i = 0; i < count; ++i) {
-      const uint8_t byte = batch[i];
-      if (decoder_.feed_body(byte)) continue;
+  for (uint8_t count = sizeof(batch); count == sizeof(batch);) {
+    // A batch that did not fill up drained the stream (read_some takes every byte waiting up to its
+    // capacity): no second call just to learn that. Bytes arriving meanwhile wait for the next call.
+    count = in_->read_some(batch, sizeof(batch));
+    const uint8_t* next = batch;
+    for (uint8_t left = count; left != 0;) {
+      // A run of body bytes in one tight loop, then the byte that ended it.
+      const uint8_t run = decoder_.feed_body_run(next, left);
+      next += run;
+      left = static_cast<uint8_t>(left - run);
+      if (left == 0) break;
       // After a handler nothing is left to time out (its frame ended the partial-frame deadline, the
       // cache's lifetime starts now): the later bytes of the batch are only dated by its reply (now_).
-      receive(byte);
+      receive_special(*next++);
+      --left;
     }
   }
 }
@@ -73,7 +90,9 @@ void RomiSerial::handle_timeouts(Millis now) {
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
   if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
-  if (!deadline_.poll(now)) return;
+  if (!frame_deadline_.expired(now)) return;
+  frame_deadline_.disarm();
+  ++counters_.link.partial_timeouts;
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
   decoder_.reset();
@@ -84,18 +103,11 @@ void RomiSerial::handle_byte(uint8_t byte, Millis now) {
   if (in_handler_) return;
   now_ = now;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
-  if (!decoder_.feed_body(byte)) receive(byte);
+  if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
 void RomiSerial::receive(uint8_t byte) {
-  if (byte == '#') {
-    deadline_.on_frame_start(now_);
-  } else if (byte == '\n' && decoder_.awaiting_end()) {
-    // This '\n' completes a frame: the response's '#' (see below) leaves before the decoder's
-    // bookkeeping, as the first thing the turnaround does.
-    out_->write('#');
-    hash_sent_ = true;
-  }
+  if (byte == '#') frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -103,7 +115,7 @@ void RomiSerial::receive(uint8_t byte) {
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
     return;
   }
-  deadline_.on_frame_end();
+  frame_deadline_.disarm();
   // A frame or an error: a response follows, and every frame the device sends (the response, or a
   // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
   // parse checks and the handler: the turnaround is this path, not the handler's.
@@ -259,26 +271,25 @@ void RomiSerial::log(const char* text) {
   write(ByteView::from_literal(":xxxx\r\n"));
 }
 
-uint8_t RomiSerial::emit(char opcode, uint8_t id, ByteView body, MutableByteView frame) {
-  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
-  // byte time, ~1500 cycles at 115200) while the rest is formed in `frame`, which then follows it.
-  start_frame();
-  const uint8_t size = static_cast<uint8_t>(encode_response(opcode, body, id, frame).value());
-  write(ByteView(frame.data() + 1, size - 1u));
-  return size;
-}
-
 void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
   if (body.size() + kResponseOverhead > sizeof(reply_)) {
     ++counters_.replies_too_long;
     body = ByteView::from_literal("[-31]");
   }
-  if (!manual_) {
-    reply_size_ = emit(opcode, id, body, MutableByteView(reply_));  // the cache's copy
-    return;
-  }
-  uint8_t frame[kReplyCapacity];  // manual requests are not cached: reply_ keeps the cached reply
-  emit(opcode, id, body, MutableByteView(frame));
+  send_frame(opcode, id, body, !manual_);
+}
+
+void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, bool cached) {
+  // A handler's reply to a request with an id is formed in place in the cache's copy; any other
+  // (manual requests, protocol errors) on the stack, leaving the cached reply alone. The frame's
+  // first byte leaves at once (if receive() has not sent it already): the UART sends it (a byte time,
+  // ~1400 cycles at 115200) while the rest is formed, which then follows it.
+  uint8_t uncached[kReplyCapacity];
+  uint8_t* const frame = cached ? reply_ : uncached;
+  start_frame();
+  const uint8_t size = form_response(opcode, body.data(), static_cast<uint8_t>(body.size()), id, frame);
+  if (cached) reply_size_ = size;
+  write(ByteView(frame + 1, size - 1u));
 }
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
@@ -298,8 +309,7 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   }
   body[size++] = static_cast<uint8_t>('0' + magnitude);
   body[size++] = ']';
-  uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
-  emit(opcode, id, ByteView(body, size), MutableByteView(frame));
+  send_frame(opcode, id, ByteView(body, size), false);
 }
 
 void RomiSerial::start_frame() {

@@ -45,15 +45,17 @@ struct Frame {
   char opcode = '_';    ///< First payload character of a non-log frame, or '_' when there was none.
 };
 
-/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`.
-template <size_t Capacity>
+/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`. `Counters` is where it
+/// counts: `LinkCounters`, or any struct with its fields frames_ok, crc_errors, framing_errors,
+/// oversize_frames and resyncs (a device keeps only the counters it uses: RAM is scarce there).
+template <size_t Capacity, typename Counters = LinkCounters>
 class Decoder {
   static_assert(Capacity >= 8, "a frame needs room for an opcode and its metadata");
 
  public:
   /// Decoder counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames,
   /// resyncs); `counters` must outlive it.
-  explicit Decoder(LinkCounters& counters) : counters_(&counters) {}
+  explicit Decoder(Counters& counters) : counters_(&counters) {}
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte);
@@ -61,6 +63,10 @@ class Decoder {
   /// case: stored, status `more`, nothing else happens); false, consuming nothing, for any other byte,
   /// which the caller then gives to `feed_special`. Small enough to inline into a device's byte loop.
   bool feed_body(uint8_t byte);
+  /// Consumes the ordinary body bytes at the start of `bytes[0..count)` exactly as `feed_body` would one
+  /// by one, and returns how many (0 when the first is not one, or no frame is open); the byte after them
+  /// goes to `feed_special`. A device's byte loop: the frame's position stays in a register for the run.
+  uint8_t feed_body_run(const uint8_t* bytes, uint8_t count);
   /// Consumes a byte `feed_body` refused (frame start and end, errors, bytes outside frames). Out of
   /// line: the rare cases must not weigh on the inlined per-byte path.
   __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);
@@ -101,7 +107,7 @@ class Decoder {
   __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
   __attribute__((noinline)) DecodeStatus fail(Error error);
 
-  LinkCounters* counters_;
+  Counters* counters_;
   State state_ = State::idle;
   Error error_ = Error::no_error;
   uint8_t buffer_[Capacity];

@@ -17,8 +17,8 @@ __attribute__((always_inline)) inline int8_t hex_value(uint8_t c) {
 
 }  // namespace detail
 
-template <size_t Capacity>
-__attribute__((always_inline)) inline bool Decoder<Capacity>::feed_body(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline bool Decoder<Capacity, Counters>::feed_body(uint8_t byte) {
   // The common case, a byte inside a frame's body, stays small enough to inline into the caller's byte
   // loop without a stack frame; everything else (frame start and end, errors) is out of line.
   const Index size = size_;
@@ -32,18 +32,42 @@ __attribute__((always_inline)) inline bool Decoder<Capacity>::feed_body(uint8_t 
   return true;
 }
 
-template <size_t Capacity>
-__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline uint8_t Decoder<Capacity, Counters>::feed_body_run(const uint8_t* bytes, uint8_t count) {
+  if (state_ != State::body) return 0;
+  const Index size = size_;
+  const Index room = static_cast<Index>(Capacity - size);  // a full buffer ends the run: feed_special says -1
+  uint8_t left = count < room ? count : static_cast<uint8_t>(room);
+  const uint8_t* in = bytes;
+  uint8_t* out = buffer_ + size;
+  for (; left != 0; --left) {
+    const uint8_t byte = *in;
+    // One compare for the usual bytes: every special one is at most '#' (0x23).
+    if (byte <= '#' && (byte == '#' || byte == '\r' || byte == '\n')) break;
+    if (byte == ':') {
+      seen_colon_ = true;
+      last_colon_ = static_cast<Index>(out - buffer_);
+    }
+    *out++ = byte;
+    ++in;
+  }
+  const uint8_t used = static_cast<uint8_t>(in - bytes);
+  size_ = static_cast<Index>(size + used);
+  return used;
+}
+
+template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity, Counters>::feed(uint8_t byte) {
   return feed_body(byte) ? DecodeStatus::more : feed_special(byte);
 }
 
-template <size_t Capacity>
-char Decoder<Capacity>::partial_opcode() const {
+template <size_t Capacity, typename Counters>
+char Decoder<Capacity, Counters>::partial_opcode() const {
   return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::feed_special(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
   if (byte == '#') {
     // A new frame starts anywhere; whatever came before it is dropped.
     if (state_ == State::body || state_ == State::expect_lf || skipping_) ++counters_->resyncs;
@@ -85,8 +109,8 @@ DecodeStatus Decoder<Capacity>::feed_special(uint8_t byte) {
   return DecodeStatus::more;
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
   if (!seen_colon_) return fail(Error::missing_metadata);
   const uint8_t* meta = buffer_ + last_colon_ + 1;
   const Index meta_size = static_cast<Index>(size_ - last_colon_ - 1);
@@ -125,8 +149,8 @@ DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
   return DecodeStatus::more;
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::fail(Error error) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::fail(Error error) {
   error_ = error;
   // What was parsed: the id only when its two digits were valid (frame_.has_id), never a manual flag.
   const bool has_id = frame_.has_id;

@@ -41,25 +41,33 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 386 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 360 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
 /// compile time:
-///   - request buffer: 76 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
-///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
+///   - request buffer: 81 bytes (the decoder), of which `kDeviceDecoderCapacity` = 63 hold the frame
+///     between '#' and '\r' (58 payload characters, ':', 4 metadata characters: every request a
+///     reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
 ///     to requests with an id are formed there;
 ///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
 ///     CRC-16 of the payload in 2 bytes was cheaper in RAM, but two requests can share it);
-///   - counters: 68 bytes; pointers, deadlines, the clock's last reading and state: ~47 bytes.
+///   - counters: 48 bytes (12, each 32-bit: `DeviceCounters`); pointers, the two deadlines, the clock's
+///     last reading and state: 38 bytes.
+/// The floor, for what this class promises: the frame being received (63), the key of the last one
+/// that ran (58 + id + size) and its reply (65 of the 72 at least: a reference host accepts 65-byte
+/// replies) must all be held at once, because a damaged copy of a re-sent request may arrive between
+/// the reply and the good copy (exactly-once then needs the key intact: a key overwritten in place by
+/// a diverging frame would run the good copy twice) = 188 bytes, plus the 48 bytes of 32-bit counters.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
-/// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
-/// decoder's inline path only; a frame is checked, parsed and matched to its handler at its '\r'; at its
-/// '\n' the response's '#' is sent first (every frame the device sends starts with it), then the cache
-/// lookup (the id, then the bytes) and the call; the rest of a reply is formed with its CRC in one pass.
-/// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
-/// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
-/// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
+/// moved. Bytes are read in batches (`IInputStream::read_some`; a batch short of 16 ends the call); the
+/// body bytes of a frame go through the decoder's run loop (`Decoder::feed_body_run`) and nothing else;
+/// a frame is checked, parsed and matched to its handler at its '\r'; at its '\n' the response's '#' is
+/// sent first (every frame the device sends starts with it), then the cache lookup (the id, then the
+/// bytes) and the call; the rest of a reply is formed with its CRC in one pass, in place in the cache's
+/// copy. Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its
+/// text in a 72-byte buffer; every response is formed by one function with a 72-byte buffer on the
+/// stack, used for manual requests' and error replies, which leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
 /// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
@@ -69,7 +77,6 @@
 
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
-#include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/romi/device/handler.hpp"
 #include "tether/romi/device/streams.hpp"
@@ -90,13 +97,36 @@ typedef uint32_t (*ClockFunction)();
 /// Other platforms (host tests) pass their own clock to `RomiSerial` and do not link either.
 uint32_t default_clock();
 
+/// The link counters a device keeps: those of `LinkCounters` it increments, under the same names and
+/// with the same meaning (the other five stay 0 on a device: 28 bytes of RAM instead of 48). Counters
+/// only grow (wrap at 2^32). Converts to `LinkCounters` for code that reads every codec the same way.
+struct DeviceLinkCounters {
+  uint32_t frames_ok = 0;         ///< Well-formed request frames.
+  uint32_t crc_errors = 0;        ///< Frames answered -4 (CRC mismatch).
+  uint32_t framing_errors = 0;    ///< Frames answered -2, -3, -5, -6, -7.
+  uint32_t oversize_frames = 0;   ///< Frames answered -1 (too long).
+  uint32_t resyncs = 0;           ///< Garbage or a half frame skipped.
+  uint32_t partial_timeouts = 0;  ///< Requests dropped at their deadline (answered -30).
+  uint32_t duplicates = 0;        ///< Repeats answered from the reply cache.
+
+  /// These counters as `LinkCounters` (the fields a device does not count are 0).
+  operator LinkCounters() const {
+    LinkCounters link;
+    link.frames_ok = frames_ok;
+    link.crc_errors = crc_errors;
+    link.framing_errors = framing_errors;
+    link.oversize_frames = oversize_frames;
+    link.resyncs = resyncs;
+    link.partial_timeouts = partial_timeouts;
+    link.duplicates = duplicates;
+    return link;
+  }
+};
+
 /// Diagnostics of one device. Counters only grow (wrap at 2^32). Plain data: copy it for a snapshot.
 struct DeviceCounters {
-  /// Link counters shared with every Tether codec. Used here: frames_ok (well-formed request frames),
-  /// crc_errors (-4), framing_errors (-2, -3, -5, -6, -7), oversize_frames (-1), resyncs (garbage or a
-  /// half frame skipped), partial_timeouts (requests dropped with -30), duplicates (repeats answered
-  /// from the cache).
-  LinkCounters link;
+  /// Link counters, named as in every Tether codec's `LinkCounters`.
+  DeviceLinkCounters link;
   /// Handlers run (each at most once per request).
   uint32_t executed = 0;
   /// Error responses the device built itself: -1..-14, -16..-19, -30 (not -20/-31, counted below).
@@ -109,14 +139,51 @@ struct DeviceCounters {
   uint32_t replies_too_long = 0;
 };
 
+namespace detail {
+/// `RomiSerial::kReplyCapacity` (the state below needs it before the class).
+constexpr uint8_t RomiSerialReplyCapacity = 72;
+
+/// The part of a `RomiSerial`'s state that starts as all zero bytes ('_' in `opcode_` apart). The device
+/// value-initializes it, so it is zero-filled in one loop: on the AVR the members' own initializers then
+/// cost nothing, instead of one store per member (4 bytes of flash each): romi-bench's static
+/// constructor went from 296 to 190 bytes.
+struct RomiSerialState {
+  // The small members first: a handler's reply path reaches them through `this` with a displacement,
+  // which the AVR's ldd/std take only up to 63.
+  bool in_handler_;
+  bool replied_;
+  bool manual_;     // the request being handled is manual: its reply is not cached
+  bool hash_sent_;  // the '#' of the next frame out left already (receive(), at a frame's end)
+  char opcode_;     // opcode and id of the request being handled ('_' until the first)
+  uint8_t id_;
+  uint8_t reply_size_;
+  bool prepared_;  // request_ and parsed_ belong to the frame awaiting '\n'
+  Error parsed_;   // parse_request's result for request_, then the dispatch check (prepare)
+  const MessageHandler* handler_;  // request_'s handler when parsed_ is no_error (prepare)
+  Millis now_;  // when the bytes being handled arrived; after a handler, when its reply went out
+  Millis timeouts_checked_at_;  // `now` of the last handle_timeouts
+  Deadline frame_deadline_;     // the request being received must end by then (armed at its '#')
+  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
+  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
+  // to requests with an id are written there).
+  uint8_t cached_id_;
+  uint8_t cached_request_size_;
+  uint8_t reply_[RomiSerialReplyCapacity];
+  uint8_t cached_request_[kMaxDevicePayload];
+  Request request_;  // the request being handled (its arguments are the handler's `args`)
+  DeviceCounters counters_;  // a base's member: constructed before the decoder that counts into it
+};
+
+}  // namespace detail
+
 /// A Romi device: decodes requests from an input stream, dispatches them to a handler table and writes
 /// the responses to an output stream. See the file comment for the behaviour, handler.hpp for handlers.
 /// Not copyable. Not reentrant: use it from the main loop only (never from an interrupt handler).
-class RomiSerial final : public IRomiSerial {
+class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
  public:
   /// Largest response frame, '#' to '\n'. 72 >= 65, the longest response a reference host accepts
   /// (57 characters between '#' and ':'); e.g. `[0,` + eleven 5-digit values fits. Longer ones: -31.
-  static constexpr uint8_t kReplyCapacity = 72;
+  static constexpr uint8_t kReplyCapacity = detail::RomiSerialReplyCapacity;
   /// Time from a request's '#' to its '\n' before it is dropped with -30 (the spec's 1 s).
   static constexpr Duration kRequestDeadlineMs = kControllerDeadlineMs;
   /// How long after it was sent a reply answers a repeat of its request: the host's call budget (2 s),
@@ -170,6 +237,8 @@ class RomiSerial final : public IRomiSerial {
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
+  __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
   void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
   bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
@@ -177,7 +246,9 @@ class RomiSerial final : public IRomiSerial {
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  // Forms the response and sends it; `cached`: into reply_ (the cache's copy), else on the stack. One
+  // function for every response: the inlined formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, bool cached);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
@@ -186,29 +257,7 @@ class RomiSerial final : public IRomiSerial {
   const MessageHandler* handlers_;
   uint8_t handler_count_;
   ClockFunction clock_;
-  DeviceCounters counters_;  // before the members that count into it
-  Decoder<kDeviceDecoderCapacity> decoder_;
-  session::PartialFrameDeadline deadline_;
-  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
-  // to requests with an id are written there).
-  uint8_t cached_id_ = 0;
-  uint8_t cached_request_size_ = 0;
-  uint8_t cached_request_[kMaxDevicePayload];
-  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
-  Millis now_ = 0;  // when the bytes being handled arrived; after a handler, when its reply went out
-  Request request_;  // the request being handled (its arguments are the handler's `args`)
-  Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
-  const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
-  Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
-  bool prepared_ = false;           // request_ and parsed_ belong to the frame awaiting '\n'
-  uint8_t reply_[kReplyCapacity];
-  uint8_t reply_size_ = 0;
-  char opcode_ = '_';          // opcode and id of the request being handled
-  uint8_t id_ = 0;
-  bool in_handler_ = false;
-  bool replied_ = false;
-  bool manual_ = false;        // the request being handled is manual: its reply is not cached
-  bool hash_sent_ = false;     // the '#' of the next frame out left already (receive(), at a frame's end)
+  Decoder<kDeviceDecoderCapacity, DeviceLinkCounters> decoder_;
 };
 
 }  // namespace device
