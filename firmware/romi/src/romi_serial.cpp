@@ -26,13 +26,15 @@ ByteView text_view(const char* text) { return ByteView::from_chars(text, text ==
 
 RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
                        ClockFunction clock)
-    : in_(&in),
+    : RomiSerialState(),  // all zero (see there)
+      in_(&in),
       out_(&out),
       handlers_(handlers),
       handler_count_(count),
       clock_(clock),
-      counters_(),
-      decoder_(counters_.link) {}
+      decoder_(counters_.link) {
+  opcode_ = '_';
+}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
