@@ -276,19 +276,24 @@ void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
     ++counters_.replies_too_long;
     body = ByteView::from_literal("[-31]");
   }
-  send_frame(opcode, id, body, !manual_);
+  if (manual_) {
+    send_uncached(opcode, id, body);
+    return;
+  }
+  send_frame(opcode, id, body, reply_);  // a handler's reply to a request with an id: the cache's copy
 }
 
-void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, bool cached) {
-  // A handler's reply to a request with an id is formed in place in the cache's copy; any other
-  // (manual requests, protocol errors) on the stack, leaving the cached reply alone. The frame's
-  // first byte leaves at once (if receive() has not sent it already): the UART sends it (a byte time,
-  // ~1400 cycles at 115200) while the rest is formed, which then follows it.
-  uint8_t uncached[kReplyCapacity];
-  uint8_t* const frame = cached ? reply_ : uncached;
+void RomiSerial::send_uncached(char opcode, uint8_t id, ByteView body) {
+  uint8_t frame[kReplyCapacity];  // manual requests are not cached: reply_ keeps the cached reply
+  send_frame(opcode, id, body, frame);
+}
+
+void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
+  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
+  // byte time, ~1400 cycles at 115200) while the rest is formed, which then follows it.
   start_frame();
   const uint8_t size = form_response(opcode, body.data(), static_cast<uint8_t>(body.size()), id, frame);
-  if (cached) reply_size_ = size;
+  if (frame == reply_) reply_size_ = size;
   write(ByteView(frame + 1, size - 1u));
 }
 
@@ -309,7 +314,8 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   }
   body[size++] = static_cast<uint8_t>('0' + magnitude);
   body[size++] = ']';
-  send_frame(opcode, id, ByteView(body, size), false);
+  uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
+  send_frame(opcode, id, ByteView(body, size), frame);
 }
 
 void RomiSerial::start_frame() {

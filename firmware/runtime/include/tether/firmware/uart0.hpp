@@ -169,17 +169,6 @@ class Uart0 {
   /// Queues `byte` if there is room; false (nothing queued) when the TX ring is full. Never waits.
   static bool try_write(uint8_t byte) {
     const uint8_t head = tx_.head;
-    if (head == tx_.tail && (UCSR0B & _BV(UDRIE0)) == 0) {
-      // The transmitter is idle (UDRIE0 off: the UDRE interrupt found nothing to send, so UDR0 is
-      // empty): the byte goes straight to UDR0, without waiting for the interrupt. A request's
-      // answer starts on the wire ~60 cycles sooner. UDRIE0 on again: the interrupt that follows
-      // sends what was queued meanwhile, or finds the ring empty and turns itself off.
-      UDR0 = byte;
-      clear_tx_complete();
-      written_ = true;
-      UCSR0B = static_cast<uint8_t>(UCSR0B | _BV(UDRIE0));  // nothing else changes UCSR0B while UDRIE0 is off
-      return true;
-    }
     if (static_cast<uint8_t>(head - tx_.tail) == ByteRing<TxSize>::kCapacity) return false;
     tx_.bytes[head & ByteRing<TxSize>::kMask] = byte;
     compiler_barrier();  // the byte must be in its slot before the ISR can see the new head
@@ -210,6 +199,22 @@ class Uart0 {
   /// enabled, polls the transmitter with interrupts disabled).
   static void write(uint8_t byte) {
     while (!try_write(byte)) wait_for_space();
+  }
+
+  /// As `write(byte)`, but when nothing is queued and the transmitter is idle (UDRIE0 off, UDR0 empty)
+  /// the byte goes straight to UDR0, ~60 cycles sooner than through the ring and the UDRE interrupt:
+  /// for the first byte of an answer (a Romi device's turnaround). Reads UCSR0A only when the ring is
+  /// empty: simavr slows down (usleep) on UCSR0A reads made while RXC0 and TXC0 are both clear, which is
+  /// rare here (after a pause TXC0 is set) but would be per byte in a writer of single bytes.
+  static void write_now(uint8_t byte) {
+    if (tx_.head == tx_.tail && (UCSR0B & _BV(UDRIE0)) == 0 && (UCSR0A & _BV(UDRE0)) != 0) {
+      // UDRIE0 off: the UDRE interrupt cannot run, so nothing else touches UDR0 until this returns.
+      UDR0 = byte;
+      clear_tx_complete();
+      written_ = true;
+      return;
+    }
+    write(byte);
   }
 
   /// Queues every byte of `bytes`, waiting for room as `write(uint8_t)` does.
@@ -263,17 +268,15 @@ class Uart0 {
     rx_.head = static_cast<uint8_t>(head + 1u);
   }
 
-  /// USART_UDRE_vect body: moves the next queued byte to UDR0; disables itself when it finds the ring
-  /// empty. Only then: UDRIE0 off means UDR0 is empty, which lets `try_write` bypass the ring.
+  /// USART_UDRE_vect body: moves the next queued byte to UDR0; disables itself when the ring is empty.
   __attribute__((always_inline)) static void on_udre_interrupt() {
     const uint8_t tail = tx_.tail;
     if (tx_.head != tail) {
       UDR0 = tx_.bytes[tail & ByteRing<TxSize>::kMask];
       clear_tx_complete();
       tx_.tail = static_cast<uint8_t>(tail + 1u);
-    } else {
-      UCSR0B = static_cast<uint8_t>(UCSR0B & ~_BV(UDRIE0));
     }
+    if (tx_.head == tx_.tail) UCSR0B = static_cast<uint8_t>(UCSR0B & ~_BV(UDRIE0));
   }
 
   /// Declared here, defined (for this exact type) only by TETHER_UART0_ISRS: see the file comment.

@@ -66,8 +66,8 @@
 /// sent first (every frame the device sends starts with it), then the cache lookup (the id, then the
 /// bytes) and the call; the rest of a reply is formed with its CRC in one pass, in place in the cache's
 /// copy. Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its
-/// text in a 72-byte buffer; every response is formed by one function with a 72-byte buffer on the
-/// stack, used for manual requests' and error replies, which leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
+/// text in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and
+/// 14 bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
 /// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
@@ -246,9 +246,12 @@ class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  // Forms the response and sends it; `cached`: into reply_ (the cache's copy), else on the stack. One
-  // function for every response: the inlined formatter is linked once.
-  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, bool cached);
+  // A reply that must not touch the cache (manual requests), formed on the stack: out of line, so its
+  // 72-byte buffer stays off the common path.
+  __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
+  // Forms the response into `frame` (reply_, the cache's copy, or a caller's buffer with room for body +
+  // kResponseOverhead) and sends it. One function for every response: the inlined formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
