@@ -38,6 +38,40 @@ __attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8
 }
 
 template <size_t Capacity>
+FeedResult Decoder<Capacity>::feed(ByteView bytes) {
+  const uint8_t* const begin = bytes.data();
+  const uint8_t* const end = begin + bytes.size();
+  const uint8_t* next = begin;
+  while (next != end) {
+    if (state_ == State::body) {
+      // What feed_body does with each byte, up to the first one it would refuse (frame start or end) or
+      // the buffer's end; that byte goes through feed(byte) below, with the members in step.
+      size_t size = size_;
+      const size_t room = Capacity - size;
+      const uint8_t* const stop = static_cast<size_t>(end - next) > room ? next + room : end;
+      size_t colon = last_colon_;
+      bool seen_colon = seen_colon_;
+      for (; next != stop; ++next) {
+        const uint8_t byte = *next;
+        if (byte == '#' || byte == '\r' || byte == '\n') break;
+        if (byte == ':') {
+          seen_colon = true;
+          colon = size;
+        }
+        buffer_[size++] = byte;
+      }
+      size_ = static_cast<Index>(size);
+      last_colon_ = static_cast<Index>(colon);
+      seen_colon_ = seen_colon;
+      if (next == end) break;
+    }
+    const DecodeStatus status = feed(*next++);
+    if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(next - begin)};
+  }
+  return FeedResult{DecodeStatus::more, bytes.size()};
+}
+
+template <size_t Capacity>
 char Decoder<Capacity>::partial_opcode() const {
   return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
 }
