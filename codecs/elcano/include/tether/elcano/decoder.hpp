@@ -33,8 +33,25 @@
 #include "tether/elcano/errors.hpp"
 #include "tether/elcano/message.hpp"
 
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#endif
+
 namespace tether {
 namespace elcano {
+namespace detail {
+
+/// kFieldOffsets: marks the letters that name a field in generation D only (`p` E alone, `o`, `q`).
+constexpr uint8_t kGenerationDOnly = 0x80;
+/// The attribute letters' fields, by `letter - 'a'`: offsetof(Message, field), kGenerationDOnly added for
+/// the generation D letters; 0 for letters that name no field (src/message.cpp; in flash on the AVR).
+#if defined(__AVR__)
+extern const uint8_t kFieldOffsets[26] PROGMEM;
+#else
+extern const uint8_t kFieldOffsets[26];
+#endif
+
+}  // namespace detail
 
 /// Decoder for one generation, keeping at most `Capacity` bytes of a message.
 template <size_t Capacity = 96>
@@ -131,20 +148,18 @@ class Decoder {
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
   // `type` is there); 0 for unknown letters and for generation B `p`, which sets two fields
   // (store_value). An offset, not a member pointer: a null one is all ones, which would move every
-  // decoder from .bss to .data (flash and a boot copy on the AVR).
-  uint8_t field_of(uint8_t letter) const {
-    const bool d = generation_ == Generation::d;
-    switch (letter) {
-      case 'n': return offsetof(Message, number);
-      case 's': return offsetof(Message, speed);
-      case 'a': return offsetof(Message, angle);
-      case 'b': return offsetof(Message, bearing);
-      case 'r': return offsetof(Message, probability);
-      case 'p': return d ? offsetof(Message, east) : 0;
-      case 'o': return d ? offsetof(Message, obstacle) : 0;
-      case 'q': return d ? offsetof(Message, north) : 0;
-      default: return 0;
-    }
+  // decoder from .bss to .data (flash and a boot copy on the AVR). A table lookup, inline: a switch was
+  // a jump table behind a call, and the call made feed(bytes)'s loop keep its values on the stack.
+  __attribute__((always_inline)) uint8_t field_of(uint8_t letter) const {
+    const uint8_t index = static_cast<uint8_t>(letter - 'a');
+    if (index >= sizeof detail::kFieldOffsets) return 0;
+#if defined(__AVR__)
+    const uint8_t entry = pgm_read_byte(&detail::kFieldOffsets[index]);
+#else
+    const uint8_t entry = detail::kFieldOffsets[index];
+#endif
+    if ((entry & detail::kGenerationDOnly) == 0) return entry;
+    return generation_ == Generation::d ? static_cast<uint8_t>(entry & ~detail::kGenerationDOnly) : 0;
   }
   // The int32 field of `message_` at `offset` (from field_of).
   int32_t* field(uint8_t offset) {
@@ -161,7 +176,11 @@ class Decoder {
     state_ = State::number;
   }
   DecodeStatus step(uint8_t byte);
+  // A message starts at `header` (kept), from step(); open() is the part run() inlines (state aside).
   void start(uint8_t header);
+  void open(uint8_t header);
+  // The signed number read so far (`small` while it has at most 4 digits, then value_).
+  int32_t value_of(uint8_t digits, uint16_t small) const;
   DecodeStatus fail(Error error);
   DecodeStatus finish();
   bool keep(uint8_t byte);
