@@ -166,16 +166,7 @@ bool type_from_name(ByteView name, Type& type) {
   return false;
 }
 
-bool has_required_fields(const Message& m) {
-  const bool position = set(m.east) && set(m.north);
-  switch (m.type) {
-    case Type::drive: return set(m.speed) && set(m.angle);
-    case Type::sensor: return set(m.speed) && set(m.angle) && position && set(m.bearing);
-    case Type::goal: return set(m.number) && position && set(m.bearing);
-    case Type::segment: return set(m.number) && position && set(m.bearing) && set(m.speed);
-  }
-  return false;
-}
+bool has_required_fields(const Message& m) { return detail::required_fields_set(m); }
 
 Result<size_t> encode_message(const Message& m, Generation generation, MutableByteView out) {
   if (!has_required_fields(m)) return Status::invalid_argument;

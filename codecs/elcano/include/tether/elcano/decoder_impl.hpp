@@ -270,7 +270,7 @@ DecodeStatus Decoder<Capacity>::finish() {
     if (!trailer_digits_) return fail(Error::bad_crc);
     if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(Error::bad_crc);
   }
-  if (!has_required_fields(message_)) return fail(Error::inval_comb);
+  if (!detail::required_fields_set(message_)) return fail(Error::inval_comb);
   if (!keep('\n')) return fail(Error::too_long);
   ++counters_->frames_ok;
   state_ = State::header;
