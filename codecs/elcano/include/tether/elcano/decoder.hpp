@@ -141,8 +141,13 @@ class Decoder {
   static constexpr uint8_t kSafeDigits = 9;
 
   DecodeStatus feed_slow(uint8_t byte);
-  // feed(bytes)'s loop over the bytes inside attributes; returns the first byte it did not take.
-  const uint8_t* run(const uint8_t* next, const uint8_t* end);
+  // Where feed(bytes)'s run stopped: the first byte it did not take, or just after a message it completed.
+  struct RunEnd {
+    const uint8_t* next;
+    bool frame;
+  };
+  // feed(bytes)'s loop over the bytes of a message (see there).
+  RunEnd run(const uint8_t* next, const uint8_t* end);
   // feed(bytes) on the bytes run() leaves: feed(byte) out of line (the run keeps its registers).
   DecodeStatus feed_outside_run(uint8_t byte);
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:

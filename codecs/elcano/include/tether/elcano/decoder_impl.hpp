@@ -16,7 +16,9 @@ __attribute__((noinline)) FeedResult Decoder<Capacity>::feed(ByteView bytes) {
   const uint8_t* const end = begin + bytes.size();
   const uint8_t* next = begin;
   while (next != end) {
-    next = run(next, end);
+    const RunEnd ran = run(next, end);
+    next = ran.next;
+    if (ran.frame) return FeedResult{DecodeStatus::frame, static_cast<size_t>(next - begin)};
     if (next == end) break;
     const uint8_t byte = *next++;
     // The line end of a message goes straight to finish(): what feed(byte) does with it in these states
@@ -35,7 +37,8 @@ __attribute__((noinline)) DecodeStatus Decoder<Capacity>::feed_outside_run(uint8
 }
 
 template <size_t Capacity>
-__attribute__((noinline)) const uint8_t* Decoder<Capacity>::run(const uint8_t* next, const uint8_t* end) {
+__attribute__((noinline)) typename Decoder<Capacity>::RunEnd Decoder<Capacity>::run(const uint8_t* next,
+                                                                                   const uint8_t* end) {
   // Exactly what feed(byte) does with these bytes, as straight-line code: where the code is says which
   // state the message is in (a label per state), the write cursor, the number and its digit count live in
   // registers, and the members are written back once, when the run stops (issue 17: a state variable
@@ -61,9 +64,9 @@ __attribute__((noinline)) const uint8_t* Decoder<Capacity>::run(const uint8_t* n
     case State::letter: goto letter;
     case State::number: goto number;
     case State::trailer: goto trailer;
-    case State::skip: return next;  // feed(byte)'s
+    case State::skip: return RunEnd{next, false};  // feed(byte)'s
   }
-  return next;
+  return RunEnd{next, false};
 
 header:
   if (next == end) goto stop_header;
@@ -88,6 +91,16 @@ lcurly:
   if (byte == ' ') {
     ++next;
     goto lcurly;
+  }
+  if (byte == '\n' && generation_ == Generation::b && detail::required_fields_set(message_)) {
+    // A generation B message is complete: what finish() does then, here. The '\n' fits: the run keeps
+    // at most one byte per byte and stops at the room left, so a byte it reads has room.
+    *out++ = byte;
+    ++next;
+    ++counters_->frames_ok;
+    state_ = State::header;
+    size_ = static_cast<size_t>(out - buffer_);
+    return RunEnd{next, true};
   }
   if (generation_ != Generation::d || static_cast<uint8_t>(byte - '0') >= 10 || out == buffer_ + 1) {
     goto stop_lcurly;
@@ -201,7 +214,7 @@ stop:
   digits_ = digits;
   if (digits <= 4) value_ = small;
   size_ = static_cast<size_t>(out - buffer_);
-  return next;
+  return RunEnd{next, false};
 }
 
 template <size_t Capacity>
