@@ -148,6 +148,8 @@ class Decoder {
   };
   // feed(bytes)'s loop over the bytes of a message (see there).
   RunEnd run(const uint8_t* next, const uint8_t* end);
+  // feed(bytes) from `next`, a byte its run did not take, to the next event or the end of `bytes`.
+  FeedResult feed_after_run(ByteView bytes, const uint8_t* next);
   // feed(bytes) on the bytes run() leaves: feed(byte) out of line (the run keeps its registers).
   DecodeStatus feed_outside_run(uint8_t byte);
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
