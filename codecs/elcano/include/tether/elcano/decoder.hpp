@@ -107,7 +107,7 @@ class Decoder {
         const uint8_t field = field_of(byte);
         if (field != 0) {
           buffer_[size_++] = byte;
-          begin_number(byte, field);
+          begin_number(field);
           return DecodeStatus::more;
         }
       }
@@ -172,9 +172,8 @@ class Decoder {
   int32_t* field(uint8_t offset) {
     return reinterpret_cast<int32_t*>(reinterpret_cast<uint8_t*>(&message_) + offset);
   }
-  // After an attribute's letter (already kept): its number starts.
-  void begin_number(uint8_t letter, uint8_t field) {
-    letter_ = static_cast<char>(letter);
+  // After an attribute's letter (already kept): its number starts, for `field` (field_of the letter).
+  void begin_number(uint8_t field) {
     field_ = field;
     second_ = false;
     negative_ = false;
@@ -199,10 +198,9 @@ class Decoder {
   State state_ = State::header;
   Generation generation_;
   uint8_t digits_ = 0;     // digits of the number so far (saturates at 255)
-  uint8_t field_ = 0;      // what `}` sets: field_of(letter_)
+  uint8_t field_ = 0;      // what `}` sets: field_of(letter); 0 only for generation B `p` (E,N)
   size_t size_ = 0;
   uint32_t value_ = 0;     // magnitude, at most 2^31 (32-bit: the AVR has no cheap 64-bit multiply)
-  char letter_ = 0;
   bool second_ = false;    // generation B `p`: reading N after the comma
   bool negative_ = false;
   bool trailer_digits_ = false;
