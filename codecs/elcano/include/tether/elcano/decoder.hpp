@@ -185,8 +185,8 @@ class Decoder {
   // A message starts at `header` (kept), from step(); open() is the part run() inlines (state aside).
   void start(uint8_t header);
   void open(uint8_t header);
-  // The signed number read so far (`small` while it has at most 4 digits, then value_).
-  int32_t value_of(uint8_t digits, uint16_t small) const;
+  // The number read so far, `negative` or not (`small` while it has at most 4 digits, then value_).
+  int32_t value_of(uint8_t digits, uint16_t small, bool negative) const;
   DecodeStatus fail(Error error);
   DecodeStatus finish();
   bool keep(uint8_t byte);

@@ -75,7 +75,8 @@ __attribute__((TETHER_ELCANO_RUN_OPTIMIZE noinline)) typename Decoder<Capacity>:
   uint8_t* out = buffer_ + size_;
   uint8_t byte = 0;
   uint8_t digit = 0;
-  uint8_t offset = 0;
+  uint8_t offset = field_;
+  bool negative = negative_;
   uint8_t digits = digits_;
   uint16_t small = static_cast<uint16_t>(value_);  // the number while it has at most 4 digits
   int32_t number = 0;
@@ -155,9 +156,8 @@ letter:
   if (offset == 0 && (byte != 'p' || generation_ != Generation::b)) goto stop_letter;
   *out++ = byte;
   ++next;
-  field_ = offset;
   second_ = false;
-  negative_ = false;
+  negative = false;
   digits = 0;
   small = 0;
 
@@ -183,9 +183,9 @@ number:
   }
   if (byte == '}') {
     if (digits == 0) goto stop_number;
-    number = value_of(digits, small);
-    if (field_ != 0) {
-      *field(field_) = number;
+    number = value_of(digits, small, negative);
+    if (offset != 0) {
+      *field(offset) = number;
     } else if (second_) {  // generation B `p E,N` (field_of has no single field for it)
       message_.east = first_;
       message_.north = number;
@@ -200,13 +200,13 @@ number:
     ++next;
     goto number;
   }
-  if (byte == '-' && digits == 0 && !negative_) {
-    negative_ = true;
-  } else if (byte == ',' && field_ == 0 && !second_ && digits != 0) {
+  if (byte == '-' && digits == 0 && !negative) {
+    negative = true;
+  } else if (byte == ',' && offset == 0 && !second_ && digits != 0) {
     // Generation B `p E,N`: E is kept while N is read (field 0 in generation B means `p`).
-    first_ = value_of(digits, small);
+    first_ = value_of(digits, small, negative);
     second_ = true;
-    negative_ = false;
+    negative = false;
     digits = 0;
     small = 0;
   } else {
@@ -231,6 +231,8 @@ stop_letter:
 stop_number:
   state_ = State::number;
 stop:
+  field_ = offset;
+  negative_ = negative;
   digits_ = digits;
   if (digits <= 4) value_ = small;
   size_ = static_cast<size_t>(out - buffer_);
@@ -238,10 +240,10 @@ stop:
 }
 
 template <size_t Capacity>
-__attribute__((always_inline)) inline int32_t Decoder<Capacity>::value_of(uint8_t digits, uint16_t small) const {
+__attribute__((always_inline)) inline int32_t Decoder<Capacity>::value_of(uint8_t digits, uint16_t small, bool negative) const {
   // The magnitude is <= 2^31 when negative, <= 2^31 - 1 otherwise: both fit once the sign is applied.
   const uint32_t value = digits <= 4 ? small : value_;
-  return negative_ ? static_cast<int32_t>(0u - value) : static_cast<int32_t>(value);
+  return negative ? static_cast<int32_t>(0u - value) : static_cast<int32_t>(value);
 }
 
 template <size_t Capacity>
