@@ -167,8 +167,9 @@ number:
   digit = static_cast<uint8_t>(byte - '0');
   if (digit < 10) {
     if (digits < 4) {
-      // Below 1000 so far: 4 digits fit in 16 bits (9999; the AVR multiplies that inline).
-      small = static_cast<uint16_t>(small * 10u + digit);
+      // Below 1000 so far: 4 digits fit in 16 bits (9999). small * 10 as (small * 5) * 2: on the AVR 10
+      // cycles (the compiler's own shifts for * 10 take 13).
+      small = static_cast<uint16_t>((((small << 2) + small) << 1) + digit);
     } else {
       if (digits >= kSafeDigits) goto stop_number;  // the range check is feed(byte)'s
       // Fewer than 9 digits so far: one more stays in int32. value * 10 as (value * 5) * 2 in shifts
