@@ -16,7 +16,6 @@ __attribute__((always_inline)) inline FeedResult Decoder<Capacity>::feed(ByteVie
   // wrapper's own call and register saves cost a B drive ~70 AVR cycles).
   const uint8_t* const begin = bytes.data();
   const uint8_t* const end = begin + bytes.size();
-  if (begin == end) return FeedResult{DecodeStatus::more, 0};
   const RunEnd ran = run(begin, end);
   if (ran.frame) return FeedResult{DecodeStatus::frame, static_cast<size_t>(ran.next - begin)};
   if (ran.next == end) return FeedResult{DecodeStatus::more, bytes.size()};
