@@ -180,6 +180,27 @@ TEST_F(RomiSerialTest, EveryEnvelopeErrorIsAnsweredWithItsCode) {
   EXPECT_EQ(runs, 0);
 }
 
+TEST(DeviceLinkCounters, ConvertToLinkCountersFieldByField) {
+  tether::romi::device::DeviceLinkCounters device;
+  device.frames_ok = 1;
+  device.crc_errors = 2;
+  device.framing_errors = 3;
+  device.oversize_frames = 4;
+  device.resyncs = 5;
+  device.partial_timeouts = 6;
+  device.duplicates = 7;
+  const tether::LinkCounters link = device;
+  EXPECT_EQ(link.frames_ok, 1u);
+  EXPECT_EQ(link.crc_errors, 2u);
+  EXPECT_EQ(link.framing_errors, 3u);
+  EXPECT_EQ(link.oversize_frames, 4u);
+  EXPECT_EQ(link.resyncs, 5u);
+  EXPECT_EQ(link.partial_timeouts, 6u);
+  EXPECT_EQ(link.duplicates, 7u);
+  // What a device never counts stays 0.
+  EXPECT_EQ(link.stale + link.retries + link.timeouts + link.resets + link.failsafes, 0u);
+}
+
 TEST_F(RomiSerialTest, GarbageBeforeTheFrameIsIgnored) {
   EXPECT_EQ(exchange("noise\r\n!!#a:xxxx\r\n"), "#a[0]:00e7\r\n");
   EXPECT_GE(device.counters().link.resyncs, 1u);

@@ -26,6 +26,8 @@ namespace romiserial {
 using tether::romi::device::RomiSerial;
 /// See tether::romi::device::DeviceCounters.
 using tether::romi::device::DeviceCounters;
+/// See tether::romi::device::DeviceLinkCounters.
+using tether::romi::device::DeviceLinkCounters;
 /// See tether::romi::device::ClockFunction.
 using tether::romi::device::ClockFunction;
 /// See tether::romi::device::ArrayText.

@@ -32,8 +32,7 @@ RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandle
       handler_count_(count),
       clock_(clock),
       counters_(),
-      decoder_(counters_.link),
-      deadline_(kRequestDeadlineMs, counters_.link) {}
+      decoder_(counters_.link) {}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
@@ -73,7 +72,9 @@ void RomiSerial::handle_timeouts(Millis now) {
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
   if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
-  if (!deadline_.poll(now)) return;
+  if (!frame_deadline_.expired(now)) return;
+  frame_deadline_.disarm();
+  ++counters_.link.partial_timeouts;
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
   decoder_.reset();
@@ -89,7 +90,7 @@ void RomiSerial::handle_byte(uint8_t byte, Millis now) {
 
 void RomiSerial::receive(uint8_t byte) {
   if (byte == '#') {
-    deadline_.on_frame_start(now_);
+    frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
   } else if (byte == '\n' && decoder_.awaiting_end()) {
     // This '\n' completes a frame: the response's '#' (see below) leaves before the decoder's
     // bookkeeping, as the first thing the turnaround does.
@@ -103,7 +104,7 @@ void RomiSerial::receive(uint8_t byte) {
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
     return;
   }
-  deadline_.on_frame_end();
+  frame_deadline_.disarm();
   // A frame or an error: a response follows, and every frame the device sends (the response, or a
   // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
   // parse checks and the handler: the turnaround is this path, not the handler's.

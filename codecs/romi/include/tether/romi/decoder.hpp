@@ -45,15 +45,17 @@ struct Frame {
   char opcode = '_';    ///< First payload character of a non-log frame, or '_' when there was none.
 };
 
-/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`.
-template <size_t Capacity>
+/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`. `Counters` is where it
+/// counts: `LinkCounters`, or any struct with its fields frames_ok, crc_errors, framing_errors,
+/// oversize_frames and resyncs (a device keeps only the counters it uses: RAM is scarce there).
+template <size_t Capacity, typename Counters = LinkCounters>
 class Decoder {
   static_assert(Capacity >= 8, "a frame needs room for an opcode and its metadata");
 
  public:
   /// Decoder counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames,
   /// resyncs); `counters` must outlive it.
-  explicit Decoder(LinkCounters& counters) : counters_(&counters) {}
+  explicit Decoder(Counters& counters) : counters_(&counters) {}
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte);
@@ -104,7 +106,7 @@ class Decoder {
   __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
   __attribute__((noinline)) DecodeStatus fail(Error error);
 
-  LinkCounters* counters_;
+  Counters* counters_;
   State state_ = State::idle;
   Error error_ = Error::no_error;
   uint8_t buffer_[Capacity];

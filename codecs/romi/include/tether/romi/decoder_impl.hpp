@@ -17,8 +17,8 @@ __attribute__((always_inline)) inline int8_t hex_value(uint8_t c) {
 
 }  // namespace detail
 
-template <size_t Capacity>
-__attribute__((always_inline)) inline bool Decoder<Capacity>::feed_body(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline bool Decoder<Capacity, Counters>::feed_body(uint8_t byte) {
   // The common case, a byte inside a frame's body, stays small enough to inline into the caller's byte
   // loop without a stack frame; everything else (frame start and end, errors) is out of line.
   const Index size = size_;
@@ -32,13 +32,13 @@ __attribute__((always_inline)) inline bool Decoder<Capacity>::feed_body(uint8_t 
   return true;
 }
 
-template <size_t Capacity>
-__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity>::feed(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline DecodeStatus Decoder<Capacity, Counters>::feed(uint8_t byte) {
   return feed_body(byte) ? DecodeStatus::more : feed_special(byte);
 }
 
-template <size_t Capacity>
-FeedResult Decoder<Capacity>::feed(ByteView bytes) {
+template <size_t Capacity, typename Counters>
+FeedResult Decoder<Capacity, Counters>::feed(ByteView bytes) {
   const uint8_t* const begin = bytes.data();
   const uint8_t* const end = begin + bytes.size();
   const uint8_t* next = begin;
@@ -71,13 +71,13 @@ FeedResult Decoder<Capacity>::feed(ByteView bytes) {
   return FeedResult{DecodeStatus::more, bytes.size()};
 }
 
-template <size_t Capacity>
-char Decoder<Capacity>::partial_opcode() const {
+template <size_t Capacity, typename Counters>
+char Decoder<Capacity, Counters>::partial_opcode() const {
   return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::feed_special(uint8_t byte) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
   if (byte == '#') {
     // A new frame starts anywhere; whatever came before it is dropped.
     if (state_ == State::body || state_ == State::expect_lf || skipping_) ++counters_->resyncs;
@@ -119,8 +119,8 @@ DecodeStatus Decoder<Capacity>::feed_special(uint8_t byte) {
   return DecodeStatus::more;
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
   if (!seen_colon_) return fail(Error::missing_metadata);
   const uint8_t* meta = buffer_ + last_colon_ + 1;
   const Index meta_size = static_cast<Index>(size_ - last_colon_ - 1);
@@ -159,8 +159,8 @@ DecodeStatus Decoder<Capacity>::finish_line(uint8_t end) {
   return DecodeStatus::more;
 }
 
-template <size_t Capacity>
-DecodeStatus Decoder<Capacity>::fail(Error error) {
+template <size_t Capacity, typename Counters>
+DecodeStatus Decoder<Capacity, Counters>::fail(Error error) {
   error_ = error;
   // What was parsed: the id only when its two digits were valid (frame_.has_id), never a manual flag.
   const bool has_id = frame_.has_id;

@@ -41,16 +41,23 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 386 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 360 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
 /// compile time:
-///   - request buffer: 76 bytes, of which `kDeviceDecoderCapacity` = 63 hold the frame between '#' and
-///     '\r' (58 payload characters, ':', 4 metadata characters: every request a reference host can send);
+///   - request buffer: 81 bytes (the decoder), of which `kDeviceDecoderCapacity` = 63 hold the frame
+///     between '#' and '\r' (58 payload characters, ':', 4 metadata characters: every request a
+///     reference host can send);
 ///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
 ///     to requests with an id are formed there;
 ///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
 ///     CRC-16 of the payload in 2 bytes was cheaper in RAM, but two requests can share it);
-///   - counters: 68 bytes; pointers, deadlines, the clock's last reading and state: ~47 bytes.
+///   - counters: 48 bytes (12, each 32-bit: `DeviceCounters`); pointers, the two deadlines, the clock's
+///     last reading and state: 38 bytes.
+/// The floor, for what this class promises: the frame being received (63), the key of the last one
+/// that ran (58 + id + size) and its reply (65 of the 72 at least: a reference host accepts 65-byte
+/// replies) must all be held at once, because a damaged copy of a re-sent request may arrive between
+/// the reply and the good copy (exactly-once then needs the key intact: a key overwritten in place by
+/// a diverging frame would run the good copy twice) = 188 bytes, plus the 48 bytes of 32-bit counters.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
 /// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
@@ -69,7 +76,6 @@
 
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
-#include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/romi/device/handler.hpp"
 #include "tether/romi/device/streams.hpp"
@@ -90,13 +96,36 @@ typedef uint32_t (*ClockFunction)();
 /// Other platforms (host tests) pass their own clock to `RomiSerial` and do not link either.
 uint32_t default_clock();
 
+/// The link counters a device keeps: those of `LinkCounters` it increments, under the same names and
+/// with the same meaning (the other five stay 0 on a device: 28 bytes of RAM instead of 48). Counters
+/// only grow (wrap at 2^32). Converts to `LinkCounters` for code that reads every codec the same way.
+struct DeviceLinkCounters {
+  uint32_t frames_ok = 0;         ///< Well-formed request frames.
+  uint32_t crc_errors = 0;        ///< Frames answered -4 (CRC mismatch).
+  uint32_t framing_errors = 0;    ///< Frames answered -2, -3, -5, -6, -7.
+  uint32_t oversize_frames = 0;   ///< Frames answered -1 (too long).
+  uint32_t resyncs = 0;           ///< Garbage or a half frame skipped.
+  uint32_t partial_timeouts = 0;  ///< Requests dropped at their deadline (answered -30).
+  uint32_t duplicates = 0;        ///< Repeats answered from the reply cache.
+
+  /// These counters as `LinkCounters` (the fields a device does not count are 0).
+  operator LinkCounters() const {
+    LinkCounters link;
+    link.frames_ok = frames_ok;
+    link.crc_errors = crc_errors;
+    link.framing_errors = framing_errors;
+    link.oversize_frames = oversize_frames;
+    link.resyncs = resyncs;
+    link.partial_timeouts = partial_timeouts;
+    link.duplicates = duplicates;
+    return link;
+  }
+};
+
 /// Diagnostics of one device. Counters only grow (wrap at 2^32). Plain data: copy it for a snapshot.
 struct DeviceCounters {
-  /// Link counters shared with every Tether codec. Used here: frames_ok (well-formed request frames),
-  /// crc_errors (-4), framing_errors (-2, -3, -5, -6, -7), oversize_frames (-1), resyncs (garbage or a
-  /// half frame skipped), partial_timeouts (requests dropped with -30), duplicates (repeats answered
-  /// from the cache).
-  LinkCounters link;
+  /// Link counters, named as in every Tether codec's `LinkCounters`.
+  DeviceLinkCounters link;
   /// Handlers run (each at most once per request).
   uint32_t executed = 0;
   /// Error responses the device built itself: -1..-14, -16..-19, -30 (not -20/-31, counted below).
@@ -187,8 +216,8 @@ class RomiSerial final : public IRomiSerial {
   uint8_t handler_count_;
   ClockFunction clock_;
   DeviceCounters counters_;  // before the members that count into it
-  Decoder<kDeviceDecoderCapacity> decoder_;
-  session::PartialFrameDeadline deadline_;
+  Decoder<kDeviceDecoderCapacity, DeviceLinkCounters> decoder_;
+  Deadline frame_deadline_;  // the request being received must end by then (armed at its '#')
   // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
   // to requests with an id are written there).
   uint8_t cached_id_ = 0;
