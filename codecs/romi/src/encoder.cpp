@@ -77,36 +77,9 @@ Result<size_t> encode_manual_request(ByteView payload, MutableByteView out) {
 }
 
 Result<size_t> encode_response(char opcode, ByteView body, uint8_t id, MutableByteView out) {
-  // One straight pass, no per-byte calls or bounds checks: the size is known up front. A device's
-  // hot path (every reply).
-  // The CRC is folded into the copy (one pass over the body, not two; written out, not as a lambda,
-  // which avr-gcc -Os would call per byte).
+  // One straight pass, no per-byte calls or bounds checks: the size is known up front.
   if (body.size() + kResponseOverhead > out.size()) return Status::buffer_too_small;
-  uint8_t* next = out.data();
-  Crc8Smbus crc;
-  crc.update('#');
-  *next++ = '#';
-  const uint8_t op = static_cast<uint8_t>(opcode);
-  crc.update(op);
-  *next++ = op;
-  const uint8_t* in = body.data();
-  for (uint8_t left = static_cast<uint8_t>(body.size()); left != 0; --left) {
-    const uint8_t c = *in++;
-    const uint8_t sent = c == ':' ? static_cast<uint8_t>('-') : c;
-    crc.update(sent);
-    *next++ = sent;
-  }
-  const uint8_t meta[3] = {':', hex_digit(high_nibble(id)), hex_digit(static_cast<uint8_t>(id & 0xF))};
-  for (const uint8_t c : meta) {
-    crc.update(c);
-    *next++ = c;
-  }
-  const uint8_t crc_value = crc.value();
-  *next++ = hex_digit(high_nibble(crc_value));
-  *next++ = hex_digit(static_cast<uint8_t>(crc_value & 0xF));
-  *next++ = '\r';
-  *next++ = '\n';
-  return body.size() + kResponseOverhead;
+  return form_response(opcode, body.data(), body.size(), id, out.data());
 }
 
 Result<size_t> encode_log(ByteView text, MutableByteView out) {

@@ -7,11 +7,14 @@ namespace romi {
 
 Error parse_request(ByteView payload, Request& request) {
   // Not `request = Request()`: zeroing the whole string buffer cost ~300 AVR cycles per request. The
-  // string is a C string: only its first byte needs clearing. Unused arguments stay 0, as before.
+  // string is a C string: only its first byte needs clearing. Unused arguments stay 0: only those the
+  // last parse set can be other than 0 (a Request starts all zero), so only they are cleared (none
+  // after a request without arguments: 12 stores fewer per request on the device).
+  int16_t* argument = request.arguments;
+  const uint8_t stale = request.argument_count < kMaxArguments ? request.argument_count : kMaxArguments;
+  for (uint8_t left = stale; left != 0; --left) *argument++ = 0;  // an 8-bit count
   request.opcode = 0;
   request.argument_count = 0;
-  int16_t* argument = request.arguments;
-  for (uint8_t left = kMaxArguments; left != 0; --left) *argument++ = 0;  // an 8-bit count: two stores a step
   request.has_string = false;
   request.string[0] = '\0';
   if (payload.empty() || !is_opcode(payload[0])) return Error::invalid_opcode;

@@ -158,6 +158,20 @@ TEST(RomiRequestParser, ParsesOpcodeIntegersAndString) {
   EXPECT_STREQ(parsed("t[\"\"]").string, "");
 }
 
+TEST(RomiRequestParser, AReusedRequestKeepsEveryArgumentPastTheParsedOnesZero) {
+  // The device parses into one Request per frame; only the arguments the last parse set are cleared.
+  Request request;
+  ASSERT_EQ(parse_request(view("m[1,2,3,4,5,6,7,8,9,10,11,12]"), request), Error::no_error);
+  ASSERT_EQ(parse_request(view("m[7]"), request), Error::no_error);
+  EXPECT_EQ(request.argument_count, 1);
+  EXPECT_EQ(request.arguments[0], 7);
+  for (int i = 1; i < kMaxArguments; ++i) EXPECT_EQ(request.arguments[i], 0) << i;
+  // A failed parse counts what it stored, so the next one clears those too.
+  ASSERT_EQ(parse_request(view("m[5,6,7,99999]"), request), Error::value_out_of_range);
+  ASSERT_EQ(parse_request(view("a"), request), Error::no_error);
+  for (int i = 0; i < kMaxArguments; ++i) EXPECT_EQ(request.arguments[i], 0) << i;
+}
+
 TEST(RomiRequestParser, EveryMessageParserErrorCode) {
   parsed("", Error::invalid_opcode);
   parsed("#", Error::invalid_opcode);

@@ -333,6 +333,70 @@ TEST(RomiEnvelope, SpanFeedingMatchesByteFeedingAtTheCapacityAndOnEveryError) {
   }
 }
 
+TEST(RomiEnvelope, BodyRunsDecodeExactlyLikeSingleBytes) {
+  // A device's byte loop: feed_body_run over a batch, then feed_special for the byte that ended the run.
+  // Same events and counters as byte-at-a-time feeding, on random streams of valid frames, damaged ones,
+  // overlong ones (the run must stop at the buffer's end) and junk, cut into random batches.
+  auto generator = tether::testing::seeded_generator(22);
+  const std::string alphabet = "#\r\n:::xx0123456789abcdef[],-\"! aeZ?";
+  for (int round = 0; round < 200; ++round) {
+    std::string stream;
+    while (stream.size() < 400) {
+      const auto pick = generator() % 4;
+      if (pick == 0) {
+        for (auto n = generator() % 90; n > 0; --n) stream += alphabet[generator() % alphabet.size()];
+      } else {
+        std::string payload(1, "aeZ?"[generator() % 4]);
+        if (pick == 1) payload += "[" + std::to_string(generator() % 70000) + ",\"a:b\"]";
+        if (pick == 2) payload += std::string(generator() % 70, '9');  // around the 63-byte capacity
+        uint8_t frame[128];
+        const auto size = encode_request(ByteView::from_chars(payload.data(), payload.size()),
+                                         static_cast<uint8_t>(generator()), frame);
+        stream.append(reinterpret_cast<char*>(frame), size.value());
+      }
+    }
+    LinkCounters expected_counters;
+    const auto expected = decode(stream, &expected_counters);
+    LinkCounters counters;
+    Decoder<kDeviceDecoderCapacity> decoder(counters);
+    std::vector<Decoded> events;
+    const auto* bytes = reinterpret_cast<const uint8_t*>(stream.data());
+    for (size_t at = 0; at < stream.size();) {
+      uint8_t left = static_cast<uint8_t>(std::min<size_t>(1 + generator() % 16, stream.size() - at));
+      while (left != 0) {
+        const uint8_t run = decoder.feed_body_run(bytes + at, left);
+        ASSERT_LE(run, left);
+        at += run;
+        left = static_cast<uint8_t>(left - run);
+        if (left == 0) break;
+        const DecodeStatus status = decoder.feed_special(bytes[at++]);
+        --left;
+        if (status == DecodeStatus::more) continue;
+        const Frame& f = decoder.frame();
+        const Kind kind = status == DecodeStatus::error ? Kind::error : f.log ? Kind::log : Kind::frame;
+        events.push_back({kind, status == DecodeStatus::error ? decoder.error() : Error::no_error,
+                          std::string(reinterpret_cast<const char*>(f.payload.data()), f.payload.size()), f.manual,
+                          f.has_id, f.id, f.opcode});
+      }
+    }
+    ASSERT_EQ(events.size(), expected.size()) << "round " << round << ": " << stream;
+    for (size_t i = 0; i < events.size(); ++i) {
+      EXPECT_EQ(events[i].kind, expected[i].kind) << "round " << round << " event " << i;
+      EXPECT_EQ(events[i].error, expected[i].error) << "round " << round << " event " << i;
+      EXPECT_EQ(events[i].payload, expected[i].payload) << "round " << round << " event " << i;
+      EXPECT_EQ(events[i].has_id, expected[i].has_id) << "round " << round << " event " << i;
+      EXPECT_EQ(events[i].id, expected[i].id) << "round " << round << " event " << i;
+      EXPECT_EQ(events[i].opcode, expected[i].opcode) << "round " << round << " event " << i;
+    }
+    EXPECT_EQ(counters.frames_ok, expected_counters.frames_ok);
+    EXPECT_EQ(counters.oversize_frames, expected_counters.oversize_frames);
+    EXPECT_EQ(counters.framing_errors, expected_counters.framing_errors);
+    EXPECT_EQ(counters.crc_errors, expected_counters.crc_errors);
+    EXPECT_EQ(counters.resyncs, expected_counters.resyncs);
+    if (HasFailure()) return;
+  }
+}
+
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 TEST(RomiEnvelope, DeprecatedEnvelopeDecoderStillReportsEventsForOneRelease) {

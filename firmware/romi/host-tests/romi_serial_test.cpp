@@ -4,7 +4,9 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <deque>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -577,6 +579,26 @@ TEST(RomiSerialNoClock, WithoutAClockThereIsNoDeadline) {
   device.handle_input();
   device.handle_timeouts(1000000);  // sans-I/O use can still pass its own time
   EXPECT_EQ(streams.take(), response('a', "[-30]", 0));
+}
+
+TEST(RomiSerialFreshState, ADeviceBuiltOverUsedMemoryStartsFresh) {
+  // The device's zero state is its own doing (a value-initialized base), not static storage's zeros: a
+  // device on the stack or in reused memory starts as fresh as a static one.
+  alignas(RomiSerial) unsigned char storage[sizeof(RomiSerial)];
+  std::memset(storage, 0xa5, sizeof storage);
+  StringStreams streams;
+  fake_now = 0;
+  runs = 0;
+  RomiSerial* device = new (storage) RomiSerial(streams, streams, kHandlers, kHandlerCount, fake_clock);
+  EXPECT_FALSE(device->in_handler());
+  EXPECT_EQ(device->counters().executed + device->counters().link.duplicates, 0u);
+  // Not a repeat of anything, not refused as a call from inside a handler: it runs.
+  const std::string first = request("a", 0xa5);
+  streams.input.assign(first.begin(), first.end());
+  device->handle_input();
+  EXPECT_EQ(streams.take(), response('a', "[0]", 0xa5));
+  EXPECT_EQ(runs, 1);
+  device->~RomiSerial();
 }
 
 TEST(RomiSerialNoHandlers, EverythingIsUnknown) {

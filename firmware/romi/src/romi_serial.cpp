@@ -26,18 +26,30 @@ ByteView text_view(const char* text) { return ByteView::from_chars(text, text ==
 
 RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
                        ClockFunction clock)
-    : in_(&in),
+    : RomiSerialState(),  // all zero (see there)
+      in_(&in),
       out_(&out),
       handlers_(handlers),
       handler_count_(count),
       clock_(clock),
-      counters_(),
-      decoder_(counters_.link) {}
+      decoder_(counters_.link) {
+  opcode_ = '_';
+}
 
 void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
   prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
+}
+
+inline void RomiSerial::receive_special(uint8_t byte) {
+  if (byte == '\n' && decoder_.awaiting_end()) {
+    // This '\n' completes a frame: the response's '#' (see receive) leaves first, before the call
+    // into the out-of-line path, as the first thing the turnaround does.
+    out_->write('#');
+    hash_sent_ = true;
+  }
+  receive(byte);
 }
 
 void RomiSerial::handle_input() {
@@ -53,15 +65,21 @@ void RomiSerial::handle_input() {
   // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
   // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
   uint8_t batch[16];
-  for (;;) {
-    const uint8_t count = in_->read_some(batch, sizeof(batch));
-    if (count == 0) return;
-    for (uint8_t i = 0; i < count; ++i) {
-      const uint8_t byte = batch[i];
-      if (decoder_.feed_body(byte)) continue;
+  for (uint8_t count = sizeof(batch); count == sizeof(batch);) {
+    // A batch that did not fill up drained the stream (read_some takes every byte waiting up to its
+    // capacity): no second call just to learn that. Bytes arriving meanwhile wait for the next call.
+    count = in_->read_some(batch, sizeof(batch));
+    const uint8_t* next = batch;
+    for (uint8_t left = count; left != 0;) {
+      // A run of body bytes in one tight loop, then the byte that ended it.
+      const uint8_t run = decoder_.feed_body_run(next, left);
+      next += run;
+      left = static_cast<uint8_t>(left - run);
+      if (left == 0) break;
       // After a handler nothing is left to time out (its frame ended the partial-frame deadline, the
       // cache's lifetime starts now): the later bytes of the batch are only dated by its reply (now_).
-      receive(byte);
+      receive_special(*next++);
+      --left;
     }
   }
 }
@@ -85,18 +103,11 @@ void RomiSerial::handle_byte(uint8_t byte, Millis now) {
   if (in_handler_) return;
   now_ = now;
   handle_timeouts(now);  // a byte arriving after the deadline does not extend it
-  if (!decoder_.feed_body(byte)) receive(byte);
+  if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
 void RomiSerial::receive(uint8_t byte) {
-  if (byte == '#') {
-    frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
-  } else if (byte == '\n' && decoder_.awaiting_end()) {
-    // This '\n' completes a frame: the response's '#' (see below) leaves before the decoder's
-    // bookkeeping, as the first thing the turnaround does.
-    out_->write('#');
-    hash_sent_ = true;
-  }
+  if (byte == '#') frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -260,26 +271,30 @@ void RomiSerial::log(const char* text) {
   write(ByteView::from_literal(":xxxx\r\n"));
 }
 
-uint8_t RomiSerial::emit(char opcode, uint8_t id, ByteView body, MutableByteView frame) {
-  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
-  // byte time, ~1500 cycles at 115200) while the rest is formed in `frame`, which then follows it.
-  start_frame();
-  const uint8_t size = static_cast<uint8_t>(encode_response(opcode, body, id, frame).value());
-  write(ByteView(frame.data() + 1, size - 1u));
-  return size;
-}
-
 void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
   if (body.size() + kResponseOverhead > sizeof(reply_)) {
     ++counters_.replies_too_long;
     body = ByteView::from_literal("[-31]");
   }
-  if (!manual_) {
-    reply_size_ = emit(opcode, id, body, MutableByteView(reply_));  // the cache's copy
+  if (manual_) {
+    send_uncached(opcode, id, body);
     return;
   }
+  send_frame(opcode, id, body, reply_);  // a handler's reply to a request with an id: the cache's copy
+}
+
+void RomiSerial::send_uncached(char opcode, uint8_t id, ByteView body) {
   uint8_t frame[kReplyCapacity];  // manual requests are not cached: reply_ keeps the cached reply
-  emit(opcode, id, body, MutableByteView(frame));
+  send_frame(opcode, id, body, frame);
+}
+
+void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
+  // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
+  // byte time, ~1400 cycles at 115200) while the rest is formed, which then follows it.
+  start_frame();
+  const uint8_t size = form_response(opcode, body.data(), static_cast<uint8_t>(body.size()), id, frame);
+  if (frame == reply_) reply_size_ = size;
+  write(ByteView(frame + 1, size - 1u));
 }
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
@@ -300,7 +315,7 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   body[size++] = static_cast<uint8_t>('0' + magnitude);
   body[size++] = ']';
   uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
-  emit(opcode, id, ByteView(body, size), MutableByteView(frame));
+  send_frame(opcode, id, ByteView(body, size), frame);
 }
 
 void RomiSerial::start_frame() {

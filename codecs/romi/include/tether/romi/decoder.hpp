@@ -63,13 +63,17 @@ class Decoder {
   /// case: stored, status `more`, nothing else happens); false, consuming nothing, for any other byte,
   /// which the caller then gives to `feed_special`. Small enough to inline into a device's byte loop.
   bool feed_body(uint8_t byte);
+  /// Consumes the ordinary body bytes at the start of `bytes[0..count)` exactly as `feed_body` would one
+  /// by one, and returns how many (0 when the first is not one, or no frame is open); the byte after them
+  /// goes to `feed_special`. A device's byte loop: the frame's position stays in a register for the run.
+  uint8_t feed_body_run(const uint8_t* bytes, uint8_t count);
   /// Consumes a byte `feed_body` refused (frame start and end, errors, bytes outside frames). Out of
   /// line: the rare cases must not weigh on the inlined per-byte path.
   __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);
   /// Consumes `bytes` up to and including the first one that completes a frame or an error, with exactly
-  /// the results of feeding them one at a time. A frame's body bytes are taken in one loop with the write
-  /// position in a register (issue 17: the host's cost per frame; a byte store may alias the members, so
-  /// byte by byte they are reloaded after every byte). Prefer it wherever bytes arrive in runs.
+  /// the results of feeding them one at a time. A frame's body bytes are taken by `feed_body_run`, the
+  /// write position in a register (issue 17: the host's cost per frame; a byte store may alias the
+  /// members, so byte by byte they are reloaded after every byte). Prefer it wherever bytes arrive in runs.
   FeedResult feed(ByteView bytes);
   /// After `frame`: the frame; after `error`: what was parsed of it (see the file overview).
   const Frame& frame() const { return frame_; }

@@ -33,6 +33,30 @@ __attribute__((always_inline)) inline bool Decoder<Capacity, Counters>::feed_bod
 }
 
 template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline uint8_t Decoder<Capacity, Counters>::feed_body_run(const uint8_t* bytes, uint8_t count) {
+  if (state_ != State::body) return 0;
+  const Index size = size_;
+  const Index room = static_cast<Index>(Capacity - size);  // a full buffer ends the run: feed_special says -1
+  uint8_t left = count < room ? count : static_cast<uint8_t>(room);
+  const uint8_t* in = bytes;
+  uint8_t* out = buffer_ + size;
+  for (; left != 0; --left) {
+    const uint8_t byte = *in;
+    // One compare for the usual bytes: every special one is at most '#' (0x23).
+    if (byte <= '#' && (byte == '#' || byte == '\r' || byte == '\n')) break;
+    if (byte == ':') {
+      seen_colon_ = true;
+      last_colon_ = static_cast<Index>(out - buffer_);
+    }
+    *out++ = byte;
+    ++in;
+  }
+  const uint8_t used = static_cast<uint8_t>(in - bytes);
+  size_ = static_cast<Index>(size + used);
+  return used;
+}
+
+template <size_t Capacity, typename Counters>
 __attribute__((always_inline)) inline DecodeStatus Decoder<Capacity, Counters>::feed(uint8_t byte) {
   return feed_body(byte) ? DecodeStatus::more : feed_special(byte);
 }
@@ -43,28 +67,11 @@ FeedResult Decoder<Capacity, Counters>::feed(ByteView bytes) {
   const uint8_t* const end = begin + bytes.size();
   const uint8_t* next = begin;
   while (next != end) {
-    if (state_ == State::body) {
-      // What feed_body does with each byte, up to the first one it would refuse (frame start or end) or
-      // the buffer's end; that byte goes through feed(byte) below, with the members in step.
-      size_t size = size_;
-      const size_t room = Capacity - size;
-      const uint8_t* const stop = static_cast<size_t>(end - next) > room ? next + room : end;
-      size_t colon = last_colon_;
-      bool seen_colon = seen_colon_;
-      for (; next != stop; ++next) {
-        const uint8_t byte = *next;
-        if (byte == '#' || byte == '\r' || byte == '\n') break;
-        if (byte == ':') {
-          seen_colon = true;
-          colon = size;
-        }
-        buffer_[size++] = byte;
-      }
-      size_ = static_cast<Index>(size);
-      last_colon_ = static_cast<Index>(colon);
-      seen_colon_ = seen_colon;
-      if (next == end) break;
-    }
+    // A frame's body bytes in runs (at most 255 at a time: feed_body_run counts in 8 bits); the byte that
+    // ends a run goes through feed(byte), with the members in step.
+    const size_t left = static_cast<size_t>(end - next);
+    next += feed_body_run(next, static_cast<uint8_t>(left < 255u ? left : 255u));
+    if (next == end) break;
     const DecodeStatus status = feed(*next++);
     if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(next - begin)};
   }

@@ -48,6 +48,42 @@ __attribute__((always_inline)) inline uint8_t hex_digit(uint8_t nibble) {
   return static_cast<uint8_t>(nibble < 10 ? '0' + nibble : 'a' - 10 + nibble);
 }
 
+/// Writes the response frame of `opcode`, the `size` bytes of `body` and `id` into `out`, which must
+/// have room for `size + kResponseOverhead` bytes (not checked: the caller knows); returns the frame's
+/// size. `encode_response` without the check, inline so that a device forms its reply in one function
+/// (the AVR: no calls, the CRC folded into the copy). `Count` is the body's size type: 8 bits on a device.
+template <typename Count>
+__attribute__((always_inline)) inline Count form_response(char opcode, const uint8_t* body, Count size, uint8_t id,
+                                                          uint8_t* out) {
+  // Written out, not through a lambda or a writer object, which avr-gcc -Os would call per byte.
+  Crc8Smbus crc;
+  crc.update('#');
+  *out++ = '#';
+  const uint8_t op = static_cast<uint8_t>(opcode);
+  crc.update(op);
+  *out++ = op;
+  for (Count left = size; left != 0; --left) {
+    const uint8_t c = *body++;
+    const uint8_t sent = c == ':' ? static_cast<uint8_t>('-') : c;  // ':' would end the payload
+    crc.update(sent);
+    *out++ = sent;
+  }
+  crc.update(':');
+  *out++ = ':';
+  const uint8_t id_high = hex_digit(high_nibble(id));
+  crc.update(id_high);
+  *out++ = id_high;
+  const uint8_t id_low = hex_digit(static_cast<uint8_t>(id & 0xF));
+  crc.update(id_low);
+  *out++ = id_low;
+  const uint8_t crc_value = crc.value();
+  *out++ = hex_digit(high_nibble(crc_value));
+  *out++ = hex_digit(static_cast<uint8_t>(crc_value & 0xF));
+  *out++ = '\r';
+  *out = '\n';
+  return static_cast<Count>(size + kResponseOverhead);
+}
+
 /// Writes a log frame `#!text:xxxx\r\n`. CR and LF in `text` become spaces ('#' is kept: hosts find the
 /// metadata at the end of the line, and Tether hosts resynchronise on it anyway).
 Result<size_t> encode_log(ByteView text, MutableByteView out);

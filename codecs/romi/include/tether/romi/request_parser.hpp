@@ -22,7 +22,8 @@ struct Request {
   char string[kMaxStringLength + 1] = {}; ///< The string, NUL-terminated (handlers get a C string).
 };
 
-/// Parses `payload` into `request`. Returns no_error, or -14 (bad opcode), -8 (unexpected character),
+/// Parses `payload` into `request`, which is default-constructed or the result of an earlier parse (its
+/// `argument_count` tells which arguments to clear: every argument past the parsed ones is 0). Returns no_error, or -14 (bad opcode), -8 (unexpected character),
 /// -9 (more than 12 integers), -10 (outside int16), -11 (string over 32), -12 (bad string character or
 /// unterminated string), -13 (second string).
 Error parse_request(ByteView payload, Request& request);

@@ -60,13 +60,14 @@
 /// a diverging frame would run the good copy twice) = 188 bytes, plus the 48 bytes of 32-bit counters.
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
-/// moved. Bytes are read in batches (`IInputStream::read_some`); a byte inside a frame's body takes the
-/// decoder's inline path only; a frame is checked, parsed and matched to its handler at its '\r'; at its
-/// '\n' the response's '#' is sent first (every frame the device sends starts with it), then the cache
-/// lookup (the id, then the bytes) and the call; the rest of a reply is formed with its CRC in one pass.
-/// Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its text
-/// in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and 17
-/// bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
+/// moved. Bytes are read in batches (`IInputStream::read_some`; a batch short of 16 ends the call); the
+/// body bytes of a frame go through the decoder's run loop (`Decoder::feed_body_run`) and nothing else;
+/// a frame is checked, parsed and matched to its handler at its '\r'; at its '\n' the response's '#' is
+/// sent first (every frame the device sends starts with it), then the cache lookup (the id, then the
+/// bytes) and the call; the rest of a reply is formed with its CRC in one pass, in place in the cache's
+/// copy. Stack: a request's dispatch needs ~150 bytes plus what the handler uses (`send_error` builds its
+/// text in a 72-byte buffer; a manual request's reply and an error reply are formed on the stack, 72 and
+/// 14 bytes, to leave the cached reply alone). Measured before that change: 155 bytes (romi-blink), 221
 /// (romi-test), interrupts included.
 /// Nothing is allocated at run time. Flash: ~5 KB for the device and the codec it uses (romi-bench).
 #pragma once
@@ -138,14 +139,49 @@ struct DeviceCounters {
   uint32_t replies_too_long = 0;
 };
 
+namespace detail {
+/// `RomiSerial::kReplyCapacity` (the state below needs it before the class).
+constexpr uint8_t RomiSerialReplyCapacity = 72;
+
+/// The part of a `RomiSerial`'s state that starts as all zero bytes ('_' in `opcode_` apart). The device
+/// value-initializes it, so it is zero-filled in one loop: on the AVR the members' own initializers then
+/// cost nothing, instead of one store per member (4 bytes of flash each): romi-bench's static
+/// constructor went from 296 to 186 bytes.
+struct RomiSerialState {
+  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
+  // to requests with an id are written there).
+  uint8_t cached_id_;
+  uint8_t cached_request_size_;
+  uint8_t cached_request_[kMaxDevicePayload];
+  Millis now_;  // when the bytes being handled arrived; after a handler, when its reply went out
+  Error parsed_;  // parse_request's result for request_, then the dispatch check (prepare)
+  const MessageHandler* handler_;  // request_'s handler when parsed_ is no_error (prepare)
+  Millis timeouts_checked_at_;     // `now` of the last handle_timeouts
+  bool prepared_;                  // request_ and parsed_ belong to the frame awaiting '\n'
+  uint8_t reply_[RomiSerialReplyCapacity];
+  uint8_t reply_size_;
+  char opcode_;  // opcode and id of the request being handled ('_' until the first)
+  uint8_t id_;
+  bool in_handler_;
+  bool replied_;
+  bool manual_;     // the request being handled is manual: its reply is not cached
+  bool hash_sent_;  // the '#' of the next frame out left already (receive(), at a frame's end)
+  Deadline frame_deadline_;  // the request being received must end by then (armed at its '#')
+  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
+  Request request_;  // the request being handled (its arguments are the handler's `args`)
+  DeviceCounters counters_;  // a base's member: constructed before the decoder that counts into it
+};
+
+}  // namespace detail
+
 /// A Romi device: decodes requests from an input stream, dispatches them to a handler table and writes
 /// the responses to an output stream. See the file comment for the behaviour, handler.hpp for handlers.
 /// Not copyable. Not reentrant: use it from the main loop only (never from an interrupt handler).
-class RomiSerial final : public IRomiSerial {
+class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
  public:
   /// Largest response frame, '#' to '\n'. 72 >= 65, the longest response a reference host accepts
   /// (57 characters between '#' and ':'); e.g. `[0,` + eleven 5-digit values fits. Longer ones: -31.
-  static constexpr uint8_t kReplyCapacity = 72;
+  static constexpr uint8_t kReplyCapacity = detail::RomiSerialReplyCapacity;
   /// Time from a request's '#' to its '\n' before it is dropped with -30 (the spec's 1 s).
   static constexpr Duration kRequestDeadlineMs = kControllerDeadlineMs;
   /// How long after it was sent a reply answers a repeat of its request: the host's call budget (2 s),
@@ -199,6 +235,8 @@ class RomiSerial final : public IRomiSerial {
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
+  __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
   void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
   bool is_repeat(uint8_t id, ByteView payload) const;  // the cached reply answers this request
@@ -206,7 +244,12 @@ class RomiSerial final : public IRomiSerial {
   void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   void send_code(char opcode, uint8_t id, Error code);
-  uint8_t emit(char opcode, uint8_t id, ByteView body, MutableByteView frame);
+  // A reply that must not touch the cache (manual requests), formed on the stack: out of line, so its
+  // 72-byte buffer stays off the common path.
+  __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
+  // Forms the response into `frame` (reply_, the cache's copy, or a caller's buffer with room for body +
+  // kResponseOverhead) and sends it. One function for every response: the inlined formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 
@@ -215,29 +258,7 @@ class RomiSerial final : public IRomiSerial {
   const MessageHandler* handlers_;
   uint8_t handler_count_;
   ClockFunction clock_;
-  DeviceCounters counters_;  // before the members that count into it
   Decoder<kDeviceDecoderCapacity, DeviceLinkCounters> decoder_;
-  Deadline frame_deadline_;  // the request being received must end by then (armed at its '#')
-  // Id and bytes of the request whose reply is in reply_ (the cached reply: only handler replies
-  // to requests with an id are written there).
-  uint8_t cached_id_ = 0;
-  uint8_t cached_request_size_ = 0;
-  uint8_t cached_request_[kMaxDevicePayload];
-  Deadline cache_expiry_;  // when the cached reply stops answering repeats (disarmed: nothing cached)
-  Millis now_ = 0;  // when the bytes being handled arrived; after a handler, when its reply went out
-  Request request_;  // the request being handled (its arguments are the handler's `args`)
-  Error parsed_ = Error::no_error;  // parse_request's result for request_, then the dispatch check (prepare)
-  const MessageHandler* handler_ = nullptr;  // request_'s handler when parsed_ is no_error (prepare)
-  Millis timeouts_checked_at_ = 0;  // `now` of the last handle_timeouts
-  bool prepared_ = false;           // request_ and parsed_ belong to the frame awaiting '\n'
-  uint8_t reply_[kReplyCapacity];
-  uint8_t reply_size_ = 0;
-  char opcode_ = '_';          // opcode and id of the request being handled
-  uint8_t id_ = 0;
-  bool in_handler_ = false;
-  bool replied_ = false;
-  bool manual_ = false;        // the request being handled is manual: its reply is not cached
-  bool hash_sent_ = false;     // the '#' of the next frame out left already (receive(), at a frame's end)
 };
 
 }  // namespace device

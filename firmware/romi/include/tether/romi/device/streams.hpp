@@ -25,7 +25,8 @@ class IInputStream {
   /// Stores the next byte in `c` and returns true, or returns false when none is waiting. Must not block.
   virtual bool read(char& c) = 0;
   /// Stores up to `capacity` waiting bytes in `bytes`; returns how many (0: none waiting). Must not
-  /// block. The default calls `read` per byte; a stream over a buffer overrides it to copy them in one
+  /// block. Fewer than `capacity` tells the device that the stream is drained: it reads again at its
+  /// next `handle_input()`, not at once. The default calls `read` per byte; a stream over a buffer overrides it to copy them in one
   /// call (the device's byte loop then makes one virtual call per batch, not per byte).
   virtual uint8_t read_some(uint8_t* bytes, uint8_t capacity) {
     uint8_t count = 0;

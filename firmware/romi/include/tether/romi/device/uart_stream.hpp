@@ -8,7 +8,8 @@
 ///     tether::romi::device::RomiSerial romi(serial, serial, handlers, count);
 ///
 /// Header-only and stateless (the UART's rings are static); works with any `Uart` type providing
-/// static `available()`, `read()` (-1 when empty) and `write(uint8_t)`.
+/// static `available()`, `read()` (-1 when empty), `read(MutableByteView)`, `write_now(uint8_t)` and
+/// `write(ByteView)`.
 #pragma once
 
 #include <stdint.h>
@@ -37,9 +38,10 @@ class UartStream final : public IInputStream, public IOutputStream {
   uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
     return static_cast<uint8_t>(Uart::read(MutableByteView(bytes, capacity)));
   }
-  /// Queues `c` on the TX ring; sleeps (IDLE) while the ring is full. Always true.
+  /// Queues `c` on the TX ring, or puts it straight into the idle transmitter (`Uart::write_now`: a
+  /// reply's first byte, the device's turnaround); sleeps (IDLE) while the ring is full. Always true.
   bool write(char c) override {
-    Uart::write(static_cast<uint8_t>(c));
+    Uart::write_now(static_cast<uint8_t>(c));
     return true;
   }
   /// Queues `bytes` on the TX ring, sleeping while it is full.
