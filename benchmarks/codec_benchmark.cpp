@@ -200,15 +200,16 @@ BENCHMARK_CAPTURE(BM_ElcanoRingNode, capture_drive_gen_b, elcano_drive(), elcano
 
 // --- A ~32-byte frame per codec: encode, then decode as the host client does ---------------------------
 // The per-frame cost a host pays in the portable codecs (the clients add their own bookkeeping on top).
-// Romi: the request `#s[1234,-567,890,-12,345]:<id><crc>\r\n` (32 bytes), decoded byte by byte. Proxy: a
-// 28-byte payload, CRC-16 and COBS (32 bytes with the delimiter), decoded a received run at a time
-// (`Decoder::feed(ByteView)`, as the proxy client feeds it). Elcano: the segment
-// `X{n 4}{s 160}{b 80}{p 3200,-64000}\n` (generation B, 34 bytes), decoded byte by byte.
+// Each is decoded a received run at a time (`feed(ByteView)`), as its host client feeds it. Romi: the
+// request `#s[1234,-567,890,-12,345]:<id><crc>\r\n` (32 bytes). Proxy: a 28-byte payload, CRC-16 and COBS
+// (32 bytes with the delimiter). Elcano: the segment `X{n 4}{s 160}{b 80}{p 3200,-64000}\n` (generation B,
+// 35 bytes).
 
-void BM_Frame32_Romi(benchmark::State& state) {
+// Romi: the RomiClient hands each received run to its decoder (`Decoder::feed(ByteView)`); the
+// byte-by-byte row is `feed(byte)`, the device's way.
+template <typename Read>
+void frame32_romi(benchmark::State& state, const LinkCounters& counters, Read read) {
   uint8_t frame[64];
-  LinkCounters counters;
-  romi::Decoder<romi::kHostDecoderCapacity> decoder(counters);
   uint8_t id = 0;
   size_t size = 0;
   for (auto _ : state) {
@@ -216,13 +217,28 @@ void BM_Frame32_Romi(benchmark::State& state) {
     builder.add_int(1234).add_int(-567).add_int(890).add_int(-12).add_int(345);
     const Result<size_t> encoded = romi::encode_request(builder.payload(), id++, frame);
     size = encoded.ok() ? encoded.value() : 0;
-    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(frame[i]));
+    read(ByteView(frame, size));
   }
   if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
   state.counters["wire_bytes"] = static_cast<double>(size);
 }
+
+void BM_Frame32_Romi(benchmark::State& state) {
+  LinkCounters counters;
+  romi::Decoder<romi::kHostDecoderCapacity> decoder(counters);
+  frame32_romi(state, counters, [&](ByteView bytes) { benchmark::DoNotOptimize(decoder.feed(bytes)); });
+}
 BENCHMARK(BM_Frame32_Romi);
+
+void BM_Frame32_RomiByteByByte(benchmark::State& state) {
+  LinkCounters counters;
+  romi::Decoder<romi::kHostDecoderCapacity> decoder(counters);
+  frame32_romi(state, counters, [&](ByteView bytes) {
+    for (const uint8_t byte : bytes) benchmark::DoNotOptimize(decoder.feed(byte));
+  });
+}
+BENCHMARK(BM_Frame32_RomiByteByByte);
 
 void BM_Frame32_Proxy(benchmark::State& state) {
   std::vector<uint8_t> payload(28);
@@ -244,22 +260,52 @@ void BM_Frame32_Proxy(benchmark::State& state) {
 }
 BENCHMARK(BM_Frame32_Proxy);
 
-void BM_Frame32_Elcano(benchmark::State& state) {
+// Elcano: the RingClient hands each received run to its node (`RingNode::consume(bytes)`, the reader's
+// `feed(bytes)`); the byte-by-byte row is the reader as `feed(byte)` takes it, and the node row what the
+// client's node adds (the partial-message deadline, the loop check, the capture set).
+template <typename Read>
+void frame32_elcano(benchmark::State& state, const LinkCounters& counters, Read read) {
   const elcano::Message message = elcano_segment();
   uint8_t out[96];
-  LinkCounters counters;
-  elcano::Decoder<96> decoder(elcano::Generation::b, counters);
   size_t size = 0;
   for (auto _ : state) {
     const Result<size_t> encoded = elcano::encode_message(message, elcano::Generation::b, out);
     size = encoded.ok() ? encoded.value() : 0;
-    for (size_t i = 0; i < size; ++i) benchmark::DoNotOptimize(decoder.feed(out[i]));
+    read(ByteView(out, size));
   }
   if (counters.frames_ok != static_cast<uint64_t>(state.iterations())) state.SkipWithError("a frame was not read");
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
   state.counters["wire_bytes"] = static_cast<double>(size);
 }
+
+void BM_Frame32_Elcano(benchmark::State& state) {
+  LinkCounters counters;
+  elcano::Decoder<96> decoder(elcano::Generation::b, counters);
+  frame32_elcano(state, counters, [&](ByteView bytes) { benchmark::DoNotOptimize(decoder.feed(bytes)); });
+}
 BENCHMARK(BM_Frame32_Elcano);
+
+void BM_Frame32_ElcanoByteByByte(benchmark::State& state) {
+  LinkCounters counters;
+  elcano::Decoder<96> decoder(elcano::Generation::b, counters);
+  frame32_elcano(state, counters, [&](ByteView bytes) {
+    for (const uint8_t byte : bytes) benchmark::DoNotOptimize(decoder.feed(byte));
+  });
+}
+BENCHMARK(BM_Frame32_ElcanoByteByByte);
+
+void BM_Frame32_ElcanoRingNode(benchmark::State& state) {
+  elcano::RingNodeConfig config;
+  config.capture = elcano::TypeSet::of(elcano::Type::segment);
+  LinkCounters counters;
+  elcano::RingCounters ring;
+  elcano::RingNode<96, 256, 4> node(config, 0, counters, ring);
+  frame32_elcano(state, counters, [&](ByteView bytes) {
+    size_t consumed = 0;
+    benchmark::DoNotOptimize(node.consume(bytes, 0, consumed));
+  });
+}
+BENCHMARK(BM_Frame32_ElcanoRingNode);
 
 // --- One job in each protocol: drive both servos (throttle D9, steering D10) ---------------------------
 // Host cost of encoding the job and its bytes on the wire, computed from the encoders:

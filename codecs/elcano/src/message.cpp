@@ -1,11 +1,35 @@
 #include "tether/elcano/message.hpp"
 
+#include <stddef.h>
+
 #include "tether/core/crc.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/encoder.hpp"
 #include "tether/elcano/errors.hpp"
 
 namespace tether {
 namespace elcano {
+namespace detail {
+
+#if defined(__AVR__)
+const uint8_t kFieldOffsets[26] PROGMEM = {
+#else
+const uint8_t kFieldOffsets[26] = {
+#endif
+    offsetof(Message, angle),  // a
+    offsetof(Message, bearing),  // b
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // c..m
+    offsetof(Message, number),  // n
+    offsetof(Message, obstacle) | kGenerationDOnly,  // o
+    offsetof(Message, east) | kGenerationDOnly,  // p (generation B: E,N, two fields)
+    offsetof(Message, north) | kGenerationDOnly,  // q
+    offsetof(Message, probability),  // r
+    offsetof(Message, speed),  // s
+    0, 0, 0, 0, 0, 0, 0,  // t..z
+};
+
+}  // namespace detail
+
 namespace {
 
 bool set(int32_t value) { return value != kUnset; }
@@ -142,16 +166,7 @@ bool type_from_name(ByteView name, Type& type) {
   return false;
 }
 
-bool has_required_fields(const Message& m) {
-  const bool position = set(m.east) && set(m.north);
-  switch (m.type) {
-    case Type::drive: return set(m.speed) && set(m.angle);
-    case Type::sensor: return set(m.speed) && set(m.angle) && position && set(m.bearing);
-    case Type::goal: return set(m.number) && position && set(m.bearing);
-    case Type::segment: return set(m.number) && position && set(m.bearing) && set(m.speed);
-  }
-  return false;
-}
+bool has_required_fields(const Message& m) { return detail::required_fields_set(m); }
 
 Result<size_t> encode_message(const Message& m, Generation generation, MutableByteView out) {
   if (!has_required_fields(m)) return Status::invalid_argument;

@@ -18,19 +18,6 @@ class FrameWriter {
   void put(ByteView bytes) {
     for (uint8_t c : bytes) put(c);
   }
-  void put_hex(uint8_t value) {
-    put(hex_digit(static_cast<uint8_t>(value >> 4)));
-    put(hex_digit(static_cast<uint8_t>(value & 0xF)));
-  }
-  // ':' id crc "\r\n", the CRC covering everything written so far plus ':' and the id.
-  void put_metadata(uint8_t id) {
-    put(':');
-    put_hex(id);
-    const uint8_t crc = size_ <= out_.size() ? Crc8Smbus::compute(ByteView(out_.data(), size_)) : 0;
-    put_hex(crc);
-    put('\r');
-    put('\n');
-  }
   void put_manual_metadata() { put(ByteView::from_literal(":xxxx\r\n")); }
   Result<size_t> result() const {
     if (size_ > out_.size()) return Status::buffer_too_small;
@@ -63,11 +50,22 @@ bool is_string_char(uint8_t c) {
 }
 
 Result<size_t> encode_request(ByteView payload, uint8_t id, MutableByteView out) {
-  FrameWriter writer(out);
-  writer.put('#');
-  writer.put(payload);
-  writer.put_metadata(id);
-  return writer.result();
+  // The size is known up front: one check, a copy, and the CRC over the written run (the host's hot
+  // path, issue 17: a bounds check and a CRC step per byte cost more than the rest of the frame).
+  const size_t size = payload.size() + kFrameOverhead;
+  if (size > out.size()) return Status::buffer_too_small;
+  uint8_t* next = out.data();
+  *next++ = '#';
+  for (const uint8_t c : payload) *next++ = c;
+  *next++ = ':';
+  *next++ = hex_digit(high_nibble(id));
+  *next++ = hex_digit(static_cast<uint8_t>(id & 0xF));
+  const uint8_t crc = Crc8Smbus::compute(ByteView(out.data(), static_cast<size_t>(next - out.data())));
+  *next++ = hex_digit(high_nibble(crc));
+  *next++ = hex_digit(static_cast<uint8_t>(crc & 0xF));
+  *next++ = '\r';
+  *next = '\n';
+  return size;
 }
 
 Result<size_t> encode_manual_request(ByteView payload, MutableByteView out) {
@@ -128,17 +126,27 @@ RequestBuilder& RequestBuilder::add_int(int32_t value) {
     error_ = Error::value_out_of_range;
     return *this;
   }
-  open_argument();
-  char digits[6];
-  uint8_t count = 0;
-  uint32_t magnitude = value < 0 ? static_cast<uint32_t>(-value) : static_cast<uint32_t>(value);
+  // The argument's text (separator, sign, digits, ']') is written in place, its length known first: one
+  // length check instead of a checked append per character (issue 17: the host's per-frame cost).
+  const uint32_t magnitude = value < 0 ? static_cast<uint32_t>(-value) : static_cast<uint32_t>(value);
+  const size_t digits = 1u + (magnitude >= 10u) + (magnitude >= 100u) + (magnitude >= 1000u) + (magnitude >= 10000u);
+  const bool opens = arguments_ == 0 && !has_string_;
+  const size_t start = opens ? size_ : size_ - 1;  // the separator replaces the closing ']' so far
+  const size_t end = start + 1u + (value < 0 ? 1u : 0u) + digits + 1u;
+  if (end > kMaxHostPayload) {
+    error_ = Error::client_request_too_long;
+    return *this;
+  }
+  buffer_[start] = opens ? '[' : ',';
+  if (value < 0) buffer_[start + 1] = '-';
+  uint8_t* digit = buffer_ + end - 1;
+  *digit = ']';
+  uint32_t rest = magnitude;
   do {
-    digits[count++] = static_cast<char>('0' + magnitude % 10);
-    magnitude /= 10;
-  } while (magnitude != 0);
-  if (value < 0) append('-');
-  while (count > 0) append(static_cast<uint8_t>(digits[--count]));
-  append(']');
+    *--digit = static_cast<uint8_t>('0' + rest % 10u);
+    rest /= 10u;
+  } while (rest != 0);
+  size_ = end;
   ++arguments_;
   return *this;
 }

@@ -98,6 +98,32 @@ TEST(RomiRequestBuilder, LongestLegalRequestFitsSixtyFourBytes) {
   EXPECT_LE(encode_request(builder.payload(), 0, frame).value(), kMaxRequestFrame);
 }
 
+TEST(RomiRequestBuilder, APayloadOfTheHostLimitBuildsAndOneCharacterMoreIsTooLong) {
+  // An argument is written whole after one length check (issue 17): the limit falls exactly where it did
+  // when each character was checked, whichever argument reaches it, and a rejected one writes nothing.
+  const auto build = [](int last, int arguments) {
+    RequestBuilder builder('m');
+    for (int i = 0; i + 1 < arguments; ++i) builder.add_int(-32768);
+    builder.add_int(last);
+    return builder;
+  };
+  // "m[", 7 x "-32768" and 7 separators: 51 characters; an eighth argument of 4 characters and the "]"
+  // fill exactly kMaxHostPayload (56), one of 5 characters does not fit.
+  const RequestBuilder exactly = build(-999, 8);
+  ASSERT_EQ(exactly.error(), Error::no_error);
+  EXPECT_EQ(exactly.payload().size(), kMaxHostPayload);
+  EXPECT_TRUE(ByteView(exactly.payload().data() + kMaxHostPayload - 6, 6).equals(view(",-999]")));
+  EXPECT_EQ(build(-9999, 8).error(), Error::client_request_too_long);
+  EXPECT_EQ(build(1000, 8).error(), Error::no_error);  // "1000": four characters as well
+  EXPECT_EQ(build(10000, 8).error(), Error::client_request_too_long);
+  // Every digit count and sign, formatted as before.
+  EXPECT_TRUE(RequestBuilder('a').add_int(0).add_int(9).add_int(-10).add_int(99).add_int(-100).add_int(999)
+                  .add_int(1000).add_int(-9999).add_int(10000).add_int(-32768).payload()
+                  .equals(view("a[0,9,-10,99,-100,999,1000,-9999,10000,-32768]")));
+  // A string after integers, integers after a string: one bracket pair, separators between.
+  EXPECT_TRUE(RequestBuilder('M').add_string(view("x")).add_int(7).payload().equals(view("M[\"x\",7]")));
+}
+
 TEST(RomiValidate, TypedCommands) {
   EXPECT_EQ(validate_request_payload(view("L[1]")), Error::no_error);
   EXPECT_EQ(validate_request_payload(view("M[16,\"Shutdown\"]")), Error::no_error);

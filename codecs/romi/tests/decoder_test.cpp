@@ -269,6 +269,70 @@ TEST(RomiEnvelope, SpanFeedingStopsAtEachEventAndMatchesByteFeeding) {
   }
 }
 
+// `stream` through feed(bytes) in reads of `chunk` bytes, every event as decode() records it.
+template <size_t Capacity>
+std::vector<Decoded> decode_in_chunks(const std::string& stream, size_t chunk, LinkCounters& counters) {
+  Decoder<Capacity> decoder(counters);
+  std::vector<Decoded> events;
+  for (size_t at = 0; at < stream.size(); at += chunk) {
+    ByteView rest = ByteView::from_chars(stream.data() + at, std::min(chunk, stream.size() - at));
+    while (!rest.empty()) {
+      const FeedResult result = decoder.feed(rest);
+      EXPECT_GE(result.consumed, 1u);
+      if (result.consumed == 0) return events;
+      rest = rest.subview(result.consumed);
+      if (result.status == DecodeStatus::more) continue;
+      const Frame& f = decoder.frame();
+      const Kind kind = result.status == DecodeStatus::error ? Kind::error : f.log ? Kind::log : Kind::frame;
+      events.push_back({kind, result.status == DecodeStatus::error ? decoder.error() : Error::no_error,
+                        std::string(reinterpret_cast<const char*>(f.payload.data()), f.payload.size()), f.manual,
+                        f.has_id, f.id, f.opcode});
+    }
+  }
+  return events;
+}
+
+std::string request_frame(const std::string& payload, uint8_t id) {
+  uint8_t frame[128];
+  const auto size = encode_request(ByteView::from_chars(payload.data(), payload.size()), id, frame);
+  return std::string(reinterpret_cast<const char*>(frame), size.ok() ? size.value() : 0);
+}
+
+TEST(RomiEnvelope, SpanFeedingMatchesByteFeedingAtTheCapacityAndOnEveryError) {
+  // feed(bytes) takes a frame's body in its own loop, bounded by the room left (issue 17): every chunking
+  // gives byte feeding's events and counters, for a frame that fills the device's decoder exactly, one a
+  // byte longer, colons in a log line, a '#' inside a frame, a CRC mismatch, a manual frame, '\n' without
+  // '\r', bad metadata, junk between frames.
+  const std::string fits = request_frame("m[" + std::string(55, '1') + "]", 0x3c);  // 58 + 5 = 63 bytes
+  const std::string too_long = request_frame("m[" + std::string(56, '1') + "]", 0x3d);
+  const std::string stream = fits + too_long + "#!a: b: c:xxxx\r\n" + "#a[1#e:7b04\r\n" + "#e:7b05\r\n" +
+                             "junk" + "#a[2]:xxxx\r\n" + "#e:7b04\n" + "#e:7\r\n" + "#e:7b04x\r\n" + fits;
+  LinkCounters expected_counters;
+  const auto expected = decode<kDeviceDecoderCapacity>(stream, &expected_counters);
+  ASSERT_EQ(expected.size(), 10u);
+  EXPECT_EQ(expected.front().kind, Kind::frame);
+  EXPECT_EQ(expected[1].error, Error::envelope_too_long);
+  for (size_t chunk = 1; chunk <= stream.size(); ++chunk) {
+    LinkCounters counters;
+    const auto events = decode_in_chunks<kDeviceDecoderCapacity>(stream, chunk, counters);
+    ASSERT_EQ(events.size(), expected.size()) << "chunk " << chunk;
+    for (size_t i = 0; i < events.size(); ++i) {
+      EXPECT_EQ(events[i].kind, expected[i].kind) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].error, expected[i].error) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].payload, expected[i].payload) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].manual, expected[i].manual) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].has_id, expected[i].has_id) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].id, expected[i].id) << "chunk " << chunk << " event " << i;
+      EXPECT_EQ(events[i].opcode, expected[i].opcode) << "chunk " << chunk << " event " << i;
+    }
+    EXPECT_EQ(counters.frames_ok, expected_counters.frames_ok) << "chunk " << chunk;
+    EXPECT_EQ(counters.crc_errors, expected_counters.crc_errors) << "chunk " << chunk;
+    EXPECT_EQ(counters.framing_errors, expected_counters.framing_errors) << "chunk " << chunk;
+    EXPECT_EQ(counters.oversize_frames, expected_counters.oversize_frames) << "chunk " << chunk;
+    EXPECT_EQ(counters.resyncs, expected_counters.resyncs) << "chunk " << chunk;
+  }
+}
+
 TEST(RomiEnvelope, BodyRunsDecodeExactlyLikeSingleBytes) {
   // A device's byte loop: feed_body_run over a batch, then feed_special for the byte that ended the run.
   // Same events and counters as byte-at-a-time feeding, on random streams of valid frames, damaged ones,

@@ -338,10 +338,18 @@ class RingClientImpl final : public transports::ClientLink {
 
   // --- the ring ------------------------------------------------------------------------------------------
 
+  // A received run goes to the node in one call up to each event (`RingNode::consume(bytes)`, the reader's
+  // span loop): the same events as byte by byte, without a call and a copy of the message per byte (issue
+  // 17). The message is copied only when there is an event.
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
     const Millis now = this->now();
-    for (std::size_t i = 0; i < size && !unusable(); ++i) {
-      on_ring_event(node_.feed(data[i], now), now);
+    std::size_t used = 0;
+    while (used < size && !unusable()) {
+      std::size_t consumed = 0;
+      const RingEvent::Kind kind = node_.consume(ByteView(data + used, size - used), now, consumed);
+      used += consumed;
+      if (kind != RingEvent::Kind::none) on_ring_event(node_.event(kind), now);
+      if (consumed == 0) break;  // cannot happen (a span always takes a byte); never spin on it
     }
     pump(now);
   }

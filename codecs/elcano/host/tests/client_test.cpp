@@ -18,6 +18,7 @@
 #include <future>
 #include <stdexcept>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "fake_ring.hpp"
@@ -450,6 +451,89 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   ASSERT_EQ(reports.size(), counters.ring.queue_full_drops);
   // The last ones were dropped: the queue keeps the first in order.
   EXPECT_TRUE(same(reports.back().message, drive(10 + static_cast<std::int32_t>(kMessages) - 1, 25)));
+}
+
+// --- reading the ring's bytes --------------------------------------------------------------------------
+
+// What a client made of the ring's bytes: the messages it forwarded, its events, the messages it kept for
+// receives, its counters.
+struct Observed {
+  std::string forwarded;
+  std::vector<std::string> events;
+  std::vector<std::string> received;
+  LinkCounters link;
+  RingCounters ring;
+};
+
+// Sends `traffic` (ending with a captured sensor, after `captured - 1` others) to a client whose stream holds
+// `stream_capacity` bytes, and records what it made of it once every message was read.
+Observed observe(const std::string& traffic, std::size_t captured, std::size_t forwarded,
+                 std::size_t stream_capacity) {
+  IoThread io;
+  Options options = on_steady_clock(test_options(20000, 40000));
+  options.node.capture = TypeSet::of(Type::sensor);
+  options.node.partial_message_timeout = 600000;  // no partial message may time out under load
+  options.receive_queue_bound = 2;
+  Link link(io.executor(), options, {}, stream_capacity);
+  link.ring->send(traffic);
+  Observed observed;
+  EXPECT_TRUE(eventually([&] { return link.client->counters().ring.captured == captured; }));
+  EXPECT_TRUE(link.ring->wait_for_messages(forwarded));
+  observed.forwarded = link.ring->received();
+  for (const Event& event : link.log.all()) {
+    if (const auto* dropped = std::get_if<events::InputDropped>(&event)) {
+      observed.events.push_back(std::string("input dropped: ") + describe(dropped->error));
+    } else if (const auto* overflow = std::get_if<events::ReceiveOverflow>(&event)) {
+      observed.events.push_back("receive overflow: " + wire(overflow->message, Generation::d));
+    } else {
+      observed.events.push_back("other event " + std::to_string(event.index()));
+    }
+  }
+  error_code error;
+  for (Message message = link.client->receive(0, error); !error; message = link.client->receive(0, error)) {
+    observed.received.push_back(wire(message, Generation::d));
+  }
+  observed.link = link.client->counters().link;
+  observed.ring = link.client->counters().ring;
+  return observed;
+}
+
+TEST(RingClient, ReceivedRunsGiveWhatTheSameBytesOneAtATimeGive) {
+  // The client hands each received run to its node in one call up to every event (issue 17); a stream of
+  // one byte per read gives the byte-by-byte result. Captured sensors (more than the receive queue
+  // holds), forwarded messages (one with whitespace, stripped), read errors of several kinds, a header
+  // inside a message, a message longer than the reader holds, bytes between messages.
+  const std::string too_long = [] {
+    std::string text = "D";
+    for (int i = 0; i < 30; ++i) text += "{s 1}";
+    return text + "\n";
+  }();
+  const std::string traffic = wire(sensor(1)) + "D{s 7} {a 8}\n" + "G{n1}{z9}\n" + "X{n4}{s1" + wire(drive(5, 6)) +
+                              "junk\n" + wire(sensor(2)) + too_long + "S{s 99999999999}\n" + wire(segment(3)) +
+                              "\r\n\n" + wire(sensor(3)) + "D{s1}{a}\n" + wire(goal(4)) + wire(sensor(4));
+  const Observed by_byte = observe(traffic, 4, 4, 1);
+  const Observed by_run = observe(traffic, 4, 4, 4096);
+  EXPECT_EQ(by_run.forwarded, by_byte.forwarded);
+  EXPECT_EQ(by_byte.forwarded, "D{s7}{a8}\nD{s5}{a6}\nX{n3}{s160}{b80}{p3200,-64000}\nG{n4}{b90}{p100,200}\n");
+  EXPECT_EQ(by_run.events, by_byte.events);
+  const std::vector<std::string> events = {"input dropped: bad_attrib",
+                                           "input dropped: bad_number",  // X{n4}{s1 cut by the next header
+                                           "input dropped: bad_type",    // junk
+                                           "input dropped: too_long",
+                                           "input dropped: bad_number",  // beyond int32
+                                           "receive overflow: " + wire(sensor(1), Generation::d),
+                                           "input dropped: bad_number",  // {a} without digits
+                                           "receive overflow: " + wire(sensor(2), Generation::d)};
+  EXPECT_EQ(by_byte.events, events);
+  EXPECT_EQ(by_run.received, by_byte.received);
+  EXPECT_EQ(by_byte.received,
+            (std::vector<std::string>{wire(sensor(3), Generation::d), wire(sensor(4), Generation::d)}));
+  EXPECT_EQ(by_run.link.frames_ok, by_byte.link.frames_ok);
+  EXPECT_EQ(by_run.link.framing_errors, by_byte.link.framing_errors);
+  EXPECT_EQ(by_run.link.oversize_frames, by_byte.link.oversize_frames);
+  EXPECT_EQ(by_run.link.resyncs, by_byte.link.resyncs);
+  EXPECT_EQ(by_run.ring.captured, by_byte.ring.captured);
+  EXPECT_EQ(by_run.ring.forwarded, by_byte.ring.forwarded);
 }
 
 // --- pacing --------------------------------------------------------------------------------------------

@@ -157,10 +157,11 @@ std::optional<Outcome> Completions::at(std::size_t index) const {
 
 // --- Link --------------------------------------------------------------------------------------------------
 
-Link::Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script)
+Link::Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script,
+           std::size_t stream_capacity)
     : clock(ManualClock::create()) {
   if (!options.clock) options.clock = clock;
-  auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor);
+  auto [host_end, ring_end] = transports::InMemoryStream::make_pair(executor, stream_capacity);
   ring = FakeRing::start(ring_end, options.node.generation, std::move(script));
   client.emplace(host_end, options, log.handler());
 }

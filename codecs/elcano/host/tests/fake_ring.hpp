@@ -159,8 +159,10 @@ class Completions {
 struct Link {
   /// The client runs on `clock`, a manual clock, unless `options` name another: no attempt window, budget or
   /// timeout passes behind a test's back, so a loaded machine cannot re-send or time out an operation; tests
-  /// about deadlines (and pacing beyond the bucket) advance `clock`.
-  Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script = {});
+  /// about deadlines (and pacing beyond the bucket) advance `clock`. Each direction of the in-memory pair
+  /// holds `stream_capacity` bytes: 1 makes the client read the ring's bytes one at a time.
+  Link(boost::asio::any_io_executor executor, Options options, FakeRing::Script script = {},
+       std::size_t stream_capacity = 4096);
   ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;

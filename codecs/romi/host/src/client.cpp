@@ -270,8 +270,13 @@ class ClientImpl final : public transports::ClientLink {
 
   // --- the link's hooks -----------------------------------------------------------------------------------
 
+  // A received run goes to the decoder in one call up to each frame or error (issue 17: its body loop).
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    for (std::size_t i = 0; i < size; ++i) on_event(decoder_.feed(data[i]));
+    for (std::size_t used = 0; used < size;) {
+      const FeedResult fed = decoder_.feed(ByteView(data + used, size - used));
+      used += fed.consumed;
+      on_event(fed.status);
+    }
     arm_timer();
     publish();
   }

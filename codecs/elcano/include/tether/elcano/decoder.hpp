@@ -33,8 +33,25 @@
 #include "tether/elcano/errors.hpp"
 #include "tether/elcano/message.hpp"
 
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#endif
+
 namespace tether {
 namespace elcano {
+namespace detail {
+
+/// kFieldOffsets: marks the letters that name a field in generation D only (`p` E alone, `o`, `q`).
+constexpr uint8_t kGenerationDOnly = 0x80;
+/// The attribute letters' fields, by `letter - 'a'`: offsetof(Message, field), kGenerationDOnly added for
+/// the generation D letters; 0 for letters that name no field (src/message.cpp; in flash on the AVR).
+#if defined(__AVR__)
+extern const uint8_t kFieldOffsets[26] PROGMEM;
+#else
+extern const uint8_t kFieldOffsets[26];
+#endif
+
+}  // namespace detail
 
 /// Decoder for one generation, keeping at most `Capacity` bytes of a message.
 template <size_t Capacity = 96>
@@ -90,7 +107,7 @@ class Decoder {
         const uint8_t field = field_of(byte);
         if (field != 0) {
           buffer_[size_++] = byte;
-          begin_number(byte, field);
+          begin_number(field);
           return DecodeStatus::more;
         }
       }
@@ -124,35 +141,39 @@ class Decoder {
   static constexpr uint8_t kSafeDigits = 9;
 
   DecodeStatus feed_slow(uint8_t byte);
-  // feed(bytes)'s loop over the bytes inside attributes; returns the first byte it did not take.
-  const uint8_t* run(const uint8_t* next, const uint8_t* end);
+  // Where feed(bytes)'s run stopped: the first byte it did not take, or just after a message it completed.
+  struct RunEnd {
+    const uint8_t* next;
+    bool frame;
+  };
+  // feed(bytes)'s loop over the bytes of a message (see there).
+  RunEnd run(const uint8_t* next, const uint8_t* end);
+  // feed(bytes) from `next`, a byte its run did not take, to the next event or the end of `bytes`.
+  FeedResult feed_after_run(ByteView bytes, const uint8_t* next);
   // feed(bytes) on the bytes run() leaves: feed(byte) out of line (the run keeps its registers).
   DecodeStatus feed_outside_run(uint8_t byte);
   // Where in `message_` the field attribute `letter` sets in this generation is (its offset, never 0:
   // `type` is there); 0 for unknown letters and for generation B `p`, which sets two fields
   // (store_value). An offset, not a member pointer: a null one is all ones, which would move every
-  // decoder from .bss to .data (flash and a boot copy on the AVR).
-  uint8_t field_of(uint8_t letter) const {
-    const bool d = generation_ == Generation::d;
-    switch (letter) {
-      case 'n': return offsetof(Message, number);
-      case 's': return offsetof(Message, speed);
-      case 'a': return offsetof(Message, angle);
-      case 'b': return offsetof(Message, bearing);
-      case 'r': return offsetof(Message, probability);
-      case 'p': return d ? offsetof(Message, east) : 0;
-      case 'o': return d ? offsetof(Message, obstacle) : 0;
-      case 'q': return d ? offsetof(Message, north) : 0;
-      default: return 0;
-    }
+  // decoder from .bss to .data (flash and a boot copy on the AVR). A table lookup, inline: a switch was
+  // a jump table behind a call, and the call made feed(bytes)'s loop keep its values on the stack.
+  __attribute__((always_inline)) uint8_t field_of(uint8_t letter) const {
+    const uint8_t index = static_cast<uint8_t>(letter - 'a');
+    if (index >= sizeof detail::kFieldOffsets) return 0;
+#if defined(__AVR__)
+    const uint8_t entry = pgm_read_byte(&detail::kFieldOffsets[index]);
+#else
+    const uint8_t entry = detail::kFieldOffsets[index];
+#endif
+    if ((entry & detail::kGenerationDOnly) == 0) return entry;
+    return generation_ == Generation::d ? static_cast<uint8_t>(entry & ~detail::kGenerationDOnly) : 0;
   }
   // The int32 field of `message_` at `offset` (from field_of).
   int32_t* field(uint8_t offset) {
     return reinterpret_cast<int32_t*>(reinterpret_cast<uint8_t*>(&message_) + offset);
   }
-  // After an attribute's letter (already kept): its number starts.
-  void begin_number(uint8_t letter, uint8_t field) {
-    letter_ = static_cast<char>(letter);
+  // After an attribute's letter (already kept): its number starts, for `field` (field_of the letter).
+  void begin_number(uint8_t field) {
     field_ = field;
     second_ = false;
     negative_ = false;
@@ -161,7 +182,11 @@ class Decoder {
     state_ = State::number;
   }
   DecodeStatus step(uint8_t byte);
+  // A message starts at `header` (kept), from step(); open() is the part run() inlines (state aside).
   void start(uint8_t header);
+  void open(uint8_t header);
+  // The number read so far, `negative` or not (`small` while it has at most 4 digits, then value_).
+  int32_t value_of(uint8_t digits, uint16_t small, bool negative) const;
   DecodeStatus fail(Error error);
   DecodeStatus finish();
   bool keep(uint8_t byte);
@@ -173,10 +198,9 @@ class Decoder {
   State state_ = State::header;
   Generation generation_;
   uint8_t digits_ = 0;     // digits of the number so far (saturates at 255)
-  uint8_t field_ = 0;      // what `}` sets: field_of(letter_)
+  uint8_t field_ = 0;      // what `}` sets: field_of(letter); 0 only for generation B `p` (E,N)
   size_t size_ = 0;
   uint32_t value_ = 0;     // magnitude, at most 2^31 (32-bit: the AVR has no cheap 64-bit multiply)
-  char letter_ = 0;
   bool second_ = false;    // generation B `p`: reading N after the comma
   bool negative_ = false;
   bool trailer_digits_ = false;

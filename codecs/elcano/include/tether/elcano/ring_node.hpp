@@ -160,6 +160,8 @@ class RingNode {
   /// many were used (feed the rest after handling the event). The same events as `consume(byte, now)`
   /// byte by byte, through the reader's span loop (issue 17: a call per byte dominates the AVR's cost).
   RingEvent::Kind consume(ByteView bytes, Millis now, size_t& consumed);
+  /// The whole event `consume` just reported as `kind`, as `feed` returns it (message and error copied).
+  RingEvent event(RingEvent::Kind kind) const;
   /// The message of the last event that had one (valid until the next byte).
   const Message& message() const { return reader_.frame(); }
   /// Why the last `dropped` event dropped.

@@ -82,12 +82,17 @@ RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::on_read(
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::feed(uint8_t byte, Millis now) {
+  return event(consume(byte, now));
+}
+
+template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
+RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::event(RingEvent::Kind kind) const {
   RingEvent event;
-  event.kind = consume(byte, now);
-  if (event.kind == RingEvent::Kind::dropped) event.error = error_;
+  event.kind = kind;
+  if (kind == RingEvent::Kind::dropped) event.error = error_;
   // A message dropped for a full queue was read whole: it is reported too.
-  const bool has_message = event.kind != RingEvent::Kind::none &&
-                           (event.kind != RingEvent::Kind::dropped || error_ == Error::queue_full);
+  const bool has_message =
+      kind != RingEvent::Kind::none && (kind != RingEvent::Kind::dropped || error_ == Error::queue_full);
   if (has_message) event.message = reader_.frame();
   return event;
 }

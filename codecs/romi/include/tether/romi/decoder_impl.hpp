@@ -62,6 +62,23 @@ __attribute__((always_inline)) inline DecodeStatus Decoder<Capacity, Counters>::
 }
 
 template <size_t Capacity, typename Counters>
+FeedResult Decoder<Capacity, Counters>::feed(ByteView bytes) {
+  const uint8_t* const begin = bytes.data();
+  const uint8_t* const end = begin + bytes.size();
+  const uint8_t* next = begin;
+  while (next != end) {
+    // A frame's body bytes in runs (at most 255 at a time: feed_body_run counts in 8 bits); the byte that
+    // ends a run goes through feed(byte), with the members in step.
+    const size_t left = static_cast<size_t>(end - next);
+    next += feed_body_run(next, static_cast<uint8_t>(left < 255u ? left : 255u));
+    if (next == end) break;
+    const DecodeStatus status = feed(*next++);
+    if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(next - begin)};
+  }
+  return FeedResult{DecodeStatus::more, bytes.size()};
+}
+
+template <size_t Capacity, typename Counters>
 char Decoder<Capacity, Counters>::partial_opcode() const {
   return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
 }
