@@ -25,15 +25,11 @@ TextBuilder& TextBuilder::text(const char* string) {
 }
 
 TextBuilder& TextBuilder::text(FlashText string) {
-  const char* next = string.chars;
-#if defined(__AVR__)
-  for (char c = static_cast<char>(pgm_read_byte(next)); c != '\0' && !truncated_;
-       c = static_cast<char>(pgm_read_byte(++next))) {
+  const uint8_t* next = reinterpret_cast<const uint8_t*>(string.chars);
+  for (char c = static_cast<char>(read_flash_byte(next)); c != '\0' && !truncated_;
+       c = static_cast<char>(read_flash_byte(++next))) {
     put(c);
   }
-#else
-  text(next);
-#endif
   return *this;
 }
 
