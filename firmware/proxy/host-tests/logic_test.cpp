@@ -74,6 +74,24 @@ TEST(Text, WordsAndNumbers) {
   EXPECT_EQ(text.size(), std::strlen(buffer));
 }
 
+TEST(Text, NumbersAtEveryDigitCountAndItsEdges) {
+  // number() subtracts powers of ten: every digit count, zeros inside, the edges around each power.
+  const uint32_t values[] = {0u, 9u, 10u, 99u, 100u, 101u, 1000000000u, 999999999u, 1000000001u,
+                             4000000000u, 4294967295u, 2147483648u, 1020304050u, 7u, 70u, 700000u};
+  for (const uint32_t value : values) {
+    char buffer[12];
+    TextBuilder text(buffer, sizeof(buffer));
+    text.number(value);
+    EXPECT_EQ(std::string(buffer), std::to_string(value));
+  }
+  for (uint32_t value = 0; value < 100000; value += 7) {
+    char buffer[12];
+    TextBuilder text(buffer, sizeof(buffer));
+    text.number(value);
+    ASSERT_EQ(std::string(buffer), std::to_string(value));
+  }
+}
+
 TEST(Text, TruncatesAndStaysTerminated) {
   char buffer[8];
   TextBuilder text(buffer, sizeof(buffer));

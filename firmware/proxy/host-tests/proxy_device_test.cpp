@@ -347,16 +347,22 @@ TEST_F(ProxyDeviceTest, DropsAreCountedAndReportedWithTheInfo) {
   raw[0] = static_cast<uint8_t>((crc & 0xFF) ^ 0x01);  // a wrong CRC
   raw[1] = static_cast<uint8_t>(crc >> 8);
   std::copy(payload.begin(), payload.end(), raw.begin() + 2);
-  feed(wire::frame(raw, Integrity::none));  // COBS(bad crc ‖ payload) ‖ 00
+  // Different counts per cause: the report shows each counter under its own label.
+  for (int i = 0; i < 3; ++i) feed(wire::frame(raw, Integrity::none));  // COBS(bad crc ‖ payload) ‖ 00
   feed({0x05, 0x01, 0x00});  // bad COBS: the code runs past the delimiter
   wire::Bytes big(80, 0x11);
-  feed(wire::frame(big, Integrity::crc16));  // over 64 bytes of payload
+  for (int i = 0; i < 2; ++i) feed(wire::frame(big, Integrity::crc16));  // over 64 bytes of payload
+  const wire::Bytes stalled = wire::frame(encode(ping(1)), Integrity::crc16);
+  for (Millis i = 0; i < 4; ++i) {  // half a frame, then silence past the partial-frame deadline
+    feed(wire::Bytes(stalled.begin(), stalled.begin() + 3), 1000 + 200 * i);
+    device.poll(1100 + 200 * i);
+  }
   EXPECT_TRUE(take().empty());  // nothing per frame
-  EXPECT_EQ(device.counters().link.crc_errors, 1u);
+  EXPECT_EQ(device.counters().link.crc_errors, 3u);
   EXPECT_EQ(device.counters().link.framing_errors, 1u);
-  EXPECT_EQ(device.counters().link.oversize_frames, 1u);
+  EXPECT_EQ(device.counters().link.oversize_frames, 2u);
   device.poll(5000);
-  EXPECT_EQ(take(), (Lines{"info 12648430", "warning dropped: crc 1 cobs 1 long 1 stall 0"}));
+  EXPECT_EQ(take(), (Lines{"info 12648430", "warning dropped: crc 3 cobs 1 long 2 stall 4"}));
   send(ping(2), 5001);
   device.poll(10000);  // nothing new dropped: no report
   EXPECT_EQ(take(), (Lines{"ack 2", "info 12648430"}));

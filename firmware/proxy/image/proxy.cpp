@@ -17,7 +17,11 @@ namespace {
 using Serial = tether::firmware::Uart0<128, 64>;
 constexpr uint32_t kBaud = 115200;
 
-void write_frame(void*, tether::ByteView frame) { Serial::write(frame); }
+// Byte by byte: the single-byte write path instead of the bulk copy's (-66 B of flash); a byte's extra
+// cycles are small next to its line time at 115200 baud (1389 cycles of the 16 MHz clock).
+void write_frame(void*, tether::ByteView frame) {
+  for (const uint8_t byte : frame) Serial::write(byte);
+}
 
 void restart(void*) {
   Serial::flush();  // the Reset's ack must leave the UART first

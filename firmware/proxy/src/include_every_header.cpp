@@ -10,6 +10,11 @@ namespace device {
 static_assert(servo_pulse_us(0) == 1000 && servo_pulse_us(90) == 1500 && servo_pulse_us(180) == 2000,
               "servo pulses: 1000 + degrees * 1000 / 180 us");
 
+// The images rely on their static ProxyDevice being constant-initialised (no constructor code at startup,
+// proxy_device.hpp): this stops compiling with avr-gcc if a member's constructor stops being constexpr.
+OutputTable g_gate_outputs;
+constexpr ProxyDevice kConstantInitialisedDevice(g_gate_outputs, FrameSink{nullptr, nullptr});
+
 }  // namespace device
 }  // namespace proxy
 }  // namespace tether

@@ -25,14 +25,13 @@ PinResult OutputTable::init_servo(uint32_t pin, int32_t safe_degrees) {
   Slot& slot = this->slot(pin);
   const uint8_t safe = clamp_degrees(safe_degrees);
   slot.safe = safe;
-  slot.value = safe;
-  const uint16_t pulse = servo_pulse_us(safe);
   if (slot.kind == OutputKind::servo) {
-    hardware::servo_write(static_cast<uint8_t>(pin), pulse);
-  } else {
-    slot.kind = OutputKind::servo;
-    hardware::servo_attach(static_cast<uint8_t>(pin), pulse);
+    drive(static_cast<uint8_t>(pin), safe);  // already pulsing: a new width (one copy of the write path)
+    return PinResult::ok;
   }
+  slot.kind = OutputKind::servo;
+  slot.value = safe;
+  hardware::servo_attach(static_cast<uint8_t>(pin), servo_pulse_us(safe));
   return PinResult::ok;
 }
 

@@ -1,6 +1,9 @@
 // Primary-mode proxy device: see tether/proxy/device/proxy_device.hpp for the wire behaviour.
 #include "tether/proxy/device/proxy_device.hpp"
 
+#include <stddef.h>
+#include <string.h>
+
 #include <pb_decode.h>
 
 #include "tether/core/crc.hpp"
@@ -32,10 +35,49 @@ const char kIsTheUart[] TETHER_IN_FLASH = " is the UART";
 const char kNotInitialised[] TETHER_IN_FLASH = " not initialised";
 const char kIsNotAServo[] TETHER_IN_FLASH = " is not a servo";
 const char kIsNotDigital[] TETHER_IN_FLASH = " is not digital";
-const char kDroppedCrc[] TETHER_IN_FLASH = "dropped: crc ";
-const char kCobs[] TETHER_IN_FLASH = " cobs ";
-const char kLong[] TETHER_IN_FLASH = " long ";
-const char kStall[] TETHER_IN_FLASH = " stall ";
+
+// The drop report, "dropped: crc N cobs N long N stall N": each label with the counter it shows, walked
+// by one loop (four text + number calls cost ~150 B more flash).
+struct DropField {
+  char label[14];
+  uint8_t counter;  // offset of the uint32_t counter in LinkCounters
+};
+const DropField kDropFields[] TETHER_IN_FLASH = {
+    {"dropped: crc ", offsetof(LinkCounters, crc_errors)},
+    {" cobs ", offsetof(LinkCounters, framing_errors)},
+    {" long ", offsetof(LinkCounters, oversize_frames)},
+    {" stall ", offsetof(LinkCounters, partial_timeouts)},
+};
+constexpr uint8_t kDropFieldCount = sizeof(kDropFields) / sizeof(kDropFields[0]);
+
+uint32_t drop_count(const LinkCounters& link, uint8_t field) {
+  uint32_t count;
+  memcpy(&count, reinterpret_cast<const uint8_t*>(&link) + read_flash_byte(&kDropFields[field].counter),
+         sizeof(count));
+  return count;
+}
+
+// What a refused pin message's Error says after the pin number.
+const char* refusal_text(PinResult result, bool servo) {
+  switch (result) {
+    case PinResult::no_such_pin:
+      return kDoesNotExist;
+    case PinResult::uart_pin:
+      return kIsTheUart;
+    case PinResult::not_servo_pin:
+      return kD9D10Only;
+    case PinResult::not_initialised:
+      return kNotInitialised;
+    case PinResult::out_of_range:
+      return kPosition;
+    default:  // wrong_kind
+      return servo ? kIsNotAServo : kIsNotDigital;
+  }
+}
+
+// ++counter, out of line: a 32-bit increment in place is ~24 B of AVR code (4 loads, add, 4 stores),
+// a call 6 B, and counting is never a hot path here.
+__attribute__((noinline)) void count(uint32_t& counter) { ++counter; }
 
 tether_proxy_ArduinoOut out_message(pb_size_t which) {
   tether_proxy_ArduinoOut out = tether_proxy_ArduinoOut_init_zero;
@@ -55,24 +97,11 @@ struct ErrorOut {
 
 }  // namespace
 
-ProxyDevice::ProxyDevice(OutputTable& outputs, FrameSink sink, RestartFunction restart, void* restart_context)
-    : outputs_(&outputs),
-      sink_(sink),
-      restart_(restart),
-      restart_context_(restart_context),
-      counters_{},  // aggregate value-initialisation: one clearing loop instead of a store per counter byte
-      decoder_(Integrity::crc16, counters_.link),
-      partial_(kPartialFrameMs, counters_.link),
-      executed_(counters_.link),
-      watchdog_(kPingSilenceMs, counters_.link, &ProxyDevice::on_failsafe, this) {}
-
 void ProxyDevice::begin(uint32_t session_id, Millis now) {
   session_id_ = session_id;
   watchdog_.start(now);
   next_info_.arm(now, kInfoPeriodMs);
-  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_resetEvent_tag);
-  out.data.resetEvent.sessionId = session_id_;
-  send(&out, true);
+  send_word(tether_proxy_ArduinoOut_resetEvent_tag, session_id, false);
 }
 
 void ProxyDevice::handle_byte(uint8_t byte, Millis now) {
@@ -110,27 +139,29 @@ void ProxyDevice::poll(Millis now) {
   }
   watchdog_.poll(now);  // before ArduinoInfo: an info due in the same poll shows the flag
   if (next_info_.expired(now)) {
-    send_info();
+    send_word(tether_proxy_ArduinoOut_info_tag, session_id_, watchdog_.triggered());
     report_drops();
     next_info_.arm(next_info_.at(), kInfoPeriodMs);
     if (next_info_.expired(now)) next_info_.arm(now, kInfoPeriodMs);  // fell behind: no burst
   }
 }
 
-void ProxyDevice::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
+// Out of line and unspecialised: it reaches the device through `this` (2-byte Y+q accesses) instead of
+// the image's absolute addresses of its static device (4-byte lds/sts) once inlined into main (-18 B).
+__attribute__((noinline, noclone)) void ProxyDevice::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
   tether_proxy_ArduinoIn in = tether_proxy_ArduinoIn_init_zero;
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
   if (!pb_decode(&stream, tether_proxy_ArduinoIn_fields, &in)) {
-    ++counters_.decode_errors;
+    count(counters_.decode_errors);
     send_error(FlashText{kDecodeError});
     return;
   }
   const uint32_t id = in.messageId;
   if (executed_.check(id, fingerprint).duplicate) {
-    send_ack(id);  // a re-send: ack again, execute nothing
+    send_word(tether_proxy_ArduinoOut_ack_tag, id, false);  // a re-send: ack again, execute nothing
     return;
   }
-  ++counters_.executed;
+  count(counters_.executed);
   const uint32_t refused_before = counters_.refused;
   bool restart = false;
   switch (in.which_data) {
@@ -169,7 +200,7 @@ void ProxyDevice::handle_payload(ByteView payload, uint16_t fingerprint, Millis 
       watchdog_.clear_triggered();
       break;
     default:
-      ++counters_.refused;
+      count(counters_.refused);
       send_error(FlashText{kUnknownMessage});
       break;
   }
@@ -177,7 +208,7 @@ void ProxyDevice::handle_payload(ByteView payload, uint16_t fingerprint, Millis 
   // Only what took effect is remembered: a re-send of a refused message is looked at again (it may run now
   // that its pin was initialised), and its ack still says whether it ran.
   if (!refused) executed_.remember(id, fingerprint, ByteView());
-  send_ack(id, refused);
+  send_word(tether_proxy_ArduinoOut_ack_tag, id, refused);
   if (restart && restart_ != nullptr) restart_(restart_context_);  // on the AVR: flush, reset, no return
 }
 
@@ -194,17 +225,25 @@ bool ProxyDevice::send(const void* out_message, bool leading_delimiter) {
   if (send_message(sink_, Integrity::crc16, leading_delimiter, tether_proxy_ArduinoOut_fields, out_message)) {
     return true;
   }
-  ++counters_.send_failures;
+  count(counters_.send_failures);
   return false;
 }
 
-// Out of line (send_ack, report_drops): LTO inlined each into its callers in main, every copy with its own
-// zeroing of a 55-byte ArduinoOut; one copy costs a call per message (proxy.elf -124 B).
-__attribute__((noinline)) void ProxyDevice::send_ack(uint32_t message_id, bool refused) {
-  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_ack_tag);
-  out.data.ack.messageId = message_id;
-  out.data.ack.refused = refused;
-  send(&out);
+// Ack{messageId, refused}, ArduinoInfo{sessionId, pingFailsafeTriggered} and ResetEvent{sessionId}: one
+// function for the three (each with its own zeroed ArduinoOut and send call: proxy.elf +50 B); a
+// ResetEvent goes after a 0x00 (proxy_device.hpp, rule 1). Out of line: LTO inlined the ack into main.
+__attribute__((noinline)) void ProxyDevice::send_word(pb_size_t which, uint32_t word, bool flag) {
+  tether_proxy_ArduinoOut out = out_message(which);
+  if (which == tether_proxy_ArduinoOut_ack_tag) {
+    out.data.ack.messageId = word;
+    out.data.ack.refused = flag;
+  } else if (which == tether_proxy_ArduinoOut_info_tag) {
+    out.data.info.sessionId = word;
+    out.data.info.pingFailsafeTriggered = flag;
+  } else {
+    out.data.resetEvent.sessionId = word;
+  }
+  send(&out, which == tether_proxy_ArduinoOut_resetEvent_tag);
 }
 
 void ProxyDevice::send_error(FlashText text) {
@@ -221,61 +260,35 @@ void ProxyDevice::send_pin_state(uint8_t pin, bool failsafe) {
   send(&out);
 }
 
-void ProxyDevice::send_info() {
-  tether_proxy_ArduinoOut out = out_message(tether_proxy_ArduinoOut_info_tag);
-  out.data.info.sessionId = session_id_;
-  out.data.info.pingFailsafeTriggered = watchdog_.triggered();
-  send(&out);
-}
-
 void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo, int32_t value) {
   if (result == PinResult::ok) {
     send_pin_state(static_cast<uint8_t>(pin), false);
     return;
   }
-  ++counters_.refused;
+  count(counters_.refused);
   ErrorOut error;
-  if (result == PinResult::not_servo_pin) {
-    error.text.text(FlashText{kServoOnPin}).number(pin).text(FlashText{kD9D10Only});
-  } else if (result == PinResult::out_of_range) {
-    error.text.text(FlashText{kPin}).number(pin).text(FlashText{kPosition});
+  // "<servo on pin|pin> N<why>", then for a position out of range "P not in 0..180".
+  error.text.text(FlashText{result == PinResult::not_servo_pin ? kServoOnPin : kPin})
+      .number(pin)
+      .text(FlashText{refusal_text(result, servo)});
+  if (result == PinResult::out_of_range) {
     if (value < 0) error.text.text(FlashText{kMinus});
     error.text.number(value < 0 ? 0u - static_cast<uint32_t>(value) : static_cast<uint32_t>(value))
         .text(FlashText{kNotIn0180});
-  } else {
-    error.text.text(FlashText{kPin}).number(pin);
-    switch (result) {
-      case PinResult::no_such_pin:
-        error.text.text(FlashText{kDoesNotExist});
-        break;
-      case PinResult::uart_pin:
-        error.text.text(FlashText{kIsTheUart});
-        break;
-      case PinResult::not_initialised:
-        error.text.text(FlashText{kNotInitialised});
-        break;
-      default:  // wrong_kind
-        if (servo) {
-          error.text.text(FlashText{kIsNotAServo});
-        } else {
-          error.text.text(FlashText{kIsNotDigital});
-        }
-        break;
-    }
   }
   send(&error.message);
 }
 
 __attribute__((noinline)) void ProxyDevice::report_drops() {
   const LinkCounters& link = counters_.link;
-  const uint32_t drops = link.crc_errors + link.framing_errors + link.oversize_frames + link.partial_timeouts;
+  uint32_t drops = 0;
+  for (uint8_t field = 0; field < kDropFieldCount; ++field) drops += drop_count(link, field);
   if (drops == reported_drops_) return;
   reported_drops_ = drops;
   ErrorOut error;
-  error.text.text(FlashText{kDroppedCrc}).number(link.crc_errors);
-  error.text.text(FlashText{kCobs}).number(link.framing_errors);
-  error.text.text(FlashText{kLong}).number(link.oversize_frames);
-  error.text.text(FlashText{kStall}).number(link.partial_timeouts);
+  for (uint8_t field = 0; field < kDropFieldCount; ++field) {
+    error.text.text(FlashText{kDropFields[field].label}).number(drop_count(link, field));
+  }
   send(&error.message);
 }
 

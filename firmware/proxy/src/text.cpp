@@ -25,30 +25,49 @@ TextBuilder& TextBuilder::text(const char* string) {
 }
 
 TextBuilder& TextBuilder::text(FlashText string) {
-  const char* next = string.chars;
-#if defined(__AVR__)
-  for (char c = static_cast<char>(pgm_read_byte(next)); c != '\0' && !truncated_;
-       c = static_cast<char>(pgm_read_byte(++next))) {
+  const uint8_t* next = reinterpret_cast<const uint8_t*>(string.chars);
+  for (char c = static_cast<char>(read_flash_byte(next)); c != '\0' && !truncated_;
+       c = static_cast<char>(read_flash_byte(++next))) {
     put(c);
   }
-#else
-  text(next);
-#endif
   return *this;
 }
+
+namespace {
+
+// 10^9 .. 10^1, in flash on the AVR: `number` subtracts them instead of dividing by ten (avr-gcc calls
+// __udivmodsi4 for a 32-bit division, and this was its only caller in the proxy image).
+const uint32_t kPowersOfTen[] TETHER_IN_FLASH = {1000000000u, 100000000u, 10000000u, 1000000u, 100000u,
+                                                 10000u,      1000u,      100u,      10u};
+
+uint32_t power_of_ten(uint8_t index) {
+#if defined(__AVR__)
+  return pgm_read_dword(&kPowersOfTen[index]);
+#else
+  return kPowersOfTen[index];
+#endif
+}
+
+}  // namespace
 
 TextBuilder& TextBuilder::number(uint32_t value) {
   char digits[10];
   uint8_t count = 0;
-  do {
-    digits[count++] = static_cast<char>('0' + static_cast<char>(value % 10u));
-    value /= 10u;
-  } while (value != 0);
+  for (uint8_t index = 0; index < sizeof(kPowersOfTen) / sizeof(kPowersOfTen[0]); ++index) {
+    const uint32_t power = power_of_ten(index);
+    char digit = '0';
+    while (value >= power) {
+      value -= power;
+      ++digit;
+    }
+    if (digit != '0' || count != 0) digits[count++] = digit;  // no leading zeros
+  }
+  digits[count++] = static_cast<char>('0' + static_cast<char>(value));
   if (size_ + count + 1 > capacity_) {
     truncated_ = true;
     return *this;
   }
-  while (count != 0) put(digits[--count]);
+  for (uint8_t index = 0; index < count; ++index) put(digits[index]);
   return *this;
 }
 

@@ -128,8 +128,8 @@ class CobsDecoder {
 
   /// Decoder counting into `counters` (oversize_frames, framing_errors, resyncs); outlives it. With
   /// `checked_from` < `Capacity`, `checksum()` covers each frame's decoded bytes from that offset on.
-  explicit CobsDecoder(LinkCounters& counters, size_t checked_from = kUnchecked)
-      : counters_(&counters), checked_from_(static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked)) {}
+  constexpr explicit CobsDecoder(LinkCounters& counters, size_t checked_from = kUnchecked)
+      : counters_(&counters), buffer_{}, checked_from_(static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked)) {}
 
   /// Consumes one byte.
   __attribute__((always_inline)) DecodeStatus feed(uint8_t byte) {

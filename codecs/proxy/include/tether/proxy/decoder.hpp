@@ -25,7 +25,7 @@ template <size_t MaxPayload>
 class Decoder {
  public:
   /// Decoder in `integrity` mode, counting into `counters` (frames_ok too); `counters` outlives it.
-  Decoder(Integrity integrity, LinkCounters& counters)
+  constexpr Decoder(Integrity integrity, LinkCounters& counters)
       : cobs_(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked) {}
 
   /// Consumes one byte.

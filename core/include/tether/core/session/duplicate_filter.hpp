@@ -34,7 +34,7 @@ class DuplicateFilter {
   };
 
   /// Empty filter; `counters` (outliving it) receives duplicates.
-  explicit DuplicateFilter(LinkCounters& counters) : counters_(&counters) {}
+  constexpr explicit DuplicateFilter(LinkCounters& counters) : counters_(&counters), entries_{} {}
 
   /// Looks up a request before executing it. Counts a duplicate when found.
   Lookup check(Id id, uint16_t fingerprint) {

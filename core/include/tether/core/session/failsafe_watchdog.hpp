@@ -28,7 +28,7 @@ class FailsafeWatchdog {
 
   /// Watchdog firing after `silence_limit` ms; `callback` may be null (poll's return value then tells);
   /// `counters` (outliving it) receives failsafes.
-  FailsafeWatchdog(Duration silence_limit, LinkCounters& counters, Callback callback = nullptr,
+  constexpr FailsafeWatchdog(Duration silence_limit, LinkCounters& counters, Callback callback = nullptr,
                    void* context = nullptr)
       : limit_(silence_limit), counters_(&counters), callback_(callback), context_(context) {}
 

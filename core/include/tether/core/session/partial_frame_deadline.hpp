@@ -17,7 +17,7 @@ namespace session {
 class PartialFrameDeadline {
  public:
   /// Frames must complete within `limit` ms; `counters` (outliving it) receives partial_timeouts.
-  PartialFrameDeadline(Duration limit, LinkCounters& counters) : limit_(limit), counters_(&counters) {}
+  constexpr PartialFrameDeadline(Duration limit, LinkCounters& counters) : limit_(limit), counters_(&counters) {}
 
   /// A frame started at `now` (a new start byte restarts the window).
   void on_frame_start(Millis now) { deadline_.arm(now, limit_); }

@@ -51,13 +51,14 @@ constexpr uint8_t clamp_degrees(int32_t degrees) {
   return static_cast<uint8_t>(degrees < 0 ? 0 : (degrees > kServoMaxDegrees ? kServoMaxDegrees : degrees));
 }
 
-/// Pulse width (us) for a position in degrees (clamped): 1000 + degrees * 1000 / 180.
+/// Pulse width (us) for a position in degrees (clamped): 1000 + degrees * 1000 / 180, computed as
+/// degrees * 50 / 9 (the same fraction reduced by 20): 16-bit arithmetic, no 32-bit multiply or division
+/// on the AVR (180 * 50 fits 16 bits).
 constexpr uint16_t servo_pulse_us(int32_t degrees) {
-  return static_cast<uint16_t>(kServoMinPulseUs +
-                               static_cast<uint32_t>(clamp_degrees(degrees)) *
-                                   static_cast<uint32_t>(kServoMaxPulseUs - kServoMinPulseUs) /
-                                   static_cast<uint32_t>(kServoMaxDegrees));
+  return static_cast<uint16_t>(kServoMinPulseUs + static_cast<uint16_t>(clamp_degrees(degrees) * 50u) / 9u);
 }
+static_assert((kServoMaxPulseUs - kServoMinPulseUs) * 9 == kServoMaxDegrees * 50,
+              "servo_pulse_us's reduced fraction must be (max - min) / max degrees");
 
 /// True when `degrees` is a primary-mode servo position (0..180): the device refuses others.
 constexpr bool is_servo_degrees(int32_t degrees) { return degrees >= 0 && degrees <= kServoMaxDegrees; }

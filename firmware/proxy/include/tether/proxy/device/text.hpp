@@ -30,6 +30,15 @@ struct FlashText {
   const char* chars;  ///< The string, in program memory on the AVR.
 };
 
+/// Reads a byte of an object declared `TETHER_IN_FLASH` (`pgm_read_byte` on the AVR).
+inline uint8_t read_flash_byte(const uint8_t* address) {
+#if defined(__AVR__)
+  return pgm_read_byte(address);
+#else
+  return *address;
+#endif
+}
+
 /// Appends text and numbers to `buffer[0..capacity)` (capacity includes the NUL).
 class TextBuilder {
  public:
