@@ -144,24 +144,23 @@ class CobsDecoder {
   /// events and state as feeding them one by one, but a block's data bytes go through one tight loop
   /// (on the AVR the decoder's state stays in registers instead of a load and store per byte).
   FeedResult feed(ByteView bytes) {
-    const uint8_t* const begin = bytes.data();
-    const uint8_t* in = begin;
-    const uint8_t* const end = begin + bytes.size();
-    while (in != end) {
+    const uint8_t* in = bytes.data();
+    size_t rest = bytes.size();
+    while (rest != 0) {
       if (!skipping_) {
         // At most 255 bytes per run (its 8-bit counts); the run loop takes every byte it can.
-        const size_t rest = static_cast<size_t>(end - in);
         const uint8_t avail = static_cast<uint8_t>(rest < 255 ? rest : 255);
-        const uint8_t* const stop = in + avail;
         const RunEnd run = take_run(in, avail);
-        in = run.next;
-        if (run.frame) return FeedResult{DecodeStatus::frame, static_cast<size_t>(in - begin)};
-        if (in == stop) continue;
+        in += run.taken;
+        rest -= run.taken;
+        if (run.frame) return FeedResult{DecodeStatus::frame, bytes.size() - rest};
+        if (run.taken == avail) continue;
       }
       // What the run loop leaves (errors, resynchronisation) byte by byte: never a data byte that fits
       // when the buffer's room is an 8-bit count too, so then straight to the rare path.
+      --rest;
       const DecodeStatus status = Capacity < 255 ? feed_rare(*in++) : feed(*in++);
-      if (status != DecodeStatus::more) return FeedResult{status, static_cast<size_t>(in - begin)};
+      if (status != DecodeStatus::more) return FeedResult{status, bytes.size() - rest};
     }
     return FeedResult{DecodeStatus::more, bytes.size()};
   }
@@ -239,12 +238,13 @@ class CobsDecoder {
   // COBS), a full buffer or `end`, leaving that byte to feed(uint8_t). Not while skipping. The state stays in registers for
   // the whole run (the CRC too), 8-bit counts (a block holds at most 254 data bytes); out of line so that
   // it gets the registers to itself whatever the caller is.
-  // Where take_run stopped, and whether the delimiter before it completed a frame (returned in registers).
+  // How far take_run went, and whether the delimiter before it completed a frame (returned in registers).
   struct RunEnd {
-    const uint8_t* next;
+    uint8_t taken;  // bytes used from `in`
     bool frame;
   };
-  __attribute__((noinline)) RunEnd take_run(const uint8_t* in, uint8_t avail) {
+  __attribute__((noinline)) RunEnd take_run(const uint8_t* in, const uint8_t span) {
+    uint8_t avail = span;
     // Few live values (the frame's size as an index, not a second pointer; the runs report what they left,
     // not where they stopped): on the AVR they all stay in call-clobbered registers, no frame to save.
     const Index checked_from = checked_from_;
@@ -283,6 +283,7 @@ class CobsDecoder {
       const uint8_t code = *in;
       if (code == 0x00) {
         ++in;
+        --avail;
         if (started) {  // completes the frame (end_frame's case of a frame)
           started = false;
           frame = true;
@@ -290,7 +291,6 @@ class CobsDecoder {
         }
         at = 0;  // a delimiter between frames (end_frame without a frame): size 0
         out = buffer_;
-        --avail;
         continue;
       }
       if (!started) {  // a frame's first code byte; the previous frame stayed readable until now
@@ -314,7 +314,7 @@ class CobsDecoder {
     last_code_ = last_code;
     started_ = started;
     size_ = at;
-    return RunEnd{in, frame};
+    return RunEnd{static_cast<uint8_t>(span - avail), frame};
   }
   // Copies up to `count` (>= 1) bytes from `in` to `out`, stopping at a zero; advances both past what it
   // copied (`in` then points at the zero) and returns how many of `count` it did not copy (0: all). The
@@ -322,6 +322,9 @@ class CobsDecoder {
   __attribute__((always_inline)) static uint8_t copy_run(const uint8_t*& in, uint8_t*& out, uint8_t count) {
 #if defined(__AVR__)
     // X and Z post-increments (avr-gcc 5.4 recomputed both pointers every byte: 15 cycles a byte, now 9).
+    // Local copies of the pointers: through the references avr-gcc 5.4 gave the caller a stack frame.
+    const uint8_t* from = in;
+    uint8_t* to = out;
     uint8_t byte;
     __asm__ volatile(
         "1:  ld   %[byte], X+\n\t"
@@ -333,9 +336,11 @@ class CobsDecoder {
         "    rjmp 3f\n\t"
         "2:  sbiw r26, 1\n\t"  // back to the zero
         "3:\n\t"
-        : [in] "+x"(in), [out] "+z"(out), [count] "+r"(count), [byte] "=&r"(byte)
+        : [in] "+x"(from), [out] "+z"(to), [count] "+r"(count), [byte] "=&r"(byte)
         :
         : "memory");
+    in = from;
+    out = to;
 #else
     do {
       const uint8_t byte = *in;
@@ -356,39 +361,67 @@ class CobsDecoder {
     // byte, measured): hand-placed X and Z post-increments. The CRC step is Crc16Mcrf4xx's on the register
     // (the documented CCITT byte step: d = byte ^ lo, d ^= d << 4, crc = (d << 8 | hi) ^ d >> 4 ^ d << 3)
     // with the hardware multiplier doing the shifts: `mul d, 16` gives d << 4 and `mul d, 8` gives the
-    // 16-bit d << 3 in r1:r0 at once, 13 cycles where avr-libc's shift-and-mask `_crc_ccitt_update` takes
-    // 17: 22 cycles a byte (26 before). r1 (the zero register) is cleared again on the way out.
+    // 16-bit d << 3 in r1:r0 at once, 12 cycles where avr-libc's shift-and-mask `_crc_ccitt_update` takes
+    // 17: 20.5 cycles a byte (26 before). r1 (the zero register) is cleared again on the way out.
     uint16_t state = crc.state;
+    const uint8_t* from = in;
+    uint8_t* to = out;
     uint8_t byte;
     uint8_t sixteen;
     uint8_t eight;
     __asm__ volatile(
         "    ldi  %[sixteen], 16\n\t"
-        "    ldi  %[eight], 8\n\t"
+        "    mov  %[eight], %[sixteen]\n\t"
+        "    lsr  %[eight]\n\t"
+        // Two bytes a turn: the first leaves the new low byte in the high register and the new high
+        // byte in the low one (no `mov` to put them back), the second steps with the roles swapped and
+        // leaves them where they were. An exit after the first swaps them back.
         "1:  ld   %[byte], X+\n\t"
         "    tst  %[byte]\n\t"
-        "    breq 2f\n\t"
+        "    breq 5f\n\t"
         "    st   Z+, %[byte]\n\t"
         "    eor  %[byte], %A[state]\n\t"   // d = byte ^ lo
         "    mul  %[byte], %[sixteen]\n\t"
         "    eor  %[byte], r0\n\t"          // d ^= d << 4
         "    mul  %[byte], %[eight]\n\t"    // r1:r0 = d << 3
-        "    mov  %A[state], %B[state]\n\t"
-        "    eor  %A[state], r0\n\t"        // lo = hi ^ (d << 3) & 0xFF
-        "    mov  %B[state], %[byte]\n\t"
-        "    eor  %B[state], r1\n\t"        // hi = d ^ (d << 3) >> 8
+        "    eor  %B[state], r0\n\t"        // new lo (in the high register) = hi ^ (d << 3) & 0xFF ...
+        "    mov  %A[state], %[byte]\n\t"
+        "    eor  %A[state], r1\n\t"        // new hi (in the low register) = d ^ (d << 3) >> 8
         "    swap %[byte]\n\t"
         "    andi %[byte], 0x0F\n\t"
-        "    eor  %A[state], %[byte]\n\t"   // lo ^= d >> 4
+        "    eor  %B[state], %[byte]\n\t"   // ... ^ d >> 4
+        "    dec  %[count]\n\t"
+        "    breq 6f\n\t"
+        "    ld   %[byte], X+\n\t"
+        "    tst  %[byte]\n\t"
+        "    breq 7f\n\t"
+        "    st   Z+, %[byte]\n\t"
+        "    eor  %[byte], %B[state]\n\t"   // the same step, roles swapped
+        "    mul  %[byte], %[sixteen]\n\t"
+        "    eor  %[byte], r0\n\t"
+        "    mul  %[byte], %[eight]\n\t"
+        "    eor  %A[state], r0\n\t"
+        "    mov  %B[state], %[byte]\n\t"
+        "    eor  %B[state], r1\n\t"
+        "    swap %[byte]\n\t"
+        "    andi %[byte], 0x0F\n\t"
+        "    eor  %A[state], %[byte]\n\t"
         "    dec  %[count]\n\t"
         "    brne 1b\n\t"
-        "    rjmp 3f\n\t"
-        "2:  sbiw r26, 1\n\t"  // back to the zero
-        "3:  clr  __zero_reg__\n\t"
-        : [in] "+x"(in), [out] "+z"(out), [state] "+r"(state), [count] "+r"(count), [byte] "=&d"(byte),
-          [sixteen] "=&d"(sixteen), [eight] "=&d"(eight)
+        "    rjmp 8f\n\t"
+        "7:  sbiw r26, 1\n\t"  // back to the zero
+        "6:  mov  r0, %A[state]\n\t"        // roles back
+        "    mov  %A[state], %B[state]\n\t"
+        "    mov  %B[state], r0\n\t"
+        "    rjmp 8f\n\t"
+        "5:  sbiw r26, 1\n\t"  // back to the zero
+        "8:  clr  __zero_reg__\n\t"
+        : [in] "+x"(from), [out] "+z"(to), [state] "+r"(state), [count] "+r"(count), [byte] "=&d"(byte),
+          [sixteen] "=&d"(sixteen), [eight] "=&r"(eight)
         :
         : "r0", "memory");
+    in = from;
+    out = to;
     crc.state = state;
 #else
     do {
