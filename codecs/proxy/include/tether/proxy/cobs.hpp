@@ -232,10 +232,10 @@ class CobsDecoder {
     left_ = 0;
     return status;
   }
-  // The bytes from `in` (before `end`) as feed(uint8_t) would take them: data bytes, code bytes (a frame's
+  // The `span` bytes from `in` (at most 255) as feed(uint8_t) would take them: data bytes, code bytes (a frame's
   // first, or between blocks with their implied zero stored), delimiters between frames and the one that
   // completes a frame (it stops after that one: `frame`); otherwise it stops at a zero inside a block (bad
-  // COBS), a full buffer or `end`, leaving that byte to feed(uint8_t). Not while skipping. The state stays in registers for
+  // COBS), a full buffer or the span's end, leaving that byte to feed(uint8_t). Not while skipping. The state stays in registers for
   // the whole run (the CRC too), 8-bit counts (a block holds at most 254 data bytes); out of line so that
   // it gets the registers to itself whatever the caller is.
   // How far take_run went, and whether the delimiter before it completed a frame (returned in registers).
@@ -246,7 +246,8 @@ class CobsDecoder {
   __attribute__((noinline)) RunEnd take_run(const uint8_t* in, const uint8_t span) {
     uint8_t avail = span;
     // Few live values (the frame's size as an index, not a second pointer; the runs report what they left,
-    // not where they stopped): on the AVR they all stay in call-clobbered registers, no frame to save.
+    // not where they stopped): on the AVR they stay in registers with 9 saved and no stack frame (15 and a
+    // frame before).
     const Index checked_from = checked_from_;
     detail::CobsCrc crc = crc_;
     Index at = size_;
