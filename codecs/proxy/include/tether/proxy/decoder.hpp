@@ -51,7 +51,9 @@ class Decoder {
   /// After `frame`: the checked payload (a view into the decoder, valid until the next feed).
   ByteView frame() const {
     const ByteView frame = cobs_.frame();
-    return checked() ? frame.subview(2) : frame;
+    // Past the CRC field (no subview call: it is on the device's path to every payload).
+    if (!checked() || frame.size() < 2) return checked() ? frame.subview(2) : frame;
+    return ByteView(frame.data() + 2, frame.size() - 2);
   }
   /// After `frame` in crc16 mode: the payload's CRC-16/MCRF4XX (it matched the frame's), computed while the
   /// bytes arrived: a device's duplicate filter keys on it without a second pass. 0xFFFF in `none` mode.
