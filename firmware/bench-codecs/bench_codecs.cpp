@@ -194,14 +194,14 @@ uint8_t without_spaces(uint8_t size) {
 // what RingNode::consume hands its reader); true when they made one message of `type`.
 bool read_input(elcano::Decoder<96>& reader, uint8_t size, elcano::Type type) {
   bool read = false;
-  tether::ByteView rest(input, size);
-  while (!rest.empty()) {
-    const tether::FeedResult fed = reader.feed(rest);
+  const uint8_t* const end = input + size;
+  for (const uint8_t* next = input; next != end;) {  // as elcano-node walks a UART read
+    const tether::FeedResult fed = reader.feed(tether::ByteView(next, static_cast<size_t>(end - next)));
     if (fed.status == tether::DecodeStatus::frame) {
       sink = static_cast<uint16_t>(reader.frame().speed + static_cast<int32_t>(reader.forward().size()));
       read = reader.frame().type == type;
     }
-    rest = rest.subview(fed.consumed);
+    next += fed.consumed;
   }
   return read;
 }
@@ -209,11 +209,12 @@ bool read_input(elcano::Decoder<96>& reader, uint8_t size, elcano::Type type) {
 // Feeds `size` bytes of `input` to `node` and takes its output (the forwarded message, when any); `kind` is
 // the last event the bytes produced. Returns the output's size.
 uint8_t node_pass(Node& node, uint8_t size, elcano::RingEvent::Kind& kind) {
-  for (tether::ByteView rest(input, size); !rest.empty();) {  // one span, as elcano-node feeds a UART read
+  const uint8_t* const end = input + size;
+  for (const uint8_t* next = input; next != end;) {  // one span, as elcano-node feeds a UART read
     size_t used = 0;
-    const elcano::RingEvent::Kind event = node.consume(rest, 0, used);
+    const elcano::RingEvent::Kind event = node.consume(tether::ByteView(next, static_cast<size_t>(end - next)), 0, used);
     if (event != elcano::RingEvent::Kind::none) kind = event;
-    rest = rest.subview(used);
+    next += used;
   }
   return static_cast<uint8_t>(node.take_output(frame, 0));
 }
