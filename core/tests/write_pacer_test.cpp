@@ -134,5 +134,31 @@ TEST(WritePacer, RandomWritersNeverOverrunTheReceiver) {
   }
 }
 
+// Rule 5: take(wanted) is allowance + consume of min(wanted, allowance), step for step.
+TEST(WritePacer, TakeIsAllowanceAndConsumeInOneStep) {
+  const uint64_t seed = testing::random_seed();
+  std::mt19937_64 random(seed);
+  for (int round = 0; round < 50; ++round) {
+    LinkPacing pacing;
+    pacing.baud = 300u + static_cast<uint32_t>(random() % 250000);
+    pacing.receiver_buffer = static_cast<uint16_t>(1 + random() % 512);
+    pacing.receiver_poll_interval = static_cast<uint16_t>(random() % 100);
+    Millis now = static_cast<Millis>(random());
+    WritePacer taking(pacing, now);
+    WritePacer reference(pacing, now);
+    ASSERT_EQ(taking.depth(), reference.allowance(now)) << "seed " << seed << ": a new bucket is full";
+    for (int step = 0; step < 500; ++step) {
+      now += static_cast<Millis>(random() % 6);
+      const uint16_t wanted = static_cast<uint16_t>(random() % (2u * taking.depth() + 2u));
+      const uint16_t allowed = reference.allowance(now);
+      const uint16_t expected = wanted < allowed ? wanted : allowed;
+      reference.consume(expected);
+      ASSERT_EQ(taking.take(wanted, now), expected) << "seed " << seed << " round " << round << " step " << step;
+      ASSERT_EQ(taking.allowance(now), reference.allowance(now)) << "seed " << seed << " round " << round;
+      ASSERT_EQ(taking.next_allowed(taking.depth(), now), reference.next_allowed(reference.depth(), now));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tether::session

@@ -132,13 +132,11 @@ template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 size_t RingNode<MessageCapacity, OutputCapacity, OriginSlots>::take_output(MutableByteView out, Millis now) {
   size_t count = pending_output();
   if (count > out.size()) count = out.size();
-  const uint16_t allowed = pacer_.allowance(now);
-  if (count > allowed) count = allowed;
+  count = pacer_.take(static_cast<uint16_t>(count), now);  // the queue holds fewer than 2^16 bytes
   for (size_t i = 0; i < count; ++i) {
     out[i] = queue_[tail_ & (OutputCapacity - 1)];
     tail_ = static_cast<uint8_t>(tail_ + 1);
   }
-  pacer_.consume(static_cast<uint16_t>(count));
   return count;
 }
 
