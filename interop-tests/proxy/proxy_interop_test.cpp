@@ -795,8 +795,13 @@ TEST(ProxyCompatPins, ASecondServoInitIsIgnoredAndAnUninitialisedControlIsOnlyAn
 // (the OCR1A value its interrupt read, TCNT1 running at clk/8), over 2 s of board time with the ~50 ms state
 // stream going out and controls coming in. Measured: the compares are always exactly the ticks apart, and a
 // pulse is off its ticks only by the difference of its two edges' delays; an edge that met the UART's
-// routine at its compare came up to 74 cycles (4.6 us) late, so that pulse was up to 4.25 us short. Less than
-// half the compat scale's degree step (10.3 us): the demo's 5 us pin tolerance for this device.
+// routine at its compare came up to 74-80 cycles (5 us) late, so that pulse was up to 5.25 us short (a
+// loaded repeat saw 5.25: a bound of 5 us failed it). The bound that holds whatever meets the compare: the
+// UART's receive routine has no loop and no call, at most 142 cycles on its longest path (avr-objdump of
+// the image, each instruction once), Timer1's compare outranks it and the other routines, so an edge waits
+// at most that routine plus its entry and one instruction (~151 cycles, 9.4 us): under 10 us, one degree
+// step of the compat scale (10.3 us). The demo's pin check (5 us) looks for a matching pulse among 500 ms of
+// them, so one held-off pulse does not fail it.
 TEST(ProxyCompatPins, AServoPulseIsItsTicksGiveOrTakeTheInterruptThatDelayedAnEdge) {
   namespace reg = transports::atmega328p;
   constexpr std::uint64_t kCyclesPerTick = 8;                 // 16 MHz, Timer1 at clk/8
@@ -895,7 +900,7 @@ TEST(ProxyCompatPins, AServoPulseIsItsTicksGiveOrTakeTheInterruptThatDelayedAnEd
               pulses, kPulseUs, off, static_cast<double>(worst_deviation) / 16.0, edges.size(), delayed, delayed_by_uart,
               static_cast<unsigned long long>(worst_delay), static_cast<double>(worst_delay) / 16.0, uart.size());
   EXPECT_GE(pulses, 95);
-  EXPECT_LT(std::abs(static_cast<double>(worst_deviation) / 16.0), 5.0);  // no pulse passes for another degree
+  EXPECT_LT(std::abs(static_cast<double>(worst_deviation) / 16.0), 10.0);  // within one degree step, always
   EXPECT_GE(delayed_by_uart, 1);  // the cause showed: an edge held off by the UART's routine
 }
 
