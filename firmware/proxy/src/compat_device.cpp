@@ -101,11 +101,11 @@ void CompatDevice::handle_payload(ByteView payload) {
   RocketryProto_ArduinoIn in = RocketryProto_ArduinoIn_init_zero;
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
   if (!pb_decode(&stream, RocketryProto_ArduinoIn_fields, &in)) {
-    ++counters_.decode_errors;
+    add_one(counters_.decode_errors);
     send_error(RocketryProto_ErrorTypes_DECODE_ERROR, 0);
     return;
   }
-  ++counters_.executed;
+  add_one(counters_.executed);
   switch (in.which_data) {
     case RocketryProto_ArduinoIn_servoInit_tag:
       init_servo(in.data.servoInit.pin);
@@ -130,7 +130,7 @@ void CompatDevice::handle_payload(ByteView payload) {
       if (restart_ != nullptr) restart_(restart_context_);  // on the AVR: flush, reset, no return
       return;
     default:  // StepperMotorControl and oneof cases this schema does not know: as deployed, data 0
-      ++counters_.refused;
+      add_one(counters_.refused);
       send_error(RocketryProto_ErrorTypes_UNKNOWN_MESSAGE, 0);
       return;
   }
@@ -269,7 +269,7 @@ void CompatDevice::run_dc_motors() {
 
 bool CompatDevice::send(const void* out_message) {
   if (send_message(sink_, Integrity::none, false, RocketryProto_ArduinoOut_fields, out_message)) return true;
-  ++counters_.send_failures;
+  add_one(counters_.send_failures);
   return false;
 }
 
@@ -281,7 +281,7 @@ void CompatDevice::send_event(uint8_t type, uint32_t pin) {
 }
 
 void CompatDevice::refuse_pin(uint32_t pin) {
-  ++counters_.refused;
+  add_one(counters_.refused);
   send_error(RocketryProto_ErrorTypes_PIN_NOT_INITIALIZED, static_cast<int32_t>(pin));
 }
 

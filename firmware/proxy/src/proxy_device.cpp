@@ -75,10 +75,6 @@ const char* refusal_text(PinResult result, bool servo) {
   }
 }
 
-// ++counter, out of line: a 32-bit increment in place is ~24 B of AVR code (4 loads, add, 4 stores),
-// a call 6 B, and counting is never a hot path here.
-__attribute__((noinline)) void count(uint32_t& counter) { ++counter; }
-
 tether_proxy_ArduinoOut out_message(pb_size_t which) {
   tether_proxy_ArduinoOut out = tether_proxy_ArduinoOut_init_zero;
   out.which_data = which;
@@ -152,7 +148,7 @@ __attribute__((noinline, noclone)) void ProxyDevice::handle_payload(ByteView pay
   tether_proxy_ArduinoIn in = tether_proxy_ArduinoIn_init_zero;
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
   if (!pb_decode(&stream, tether_proxy_ArduinoIn_fields, &in)) {
-    count(counters_.decode_errors);
+    add_one(counters_.decode_errors);
     send_error(FlashText{kDecodeError});
     return;
   }
@@ -161,7 +157,7 @@ __attribute__((noinline, noclone)) void ProxyDevice::handle_payload(ByteView pay
     send_word(tether_proxy_ArduinoOut_ack_tag, id, false);  // a re-send: ack again, execute nothing
     return;
   }
-  count(counters_.executed);
+  add_one(counters_.executed);
   const uint32_t refused_before = counters_.refused;
   bool restart = false;
   switch (in.which_data) {
@@ -200,7 +196,7 @@ __attribute__((noinline, noclone)) void ProxyDevice::handle_payload(ByteView pay
       watchdog_.clear_triggered();
       break;
     default:
-      count(counters_.refused);
+      add_one(counters_.refused);
       send_error(FlashText{kUnknownMessage});
       break;
   }
@@ -225,7 +221,7 @@ bool ProxyDevice::send(const void* out_message, bool leading_delimiter) {
   if (send_message(sink_, Integrity::crc16, leading_delimiter, tether_proxy_ArduinoOut_fields, out_message)) {
     return true;
   }
-  count(counters_.send_failures);
+  add_one(counters_.send_failures);
   return false;
 }
 
@@ -265,7 +261,7 @@ void ProxyDevice::report_pin_result(PinResult result, uint32_t pin, bool servo, 
     send_pin_state(static_cast<uint8_t>(pin), false);
     return;
   }
-  count(counters_.refused);
+  add_one(counters_.refused);
   ErrorOut error;
   // "<servo on pin|pin> N<why>", then for a position out of range "P not in 0..180".
   error.text.text(FlashText{result == PinResult::not_servo_pin ? kServoOnPin : kPin})

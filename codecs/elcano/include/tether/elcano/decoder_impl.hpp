@@ -277,11 +277,11 @@ template <size_t Capacity>
 DecodeStatus Decoder<Capacity>::fail(Error error) {
   error_ = error;
   if (error == Error::bad_crc) {
-    ++counters_->crc_errors;
+    add_one(counters_->crc_errors);
   } else if (error == Error::too_long) {
-    ++counters_->oversize_frames;
+    add_one(counters_->oversize_frames);
   } else {
-    ++counters_->framing_errors;
+    add_one(counters_->framing_errors);
   }
   state_ = State::skip;
   size_ = 0;
@@ -337,7 +337,7 @@ __attribute__((noinline)) DecodeStatus Decoder<Capacity>::feed_slow(uint8_t byte
   // lost) ends the broken message with its error AND starts the next message, which must not be lost.
   if (status == DecodeStatus::error && was_open && detail::is_header(byte)) {
     state_ = State::header;
-    ++counters_->resyncs;
+    add_one(counters_->resyncs);
     step(byte);  // opens the message; cannot produce an event
   }
   return status;
@@ -349,11 +349,11 @@ DecodeStatus Decoder<Capacity>::step(uint8_t byte) {
   if (state_ == State::skip) {
     if (byte == '\n') {
       state_ = State::header;
-      ++counters_->resyncs;
+      add_one(counters_->resyncs);
       return DecodeStatus::more;
     }
     if (!detail::is_header(byte)) return DecodeStatus::more;
-    ++counters_->resyncs;
+    add_one(counters_->resyncs);
     state_ = State::header;  // and read this byte as the header below
   }
   switch (state_) {

@@ -64,7 +64,7 @@ RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::on_read(
   }
   const ByteView forward = reader_.forward();
   if (came_back(forward)) {
-    ++counters_->undeliverable;
+    add_one(counters_->undeliverable);
     return RingEvent::Kind::undeliverable;
   }
   if (config_.capture.contains(reader_.frame().type)) {
@@ -72,7 +72,7 @@ RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::on_read(
     return RingEvent::Kind::captured;
   }
   if (!enqueue(forward)) {
-    ++counters_->queue_full_drops;
+    add_one(counters_->queue_full_drops);
     error_ = Error::queue_full;
     return RingEvent::Kind::dropped;
   }
@@ -118,7 +118,7 @@ Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const M
     }
     if (slot == nullptr || tick_difference(origin.expires.at(), slot->expires.at()) < 0) slot = &origin;
   }
-  if (slot->used) ++counters_->origins_evicted;
+  if (slot->used) add_one(counters_->origins_evicted);
   slot->used = true;
   slot->length = static_cast<uint8_t>(stripped_size);
   slot->crc = signature_crc(ByteView(stripped, stripped_size));
@@ -152,7 +152,7 @@ RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::poll(Millis no
   for (Origin& origin : origins_) {
     if (origin.used && origin.expires.expired(now)) {
       origin.used = false;
-      ++counters_->origins_expired;
+      add_one(counters_->origins_expired);
     }
   }
   return event;
