@@ -232,7 +232,7 @@ __attribute__((noinline)) void romi_and_proxy_rows(tether::LinkCounters& counter
   romi_call(kRomiRequestD, "d[\"Hello there\"]", "[0]", 4);
   measure(kRomiDecodeParse, [&] {
     tether::romi::Decoder<tether::romi::kDeviceDecoderCapacity> decoder(counters);
-    tether::romi::Request request;
+    tether::romi::ParsedRequest request;  // what the device parses into (its string stays in the frame)
     for (size_t i = 0; i + 1 < sizeof kRequest; ++i) {
       if (decoder.feed(kRequest[i]) == tether::DecodeStatus::frame) {
         const int16_t parsed = static_cast<int16_t>(tether::romi::parse_request(decoder.frame().payload, request));

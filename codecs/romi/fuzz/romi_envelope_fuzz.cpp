@@ -32,6 +32,17 @@ void decode_all(const uint8_t* data, size_t size) {
     if (parse_request(event.payload, request) == Error::no_error) {
       TETHER_FUZZ_CHECK(request.argument_count <= kMaxArguments);
       TETHER_FUZZ_CHECK(std::strlen(request.string) <= kMaxStringLength);
+      // The device's form: its string is a view of the payload, between quotes, equal to the copy.
+      ParsedRequest parsed;
+      TETHER_FUZZ_CHECK(parse_request(event.payload, parsed) == Error::no_error);
+      const ByteView string = parsed.string_view;
+      TETHER_FUZZ_CHECK(parsed.has_string == request.has_string && string.size() <= kMaxStringLength);
+      TETHER_FUZZ_CHECK(std::strlen(request.string) == string.size() &&
+                        std::memcmp(request.string, string.data(), string.size()) == 0);
+      if (parsed.has_string) {
+        TETHER_FUZZ_CHECK(string.data() > event.payload.data() && string.end() < event.payload.end());
+        TETHER_FUZZ_CHECK(string.data()[-1] == '"' && *string.end() == '"');
+      }
     }
     if (event.manual) continue;
     // Round trip: the same payload and id, framed by the encoder, decodes to the same frame.

@@ -158,6 +158,25 @@ TEST(RomiRequestParser, ParsesOpcodeIntegersAndString) {
   EXPECT_STREQ(parsed("t[\"\"]").string, "");
 }
 
+TEST(RomiRequestParser, AParsedRequestViewsItsStringInThePayload) {
+  // What a device keeps: the string's characters where they arrived, between the quotes.
+  const std::string payload = "M[16,\"Shutdown\",-3]";
+  ParsedRequest request;
+  ASSERT_EQ(parse_request(view(payload), request), Error::no_error);
+  EXPECT_TRUE(request.has_string);
+  EXPECT_EQ(reinterpret_cast<const char*>(request.string_view.data()), payload.data() + 6);
+  EXPECT_EQ(request.string_view.size(), 8u);
+  ASSERT_EQ(request.argument_count, 2);
+  EXPECT_EQ(request.arguments[1], -3);
+  // The next parse forgets it; an empty string is a string.
+  ASSERT_EQ(parse_request(view("a[1]"), request), Error::no_error);
+  EXPECT_FALSE(request.has_string);
+  EXPECT_TRUE(request.string_view.empty());
+  ASSERT_EQ(parse_request(view("t[\"\"]"), request), Error::no_error);
+  EXPECT_TRUE(request.has_string);
+  EXPECT_TRUE(request.string_view.empty());
+}
+
 TEST(RomiRequestParser, AReusedRequestKeepsEveryArgumentPastTheParsedOnesZero) {
   // The device parses into one Request per frame; only the arguments the last parse set are cleared.
   Request request;
