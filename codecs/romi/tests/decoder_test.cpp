@@ -54,6 +54,18 @@ Error single_error(const std::string& bytes) {
   return events[0].error;
 }
 
+TEST(RomiEnvelope, ADefaultConstructedDecoderCountsWhereItIsToldTo) {
+  // A device's decoder is default-constructed inside its zero-filled state, then pointed at its counters.
+  LinkCounters counters;
+  Decoder<kDeviceDecoderCapacity> decoder;
+  decoder.count_into(counters);
+  const std::string bytes = "junk#a:008e\r\n#e:7b00\r\n";
+  for (char c : bytes) decoder.feed(static_cast<uint8_t>(c));
+  EXPECT_EQ(counters.frames_ok, 1u);
+  EXPECT_EQ(counters.crc_errors, 1u);
+  EXPECT_EQ(counters.resyncs, 1u);
+}
+
 TEST(RomiEnvelope, ValidRequestWithIdAndCrc) {
   const auto events = decode("#M[16,\"Shutdown\"]:7bba\r\n");
   ASSERT_EQ(events.size(), 1u);

@@ -333,6 +333,20 @@ TEST_F(RomiSerialTest, RepeatedRequestGetsTheCachedResponseWithoutRunningTheHand
   EXPECT_EQ(device.counters().executed, 1u);
 }
 
+// The handler's string is terminated in place in the frame (its closing quote is the NUL); the quote
+// must be back before the frame's bytes become the cache's key, or a re-sent copy would run again.
+TEST_F(RomiSerialTest, ARepeatedStringRequestIsAnsweredFromTheCache) {
+  for (const std::string payload : {"d[\"Hello world!\"]", "d[\"\"]"}) {
+    runs = 0;
+    const std::string first = exchange(request(payload, 4));
+    EXPECT_EQ(first, response('d', "[0]", 4)) << payload;
+    EXPECT_EQ(last_string, payload.substr(3, payload.size() - 5)) << payload;
+    EXPECT_EQ(exchange(request(payload, 4)), first) << payload;
+    EXPECT_EQ(runs, 1) << payload;
+  }
+  EXPECT_EQ(device.counters().link.duplicates, 2u);
+}
+
 TEST_F(RomiSerialTest, NeverAnswersDuplicate) {
   for (int i = 0; i < 3; ++i) {
     for (const char* payload : {"a", "e", "f", "b", "c[1,2]"}) {

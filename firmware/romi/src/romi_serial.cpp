@@ -26,13 +26,13 @@ ByteView text_view(const char* text) { return ByteView::from_chars(text, text ==
 
 RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
                        ClockFunction clock)
-    : RomiSerialState(),  // all zero (see there)
-      in_(&in),
-      out_(&out),
-      handlers_(handlers),
-      handler_count_(count),
-      clock_(clock),
-      decoder_(counters_.link) {
+    : RomiSerialState() {  // all zero (see there)
+  in_ = &in;
+  out_ = &out;
+  handlers_ = handlers;
+  handler_count_ = count;
+  clock_ = clock;
+  decoder_.count_into(counters_.link);
   opcode_ = '_';
 }
 
@@ -92,7 +92,7 @@ void RomiSerial::handle_timeouts(Millis now) {
   if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
   if (!frame_deadline_.expired(now)) return;
   frame_deadline_.disarm();
-  ++counters_.link.partial_timeouts;
+  add_one(counters_.link.partial_timeouts);
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
   decoder_.reset();
@@ -164,7 +164,7 @@ void RomiSerial::handle_frame(const Frame& frame) {
   if (!frame.manual && is_repeat(id, frame.payload)) {
     // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
     // handler does not run.
-    ++counters_.link.duplicates;
+    add_one(counters_.link.duplicates);
     start_frame();
     write(ByteView(reply_ + 1, reply_size_ - 1u));
     return;
@@ -197,11 +197,22 @@ void RomiSerial::dispatch(const Frame& frame) {
   manual_ = frame.manual;
   replied_ = false;
   in_handler_ = true;
-  ++counters_.executed;
-  handler->callback(this, request_.arguments, request_.string);
+  add_one(counters_.executed);
+  // The string argument is terminated in place in the frame: its closing '"' is the handler's NUL, and
+  // is put back after the call (the frame's bytes become the cache's key below).
+  const char* string = "";
+  uint8_t* quote = nullptr;
+  if (request_.has_string) {
+    string = reinterpret_cast<const char*>(request_.string_view.data());
+    // The decoder's own buffer (not const): the view is const only to the decoder's readers.
+    quote = const_cast<uint8_t*>(request_.string_view.end());
+    *quote = '\0';
+  }
+  handler->callback(this, request_.arguments, string);
+  if (quote != nullptr) *quote = '"';
   in_handler_ = false;
   if (!replied_) {
-    ++counters_.silent_handlers;
+    add_one(counters_.silent_handlers);
     send_response(opcode_, id_, ByteView::from_literal("[-20]"));
   }
   // The handler may have taken a while: the cache's lifetime starts when the reply went out.
@@ -228,7 +239,7 @@ void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
 
 void RomiSerial::send_error(int code, const char* message) {
   if (!in_handler_ || replied_) {
-    ++counters_.extra_replies;
+    add_one(counters_.extra_replies);
     return;
   }
   ArrayText<kReplyCapacity> body;
@@ -237,7 +248,7 @@ void RomiSerial::send_error(int code, const char* message) {
   if (!body.ok()) {
     // The body alone does not fit the buffer, so the frame would not either.
     replied_ = true;
-    ++counters_.replies_too_long;
+    add_one(counters_.replies_too_long);
     send_response(opcode_, id_, ByteView::from_literal("[-31]"));
     return;
   }
@@ -247,7 +258,7 @@ void RomiSerial::send_error(int code, const char* message) {
 void RomiSerial::send(const char* message) {
   if (message == nullptr) {
     if (in_handler_ && !replied_) return;  // no reply: the device answers -20 after the handler
-    ++counters_.extra_replies;
+    add_one(counters_.extra_replies);
     return;
   }
   handler_reply(text_view(message));
@@ -255,7 +266,7 @@ void RomiSerial::send(const char* message) {
 
 void RomiSerial::handler_reply(ByteView body) {
   if (!in_handler_ || replied_) {
-    ++counters_.extra_replies;
+    add_one(counters_.extra_replies);
     return;
   }
   replied_ = true;
@@ -273,7 +284,7 @@ void RomiSerial::log(const char* text) {
 
 void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
   if (body.size() + kResponseOverhead > sizeof(reply_)) {
-    ++counters_.replies_too_long;
+    add_one(counters_.replies_too_long);
     body = ByteView::from_literal("[-31]");
   }
   if (manual_) {
@@ -298,7 +309,7 @@ void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* fra
 }
 
 void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
-  ++counters_.rejected;
+  add_one(counters_.rejected);
   // Protocol codes are -1..-99: "[-" one or two digits "]", formed here without the general number
   // formatter (its 32-bit digit loop would be linked into every image for this alone).
   uint8_t magnitude = static_cast<uint8_t>(-static_cast<int16_t>(code));
@@ -314,8 +325,7 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   }
   body[size++] = static_cast<uint8_t>('0' + magnitude);
   body[size++] = ']';
-  uint8_t frame[sizeof body + kResponseOverhead];  // not cached: reply_ keeps the cached reply
-  send_frame(opcode, id, ByteView(body, size), frame);
+  send_uncached(opcode, id, ByteView(body, size));  // reply_ keeps the cached reply
 }
 
 void RomiSerial::start_frame() {

@@ -56,6 +56,11 @@ class Decoder {
   /// Decoder counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames,
   /// resyncs); `counters` must outlive it.
   explicit Decoder(Counters& counters) : counters_(&counters) {}
+  /// Decoder without counters yet: call `count_into` before the first feed. For a decoder that is a
+  /// member of a zero-filled state (a device's: one clearing loop instead of a store per member).
+  Decoder() = default;
+  /// Counts into `counters` from now on; `counters` must outlive the decoder.
+  void count_into(Counters& counters) { counters_ = &counters; }
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte);
@@ -110,7 +115,7 @@ class Decoder {
   __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
   __attribute__((noinline)) DecodeStatus fail(Error error);
 
-  Counters* counters_;
+  Counters* counters_ = nullptr;
   State state_ = State::idle;
   Error error_ = Error::no_error;
   uint8_t buffer_[Capacity];

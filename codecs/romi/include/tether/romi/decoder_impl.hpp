@@ -87,7 +87,7 @@ template <size_t Capacity, typename Counters>
 DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
   if (byte == '#') {
     // A new frame starts anywhere; whatever came before it is dropped.
-    if (state_ == State::body || state_ == State::expect_lf || skipping_) ++counters_->resyncs;
+    if (state_ == State::body || state_ == State::expect_lf || skipping_) add_one(counters_->resyncs);
     skipping_ = false;
     state_ = State::body;
     size_ = 0;
@@ -120,7 +120,7 @@ DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
     case State::expect_lf:
       if (byte != '\n') return fail(Error::expected_end);
       state_ = State::idle;
-      ++counters_->frames_ok;
+      add_one(counters_->frames_ok);
       return DecodeStatus::frame;
   }
   return DecodeStatus::more;
@@ -151,7 +151,7 @@ DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
       crc.update('#');
       crc.update(ByteView(buffer_, last_colon_ + 3u));  // payload, ':' and the id
       if (crc.value() != static_cast<uint8_t>((crc_high << 4) | crc_low)) {
-        ++counters_->crc_errors;
+        add_one(counters_->crc_errors);
         return fail(Error::crc_mismatch);
       }
     }
@@ -169,18 +169,17 @@ DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
 template <size_t Capacity, typename Counters>
 DecodeStatus Decoder<Capacity, Counters>::fail(Error error) {
   error_ = error;
-  // What was parsed: the id only when its two digits were valid (frame_.has_id), never a manual flag.
-  const bool has_id = frame_.has_id;
-  const uint8_t id = frame_.id;
-  frame_ = Frame();
-  frame_.opcode = size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
+  // What was parsed: the opcode character, whether it was a log line, and the id only when its two
+  // digits were valid (has_id and id as finish_line left them; the frame's '#' cleared both), never a
+  // manual flag. Field by field: assigning a fresh Frame() builds a temporary on the AVR's stack.
+  frame_.payload = ByteView();
+  frame_.manual = false;
+  frame_.opcode = partial_opcode();
   frame_.log = size_ > 0 && buffer_[0] == '!';
-  frame_.has_id = has_id;
-  frame_.id = has_id ? id : 0;
   if (error == Error::envelope_too_long) {
-    ++counters_->oversize_frames;
+    add_one(counters_->oversize_frames);
   } else if (error != Error::crc_mismatch) {
-    ++counters_->framing_errors;
+    add_one(counters_->framing_errors);
   }
   state_ = State::skip;
   return DecodeStatus::error;

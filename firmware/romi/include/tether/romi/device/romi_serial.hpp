@@ -41,12 +41,13 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 360 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 331 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
 /// compile time:
 ///   - request buffer: 81 bytes (the decoder), of which `kDeviceDecoderCapacity` = 63 hold the frame
 ///     between '#' and '\r' (58 payload characters, ':', 4 metadata characters: every request a
 ///     reference host can send);
-///   - parsed request: 60 bytes (12 int16 arguments, the 32-character string and its NUL);
+///   - parsed request: 31 bytes (12 int16 arguments; the string argument stays in the request buffer,
+///     where its closing quote is the handler's NUL during the call: a copy would be 33 bytes more);
 ///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
 ///     to requests with an id are formed there;
 ///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
@@ -170,8 +171,17 @@ struct RomiSerialState {
   uint8_t cached_request_size_;
   uint8_t reply_[RomiSerialReplyCapacity];
   uint8_t cached_request_[kMaxDevicePayload];
-  Request request_;  // the request being handled (its arguments are the handler's `args`)
-  DeviceCounters counters_;  // a base's member: constructed before the decoder that counts into it
+  // The request being handled (its arguments are the handler's `args`; its string stays in the frame).
+  ParsedRequest request_;
+  DeviceCounters counters_;
+  IInputStream* in_;
+  IOutputStream* out_;
+  const MessageHandler* handlers_;
+  uint8_t handler_count_;
+  ClockFunction clock_;
+  // Default-constructed inside the zero-filled state (its members' zero initializers then cost no
+  // code), pointed at counters_.link by the device's constructor.
+  Decoder<kDeviceDecoderCapacity, DeviceLinkCounters> decoder_;
 };
 
 }  // namespace detail
@@ -254,13 +264,6 @@ class RomiSerial final : public IRomiSerial, private detail::RomiSerialState {
   __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
-
-  IInputStream* in_;
-  IOutputStream* out_;
-  const MessageHandler* handlers_;
-  uint8_t handler_count_;
-  ClockFunction clock_;
-  Decoder<kDeviceDecoderCapacity, DeviceLinkCounters> decoder_;
 };
 
 }  // namespace device
