@@ -93,7 +93,8 @@ class ParseState {
   MsgType capture = MsgType::none;  ///< Types this node consumes (others are forwarded).
 
   /// Call from loop(): reads what `input` has until something completes, handles timers, writes paced
-  /// output. Never blocks.
+  /// output. Never blocks. Bytes are read up to 16 at a time and handed to the node as a run; those
+  /// after a completed message are kept for the next call.
   ParseStateError update();
   /// Originates `data` into the ring (paced; dropped by this node if it comes back). False when it does
   /// not verify or the output queue has no room now (call `update()` and try again).
@@ -110,6 +111,11 @@ class ParseState {
   tether::LinkCounters link_counters_;
   tether::elcano::RingCounters ring_counters_;
   tether::elcano::RingNode<96, 256, 4> node_;
+  // Bytes read from `input` that the node has not taken yet (it stops at each completed message, and
+  // update() reports one event at a time): received_[received_next_, received_end_).
+  uint8_t received_[16];
+  uint8_t received_next_ = 0;
+  uint8_t received_end_ = 0;
 };
 
 }  // namespace elcano
