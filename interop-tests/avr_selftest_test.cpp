@@ -129,7 +129,7 @@ TEST_F(AvrSelftest, AvrBackendMatchesHostBackendOnRandomBuffers) {
 
 TEST_F(AvrSelftest, EngineDeviceHalfRunsOnTheAvr) {
   for (const char* name : {"duplicate_filter", "failsafe_watchdog", "partial_frame_deadline", "request_ids",
-                           "proxy_runs"}) {
+                           "proxy_runs", "interrupt_counter"}) {
     EXPECT_TRUE(has_line(std::string("engine ") + name + " ok")) << name;
   }
 }

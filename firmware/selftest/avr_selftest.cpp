@@ -5,6 +5,7 @@
 //      and the host half's 8-bit id wrap, with 16-bit int arithmetic.
 //   4. The proxy frame decoder's run path (its AVR assembly) against its per-byte path, on pseudo-random
 //      frames with zeros, damage and oversize ones, fed in runs of every length.
+//   5. `add_one_in_interrupt` (assembly): the carry through every byte, the 2^32 wrap, nothing beside touched.
 // Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
 // Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
 #include <avr/eeprom.h>
@@ -13,6 +14,7 @@
 #include <avr/sleep.h>
 
 #include "selftest_sequence.hpp"
+#include "tether/core/counters.hpp"
 #include "tether/core/crc.hpp"
 #include "tether/core/session/duplicate_filter.hpp"
 #include "tether/core/session/failsafe_watchdog.hpp"
@@ -219,6 +221,22 @@ void check_proxy_runs(uint32_t seed) {
   report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
 }
 
+// Each start value carries into one more byte; the last wraps to 0 and must not carry past the counter.
+void check_interrupt_counter() {
+  static const uint32_t kStarts[] = {0u, 0xFEu, 0xFFu, 0xFFFFu, 0x1FFFFFFu, 0xFFFFFFu, 0x7FFFFFFFu, 0xFFFFFFFFu};
+  bool ok = true;
+  for (const uint32_t start : kStarts) {
+    struct {
+      volatile uint8_t before;
+      volatile uint32_t counter;
+      volatile uint8_t after;
+    } guarded = {0x5A, start, 0xA5};
+    tether::add_one_in_interrupt(guarded.counter);
+    ok = ok && guarded.counter == start + 1u && guarded.before == 0x5A && guarded.after == 0xA5;
+  }
+  report("interrupt_counter", ok);
+}
+
 }  // namespace
 
 int main() {
@@ -234,6 +252,7 @@ int main() {
   check_partial_frame();
   check_request_ids();
   check_proxy_runs(seed);
+  check_interrupt_counter();
   put("selftest end failures ");
   put_hex(failures, 2);
   put("\n");

@@ -5,6 +5,8 @@
 #include <avr/io.h>
 #include <util/atomic.h>
 
+#include "tether/core/counters.hpp"
+
 static_assert(F_CPU == 16000000UL, "Timer2 tick settings (prescaler 64, OCR2A 249) assume 16 MHz");
 
 namespace {
@@ -16,7 +18,7 @@ volatile tether::Millis g_millis = 0;
 
 }  // namespace
 
-ISR(TIMER2_COMPA_vect) { g_millis = g_millis + 1u; }
+ISR(TIMER2_COMPA_vect) { tether::add_one_in_interrupt(g_millis); }
 
 namespace tether {
 namespace firmware {

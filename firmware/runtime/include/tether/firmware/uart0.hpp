@@ -31,6 +31,7 @@
 #include <util/atomic.h>
 
 #include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
 #include "tether/firmware/byte_ring.hpp"
 #include "tether/firmware/power.hpp"
 
@@ -257,11 +258,11 @@ class Uart0 {
   __attribute__((always_inline)) static void on_rx_interrupt() {
     const uint8_t status = UCSR0A;  // FE0/DOR0 describe the byte in UDR0: read them first
     const uint8_t byte = UDR0;
-    if ((status & _BV(FE0)) != 0) ++counters_.framing_errors;
-    if ((status & _BV(DOR0)) != 0) ++counters_.data_overruns;
+    if ((status & _BV(FE0)) != 0) add_one_in_interrupt(counters_.framing_errors);
+    if ((status & _BV(DOR0)) != 0) add_one_in_interrupt(counters_.data_overruns);
     const uint8_t head = rx_.head;
     if (static_cast<uint8_t>(head - rx_.tail) == ByteRing<RxSize>::kCapacity) {
-      ++counters_.rx_overflows;
+      add_one_in_interrupt(counters_.rx_overflows);
       return;
     }
     rx_.bytes[head & ByteRing<RxSize>::kMask] = byte;
