@@ -221,7 +221,8 @@ void check_proxy_runs(uint32_t seed) {
   report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
 }
 
-// Each start value carries into one more byte; the last wraps to 0 and must not carry past the counter.
+// Start values whose carry stops in each byte in turn (and crosses the sign bit); the last wraps to 0 and
+// must not carry past the counter.
 void check_interrupt_counter() {
   static const uint32_t kStarts[] = {0u, 0xFEu, 0xFFu, 0xFFFFu, 0x1FFFFFFu, 0xFFFFFFu, 0x7FFFFFFFu, 0xFFFFFFFFu};
   bool ok = true;
