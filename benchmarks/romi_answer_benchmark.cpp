@@ -2,7 +2,7 @@
 // (a received run at a time, as the client feeds it), then its payload into a `RomiResponse`
 // (`romi::parse_answer`: typed values, nlohmann SAX). Compared with the same decoder followed by a nlohmann
 // DOM (`json::parse`), the shape of the reference host client (its own figures, measured outside the
-// project: ~950 ns for `#e[0,1,2]`, ~1800 ns for 8 values) and of Tether before typed values; and with the
+// project: ~310 ns for `#e[0,1,2]`, ~710 ns for 8 values) and of Tether before typed values; and with the
 // cost of converting typed values to a DOM on request.
 #include <benchmark/benchmark.h>
 

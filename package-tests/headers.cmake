@@ -1,7 +1,8 @@
-# cmake -DPREFIX=... -DCXX=... -DSCRATCH=... -DMODE=alone|after_asio [-DJOBS=N] -P headers.cmake
+# cmake -DPREFIX=... -DCXX=... -DSCRATCH=... -DMODE=alone|after_asio [-DUSAGE_FLAGS="..."] [-DJOBS=N] -P headers.cmake
 # Compiles every installed public header in a translation unit of its own: alone (it includes what it
-# uses), or after <boost/asio.hpp> (include order does not matter; <utility> goes first because Boost 1.74's
-# asio.hpp misses it under C++20 on g++ 12), with the project's warnings as errors.
+# uses), or after <boost/asio.hpp> and nothing else, as users write it (include order does not matter), with
+# the project's warnings as errors. USAGE_FLAGS: the compile options the package gives its users
+# (cmake/asio-cxx20.cmake), as a consumer gets them.
 #
 # Cost: parsing <boost/asio.hpp> is most of each after_asio unit (about 2.5 s of CPU), so that prefix is
 # compiled once into a precompiled header that every unit starts from (-Winvalid-pch -Werror: a PCH g++
@@ -14,28 +15,31 @@ if(NOT JOBS)
 endif()
 file(REMOVE_RECURSE ${SCRATCH})
 file(MAKE_DIRECTORY ${SCRATCH})
+separate_arguments(usage_flags UNIX_COMMAND "${USAGE_FLAGS}")
 set(flags -std=c++20 -Wall -Wextra -Wconversion -Wsign-conversion -Wshadow -Werror -DBOOST_ASIO_NO_DEPRECATED
   -I${PREFIX}/include -isystem ${PREFIX}/include/tether/proxy_messages)
 
-set(prelude "")
 if(MODE STREQUAL "after_asio")
-  file(WRITE ${SCRATCH}/asio_first.hpp "#include <utility>\n#include <boost/asio.hpp>\n")
-  execute_process(COMMAND ${CXX} ${flags} -x c++-header ${SCRATCH}/asio_first.hpp -o ${SCRATCH}/asio_first.hpp.gch
-    RESULT_VARIABLE result ERROR_VARIABLE err)
+  # The unit is <boost/asio.hpp> and then the header; the first comes precompiled (with the usage flags, as a
+  # user's first line is compiled) through -include, which g++ takes from the .gch only when it comes before
+  # any other -include.
+  file(WRITE ${SCRATCH}/asio_first.hpp "#include <boost/asio.hpp>\n")
+  execute_process(COMMAND ${CXX} ${flags} ${usage_flags} -x c++-header ${SCRATCH}/asio_first.hpp
+    -o ${SCRATCH}/asio_first.hpp.gch RESULT_VARIABLE result ERROR_VARIABLE err)
   if(NOT result EQUAL 0)
     message(FATAL_ERROR "<boost/asio.hpp> does not compile as a precompiled header:\n${err}")
   endif()
-  set(prelude "#include \"asio_first.hpp\"\n")
-  list(APPEND flags -Winvalid-pch)
+  list(APPEND flags -Winvalid-pch -include ${SCRATCH}/asio_first.hpp)
 elseif(NOT MODE STREQUAL "alone")
   message(FATAL_ERROR "MODE must be alone or after_asio, not '${MODE}'")
 endif()
+list(APPEND flags ${usage_flags})
 
 # One unit per header: unit_<n>.cpp.
 set(units "")
 set(index 0)
 foreach(header IN LISTS headers)
-  file(WRITE ${SCRATCH}/unit_${index}.cpp "${prelude}#include <${header}>\n")
+  file(WRITE ${SCRATCH}/unit_${index}.cpp "#include <${header}>\n")
   list(APPEND units ${index})
   math(EXPR index "${index} + 1")
 endforeach()

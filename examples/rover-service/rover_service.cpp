@@ -3,6 +3,9 @@
 // servos (`S[1500,1500]`), a proxy servo (pin 9 to 90 degrees) and an Elcano drive request answered by the
 // ring's sensor report. Prints one line per device driven; exit status 0 when every one answered, 1
 // otherwise, 2 for a configuration that cannot be read or opened.
+// A service includes asio for its own timers and sockets, and usually first: it must compile so.
+#include <boost/asio.hpp>
+
 #include <exception>
 #include <iostream>
 #include <string>

@@ -2,6 +2,9 @@
 // tether-proxy tether-elcano tether-virtual-uno` and nothing else. On virtual Unos: calls romi-test's `e`
 // (answers [0,1,2]) and sets a servo on the proxy image (acked); writes and reads back an Elcano drive
 // message. Prints one line per check; exit status 0 when all passed.
+// A service includes asio for its own timers and sockets, and usually first: it must compile so.
+#include <boost/asio.hpp>
+
 #include <cstdint>
 #include <filesystem>
 #include <iostream>
