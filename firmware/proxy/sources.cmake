@@ -7,7 +7,8 @@ set(TETHER_PROXY_DEVICE_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/src/session_id.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/proxy_device.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/src/compat_device.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/src/compat_device.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/src/flash_descriptors.cpp)
 set(TETHER_PROXY_DEVICE_AVR_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/src/hardware_avr.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/hardware_compat_avr.cpp

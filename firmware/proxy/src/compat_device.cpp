@@ -5,6 +5,7 @@
 
 #include "rocketry.pb.h"
 #include "tether/core/execution_witness.hpp"
+#include "tether/proxy/device/flash_descriptors.hpp"
 #include "tether/proxy/device/hardware.hpp"
 
 namespace tether {
@@ -13,6 +14,9 @@ namespace device {
 
 static_assert(RocketryProto_ArduinoOut_size <= kMaxOutPayload, "an ArduinoOut must fit the send buffer");
 static_assert(RocketryProto_ArduinoIn_size <= CompatDevice::kMaxPayload, "an ArduinoIn must fit the decoder");
+#ifndef TETHER_PB_DESCRIPTORS_IN_FLASH
+#error "rocketry.options must include nanopb_descriptors_in_flash.h: the descriptors are read from flash here"
+#endif
 
 namespace {
 
@@ -30,6 +34,14 @@ bool adc_channel(uint32_t pin, uint8_t& channel) {
   if (pin < 14 || pin >= kPinCount) return false;
   channel = static_cast<uint8_t>(pin - 14u);
   return true;
+}
+
+// The RocketryProto descriptors are in flash (rocketry.options): nanopb decodes through a copy on the
+// stack, in a frame of its own that is gone before the message is handled.
+__attribute__((noinline)) bool decode_arduino_in(ByteView payload, RocketryProto_ArduinoIn* in) {
+  const DescriptorCopy<TETHER_PB_SUBMESSAGE_FIELDS(RocketryProto_ArduinoIn)> fields(
+      FlashDescriptor{RocketryProto_ArduinoIn_fields});
+  return decode_message(fields.get(), payload, in);
 }
 
 }  // namespace
@@ -99,8 +111,7 @@ void CompatDevice::send_states() {
 
 void CompatDevice::handle_payload(ByteView payload) {
   RocketryProto_ArduinoIn in = RocketryProto_ArduinoIn_init_zero;
-  pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
-  if (!pb_decode(&stream, RocketryProto_ArduinoIn_fields, &in)) {
+  if (!decode_arduino_in(payload, &in)) {
     add_one(counters_.decode_errors);
     send_error(RocketryProto_ErrorTypes_DECODE_ERROR, 0);
     return;
@@ -268,7 +279,10 @@ void CompatDevice::run_dc_motors() {
 }
 
 bool CompatDevice::send(const void* out_message) {
-  if (send_message(sink_, Integrity::none, false, RocketryProto_ArduinoOut_fields, out_message)) return true;
+  if (send_message<TETHER_PB_SUBMESSAGE_FIELDS(RocketryProto_ArduinoOut)>(
+          sink_, Integrity::none, false, FlashDescriptor{RocketryProto_ArduinoOut_fields}, out_message)) {
+    return true;
+  }
   add_one(counters_.send_failures);
   return false;
 }

@@ -14,6 +14,7 @@
 #include <pb.h>
 
 #include "tether/core/bytes.hpp"
+#include "tether/proxy/device/flash_descriptors.hpp"
 #include "tether/proxy/encoder.hpp"
 
 namespace tether {
@@ -39,6 +40,16 @@ constexpr size_t kMaxOutPayload = 64;
 /// when the message does not encode into kMaxOutPayload bytes. Stack: ~160 bytes plus nanopb's (~250).
 bool send_message(const FrameSink& sink, Integrity integrity, bool leading_delimiter, const pb_msgdesc_t* fields,
                   const void* message);
+
+/// `send_message` for a message whose descriptors are in flash (flash_descriptors.hpp), with
+/// `kSubmessages` = TETHER_PB_SUBMESSAGE_FIELDS(message): nanopb encodes through a copy of them on the
+/// stack. False (nothing sent) also when the descriptors do not fit the copy.
+template <uint8_t kSubmessages>
+bool send_message(const FrameSink& sink, Integrity integrity, bool leading_delimiter, FlashDescriptor fields,
+                  const void* message) {
+  const DescriptorCopy<kSubmessages> copy(fields);
+  return copy.get() != nullptr && send_message(sink, integrity, leading_delimiter, copy.get(), message);
+}
 
 }  // namespace device
 }  // namespace proxy
