@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "../stack_paint.hpp"
 #include "ring_harness.hpp"
 #include "tether/elcano/node/behaviour.hpp"
 #include "tether/elcano/session_policy.hpp"
@@ -30,6 +31,9 @@ using namespace std::chrono_literals;
 using transports::FaultConfig;
 using transports::SimDuration;
 using transports::VirtualUno;
+using tether::testing::heap_start;
+using tether::testing::paint_free_sram;
+using tether::testing::peak_stack;
 namespace pins = transports::uno_pins;
 
 constexpr std::size_t kBoard1 = 0, kBoard2 = 1, kBoard3 = 2;
@@ -86,38 +90,6 @@ void print_board_figures(const char* test, Ring& ring) {
                 static_cast<unsigned>(s.ring.queue_full_drops), static_cast<unsigned>(s.uart_rx_overflows),
                 static_cast<unsigned long long>(ring.board(i).stats().rx_bytes));
   }
-}
-
-// Stack measurement: paints the free SRAM between the end of the static data and the stack with a pattern;
-// what the pattern lost later is what the stack reached. 64 bytes below the current stack pointer are left
-// alone: an interrupt handler may be using them at this quantum boundary.
-constexpr std::uint8_t kPaint = 0xA5;
-constexpr std::uint16_t kStackPointer = 0x5D;  // SPL, SPH in the data space
-
-// The first byte after the static data: avr-libc's __heap_start when the image references it, else the end
-// of .noinit or .bss (the linker script defines those only when used, too).
-std::uint16_t heap_start(VirtualUno& board) {
-  for (const char* name : {"__heap_start", "__noinit_end", "__bss_end"}) {
-    if (const auto symbol = board.symbol(name)) return static_cast<std::uint16_t>(symbol->address);
-  }
-  throw std::runtime_error("the image has none of __heap_start, __noinit_end, __bss_end");
-}
-
-void paint_free_sram(VirtualUno& board) {
-  const std::vector<std::uint8_t> sp = board.read_memory(kStackPointer, 2);
-  const auto stack_pointer = static_cast<std::uint16_t>(sp[0] | (sp[1] << 8));
-  const std::uint16_t from = heap_start(board);
-  board.write_memory(from, std::vector<std::uint8_t>(static_cast<std::size_t>(stack_pointer - 64 - from), kPaint));
-}
-
-// Bytes of stack used at the deepest point since `paint_free_sram` (RAMEND down to the lowest byte touched).
-std::size_t peak_stack(VirtualUno& board) {
-  const std::uint16_t from = heap_start(board);
-  const std::vector<std::uint8_t> ram =
-      board.read_memory(from, static_cast<std::size_t>(transports::atmega328p::kRamEnd + 1 - from));
-  std::size_t untouched = 0;
-  while (untouched < ram.size() && ram[untouched] == kPaint) ++untouched;
-  return ram.size() - untouched;
 }
 
 // --- configuration ------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@
 #include <variant>
 #include <vector>
 
+#include "../stack_paint.hpp"
 #include "../wire_tap.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether/proxy/decoder.hpp"
@@ -677,8 +678,9 @@ class CompatBoard {
   }
   transports::VirtualUno& uno() { return uno_; }
   void run(int ms) { uno_.run_for(std::chrono::milliseconds(ms)); }
-  void send(const RocketryProto::ArduinoIn& in) {
-    const std::string payload = in.SerializeAsString();
+  void send(const RocketryProto::ArduinoIn& in) { send_payload(in.SerializeAsString()); }
+  // `00 COBS(payload) 00`, whatever the payload is.
+  void send_payload(const std::string& payload) {
     std::uint8_t frame[128];
     const auto framed = encode_frame(ByteView(reinterpret_cast<const std::uint8_t*>(payload.data()), payload.size()),
                                      Integrity::none, true, MutableByteView(frame));
@@ -1029,6 +1031,204 @@ TEST(ProxyCompatPins, StepperMotorControlIsAnsweredWithData0) {
     EXPECT_EQ(m.errormessage().type(), RocketryProto::UNKNOWN_MESSAGE);
     EXPECT_EQ(m.errormessage().data(), 0);
   }
+}
+
+// --- proxy-compat's descriptors in flash, its stack ---------------------------------------------------------
+
+// Every table of the RocketryProto descriptors is in flash (rocketry.options includes
+// nanopb_descriptors_in_flash.h); nanopb encodes and decodes through a RAM copy made for each message
+// (flash_descriptors.hpp). Were a descriptor read from the wrong memory (its flash address handed to nanopb,
+// which reads RAM there; or a descriptor left in RAM and copied as if from flash), a decode would fail or fill
+// other fields and an encode would send other bytes or none: so every kind of ArduinoIn goes in with every
+// field set, and every kind of ArduinoOut the device sends (all but StepperMotorState, which it never sends)
+// is checked field by field, negative values (ten-byte varints) included.
+TEST(ProxyCompatPins, EveryMessageKindRoundTripsThroughTheDescriptorsInFlash) {
+  CompatBoard board;
+  auto& uno = board.uno();
+  for (const char* message :
+       {"ServoInit", "ServoControl", "DigitalInit", "DigitalControl", "Reset", "DCMotorInit", "DCMotorControl",
+        "StepperMotorControl", "ArduinoIn", "EventMessage", "ErrorMessage", "ServoState", "DigitalState",
+        "DCMotorState", "StepperMotorState", "LoadCellState", "ArduinoOut"}) {
+    for (const char* table : {"_msg", "_submsg_info", "_field_info"}) {
+      const std::string name = std::string("RocketryProto_") + message + table;
+      const auto symbol = uno.symbol(name);
+      ASSERT_TRUE(symbol) << name;
+      EXPECT_EQ(symbol->space, transports::FirmwareSymbol::Space::flash) << name << " is not in flash";
+    }
+  }
+  const auto event = [](RocketryProto::EventTypes type, int data) {
+    return [=](const RocketryProto::ArduinoOut& m) {
+      return m.has_eventmessage() && m.eventmessage().type() == type && m.eventmessage().data() == data;
+    };
+  };
+  const auto error = [](RocketryProto::ErrorTypes type, int data) {
+    return [=](const RocketryProto::ArduinoOut& m) {
+      return m.has_errormessage() && m.errormessage().type() == type && m.errormessage().data() == data;
+    };
+  };
+  board.received();
+
+  // ServoInit, ServoControl (a negative angle: reported as written), ServoState.
+  board.send(servo_init(11));
+  board.send(servo_control(11, -5));
+  // DigitalInit{safeState 1}, then DigitalState high; DigitalControl{activate false}.
+  RocketryProto::ArduinoIn digital_init;
+  digital_init.mutable_digitalinit()->set_pin(12);
+  digital_init.mutable_digitalinit()->set_safestate(1);
+  board.send(digital_init);
+  board.run(60);
+  auto messages = board.received();
+  EXPECT_EQ(count_if(messages, event(RocketryProto::SERVO_INIT, 11)), 1u);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::SERVO_CONTROL, 11)), 1u);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_INIT, 12)), 1u);
+  EXPECT_GT(count_if(messages, [](const auto& m) {
+              return m.has_servostate() && m.servostate().pin() == 11 && m.servostate().position() == -5;
+            }),
+            0u);
+  EXPECT_GT(count_if(messages, [](const auto& m) {
+              return m.has_digitalstate() && m.digitalstate().pin() == 12 && m.digitalstate().activated();
+            }),
+            0u);
+  EXPECT_NEAR(board.pulse_us(11), 544.0, 2.0);
+  EXPECT_TRUE(uno.digital_level(12));
+  RocketryProto::ArduinoIn digital_control;
+  digital_control.mutable_digitalcontrol()->set_pin(12);
+  digital_control.mutable_digitalcontrol()->set_activate(false);
+  board.send(digital_control);
+  board.run(60);
+  messages = board.received();
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_CONTROL, 12)), 1u);
+  EXPECT_GT(count_if(messages, [](const auto& m) {
+              return m.has_digitalstate() && m.digitalstate().pin() == 12 && !m.digitalstate().activated();
+            }),
+            0u);
+  EXPECT_FALSE(uno.digital_level(12));
+
+  // DCMotorInit with all six fields, DCMotorControl towards a target below the potentiometer: reverse
+  // (direction -1), then the min limit switch stops it; DCMotorState's six fields along the way.
+  uno.set_analog_input(2, 2.5);  // A2: ~512 counts
+  uno.set_input_level(4, true);  // the max limit switch closed from the start
+  RocketryProto::ArduinoIn motor_init;
+  auto* motor = motor_init.mutable_dcmotorinit();
+  motor->set_limitswitchminpin(3);
+  motor->set_limitswitchmaxpin(4);
+  motor->set_potentiometerpin(16);
+  motor->set_motorforwardpin(7);
+  motor->set_motorreversepin(8);
+  motor->set_motorpower(255);
+  board.send(motor_init);
+  RocketryProto::ArduinoIn motor_control;
+  motor_control.mutable_dcmotorcontrol()->set_pinforward(7);
+  motor_control.mutable_dcmotorcontrol()->set_pinreverse(8);
+  motor_control.mutable_dcmotorcontrol()->set_position(100);
+  board.send(motor_control);
+  board.run(60);
+  messages = board.received();
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DC_MOTOR_INIT, 7)), 1u);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DC_MOTOR_CONTROL, 7)), 1u);
+  EXPECT_GT(count_if(messages, [](const auto& m) {
+              const auto& state = m.dcmotorstate();
+              return m.has_dcmotorstate() && state.motorforwardpin() == 7 && state.motorreversepin() == 8 &&
+                     state.position() > 500 && state.position() < 525 && state.direction() == -1 &&
+                     !state.minlimitswitch() && state.maxlimitswitch();
+            }),
+            0u);
+  EXPECT_TRUE(uno.digital_level(8));
+  uno.set_input_level(3, true);
+  board.run(60);
+  messages = board.received();
+  EXPECT_GT(count_if(messages, [](const auto& m) {
+              const auto& state = m.dcmotorstate();
+              return m.has_dcmotorstate() && state.direction() == 0 && state.minlimitswitch() && state.maxlimitswitch();
+            }),
+            0u);
+  EXPECT_FALSE(uno.digital_level(8));
+  // LoadCellState (what the unwired HX711 reads: 0) in the same stream.
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_loadcellstate() && m.loadcellstate().value() == 0; }),
+            0u);
+
+  // ErrorMessage, each type: a control of an uninitialised pin, StepperMotorControl, an undecodable payload.
+  board.send(servo_control(13, 90));
+  RocketryProto::ArduinoIn stepper;
+  stepper.mutable_steppermotorcontrol()->set_speed(4000000000u);
+  board.send(stepper);
+  board.send_payload(std::string("\x0a\x05\x08", 3));  // servoInit of 5 bytes, 1 there
+  board.run(30);
+  messages = board.received();
+  EXPECT_EQ(count_if(messages, error(RocketryProto::PIN_NOT_INITIALIZED, 13)), 1u);
+  EXPECT_EQ(count_if(messages, error(RocketryProto::UNKNOWN_MESSAGE, 0)), 1u);
+  EXPECT_EQ(count_if(messages, error(RocketryProto::DECODE_ERROR, 0)), 1u);
+
+  // Reset: the watchdog restarts the image, which announces EventMessage{RESET} again.
+  const auto resets = uno.stats().firmware_watchdog_resets;
+  RocketryProto::ArduinoIn reset;
+  reset.mutable_reset();
+  board.send(reset);
+  board.run(300);
+  messages = board.received();
+  EXPECT_EQ(uno.stats().firmware_watchdog_resets, resets + 1);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::RESET, 0)), 1u);
+}
+
+// proxy-compat's stack at its deepest under everything it does at once: 12 servos (the most) controlled
+// every 10 ms, two digital outputs, two DC motors running, the state stream of all of them and the load cell
+// every 50 ms, refusals and undecodable payloads between them; 2 s of board time with free SRAM painted.
+// The static data (646 B) and that peak must leave at least a quarter of the 2 KB never used.
+TEST(ProxyCompatPins, PeakStackUnderFullLoadLeavesAQuarterOfTheRamUnused) {
+  CompatBoard board;
+  auto& uno = board.uno();
+  board.received();
+  testing::paint_free_sram(uno);
+  for (std::uint32_t pin = 2; pin <= 13; ++pin) board.send(servo_init(pin));
+  for (std::uint32_t pin = 0; pin <= 1; ++pin) {
+    RocketryProto::ArduinoIn in;
+    in.mutable_digitalinit()->set_pin(pin);
+    in.mutable_digitalinit()->set_safestate(1);
+    board.send(in);
+  }
+  uno.set_analog_input(0, 2.0);
+  uno.set_analog_input(1, 3.0);
+  // Two motors on A0..A3 (sharing pins: the stack does not mind).
+  const std::uint32_t motors[2][5] = {{14, 15, 16, 17, 14}, {16, 17, 14, 15, 15}};  // fwd, rev, min, max, pot
+  for (const auto& pins : motors) {
+    RocketryProto::ArduinoIn in;
+    auto* motor = in.mutable_dcmotorinit();
+    motor->set_motorforwardpin(pins[0]);
+    motor->set_motorreversepin(pins[1]);
+    motor->set_limitswitchminpin(pins[2]);
+    motor->set_limitswitchmaxpin(pins[3]);
+    motor->set_potentiometerpin(pins[4]);
+    motor->set_motorpower(4000000000u);
+    board.send(in);
+  }
+  board.run(20);
+  std::size_t states = 0;
+  for (int step = 0; step < 200; ++step) {  // 2 s
+    for (std::uint32_t pin = 2; pin <= 13; ++pin) board.send(servo_control(pin, (step * 7 + static_cast<int>(pin)) % 181));
+    if (step % 10 == 0) {
+      for (const auto& pins : motors) {
+        RocketryProto::ArduinoIn in;
+        in.mutable_dcmotorcontrol()->set_pinforward(pins[0]);
+        in.mutable_dcmotorcontrol()->set_pinreverse(pins[1]);
+        in.mutable_dcmotorcontrol()->set_position(step % 20 == 0 ? 1023 : -1023);
+        board.send(in);
+      }
+      board.send(servo_control(18, 1));  // refused: A4 is the load cell's
+      board.send_payload(std::string("\x2a\x7f", 2));
+      RocketryProto::ArduinoIn stepper;
+      stepper.mutable_steppermotorcontrol()->set_speed(1);
+      board.send(stepper);
+    }
+    board.run(10);
+    for (const auto& m : board.received()) states += m.has_servostate() ? 1u : 0u;
+  }
+  const std::size_t stack = testing::peak_stack(uno);
+  const std::size_t static_ram = testing::heap_start(uno) - transports::atmega328p::kSramStart;
+  const std::size_t never_used = testing::never_used_sram(uno);
+  std::printf("[ figures ] proxy-compat: static RAM %zu B, peak stack %zu B, %zu B of RAM never used (%zu servo states)\n",
+              static_ram, stack, never_used, states);
+  EXPECT_GE(states, 12u * 39u);  // the stream ran: 12 servos every 50 ms
+  EXPECT_GE(never_used, 512u) << "static data " << static_ram << " B + peak stack " << stack << " B";
 }
 
 }  // namespace
