@@ -91,8 +91,8 @@ std::string show(const json& value) {
     case json::value_t::number_unsigned:
     case json::value_t::number_float: return "number " + value.dump();
     case json::value_t::null: return "null";
-    case json::value_t::object: return "object";
-    case json::value_t::array: return "array";
+    case json::value_t::object: return value.empty() ? "an empty object" : "object";
+    case json::value_t::array: return value.empty() ? "an empty array" : "array";
     default: return "an invalid value";
   }
 }
@@ -840,10 +840,11 @@ std::string too_large(const std::string& size) {
 }
 
 // Rejects a key given twice in one object (nlohmann keeps the last silently), naming its JSON path in the
-// style of the other errors (`devices[1].options.baud`). A SAX pass over the text (nlohmann's callback
-// parser would do it in one, but it scans the parent array at every object's end: quadratic in devices),
-// keeping one frame per open object or array.
-class DuplicateKeyCheck final : public nlohmann::json_sax<json> {
+// style of the other errors (`devices[1].options.baud`), and nesting deeper than kMaxConfigDepth. A SAX pass
+// over the text (nlohmann's callback parser would do it in one, but it scans the parent array at every
+// object's end: quadratic in devices), keeping one frame per open object or array with only its own key or
+// index: a path is built only for an error, so the pass is linear in the text.
+class StructureCheck final : public nlohmann::json_sax<json> {
  public:
   bool null() override { return value(); }
   bool boolean(bool) override { return value(); }
@@ -859,30 +860,43 @@ class DuplicateKeyCheck final : public nlohmann::json_sax<json> {
   bool key(string_t& key) override {
     Frame& object = frames_.back();
     object.key = key;
-    if (!object.keys.insert(key).second) fail(child_path(), "duplicate key (the object has it already)");
+    if (!object.keys.insert(key).second && !duplicate_) {
+      duplicate_ = ConfigError(path(), "duplicate key (the object has it already)");
+    }
     return true;
   }
   bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
-    return false;  // not reached: the text parsed before
+    return false;  // the document parse that follows reports it, with its line and column
   }
+
+  /// The first duplicate key, if any.
+  const std::optional<ConfigError>& duplicate() const { return duplicate_; }
 
  private:
   struct Frame {
-    std::string path;
     bool array = false;
     std::size_t index = 0;  // arrays: the next element's
     std::string key;        // objects: the current key
     std::set<std::string> keys;
   };
   // The path of the value about to be read.
-  std::string child_path() const {
-    if (frames_.empty()) return "";
-    const Frame& parent = frames_.back();
-    if (parent.array) return parent.path + "[" + std::to_string(parent.index) + "]";
-    return parent.path.empty() ? parent.key : parent.path + "." + parent.key;
+  std::string path() const {
+    std::string text;
+    for (const Frame& frame : frames_) {
+      if (frame.array) {
+        text += "[" + std::to_string(frame.index) + "]";
+      } else {
+        if (!text.empty()) text += ".";
+        text += frame.key;
+      }
+    }
+    return text;
   }
   bool open(bool array) {
-    frames_.push_back(Frame{child_path(), array, 0, {}, {}});
+    if (frames_.size() == kMaxConfigDepth) {
+      fail(path(), "nested too deeply (at most " + std::to_string(kMaxConfigDepth) + " levels of objects and arrays)");
+    }
+    frames_.push_back(Frame{array, 0, {}, {}});
     return true;
   }
   bool close() {
@@ -895,12 +909,18 @@ class DuplicateKeyCheck final : public nlohmann::json_sax<json> {
   }
 
   std::vector<Frame> frames_;
+  std::optional<ConfigError> duplicate_;
 };
 
 // JSON text (comments allowed) into a document; ConfigError "invalid JSON: parse error at line L, column C: ...",
-// "configuration too large", or a duplicate key with its path.
+// "configuration too large", nesting too deep, or a duplicate key with its path.
 json parse_json_text(std::string_view json_text) {
   if (json_text.size() > kMaxConfigBytes) fail("", too_large(std::to_string(json_text.size())));
+  // Structure first: a deeply nested text is refused before a document is built for it.
+  StructureCheck structure;
+  const bool well_formed = json::sax_parse(json_text.begin(), json_text.end(), &structure,
+                                           nlohmann::json::input_format_t::json, /*strict=*/true,
+                                           /*ignore_comments=*/true);
   json document;
   try {
     document = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/true,
@@ -913,9 +933,7 @@ json parse_json_text(std::string_view json_text) {
     }
     throw ConfigError("", "invalid JSON: " + text);
   }
-  DuplicateKeyCheck duplicates;
-  json::sax_parse(json_text.begin(), json_text.end(), &duplicates, nlohmann::json::input_format_t::json,
-                  /*strict=*/true, /*ignore_comments=*/true);
+  if (well_formed && structure.duplicate()) throw *structure.duplicate();
   return document;
 }
 

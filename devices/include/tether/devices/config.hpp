@@ -280,9 +280,13 @@ struct ParseOptions {
 /// Largest configuration text accepted (1 MiB): a rover's is a few KB. Bounds the time and memory of a
 /// parse (a 52 MB file once took 16 s and ~1 GB) and whatever else reads it; more is a `ConfigError`.
 inline constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
+/// Deepest nesting of objects and arrays accepted (a rover's configuration is 5 levels deep); deeper text
+/// is a `ConfigError` found before any document is built, so time and memory stay linear in the text.
+inline constexpr std::size_t kMaxConfigDepth = 64;
 
 /// Parses a JSON document. Throws `ConfigError` (path and expectation; JSON syntax errors with line and
-/// column; a key given twice in one object, with its path; text over `kMaxConfigBytes`).
+/// column; a key given twice in one object, with its path; text over `kMaxConfigBytes` or nested deeper
+/// than `kMaxConfigDepth`).
 RoverConfig parse_config(std::string_view json_text, const ParseOptions& options = ParseOptions());
 /// Parses an already-parsed JSON document (e.g. one section of a larger application config). Throws
 /// `ConfigError`. Duplicate keys are the caller's parser's business (nlohmann keeps the last).
