@@ -160,6 +160,7 @@ class RingClientImpl final : public transports::ClientLink {
     OperationId operation = 0;
     bool sent = false;            // first originated: its reply type is captured from then on
     bool resend_pending = false;  // the engine asked for a re-send that found no room yet
+    std::uint64_t end = 0;        // output offset after its first origination's last byte
   };
   // A send or a request's first origination waiting for room in the node's output queue.
   struct Outgoing {
@@ -169,11 +170,13 @@ class RingClientImpl final : public transports::ClientLink {
     OperationId operation = 0;  // sends (a request's is its call's)
     Millis deadline = 0;        // sends: `send_timeout` after acceptance
   };
-  // A send originated, completing once its last byte (at offset `end` of the output) was written.
+  // A send originated, completing once its last byte (at offset `end` of the output) was written, or
+  // failing at its deadline when the stream did not take it by then (a device that stopped reading).
   struct Written {
     std::uint64_t end = 0;
     SendHandler handler;
     OperationId operation = 0;
+    Millis deadline = 0;
   };
   struct Receiver {
     MessageHandler handler;
@@ -281,9 +284,11 @@ class RingClientImpl final : public transports::ClientLink {
     }
     if (item.call) {
       item.call->sent = true;
+      item.call->end = taken_ + node_.pending_output();
       refresh_capture();
     } else {
-      written_.push_back(Written{taken_ + node_.pending_output(), std::move(item.send_handler), item.operation});
+      written_.push_back(
+          Written{taken_ + node_.pending_output(), std::move(item.send_handler), item.operation, item.deadline});
     }
     return true;
   }
@@ -330,7 +335,7 @@ class RingClientImpl final : public transports::ClientLink {
     written_total_ += size;
     counters_.bytes_written += static_cast<std::uint32_t>(size);
     while (!written_.empty() && written_.front().end <= written_total_) {
-      complete(std::move(written_.front().handler), error_code());
+      complete(std::move(written_.front().handler), error_code());  // empty when it expired
       written_.pop_front();
     }
     pump(now());
@@ -435,7 +440,9 @@ class RingClientImpl final : public transports::ClientLink {
       case session::CallOutcome::timeout:
       case session::CallOutcome::remote_error:  // not produced: every reply of the type succeeds
       case session::CallOutcome::ok:            // not produced by poll
-        error = RingError::timed_out;
+        // A request that never fully reached the stream did not go unanswered: it was never asked.
+        error = (!found->second->sent || written_total_ < found->second->end) ? RingError::send_timed_out
+                                                                              : RingError::timed_out;
         break;
       case session::CallOutcome::cancelled:
         error = asio::error::operation_aborted;
@@ -554,7 +561,7 @@ class RingClientImpl final : public transports::ClientLink {
     publish();
   }
 
-  // Sends that waited `send_timeout` for room, receives past their timeout.
+  // Sends that waited `send_timeout` for room or for the stream to take them, receives past their timeout.
   void expire(Millis now) {
     for (auto it = outgoing_.begin(); it != outgoing_.end();) {
       if (!(*it)->call && tick_reached(now, (*it)->deadline)) {
@@ -562,6 +569,13 @@ class RingClientImpl final : public transports::ClientLink {
         it = outgoing_.erase(it);
       } else {
         ++it;
+      }
+    }
+    // Its bytes stay in the output (the node cannot take them back): the entry keeps its place, so the
+    // sends behind it still complete when the stream takes theirs.
+    for (auto& written : written_) {
+      if (written.handler && tick_reached(now, written.deadline)) {
+        complete(std::move(written.handler), RingError::send_timed_out);  // leaves it empty
       }
     }
     for (auto it = receivers_.begin(); it != receivers_.end();) {
@@ -581,6 +595,9 @@ class RingClientImpl final : public transports::ClientLink {
     consider(wake, node_.next_wakeup(now, !writing_));
     for (const auto& item : outgoing_) {
       if (!item->call) consider(wake, deadline_at(item->deadline));
+    }
+    for (const auto& written : written_) {
+      if (written.handler) consider(wake, deadline_at(written.deadline));
     }
     for (const auto& receiver : receivers_) {
       if (receiver->timeout) consider(wake, deadline_at(receiver->deadline));

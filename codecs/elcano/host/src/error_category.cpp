@@ -14,7 +14,9 @@ class RingCategory final : public boost::system::error_category {
       case RingError::undeliverable: return "the message came back round the ring: no node captured it";
       case RingError::reply_type_busy: return "a request awaiting this reply type is already in flight";
       case RingError::send_queue_full: return "the ring node's output queue and the client's send queue are full";
-      case RingError::send_timed_out: return "no room in the ring node's output queue within the send timeout";
+      case RingError::send_timed_out:
+        return "not written in time: no room in the ring node's output queue, or the link took no bytes "
+               "(a device that stopped reading)";
       case RingError::receive_timed_out: return "no captured message within the receive timeout";
       case RingError::invalid_message: return "the message lacks a field its type requires (or has no valid type)";
       case RingError::invalid_reply_type: return "the reply type is not D, S, G or X";

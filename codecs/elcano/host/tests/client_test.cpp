@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "fake_ring.hpp"
+#include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/transport_error.hpp"
 
@@ -314,6 +315,44 @@ TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
   for (std::size_t i = originated; i < kSends; ++i) {
     EXPECT_EQ(completions.at(i)->error, RingError::send_timed_out) << "send " << i;
   }
+}
+
+// A device that stopped reading: the stream takes a few bytes and then none. Sends already handed to the
+// node (their bytes queued behind the blocked write) fail at their `send_timeout` like those still waiting
+// for room; a request whose bytes never reached the device says so instead of "no reply".
+TEST(RingClient, SendsToADeviceThatStoppedReadingFailAtTheirSendTimeout) {
+  IoThread io;
+  Options options = test_options(200, 1000);
+  options.send_timeout = 150;
+  auto clock = ManualClock::create();
+  options.clock = clock;
+  // Nobody reads the other end; it holds 8 bytes, less than one drive message.
+  auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor(), 8);
+  EventLog log;
+  RingClient client(host_end, options, log.handler());
+  constexpr std::size_t kSends = 3;
+  Completions completions;
+  const Millis start = clock->now();
+  for (std::size_t i = 0; i < kSends; ++i) {
+    client.async_send(drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
+  }
+  client.async_request(goal(1), Type::segment, completions.message_handler(kSends));
+  error_code barrier;
+  (void)client.receive(0, barrier);
+  ASSERT_GE(client.counters().ring.originated, 1u);  // at least the first send was handed to the node
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 150), due)) << "+" << due - start;
+  EXPECT_EQ(completions.calls(), 0u);
+  clock->advance_to(static_cast<Millis>(start + 150));
+  ASSERT_TRUE(completions.wait_for(kSends)) << completions.calls() << " of " << kSends << " sends completed";
+  for (std::size_t i = 0; i < kSends; ++i) {
+    EXPECT_EQ(completions.at(i)->error, RingError::send_timed_out) << "send " << i;
+  }
+  clock->advance_to(static_cast<Millis>(start + 1000));
+  ASSERT_TRUE(completions.wait_for(kSends + 1));
+  EXPECT_EQ(completions.at(kSends)->error, RingError::send_timed_out);
+  client.close();
+  device_end->close();
 }
 
 // --- receive -------------------------------------------------------------------------------------------

@@ -24,6 +24,7 @@
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device_message.hpp"
 #include "tether/core/wakeup.hpp"
 #include "tether/transports/client_link.hpp"
 
@@ -293,6 +294,12 @@ class ClientImpl final : public transports::ClientLink {
     std::uint32_t anchor = 0;           // the oldest id in flight when it was first sent (its id if none)
     std::shared_ptr<const std::string> frame;
   };
+  // Compat: a send whose frame is queued on the stream.
+  struct CompatWrite {
+    std::uint64_t serial = 0;
+    SendHandler handler;  // empty once it timed out
+    Millis deadline = 0;  // `send_budget` after acceptance
+  };
   // A registered init and the application sends waiting for its replay.
   struct InitEntry {
     PinKey pin;
@@ -328,7 +335,7 @@ class ClientImpl final : public transports::ClientLink {
     if (!primary()) {
       ++counters_.messages_sent;
       std::shared_ptr<const std::string> frame = frame_of(serialize(pending->message), Integrity::none);
-      write_send(std::move(frame), std::move(pending));
+      write_send(std::move(frame), std::move(pending), now);
       pump(now);  // an init starts its pin's staleness clock
       return;
     }
@@ -398,6 +405,7 @@ class ClientImpl final : public transports::ClientLink {
       start_queue(session_queue_, now);
       if (established_) start_queue(user_queue_, now);
     } else {
+      expire_compat_writes(now);
       check_stale(now);
     }
     arm_timer();
@@ -670,13 +678,31 @@ class ClientImpl final : public transports::ClientLink {
 
   // --- writes ------------------------------------------------------------------------------------------
 
-  // Compat sends: `pending` completes when its frame was written (or could not be).
-  void write_send(std::shared_ptr<const std::string> bytes, std::unique_ptr<Pending> pending) {
-    write(std::move(bytes), [this, pending = std::move(pending)](error_code error) {
+  // Compat sends: `pending` completes when its frame was written (or could not be), or with `timed_out`
+  // when the stream did not take it within `send_budget` (a device that stopped reading). The frame stays
+  // queued then (a write cannot be taken back): its entry stays, empty, until the write ends.
+  void write_send(std::shared_ptr<const std::string> bytes, std::unique_ptr<Pending> pending, Millis now) {
+    const std::uint64_t serial = ++compat_writes_started_;
+    compat_writes_.push_back(
+        CompatWrite{serial, std::move(pending->handler), static_cast<Millis>(now + options_.timing.send_budget)});
+    write(std::move(bytes), [this, serial](error_code error) {
+      const auto found = std::find_if(compat_writes_.begin(), compat_writes_.end(),
+                                      [serial](const CompatWrite& entry) { return entry.serial == serial; });
+      if (found == compat_writes_.end()) return;
       SendResult result;
       if (!error) result.attempts = 1;
-      complete(std::move(pending->handler), error, result);
+      complete(std::move(found->handler), error, result);  // empty when it timed out
+      compat_writes_.erase(found);
     });
+  }
+
+  // Compat sends whose frame the stream did not take within `send_budget`.
+  void expire_compat_writes(Millis now) {
+    for (auto& entry : compat_writes_) {
+      if (entry.handler && tick_reached(now, entry.deadline)) {
+        complete(std::move(entry.handler), ProxyError::timed_out, SendResult());  // leaves it empty
+      }
+    }
   }
 
   // --- the link's hooks --------------------------------------------------------------------------------
@@ -761,7 +787,7 @@ class ClientImpl final : public transports::ClientLink {
 
   void on_primary_payload(ByteView payload, Millis now) {
     ArduinoOut out;
-    if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+    if (!parse_device_message(out, payload)) {  // an Error whose text is not UTF-8 is kept, escaped
       undecodable(payload, true);
       return;
     }
@@ -953,6 +979,9 @@ class ClientImpl final : public transports::ClientLink {
         for (const auto& waiter : entry.waiters) consider(wakeup, deadline_at(waiter->queue_deadline));
       }
     } else {
+      for (const auto& entry : compat_writes_) {
+        if (entry.handler) consider(wakeup, deadline_at(entry.deadline));
+      }
       std::lock_guard lock(mutex_);
       for (const auto& [key, entry] : pins_) {
         if (!entry.status.stale) consider(wakeup, deadline_at(static_cast<Millis>(entry.status.updated + options_.timing.stale_after)));
@@ -985,6 +1014,8 @@ class ClientImpl final : public transports::ClientLink {
   std::set<std::uint32_t> lanes_;                                 // pins with a message in flight
   std::deque<std::unique_ptr<Pending>> session_queue_;            // replays: before anything else
   std::deque<std::unique_ptr<Pending>> user_queue_;               // application messages
+  std::deque<CompatWrite> compat_writes_;                         // compat: frames queued on the stream
+  std::uint64_t compat_writes_started_ = 0;
   std::map<InitKey, InitEntry> inits_;
   std::map<PinKey, InitKey> init_keys_;
   std::vector<InitKey> init_order_;

@@ -541,6 +541,23 @@ TEST(ProxyClient, UndecodableProtobufIsCountedAndReported) {
 
 // --- device events ----------------------------------------------------------------------------------------
 
+// A device's Error text is whatever bytes its firmware wrote: one that is not UTF-8 (which libprotobuf
+// refuses in a proto3 string) still arrives, its stray bytes escaped, not as an undecodable message.
+TEST(ProxyClient, DeviceErrorWhoseTextIsNotUtf8IsKeptEscaped) {
+  IoThread io;
+  Link link(io.executor(), test_options(), standard_device(100));
+  ASSERT_TRUE(link.established());
+  link.device->send(FakeDevice::error(std::string("bad \xff\xfe byte, \xc3\xa9 kept, \x1b kept"), Error::WARNING));
+  link.device->send(FakeDevice::error("plain", Error::FATAL));
+  ASSERT_TRUE(link.log.wait_for<events::DeviceError>(2));
+  const auto errors = link.log.of<events::DeviceError>();
+  EXPECT_EQ(errors[0].text, "bad \\xff\\xfe byte, \xc3\xa9 kept, \x1b kept");
+  EXPECT_EQ(errors[0].level, ErrorLevel::warning);
+  EXPECT_EQ(errors[1].text, "plain");
+  EXPECT_EQ(link.log.of<events::UndecodableMessage>().size(), 0u);
+  EXPECT_EQ(link.client->counters().undecodable, 0u);
+}
+
 TEST(ProxyClient, DeviceReportsBecomeEvents) {
   IoThread io;
   Link link(io.executor(), test_options(), standard_device(100));

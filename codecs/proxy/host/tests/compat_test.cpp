@@ -4,6 +4,9 @@
 
 #include <boost/asio/use_future.hpp>
 
+#include <thread>
+
+#include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/testing/manual_clock.hpp"
 #include "test_support.hpp"
@@ -237,6 +240,43 @@ TEST(ProxyCompat, CloseFailsLaterSendsAndNeverHangs) {
   error_code error;
   link.client->servo(5).set(1, error);
   EXPECT_EQ(error, asio::error::operation_aborted);
+}
+
+// A device that stopped reading: the stream takes a few bytes and then none. Every send, the one whose
+// frame is half written included, fails with `timed_out` at its `send_budget` instead of waiting forever.
+TEST(ProxyCompat, SendsToADeviceThatStoppedReadingTimeOutAtTheirBudget) {
+  IoThread io;
+  Options options = compat_test_options();
+  options.timing.send_budget = 300;
+  auto clock = transports::testing::ManualClock::create();
+  options.clock = clock;
+  // Nobody reads the other end; it holds 4 bytes, less than one frame.
+  auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor(), 4);
+  EventLog log;
+  Client client(host_end, options, log.handler());
+  constexpr std::size_t kSends = 3;
+  Completions done;
+  const Millis start = clock->now();
+  for (std::size_t i = 0; i < kSends; ++i) {
+    client.servo(5).async_set(static_cast<std::int32_t>(10 * i), done.handler(i));
+  }
+  Millis due = 0;
+  ASSERT_TRUE(clock->wait_for_due(static_cast<Millis>(start + 300), due, kPrompt)) << "+" << due - start;
+  EXPECT_EQ(done.calls(), 0u);
+  clock->advance_to(static_cast<Millis>(start + 300));
+  ASSERT_TRUE(done.wait_for(kSends)) << done.calls() << " of " << kSends << " sends completed";
+  for (std::size_t i = 0; i < kSends; ++i) EXPECT_EQ(done.at(i).error, ProxyError::timed_out) << "send " << i;
+  // The blocking form ends the same way.
+  std::thread advance([&] {
+    Millis seen = 0;
+    if (clock->wait_for_due(static_cast<Millis>(clock->now() + 300), seen, kPrompt)) clock->advance(300);
+  });
+  error_code error;
+  client.servo(5).set(7, error);
+  advance.join();
+  EXPECT_EQ(error, ProxyError::timed_out);
+  client.close();
+  device_end->close();
 }
 
 }  // namespace

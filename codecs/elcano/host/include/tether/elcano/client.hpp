@@ -41,14 +41,16 @@
 ///   | operation | completes | errors (besides `operation_aborted` on close and the transport's on link failure) |
 ///   |---|---|---|
 ///   | `async_send(message)` | `void(error_code)` when the message's last byte was handed to the stream | `invalid_message`, `send_queue_full`, `send_timed_out` |
-///   | `async_request(message, reply_type)` | `void(error_code, Message)` with the first captured message of `reply_type` | `invalid_message`, `invalid_reply_type`, `reply_type_busy`, `send_queue_full`, `undeliverable`, `timed_out` |
+///   | `async_request(message, reply_type)` | `void(error_code, Message)` with the first captured message of `reply_type` | `invalid_message`, `invalid_reply_type`, `reply_type_busy`, `send_queue_full`, `send_timed_out`, `undeliverable`, `timed_out` |
 ///   | `async_receive([timeout])` | `void(error_code, Message)` with the next captured message no request claimed | `receive_timed_out` |
 /// Every operation completes exactly once. Details:
 ///   1. **Room.** `originate` answers busy when the node's output queue has no room (it keeps a reserve for
 ///      forwarding). The client never drops an originated message for that: sends and requests wait, in
 ///      submission order, in the client's send queue (at most `send_queue_bound`; beyond it they fail at
-///      once with `send_queue_full`). A send waits at most `send_timeout` (`send_timed_out`); a request
-///      waits within its call budget.
+///      once with `send_queue_full`). A send waits at most `send_timeout` (`send_timed_out`), for room
+///      and then for the stream to take its bytes (a device that stopped reading blocks the stream: the
+///      bytes stay queued, the send fails at its deadline); a request waits within its call budget and,
+///      when its bytes never reached the stream, fails with `send_timed_out` rather than `timed_out`.
 ///   2. **Requests** use the session engine (`elcano::RequestTable`, one call per reply type: the message
 ///      carries no id, so the reply is recognised by its type). The call begins when the client accepts
 ///      it: `timing.attempt_timeout` per attempt, `timing.call_budget` for the whole call including the wait
@@ -128,7 +130,8 @@ struct Options {
   /// Sends and requests that may wait for room in the node's output queue (0: none wait; they fail with
   /// `send_queue_full` when the queue is full).
   std::size_t send_queue_bound = 16;
-  /// Longest a send waits for room in the node's output queue (then `RingError::send_timed_out`).
+  /// Longest a send waits for room in the node's output queue and for the stream to take its bytes (then
+  /// `RingError::send_timed_out`).
   Duration send_timeout = 2000;
   /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
   std::shared_ptr<transports::LinkClock> clock;

@@ -26,7 +26,8 @@ enum class RingError {
   undeliverable,       ///< Request: it came back round the ring: no node captured its type.
   reply_type_busy,     ///< Request: a request awaiting the same reply type is already in flight.
   send_queue_full,     ///< Send or request: the node's output queue is full and so is the client's send queue.
-  send_timed_out,      ///< Send: waited `send_timeout` for room in the node's output queue.
+  send_timed_out,      ///< Not written in time: a send within `send_timeout` (no room in the node's output
+                       ///< queue, or the stream took no bytes), a request within its call budget.
   receive_timed_out,   ///< Receive: no captured message within the given timeout.
   invalid_message,     ///< The message lacks a field its type requires, or its type is not D, S, G or X.
   invalid_reply_type,  ///< Request: the reply type is not D, S, G or X.

@@ -62,7 +62,7 @@
 ///   | what | default | rule |
 ///   |---|---|---|
 ///   | attempt window | `ack_timeout(frame)`: ~54 ms for a 20-byte frame at 115200 | re-send the same bytes when it passes |
-///   | `send_budget` | 1000 | from the first send to the ack; then `ProxyError::timed_out` |
+///   | `send_budget` | 1000 | from the first send to the ack (compat: to the frame written); then `ProxyError::timed_out` |
 ///   | `max_sends` | 255 | frames per message at most (the budget normally ends it first) |
 ///   | `queue_timeout` | 10000 | before the first send; then `ProxyError::queue_timeout` |
 ///   | `ping_period` | 1000 | fixed rate; 0 disables (tests) |
@@ -73,7 +73,8 @@
 /// ## Compatibility mode (the deployed variant, `Options::compat()`)
 /// Wire: host `0x00 ‖ COBS(pb) ‖ 0x00`, device `COBS(pb) ‖ 0x00`, no CRC, `RocketryProto` messages, 57600
 /// baud (the transport's setting). No messageIds, acks, pings or sessions: a send completes when its frame
-/// was written to the stream (`SendResult::acked` is false). Same convenience API; `async_send` takes a
+/// was written to the stream (`SendResult::acked` is false), or with `ProxyError::timed_out` when the stream
+/// took it not within `send_budget` (the device stopped reading; the frame stays queued). Same convenience API; `async_send` takes a
 /// `RocketryProto::ArduinoIn` (Reset included). Device messages become events: `EventMessage` ->
 /// `events::CompatEvent`, `ErrorMessage` -> `events::CompatError`, `ServoState`/`DigitalState` ->
 /// `events::PinReport` (only when a pin reports for the first time, changes value, or comes back after
@@ -91,7 +92,7 @@
 ///   | error_code | when |
 ///   |---|---|
 ///   | none | primary: the device acked the messageId; compat: the frame was written |
-///   | `ProxyError::timed_out` | no ack within `send_budget` (or after `max_sends` frames) |
+///   | `ProxyError::timed_out` | no ack within `send_budget` (or after `max_sends` frames); compat: the frame not written within `send_budget` (a device that stopped reading) |
 ///   | `ProxyError::queue_timeout` | not sent within `queue_timeout` (no session, pin busy, id window full) |
 ///   | `ProxyError::device_reset` | the session changed while it was in flight |
 ///   | `ProxyError::wrong_mode`, `invalid_message`, `reserved_message`, `message_too_large`, `too_many_inits` | rejected before anything was written |
@@ -272,7 +273,7 @@ struct PinStatus {
 namespace events {
 /// Primary: the device sent `Error(text, level)`.
 struct DeviceError {
-  std::string text;                        ///< The device's text.
+  std::string text;                        ///< The device's text; bytes that are not UTF-8 come as `\xNN`.
   ErrorLevel level = ErrorLevel::warning;  ///< WARNING or FATAL.
 };
 /// Primary: the device's periodic `ArduinoInfo`, every one. The `ResetDetected` or `FailsafeTriggered` it
