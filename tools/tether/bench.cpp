@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -24,6 +25,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 #include "cli_support.hpp"
@@ -179,16 +181,35 @@ std::filesystem::path plot_script() {
   return TETHER_SOURCE_BENCH_SCRIPT;
 }
 
-// Runs `program args...` (no shell) and waits; its exit status, or -1 when it could not start.
+// What a stop signal (SIGINT, SIGTERM) during `run_program` returns.
+constexpr int kProgramStopped = -2;
+
+// Runs `program args...` (no shell, its own process group) and waits; its exit status, -1 when it could not
+// start, kProgramStopped when a stop signal came first: the program (and what it started) is ended then, so
+// no plot is written after bench has gone.
 int run_program(const std::vector<std::string>& arguments) {
   std::vector<char*> argv;
   for (const std::string& argument : arguments) argv.push_back(const_cast<char*>(argument.c_str()));
   argv.push_back(nullptr);
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
+  const std::atomic<bool>& stop = catch_stop_signals();
   pid_t pid = 0;
-  if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  const int spawned = posix_spawnp(&pid, argv[0], nullptr, &attributes, argv.data(), environ);
+  posix_spawnattr_destroy(&attributes);
+  if (spawned != 0) return -1;
   int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return -1;
+  for (;;) {
+    const pid_t done = waitpid(pid, &status, WNOHANG);
+    if (done == pid) break;
+    if (done < 0 && errno != EINTR) return -1;
+    if (stop) {
+      end_process_group(pid, std::chrono::seconds(1));
+      return kProgramStopped;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -398,12 +419,16 @@ int run_bench(int argc, char** argv) {
   } else {
     std::fputs(bench::format_table(report).c_str(), stdout);
   }
-  std::fflush(stdout);
+  cli::out().flush();
 
   if (plots) {
     const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
     const std::filesystem::path script = plot_script();
     const int status = run_program({python, script.string(), (out_dir / "bench.json").string(), out_dir.string()});
+    if (status == kProgramStopped) {
+      return command_text().fail("stopped while drawing the plots (the plotting was ended); bench.json and bench.csv "
+                                 "are in " + out_dir.string());
+    }
     if (status == 3) {
       return command_text().fail("the plots need matplotlib (Debian: apt install python3-matplotlib); bench.json and "
                                  "bench.csv are in " + out_dir.string());

@@ -27,6 +27,7 @@
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
+#include "message_text.hpp"
 #include "shell_text.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/transports/io_thread.hpp"
@@ -183,11 +184,11 @@ int run_call(int argc, char** argv) {
   } else if (response.answered) {
     std::printf("%s\n", dump(response.values).c_str());
   }
-  std::fflush(stdout);
+  cli::out().flush();
   if (response.code != 0) {
-    std::string line = std::to_string(response.code) + " " + response.message;
+    std::string line = std::to_string(response.code) + " " + printable(response.message);
     if (response.unreadable_answer()) {
-      line += " (received: " + response.raw + ")";
+      line += " (received: " + printable(response.raw) + ")";
     }
     std::fprintf(stderr, "tether call: %s\n", line.c_str());
   }

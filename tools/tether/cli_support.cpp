@@ -1,12 +1,17 @@
 // Helpers shared by the subcommands (see cli_support.hpp).
 #include "cli_support.hpp"
 
+#include <limits.h>
+#include <poll.h>
 #include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <ctime>
 #include <map>
 #include <thread>
@@ -101,6 +106,24 @@ struct StopWatcher {
 
 }  // namespace
 
+int end_process_group(pid_t pid, std::chrono::milliseconds grace) {
+  ::kill(-pid, SIGTERM);
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) {
+      ::kill(-pid, SIGKILL);  // what it started and left behind
+      return status;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(-pid, SIGKILL);
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
 const std::atomic<bool>& catch_stop_signals() {
   g_stop_requested = false;
   handle_stop_signals(request_stop);
@@ -162,12 +185,52 @@ std::string dump(const nlohmann::ordered_json& value) {
 
 bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
 
+namespace {
+
+constexpr char kEraseLine[] = "\r\033[K";
+
+// A stop signal's default action, after erasing the progress line (async-signal-safe calls only).
+void erase_progress_and_die(int signal_number) {
+  (void)!::write(STDERR_FILENO, kEraseLine, sizeof kEraseLine - 1);
+  struct sigaction default_action {};
+  default_action.sa_handler = SIG_DFL;
+  sigemptyset(&default_action.sa_mask);
+  ::sigaction(signal_number, &default_action, nullptr);
+  ::raise(signal_number);
+}
+
+// Installs `erase_progress_and_die` for the stop signals left at their default; undone by `disarm`.
+void arm_progress_erasure() {
+  for (const int signal_number : {SIGINT, SIGTERM}) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != SIG_DFL) continue;
+    struct sigaction erase {};
+    erase.sa_handler = erase_progress_and_die;
+    sigemptyset(&erase.sa_mask);
+    ::sigaction(signal_number, &erase, nullptr);
+  }
+}
+
+void disarm_progress_erasure() {
+  for (const int signal_number : {SIGINT, SIGTERM}) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != erase_progress_and_die) continue;
+    struct sigaction default_action {};
+    default_action.sa_handler = SIG_DFL;
+    sigemptyset(&default_action.sa_mask);
+    ::sigaction(signal_number, &default_action, nullptr);
+  }
+}
+
+}  // namespace
+
 Progress::Progress(std::string_view command) : command_(command), enabled_(stderr_is_terminal()) {}
 
 Progress::~Progress() { clear(); }
 
 void Progress::show(const std::string& text) {
   if (!enabled_) return;
+  if (!shown_) arm_progress_erasure();
   std::fprintf(stderr, "\r\033[Ktether %s: %s", command_.c_str(), text.c_str());
   std::fflush(stderr);
   shown_ = true;
@@ -175,7 +238,8 @@ void Progress::show(const std::string& text) {
 
 void Progress::clear() {
   if (!shown_) return;
-  std::fputs("\r\033[K", stderr);
+  disarm_progress_erasure();
+  std::fputs(kEraseLine, stderr);
   std::fflush(stderr);
   shown_ = false;
 }
@@ -218,15 +282,66 @@ void LinePrinter::line(const std::string& text) {
     handler_(text);
     return;
   }
-  std::fputs(text.c_str(), stdout);
-  std::fputc('\n', stdout);
-  std::fflush(stdout);
+  write_locked(text + '\n');
 }
 
 void LinePrinter::raw(const std::string& text) {
   const std::lock_guard lock(mutex_);
-  std::fputs(text.c_str(), stdout);
-  std::fflush(stdout);
+  write_locked(text);
+}
+
+// Straight to the descriptor, so a full pipe is waited for with poll (which can give up) rather than
+// inside a blocking write; what stdio holds from other writers goes first, to keep the order.
+void LinePrinter::write_locked(std::string_view bytes) {
+  if (!flush_locked()) return;
+  while (!bytes.empty()) {
+    pollfd ready{STDOUT_FILENO, POLLOUT, 0};
+    const int polled = ::poll(&ready, 1, 100);
+    if (polled < 0 && errno != EINTR) {
+      write_failure_ = std::strerror(errno);
+      return;
+    }
+    if (polled <= 0) {
+      if (g_stop_requested || (give_up_ && give_up_())) {
+        write_failure_ = "its reader stopped reading";
+        return;
+      }
+      continue;
+    }
+    // At most PIPE_BUF at once: a pipe that polls writable takes that much without blocking.
+    const ssize_t written = ::write(STDOUT_FILENO, bytes.data(), std::min<std::size_t>(bytes.size(), PIPE_BUF));
+    if (written < 0) {
+      if (errno == EINTR || errno == EAGAIN) continue;
+      write_failure_ = std::strerror(errno);
+      return;
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(written));
+  }
+}
+
+bool LinePrinter::flush_locked() {
+  if (!write_failure_.empty()) return false;
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    write_failure_ = std::strerror(errno != 0 ? errno : EIO);
+    return false;
+  }
+  return true;
+}
+
+void LinePrinter::flush() {
+  const std::lock_guard lock(mutex_);
+  (void)flush_locked();
+}
+
+void LinePrinter::set_give_up(std::function<bool()> give_up) {
+  const std::lock_guard lock(mutex_);
+  give_up_ = std::move(give_up);
+}
+
+std::string LinePrinter::write_failure() {
+  const std::lock_guard lock(mutex_);
+  return write_failure_;
 }
 
 void LinePrinter::set_output_handler(std::function<void(const std::string&)> handler) {

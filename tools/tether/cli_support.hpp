@@ -3,6 +3,8 @@
 // printer that several threads (the I/O thread's event handlers, the shell) share.
 #pragma once
 
+#include <sys/types.h>
+
 #include <boost/asio/buffer.hpp>
 #include <boost/system/error_code.hpp>
 
@@ -63,6 +65,11 @@ void handle_stop_signals(void (*handler)(int));
 /// `handle_stop_signals` with a handler that sets the returned flag (cleared first), for loops that poll it.
 const std::atomic<bool>& catch_stop_signals();
 
+/// Ends the process group that child `pid` leads (spawned with POSIX_SPAWN_SETPGROUP, pgroup 0): SIGTERM,
+/// then SIGKILL after `grace` (or at once once `pid` ended, for what it started and left behind); reaps
+/// `pid` and returns its wait status. A child that ignores SIGTERM cannot keep a command waiting.
+int end_process_group(pid_t pid, std::chrono::milliseconds grace);
+
 /// While alive, a stop signal caught by `catch_stop_signals` runs `action` (once, within ~50 ms, on a watcher
 /// thread): closing the device there ends whatever a command is blocked on (a write to a device that does
 /// not read, a call waiting for its budget), so Ctrl-C ends every command within a second. Destroyed before
@@ -102,7 +109,9 @@ std::string dump(const nlohmann::ordered_json& value);
 bool stderr_is_terminal();
 
 /// A status line on stderr, rewritten in place, shown only when stderr is a terminal; cleared by `clear()`
-/// and on destruction. Not thread-safe (the thread running the subcommand owns it).
+/// and on destruction. While it is shown, a SIGINT or SIGTERM that would kill the process (no handler of
+/// the command's) erases it first, so the shell's prompt does not land behind it. Not thread-safe (the
+/// thread running the subcommand owns it).
 class Progress {
  public:
   /// Progress of `tether <command>`.
@@ -139,6 +148,10 @@ class Timestamps {
 /// Writes whole lines to stdout under one lock and flushes each, so lines from the I/O thread (events) and
 /// from the main thread never interleave. The shell's line editor takes the lines over while it edits (it
 /// prints them above the line being edited).
+///
+/// A reader that stops reading (a full pipe) must not keep the command from ending: while stdout takes no
+/// bytes the printer looks every 100 ms at a stop signal (`catch_stop_signals`) and at `set_give_up`'s
+/// condition; once either holds, that line and every later one are dropped and `write_failure()` says so.
 class LinePrinter {
  public:
   /// Prints `line` + '\n' and flushes (or hands `line` to the output handler).
@@ -148,10 +161,23 @@ class LinePrinter {
   /// Hands every line (without its newline) to `handler` instead of printing it; called under the printer's
   /// lock, so it must not print. An empty function prints directly again.
   void set_output_handler(std::function<void(const std::string&)> handler);
+  /// Also gives up waiting for a blocked stdout when `give_up()` returns true (e.g. `--duration` is up);
+  /// called from the printing thread while it waits. An empty function: only on a stop signal.
+  void set_give_up(std::function<bool()> give_up);
+  /// Flushes what stdio holds for stdout (printf's output), keeping why it failed for `write_failure()`:
+  /// the flush's errno is gone by the time the command exits.
+  void flush();
+  /// Why the output did not all reach stdout (empty: it did), for the exit's message.
+  std::string write_failure();
 
  private:
+  void write_locked(std::string_view bytes);
+  bool flush_locked();
+
   std::mutex mutex_;
   std::function<void(const std::string&)> handler_;
+  std::function<bool()> give_up_;
+  std::string write_failure_;
 };
 
 /// The process's stdout printer.

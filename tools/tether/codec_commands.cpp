@@ -234,11 +234,17 @@ class RingReplies {
     ++settled_;
     changed_.notify_all();
   }
-  /// Waits until every message sent has settled or `kWait` passed (or `stop` is set).
+  /// The link failed: nothing more will come back.
+  void link_failed() {
+    const std::lock_guard lock(mutex_);
+    link_failed_ = true;
+    changed_.notify_all();
+  }
+  /// Waits until every message sent has settled, the link failed or `kWait` passed (or `stop` is set).
   void wait(const std::atomic<bool>& stop) {
     std::unique_lock lock(mutex_);
     const auto deadline = std::chrono::steady_clock::now() + kWait;
-    while (settled_ < sent_ && !stop && std::chrono::steady_clock::now() < deadline) {
+    while (settled_ < sent_ && !link_failed_ && !stop && std::chrono::steady_clock::now() < deadline) {
       changed_.wait_for(lock, std::chrono::milliseconds(50));  // 50 ms steps: notices a stop signal
     }
   }
@@ -248,6 +254,7 @@ class RingReplies {
   std::condition_variable changed_;
   std::uint64_t sent_ = 0;
   std::uint64_t settled_ = 0;
+  bool link_failed_ = false;
 };
 
 // Prints every captured message: one receive at a time, re-armed from its completion.
@@ -279,7 +286,10 @@ class ElcanoShell final : public ShellSession {
     client_->on_event([printer, generation, link_failed, replies](const elcano::Event& event) {
       printer.event(ring_event_line(event, generation));
       if (std::holds_alternative<elcano::events::Undeliverable>(event)) replies->settled();
-      if (std::holds_alternative<elcano::events::LinkFailed>(event)) link_failed();
+      if (std::holds_alternative<elcano::events::LinkFailed>(event)) {
+        replies->link_failed();
+        link_failed();
+      }
     });
     receive_captured(client_, printer_, generation_, replies_);
   }

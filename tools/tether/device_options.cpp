@@ -218,9 +218,20 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     // Before the codec, which the image's name suggests: a missing image is "not found", not a codec mismatch.
     std::error_code status_error;
     const std::filesystem::file_status status = std::filesystem::status(firmware, status_error);
-    if (!std::filesystem::is_regular_file(status)) {
+    if (!std::filesystem::exists(status) || std::filesystem::is_directory(status)) {
       const int reason = std::filesystem::is_directory(status) ? EISDIR : ENOENT;
       error = "firmware image not found: " + firmware.string() + ": " + std::system_category().message(reason);
+      return std::nullopt;
+    }
+    if (!std::filesystem::is_regular_file(status)) {
+      // A device, FIFO or socket exists, so "not found" would mislead; reading one could block or never end.
+      const std::filesystem::file_type type = status.type();
+      const char* kind = type == std::filesystem::file_type::character ? "a character device"
+                         : type == std::filesystem::file_type::block   ? "a block device"
+                         : type == std::filesystem::file_type::fifo    ? "a FIFO"
+                         : type == std::filesystem::file_type::socket  ? "a socket"
+                                                                       : "not a regular file";
+      error = "not a firmware image: " + firmware.string() + " is " + kind + " (an AVR ELF file is needed)";
       return std::nullopt;
     }
   }

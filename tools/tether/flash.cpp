@@ -17,6 +17,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -200,9 +201,13 @@ std::string check_port(const std::string& port) {
 }
 
 struct AvrdudeRun {
-  int status = -1;        // exit status; -1: killed after the time limit
+  int status = -1;        // exit status; -1: ended by tether (time limit or a stop signal)
+  bool stopped = false;   // ended because tether was asked to stop (SIGINT, SIGTERM)
   std::string output;     // stdout and stderr, merged
 };
+
+// How long avrdude (and what it started) gets to end after SIGTERM before SIGKILL: it restores the port.
+constexpr std::chrono::milliseconds kAvrdudeGrace{2000};
 
 // Runs avrdude with its output piped through (shown on stderr when `show`), killed after `limit`.
 std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments, bool show,
@@ -217,12 +222,20 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
   posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
+  // A process group of its own, so that ending it ends what it started too; a terminal's Ctrl-C reaches
+  // tether, which ends the group (below).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   std::vector<std::string> strings = arguments;
   std::vector<char*> argv;
   for (std::string& text : strings) argv.push_back(text.data());
   argv.push_back(nullptr);
+  const std::atomic<bool>& stop = catch_stop_signals();
   pid_t pid = -1;
-  const int spawned = ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  const int spawned = ::posix_spawn(&pid, argv[0], &actions, &attributes, argv.data(), environ);
+  posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
   ::close(pipe_fds[1]);
   if (spawned != 0) {
@@ -235,13 +248,13 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
   bool killed = false;
   for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) {
-      ::kill(pid, SIGTERM);
+    if (left.count() <= 0 || stop) {
+      run.stopped = stop;
       killed = true;
       break;
     }
     pollfd readable{pipe_fds[0], POLLIN, 0};
-    const int ready = ::poll(&readable, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
+    const int ready = ::poll(&readable, 1, static_cast<int>(std::min<long long>(left.count(), 50)));
     if (ready < 0 && errno == EINTR) continue;
     if (ready <= 0) continue;
     char buffer[4096];
@@ -256,7 +269,11 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
   }
   ::close(pipe_fds[0]);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  if (killed) {
+    status = end_process_group(pid, kAvrdudeGrace);
+  } else {
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
   }
   run.status = killed ? -1 : (WIFEXITED(status) ? WEXITSTATUS(status) : -1);
   return run;
@@ -382,6 +399,7 @@ int run_flash(int argc, char** argv) {
   }
   std::filesystem::remove(hex);
   if (!run) return text.fail(problem);
+  if (run->stopped) return text.fail("stopped by a signal: avrdude was ended; the board may hold a partial image");
   if (run->status != 0) {
     const std::string reason = explain_failure(*run, arguments);
     if (!show) std::fprintf(stderr, "%s\n", tail_lines(run->output, 4).c_str());

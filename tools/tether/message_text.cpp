@@ -204,6 +204,52 @@ bool fill(pb::Message& root, std::span<const std::string> words, ProxyCommand& c
 
 }  // namespace
 
+std::string printable(std::string_view bytes) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string text;
+  text.reserve(bytes.size());
+  const auto escape = [&](unsigned char byte) {
+    text += "\\x";
+    text += kDigits[byte >> 4];
+    text += kDigits[byte & 0x0F];
+  };
+  const auto byte_at = [&](std::size_t i) { return static_cast<unsigned char>(bytes[i]); };
+  const auto continuation = [&](std::size_t i) { return i < bytes.size() && (byte_at(i) & 0xC0) == 0x80; };
+  std::size_t i = 0;
+  while (i < bytes.size()) {
+    const unsigned char lead = byte_at(i);
+    if (lead >= 0x20 && lead < 0x7F) {
+      text += static_cast<char>(lead);
+      ++i;
+      continue;
+    }
+    // The length of a well-formed UTF-8 sequence starting here (RFC 3629: no overlong forms, no
+    // surrogates, nothing above U+10FFFF), or 0.
+    std::size_t length = 0;
+    if (lead >= 0xC2 && lead <= 0xDF && continuation(i + 1)) {
+      length = lead == 0xC2 && byte_at(i + 1) < 0xA0 ? 0 : 2;  // U+0080..U+009F: C1 controls
+    } else if (lead >= 0xE0 && lead <= 0xEF && continuation(i + 1) && continuation(i + 2)) {
+      const unsigned char second = byte_at(i + 1);
+      const bool overlong = lead == 0xE0 && second < 0xA0;
+      const bool surrogate = lead == 0xED && second >= 0xA0;
+      length = overlong || surrogate ? 0 : 3;
+    } else if (lead >= 0xF0 && lead <= 0xF4 && continuation(i + 1) && continuation(i + 2) && continuation(i + 3)) {
+      const unsigned char second = byte_at(i + 1);
+      const bool overlong = lead == 0xF0 && second < 0x90;
+      const bool too_large = lead == 0xF4 && second >= 0x90;
+      length = overlong || too_large ? 0 : 4;
+    }
+    if (length == 0) {
+      escape(lead);
+      ++i;
+      continue;
+    }
+    text.append(bytes.substr(i, length));
+    i += length;
+  }
+  return text;
+}
+
 std::string kebab_case(std::string_view camel) {
   std::string text;
   for (std::size_t i = 0; i < camel.size(); ++i) {

@@ -21,6 +21,12 @@
 
 namespace tether::cli {
 
+/// Text a device sent, safe to print on a terminal: C0 control bytes (NUL, ESC, BEL, CR, LF, ...), DEL,
+/// C1 controls (U+0080..U+009F) and bytes that are not UTF-8 become `\xNN` (one per byte); valid UTF-8
+/// otherwise passes unchanged. Every human-readable line that carries device text goes through it (JSON
+/// output escapes on its own).
+std::string printable(std::string_view bytes);
+
 /// `servoControl` -> `servo-control`.
 std::string kebab_case(std::string_view camel);
 

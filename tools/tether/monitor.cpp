@@ -185,6 +185,8 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
   const auto start = std::chrono::steady_clock::now();
   const auto run_end = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
                                              : std::chrono::steady_clock::time_point::max();
+  // A stdout nobody reads must not outlast --duration (a stop signal ends the wait anyway).
+  out().set_give_up([run_end] { return std::chrono::steady_clock::now() >= run_end; });
   RecordPrinter printer(arguments);
   std::mutex mutex;
   std::condition_variable finished;
@@ -295,6 +297,8 @@ int run_monitor(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   const auto run_end = arguments.duration_ms ? start + std::chrono::milliseconds(*arguments.duration_ms)
                                              : std::chrono::steady_clock::time_point::max();
+  // A stdout nobody reads must not outlast --duration (a stop signal ends the wait anyway).
+  out().set_give_up([run_end] { return std::chrono::steady_clock::now() >= run_end; });
   auto now_ms = [&] { return elapsed_ms(start); };
   DecoderRole role;
   role.keepalive = arguments.keepalive;

@@ -8,6 +8,7 @@
 #include "tether/elcano/decoder.hpp"
 #include "tether/elcano/ring_node.hpp"
 #include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/romi/envelope_decoder.hpp"
 
@@ -59,7 +60,7 @@ class RomiDecoder final : public MonitorDecoder {
     char id[4];
     std::snprintf(id, sizeof id, "%02x", event.id);
     if (status == DecodeStatus::frame && event.log) {
-      records.push_back({"log", payload, {{"text", payload}}, true});
+      records.push_back({"log", printable(payload), {{"text", payload}}, true});
     } else if (status == DecodeStatus::frame) {
       nlohmann::ordered_json json = {
           {"opcode", std::string(1, event.opcode)},
@@ -71,7 +72,7 @@ class RomiDecoder final : public MonitorDecoder {
         const auto values = nlohmann::ordered_json::parse(payload.begin() + 1, payload.end(), nullptr, false);
         if (!values.is_discarded()) json["values"] = values;
       }
-      const std::string shown = payload.empty() ? std::string("(empty)") : payload;
+      const std::string shown = payload.empty() ? std::string("(empty)") : printable(payload);
       records.push_back({"frame", shown + (event.manual ? " (manual)" : " id " + std::string(id)), json, true});
     } else {
       const auto code = static_cast<std::int16_t>(decoder_.error());
@@ -117,7 +118,7 @@ class ProxyDecoder final : public MonitorDecoder {
     if (status != DecodeStatus::frame) return;
     const ByteView payload = decoder_.frame();
     const std::unique_ptr<google::protobuf::Message> message = schema_message();
-    if (!message->ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+    if (!proxy::parse_device_message(*message, payload)) {
       const std::string bytes = hex(payload);
       records.push_back({"undecodable", bytes, {{"payload_hex", bytes}}, false});
       return;

@@ -89,7 +89,11 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       const std::string_view value = argv[++i];
       const auto ms = parse_number(value, argument == "--timeout" ? 1 : 0, 3600000);
       if (!ms) return text.usage_error(std::string(argument) + " needs milliseconds, got '" + std::string(value) + "'");
-      (argument == "--timeout" ? arguments.timeout_ms : arguments.settle_ms) = *ms;
+      if (argument == "--timeout") {
+        arguments.timeout_ms = *ms;
+      } else {
+        arguments.settle_ms = *ms;
+      }
     } else if (argument.starts_with("--")) {
       return text.usage_error("unknown option " + std::string(argument));
     } else {
@@ -307,7 +311,7 @@ int run_send(int argc, char** argv) {
               std::to_string(result["pin_state"]["value"].get<std::int32_t>());
       if (result["pin_state"]["failsafe"].get<bool>()) line += " (failsafe)";
     }
-    for (const auto& text : result["device_errors"]) line += "; device error: " + text.get<std::string>();
+    for (const auto& text : result["device_errors"]) line += "; device error: " + printable(text.get<std::string>());
 
     if (arguments.json) {
       out().line(dump(result));

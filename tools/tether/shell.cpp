@@ -184,7 +184,7 @@ class LineReader {
       std::fputs(text.c_str(), stdout);
       std::fputc('\n', stdout);
     }
-    std::fflush(stdout);
+    cli::out().flush();
     rl_forced_update_display();  // ...and are drawn again below them
   }
 
@@ -257,7 +257,7 @@ class LineReader {
       out().set_output_handler({});  // lines print directly again (in order: the held ones first)
       print_pending();
       std::fputs("\r\033[K", stdout);  // no prompt left behind
-      std::fflush(stdout);
+      cli::out().flush();
       rl_callback_handler_remove();  // the terminal's own mode again
       editing_reader_ = nullptr;
     }
@@ -327,6 +327,9 @@ int run_shell(int argc, char** argv) {
     if (wake_target->reader != nullptr) wake_target->reader->wake();
   };
 
+  // Before the session: a session that holds a client (one made by an opening that then failed) is
+  // destroyed while the I/O context its timers belong to still exists.
+  transports::IoThread io;
   // The codec's shell, created with the client: its event handlers see everything from the first byte on.
   std::unique_ptr<ShellSession> session;
   ClientHooks hooks;
@@ -334,10 +337,17 @@ int run_shell(int argc, char** argv) {
     session = commands.open_shell(client, target->config, context);
   };
 
-  transports::IoThread io;
+  // Caught from before the opening: a stop signal while the device opens ends the shell (exit 0) as later.
+  g_stop_signalled = false;
+  handle_stop_signals(on_stop_signal);
   Progress progress("shell");
   auto device = open_device(*target, io.executor(), hooks, progress, error);
+  if (!device && g_stop_signalled) return 0;
   if (!device) return command_text().fail(target->label + ": " + error);
+  if (g_stop_signalled) {
+    device->close();
+    return 0;
+  }
 
   const bool interactive = ::isatty(STDIN_FILENO) == 1 && ::isatty(STDOUT_FILENO) == 1;
   const std::string prompt = interactive ? std::string(devices::to_string(codec)) + "> " : std::string();
@@ -345,13 +355,11 @@ int run_shell(int argc, char** argv) {
                {{"device", device->description()}, {"codec", std::string(devices::to_string(codec))}});
   session->greet();
 
-  g_stop_signalled = false;
   auto reader = std::make_unique<LineReader>(prompt);
   {
     const std::lock_guard lock(wake_target->mutex);
     wake_target->reader = reader.get();
   }
-  handle_stop_signals(on_stop_signal);
 
   const auto started = std::chrono::steady_clock::now();
   int status = 0;
@@ -366,7 +374,13 @@ int run_shell(int argc, char** argv) {
       break;
     }
     if (!read) {
+      session->finish(g_stop_signalled);  // waits for the answers to what was sent: the link may fail meanwhile
+      if (*link_failed) status = 2;
+      break;
+    }
+    if (g_stop_signalled) {  // lines read before the signal are not sent: it ends the shell now
       session->finish(g_stop_signalled);
+      if (*link_failed) status = 2;
       break;
     }
     const std::string line = trim(*read);

@@ -7,7 +7,7 @@
 namespace tether::cli {
 
 ShellLine romi_log_line(std::string_view text) {
-  return {"log: " + std::string(text), {{"event", "log"}, {"text", std::string(text)}}};
+  return {"log: " + printable(text), {{"event", "log"}, {"text", std::string(text)}}};
 }
 
 ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& response) {
@@ -20,7 +20,7 @@ ShellLine romi_answer_line(std::string_view command, const romi::RomiResponse& r
                                    {"attempts", response.attempts}};
   std::string text = response.answered ? dump(response.values) : std::string();
   if (response.code != 0) {
-    text += std::string(text.empty() ? "" : "  ") + "error " + std::to_string(response.code) + ": " + response.message;
+    text += std::string(text.empty() ? "" : "  ") + "error " + std::to_string(response.code) + ": " + printable(response.message);
   }
   return {text, object};
 }
@@ -29,7 +29,7 @@ ShellLine proxy_event_line(const proxy::Event& event) {
   namespace ev = proxy::events;
   if (const auto* error = std::get_if<ev::DeviceError>(&event)) {
     const bool fatal = error->level == proxy::ErrorLevel::fatal;
-    return {std::string("device ") + (fatal ? "FATAL" : "error") + ": " + error->text,
+    return {std::string("device ") + (fatal ? "FATAL" : "error") + ": " + printable(error->text),
             {{"event", "device_error"}, {"text", error->text}, {"level", fatal ? "fatal" : "warning"}}};
   }
   if (const auto* info = std::get_if<ev::DeviceInfo>(&event)) {

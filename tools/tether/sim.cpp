@@ -207,7 +207,7 @@ int run_sim(int argc, char** argv) {
   } else {
     std::printf("PTY %s\n", path.c_str());
   }
-  std::fflush(stdout);
+  cli::out().flush();
 
   bool baud_checked = false;
   const timespec poll_interval{0, 200'000'000};

@@ -117,12 +117,17 @@ int run_stats(int argc, char** argv) {
     }
   }
 
+  // Caught from before the opening: a stop signal while the device opens ends the run (exit 0) as later.
+  const std::atomic<bool>& stop = catch_stop_signals();
   transports::IoThread io;
   Progress progress("stats");
   auto device = open_device(*target, io.executor(), ClientHooks(), progress, error);
+  if (!device && stop) return 0;
   if (!device) return command_text().fail(target->label + ": " + error);
-
-  const std::atomic<bool>& stop = catch_stop_signals();
+  if (stop) {
+    device->close();
+    return 0;
+  }
   const StopAction close_on_stop([&device] { device->close(); });  // Ctrl-C ends a probe call at once
 
   using Clock = std::chrono::steady_clock;

@@ -15,7 +15,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <signal.h>
 
 #include "tether/testing/child_process.hpp"
 #include "tether_process.hpp"
@@ -220,6 +223,37 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
     EXPECT_EQ(point["flagged"]["latency_p50"], point["device"] == "arm") << point;
     EXPECT_FALSE(point["flagged"]["success"].get<bool>()) << point;
   }
+}
+
+// Regression: SIGTERM to bench while it plotted left plot_report.py running, writing into the output
+// folder after bench had exited. A stand-in plot script that only waits tells when bench reached it.
+TEST(TetherBench, StopSignalWhilePlottingEndsThePlotting) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const fs::path out = output_dir();
+  const fs::path script = out / "slow_plot.py";
+  const fs::path pid_file = out / "plot.pid";
+  std::ofstream(script) << "import os, sys, time\n"
+                           "open(sys.argv[2] + '/plot.pid.tmp', 'w').write(str(os.getpid()))\n"
+                           "os.rename(sys.argv[2] + '/plot.pid.tmp', sys.argv[2] + '/plot.pid')\n"
+                           "time.sleep(600)\n"
+                           "open(sys.argv[2] + '/late.png', 'w').write('drawn after bench ended')\n";
+  ::tether::testing::ChildProcess bench({"env", "TETHER_BENCH_PLOT_SCRIPT=" + script.string(), TETHER_BINARY, "bench",
+                                         "--devices", "arm", "--sweep", "ber=0", "--iterations", "3", "--out",
+                                         out.string()});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(pid_file) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(pid_file)) << "bench never started the plot script";
+  const std::string plot_pid = read_text(pid_file);
+  bench.signal(SIGTERM);
+  EXPECT_EQ(bench.wait(std::chrono::seconds(30)), 2);
+  // The script is gone (or a zombie waiting for init), not sleeping on.
+  std::ifstream stat("/proc/" + plot_pid + "/stat");
+  std::string fields;
+  std::getline(stat, fields);
+  const auto state = fields.find(") ");
+  EXPECT_TRUE(fields.empty() || (state != std::string::npos && fields[state + 2] == 'Z')) << fields;
 }
 
 TEST(TetherBench, HeadlessChromiumRendersTheReportWithItsTablesAndImages) {

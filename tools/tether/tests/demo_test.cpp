@@ -63,5 +63,18 @@ TEST(TetherDemo, BadArgumentsAndConfigsAreErrorsWithAMessage) {
   EXPECT_NE(run.err.find(::testing::TempDir() + ": Is a directory"), std::string::npos) << run.err;
 }
 
+// Ctrl-C while the progress line is on the terminal: the line is erased before the demo dies, so the
+// shell's prompt does not land behind it.
+TEST(TetherDemo, CtrlCErasesTheProgressLine) {
+  Terminal terminal({"demo", "--iterations", "100000"});
+  ASSERT_TRUE(terminal.expect("tether demo: ")) << terminal.screen();
+  terminal.type("\x03");
+  ASSERT_TRUE(terminal.wait_exit().has_value()) << terminal.screen();
+  const std::string screen = terminal.screen();
+  const std::size_t erased = screen.rfind("\r\033[K");
+  ASSERT_NE(erased, std::string::npos) << screen;
+  EXPECT_GT(erased, screen.rfind("tether demo: ")) << screen;  // after the last progress text
+}
+
 }  // namespace
 }  // namespace tether::cli::testing

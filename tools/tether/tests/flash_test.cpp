@@ -169,6 +169,37 @@ TEST(TetherFlash, AWrongSyncByteMidUploadOpensThePortAgain) {
   std::filesystem::remove(avrdude);
 }
 
+// Regression: --timeout sent SIGTERM to avrdude and then waited for it forever; an avrdude that ignores
+// SIGTERM, and what it started, are now ended (SIGKILL after a grace period).
+TEST(TetherFlash, TimeoutEndsAnAvrdudeThatIgnoresSigterm) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  SimBoard board("echo");  // any pty that passes the port checks
+  const auto child_pid = temp_file("child-pid");
+  const auto avrdude = temp_file("avrdude-deaf");
+  std::filesystem::remove(child_pid);
+  std::ofstream(avrdude) << "#!/bin/sh\n"
+                            "trap '' TERM\n"
+                            "sleep 600 &\n"
+                            "echo $! > '" << child_pid.string() << "'\n"
+                            "echo 'avrdude: waiting for the bootloader'\n"
+                            "while :; do sleep 1; done\n";
+  std::filesystem::permissions(avrdude, std::filesystem::perms::owner_all);
+  const Outcome flash = run_tether({"flash", "--port", board.pty(), "--avrdude", avrdude.string(), "--timeout", "1",
+                                    "--reopen", "0", "romi-test"});
+  EXPECT_EQ(flash.status, 2) << flash.err;  // -1000: still waiting after run_tether's 60 s
+  std::ifstream pid_file(child_pid);
+  pid_t child = 0;
+  ASSERT_TRUE(pid_file >> child) << "the stand-in did not start its child";
+  // The child is gone (or a zombie waiting for init): not sleeping on.
+  std::ifstream stat("/proc/" + std::to_string(child) + "/stat");
+  std::string fields;
+  std::getline(stat, fields);
+  const auto state = fields.find(") ");
+  EXPECT_TRUE(fields.empty() || (state != std::string::npos && fields[state + 2] == 'Z')) << fields;
+  std::filesystem::remove(child_pid);
+  std::filesystem::remove(avrdude);
+}
+
 // Another program holds the port exclusively (TIOCEXCL, as Tether's serial transport and pyserial set it).
 TEST(TetherFlash, PortBusy) {
   TETHER_REQUIRE_FLASH_TOOLS();

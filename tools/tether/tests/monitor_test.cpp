@@ -4,13 +4,20 @@
 
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
 #include <signal.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "fake_port.hpp"
 #include "tether/proxy/encoder.hpp"
+#include "tether/testing/child_process.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
@@ -151,6 +158,34 @@ TEST(TetherMonitor, ProxyMessagesAndCrcErrors) {
   EXPECT_EQ(without_stamps(run.lines()), expected) << run.out;
 }
 
+// Device text never reaches the terminal raw: escape sequences, the bell and NUL in a Romi log line come
+// out as \xNN (a NUL no longer cuts the line); JSON keeps the text itself.
+TEST(TetherMonitor, DeviceTextIsEscapedForTheTerminal) {
+  FakePort device;
+  static constexpr char kLine[] = "#!\x1b[2Jclear\x07 bell \0 nul \xff end:xxxx\r\n";
+  device.send(std::string_view(kLine, sizeof kLine - 1));
+  const Outcome run = run_tether({"monitor", "--port", device.path(), "--count", "1"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(without_stamps(run.lines()), std::vector<std::string>{"log      \\x1b[2Jclear\\x07 bell \\x00 nul \\xff end"})
+      << run.out;
+  EXPECT_EQ(run.out.find('\x1b'), std::string::npos);
+}
+
+// A proxy Error whose text is not UTF-8 is shown as the message it is, not as undecodable, and without
+// libprotobuf's complaint on stderr.
+TEST(TetherMonitor, ProxyErrorWhoseTextIsNotUtf8IsShown) {
+  FakePort device;
+  proxy::ArduinoOut error;
+  error.mutable_error()->set_text("bad \xff byte");
+  error.mutable_error()->set_level(proxy::Error::FATAL);
+  device.send(proxy_frame(error));
+  const Outcome run = run_tether({"monitor", "--port", device.path(), "--codec", "proxy", "--count", "1"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(without_stamps(run.lines()), std::vector<std::string>{R"(message  error text: "bad \\xff byte" level: FATAL)"})
+      << run.out;
+  EXPECT_EQ(run.err.find("UTF-8"), std::string::npos) << run.err;
+}
+
 TEST(TetherMonitor, ProxyJson) {
   FakePort device;
   proxy::ArduinoOut info;
@@ -196,6 +231,76 @@ TEST(TetherMonitor, DurationEndsAQuietMonitor) {
   const Outcome run = run_tether({"monitor", "--port", device.path(), "--duration", "0.2"});
   EXPECT_EQ(run.status, 0) << run.err;
   EXPECT_EQ(run.out, "");
+}
+
+// A pipe that holds `fill` already and that nobody reads: the next write to it blocks. Not closed on exec,
+// so a child started through `sh` can take it as its stdout.
+struct FullPipe {
+  int read_end = -1;
+  int write_end = -1;
+  FullPipe() {
+    int ends[2];
+    EXPECT_EQ(::pipe(ends), 0);
+    read_end = ends[0];
+    write_end = ends[1];
+    (void)::fcntl(write_end, F_SETPIPE_SZ, 4096);
+    const int flags = ::fcntl(write_end, F_GETFL);
+    (void)::fcntl(write_end, F_SETFL, flags | O_NONBLOCK);
+    const std::string block(4096, 'x');
+    while (::write(write_end, block.data(), block.size()) > 0 || errno == EINTR) {
+    }
+    (void)::fcntl(write_end, F_SETFL, flags);  // the child's writes block, as on any full pipe
+  }
+  ~FullPipe() {
+    ::close(read_end);
+    ::close(write_end);
+  }
+  // `tether ARGS...` with stdout on this pipe and stderr on the child's captured stdout.
+  std::vector<std::string> tether_argv(const std::vector<std::string>& arguments) const {
+    // Through /dev/fd: a shell redirects only descriptors 0-9 with `>&N`, and the test's may be higher.
+  std::vector<std::string> argv = {"sh", "-c", "exec \"$0\" \"$@\" 2>&1 >/dev/fd/" + std::to_string(write_end),
+                                     TETHER_BINARY};
+    argv.insert(argv.end(), arguments.begin(), arguments.end());
+    return argv;
+  }
+};
+
+std::string stderr_of(::tether::testing::ChildProcess& run) {
+  std::string err;
+  while (const auto line = run.read_line(std::chrono::seconds(30))) err += *line + "\n";
+  return err;
+}
+
+// A stdout nobody reads does not outlast --duration: the monitor gives its lines up, says why, exits 2.
+TEST(TetherMonitor, StdoutNobodyReadsDoesNotOutlastTheDuration) {
+  FakePort device;
+  device.send("#!one:xxxx\r\n");
+  const FullPipe pipe;
+  ::tether::testing::ChildProcess run(pipe.tether_argv({"monitor", "--port", device.path(), "--duration", "0.5"}),
+                                      /*capture_stdout=*/true);
+  const std::string err = stderr_of(run);
+  EXPECT_EQ(run.wait(std::chrono::seconds(20)), 2) << err;
+  EXPECT_NE(err.find("tether monitor: the output could not be written: its reader stopped reading"),
+            std::string::npos)
+      << err;
+}
+
+// Nor a stop signal. (Sent once the monitor has had time to block on its first line; should it come
+// before, the monitor ends all the same, having lost nothing: either way it must end.)
+TEST(TetherMonitor, StdoutNobodyReadsDoesNotOutlastAStopSignal) {
+  FakePort device;
+  device.send("#!one:xxxx\r\n");
+  const FullPipe pipe;
+  ::tether::testing::ChildProcess run(pipe.tether_argv({"monitor", "--port", device.path()}), /*capture_stdout=*/true);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  run.signal(SIGTERM);
+  const std::string err = stderr_of(run);
+  const std::optional<int> status = run.wait(std::chrono::seconds(20));
+  ASSERT_TRUE(status.has_value()) << "still running 20 s after SIGTERM";
+  EXPECT_TRUE(*status == 2 || *status == 0) << *status << "\n" << err;
+  if (*status == 2) {
+    EXPECT_NE(err.find("its reader stopped reading"), std::string::npos) << err;
+  }
 }
 
 TEST(TetherMonitor, LinkFailureExitsTwo) {

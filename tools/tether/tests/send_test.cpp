@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <string>
 #include <thread>
 #include <vector>
@@ -92,6 +93,31 @@ TEST(TetherSend, CompatMessagesAreWrittenAndTheDeviceAnswerIsShown) {
   // The device's answer; its boot announcement (RESET 0) may come along, depending on when the board booted.
   const auto& events = result["device_events"];
   EXPECT_NE(std::find(events.begin(), events.end(), "SERVO_INIT 9"), events.end()) << events;
+}
+
+// --settle is how long a compat send waits for the device's answer: a device that never answers is
+// waited for that long, and the line says so.
+TEST(TetherSend, SettleBoundsTheWaitForACompatAnswer) {
+  FakePort port;  // a device that never answers
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome run = run_tether({"send", "--port", port.path(), "--codec", "proxy-compat", "--settle", "1500",
+                                  "servo-init", "pin=9", "safe-position=90"});
+  const auto waited = std::chrono::steady_clock::now() - start;
+  EXPECT_EQ(run.status, 0) << run.err;  // compat: written is done
+  EXPECT_NE(run.out.find("no answer from the device within 1500 ms"), std::string::npos) << run.out;
+  EXPECT_GE(waited, std::chrono::milliseconds(1500));
+}
+
+// --timeout is a primary-mode send's budget from the first send to the ack: a device that never acks is
+// given all of it (not the configuration's 1000 ms).
+TEST(TetherSend, TimeoutIsTheSendBudget) {
+  FakePort port;  // a device that never answers
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome run = run_tether({"send", "--port", port.path(), "--codec", "proxy", "--timeout", "2500", "--json",
+                                  "servo-control", "pin=9", "position=120"});
+  const auto waited = std::chrono::steady_clock::now() - start;
+  EXPECT_EQ(run.status, 2) << run.out << run.err;
+  EXPECT_GE(waited, std::chrono::milliseconds(2500)) << run.out << run.err;
 }
 
 // A servo-init then a servo-control on D3 through a compat device: each lists only its own event. Returns

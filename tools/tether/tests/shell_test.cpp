@@ -4,6 +4,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <signal.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <optional>
 #include <string>
 
 #include "fake_port.hpp"
@@ -162,6 +168,55 @@ TEST(TetherShell, PipedElcanoShellWaitsForTheAnswers) {
   EXPECT_EQ(shell.wait(std::chrono::seconds(20)), 0);
   EXPECT_NE(out.find("captured S{s 50}{a 25}{b 0}{p 0,0}"), std::string::npos) << out;
   EXPECT_NE(out.find("captured S{s -20}{a 5}{b 0}{p 0,0}"), std::string::npos) << out;
+}
+
+// Regression: an elcano shell whose link failed while it waited for the answers after the end of its input
+// exited 0 (the romi and proxy shells exit 2 then).
+TEST(TetherShell, ElcanoLinkFailureAfterTheInputEndsWithTwo) {
+  FakePort port;  // the ring: reads what the host sends, then goes away
+  ::tether::testing::ChildProcess shell(
+      {"sh", "-c", "printf 'D{s 50}{a 25}\\n' | exec \"$0\" shell --port \"$1\" --codec elcano", TETHER_BINARY,
+       port.path()},
+      /*capture_stdout=*/true);
+  const std::string sent = port.read_until('\n');
+  EXPECT_NE(sent.find("D{s 50}{a 25}"), std::string::npos) << sent;
+  port.pty->close();  // unplugged while the shell waits for the answer
+  std::string out;
+  while (const auto line = shell.read_line(std::chrono::seconds(60))) out += *line + "\n";
+  EXPECT_EQ(shell.wait(std::chrono::seconds(20)), 2) << out;
+}
+
+// A ring that stopped reading (the pty never drained) and a long input: each send ends at its send
+// timeout, and a stop signal ends the shell without sending the lines still read ahead.
+TEST(TetherShell, ElcanoShellToADeviceThatStoppedReadingEndsOnASignal) {
+  FakePort port;  // never read by the test: the pty fills
+  const std::string input = ::testing::TempDir() + "/tether-shell-drive-lines";
+  {
+    std::ofstream lines(input);
+    for (int i = 0; i < 3000; ++i) lines << "D{s " << i % 100 << "}{a 25}\n";
+  }
+  ::tether::testing::ChildProcess shell({"sh", "-c", "exec \"$0\" shell --port \"$1\" --codec elcano < \"$2\"",
+                                         TETHER_BINARY, port.path(), input},
+                                        /*capture_stdout=*/true);
+  const auto signal_at = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (std::chrono::steady_clock::now() < signal_at) (void)shell.read_line(std::chrono::milliseconds(100));
+  shell.signal(SIGTERM);
+  while (shell.read_line(std::chrono::seconds(30))) {
+  }
+  const std::optional<int> status = shell.wait(std::chrono::seconds(20));
+  ASSERT_TRUE(status.has_value()) << "still running 20 s after SIGTERM";
+  EXPECT_EQ(*status, 0);
+  std::filesystem::remove(input);
+}
+
+// Ctrl-C while the device opens (a proxy device that never answers its handshake) ends the shell with 0,
+// as its help says for SIGINT, not with the signal's status.
+TEST(TetherShell, CtrlCWhileTheDeviceOpensExitsZero) {
+  FakePort port;  // never answers
+  Terminal terminal({"shell", "--port", port.path(), "--codec", "proxy"});
+  ASSERT_TRUE(terminal.expect("waiting for the proxy session")) << terminal.screen();
+  terminal.type("\x03");
+  EXPECT_EQ(terminal.wait_exit(std::chrono::seconds(60)), 0) << terminal.screen();  // once the opening gave up
 }
 
 TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {

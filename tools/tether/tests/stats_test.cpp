@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "fake_port.hpp"
 #include "tether_process.hpp"
 
 namespace tether::cli::testing {
@@ -81,6 +82,15 @@ TEST(TetherStats, PassiveRomiSendsNothing) {
   const json report = json::parse(run.out);
   EXPECT_EQ(report["calls"]["sent"], 0);
   EXPECT_EQ(report["link"]["frames_ok"], 0);
+}
+
+// Ctrl-C while the device opens ends the run with 0, as SIGINT does later.
+TEST(TetherStats, CtrlCWhileTheDeviceOpensExitsZero) {
+  FakePort port;  // never answers
+  Terminal terminal({"stats", "--port", port.path(), "--codec", "proxy", "--duration", "60"});
+  ASSERT_TRUE(terminal.expect("waiting for the proxy session")) << terminal.screen();
+  terminal.type("\x03");
+  EXPECT_EQ(terminal.wait_exit(std::chrono::seconds(60)), 0) << terminal.screen();  // once the opening gave up
 }
 
 }  // namespace

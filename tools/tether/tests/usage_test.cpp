@@ -4,12 +4,18 @@
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include <sys/stat.h>
+
+#include "tether/testing/child_process.hpp"
 #include "tether_process.hpp"
 
 #ifndef TETHER_SOURCE_DIR
@@ -105,6 +111,38 @@ TEST(TetherUsage, MissingFirmwareImageIsNotFound) {
     EXPECT_EQ(run.err.find("speaks"), std::string::npos) << run.err;
   }
   expect_usage_error({"call", "--virtual", ::testing::TempDir(), "e"}, ": Is a directory");
+}
+
+// Regression: output that could not be written (a full disk, a closed stdout) exited 0; a result that did
+// not reach its reader is a failure: exit 2 and a message on stderr.
+TEST(TetherUsage, OutputThatCannotBeWrittenExitsTwo) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::vector<std::vector<std::string>> commands = {{"--version"}, {"call", "--virtual", "romi-test", "e"},
+                                                          {"call", "--virtual", "romi-test", "--json", "e"}};
+  for (const auto& [redirect, reason] : {std::pair{">/dev/full", "No space left on device"},
+                                         std::pair{">&-", "Bad file descriptor"}}) {
+    for (const std::vector<std::string>& arguments : commands) {
+      SCOPED_TRACE(::testing::PrintToString(arguments) + " " + redirect);
+      std::vector<std::string> argv = {"sh", "-c", std::string("exec \"$0\" \"$@\" 2>&1 ") + redirect, TETHER_BINARY};
+      argv.insert(argv.end(), arguments.begin(), arguments.end());
+      ::tether::testing::ChildProcess run(argv, /*capture_stdout=*/true);  // stderr only: stdout goes elsewhere
+      std::string err;
+      while (const auto line = run.read_line(std::chrono::seconds(60))) err += *line + "\n";
+      EXPECT_EQ(run.wait(std::chrono::seconds(20)), 2) << err;
+      EXPECT_NE(err.find(std::string("the output could not be written: ") + reason), std::string::npos) << err;
+    }
+  }
+}
+
+// A path that exists but is no file (a device, a FIFO) is named for what it is, not "not found".
+TEST(TetherUsage, FirmwareImageThatIsNoFileIsNamedForWhatItIs) {
+  expect_usage_error({"call", "--virtual", "/dev/zero", "e"},
+                     "not a firmware image: /dev/zero is a character device (an AVR ELF file is needed)");
+  const std::string fifo = ::testing::TempDir() + "/tether-usage-fifo";
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  expect_usage_error({"call", "--virtual", fifo, "e"}, "not a firmware image: " + fifo + " is a FIFO");
+  std::filesystem::remove(fifo);
 }
 
 // Issue 16: configuration files that are not one, too large, or list too many names.
