@@ -7,14 +7,19 @@
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/system/error_code.hpp>
 
+#include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/client_skeleton.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/transport_error.hpp"
 
 namespace tether::python {
 
@@ -24,6 +29,33 @@ using namespace pybind11::literals;  // "name"_a keyword arguments
 /// The io_context thread of the package: one for every client, started with the first and stopped when
 /// the last object using it is gone (every wrapper keeps a reference).
 std::shared_ptr<transports::IoThread> io_thread();
+
+/// Fork safety. A child made by fork() gets the parent's objects but none of its threads: the io thread,
+/// the virtual boards' simulation threads. `after_fork_in_child` (registered with `os.register_at_fork`)
+/// forgets the parent's io thread, so the child's new clients get their own, and starts a new process
+/// generation: objects made before it (`ProcessGeneration::inherited`) raise ClosedError when used and are
+/// never torn down in the child (their threads are the parent's; joining them would hang).
+void after_fork_in_child();
+
+/// The generation an object was made in (see `after_fork_in_child`).
+class ProcessGeneration {
+ public:
+  ProcessGeneration();
+  /// True in a child forked after the object was made.
+  bool inherited() const;
+
+ private:
+  unsigned generation_;
+};
+
+/// Keeps `object` alive for good: what an inherited object holds in a forked child.
+template <typename T>
+void leak(std::shared_ptr<T>& object) {
+  if (object) (void)new std::shared_ptr<T>(std::move(object));
+}
+
+/// Raises ClosedError for `what`, made before this process forked from its parent.
+[[noreturn]] void raise_inherited(const char* what);
 
 /// True once the interpreter is finalizing: callbacks from the io thread are then dropped (taking the GIL
 /// would hang or crash).
@@ -91,11 +123,16 @@ struct SerialArguments {
 /// or a `tether.VirtualUno` (its pty without a boot wait, or, for a board made with `start=False`, its UART
 /// directly; `Transport::board` set). Raises TypeError for anything else.
 Transport take_stream(py::handle port_or_transport, const SerialArguments& serial);
-/// Opens a serial port (GIL released while opening and waiting for the boot).
+/// Opens a serial port (GIL released while opening and waiting for the boot). Raises ValueError for a
+/// baud of 0 or a path with a NUL.
 Transport open_serial(const std::string& path, const SerialArguments& serial);
 
 /// Resolves a firmware image: a path (contains '/') as is, a name in the package's firmware folder.
+/// Raises ValueError for a name with a NUL in it.
 std::string firmware_path(const std::string& name);
+/// Raises ValueError when `path` (a file or port the caller named as `what`) holds a NUL: the OS would read it
+/// cut short there, and open another file than the one named (Python's own open() refuses it too).
+void check_path(const std::string& path, const char* what);
 
 /// Runs an asynchronous operation for asyncio: returns a future of the running loop that `start` completes
 /// (from the io thread, through `loop.call_soon_threadsafe`). `start` gets a callable taking
@@ -103,6 +140,53 @@ std::string firmware_path(const std::string& name);
 /// cancelling the future (`task.cancel()`) emits it, so the wire operation is cancelled too (a queued call
 /// never starts, the one in flight stops waiting) instead of holding the device until its timeout.
 py::object asyncio_future(const std::function<void(PyCallback settle, transports::CancellationSignal cancel)>& start);
+
+/// True on a thread running `executor`'s io_context (false when that cannot be told).
+bool runs_in_this_thread(const boost::asio::any_io_executor& executor);
+
+/// Runs an asynchronous operation to its completion for a blocking call, interruptibly: the GIL is released
+/// while it waits, and every 100 ms the wait runs Python's signal handlers (as `log_lines()` does), so
+/// Ctrl-C is acted on at once. Then the operation is cancelled (`cancel.emit()`: queued, it never starts;
+/// in flight, the client stops waiting for it) and the handler's exception (KeyboardInterrupt) raised; its
+/// completion, when it comes, lands in state this call no longer looks at. `start(cancel, handler)` starts
+/// the operation with `handler` bound to `cancel` (`transports::bind_cancellation`); returns the
+/// completion's arguments.
+/// Called on a thread that runs `executor` (an event handler calling a blocking method), it raises
+/// `TransportError::would_deadlock` instead: the completion could never run.
+template <typename... Results, typename Start>
+std::tuple<Results...> wait_interruptibly(const boost::asio::any_io_executor& executor, Start&& start) {
+  if (runs_in_this_thread(executor)) raise_error(make_error_code(transports::TransportError::would_deadlock));
+  struct Slot {
+    std::mutex mutex;
+    std::condition_variable completed;
+    std::optional<std::tuple<Results...>> results;
+  };
+  const auto slot = std::make_shared<Slot>();
+  transports::CancellationSignal cancel;
+  {
+    py::gil_scoped_release release;
+    start(cancel, [slot](Results... results) {
+      {
+        const std::lock_guard lock(slot->mutex);
+        slot->results.emplace(std::move(results)...);
+      }
+      slot->completed.notify_all();
+    });
+  }
+  for (;;) {
+    {
+      py::gil_scoped_release release;
+      std::unique_lock lock(slot->mutex);
+      if (slot->completed.wait_for(lock, std::chrono::milliseconds(100), [&] { return slot->results.has_value(); })) {
+        return std::move(*slot->results);
+      }
+    }
+    if (PyErr_CheckSignals() != 0) {
+      cancel.emit();
+      throw py::error_already_set();
+    }
+  }
+}
 
 void register_transports(py::module_& module);
 void register_romi(py::module_& module);

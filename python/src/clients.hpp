@@ -21,6 +21,7 @@ struct RomiClient {
   std::shared_ptr<romi::Client> client;
   std::shared_ptr<void> owner;
   std::shared_ptr<RomiLogFanout> logs;  // made (and set as the client's log handler) on first use
+  ProcessGeneration generation;
   ~RomiClient();
   /// The client; raises ClosedError after close().
   romi::Client& get();
@@ -33,6 +34,7 @@ struct ProxyClient {
   std::shared_ptr<transports::IoThread> io;
   std::shared_ptr<proxy::Client> client;
   std::shared_ptr<void> owner;
+  ProcessGeneration generation;
   ~ProxyClient();
   proxy::Client& get();
 };
@@ -42,6 +44,7 @@ struct RingClient {
   std::shared_ptr<transports::IoThread> io;
   std::shared_ptr<elcano::RingClient> client;
   std::shared_ptr<void> owner;
+  ProcessGeneration generation;
   ~RingClient();
   elcano::RingClient& get();
 };

@@ -16,12 +16,19 @@ namespace {
 struct RoverHolder {
   std::shared_ptr<transports::IoThread> io;
   std::shared_ptr<devices::Rover> rover;
+  ProcessGeneration generation;
   ~RoverHolder() {
+    if (generation.inherited()) {  // the parent's threads run it: keep it as it is
+      leak(rover);
+      leak(io);
+      return;
+    }
     py::gil_scoped_release release;
     rover.reset();
     io.reset();
   }
   devices::Rover& get() {
+    if (generation.inherited()) raise_inherited("the rover");
     if (!rover || !rover->is_open()) raise_closed("the rover");
     return *rover;
   }
@@ -74,14 +81,14 @@ another codec); clients stay usable until the rover is closed, then raise Closed
              return names;
            }, "Every device (name, codec, transport), in the configuration's order.")
       .def("close", [](RoverHolder& h) {
-        if (!h.rover) return;
+        if (!h.rover || h.generation.inherited()) return;
         py::gil_scoped_release release;
         h.rover->close();
       }, "Closes every client and stops the virtual boards. Idempotent.")
-      .def_property_readonly("is_open", [](const RoverHolder& h) { return h.rover && h.rover->is_open(); })
+      .def_property_readonly("is_open", [](const RoverHolder& h) { return h.rover && !h.generation.inherited() && h.rover->is_open(); })
       .def("__enter__", [](py::object self) { return self; })
       .def("__exit__", [](RoverHolder& h, py::args) {
-        if (!h.rover) return;
+        if (!h.rover || h.generation.inherited()) return;
         py::gil_scoped_release release;
         h.rover->close();
       });
@@ -89,6 +96,8 @@ another codec); clients stay usable until the rover is closed, then raise Closed
   parent.def(
       "_open_rover",
       [](const std::string& path, const std::string& firmware_dir) {
+        check_path(path, "configuration");
+        check_path(firmware_dir, "firmware_dir");
         devices::ParseOptions where;
         where.firmware_dir = firmware_dir;
         auto holder = std::make_shared<RoverHolder>();

@@ -72,10 +72,16 @@ py::object ring_event(const elcano::Event& ring_event) {
   static constexpr const char* kinds[] = {"undeliverable", "read_error", "forward_dropped", "receive_overflow",
                                           "link_failed"};
   const elcano::ClientEvent event = elcano::to_client_event(ring_event);
+  using Kind = elcano::ClientEvent::Kind;
+  // Each field only where the kind has one: None, not a default message or "success".
+  const bool has_message = event.kind == Kind::undeliverable || event.kind == Kind::forward_dropped ||
+                           event.kind == Kind::receive_overflow;
+  py::object error = py::none();
+  if (event.kind == Kind::link_failed) error = py::str(event.link_error.message());
+  if (event.kind == Kind::read_error) error = py::str(std::string(elcano::describe(event.error)));
   return py::module_::import("types").attr("SimpleNamespace")(
-      "kind"_a = kinds[static_cast<int>(event.kind)], "message"_a = event.message,
-      "error"_a = event.kind == elcano::ClientEvent::Kind::link_failed ? event.link_error.message()
-                                                                        : std::string(elcano::describe(event.error)),
+      "kind"_a = kinds[static_cast<int>(event.kind)],
+      "message"_a = has_message ? py::cast(event.message) : py::object(py::none()), "error"_a = error,
       "request_failed"_a = event.request_failed);
 }
 
@@ -98,6 +104,12 @@ py::object message_future(
 }  // namespace
 
 RingClient::~RingClient() {
+  if (generation.inherited()) {  // the parent's threads run it: keep it as it is
+    leak(client);
+    leak(owner);
+    leak(io);
+    return;
+  }
   py::gil_scoped_release release;
   client.reset();
   owner.reset();
@@ -105,6 +117,7 @@ RingClient::~RingClient() {
 }
 
 elcano::RingClient& RingClient::get() {
+  if (generation.inherited()) raise_inherited("the ring client");
   if (!client || !client->is_open()) raise_closed("the ring client");
   return *client;
 }
@@ -184,7 +197,9 @@ The stream's TX goes to the first board, its RX comes from the last. Messages of
 plus a request's reply type while it waits) are consumed; every other message is forwarded. A request is
 re-sent after each silent attempt (0.5 s) within its budget (2 s); one that comes back round the ring fails
 at once (undeliverable). Events (undeliverable, read_error, forward_dropped, receive_overflow, link_failed)
-go to ``on_event`` on the io thread. The GIL is released while waiting.
+go to ``on_event`` on the io thread, each a namespace of ``kind``, ``message`` (the message, for undeliverable,
+forward_dropped and receive_overflow; else None), ``error`` (the text, for read_error and link_failed; else
+None) and ``request_failed`` (undeliverable: a request failed with it). The GIL is released while waiting.
 On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, every deadline runs on the
 board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, const std::string& generation, std::vector<std::string> capture,
@@ -219,12 +234,10 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
             const elcano::Type reply = type_from(reply_type);
             elcano::RingClient& client = self.get();
-            elcano::error_code error;
-            elcano::Message answer;
-            {
-              py::gil_scoped_release release;
-              answer = client.request(request, reply, error);
-            }
+            auto [error, answer] = wait_interruptibly<elcano::error_code, elcano::Message>(
+                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
+                  client.async_request(request, reply, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                });
             if (error) raise_error(error);
             return answer;
           },
@@ -245,11 +258,9 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           "send",
           [](RingClient& self, const elcano::Message& message) {
             elcano::RingClient& client = self.get();
-            elcano::error_code error;
-            {
-              py::gil_scoped_release release;
-              client.send(message, error);
-            }
+            auto [error] = wait_interruptibly<elcano::error_code>(client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
+              client.async_send(message, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+            });
             if (error) raise_error(error);
           },
           py::arg("message"), "Originates ``message``; returns once it was handed to the stream.")
@@ -258,27 +269,25 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           [](RingClient& self, double timeout) {
             const Duration limit = milliseconds(timeout, "timeout");
             elcano::RingClient& client = self.get();
-            elcano::error_code error;
-            elcano::Message message;
-            {
-              py::gil_scoped_release release;
-              message = client.receive(limit, error);
-            }
+            auto [error, message] = wait_interruptibly<elcano::error_code, elcano::Message>(
+                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
+                  client.async_receive(limit, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                });
             if (error) raise_error(error);
             return message;
           },
           py::arg("timeout") = 1.0, "The next captured message no request claimed, within ``timeout`` seconds.")
       .def("counters", [](RingClient& self) { return self.get().counters(); }, "Snapshot of the counters.")
       .def("close", [](RingClient& self) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       }, "Closes the node: pending operations raise ``ClosedError``. Idempotent.")
-      .def_property_readonly("is_open", [](const RingClient& self) { return self.client && self.client->is_open(); },
+      .def_property_readonly("is_open", [](const RingClient& self) { return self.client && !self.generation.inherited() && self.client->is_open(); },
                              "False after ``close()``.")
       .def("__enter__", [](py::object self) { return self; })
       .def("__exit__", [](RingClient& self, py::args) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       });

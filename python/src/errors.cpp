@@ -38,6 +38,16 @@ py::object error_object(const boost::system::error_code& error, const std::strin
     }
     py::object builtins = py::module_::import("builtins");
     if (timeout) return builtins.attr("TimeoutError")(error.value(), text);
+    // A name that does not resolve: what Python's own socket functions raise. Its codes are no errno values
+    // (netdb's 1, host not found, would make OSError a PermissionError).
+    if (error.category() == boost::asio::error::get_netdb_category() ||
+        error.category() == boost::asio::error::get_addrinfo_category()) {
+      return py::module_::import("socket").attr("gaierror")(error.value(), text);
+    }
+    // Other non-errno categories (asio's misc): an OSError without an errno, so no subclass is guessed.
+    if (error.category() != boost::system::system_category() && error.category() != boost::system::generic_category()) {
+      return builtins.attr("OSError")(text);
+    }
     if (path.empty()) return builtins.attr("OSError")(error.value(), text);
     return builtins.attr("OSError")(error.value(), text, path);
   }
@@ -46,6 +56,15 @@ py::object error_object(const boost::system::error_code& error, const std::strin
 
 void raise_error(const boost::system::error_code& error, const std::string& message, const std::string& path) {
   py::object exception = error_object(error, message, path);
+  PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(exception.ptr())), exception.ptr());
+  throw py::error_already_set();
+}
+
+void raise_inherited(const char* what) {
+  py::object exception = py::module_::import("tether._errors")
+                             .attr("ClosedError")(std::string(what) +
+                                                  " was opened before this process was forked: its I/O thread "
+                                                  "stayed with the parent; open a new one in this process");
   PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(exception.ptr())), exception.ptr());
   throw py::error_already_set();
 }

@@ -8,6 +8,8 @@ PYBIND11_MODULE(_tether, module) {
   module.attr("_build_firmware_dir") = TETHER_FIRMWARE_DIR;
   module.def("_interpreter_exiting", &python::set_interpreter_exiting,
              "Called at exit: callbacks from the io thread stop reaching Python.");
+  module.def("_after_fork_in_child", &python::after_fork_in_child,
+             "Called in a child after os.fork(): its new clients get their own io thread.");
   python::register_transports(module);
   python::register_romi(module);
   python::register_proxy(module);

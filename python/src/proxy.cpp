@@ -92,17 +92,13 @@ py::object event_to_python(const proxy::Event& event) {
       event);
 }
 
-using SendCall = std::function<proxy::SendResult(proxy::error_code&)>;
 // Starts the operation with its handler bound to the future's cancellation (transports::bind_cancellation).
 using AsyncSend = std::function<void(transports::CancellationSignal, proxy::detail::SendHandler)>;
 
-proxy::SendResult blocking(const SendCall& send) {
-  proxy::error_code error;
-  proxy::SendResult result;
-  {
-    py::gil_scoped_release release;
-    result = send(error);
-  }
+// The blocking form of a send: interruptible (Ctrl-C cancels the send and raises KeyboardInterrupt).
+proxy::SendResult blocking(const proxy::Client& client, const AsyncSend& start) {
+  auto [error, result] = wait_interruptibly<proxy::error_code, proxy::SendResult>(
+      client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) { start(std::move(cancel), std::move(handler)); });
   if (error) raise_error(error);
   return result;
 }
@@ -140,6 +136,12 @@ py::object pin_status(const std::optional<proxy::PinStatus>& status) {
 }  // namespace
 
 ProxyClient::~ProxyClient() {
+  if (generation.inherited()) {  // the parent's threads run it: keep it as it is
+    leak(client);
+    leak(owner);
+    leak(io);
+    return;
+  }
   py::gil_scoped_release release;
   client.reset();
   owner.reset();
@@ -147,6 +149,7 @@ ProxyClient::~ProxyClient() {
 }
 
 proxy::Client& ProxyClient::get() {
+  if (generation.inherited()) raise_inherited("the proxy client");
   if (!client || !client->is_open()) raise_closed("the proxy client");
   return *client;
 }
@@ -183,7 +186,9 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle safe_position) {
             const auto value = checked_int<std::int32_t>(safe_position, "safe_position");
             auto handle = s.owner->get().servo(s.pin);
-            return blocking([&](proxy::error_code& e) { return handle.init(value, e); });
+            return blocking(s.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("safe_position"),
           "Registers ServoInit{pin, safe_position} for replay after device resets and sends it; blocks until "
@@ -193,7 +198,9 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle position) {
             const auto value = checked_int<std::int32_t>(position, "position");
             auto handle = s.owner->get().servo(s.pin);
-            return blocking([&](proxy::error_code& e) { return handle.set(value, e); });
+            return blocking(s.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("position"), "Sends ServoControl{pin, position}; blocks until acked (compat: written).")
       .def(
@@ -226,7 +233,9 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle safe_state) {
             const bool value = checked_bool(safe_state, "safe_state");
             auto handle = d.owner->get().digital(d.pin);
-            return blocking([&](proxy::error_code& e) { return handle.init(value, e); });
+            return blocking(d.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("safe_state"), "Registers DigitalInit{pin, safe_state} for replay and sends it; blocks.")
       .def(
@@ -234,7 +243,9 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle state) {
             const bool value = checked_bool(state, "state");
             auto handle = d.owner->get().digital(d.pin);
-            return blocking([&](proxy::error_code& e) { return handle.set(value, e); });
+            return blocking(d.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            });
           },
           py::arg("state"), "Sends DigitalControl{pin, state}; blocks until acked (compat: written).")
       .def(
@@ -316,14 +327,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
       .def("reset_failsafe",
            [](ProxyClient& self) {
              proxy::Client& client = self.get();
-             return blocking([&](proxy::error_code& e) {
-               proxy::SendResult result;
-               try {
-                 result = client.reset_failsafe();
-               } catch (const boost::system::system_error& failure) {
-                 e = failure.code();
-               }
-               return result;
+             return blocking(client, [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
+               client.async_reset_failsafe(transports::bind_cancellation(std::move(cancel), std::move(h)));
              });
            },
            "Primary: sends PingFailsafeReset (clears the device's failsafe flag); blocks until acked.")
@@ -349,15 +354,15 @@ board's simulated time (see ``tether.romi.Client``).)doc")
       .def_property_readonly("compat", [](ProxyClient& self) { return self.get().mode() == proxy::Mode::compat; },
                              "True in compatibility mode.")
       .def("close", [](ProxyClient& self) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       }, "Closes the client: pending sends raise ``ClosedError``. Idempotent.")
-      .def_property_readonly("is_open", [](const ProxyClient& self) { return self.client && self.client->is_open(); },
+      .def_property_readonly("is_open", [](const ProxyClient& self) { return self.client && !self.generation.inherited() && self.client->is_open(); },
                              "False after ``close()``.")
       .def("__enter__", [](py::object self) { return self; })
       .def("__exit__", [](ProxyClient& self, py::args) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       });

@@ -62,9 +62,17 @@ romi::Command make_command(const std::string& command, const py::args& args) {
     if (py::isinstance<py::str>(arg)) {
       text = arg.cast<std::string>();
     } else if (py::isinstance<py::int_>(arg)) {
-      const auto value = arg.cast<long long>();  // OverflowError beyond 64 bits
-      if (value < std::numeric_limits<std::int32_t>::min() || value > std::numeric_limits<std::int32_t>::max()) {
-        throw py::value_error("argument " + std::to_string(value) + " is outside int16 (-32768..32767)");
+      // Every int outside int16 is the one mistake, whatever its size: the client's own -10, raised here for
+      // those no C++ integer holds (the client checks the rest, as it does for C++ callers).
+      int overflow = 0;
+      const long long value = PyLong_AsLongLongAndOverflow(arg.ptr(), &overflow);
+      if (overflow != 0 || value < std::numeric_limits<std::int32_t>::min() ||
+          value > std::numeric_limits<std::int32_t>::max()) {
+        py::object error = py::module_::import("tether._errors").attr("make_error")(
+            "romi", static_cast<int>(romi::Error::value_out_of_range),
+            "argument " + py::str(arg).cast<std::string>() + " is outside int16 (-32768..32767)", false);
+        PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(error.ptr())), error.ptr());
+        throw py::error_already_set();
       }
       ints.push_back(static_cast<std::int32_t>(value));
     } else {
@@ -194,6 +202,13 @@ RomiLogFanout& RomiClient::log_fanout() {
 }
 
 RomiClient::~RomiClient() {
+  if (generation.inherited()) {  // the parent's threads run it: keep it as it is
+    leak(client);
+    leak(owner);
+    leak(io);
+    leak(logs);
+    return;
+  }
   py::gil_scoped_release release;
   client.reset();
   owner.reset();
@@ -201,6 +216,7 @@ RomiClient::~RomiClient() {
 }
 
 romi::Client& RomiClient::get() {
+  if (generation.inherited()) raise_inherited("the Romi client");
   if (!client || !client->is_open()) raise_closed("the Romi client");
   return *client;
 }
@@ -282,14 +298,12 @@ board's clock the windows are the device's seconds, exact whatever the machine's
       .def(
           "call",
           [](RomiClient& self, const std::string& command, const py::args& args, bool check) {
-            const romi::Command built = make_command(command, args);
+            romi::Command built = make_command(command, args);
             romi::Client& client = self.get();
-            romi::error_code error;
-            romi::RomiResponse response;
-            {
-              py::gil_scoped_release release;
-              response = client.call(built, error);
-            }
+            auto [error, response] = wait_interruptibly<romi::error_code, romi::RomiResponse>(
+                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
+                  client.async_call(std::move(built), transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                });
             py::object failure;
             py::object values = answer_or_error(error, response, check, failure);
             if (failure) {
@@ -357,15 +371,15 @@ within ``timeout`` seconds (None: wait while the client is open). At most 1024 l
 the oldest are dropped and counted in ``dropped``. Works alongside ``on_log``.)doc")
       .def("counters", [](RomiClient& self) { return self.get().counters(); }, "Snapshot of the link counters.")
       .def("close", [](RomiClient& self) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       }, "Closes the client: calls in flight and queued raise ``ClosedError``. Idempotent.")
-      .def_property_readonly("is_open", [](const RomiClient& self) { return self.client && self.client->is_open(); },
+      .def_property_readonly("is_open", [](const RomiClient& self) { return self.client && !self.generation.inherited() && self.client->is_open(); },
                              "False after ``close()``.")
       .def("__enter__", [](py::object self) { return self; })
       .def("__exit__", [](RomiClient& self, py::args) {
-        if (!self.client) return;
+        if (!self.client || self.generation.inherited()) return;  // inherited: nothing of it runs here
         py::gil_scoped_release release;
         self.client->close();
       });

@@ -2,6 +2,7 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <new>
 
 #include "binding.hpp"
 #include "tether/transports/serial_port_stream.hpp"
@@ -27,6 +28,33 @@ std::shared_ptr<transports::IoThread> io_thread() {
   return io;
 }
 
+bool runs_in_this_thread(const boost::asio::any_io_executor& executor) {
+  const auto* context = executor.target<boost::asio::io_context::executor_type>();
+  return context != nullptr && context->running_in_this_thread();
+}
+
+namespace {
+std::atomic<unsigned> process_generation{0};
+}  // namespace
+
+void after_fork_in_child() {
+  process_generation.fetch_add(1, std::memory_order_acq_rel);
+  // Another thread may have held these at the fork; nobody holds them in the child.
+  new (&io_mutex) std::mutex;
+  new (&firmware_mutex) std::mutex;
+  // The parent's io thread did not come along: never stop or join it here. The wrappers holding it leak it
+  // (inherited); this reference goes too, so the next client starts a thread of its own.
+  std::shared_ptr<transports::IoThread> parents = shared_io.lock();
+  leak(parents);
+  shared_io.reset();
+}
+
+ProcessGeneration::ProcessGeneration() : generation_(process_generation.load(std::memory_order_acquire)) {}
+
+bool ProcessGeneration::inherited() const {
+  return generation_ != process_generation.load(std::memory_order_acquire);
+}
+
 bool interpreter_exiting() { return exiting.load(std::memory_order_acquire); }
 void set_interpreter_exiting() { exiting.store(true, std::memory_order_release); }
 
@@ -49,7 +77,12 @@ void set_firmware_dir(const std::string& dir) {
   firmware_folder = dir;
 }
 
+void check_path(const std::string& path, const char* what) {
+  if (path.find('\0') != std::string::npos) throw py::value_error(std::string(what) + ": embedded null character");
+}
+
 std::string firmware_path(const std::string& name) {
+  check_path(name, "image");
   if (name.find('/') != std::string::npos) return name;
   std::lock_guard lock(firmware_mutex);
   const bool has_suffix = name.size() > 4 && name.ends_with(".elf");
@@ -57,6 +90,8 @@ std::string firmware_path(const std::string& name) {
 }
 
 Transport open_serial(const std::string& path, const SerialArguments& serial) {
+  check_path(path, "port");
+  if (serial.baud == 0) throw py::value_error("baud must be a positive number of bits per second");
   if (!(serial.boot_wait >= 0.0) || serial.boot_wait > 60.0) throw py::value_error("boot_wait must be 0..60 s");
   transports::SerialOptions options;
   options.baud = serial.baud;

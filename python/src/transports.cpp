@@ -38,6 +38,12 @@ void BoardClients::close_all() {
 }
 
 VirtualBoard::~VirtualBoard() {
+  if (generation.inherited()) {  // its simulation thread is the parent's: keep it as it is
+    leak(clients);
+    leak(clock);
+    leak(board);
+    return;
+  }
   const auto shut_down = [this] {
     clients->close_all();
     clock.reset();
@@ -52,11 +58,13 @@ VirtualBoard::~VirtualBoard() {
 }
 
 transports::VirtualUno& VirtualBoard::get() {
+  if (generation.inherited()) raise_inherited("the virtual board");
   if (closed.load() || !board) raise_closed("the virtual board");
   return *board;
 }
 
 void VirtualBoard::close() {
+  if (generation.inherited()) return;  // nothing of it runs in this process
   if (closed.exchange(true) || !board) return;
   py::gil_scoped_release release;
   // Clients on its clock first, so a client opened on its pty by path gets ClosedError like one opened
@@ -119,6 +127,7 @@ std::shared_ptr<VirtualBoard> board_of_clock(py::handle clock) {
 
 Transport board_transport(const std::shared_ptr<VirtualBoard>& board, unsigned baud) {
   board->get();  // ClosedError for a closed board
+  if (baud == 0) throw py::value_error("baud must be a positive number of bits per second");
   Transport transport;
   if (board->started) {
     transport = open_serial(board->port, SerialArguments{baud, 0.0, {}});

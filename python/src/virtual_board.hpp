@@ -42,6 +42,7 @@ struct VirtualBoard {
   std::atomic<bool> closed{false};
   std::shared_ptr<BoardClients> clients = std::make_shared<BoardClients>();
   std::weak_ptr<transports::ByteStream> attached;  ///< The client stream of a `start=False` board.
+  ProcessGeneration generation;                    ///< Made before a fork: inert in the child.
 
   /// Stops the board (may run without the GIL: the last client on the board's clock can drop it).
   ~VirtualBoard();

@@ -2,6 +2,8 @@
 clients, ports that do not exist, a device that answers garbage."""
 
 import os
+import signal
+import socket
 import threading
 
 import pytest
@@ -26,8 +28,11 @@ def test_out_of_range_romi_values_are_rejected_before_sending(romi_client):
     with pytest.raises(tether.RomiCommandError) as caught:
         romi_client.call("s", 40000, 1)
     assert caught.value.code == -10 and isinstance(caught.value, ValueError)
-    with pytest.raises(ValueError):
-        romi_client.call("s", 2**40, 1)
+    # One mistake, one exception, whatever the size (2**40 was a plain ValueError, 2**63 a RuntimeError).
+    for value in (40000, -40000, 2**31, 2**40, 2**63, -2**63 - 1, 2**200):
+        with pytest.raises(tether.RomiCommandError) as caught:
+            romi_client.call("s", value, 1)
+        assert caught.value.code == -10, value
     with pytest.raises(tether.RomiCommandError) as caught:
         romi_client.call("")
     assert caught.value.code == -24
@@ -74,6 +79,49 @@ def test_close_from_another_thread_ends_a_waiting_call(held_board, call_in_threa
     assert isinstance(call.error, tether.ClosedError), call.error
 
 
+def _interrupter(client):
+    """A thread that sends SIGINT to this process, then closes ``client`` 20 s later should the call it
+    interrupts still be waiting (so a call that ignores Ctrl-C fails the test instead of hanging it)."""
+    def interrupt():
+        os.kill(os.getpid(), signal.SIGINT)
+        if not done.wait(20):
+            client.close()
+
+    done = threading.Event()
+    thread = threading.Thread(target=interrupt, daemon=True)
+    return thread, done
+
+
+@pytest.mark.parametrize("kind", ["romi", "proxy", "elcano"])
+def test_ctrl_c_ends_a_blocking_call_at_once(kind):
+    # The board stands still: the call can end only by the interrupt (or the safety close).
+    image = {"romi": "romi-test", "proxy": "proxy", "elcano": "elcano-node"}[kind]
+    with tether.VirtualUno(image, seed=1, start=False) as board:
+        if kind == "romi":
+            client = tether.romi.Client(board)
+            blocking = lambda: client.call("e")
+        elif kind == "proxy":
+            client = tether.proxy.Client(board)
+            blocking = lambda: client.servo(9).set(90)
+        else:
+            client = tether.elcano.RingClient(board)
+            blocking = lambda: client.request(
+                tether.elcano.Message(type="goal", number=1, east=1, north=2, bearing=4), reply_type="segment")
+        with client:
+            thread, done = _interrupter(client)
+            timer = threading.Timer(0.3, thread.start)
+            timer.start()
+            try:
+                with pytest.raises(KeyboardInterrupt):
+                    blocking()
+            finally:
+                done.set()
+                timer.join()
+                if thread.is_alive():
+                    thread.join()
+            assert client.is_open  # the interrupted call was cancelled; the client goes on
+
+
 def test_bad_clocks_and_boards(romi_board, held_board):
     with pytest.raises(TypeError):
         tether.romi.Client(romi_board, clock=1.0)
@@ -111,6 +159,29 @@ def test_missing_port_and_missing_image():
         tether.VirtualUno("no-such-image")
     with pytest.raises(ConnectionRefusedError):
         tether.transports.tcp("127.0.0.1", 1, timeout=2)
+
+
+def test_nul_in_a_path_and_a_zero_baud_are_value_errors(romi_board, tmp_path):
+    # Regression: a NUL cut the image name short (another file was opened); baud=0 was accepted.
+    with pytest.raises(ValueError, match="embedded null character"):
+        tether.VirtualUno("romi-test\0-other")
+    with pytest.raises(ValueError, match="embedded null character"):
+        tether.romi.Client(romi_board.port + "\0x", boot_wait=0)
+    with pytest.raises(ValueError, match="embedded null character"):
+        tether.open_rover(str(tmp_path / "rover.json") + "\0x")
+    for make in (lambda: tether.romi.Client(romi_board.port, baud=0, boot_wait=0),
+                 lambda: tether.proxy.Client(romi_board.port, baud=0, boot_wait=0),
+                 lambda: tether.transports.serial(romi_board.port, baud=0, boot_wait=0),
+                 lambda: tether.romi.Client(romi_board, baud=0)):
+        with pytest.raises(ValueError, match="baud"):
+            make()
+
+
+def test_a_host_name_that_does_not_resolve_is_a_resolution_error():
+    # Regression: it was raised as PermissionError (the resolver's code 1 read as errno EPERM).
+    with pytest.raises(socket.gaierror) as caught:
+        tether.transports.tcp("tether-no-such-host.invalid", 2000, timeout=5)
+    assert not isinstance(caught.value, PermissionError) and str(caught.value)
 
 
 def test_bad_config_names_the_json_path(tmp_path):
@@ -193,3 +264,36 @@ def test_a_transport_serves_one_client(romi_board):
     with tether.romi.Client(transport):
         with pytest.raises(ValueError):
             tether.romi.Client(transport)
+
+
+def _child_uses_its_own_client(inherited, results):
+    """In a forked child: the inherited client refuses, a new board and client work."""
+    try:
+        inherited.call("e")
+        results.put("the inherited client answered")
+        return
+    except tether.ClosedError as error:
+        if "forked" not in str(error):
+            results.put(f"unexpected ClosedError: {error}")
+            return
+    with tether.VirtualUno("romi-test", seed=2) as board:
+        with tether.romi.Client(board) as client:
+            results.put(client.call("e"))
+
+
+def test_a_forked_child_opens_its_own_clients(romi_client):
+    import multiprocessing
+    assert romi_client.call("e") == [0, 1, 2]
+    context = multiprocessing.get_context("fork")
+    results = context.Queue()
+    child = context.Process(target=_child_uses_its_own_client, args=(romi_client, results))
+    child.start()
+    try:
+        answer = results.get(timeout=60)
+    finally:
+        child.join(60)
+        if child.is_alive():
+            child.kill()
+    assert answer == [0, 1, 2], answer
+    assert child.exitcode == 0
+    assert romi_client.call("e") == [0, 1, 2]  # the parent's client is untouched

@@ -120,3 +120,40 @@ def test_ring_client_on_a_virtual_boards_port_reports_an_undeliverable_request()
                 ring.request(tether.elcano.Message(type="drive", speed=5, angle=2), reply_type="sensor")
             assert caught.value.code == 2  # undeliverable
             assert ring.counters().link.frames_ok >= 1
+
+
+def test_ring_events_carry_only_the_fields_of_their_kind():
+    # Regression: a link_failed event carried a dummy Message(type='drive'), an undeliverable one error='success'.
+    events = []
+    seen = threading.Event()
+
+    def on_event(event):
+        events.append(event)
+        if event.kind == "link_failed":
+            seen.set()
+
+    # The ring is a pty whose far end sends the request back unchanged (nobody captured it), then closes.
+    master, slave = os.openpty()
+    tty.setraw(master)
+    ring = tether.elcano.RingClient(os.ttyname(slave), boot_wait=0, on_event=on_event)
+    os.close(slave)
+
+    def far_end():
+        received = b""
+        while not received.endswith(b"\n"):
+            received += os.read(master, 64)
+        os.write(master, received)
+
+    loop = threading.Thread(target=far_end)
+    loop.start()
+    with pytest.raises(tether.ElcanoError):
+        ring.request(tether.elcano.Message(type="drive", speed=5, angle=2), reply_type="sensor")
+    loop.join()
+    os.close(master)  # the pty goes away under the client
+    assert seen.wait(20), [event.kind for event in events]
+    ring.close()
+    undeliverable = [event for event in events if event.kind == "undeliverable"]
+    assert undeliverable and undeliverable[0].message.type == "drive" and undeliverable[0].error is None
+    assert undeliverable[0].request_failed
+    failed = [event for event in events if event.kind == "link_failed"]
+    assert failed[0].message is None and failed[0].error

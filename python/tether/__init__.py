@@ -52,6 +52,10 @@ def firmware_dir():
 
 _tether._set_firmware_dir(firmware_dir())
 
+# A child made by fork() (multiprocessing's default on Linux) has none of the parent's threads: its own
+# clients get their own io thread; the objects it inherited raise ClosedError.
+_os.register_at_fork(after_in_child=_tether._after_fork_in_child)
+
 
 def open_rover(path, *, firmware_dir=None):
     """Opens every device of the rover configuration ``path`` (docs/config.md) and returns the ``Rover``.
