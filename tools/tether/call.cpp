@@ -156,7 +156,7 @@ int run_call(int argc, char** argv) {
   boost::system::error_code error;
   if (!command.valid()) {
     error = command.error();
-    response = romi::failed_response(error, command.opcode());  // what the client would complete with
+    response = romi::failed_response(command);  // what the client would complete with
   } else {
     transports::IoThread io;
     Progress progress("call");

@@ -98,7 +98,7 @@ CodecCommands romi_commands() {
   row.check_probe = [](const std::string& probe) -> std::optional<std::string> {
     const romi::Command command(probe);
     if (command.valid()) return std::nullopt;
-    return command.error().message();
+    return command.error_text();
   };
   row.send_probe = [](const devices::DeviceClient& client, const std::string& probe) {
     romi::error_code call_error;

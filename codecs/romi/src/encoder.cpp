@@ -181,13 +181,24 @@ RequestBuilder& RequestBuilder::add_string(ByteView text) {
 }
 
 Error validate_request_payload(ByteView payload) {
+  size_t error_offset = 0;
+  return validate_request_payload(payload, error_offset);
+}
+
+Error validate_request_payload(ByteView payload, size_t& error_offset) {
+  error_offset = payload.size();
   if (payload.empty()) return Error::client_empty_request;
-  for (uint8_t c : payload) {
-    if (c == '#' || c == ':' || c == '\r' || c == '\n') return Error::reserved_character;
+  for (size_t i = 0; i < payload.size(); ++i) {
+    const uint8_t c = payload[i];
+    if (c == '#' || c == ':' || c == '\r' || c == '\n') {
+      error_offset = i;
+      return Error::reserved_character;
+    }
   }
-  Request request;
-  const Error parsed = parse_request(payload, request);
+  ParsedRequest request;
+  const Error parsed = parse_request(payload, request, error_offset);
   if (parsed != Error::no_error) return parsed;
+  error_offset = payload.size();
   if (payload.size() > kMaxHostPayload) return Error::client_request_too_long;
   return Error::no_error;
 }

@@ -137,6 +137,40 @@ TEST(RomiValidate, TypedCommands) {
   EXPECT_EQ(validate_request_payload(view(long_payload)), Error::client_request_too_long);
 }
 
+// Where an error was found: the offending character, a number's or a string's start, or the end.
+TEST(RomiValidate, ErrorsSayWhereTheyWereFound) {
+  const struct {
+    const char* payload;
+    Error error;
+    size_t offset;
+  } cases[] = {
+      {"~", Error::invalid_opcode, 0},
+      {"ab", Error::unexpected_char, 1},
+      {"e[0,,1]", Error::unexpected_char, 4},
+      {"e[0,1", Error::unexpected_char, 5},
+      {"e[0]x", Error::unexpected_char, 4},
+      {"e[]x", Error::unexpected_char, 3},
+      {"e[-]", Error::unexpected_char, 3},
+      {"e[1,40000]", Error::value_out_of_range, 4},
+      {"e[1,-32769]", Error::value_out_of_range, 4},
+      {"e[1,2,3,4,5,6,7,8,9,10,11,12,13]", Error::too_many_arguments, 29},
+      {"e[1,\"aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\"]", Error::string_too_long, 4},
+      {"e[\"a<b\"]", Error::invalid_string, 4},
+      {"e[\"ab", Error::invalid_string, 5},
+      {"e[\"a\",\"b\"]", Error::too_many_strings, 6},
+      {"e[1:2]", Error::reserved_character, 3},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.payload);
+    size_t offset = 1000;
+    EXPECT_EQ(validate_request_payload(view(c.payload), offset), c.error);
+    EXPECT_EQ(offset, c.offset);
+  }
+  // The device's parse finds the same errors without keeping an offset.
+  Request request;
+  EXPECT_EQ(parse_request(view("e[0,,1]"), request), Error::unexpected_char);
+}
+
 Request parsed(const std::string& payload, Error expected = Error::no_error) {
   Request request;
   EXPECT_EQ(parse_request(view(payload), request), expected) << payload;

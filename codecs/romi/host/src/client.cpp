@@ -8,6 +8,7 @@
 #include <boost/system/system_error.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <array>
 #include <deque>
 #include <limits>
@@ -30,8 +31,26 @@ using transports::ByteStream;
 // Command
 
 Command::Command(std::string_view text) : payload_(text) {
-  const Error code = validate_request_payload(ByteView::from_chars(text.data(), text.size()));
-  if (code != Error::no_error) error_ = make_error_code(code);
+  std::size_t offset = 0;
+  const Error code = validate_request_payload(ByteView::from_chars(text.data(), text.size()), offset);
+  if (code == Error::no_error) return;
+  error_ = make_error_code(code);
+  if (code != Error::client_empty_request && code != Error::client_request_too_long) error_offset_ = offset;
+}
+
+std::string Command::error_text() const {
+  if (!error_) return "";
+  std::string text = romi::describe(static_cast<std::int16_t>(error_.value()));
+  if (!error_offset_) return text;
+  if (*error_offset_ >= payload_.size()) return text + " at the end (the command is incomplete)";
+  const auto c = static_cast<unsigned char>(payload_[*error_offset_]);
+  char shown[8];
+  if (c >= 0x20 && c < 0x7f) {
+    std::snprintf(shown, sizeof shown, "'%c'", static_cast<char>(c));
+  } else {
+    std::snprintf(shown, sizeof shown, "\\x%02x", c);
+  }
+  return text + " at character " + std::to_string(*error_offset_ + 1) + " (" + shown + ")";
 }
 
 Command::Command(char opcode, const std::vector<std::int32_t>& ints, std::optional<std::string_view> text) {
@@ -85,6 +104,12 @@ RomiResponse failed_response(const error_code& error, char opcode) {
   return response;
 }
 
+RomiResponse failed_response(const Command& command) {
+  RomiResponse response = failed_response(command.error(), command.opcode());
+  if (!command.valid()) describe_failure(response, response.code, command.error_text());
+  return response;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The implementation
 
@@ -104,7 +129,7 @@ class ClientImpl final : public transports::ClientLink {
     const char opcode = command.opcode();
     // Off the strand: these completions touch no state (and must not publish the counters).
     if (!command.valid()) {
-      post_completion(std::move(handler), command.error(), failed_response(command.error(), opcode));
+      post_completion(std::move(handler), command.error(), failed_response(command));
       return;
     }
     if (!is_open()) {

@@ -84,7 +84,12 @@ TEST(TetherCall, InvalidCommandIsRejectedBeforeTheWire) {
   Outcome run = link.call({"a[40000]"});
   EXPECT_EQ(run.status, 2);
   EXPECT_EQ(run.out, "");
-  EXPECT_EQ(run.err, "tether call: -10 value out of range\n");
+  EXPECT_EQ(run.err, "tether call: -10 value out of range at character 3 ('4')\n");
+  // Where the command goes wrong, for each kind of mistake.
+  run = link.call({"e[0,,1]"});
+  EXPECT_EQ(run.err, "tether call: -8 unexpected char at character 5 (',')\n");
+  run = link.call({"e[0,1"});
+  EXPECT_EQ(run.err, "tether call: -8 unexpected char at the end (the command is incomplete)\n");
   run = link.call({"a[\"no:colons\"]"});
   EXPECT_EQ(run.status, 2);
   EXPECT_EQ(run.err.rfind("tether call: -32 ", 0), 0u) << run.err;

@@ -157,12 +157,14 @@ TEST(RomiClient, InvalidCommandsNeverReachTheWire) {
     EXPECT_EQ(error, test.expected);
     EXPECT_EQ(error.category(), romi_category());
     EXPECT_EQ(response.code, static_cast<std::int16_t>(test.expected));
-    EXPECT_EQ(response.values, json::array({response.code, romi::describe(response.code)}));
+    // The table's text, and for a raw command where it goes wrong.
+    EXPECT_EQ(response.values, json::array({response.code, test.command.error_text()}));
+    EXPECT_EQ(test.command.error_text().rfind(romi::describe(response.code), 0), 0u);
     EXPECT_FALSE(response.answered);
     EXPECT_EQ(response.attempts, 0);
     EXPECT_FALSE(response.unreadable_answer());
     // What a tool reports for it without opening a device (`tether call`) is the call's response.
-    const RomiResponse rejected = failed_response(test.command.error(), test.command.opcode());
+    const RomiResponse rejected = failed_response(test.command);
     EXPECT_EQ(rejected.code, response.code);
     EXPECT_EQ(rejected.values, response.values);
     EXPECT_EQ(rejected.message, response.message);
@@ -177,6 +179,23 @@ TEST(RomiClient, InvalidCommandsNeverReachTheWire) {
   const RomiResponse response = link.client->call("a");
   EXPECT_TRUE(response.ok());
   EXPECT_EQ(link.device->received(), "#a:008e\r\n");
+}
+
+// An invalid raw command says where it goes wrong; the call completes with that text.
+TEST(RomiClient, InvalidCommandTextSaysWhere) {
+  EXPECT_EQ(Command("e[0,,1]").error_text(), "unexpected char at character 5 (',')");
+  EXPECT_EQ(Command(std::string_view("e[\x01]", 4)).error_text(), "unexpected char at character 3 (\\x01)");
+  EXPECT_EQ(Command("e[0").error_text(), "unexpected char at the end (the command is incomplete)");
+  EXPECT_FALSE(Command("").error_offset().has_value());
+  EXPECT_FALSE(Command('a', {-32769}).error_offset().has_value());
+  EXPECT_EQ(Command("e[1]").error_text(), "");
+  IoThread io;
+  Link link(io.executor());
+  error_code error;
+  const RomiResponse response = link.client->call(Command("e[0,,1]"), error);
+  EXPECT_EQ(error, make_error_code(Error::unexpected_char));
+  EXPECT_EQ(response.message, "unexpected char at character 5 (',')");
+  EXPECT_EQ(link.device->received(), "");
 }
 
 TEST(RomiClient, BuiltCommandsAreTheExpectedPayloads) {

@@ -125,6 +125,9 @@ class RequestBuilder {
 /// Checks a complete payload typed by a user (`L[1]`): the same rules as RequestBuilder, as the device's
 /// parser would apply them, plus the host's length limit. Returns the first error or no_error.
 Error validate_request_payload(ByteView payload);
+/// As above, and on an error sets `error_offset` to where it was found (parse_request's offsets; a reserved
+/// character's own; `payload.size()` for a payload too long or empty).
+Error validate_request_payload(ByteView payload, size_t& error_offset);
 
 }  // namespace romi
 }  // namespace tether

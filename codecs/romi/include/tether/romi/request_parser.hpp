@@ -36,6 +36,11 @@ struct Request : ParsedRequest {
 /// no_error, or -14 (bad opcode), -8 (unexpected character), -9 (more than 12 integers), -10 (outside
 /// int16), -11 (string over 32), -12 (bad string character or unterminated string), -13 (second string).
 Error parse_request(ByteView payload, ParsedRequest& request);
+/// As above, and on an error sets `error_offset` to where in `payload` it was found: the offending
+/// character, the first character of a number out of range or one too many, the opening quote of a string
+/// too long or too many, `payload.size()` when the payload ends too early. For messages to a person (the
+/// host); the device's form keeps no offset.
+Error parse_request(ByteView payload, ParsedRequest& request, size_t& error_offset);
 /// As above, and copies the string into `request.string` ("" when there is none).
 Error parse_request(ByteView payload, Request& request);
 

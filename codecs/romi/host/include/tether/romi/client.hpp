@@ -141,6 +141,13 @@ class Command {
   bool valid() const { return !error_; }
   /// Why it cannot be sent (a "tether.romi" error_code), or success.
   const error_code& error() const { return error_; }
+  /// Where in the raw text the error was found (0-based: the offending character, the first character of
+  /// a number out of range, the opening quote of a string too long, the text's size when it ends too
+  /// early); empty for a valid or built command and for errors of the whole text (empty, too long).
+  std::optional<std::size_t> error_offset() const { return error_offset_; }
+  /// The error's text for a person, with where it was found: `unexpected char at character 5 (',')`,
+  /// `unexpected char at the end (the command is incomplete)`; "" when valid.
+  std::string error_text() const;
   /// The payload (opcode + arguments) exactly as it goes on the wire; meaningful only when `valid()`.
   const std::string& payload() const { return payload_; }
   /// The opcode character (first character of the payload; '\0' for an empty command).
@@ -149,6 +156,7 @@ class Command {
  private:
   std::string payload_;
   error_code error_;
+  std::optional<std::size_t> error_offset_;
 };
 
 /// The response a call completes with when `error` ends it without an answer (`values` = `[code,
@@ -156,6 +164,9 @@ class Command {
 /// time), any other error is -33 with its message. Public so a tool can reject an invalid command before it
 /// opens a device and report it exactly as a call would (`tether call`).
 RomiResponse failed_response(const error_code& error, char opcode);
+/// The response a call with an invalid `command` completes with: its code, and its `error_text()` (where
+/// the error is) as the message.
+RomiResponse failed_response(const Command& command);
 
 /// How a client behaves; every field has the spec's value by default.
 struct Options {
