@@ -26,7 +26,7 @@ using Serial = tether::firmware::Uart0<8, 8>;
 constexpr uint32_t kBaud = 115200;
 
 tether::romi::device::UartStream<Serial> serial;
-romiserial::RomiSerial romi(serial, serial, romi_bench::kHandlers, romi_bench::kHandlerCount);
+romiserial::BasicRomiSerial<37, 16> romi(serial, serial, romi_bench::kHandlers, romi_bench::kHandlerCount);
 
 }  // namespace
 
