@@ -313,6 +313,30 @@ TEST_F(RomiSerialTest, LargestReplyThatFits) {
   EXPECT_EQ(exchange(request("q", 1)), response('q', "[-31]", 1));
 }
 
+TEST_F(RomiSerialTest, ARepeatGetsTheWholeCachedReplyWhateverItsBody) {
+  // The device keeps no size for the cached reply: it finds the frame's end after its ':' (the first
+  // after the opcode: a body's ':' is sent as '-'). Bodies with ':', CR and LF, the shortest and the
+  // longest reply.
+  static std::string body;
+  const MessageHandler handlers[] = {{'q', 0, false, [](IRomiSerial* romi, int16_t*, const char*) {
+                                        ++runs;
+                                        romi->send(body.c_str());
+                                      }}};
+  device.set_handlers(handlers, 1);
+  const std::string bodies[] = {"[0,\"a:b\"]", "[0,\"\r\n:\r\n\"]", "[]", "[0,\"" + std::string(57, ':') + "\"]"};
+  uint8_t id = 1;
+  for (const std::string& text : bodies) {
+    body = text;
+    const std::string reply = response('q', text, id);
+    EXPECT_EQ(exchange(request("q", id)), reply) << text;
+    EXPECT_EQ(exchange(request("q", id)), reply) << text;  // the cached copy, byte for byte
+    ++id;
+  }
+  EXPECT_EQ(response('q', bodies[3], 4).size(), 72u);
+  EXPECT_EQ(runs, 4);
+  EXPECT_EQ(device.counters().link.duplicates, 4u);
+}
+
 TEST_F(RomiSerialTest, HandleInputInsideAHandlerDoesNothing) {
   EXPECT_EQ(exchange("#r:xxxx\r\n#a:xxxx\r\n"), "#r[0]:00" + response('r', "[0]", 0).substr(8) + "#a[0]:00e7\r\n");
   EXPECT_EQ(runs, 2);

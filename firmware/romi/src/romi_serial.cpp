@@ -46,7 +46,8 @@ RomiSerialBase::RomiSerialBase(IInputStream& in, IOutputStream& out, const Messa
 void RomiSerialBase::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
-  prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
+  // A frame awaiting its '\n' was prepared with the old table: it is looked up in the new one.
+  if (decoder_.awaiting_end()) prepare(decoder_.frame());
 }
 
 inline void RomiSerialBase::receive_special(uint8_t byte) {
@@ -60,16 +61,15 @@ inline void RomiSerialBase::receive_special(uint8_t byte) {
 }
 
 void RomiSerialBase::handle_input() {
-  if (in_handler_) return;
+  if (call_ != Call::none) return;
   // One clock read per call and one per handler run, none per byte (the AVR's hot path): the bytes
   // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
   // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
   // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply). Every
   // `now_` the device takes was checked (here, in handle_byte, or after a handler in dispatch), so
-  // a call within the same millisecond as the last one has nothing to check.
-  const Millis before = now_;
-  now_ = clock_ != nullptr ? clock_() : 0;
-  if (now_ != before) handle_timeouts(now_);
+  // a call within the same millisecond as the last one has nothing to check (and nothing to store).
+  const Millis now = clock_ != nullptr ? clock_() : 0;
+  if (now != now_) handle_timeouts(now);  // sets now_
   // Bytes come in batches (one virtual call each), handled one by one in arrival order. A byte inside
   // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
   // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
@@ -94,12 +94,13 @@ void RomiSerialBase::handle_input() {
 }
 
 void RomiSerialBase::handle_timeouts(Millis now) {
-  if (in_handler_) return;
+  if (call_ != Call::none) return;
+  now_ = now;  // the bytes that follow arrived at `now` at the earliest
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
-  if (cache_expired(now)) cached_request_size_ = 0;  // nothing cached
-  if (!frame_deadline_.expired(now)) return;
-  frame_deadline_.disarm();
+  expire_cache();
+  // The deadline of the request being received, if there is one (the frame's '#' armed it).
+  if (!decoder_.receiving() || !tick_reached(now, frame_deadline_)) return;
   add_one(counters_.link.partial_timeouts);
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
@@ -107,15 +108,18 @@ void RomiSerialBase::handle_timeouts(Millis now) {
   send_code(opcode, 0, Error::controller_timeout, false);
 }
 
+void RomiSerialBase::expire_cache() {
+  if (cache_expired(now_)) cached_request_size_ = 0;  // nothing cached
+}
+
 void RomiSerialBase::handle_byte(uint8_t byte, Millis now) {
-  if (in_handler_) return;
-  now_ = now;
-  handle_timeouts(now);  // a byte arriving after the deadline does not extend it
+  if (call_ != Call::none) return;
+  handle_timeouts(now);  // sets now_; a byte arriving after the deadline does not extend it
   if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
 void RomiSerialBase::receive(uint8_t byte) {
-  if (byte == '#') frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
+  if (byte == '#') frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -123,7 +127,6 @@ void RomiSerialBase::receive(uint8_t byte) {
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
     return;
   }
-  frame_deadline_.disarm();
   // A frame or an error: a response follows, and every frame the device sends (the response, or a
   // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
   // parse checks and the handler: the turnaround is this path, not the handler's.
@@ -140,8 +143,7 @@ void RomiSerialBase::receive(uint8_t byte) {
 }
 
 void RomiSerialBase::prepare(const Frame& frame) {
-  prepared_ = !frame.log;
-  if (!prepared_) return;
+  if (frame.log) return;
   Error parsed = parse_request(frame.payload, request_);
   if (parsed == Error::no_error) {
     const MessageHandler* handler = nullptr;
@@ -170,14 +172,17 @@ void RomiSerialBase::handle_frame(const Frame& frame) {
     send_code('_', id, Error::invalid_opcode, false);
     return;
   }
-  if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
-  prepared_ = false;
   if (!frame.manual && is_repeat(id, frame.payload)) {
     // Exactly-once: the same response again (the reply buffer holds it: nothing else writes there),
     // the handler does not run.
     add_one(counters_.link.duplicates);
     start_frame();
-    write(ByteView(reply() + 1, reply_size_ - 1u));
+    // Its size, from the frame itself: its ':' is the first after the opcode (form_response turns a
+    // body's ':' into '-'), and 6 bytes follow it (id, CRC, "\r\n").
+    const uint8_t* const reply = this->reply();
+    uint8_t colon = 2;
+    while (reply[colon] != ':') ++colon;
+    write(ByteView(reply + 1, colon + 6u));
     return;
   }
   dispatch(frame);
@@ -207,8 +212,7 @@ void RomiSerialBase::dispatch(const Frame& frame) {
 
   // While the handler runs (and until its reply is out), the request's opcode is request_'s and its id
   // and manual flag the frame's: no byte reaches the decoder during the call.
-  replied_ = false;
-  in_handler_ = true;
+  call_ = Call::awaiting_reply;
   add_one(counters_.executed);
   // The string argument is terminated in place in the frame: its closing '"' is the handler's NUL, and
   // is put back after the call (the frame's bytes become the cache's key below).
@@ -222,8 +226,9 @@ void RomiSerialBase::dispatch(const Frame& frame) {
   }
   handler->callback(this, request_.arguments, string);
   if (quote != nullptr) *quote = '"';
-  in_handler_ = false;
-  if (!replied_) {
+  const bool replied = call_ == Call::replied;
+  call_ = Call::none;
+  if (!replied) {
     add_one(counters_.silent_handlers);
     send_code(request_.opcode, id, Error::no_reply, true);
   }
@@ -242,10 +247,10 @@ void RomiSerialBase::dispatch(const Frame& frame) {
     cached_request_size_ = size;
     for (uint8_t i = 0; i < size; ++i) key[i] = payload[i];
     cache_expires_at_ = now_ + kReplyCacheLifetimeMs + 1;  // expired strictly after the lifetime
-  } else if (cache_expired(now_)) {
-    // The new `now_` is checked like handle_input's (this request's own deadline is disarmed already):
+  } else {
+    // The new `now_` is checked like handle_input's (this request's own deadline ended with its frame):
     // the cache kept through a manual request may have expired during its handler.
-    cached_request_size_ = 0;
+    expire_cache();
   }
 }
 
@@ -259,7 +264,7 @@ void IRomiSerial::log(const char* text) { static_cast<RomiSerialBase*>(this)->lo
 void RomiSerialBase::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
 
 void RomiSerialBase::send_error(int code, const char* message) {
-  if (!in_handler_ || replied_) {
+  if (call_ != Call::awaiting_reply) {
     add_one(counters_.extra_replies);
     return;
   }
@@ -268,7 +273,7 @@ void RomiSerialBase::send_error(int code, const char* message) {
   if (message != nullptr) body.add_string(message);
   if (!body.ok()) {
     // The body alone does not fit the largest reply buffer, so the frame would not fit this one either.
-    replied_ = true;
+    call_ = Call::replied;
     add_one(counters_.replies_too_long);
     send_code(request_.opcode, decoder_.frame().id, Error::reply_too_long, true);
     return;
@@ -278,7 +283,7 @@ void RomiSerialBase::send_error(int code, const char* message) {
 
 void RomiSerialBase::send(const char* message) {
   if (message == nullptr) {
-    if (in_handler_ && !replied_) return;  // no reply: the device answers -20 after the handler
+    if (call_ == Call::awaiting_reply) return;  // no reply: the device answers -20 after the handler
     add_one(counters_.extra_replies);
     return;
   }
@@ -286,11 +291,11 @@ void RomiSerialBase::send(const char* message) {
 }
 
 void RomiSerialBase::handler_reply(ByteView body) {
-  if (!in_handler_ || replied_) {
+  if (call_ != Call::awaiting_reply) {
     add_one(counters_.extra_replies);
     return;
   }
-  replied_ = true;
+  call_ = Call::replied;
   send_response(request_.opcode, decoder_.frame().id, body);
 }
 
@@ -314,7 +319,7 @@ void RomiSerialBase::send_response(char opcode, uint8_t id, ByteView body) {
     return;
   }
   // A handler's reply to a request with an id: the cache's copy.
-  reply_size_ = send_frame(opcode, id, body, reply());
+  send_frame(opcode, id, body, reply());
 }
 
 void RomiSerialBase::send_uncached(char opcode, uint8_t id, ByteView body) {
@@ -324,13 +329,12 @@ void RomiSerialBase::send_uncached(char opcode, uint8_t id, ByteView body) {
   send_frame(opcode, id, body, frame);
 }
 
-uint8_t RomiSerialBase::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
+void RomiSerialBase::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
   // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
   // byte time, ~1400 cycles at 115200) while the rest is formed, which then follows it.
   start_frame();
   const uint8_t size = form_response(opcode, body.data(), static_cast<uint8_t>(body.size()), id, frame);
   write(ByteView(frame + 1, size - 1u));
-  return size;
 }
 
 void RomiSerialBase::send_code(char opcode, uint8_t id, Error code, bool handler_reply) {

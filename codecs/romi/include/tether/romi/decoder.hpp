@@ -141,8 +141,11 @@ class Decoder {
     size_ = 0;
     frame_ = Frame();
   }
-  /// True between a `#` and the end of that frame: what a partial-frame deadline watches.
+  /// True between a `#` and the end of that frame, also while the rest of a failed frame is skipped.
   bool in_frame() const { return state_ != State::idle; }
+  /// True between a `#` and the byte that completes the frame or fails it: a request is being received
+  /// (what a partial-frame deadline watches: nothing is pending before the `#` or after that byte).
+  bool receiving() const { return state_ >= State::body; }
   /// True after a frame's `\r` when its metadata checked out: only the `\n` is missing, and `frame()`
   /// already holds the frame, so a device can do the frame's work before its last byte arrives.
   bool awaiting_end() const { return state_ == State::expect_lf; }
@@ -150,7 +153,8 @@ class Decoder {
   char partial_opcode() const;
 
  private:
-  enum class State : uint8_t { idle, body, expect_lf, skip };
+  // receiving(): body and expect_lf last.
+  enum class State : uint8_t { idle, skip, body, expect_lf };
   using Buffer = detail::DecoderBuffer<Capacity>;
   using Index = typename Buffer::Index;
 

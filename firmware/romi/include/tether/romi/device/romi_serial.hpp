@@ -151,20 +151,23 @@ namespace detail {
 /// pointers inside (issue 17). The buffers whose sizes are the device's capacities are not here but in
 /// `BasicRomiSerial` (static storage is zero anyway, and the device writes them before reading them).
 struct RomiSerialState {
+  enum class Call : uint8_t { none, awaiting_reply, replied };
+
   // The small members first: a handler's reply path reaches them through `this` with a displacement,
   // which the AVR's ldd/std take only up to 63.
-  bool in_handler_;
-  bool replied_;
+  Call call_;  // a handler's call: none outside one, awaiting_reply until it replies, then replied
   bool hash_sent_;  // the '#' of the next frame out left already (receive(), at a frame's end)
-  uint8_t reply_size_;
   uint8_t reply_capacity_;  // bytes of the reply buffer (the device's ReplyCapacity)
-  bool prepared_;  // request_ and parsed_ belong to the frame awaiting '\n'
-  int8_t parsed_;  // the Error of parse_request for request_, then of the dispatch check (prepare)
-  const MessageHandler* handler_;  // request_'s handler when parsed_ is no_error (prepare)
+  // The frame awaiting its '\n' (every complete frame passed its '\r', where prepare() ran): the Error of
+  // parse_request for request_, then of the dispatch check; its handler when that is no_error.
+  int8_t parsed_;
+  const MessageHandler* handler_;
   // When the bytes being handled arrived; after a handler, when its reply went out. Timeouts were
-  // checked at this instant (handle_input checks them when it changes).
+  // checked at this instant (handle_input checks them when the clock differs).
   Millis now_;
-  Deadline frame_deadline_;     // the request being received must end by then (armed at its '#')
+  // The request being received must end by then: set at its '#', in force while the decoder is
+  // receiving() (from that '#' to the byte that completes or fails the frame).
+  Millis frame_deadline_;
   Millis cache_expires_at_;  // when the cached reply stops answering repeats (if there is one)
   // Id and size of the request whose reply is in the reply buffer (the cached reply: only handler
   // replies to requests with an id are written there); its bytes are in the key buffer. Size 0:
@@ -245,7 +248,7 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   /// The diagnostics counters.
   const DeviceCounters& counters() const { return counters_; }
   /// True while a handler runs.
-  bool in_handler() const { return in_handler_; }
+  bool in_handler() const { return call_ != Call::none; }
   /// This device's `PayloadCapacity`: longer requests are answered -1.
   uint8_t payload_capacity() const { return static_cast<uint8_t>(decoder_.capacity() - kFrameMetadata); }
   /// This device's `ReplyCapacity`: longer responses are replaced by -31.
@@ -272,6 +275,8 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   uint8_t* reply() { return decoder_.buffer() + decoder_.capacity(); }
   uint8_t* cached_request() { return reply() + reply_capacity_; }
   bool cache_expired(Millis now) const { return cached_request_size_ != 0 && tick_reached(now, cache_expires_at_); }
+  // Forgets the cached reply if it expired at now_ (after a clock reading; one copy for both callers).
+  __attribute__((noinline)) void expire_cache();
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
@@ -281,7 +286,8 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   void prepare(const Frame& frame);  // parse and look up the handler, at the frame's '\r'
   bool is_repeat(uint8_t id, ByteView payload);  // the cached reply answers this request
   void dispatch(const Frame& frame);
-  void handler_reply(ByteView body);
+  // The reply of send_ok() and send(); out of line, or avr-gcc copies it into every handler that calls them.
+  __attribute__((noinline)) void handler_reply(ByteView body);
   void send_response(char opcode, uint8_t id, ByteView body);
   // Sends `[code]` for a protocol code (-1..-99): a handler's response (-20, -31: remembered like the
   // handler's own, send_response) or the device's own (counted as rejected, never cached).
@@ -291,8 +297,8 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
   // Forms the response into `frame` (the reply buffer, i.e. the cache's copy, or a caller's buffer with
   // room for body + kResponseOverhead) and sends it. One function for every response: the inlined
-  // formatter is linked once. Returns the frame's size.
-  __attribute__((noinline)) uint8_t send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
+  // formatter is linked once.
+  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 };
