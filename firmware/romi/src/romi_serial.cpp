@@ -13,6 +13,12 @@ namespace device {
 
 static_assert(RomiSerial::kPayloadCapacity == kMaxDevicePayload && RomiSerial::kReplyCapacity == 72,
               "RomiSerial keeps the spec's maxima");
+#if defined(__AVR__)
+// What romi_serial.hpp says a device takes ("Memory", "Sizing a device").
+static_assert(sizeof(RomiSerial) == 321 && sizeof(BasicRomiSerial<37, 16>) == 223 &&
+                  sizeof(BasicRomiSerial<1, 14>) == 2 * 1 + 14 + 133,
+              "a device is 2 x PayloadCapacity + ReplyCapacity + 133 bytes: update the header's figures");
+#endif
 
 constexpr uint8_t RomiSerialBase::kMaxPayloadCapacity;
 constexpr uint8_t RomiSerialBase::kMinPayloadCapacity;

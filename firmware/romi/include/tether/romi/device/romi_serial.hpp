@@ -6,6 +6,8 @@
 ///
 ///     UartStream<Serial> serial;                               // or ArduinoSerial serial(Serial);
 ///     RomiSerial romi(serial, serial, handlers, sizeof(handlers) / sizeof(MessageHandler));
+///     // or, with buffers sized to the handlers' requests and replies ("Sizing a device" below):
+///     // BasicRomiSerial<16, 16> romi(serial, serial, handlers, sizeof(handlers) / sizeof(MessageHandler));
 ///     ...
 ///     for (;;) { romi.handle_input(); idle<Serial>(); }        // Arduino: loop() { romi.handle_input(); }
 ///
@@ -19,7 +21,8 @@
 ///   2. A damaged frame gets `[code]` with the envelope code -1..-7 (-1 too long, -2 bad id, -3 bad CRC
 ///      digits, -4 CRC mismatch, -5 expected end, -6 missing metadata, -7 bad `xxxx`), the frame's opcode
 ///      (`_` when its first character is not one) and the id read so far (0 when none). A frame too long
-///      for the buffer gets exactly ONE `[-1]` and nothing else: the rest of it is skipped (B1).
+///      for the buffer (a payload over the device's `PayloadCapacity`) gets exactly ONE `[-1]` and nothing
+///      else: the rest of it is skipped (B1).
 ///   3. A good frame whose id and bytes equal those of the last request whose handler ran, arriving at
 ///      most `kReplyCacheLifetimeMs` (2 s, the host's call budget) after that request's response was
 ///      sent, is answered with that response again, byte for byte, without running the handler
@@ -41,24 +44,52 @@
 /// opcode on errors).
 ///
 /// ## Memory (no heap; ATmega328P figures, avr-gcc 5.4 -Os)
-/// One `RomiSerial` is 331 bytes of static RAM (measured: its symbol in romi-bench.elf), all bounded at
+/// One `RomiSerial` is 321 bytes of static RAM (measured: its symbol in romi-blink.elf), all bounded at
 /// compile time:
-///   - request buffer: 81 bytes (the decoder), of which `kDeviceDecoderCapacity` = 63 hold the frame
-///     between '#' and '\r' (58 payload characters, ':', 4 metadata characters: every request a
-///     reference host can send);
+///   - request buffer: `PayloadCapacity` + 5 = 63 bytes hold the frame between '#' and '\r' (58 payload
+///     characters, ':', 4 metadata characters: every request a reference host can send), and the
+///     decoder's state 20;
 ///   - parsed request: 31 bytes (12 int16 arguments; the string argument stays in the request buffer,
 ///     where its closing quote is the handler's NUL during the call: a copy would be 33 bytes more);
-///   - reply buffer: `kReplyCapacity` = 72 bytes (+1); it is also the reply cache: only handler replies
-///     to requests with an id are formed there;
-///   - the cache's key: the id and the exact payload of the request that reply answers (60 bytes; a
-///     CRC-16 of the payload in 2 bytes was cheaper in RAM, but two requests can share it);
-///   - counters: 48 bytes (12, each 32-bit: `DeviceCounters`); pointers, the two deadlines, the clock's
-///     last reading and state: 38 bytes.
+///   - reply buffer: `ReplyCapacity` = 72 bytes; it is also the reply cache: only handler replies to
+///     requests with an id are formed there;
+///   - the cache's key: the exact payload of the request that reply answers (`PayloadCapacity` = 58
+///     bytes, its id and size in the state; a CRC-16 of the payload in 2 bytes was cheaper in RAM, but two
+///     requests can share it);
+///   - counters: 48 bytes (12, each 32-bit: `DeviceCounters`); pointers, the clock's last reading, the two
+///     deadlines and state: 29 bytes.
 /// The floor, for what this class promises: the frame being received (63), the key of the last one
 /// that ran (58 + id + size) and its reply (65 of the 72 at least: a reference host accepts 65-byte
 /// replies) must all be held at once, because a damaged copy of a re-sent request may arrive between
 /// the reply and the good copy (exactly-once then needs the key intact: a key overwritten in place by
 /// a diverging frame would run the good copy twice) = 188 bytes, plus the 48 bytes of 32-bit counters.
+/// A device whose handlers take shorter requests and send shorter replies needs less of it: see below.
+///
+/// ## Sizing a device
+/// `BasicRomiSerial<PayloadCapacity, ReplyCapacity>` is the same device with buffers for the requests
+/// and replies of its handlers only: 2 x `PayloadCapacity` + `ReplyCapacity` + 133 bytes (`RomiSerial`,
+/// `<58, 72>`: 321). Every size runs the same code (one copy in an image, whatever sizes it declares),
+/// and behaves as `RomiSerial` for every request that fits. Choose:
+///   - `PayloadCapacity` (1..58): the longest payload, between '#' and ':', of a request any handler
+///     accepts. A payload is the opcode (1), then, when there are arguments, '[' and ']' (2) around the
+///     arguments separated by ',' (one fewer than the arguments); an integer argument is at most 6
+///     characters ("-32768"), a string at most 2 + its longest length (its quotes; at most 32). E.g. a
+///     handler of two integers: 1 + 2 + 6 + 1 + 6 = 16; of one string of up to 32 characters:
+///     1 + 2 + 34 = 37; of no argument: 1 (3 for "a[]", which the device takes too). A longer request
+///     is answered `[-1]` (too long, rule 2: the frame's opcode, id 00, nothing else), where `RomiSerial`
+///     would have parsed it and answered -8..-19 (e.g. -17 for too many integers): size for what the
+///     hosts send, or a host that sends more gets -1 instead of the dispatcher's error.
+///   - `ReplyCapacity` (14..72): 9 (`#`, opcode, ':', id, CRC, "\r\n") + the longest reply body a
+///     handler sends: `send_ok` "[0]" 3, `send(text)` the text, `send_error(code, message)`
+///     `[code,"message"]` (2 + the code's digits and sign + 3 + the message). At least 14, for the
+///     device's own `[-NN]`. A longer reply is replaced by `[-31]` (rule 9), remembered like the reply
+///     it replaces.
+/// romi-bench (handlers a, e, c[2 integers], d[string of up to 32]) declares
+/// `BasicRomiSerial<37, 16>`: d's 37 characters, e's `#e[0,1,2]:iicc\r\n` 16 bytes; 223 bytes of RAM
+/// against `RomiSerial`'s 321. Checked at compile time: capacities outside the ranges do not build.
+/// A `RomiSerialBase&` refers to a device of any size (e.g. code that polls several).
+///
+/// ## Time and stack
 /// Time (ATmega328P cycles, benchmarks/avr_cycle_report.cpp): the clock is read once per
 /// `handle_input()` and once after each handler, never per byte; timeouts are checked when the clock
 /// moved. Bytes are read in batches (`IInputStream::read_some`; a batch short of 16 ends the call); the
@@ -306,7 +337,8 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
 /// A Romi device whose buffers hold requests of up to `PayloadCapacity` payload characters (opcode and
 /// arguments, between '#' and ':') and responses of up to `ReplyCapacity` bytes ('#' to '\n'). The
 /// code is `RomiSerialBase`'s, shared by every size; only the buffers differ (see "Sizing a device" in
-/// the file comment). `RomiSerial` is `BasicRomiSerial<58, 72>`.
+/// the file comment). `RomiSerial` is `BasicRomiSerial<58, 72>`. On the AVR it takes
+/// 2 x PayloadCapacity + ReplyCapacity + 133 bytes of RAM (`RomiSerial`: 321).
 template <uint8_t PayloadCapacity, uint8_t ReplyCapacity>
 class BasicRomiSerial final : public RomiSerialBase {
   static_assert(PayloadCapacity >= kMinPayloadCapacity && PayloadCapacity <= kMaxPayloadCapacity,
