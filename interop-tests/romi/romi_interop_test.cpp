@@ -545,6 +545,53 @@ TEST(RomiInterop, HalfARequestIsAnsweredWithTheControllerTimeoutAfterOneSecond) 
   client.close();
 }
 
+// The romi-bench image declares a device sized to its four handlers (BasicRomiSerial<37, 16>): each of
+// their requests fits, the longest being d with a 32-character string; a longer request, which RomiSerial
+// would take, gets one -1 (too long) and runs nothing, and the device goes on.
+TEST(RomiInterop, BenchImageTakesItsHandlersRequestsAndAnswersALongerOneTooLong) {
+  IoThread io;
+  VirtualUnoOptions options = romi_test_board(Pacing::fast);
+  options.firmware = TETHER_FIRMWARE_DIR "/romi-bench.elf";
+  auto stream = VirtualUnoStream::open(io.executor(), options);
+  // 44 characters (RomiSerial: -17, c takes two integers), written as such: a client would re-send it.
+  const std::string payload = "c[-32768,-32768,-32768,-32768,-32768,-32768]";
+  std::vector<uint8_t> frame(80);
+  const auto size = encode_request(ByteView::from_chars(payload.data(), payload.size()), 0x2a,
+                                   MutableByteView(frame.data(), frame.size()));
+  ASSERT_TRUE(size.ok());
+  stream->write(boost::asio::buffer(frame.data(), size.value()));
+  LinkCounters counters;
+  Decoder<kHostDecoderCapacity> decoder(counters);
+  std::vector<uint8_t> buffer(64);
+  std::vector<std::string> answers;
+  const auto give_up = std::chrono::steady_clock::now() + 60s;
+  while (answers.empty()) {
+    boost::system::error_code error;
+    const std::size_t got = stream->read_some(boost::asio::buffer(buffer), 1s, error);
+    if (error == transports::make_error_code(transports::TransportError::timed_out)) {
+      ASSERT_LT(std::chrono::steady_clock::now(), give_up) << "no answer to the long request";
+      continue;
+    }
+    ASSERT_FALSE(error) << error.message();
+    for (std::size_t i = 0; i < got; ++i) {
+      if (decoder.feed(buffer[i]) == DecodeStatus::frame) {
+        const Frame& answer = decoder.frame();
+        answers.push_back(std::string(reinterpret_cast<const char*>(answer.payload.data()), answer.payload.size()) +
+                          ":" + std::to_string(answer.id));
+      }
+    }
+  }
+  EXPECT_EQ(answers, (std::vector<std::string>{"c[-1]:0"}));  // its id comes after the part that overflowed
+  // Then every request of its handlers, at once.
+  Client client(stream, on_board_time(stream));
+  EXPECT_EQ(client.call("a").values, json::parse("[0]"));
+  EXPECT_EQ(client.call("e").values, json::parse("[0,1,2]"));
+  EXPECT_EQ(client.call("c[-32768,32767]").values, json::parse("[0]"));
+  EXPECT_EQ(client.call({'d', {}, std::string(32, 'x')}).values, json::parse("[0]"));  // 37 characters
+  EXPECT_EQ(client.counters().link.timeouts, 0u);
+  client.close();
+}
+
 // --- cross-checks against the reference -------------------------------------------------------------
 
 // Serves a ReferenceFirmwareDouble on one end of an in-memory pair.

@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <memory>
 #include <new>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -49,7 +51,7 @@ uint32_t fake_clock() { return fake_now; }
 int runs = 0;
 int16_t last_args[12];
 std::string last_string;
-RomiSerial* active = nullptr;
+RomiSerialBase* active = nullptr;  // the device the reentrant handler calls back
 
 void ok(IRomiSerial* romi, int16_t* args, const char* text) {
   ++runs;
@@ -309,6 +311,30 @@ TEST_F(RomiSerialTest, LargestReplyThatFits) {
   EXPECT_EQ(exchange("#q:xxxx\r\n"), response('q', body, 0));
   body += " ";  // one byte more: -31
   EXPECT_EQ(exchange(request("q", 1)), response('q', "[-31]", 1));
+}
+
+TEST_F(RomiSerialTest, ARepeatGetsTheWholeCachedReplyWhateverItsBody) {
+  // The device keeps no size for the cached reply: it finds the frame's end after its ':' (the first
+  // after the opcode: a body's ':' is sent as '-'). Bodies with ':', CR and LF, the shortest and the
+  // longest reply.
+  static std::string body;
+  const MessageHandler handlers[] = {{'q', 0, false, [](IRomiSerial* romi, int16_t*, const char*) {
+                                        ++runs;
+                                        romi->send(body.c_str());
+                                      }}};
+  device.set_handlers(handlers, 1);
+  const std::string bodies[] = {"[0,\"a:b\"]", "[0,\"\r\n:\r\n\"]", "[]", "[0,\"" + std::string(57, ':') + "\"]"};
+  uint8_t id = 1;
+  for (const std::string& text : bodies) {
+    body = text;
+    const std::string reply = response('q', text, id);
+    EXPECT_EQ(exchange(request("q", id)), reply) << text;
+    EXPECT_EQ(exchange(request("q", id)), reply) << text;  // the cached copy, byte for byte
+    ++id;
+  }
+  EXPECT_EQ(response('q', bodies[3], 4).size(), 72u);
+  EXPECT_EQ(runs, 4);
+  EXPECT_EQ(device.counters().link.duplicates, 4u);
 }
 
 TEST_F(RomiSerialTest, HandleInputInsideAHandlerDoesNothing) {
@@ -622,6 +648,330 @@ TEST(RomiSerialNoHandlers, EverythingIsUnknown) {
   streams.input.assign(frame.begin(), frame.end());
   device.handle_input();
   EXPECT_EQ(streams.take(), response('a', "[-16]", 0));
+}
+
+// --- sized devices (BasicRomiSerial) --------------------------------------------------------------------
+
+// The device of the romi-bench image: requests of romi-bench's handlers (a string of up to 32 characters:
+// d["..."] is 37), replies up to `#e[0,1,2]:iicc\r\n` (16 bytes).
+using BenchDevice = BasicRomiSerial<37, 16>;
+// The smallest: requests that are an opcode alone, replies `[0]` and the protocol's `[-NN]`.
+using SmallestDevice = BasicRomiSerial<RomiSerialBase::kMinPayloadCapacity, RomiSerialBase::kMinReplyCapacity>;
+
+static_assert(RomiSerial::kPayloadCapacity == 58 && RomiSerial::kReplyCapacity == 72, "the spec's maxima");
+static_assert(BenchDevice::kBufferSize == 42 + 16 + 37, "frame (payload and metadata), reply, key");
+static_assert(SmallestDevice::kPayloadCapacity == 1 && SmallestDevice::kReplyCapacity == 14, "");
+static_assert(sizeof(SmallestDevice) < sizeof(BenchDevice) && sizeof(BenchDevice) < sizeof(RomiSerial),
+              "a device pays only for its buffers");
+
+// A device of type `Device` with the fixture's handlers, fed through its streams.
+template <typename Device>
+struct Bench {
+  Bench() : device(streams, streams, kHandlers, kHandlerCount, fake_clock) {}
+  std::string exchange(const std::string& bytes) {
+    streams.input.insert(streams.input.end(), bytes.begin(), bytes.end());
+    device.handle_input();
+    return streams.take();
+  }
+  StringStreams streams;
+  Device device;
+};
+
+void expect_same_counters(const DeviceCounters& a, const DeviceCounters& b, const std::string& what) {
+  EXPECT_EQ(a.link.frames_ok, b.link.frames_ok) << what;
+  EXPECT_EQ(a.link.crc_errors, b.link.crc_errors) << what;
+  EXPECT_EQ(a.link.framing_errors, b.link.framing_errors) << what;
+  EXPECT_EQ(a.link.oversize_frames, b.link.oversize_frames) << what;
+  EXPECT_EQ(a.link.resyncs, b.link.resyncs) << what;
+  EXPECT_EQ(a.link.partial_timeouts, b.link.partial_timeouts) << what;
+  EXPECT_EQ(a.link.duplicates, b.link.duplicates) << what;
+  EXPECT_EQ(a.executed, b.executed) << what;
+  EXPECT_EQ(a.rejected, b.rejected) << what;
+  EXPECT_EQ(a.silent_handlers, b.silent_handlers) << what;
+  EXPECT_EQ(a.extra_replies, b.extra_replies) << what;
+  EXPECT_EQ(a.replies_too_long, b.replies_too_long) << what;
+}
+
+// One step of a script: the clock moves by `advance_ms`, then `bytes` arrive and handle_input runs.
+struct Step {
+  uint32_t advance_ms;
+  std::string bytes;
+};
+
+// Runs `script` through a fresh `Device` from time 0; returns everything it wrote.
+template <typename Device>
+std::string run_script(const std::vector<Step>& script, DeviceCounters& counters) {
+  fake_now = 0;
+  const auto bench = std::make_unique<Bench<Device>>();
+  active = &bench->device;
+  std::string out;
+  for (const Step& step : script) {
+    fake_now += step.advance_ms;
+    out += bench->exchange(step.bytes);
+  }
+  counters = bench->device.counters();
+  active = nullptr;
+  return out;
+}
+
+// A script of requests that all fit BenchDevice (payloads up to 37 characters, replies up to 16 bytes),
+// drawn from `seed` (fixed: the scripts are the same on every run): good requests with a few ids (so
+// re-sends hit the cache, and later the same id and bytes run again), manual ones, damaged copies (a
+// byte replaced: CRC, id, syntax errors), frames cut short (answered -30 a second later), garbage
+// between frames, and clock steps around the deadline and the cache's lifetime.
+std::vector<Step> sized_script(uint32_t seed) {
+  static const char* const kPayloads[] = {
+      "a", "b", "c[1,2]", "c[-32768,32767]", "c[1]", "d[\"Hello there\"]",
+      "d[\"0123456789abcdefghijklmnopqrstuv\"]",  // 37 characters: the largest BenchDevice takes
+      "d", "a[\"x\"]", "e", "x", "w", "n", "2", "g", "z", "c[x]", "%", "m[1,2,3,4,5,6,7,8,9,10,11,12]",
+      "r", "c[1,40000]", "d[\"a<b\"]", "d[\"a\",\"b\"]"};
+  static const uint8_t kIds[] = {0, 1, 2, 7, 255};
+  static const uint32_t kSteps[] = {0, 0, 0, 1, 10, 500, 999, 1000, 1999, 2000, 2001};
+  std::mt19937 random(seed);
+  const auto pick = [&](size_t n) { return static_cast<size_t>(random() % n); };
+  std::vector<Step> script;
+  std::string last;
+  for (int i = 0; i < 200; ++i) {
+    const std::string payload = kPayloads[pick(sizeof kPayloads / sizeof kPayloads[0])];
+    std::string bytes;
+    switch (pick(8)) {
+      case 0:
+        bytes = "#" + payload + ":xxxx\r\n";
+        break;
+      case 1: {  // a damaged copy: one byte before its "\r\n" replaced (the frame no longer than before)
+        bytes = request(payload, kIds[pick(sizeof kIds)]);
+        const size_t at = 1 + pick(bytes.size() - 3);
+        bytes[at] = "0a:g[\"#\r\n"[pick(9)];
+        break;
+      }
+      case 2:  // the same bytes again (a re-send)
+        bytes = last.empty() ? request(payload, 1) : last;
+        break;
+      case 3:  // a frame cut short, then garbage (at most 20 + 8 bytes: within both buffers)
+        bytes = request(payload, kIds[pick(sizeof kIds)]).substr(0, 1 + pick(20));
+        bytes += std::string(pick(8), "x]1,\"!"[pick(6)]);
+        break;
+      default:
+        bytes = request(payload, kIds[pick(sizeof kIds)]);
+        break;
+    }
+    last = bytes;
+    script.push_back(Step{kSteps[pick(sizeof kSteps / sizeof kSteps[0])], bytes});
+  }
+  return script;
+}
+
+TEST(BasicRomiSerial, ASizedDeviceAnswersEveryRequestThatFitsItExactlyAsRomiSerialDoes) {
+  DeviceCounters total;
+  for (uint32_t seed = 1; seed <= 40; ++seed) {
+    const std::vector<Step> script = sized_script(seed);
+    DeviceCounters full_counters;
+    DeviceCounters sized_counters;
+    DeviceCounters exact_counters;
+    const std::string full = run_script<RomiSerial>(script, full_counters);
+    const std::string sized = run_script<BenchDevice>(script, sized_counters);
+    const std::string exact = run_script<BasicRomiSerial<58, 72>>(script, exact_counters);
+    const std::string what = "seed " + std::to_string(seed);
+    EXPECT_EQ(sized, full) << what;
+    EXPECT_EQ(exact, full) << what;
+    expect_same_counters(sized_counters, full_counters, what);
+    expect_same_counters(exact_counters, full_counters, what);
+    total.link.duplicates += full_counters.link.duplicates;
+    total.link.partial_timeouts += full_counters.link.partial_timeouts;
+    total.link.crc_errors += full_counters.link.crc_errors;
+    total.link.framing_errors += full_counters.link.framing_errors;
+    total.executed += full_counters.executed;
+    total.silent_handlers += full_counters.silent_handlers;
+  }
+  // The scripts reach what they are for: the cache, the deadline, damaged frames, every handler path.
+  EXPECT_GT(total.link.duplicates, 100u);
+  EXPECT_GT(total.link.partial_timeouts, 100u);
+  EXPECT_GT(total.link.crc_errors, 100u);
+  EXPECT_GT(total.link.framing_errors, 100u);
+  EXPECT_GT(total.executed, 1000u);
+  EXPECT_GT(total.silent_handlers, 10u);
+}
+
+TEST(BasicRomiSerial, TheSpecVectorsOnASizedDevice) {
+  fake_now = 0;
+  Bench<BenchDevice> bench;
+  EXPECT_EQ(bench.exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(bench.exchange("#a[1]:xxxx\r\n"), "#a[-17]:00ac\r\n");
+  EXPECT_EQ(bench.exchange("#z:xxxx\r\n"), "#z[-16]:0001\r\n");
+  EXPECT_EQ(bench.exchange("#e:xxxx\r\n"), "#e[0,1,2]:00dc\r\n");  // 16 bytes: the whole reply buffer
+  EXPECT_EQ(bench.exchange("#e:7b00\r\n"), response('e', "[-4]", 0x7b));
+  EXPECT_EQ(bench.exchange("#e:\r\n"), response('e', "[-2]", 0));
+  EXPECT_EQ(bench.exchange("#e\r\n"), response('e', "[-6]", 0));
+  EXPECT_EQ(bench.device.payload_capacity(), 37);
+  EXPECT_EQ(bench.device.reply_capacity(), 16);
+}
+
+TEST(BasicRomiSerial, ARequestLongerThanItsPayloadCapacityIsAnsweredTooLongOnce) {
+  fake_now = 0;
+  runs = 0;
+  Bench<BasicRomiSerial<8, 16>> bench;
+  EXPECT_EQ(bench.exchange(request("c[10,20]", 1)), response('c', "[0]", 1));  // 8 characters: fits
+  EXPECT_EQ(last_args[0], 10);
+  // 9 characters: one -1 (too long), with the frame's opcode and no id (the metadata was never read),
+  // whether the request has an id or is typed by hand; the handler does not run.
+  EXPECT_EQ(bench.exchange(request("c[100,20]", 2)), response('c', "[-1]", 0));
+  EXPECT_EQ(bench.exchange("#c[100,20]:xxxx\r\n"), response('c', "[-1]", 0));
+  EXPECT_EQ(bench.exchange("#" + std::string(100, 'd') + ":xxxx\r\n"), response('d', "[-1]", 0));
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(bench.device.counters().link.oversize_frames, 3u);
+  EXPECT_EQ(bench.device.counters().rejected, 3u);
+  // A host re-sends the same bytes on an envelope error: the same answer again, nothing cached.
+  EXPECT_EQ(bench.exchange(request("c[100,20]", 2)), response('c', "[-1]", 0));
+  EXPECT_EQ(bench.device.counters().link.duplicates, 0u);
+  // The device is in step afterwards, and the request that ran before is still the cached one.
+  EXPECT_EQ(bench.exchange(request("c[10,20]", 1)), response('c', "[0]", 1));
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(bench.exchange(request("a", 3)), response('a', "[0]", 3));
+  EXPECT_EQ(runs, 2);
+}
+
+TEST(BasicRomiSerial, TheLongestPayloadFitsWhatRomiSerialRejects) {
+  // RomiSerial's own limit, for comparison: 58 fits, 59 is too long (the same check, another size).
+  fake_now = 0;
+  Bench<BenchDevice> bench;
+  const std::string longest = "d[\"0123456789abcdefghijklmnopqrstuv\"]";
+  ASSERT_EQ(longest.size(), 37u);
+  EXPECT_EQ(bench.exchange(request(longest, 4)), response('d', "[0]", 4));
+  EXPECT_EQ(last_string, "0123456789abcdefghijklmnopqrstuv");
+  EXPECT_EQ(bench.exchange(request(longest, 4)), response('d', "[0]", 4));  // a re-send: from the cache
+  EXPECT_EQ(bench.device.counters().link.duplicates, 1u);
+  // One character more (the parser's -11 on RomiSerial) is too long for this device.
+  const std::string longer = "d[\"0123456789abcdefghijklmnopqrstuvw\"]";
+  EXPECT_EQ(bench.exchange(request(longer, 5)), response('d', "[-1]", 0));
+  Bench<RomiSerial> full;
+  EXPECT_EQ(full.exchange(request(longer, 5)), response('d', "[-11]", 5));
+}
+
+TEST(BasicRomiSerial, AReplyLongerThanItsReplyCapacityIsAnsweredMinus31) {
+  fake_now = 0;
+  static std::string body;
+  const MessageHandler handlers[] = {{'q', 0, false, [](IRomiSerial* romi, int16_t*, const char*) {
+                                        romi->send(body.c_str());
+                                      }}};
+  Bench<BasicRomiSerial<4, 20>> bench;
+  bench.device.set_handlers(handlers, 1);
+  body = "[0,1234567]";  // 11 + 9 = 20 bytes: fits exactly
+  EXPECT_EQ(bench.exchange(request("q", 1)), response('q', body, 1));
+  EXPECT_EQ(bench.exchange(request("q", 1)), response('q', body, 1));  // cached whole
+  body += "9";
+  EXPECT_EQ(bench.exchange(request("q", 2)), response('q', "[-31]", 2));
+  EXPECT_EQ(bench.exchange(request("q", 2)), response('q', "[-31]", 2));  // remembered like a reply
+  EXPECT_EQ(bench.exchange("#q:xxxx\r\n"), response('q', "[-31]", 0));    // manual: not cached, same
+  EXPECT_EQ(bench.device.counters().replies_too_long, 2u);
+  EXPECT_EQ(bench.device.counters().executed, 3u);
+  // send_error's text is formed first, then held against the device's capacity.
+  const MessageHandler errors[] = {{'f', 0, false, fail}, {'x', 0, false, error_without_message}};
+  bench.device.set_handlers(errors, 2);
+  EXPECT_EQ(bench.exchange(request("f", 3)), response('f', "[-31]", 3));
+  EXPECT_EQ(bench.exchange(request("x", 4)), response('x', "[3]", 4));
+  EXPECT_EQ(bench.device.counters().replies_too_long, 3u);
+}
+
+TEST(BasicRomiSerial, DevicesOfDifferentSizesWorkSideBySide) {
+  fake_now = 0;
+  runs = 0;
+  Bench<RomiSerial> full;
+  Bench<BenchDevice> bench;
+  Bench<SmallestDevice> smallest;
+  Bench<BasicRomiSerial<8, 16>> small;
+  RomiSerialBase* const devices[] = {&full.device, &bench.device, &smallest.device, &small.device};
+  // The same request with the same id to each: every one runs it once and caches its own reply.
+  const std::string a = request("a", 9);
+  EXPECT_EQ(full.exchange(a), response('a', "[0]", 9));
+  EXPECT_EQ(bench.exchange(a), response('a', "[0]", 9));
+  EXPECT_EQ(smallest.exchange(a), response('a', "[0]", 9));
+  EXPECT_EQ(small.exchange(a), response('a', "[0]", 9));
+  EXPECT_EQ(runs, 4);
+  // What fits one device and not the next, interleaved: each answers from its own buffers.
+  const std::string c = request("c[100,200]", 10);  // 10 characters
+  EXPECT_EQ(small.exchange(c), response('c', "[-1]", 0));
+  EXPECT_EQ(smallest.exchange(c), response('c', "[-1]", 0));
+  EXPECT_EQ(bench.exchange(c), response('c', "[0]", 10));
+  EXPECT_EQ(full.exchange(c), response('c', "[0]", 10));
+  const std::string e = request("e", 11);  // a 16-byte reply
+  EXPECT_EQ(smallest.exchange(e), response('e', "[-31]", 11));
+  EXPECT_EQ(small.exchange(e), response('e', "[0,1,2]", 11));
+  EXPECT_EQ(bench.exchange(e), response('e', "[0,1,2]", 11));
+  // Re-sends: each device repeats its own last reply and none runs a handler again.
+  const int before = runs;
+  EXPECT_EQ(smallest.exchange(e), response('e', "[-31]", 11));
+  EXPECT_EQ(small.exchange(e), response('e', "[0,1,2]", 11));
+  EXPECT_EQ(bench.exchange(e), response('e', "[0,1,2]", 11));
+  EXPECT_EQ(full.exchange(c), response('c', "[0]", 10));
+  EXPECT_EQ(runs, before);
+  // One function serves every size (RomiSerialBase): the capacities are the device's.
+  const uint8_t payloads[] = {58, 37, 1, 8};
+  const uint8_t replies[] = {72, 16, 14, 16};
+  for (size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(devices[i]->payload_capacity(), payloads[i]) << i;
+    EXPECT_EQ(devices[i]->reply_capacity(), replies[i]) << i;
+    EXPECT_EQ(devices[i]->counters().link.duplicates, 1u) << i;  // its own re-send
+  }
+}
+
+TEST(BasicRomiSerial, TheSmallestDeviceTakesBareOpcodesAndAnswersEveryProtocolCode) {
+  fake_now = 0;
+  runs = 0;
+  Bench<SmallestDevice> bench;
+  EXPECT_EQ(bench.exchange("#a:xxxx\r\n"), "#a[0]:00e7\r\n");
+  EXPECT_EQ(bench.exchange(request("a", 1)), response('a', "[0]", 1));
+  EXPECT_EQ(bench.exchange(request("a", 1)), response('a', "[0]", 1));  // exactly once, 1-byte key
+  EXPECT_EQ(runs, 2);
+  EXPECT_EQ(bench.exchange(request("b", 2)), response('b', "[-20]", 2));  // silent handler
+  EXPECT_EQ(bench.exchange(request("z", 3)), response('z', "[-16]", 3));
+  EXPECT_EQ(bench.exchange(request("d", 4)), response('d', "[-18]", 4));
+  EXPECT_EQ(bench.exchange(request("%", 5)), response('_', "[-14]", 5));
+  EXPECT_EQ(bench.exchange(request("e", 6)), response('e', "[-31]", 6));   // "[0,1,2]" needs 16
+  EXPECT_EQ(bench.exchange(request("c[1,2]", 7)), response('c', "[-1]", 0));  // arguments: too long
+  EXPECT_EQ(bench.exchange("#!hello:xxxx\r\n"), response('_', "[-1]", 0));
+  EXPECT_EQ(bench.exchange("#!:xxxx\r\n"), response('_', "[-14]", 0));  // an empty log line fits
+  EXPECT_EQ(bench.exchange("#a:7b00\r\n"), response('a', "[-4]", 0x7b));
+  bench.exchange("#a");
+  fake_now = 1000;
+  EXPECT_EQ(bench.exchange(""), response('a', "[-30]", 0));
+  EXPECT_EQ(bench.exchange(request("g", 8)), "#!first:xxxx\r\n#!multi  line: yes:xxxx\r\n" + response('g', "[0]", 8));
+  EXPECT_EQ(bench.device.counters().link.oversize_frames, 2u);
+}
+
+// The request deadline and the cache's lifetime are checked when the clock moved since the last check,
+// which the device reads once per handle_input and once after each handler: a slow manual request may
+// outlive the cached reply of an earlier request, whose re-send must then run.
+TEST_F(RomiSerialTest, TheCacheExpiresDuringASlowManualRequest) {
+  fake_now = 0;
+  EXPECT_EQ(exchange(request("a", 5)), response('a', "[0]", 5));
+  fake_now = 1800;
+  EXPECT_EQ(exchange("#w:xxxx\r\n"), response('w', "[0]", 0));  // its handler answers at 2300
+  EXPECT_EQ(fake_now, 2300u);
+  EXPECT_EQ(exchange(request("a", 5)), response('a', "[0]", 5));  // same millisecond: no cache any more
+  EXPECT_EQ(runs, 3);
+  EXPECT_EQ(device.counters().link.duplicates, 0u);
+  // And in one batch: the re-send queued behind the slow manual request runs too.
+  fake_now = 4000;
+  EXPECT_EQ(exchange(request("a", 6)), response('a', "[0]", 6));
+  fake_now = 5800;
+  EXPECT_EQ(exchange("#w:xxxx\r\n" + request("a", 6)), response('w', "[0]", 0) + response('a', "[0]", 6));
+  EXPECT_EQ(runs, 6);
+}
+
+TEST(BasicRomiSerialFreshState, ASizedDeviceBuiltOverUsedMemoryStartsFresh) {
+  // Its buffers are not cleared (the device writes them before reading them): garbage there is harmless.
+  alignas(BenchDevice) unsigned char storage[sizeof(BenchDevice)];
+  std::memset(storage, 0xa5, sizeof storage);
+  StringStreams streams;
+  fake_now = 0;
+  runs = 0;
+  BenchDevice* device = new (storage) BenchDevice(streams, streams, kHandlers, kHandlerCount, fake_clock);
+  const std::string first = request("a", 0xa5);
+  streams.input.assign(first.begin(), first.end());
+  device->handle_input();
+  EXPECT_EQ(streams.take(), response('a', "[0]", 0xa5));
+  EXPECT_EQ(runs, 1);
+  device->~BenchDevice();
 }
 
 // --- ArrayText -----------------------------------------------------------------------------------------

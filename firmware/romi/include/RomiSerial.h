@@ -12,7 +12,8 @@
 ///
 /// The implementation is Tether's (tether/romi/device/romi_serial.hpp, which documents the wire
 /// behaviour and the differences from the reference). Tether additions reachable from here:
-/// `counters()` (diagnostics), `ArrayText` (reply text without printf), `UartStream` (Tether runtime).
+/// `counters()` (diagnostics), `ArrayText` (reply text without printf), `UartStream` (Tether runtime),
+/// `BasicRomiSerial<PayloadCapacity, ReplyCapacity>` (a device whose buffers fit its handlers: less RAM).
 #pragma once
 
 #include "IInputStream.h"
@@ -24,6 +25,10 @@
 namespace romiserial {
 /// See tether::romi::device::RomiSerial.
 using tether::romi::device::RomiSerial;
+/// See tether::romi::device::BasicRomiSerial (a device sized to its handlers).
+using tether::romi::device::BasicRomiSerial;
+/// See tether::romi::device::RomiSerialBase (a device of any size).
+using tether::romi::device::RomiSerialBase;
 /// See tether::romi::device::DeviceCounters.
 using tether::romi::device::DeviceCounters;
 /// See tether::romi::device::DeviceLinkCounters.

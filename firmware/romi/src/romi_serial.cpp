@@ -11,12 +11,22 @@ namespace tether {
 namespace romi {
 namespace device {
 
-static_assert(RomiSerial::kReplyCapacity >= 16, "room for every protocol error response");
-static_assert(kDeviceDecoderCapacity - 5 == kMaxDevicePayload, "the cache key holds every payload the decoder takes");
+static_assert(RomiSerial::kPayloadCapacity == kMaxDevicePayload && RomiSerial::kReplyCapacity == 72,
+              "RomiSerial keeps the spec's maxima");
+#if defined(__AVR__)
+// What romi_serial.hpp says a device takes ("Memory", "Sizing a device").
+static_assert(sizeof(RomiSerial) == 321 && sizeof(BasicRomiSerial<37, 16>) == 223 &&
+                  sizeof(BasicRomiSerial<1, 14>) == 2 * 1 + 14 + 133,
+              "a device is 2 x PayloadCapacity + ReplyCapacity + 133 bytes: update the header's figures");
+#endif
 
-constexpr uint8_t RomiSerial::kReplyCapacity;
-constexpr Duration RomiSerial::kRequestDeadlineMs;
-constexpr Duration RomiSerial::kReplyCacheLifetimeMs;
+constexpr uint8_t RomiSerialBase::kMaxPayloadCapacity;
+constexpr uint8_t RomiSerialBase::kMinPayloadCapacity;
+constexpr uint8_t RomiSerialBase::kMaxReplyCapacity;
+constexpr uint8_t RomiSerialBase::kMinReplyCapacity;
+constexpr Duration RomiSerialBase::kRequestDeadlineMs;
+constexpr Duration RomiSerialBase::kReplyCacheLifetimeMs;
+constexpr uint8_t RomiSerialBase::kFrameMetadata;
 
 namespace {
 
@@ -24,25 +34,29 @@ ByteView text_view(const char* text) { return ByteView::from_chars(text, text ==
 
 }  // namespace
 
-RomiSerial::RomiSerial(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
-                       ClockFunction clock)
+RomiSerialBase::RomiSerialBase(IInputStream& in, IOutputStream& out, const MessageHandler* handlers, uint8_t count,
+                               ClockFunction clock, uint8_t* buffers, uint8_t payload_capacity,
+                               uint8_t reply_capacity)
     : RomiSerialState() {  // all zero (see there)
   in_ = &in;
   out_ = &out;
   handlers_ = handlers;
   handler_count_ = count;
   clock_ = clock;
+  // The buffers: the request frame (payload and metadata), then the reply, then the cache's key.
+  decoder_.use_buffer(buffers, static_cast<uint8_t>(payload_capacity + kFrameMetadata));
+  reply_capacity_ = reply_capacity;
   decoder_.count_into(counters_.link);
-  opcode_ = '_';
 }
 
-void RomiSerial::set_handlers(const MessageHandler* handlers, uint8_t count) {
+void RomiSerialBase::set_handlers(const MessageHandler* handlers, uint8_t count) {
   handlers_ = handlers;
   handler_count_ = count;
-  prepared_ = false;  // a frame awaiting its '\n' looks its handler up again
+  // A frame awaiting its '\n' was prepared with the old table: it is looked up in the new one.
+  if (decoder_.awaiting_end()) prepare(decoder_.frame());
 }
 
-inline void RomiSerial::receive_special(uint8_t byte) {
+inline void RomiSerialBase::receive_special(uint8_t byte) {
   if (byte == '\n' && decoder_.awaiting_end()) {
     // This '\n' completes a frame: the response's '#' (see receive) leaves first, before the call
     // into the out-of-line path, as the first thing the turnaround does.
@@ -52,15 +66,16 @@ inline void RomiSerial::receive_special(uint8_t byte) {
   receive(byte);
 }
 
-void RomiSerial::handle_input() {
-  if (in_handler_) return;
+void RomiSerialBase::handle_input() {
+  if (call_ != Call::none) return;
   // One clock read per call and one per handler run, none per byte (the AVR's hot path): the bytes
   // waiting arrived before the read, and only a handler takes long enough to make `now` stale.
   // Timeouts are checked when `now` changes, not per byte: at one `now`, nothing a byte does makes a
-  // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply).
-  // Most calls come within the millisecond of the last check: then nothing can have expired.
-  now_ = clock_ != nullptr ? clock_() : 0;
-  if (now_ != timeouts_checked_at_) handle_timeouts(now_);
+  // deadline pass (a frame's deadline starts at `now`, the cache's lifetime after the reply). Every
+  // `now_` the device takes was checked (here, in handle_byte, or after a handler in dispatch), so
+  // a call within the same millisecond as the last one has nothing to check (and nothing to store).
+  const Millis now = clock_ != nullptr ? clock_() : 0;
+  if (now != now_) handle_timeouts(now);  // sets now_
   // Bytes come in batches (one virtual call each), handled one by one in arrival order. A byte inside
   // a frame's body is stored by the decoder's inline path and nothing else happens to it; only the
   // frame's '#', '\r' and '\n' (and bytes outside frames) take the out-of-line path.
@@ -84,30 +99,33 @@ void RomiSerial::handle_input() {
   }
 }
 
-void RomiSerial::handle_timeouts(Millis now) {
-  if (in_handler_) return;
-  timeouts_checked_at_ = now;
+void RomiSerialBase::handle_timeouts(Millis now) {
+  if (call_ != Call::none) return;
+  now_ = now;  // the bytes that follow arrived at `now` at the earliest
   // The cached reply outlives every re-send of its request (they all come within the host's call
   // budget); after that, the same id and bytes are a new session's command and must run.
-  if (cache_expiry_.expired(now)) cache_expiry_.disarm();  // disarmed: nothing cached
-  if (!frame_deadline_.expired(now)) return;
-  frame_deadline_.disarm();
+  expire_cache();
+  // The deadline of the request being received, if there is one (the frame's '#' armed it).
+  if (!decoder_.receiving() || !tick_reached(now, frame_deadline_)) return;
   add_one(counters_.link.partial_timeouts);
   // The request being received is too late: drop it, say so, wait for the next '#'.
   const char opcode = decoder_.partial_opcode();
   decoder_.reset();
-  send_code(opcode, 0, Error::controller_timeout);
+  send_code(opcode, 0, Error::controller_timeout, false);
 }
 
-void RomiSerial::handle_byte(uint8_t byte, Millis now) {
-  if (in_handler_) return;
-  now_ = now;
-  handle_timeouts(now);  // a byte arriving after the deadline does not extend it
+void RomiSerialBase::expire_cache() {
+  if (cache_expired(now_)) cached_request_size_ = 0;  // nothing cached
+}
+
+void RomiSerialBase::handle_byte(uint8_t byte, Millis now) {
+  if (call_ != Call::none) return;
+  handle_timeouts(now);  // sets now_; a byte arriving after the deadline does not extend it
   if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
-void RomiSerial::receive(uint8_t byte) {
-  if (byte == '#') frame_deadline_.arm(now_, kRequestDeadlineMs);  // a new '#' restarts the window
+void RomiSerialBase::receive(uint8_t byte) {
+  if (byte == '#') frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -115,7 +133,6 @@ void RomiSerial::receive(uint8_t byte) {
     if (byte == '\r' && decoder_.awaiting_end()) prepare(decoder_.frame());
     return;
   }
-  frame_deadline_.disarm();
   // A frame or an error: a response follows, and every frame the device sends (the response, or a
   // log line a handler sends before it) starts with '#'. That byte leaves now, before the lookup, the
   // parse checks and the handler: the turnaround is this path, not the handler's.
@@ -125,78 +142,83 @@ void RomiSerial::receive(uint8_t byte) {
   }
   const Frame& frame = decoder_.frame();
   if (status == DecodeStatus::error) {
-    send_code(frame.opcode, frame.has_id ? frame.id : 0, decoder_.error());
+    send_code(frame.opcode, frame.id, decoder_.error(), false);  // id 0 when none was read
     return;
   }
   handle_frame(frame);
 }
 
-void RomiSerial::prepare(const Frame& frame) {
-  prepared_ = !frame.log;
-  if (!prepared_) return;
-  parsed_ = parse_request(frame.payload, request_);
-  if (parsed_ != Error::no_error) return;
-  handler_ = nullptr;
-  for (uint8_t i = 0; i < handler_count_; ++i) {
-    if (handlers_[i].opcode == request_.opcode) {
-      handler_ = &handlers_[i];
-      break;
+void RomiSerialBase::prepare(const Frame& frame) {
+  if (frame.log) return;
+  Error parsed = parse_request(frame.payload, request_);
+  if (parsed == Error::no_error) {
+    const MessageHandler* handler = nullptr;
+    for (uint8_t i = 0; i < handler_count_; ++i) {
+      if (handlers_[i].opcode == request_.opcode) {
+        handler = &handlers_[i];
+        break;
+      }
     }
+    if (handler == nullptr || handler->callback == nullptr) {
+      parsed = Error::unknown_opcode;
+    } else if (request_.argument_count != handler->number_arguments) {
+      parsed = Error::bad_number_of_arguments;
+    } else if (request_.has_string != handler->requires_string) {
+      parsed = handler->requires_string ? Error::missing_string : Error::bad_string;
+    }
+    handler_ = handler;
   }
-  if (handler_ == nullptr || handler_->callback == nullptr) {
-    parsed_ = Error::unknown_opcode;
-  } else if (request_.argument_count != handler_->number_arguments) {
-    parsed_ = Error::bad_number_of_arguments;
-  } else if (request_.has_string != handler_->requires_string) {
-    parsed_ = handler_->requires_string ? Error::missing_string : Error::bad_string;
-  }
+  parsed_ = static_cast<int8_t>(parsed);
 }
 
-void RomiSerial::handle_frame(const Frame& frame) {
-  const uint8_t id = frame.has_id ? frame.id : 0;
+void RomiSerialBase::handle_frame(const Frame& frame) {
+  const uint8_t id = frame.id;  // 0 for a manual frame
   if (frame.log) {
     // "#!text": '!' is no opcode; the reference's message parser says the same.
-    send_code('_', id, Error::invalid_opcode);
+    send_code('_', id, Error::invalid_opcode, false);
     return;
   }
-  if (!prepared_) prepare(frame);  // a complete frame always passed its '\r'; kept for safety
-  prepared_ = false;
   if (!frame.manual && is_repeat(id, frame.payload)) {
-    // Exactly-once: the same response again (`reply_` holds it: nothing else writes there), the
-    // handler does not run.
+    // Exactly-once: the same response again (the reply buffer holds it: nothing else writes there),
+    // the handler does not run.
     add_one(counters_.link.duplicates);
     start_frame();
-    write(ByteView(reply_ + 1, reply_size_ - 1u));
+    // Its size, from the frame itself: its ':' is the first after the opcode (form_response turns a
+    // body's ':' into '-'), and 6 bytes follow it (id, CRC, "\r\n").
+    const uint8_t* const reply = this->reply();
+    uint8_t colon = 2;
+    while (reply[colon] != ':') ++colon;
+    write(ByteView(reply + 1, colon + 6u));
     return;
   }
   dispatch(frame);
 }
 
-bool RomiSerial::is_repeat(uint8_t id, ByteView payload) const {
+bool RomiSerialBase::is_repeat(uint8_t id, ByteView payload) {
   // The exact key: id first (a host's next call has another id, so the bytes are compared only for a
   // re-send or a new host session that starts with the same id), then every byte of the payload.
-  if (!cache_expiry_.armed() || id != cached_id_ || payload.size() != cached_request_size_) return false;
+  // (A cached request has an opcode at least: size 0 is an empty cache, which no payload matches.)
+  if (id != cached_id_ || payload.size() != cached_request_size_) return false;
+  const uint8_t* const key = cached_request();
   for (uint8_t i = 0; i < cached_request_size_; ++i) {
-    if (payload[i] != cached_request_[i]) return false;
+    if (payload[i] != key[i]) return false;
   }
   return true;
 }
 
-void RomiSerial::dispatch(const Frame& frame) {
-  const uint8_t id = frame.has_id ? frame.id : 0;
+void RomiSerialBase::dispatch(const Frame& frame) {
+  const uint8_t id = frame.id;  // 0 for a manual frame
   // prepare() parsed the frame and looked its handler up at the '\r' (a parsed request's opcode is
   // the frame's).
-  if (parsed_ != Error::no_error) {
-    send_code(frame.opcode, id, parsed_);
+  if (parsed_ != 0) {
+    send_code(frame.opcode, id, static_cast<Error>(parsed_), false);
     return;
   }
   const MessageHandler* handler = handler_;
 
-  opcode_ = request_.opcode;
-  id_ = id;
-  manual_ = frame.manual;
-  replied_ = false;
-  in_handler_ = true;
+  // While the handler runs (and until its reply is out), the request's opcode is request_'s and its id
+  // and manual flag the frame's: no byte reaches the decoder during the call.
+  call_ = Call::awaiting_reply;
   add_one(counters_.executed);
   // The string argument is terminated in place in the frame: its closing '"' is the handler's NUL, and
   // is put back after the call (the frame's bytes become the cache's key below).
@@ -210,70 +232,80 @@ void RomiSerial::dispatch(const Frame& frame) {
   }
   handler->callback(this, request_.arguments, string);
   if (quote != nullptr) *quote = '"';
-  in_handler_ = false;
-  if (!replied_) {
+  const bool replied = call_ == Call::replied;
+  call_ = Call::none;
+  if (!replied) {
     add_one(counters_.silent_handlers);
-    send_response(opcode_, id_, ByteView::from_literal("[-20]"));
+    send_code(request_.opcode, id, Error::no_reply, true);
   }
   // The handler may have taken a while: the cache's lifetime starts when the reply went out.
   if (clock_ != nullptr) now_ = clock_();
   // Remember what the request got, so a re-sent copy gets it again (manual requests have no id).
   if (!frame.manual) {
-    // The key is the request itself (the reply stays in reply_). A complete frame's payload always
-    // fits: the decoder holds at most kMaxDevicePayload characters before the ':'.
+    // The key is the request itself (the reply stays in the reply buffer). A complete frame's payload
+    // always fits: the decoder holds at most the payload capacity's characters before the ':'.
+    // The loop's bounds in locals: a store through `key` could alias the members they come from, which
+    // would then be loaded again for every byte.
+    const uint8_t size = static_cast<uint8_t>(frame.payload.size());
+    const uint8_t* const payload = frame.payload.data();
+    uint8_t* const key = cached_request();
     cached_id_ = id;
-    cached_request_size_ = static_cast<uint8_t>(frame.payload.size());
-    for (uint8_t i = 0; i < cached_request_size_; ++i) cached_request_[i] = frame.payload[i];
-    cache_expiry_.arm(now_, kReplyCacheLifetimeMs + 1);  // expired strictly after the lifetime
+    cached_request_size_ = size;
+    for (uint8_t i = 0; i < size; ++i) key[i] = payload[i];
+    cache_expires_at_ = now_ + kReplyCacheLifetimeMs + 1;  // expired strictly after the lifetime
+  } else {
+    // The new `now_` is checked like handle_input's (this request's own deadline ended with its frame):
+    // the cache kept through a manual request may have expired during its handler.
+    expire_cache();
   }
 }
 
 // The handlers' interface forwards to the one implementation (handler.hpp: not virtual, so unused
 // replies are not linked).
-void IRomiSerial::send_ok() { static_cast<RomiSerial*>(this)->send_ok(); }
-void IRomiSerial::send_error(int code, const char* message) { static_cast<RomiSerial*>(this)->send_error(code, message); }
-void IRomiSerial::send(const char* message) { static_cast<RomiSerial*>(this)->send(message); }
-void IRomiSerial::log(const char* text) { static_cast<RomiSerial*>(this)->log(text); }
+void IRomiSerial::send_ok() { static_cast<RomiSerialBase*>(this)->send_ok(); }
+void IRomiSerial::send_error(int code, const char* message) { static_cast<RomiSerialBase*>(this)->send_error(code, message); }
+void IRomiSerial::send(const char* message) { static_cast<RomiSerialBase*>(this)->send(message); }
+void IRomiSerial::log(const char* text) { static_cast<RomiSerialBase*>(this)->log(text); }
 
-void RomiSerial::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
+void RomiSerialBase::send_ok() { handler_reply(ByteView::from_literal("[0]")); }
 
-void RomiSerial::send_error(int code, const char* message) {
-  if (!in_handler_ || replied_) {
+void RomiSerialBase::send_error(int code, const char* message) {
+  if (call_ != Call::awaiting_reply) {
     add_one(counters_.extra_replies);
     return;
   }
-  ArrayText<kReplyCapacity> body;
+  ArrayText<kMaxReplyCapacity> body;
   body.add_int(code);
   if (message != nullptr) body.add_string(message);
   if (!body.ok()) {
-    // The body alone does not fit the buffer, so the frame would not either.
-    replied_ = true;
+    // The body alone does not fit the largest reply buffer, so the frame would not fit this one either.
+    call_ = Call::replied;
     add_one(counters_.replies_too_long);
-    send_response(opcode_, id_, ByteView::from_literal("[-31]"));
+    send_code(request_.opcode, decoder_.frame().id, Error::reply_too_long, true);
     return;
   }
   handler_reply(text_view(body.c_str()));
 }
 
-void RomiSerial::send(const char* message) {
+void RomiSerialBase::send(const char* message) {
   if (message == nullptr) {
-    if (in_handler_ && !replied_) return;  // no reply: the device answers -20 after the handler
+    if (call_ == Call::awaiting_reply) return;  // no reply: the device answers -20 after the handler
     add_one(counters_.extra_replies);
     return;
   }
   handler_reply(text_view(message));
 }
 
-void RomiSerial::handler_reply(ByteView body) {
-  if (!in_handler_ || replied_) {
+void RomiSerialBase::handler_reply(ByteView body) {
+  if (call_ != Call::awaiting_reply) {
     add_one(counters_.extra_replies);
     return;
   }
-  replied_ = true;
-  send_response(opcode_, id_, body);
+  call_ = Call::replied;
+  send_response(request_.opcode, decoder_.frame().id, body);
 }
 
-void RomiSerial::log(const char* text) {
+void RomiSerialBase::log(const char* text) {
   start_frame();
   out_->write('!');
   if (text != nullptr) {
@@ -282,36 +314,40 @@ void RomiSerial::log(const char* text) {
   write(ByteView::from_literal(":xxxx\r\n"));
 }
 
-void RomiSerial::send_response(char opcode, uint8_t id, ByteView body) {
-  if (body.size() + kResponseOverhead > sizeof(reply_)) {
+void RomiSerialBase::send_response(char opcode, uint8_t id, ByteView body) {
+  if (body.size() + kResponseOverhead > reply_capacity_) {
     add_one(counters_.replies_too_long);
-    body = ByteView::from_literal("[-31]");
+    send_code(opcode, id, Error::reply_too_long, true);  // fits every reply buffer
+    return;
   }
-  if (manual_) {
+  if (decoder_.frame().manual) {
     send_uncached(opcode, id, body);
     return;
   }
-  send_frame(opcode, id, body, reply_);  // a handler's reply to a request with an id: the cache's copy
+  // A handler's reply to a request with an id: the cache's copy.
+  send_frame(opcode, id, body, reply());
 }
 
-void RomiSerial::send_uncached(char opcode, uint8_t id, ByteView body) {
-  uint8_t frame[kReplyCapacity];  // manual requests are not cached: reply_ keeps the cached reply
+void RomiSerialBase::send_uncached(char opcode, uint8_t id, ByteView body) {
+  // Manual requests are not cached: the reply buffer keeps the cached reply. Every reply passed the
+  // device's capacity, at most kMaxReplyCapacity.
+  uint8_t frame[kMaxReplyCapacity];
   send_frame(opcode, id, body, frame);
 }
 
-void RomiSerial::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
+void RomiSerialBase::send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame) {
   // The frame's first byte leaves at once (if receive() has not sent it already): the UART sends it (a
   // byte time, ~1400 cycles at 115200) while the rest is formed, which then follows it.
   start_frame();
   const uint8_t size = form_response(opcode, body.data(), static_cast<uint8_t>(body.size()), id, frame);
-  if (frame == reply_) reply_size_ = size;
   write(ByteView(frame + 1, size - 1u));
 }
 
-void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
-  add_one(counters_.rejected);
+void RomiSerialBase::send_code(char opcode, uint8_t id, Error code, bool handler_reply) {
+  if (!handler_reply) add_one(counters_.rejected);
   // Protocol codes are -1..-99: "[-" one or two digits "]", formed here without the general number
-  // formatter (its 32-bit digit loop would be linked into every image for this alone).
+  // formatter (its 32-bit digit loop would be linked into every image for this alone), and not kept
+  // as literals either (avr-gcc copies string literals to RAM: "[-20]" and "[-31]" were 12 bytes).
   uint8_t magnitude = static_cast<uint8_t>(-static_cast<int16_t>(code));
   uint8_t body[5] = {'[', '-'};
   uint8_t size = 2;
@@ -325,10 +361,15 @@ void RomiSerial::send_code(char opcode, uint8_t id, Error code) {
   }
   body[size++] = static_cast<uint8_t>('0' + magnitude);
   body[size++] = ']';
-  send_uncached(opcode, id, ByteView(body, size));  // reply_ keeps the cached reply
+  const ByteView text(body, size);
+  if (handler_reply) {
+    send_response(opcode, id, text);  // remembered like any handler reply (unless manual)
+  } else {
+    send_uncached(opcode, id, text);  // the reply buffer keeps the cached reply
+  }
 }
 
-void RomiSerial::start_frame() {
+void RomiSerialBase::start_frame() {
   if (hash_sent_) {
     hash_sent_ = false;
   } else {
@@ -336,7 +377,7 @@ void RomiSerial::start_frame() {
   }
 }
 
-void RomiSerial::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }
+void RomiSerialBase::write(ByteView bytes) { out_->write_all(bytes.data(), static_cast<uint8_t>(bytes.size())); }
 
 }  // namespace device
 }  // namespace romi

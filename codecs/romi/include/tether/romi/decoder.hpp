@@ -4,7 +4,9 @@
 /// Feed it bytes as they arrive (`feed(byte)`, or `feed(bytes)` which stops at the first frame or error);
 /// each byte returns a `DecodeStatus` (core/decode_status.hpp); on `frame` or `error` read `frame()` or
 /// `error()` before the next feed. It never blocks and never allocates; `Capacity` bounds the frame
-/// (payload, ':' and the 4 metadata characters).
+/// (payload, ':' and the 4 metadata characters). `Decoder<kRunTimeCapacity>` takes its buffer and its
+/// capacity at run time instead (`use_buffer`), so decoders of different capacities share one copy of
+/// the code (a firmware's Romi devices of several sizes).
 ///
 /// Framing rules (the reference's, made precise):
 ///   1. Bytes before `#` are ignored (counted as a resync). `#` starts a frame anywhere, also inside one:
@@ -41,16 +43,53 @@ struct Frame {
   bool log = false;
   bool manual = false;  ///< `xxxx` metadata: no id, CRC not checked.
   bool has_id = false;  ///< `id` is valid (always for a complete non-manual frame).
-  uint8_t id = 0;       ///< The frame's id.
+  uint8_t id = 0;       ///< The frame's id; 0 when `has_id` is false.
   char opcode = '_';    ///< First payload character of a non-log frame, or '_' when there was none.
 };
 
-/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r`. `Counters` is where it
-/// counts: `LinkCounters`, or any struct with its fields frames_ok, crc_errors, framing_errors,
-/// oversize_frames and resyncs (a device keeps only the counters it uses: RAM is scarce there).
+/// The `Capacity` of a `Decoder` whose buffer is given at run time (`Decoder::use_buffer`).
+constexpr size_t kRunTimeCapacity = 0;
+
+namespace detail {
+
+/// A decoder's frame buffer: inside the decoder, `Capacity` bytes. Positions in 8 bits when they fit
+/// (the AVR handles a 16-bit index in two instructions a step).
+template <size_t Capacity, bool Small = (Capacity < 256)>
+struct DecoderBuffer {
+  using Index = size_t;
+  static constexpr Index capacity() { return Capacity; }
+  uint8_t* data() { return bytes_; }
+  const uint8_t* data() const { return bytes_; }
+  uint8_t bytes_[Capacity];
+};
+template <size_t Capacity>
+struct DecoderBuffer<Capacity, true> {
+  using Index = uint8_t;
+  static constexpr Index capacity() { return static_cast<Index>(Capacity); }
+  uint8_t* data() { return bytes_; }
+  const uint8_t* data() const { return bytes_; }
+  uint8_t bytes_[Capacity];
+};
+/// A buffer given at run time (`kRunTimeCapacity`): its address and capacity (at most 255).
+template <>
+struct DecoderBuffer<kRunTimeCapacity, true> {
+  using Index = uint8_t;
+  Index capacity() const { return capacity_; }
+  uint8_t* data() { return data_; }
+  const uint8_t* data() const { return data_; }
+  uint8_t* data_ = nullptr;
+  Index capacity_ = 0;
+};
+
+}  // namespace detail
+
+/// Envelope decoder for frames of at most `Capacity` bytes between `#` and `\r` (`kRunTimeCapacity`: as
+/// many as the buffer given to `use_buffer`). `Counters` is where it counts: `LinkCounters`, or any
+/// struct with its fields frames_ok, crc_errors, framing_errors, oversize_frames and resyncs (a device
+/// keeps only the counters it uses: RAM is scarce there).
 template <size_t Capacity, typename Counters = LinkCounters>
 class Decoder {
-  static_assert(Capacity >= 8, "a frame needs room for an opcode and its metadata");
+  static_assert(Capacity == kRunTimeCapacity || Capacity >= 8, "a frame needs room for an opcode and its metadata");
 
  public:
   /// Decoder counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames,
@@ -61,6 +100,18 @@ class Decoder {
   Decoder() = default;
   /// Counts into `counters` from now on; `counters` must outlive the decoder.
   void count_into(Counters& counters) { counters_ = &counters; }
+  /// `Decoder<kRunTimeCapacity>` only: frames go into `buffer`, `capacity` bytes (6 at least: an opcode,
+  /// ':' and the metadata), which must outlive the decoder. Call it before the first feed.
+  template <size_t C = Capacity>
+  void use_buffer(uint8_t* buffer, uint8_t capacity) {
+    static_assert(C == kRunTimeCapacity, "only a Decoder<kRunTimeCapacity> takes its buffer at run time");
+    buffer_.data_ = buffer;
+    buffer_.capacity_ = capacity;
+  }
+  /// The most bytes a frame may have between `#` and `\r`.
+  size_t capacity() const { return buffer_.capacity(); }
+  /// The frame buffer (`capacity()` bytes; with `kRunTimeCapacity`, the one given to `use_buffer`).
+  uint8_t* buffer() { return buffer_.data(); }
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte);
@@ -83,15 +134,18 @@ class Decoder {
   /// After `frame`: the frame; after `error`: what was parsed of it (see the file overview).
   const Frame& frame() const { return frame_; }
   /// After `error`: why the frame was dropped.
-  Error error() const { return error_; }
+  Error error() const { return static_cast<Error>(error_); }
   /// Forgets the frame in progress (e.g. its deadline passed); waits for the next `#`.
   void reset() {
     state_ = State::idle;
     size_ = 0;
     frame_ = Frame();
   }
-  /// True between a `#` and the end of that frame: what a partial-frame deadline watches.
+  /// True between a `#` and the end of that frame, also while the rest of a failed frame is skipped.
   bool in_frame() const { return state_ != State::idle; }
+  /// True between a `#` and the byte that completes the frame or fails it: a request is being received
+  /// (what a partial-frame deadline watches: nothing is pending before the `#` or after that byte).
+  bool receiving() const { return state_ >= State::body; }
   /// True after a frame's `\r` when its metadata checked out: only the `\n` is missing, and `frame()`
   /// already holds the frame, so a device can do the frame's work before its last byte arrives.
   bool awaiting_end() const { return state_ == State::expect_lf; }
@@ -99,17 +153,10 @@ class Decoder {
   char partial_opcode() const;
 
  private:
-  enum class State : uint8_t { idle, body, expect_lf, skip };
-  // Buffer positions in 8 bits when they fit: the AVR handles a 16-bit index in two instructions a step.
-  template <bool Small, typename = void>
-  struct IndexOf {
-    using type = size_t;
-  };
-  template <typename Unused>
-  struct IndexOf<true, Unused> {
-    using type = uint8_t;
-  };
-  using Index = typename IndexOf<(Capacity < 256)>::type;
+  // receiving(): body and expect_lf last.
+  enum class State : uint8_t { idle, skip, body, expect_lf };
+  using Buffer = detail::DecoderBuffer<Capacity>;
+  using Index = typename Buffer::Index;
 
   // Out of line (a GCC/Clang attribute), as feed_special.
   __attribute__((noinline)) DecodeStatus finish_line(uint8_t end);
@@ -117,8 +164,8 @@ class Decoder {
 
   Counters* counters_ = nullptr;
   State state_ = State::idle;
-  Error error_ = Error::no_error;
-  uint8_t buffer_[Capacity];
+  int8_t error_ = 0;  // an Error, -1..-7 (a byte: a device keeps the decoder in its RAM)
+  Buffer buffer_;
   Index size_ = 0;
   Index last_colon_ = 0;
   bool seen_colon_ = false;

@@ -22,12 +22,12 @@ __attribute__((always_inline)) inline bool Decoder<Capacity, Counters>::feed_bod
   // The common case, a byte inside a frame's body, stays small enough to inline into the caller's byte
   // loop without a stack frame; everything else (frame start and end, errors) is out of line.
   const Index size = size_;
-  if (state_ != State::body || byte == '#' || byte == '\r' || byte == '\n' || size == Capacity) return false;
+  if (state_ != State::body || byte == '#' || byte == '\r' || byte == '\n' || size == buffer_.capacity()) return false;
   if (byte == ':') {
     seen_colon_ = true;
     last_colon_ = size;
   }
-  buffer_[size] = byte;
+  buffer_.data()[size] = byte;
   size_ = static_cast<Index>(size + 1u);
   return true;
 }
@@ -36,17 +36,18 @@ template <size_t Capacity, typename Counters>
 __attribute__((always_inline)) inline uint8_t Decoder<Capacity, Counters>::feed_body_run(const uint8_t* bytes, uint8_t count) {
   if (state_ != State::body) return 0;
   const Index size = size_;
-  const Index room = static_cast<Index>(Capacity - size);  // a full buffer ends the run: feed_special says -1
+  const Index room = static_cast<Index>(buffer_.capacity() - size);  // a full buffer ends the run: feed_special says -1
   uint8_t left = count < room ? count : static_cast<uint8_t>(room);
   const uint8_t* in = bytes;
-  uint8_t* out = buffer_ + size;
+  uint8_t* const start = buffer_.data();
+  uint8_t* out = start + size;
   for (; left != 0; --left) {
     const uint8_t byte = *in;
     // One compare for the usual bytes: every special one is at most '#' (0x23).
     if (byte <= '#' && (byte == '#' || byte == '\r' || byte == '\n')) break;
     if (byte == ':') {
       seen_colon_ = true;
-      last_colon_ = static_cast<Index>(out - buffer_);
+      last_colon_ = static_cast<Index>(out - start);
     }
     *out++ = byte;
     ++in;
@@ -80,7 +81,7 @@ FeedResult Decoder<Capacity, Counters>::feed(ByteView bytes) {
 
 template <size_t Capacity, typename Counters>
 char Decoder<Capacity, Counters>::partial_opcode() const {
-  return in_frame() && size_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
+  return in_frame() && size_ > 0 && is_opcode(buffer_.data()[0]) ? static_cast<char>(buffer_.data()[0]) : '_';
 }
 
 template <size_t Capacity, typename Counters>
@@ -109,12 +110,12 @@ DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
       return DecodeStatus::more;
     case State::body:
       if (byte == '\r' || byte == '\n') return finish_line(byte);
-      if (size_ == Capacity) return fail(Error::envelope_too_long);
+      if (size_ == buffer_.capacity()) return fail(Error::envelope_too_long);
       if (byte == ':') {
         seen_colon_ = true;
         last_colon_ = size_;
       }
-      buffer_[size_] = byte;
+      buffer_.data()[size_] = byte;
       size_ = static_cast<Index>(size_ + 1u);
       return DecodeStatus::more;
     case State::expect_lf:
@@ -129,7 +130,8 @@ DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
 template <size_t Capacity, typename Counters>
 DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
   if (!seen_colon_) return fail(Error::missing_metadata);
-  const uint8_t* meta = buffer_ + last_colon_ + 1;
+  const uint8_t* const buffer = buffer_.data();
+  const uint8_t* meta = buffer + last_colon_ + 1;
   const Index meta_size = static_cast<Index>(size_ - last_colon_ - 1);
   if (meta_size > 0 && meta[0] == 'x') {
     // Manual frame: exactly "xxxx".
@@ -149,7 +151,14 @@ DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
     if (meta_size == 4) {
       Crc8Smbus crc;
       crc.update('#');
-      crc.update(ByteView(buffer_, last_colon_ + 3u));  // payload, ':' and the id
+#if defined(__AVR__)
+      // Payload, ':' and the id, counted down in the index's width: with a pointer to the end instead,
+      // avr-gcc keeps the buffer's address in the table's Z and moves it out and back for every byte.
+      const uint8_t* next = buffer;
+      for (Index left = static_cast<Index>(last_colon_ + 3u); left != 0; --left) crc.update(*next++);
+#else
+      crc.update(ByteView(buffer, last_colon_ + 3u));  // payload, ':' and the id
+#endif
       if (crc.value() != static_cast<uint8_t>((crc_high << 4) | crc_low)) {
         add_one(counters_->crc_errors);
         return fail(Error::crc_mismatch);
@@ -158,24 +167,24 @@ DecodeStatus Decoder<Capacity, Counters>::finish_line(uint8_t end) {
   }
   // A fifth metadata character, or '\n' without '\r': the frame did not end where it must.
   if (meta_size > 4 || end != '\r') return fail(Error::expected_end);
-  const bool is_log = last_colon_ > 0 && buffer_[0] == '!';
+  const bool is_log = last_colon_ > 0 && buffer[0] == '!';
   frame_.log = is_log;
-  frame_.payload = is_log ? ByteView(buffer_ + 1, last_colon_ - 1u) : ByteView(buffer_, last_colon_);
-  frame_.opcode = !is_log && last_colon_ > 0 && is_opcode(buffer_[0]) ? static_cast<char>(buffer_[0]) : '_';
+  frame_.payload = is_log ? ByteView(buffer + 1, last_colon_ - 1u) : ByteView(buffer, last_colon_);
+  frame_.opcode = !is_log && last_colon_ > 0 && is_opcode(buffer[0]) ? static_cast<char>(buffer[0]) : '_';
   state_ = State::expect_lf;
   return DecodeStatus::more;
 }
 
 template <size_t Capacity, typename Counters>
 DecodeStatus Decoder<Capacity, Counters>::fail(Error error) {
-  error_ = error;
+  error_ = static_cast<int8_t>(error);
   // What was parsed: the opcode character, whether it was a log line, and the id only when its two
   // digits were valid (has_id and id as finish_line left them; the frame's '#' cleared both), never a
   // manual flag. Field by field: assigning a fresh Frame() builds a temporary on the AVR's stack.
   frame_.payload = ByteView();
   frame_.manual = false;
   frame_.opcode = partial_opcode();
-  frame_.log = size_ > 0 && buffer_[0] == '!';
+  frame_.log = size_ > 0 && buffer_.data()[0] == '!';
   if (error == Error::envelope_too_long) {
     add_one(counters_->oversize_frames);
   } else if (error != Error::crc_mismatch) {

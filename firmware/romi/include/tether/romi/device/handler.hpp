@@ -32,17 +32,17 @@ namespace device {
 ///   5. The reply is cached: when the host re-sends the same request (same id, same bytes) because the
 ///      response was lost or damaged, the device sends the cached response again and does NOT run the
 ///      handler a second time (exactly-once). Side effects therefore happen once per request.
-///   6. A reply whose frame does not fit the device's reply buffer (`RomiSerial::kReplyCapacity`) is
-///      replaced by `[-31]` (reply too long).
+///   6. A reply whose frame does not fit the device's reply buffer (its `kReplyCapacity`: 72 bytes for
+///      `RomiSerial`, `ReplyCapacity` for a `BasicRomiSerial`) is replaced by `[-31]` (reply too long).
 ///   7. Handlers run inside `handle_input()`; they may take time (the host waits up to 1 s for the
 ///      response), but they must not call `handle_input()` themselves (such a call returns at once).
 ///   8. `send_*` or `log` called outside a handler: `log` sends its line (asynchronous logs are allowed by
 ///      the protocol); `send_*` are ignored and counted as extra replies.
-class RomiSerial;
+class RomiSerialBase;
 
-/// The methods are not virtual: `RomiSerial` is the only implementation (a subclass elsewhere does not
-/// compile: the constructor is private), so a call goes straight to it and an image links only the
-/// replies its handlers use (romi-bench, `send_ok` and `send` only: 1.3 KB less flash than a vtable,
+/// The methods are not virtual: the device (`RomiSerialBase`, the code of every `RomiSerial` and
+/// `BasicRomiSerial`) is the only implementation (a subclass elsewhere does not compile: the constructor
+/// is private), so a call goes straight to it and an image links only the replies its handlers use (romi-bench, `send_ok` and `send` only: 1.3 KB less flash than a vtable,
 /// which pulled in `send_error`'s number formatting and `log` for every image).
 class IRomiSerial {
  public:
@@ -62,7 +62,7 @@ class IRomiSerial {
   void log(const char* text);
 
  private:
-  friend class RomiSerial;
+  friend class RomiSerialBase;
   IRomiSerial() = default;
   ~IRomiSerial() = default;
 };
