@@ -1,6 +1,10 @@
 // tether.open_rover: a rover's JSON configuration opened into typed clients (devices::Rover).
 #include <pybind11/stl.h>
 
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/system_executor.hpp>
+
+#include <exception>
 #include <stdexcept>
 
 #include "binding.hpp"
@@ -104,11 +108,15 @@ another codec); clients stay usable until the rover is closed, then raise Closed
         holder->io = io_thread();
         try {
           devices::RoverConfig config = devices::load_config(path, where);
-          devices::Rover rover;
-          {
-            py::gil_scoped_release release;
-            rover = devices::open_rover(config, holder->io->executor());
-          }
+          // Interruptible: Ctrl-C raises at once. The opening cannot be stopped half-way: it goes on on its
+          // own thread, where the outcome also completes (the system executor), so a rover nobody waits
+          // for any more is closed there, never on the I/O thread its clients need.
+          auto [failure, rover] = wait_interruptibly<std::exception_ptr, devices::Rover>(
+              holder->io->executor(), [&](transports::CancellationSignal, auto handler) {
+                devices::async_open_rover(config, holder->io->executor(), devices::OpenOptions(),
+                                          boost::asio::bind_executor(boost::asio::system_executor(), std::move(handler)));
+              });
+          if (failure) std::rethrow_exception(failure);
           holder->rover = std::make_shared<devices::Rover>(std::move(rover));
         } catch (const devices::ConfigError& failure) {
           raise_config(failure);

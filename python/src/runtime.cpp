@@ -100,12 +100,13 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   Transport transport;
   transport.io = io_thread();
   transport.path = path;
-  boost::system::error_code error;
-  {
-    py::gil_scoped_release release;
-    transport.stream = transports::SerialPortStream::open(transport.io->executor(), path, options, error);
-  }
+  // Interruptible: Ctrl-C during the boot wait raises at once; the port, once opened, is closed again.
+  auto [error, stream] = wait_interruptibly<boost::system::error_code, std::shared_ptr<transports::SerialPortStream>>(
+      transport.io->executor(), [&](transports::CancellationSignal, auto handler) {
+        transports::SerialPortStream::async_open(transport.io->executor(), path, options, std::move(handler));
+      });
   if (error) raise_error(error, {}, path);
+  transport.stream = std::move(stream);
   return transport;
 }
 

@@ -1,10 +1,12 @@
 """Bad input gets a Python exception, never a crash or a hang: wrong types, out-of-range values, closed
 clients, ports that do not exist, a device that answers garbage."""
 
+import json
 import os
 import signal
 import socket
 import threading
+import time
 
 import pytest
 
@@ -120,6 +122,34 @@ def test_ctrl_c_ends_a_blocking_call_at_once(kind):
                 if thread.is_alive():
                     thread.join()
             assert client.is_open  # the interrupted call was cancelled; the client goes on
+
+
+@pytest.mark.parametrize("kind", ["boot_wait", "open_rover"])
+def test_ctrl_c_ends_an_opening_at_once(kind, tmp_path):
+    # A port whose boot wait is long, a proxy device that never answers its handshake: only the interrupt
+    # ends the opening early (it would succeed after 30 s, or fail after 30 s, and the test then fails).
+    master, slave = os.openpty()
+    port = os.ttyname(slave)
+    if kind == "boot_wait":
+        opening = lambda: tether.romi.Client(port, boot_wait=30)
+    else:
+        config = tmp_path / "rover.json"
+        config.write_text(json.dumps({"devices": [{
+            "name": "silent", "codec": "proxy",
+            "transport": {"serial": {"path": port, "boot_wait_ms": 0}},
+            "options": {"open_timeout_ms": 30000}}]}))
+        opening = lambda: tether.open_rover(config)
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    started = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            opening()
+        assert time.monotonic() - started < 10
+    finally:
+        timer.join()
+        os.close(slave)
+        os.close(master)
 
 
 def test_bad_clocks_and_boards(romi_board, held_board):
