@@ -506,6 +506,57 @@ TEST(ElcanoReader, AfterAnErrorItSkipsToTheNextHeader) {
   EXPECT_EQ(result.messages[0].type, Type::goal);
 }
 
+// A resync means bytes were skipped. An error found at the line end (a required field missing, a bad
+// generation D CRC, a `\n` inside an attribute, no room for the `\n`) consumed the whole line: the next
+// header starts a message without a resync (`tether monitor` printed "resync skipped bytes" there).
+TEST(ElcanoReader, AnErrorAtTheLineEndSkipsNothing) {
+  struct Case {
+    std::string broken;
+    Generation generation;
+    Error error;
+  };
+  const Case cases[] = {
+      {"D{s 1}\n", Generation::b, Error::inval_comb},       {"X{n 4}\n", Generation::b, Error::inval_comb},
+      {"D{s50}{a25}75\n", Generation::d, Error::bad_crc},    {"D{s50}{a25}\n", Generation::d, Error::bad_crc},
+      {"D{s 1\n", Generation::b, Error::bad_number},         {"D{\n", Generation::b, Error::bad_attrib},
+      {"D{s 12345}{a 1234}\n", Generation::b, Error::too_long},  // 16 bytes fill Decoder<16>: no room for \n
+  };
+  for (const Case& c : cases) {
+    const std::string next = c.generation == Generation::b ? "D{s 1}{a 2}\n" : "D{s50}{a25}74\n";
+    for (const bool by_span : {false, true}) {
+      LinkCounters counters;
+      Decoder<16> reader(c.generation, counters);
+      std::vector<Error> errors;
+      int messages = 0;
+      const std::string stream = c.broken + next;
+      if (by_span) {
+        ByteView rest = ByteView::from_chars(stream.data(), stream.size());
+        while (!rest.empty()) {
+          const FeedResult result = reader.feed(rest);
+          rest = rest.subview(result.consumed);
+          if (result.status == DecodeStatus::error) errors.push_back(reader.error());
+          if (result.status == DecodeStatus::frame) ++messages;
+        }
+      } else {
+        for (const char byte : stream) {
+          const DecodeStatus status = reader.feed(static_cast<uint8_t>(byte));
+          if (status == DecodeStatus::error) errors.push_back(reader.error());
+          if (status == DecodeStatus::frame) ++messages;
+        }
+      }
+      EXPECT_EQ(errors, (std::vector<Error>{c.error})) << c.broken;
+      EXPECT_EQ(messages, 1) << c.broken;
+      EXPECT_EQ(counters.resyncs, 0u) << c.broken << (by_span ? " fed as a span" : " fed by byte");
+    }
+  }
+  // Bytes really skipped still count: the rest of a line after an error inside it, a header inside a message.
+  LinkCounters counters;
+  Decoder<> reader(Generation::b, counters);
+  for (const char byte : std::string("D{s 1x}{a 2}\nD{s 1}{a 2}\nD{s 1D{s 1}{a 2}\n")) reader.feed(static_cast<uint8_t>(byte));
+  EXPECT_EQ(counters.resyncs, 2u);
+  EXPECT_EQ(counters.frames_ok, 2u);
+}
+
 TEST(ElcanoReader, BoundedAndReportsTooLong) {
   LinkCounters counters;
   Decoder<16> reader(Generation::b, counters);

@@ -226,6 +226,21 @@ TEST(TetherMonitor, ElcanoForwardsWhatItDoesNotCapture) {
   EXPECT_EQ(ring.read_until('\n'), "D{s9}{a1}\n");
 }
 
+// A message that ends without a required field is dropped at its line end; the next line is read from its
+// first byte, so no "resync" line (it used to appear at the next header although nothing was skipped).
+TEST(TetherMonitor, ElcanoErrorAtALineEndIsNotFollowedByAResync) {
+  FakePort ring;
+  ring.send("D{s 1}\nD{s 9}{a 1}\n");
+  const Outcome run = run_tether({"monitor", "--port", ring.path(), "--codec", "elcano", "--count", "1"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<std::string> expected = {
+      "error    inval_comb",
+      "forwarded D{s 9}{a 1}",
+  };
+  EXPECT_EQ(without_stamps(run.lines()), expected) << run.out;
+  EXPECT_EQ(ring.read_until('\n'), "D{s9}{a1}\n");
+}
+
 TEST(TetherMonitor, DurationEndsAQuietMonitor) {
   FakePort device;
   const Outcome run = run_tether({"monitor", "--port", device.path(), "--duration", "0.2"});

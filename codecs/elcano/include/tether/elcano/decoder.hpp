@@ -8,9 +8,10 @@
 /// Rules (the reference's, made precise):
 ///   1. Spaces, tabs, `\r` and NUL are ignored anywhere, also inside numbers.
 ///   2. A message starts at a header D, S, G or X; anything else where a header is expected is bad_type.
-///   3. After an error the decoder skips to the next header (or the end of the line). A header arriving
-///      inside a message (the sender reset mid-message) ends that message with an error and starts the
-///      next one: it is never swallowed.
+///   3. After an error the decoder skips to the next header (or the end of the line) and counts a resync
+///      there; an error found at the line end itself (inval_comb, a bad CRC, a `\n` inside an attribute)
+///      leaves nothing to skip and counts none. A header arriving inside a message (the sender reset
+///      mid-message) ends that message with an error and starts the next one: it is never swallowed.
 ///   4. Numbers: optional `-`, at least one decimal digit, int32; one that does not fit is bad_number (never
 ///      wrapped). 2147483647 is the "unset" marker: the field stays unset (inval_comb if required).
 ///   Where this differs from the reference reader, and why: docs/elcano.md, "Compatibility with the
@@ -188,6 +189,8 @@ class Decoder {
   // The number read so far, `negative` or not (`small` while it has at most 4 digits, then value_).
   int32_t value_of(uint8_t digits, uint16_t small, bool negative) const;
   DecodeStatus fail(Error error);
+  // fail() for an error found at the `\n` that ends the message: the next byte starts a line.
+  DecodeStatus fail_at_line_end(Error error);
   DecodeStatus finish();
   bool keep(uint8_t byte);
   bool store_value();

@@ -289,13 +289,20 @@ DecodeStatus Decoder<Capacity>::fail(Error error) {
 }
 
 template <size_t Capacity>
+DecodeStatus Decoder<Capacity>::fail_at_line_end(Error error) {
+  fail(error);
+  state_ = State::header;  // the line ended with the error: nothing is left to skip, no resync
+  return DecodeStatus::error;
+}
+
+template <size_t Capacity>
 DecodeStatus Decoder<Capacity>::finish() {
   if (generation_ == Generation::d) {
-    if (!trailer_digits_) return fail(Error::bad_crc);
-    if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail(Error::bad_crc);
+    if (!trailer_digits_) return fail_at_line_end(Error::bad_crc);
+    if (trailer_ != Crc8Smbus::compute(ByteView(buffer_, crc_end_))) return fail_at_line_end(Error::bad_crc);
   }
-  if (!detail::required_fields_set(message_)) return fail(Error::inval_comb);
-  if (!keep('\n')) return fail(Error::too_long);
+  if (!detail::required_fields_set(message_)) return fail_at_line_end(Error::inval_comb);
+  if (!keep('\n')) return fail_at_line_end(Error::too_long);
   ++counters_->frames_ok;
   state_ = State::header;
   return DecodeStatus::frame;
@@ -339,6 +346,8 @@ __attribute__((noinline)) DecodeStatus Decoder<Capacity>::feed_slow(uint8_t byte
     state_ = State::header;
     add_one(counters_->resyncs);
     step(byte);  // opens the message; cannot produce an event
+  } else if (status == DecodeStatus::error && byte == '\n') {
+    state_ = State::header;  // a line end that broke a message (`D{s1\n`) also ended it: nothing to skip
   }
   return status;
 }
