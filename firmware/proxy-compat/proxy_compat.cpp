@@ -2,7 +2,7 @@
 // rocketry hosts can drive it. UART0 at 57600 8N1; host to device `00 ‖ COBS(RocketryProto.ArduinoIn) ‖ 00`,
 // device to host `COBS(RocketryProto.ArduinoOut) ‖ 00`; no CRC, ids, acks or ping. Servos on any pin with
 // Arduino Servo timing (Timer1 interrupt), digital outputs, two DC motors (PWM on D5/D6), the HX711 load
-// cell on A4/A5, a state stream every 50 ms, Reset through the watchdog. Behaviour:
+// cell on D12 (DOUT) / D13 (PD_SCK), a state stream every 50 ms, Reset through the watchdog. Behaviour:
 // tether/proxy/device/compat_device.hpp.
 //
 // Buffers: the state stream sends up to ~9 bytes per initialised pin every 50 ms (18 pins, 2 motors and the

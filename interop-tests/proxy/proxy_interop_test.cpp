@@ -1,5 +1,6 @@
 // The proxy protocol end to end: Client against the real proxy / proxy-compat firmware on the
-// virtual Uno, checking the simulated pins (servo pulse on D9, level of D13), not only the messages.
+// virtual Uno, checking the simulated pins (servo pulses, output levels, the load cell's clock), not only the
+// messages.
 #include <gtest/gtest.h>
 
 #include <boost/asio/use_future.hpp>
@@ -646,15 +647,15 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
     return false;
   }));
   client.servo(9).init(90);
-  client.digital(13).init(false);
+  client.digital(8).init(false);  // not D13: the load cell's clock in compat mode
   client.servo(9).set(180);
-  client.digital(13).set(true);
+  client.digital(8).set(true);
   // The deployed Servo library's 544..2400 us: 180 degrees is 2400 us.
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2400.0) < 5.0; })) << servo_pulse_us(uno);
-  EXPECT_TRUE(wait_for([&] { return uno.digital_level(13); }));
+  EXPECT_TRUE(wait_for([&] { return uno.digital_level(8); }));
   // The deployed device streams its pin states; and a control of an uninitialised pin is an error.
   EXPECT_TRUE(wait_for([&] {
-    const auto state = client.pin_state(PinKind::digital, 13);
+    const auto state = client.pin_state(PinKind::digital, 8);
     return state && state->has_value && state->value == 1;
   }));
   client.digital(7).set(true);
@@ -730,6 +731,20 @@ RocketryProto::ArduinoIn servo_control(std::uint32_t pin, std::int32_t position)
   RocketryProto::ArduinoIn in;
   in.mutable_servocontrol()->set_pin(pin);
   in.mutable_servocontrol()->set_position(position);
+  return in;
+}
+
+RocketryProto::ArduinoIn digital_init(std::uint32_t pin, std::uint32_t safe_state) {
+  RocketryProto::ArduinoIn in;
+  in.mutable_digitalinit()->set_pin(pin);
+  in.mutable_digitalinit()->set_safestate(safe_state);
+  return in;
+}
+
+RocketryProto::ArduinoIn digital_control(std::uint32_t pin, bool activate) {
+  RocketryProto::ArduinoIn in;
+  in.mutable_digitalcontrol()->set_pin(pin);
+  in.mutable_digitalcontrol()->set_activate(activate);
   return in;
 }
 
@@ -998,23 +1013,82 @@ TEST(ProxyCompatPins, ADcMotorBelowFullPowerIsPwmOnD5) {
   EXPECT_FALSE(board.uno().digital_level(6));
 }
 
-TEST(ProxyCompatPins, LoadCellStateStreamsEveryFiftyMilliseconds) {
+std::size_t load_cell_states(const std::vector<RocketryProto::ArduinoOut>& messages) {
+  return count_if(messages, [](const auto& m) { return m.has_loadcellstate(); });
+}
+
+// The HX711 is where the deployed firmware really clocks and reads it: PD_SCK on D13 (PORTB bit 5), DOUT on
+// D12 (PINB bit 4), although its constants say A5/A4 (docs/proxy.md). A board wired for it has it there.
+TEST(ProxyCompatPins, TheLoadCellIsClockedOnD13AndReadOnD12) {
   CompatBoard board;
   board.received();
+  auto& uno = board.uno();
+  EXPECT_TRUE(uno.pin(13).output);  // PD_SCK, low from setup on: the HX711 runs
+  EXPECT_FALSE(uno.pin(12).output);  // DOUT: an input without pull-up
+  EXPECT_TRUE(uno.pin(12).floating);
+  const std::uint64_t clock_edges = uno.pulse_timing(13).edges;
   board.run(1000);
-  // The HX711's DOUT (A4) floats and reads low: a conversion of 0, every 50 ms (02 3a 01 00).
+  // DOUT floats and reads low: a conversion of 0, every 50 ms (02 3a 01 00).
   const auto messages = board.received();
-  const std::size_t load = count_if(messages, [](const auto& m) { return m.has_loadcellstate(); });
-  EXPECT_GE(load, 19u);
-  EXPECT_LE(load, 21u);
+  EXPECT_GE(load_cell_states(messages), 19u);
+  EXPECT_LE(load_cell_states(messages), 21u);
   for (const auto& m : messages) {
     if (m.has_loadcellstate()) {
       EXPECT_EQ(m.loadcellstate().value(), 0u);
     }
   }
-  // PD_SCK (A5) clocked 25 times per reading, and left low (high for 60 us would power the HX711 down).
-  EXPECT_GE(board.uno().pulse_timing(19).edges, 2u * 25u * 19u);
-  EXPECT_FALSE(board.uno().digital_level(19));
+  // PD_SCK clocked 25 times per reading, and left low (high for 60 us would power the HX711 down).
+  EXPECT_GE(uno.pulse_timing(13).edges - clock_edges, 2u * 25u * 19u);
+  EXPECT_FALSE(uno.digital_level(13));
+  // A4/A5, where the deployed firmware's constants point, are left alone: floating inputs that never moved.
+  for (const int pin : {18, 19}) {
+    EXPECT_TRUE(uno.pin(pin).floating) << pin;
+    EXPECT_EQ(uno.pulse_timing(pin).edges, 0u) << pin;
+  }
+  // The ready check reads D12: held high (converting), nothing is clocked and nothing sent.
+  uno.set_input_level(12, true);
+  board.run(60);
+  board.received();
+  const std::uint64_t held = uno.pulse_timing(13).edges;
+  board.run(500);
+  EXPECT_EQ(load_cell_states(board.received()), 0u);
+  EXPECT_EQ(uno.pulse_timing(13).edges, held);
+  // Released (ready), with A4 high (the deployed firmware's ready check): readings again.
+  uno.release_input(12);
+  uno.set_input_level(18, true);
+  board.run(500);
+  EXPECT_GE(load_cell_states(board.received()), 9u);
+  EXPECT_GT(uno.pulse_timing(13).edges, held);
+}
+
+// On the deployed firmware `DigitalInit 13` + `DigitalControl 13 1` left D13 low between the load cell's
+// bursts while DigitalState said activated. Here the load cell's pins take no init; A5 is an ordinary output.
+TEST(ProxyCompatPins, TheLoadCellsClockTakesNoInitAndA5IsAnOrdinaryOutput) {
+  CompatBoard board;
+  board.received();
+  board.send(digital_init(13, 1));
+  board.send(digital_control(13, true));
+  board.send(servo_init(12));
+  board.send(digital_init(19, 1));
+  board.run(120);
+  const auto messages = board.received();
+  std::vector<std::int32_t> refused;
+  for (const auto& m : messages) {
+    if (m.has_errormessage() && m.errormessage().type() == RocketryProto::PIN_NOT_INITIALIZED) {
+      refused.push_back(m.errormessage().data());
+    }
+  }
+  EXPECT_EQ(refused, (std::vector<std::int32_t>{13, 13, 12}));
+  EXPECT_EQ(count_if(messages, [](const auto& m) { return m.has_digitalstate() && m.digitalstate().pin() == 13; }),
+            0u);
+  EXPECT_EQ(count_if(messages, [](const auto& m) { return m.has_servostate(); }), 0u);
+  EXPECT_GT(count_if(messages, [](const auto& m) { return m.has_digitalstate() && m.digitalstate().pin() == 19 &&
+                                                          m.digitalstate().activated(); }),
+            0u);
+  EXPECT_TRUE(board.uno().pin(19).output);
+  EXPECT_TRUE(board.uno().digital_level(19));
+  EXPECT_FALSE(board.uno().digital_level(13));
+  EXPECT_GE(load_cell_states(messages), 2u);  // the load cell went on
 }
 
 TEST(ProxyCompatPins, StepperMotorControlIsAnsweredWithData0) {
@@ -1073,36 +1147,36 @@ TEST(ProxyCompatPins, EveryMessageKindRoundTripsThroughTheDescriptorsInFlash) {
   board.send(servo_control(11, -5));
   // DigitalInit{safeState 1}, then DigitalState high; DigitalControl{activate false}.
   RocketryProto::ArduinoIn digital_init;
-  digital_init.mutable_digitalinit()->set_pin(12);
+  digital_init.mutable_digitalinit()->set_pin(10);
   digital_init.mutable_digitalinit()->set_safestate(1);
   board.send(digital_init);
   board.run(60);
   auto messages = board.received();
   EXPECT_EQ(count_if(messages, event(RocketryProto::SERVO_INIT, 11)), 1u);
   EXPECT_EQ(count_if(messages, event(RocketryProto::SERVO_CONTROL, 11)), 1u);
-  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_INIT, 12)), 1u);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_INIT, 10)), 1u);
   EXPECT_GT(count_if(messages, [](const auto& m) {
               return m.has_servostate() && m.servostate().pin() == 11 && m.servostate().position() == -5;
             }),
             0u);
   EXPECT_GT(count_if(messages, [](const auto& m) {
-              return m.has_digitalstate() && m.digitalstate().pin() == 12 && m.digitalstate().activated();
+              return m.has_digitalstate() && m.digitalstate().pin() == 10 && m.digitalstate().activated();
             }),
             0u);
   EXPECT_NEAR(board.pulse_us(11), 544.0, 2.0);
-  EXPECT_TRUE(uno.digital_level(12));
+  EXPECT_TRUE(uno.digital_level(10));
   RocketryProto::ArduinoIn digital_control;
-  digital_control.mutable_digitalcontrol()->set_pin(12);
+  digital_control.mutable_digitalcontrol()->set_pin(10);
   digital_control.mutable_digitalcontrol()->set_activate(false);
   board.send(digital_control);
   board.run(60);
   messages = board.received();
-  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_CONTROL, 12)), 1u);
+  EXPECT_EQ(count_if(messages, event(RocketryProto::DIGITAL_CONTROL, 10)), 1u);
   EXPECT_GT(count_if(messages, [](const auto& m) {
-              return m.has_digitalstate() && m.digitalstate().pin() == 12 && !m.digitalstate().activated();
+              return m.has_digitalstate() && m.digitalstate().pin() == 10 && !m.digitalstate().activated();
             }),
             0u);
-  EXPECT_FALSE(uno.digital_level(12));
+  EXPECT_FALSE(uno.digital_level(10));
 
   // DCMotorInit with all six fields, DCMotorControl towards a target below the potentiometer: reverse
   // (direction -1), then the min limit switch stops it; DCMotorState's six fields along the way.
@@ -1179,7 +1253,9 @@ TEST(ProxyCompatPins, PeakStackUnderFullLoadLeavesAQuarterOfTheRamUnused) {
   auto& uno = board.uno();
   board.received();
   testing::paint_free_sram(uno);
-  for (std::uint32_t pin = 2; pin <= 13; ++pin) board.send(servo_init(pin));
+  // 12 servos: D2..D11, A4, A5 (D12/D13 are the load cell's).
+  const std::uint32_t servos[12] = {2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 19};
+  for (const std::uint32_t pin : servos) board.send(servo_init(pin));
   for (std::uint32_t pin = 0; pin <= 1; ++pin) {
     RocketryProto::ArduinoIn in;
     in.mutable_digitalinit()->set_pin(pin);
@@ -1204,7 +1280,7 @@ TEST(ProxyCompatPins, PeakStackUnderFullLoadLeavesAQuarterOfTheRamUnused) {
   board.run(20);
   std::size_t states = 0;
   for (int step = 0; step < 200; ++step) {  // 2 s
-    for (std::uint32_t pin = 2; pin <= 13; ++pin) board.send(servo_control(pin, (step * 7 + static_cast<int>(pin)) % 181));
+    for (const std::uint32_t pin : servos) board.send(servo_control(pin, (step * 7 + static_cast<int>(pin)) % 181));
     if (step % 10 == 0) {
       for (const auto& pins : motors) {
         RocketryProto::ArduinoIn in;
@@ -1213,7 +1289,7 @@ TEST(ProxyCompatPins, PeakStackUnderFullLoadLeavesAQuarterOfTheRamUnused) {
         in.mutable_dcmotorcontrol()->set_position(step % 20 == 0 ? 1023 : -1023);
         board.send(in);
       }
-      board.send(servo_control(18, 1));  // refused: A4 is the load cell's
+      board.send(servo_control(12, 1));  // refused: D12 is the load cell's
       board.send_payload(std::string("\x2a\x7f", 2));
       RocketryProto::ArduinoIn stepper;
       stepper.mutable_steppermotorcontrol()->set_speed(1);

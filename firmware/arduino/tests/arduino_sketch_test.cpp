@@ -159,14 +159,14 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
     return false;
   }));
   client.servo(9).init(90);
-  client.digital(13).init(false);
+  client.digital(8).init(false);  // not D13: the load cell's clock in compat mode
   client.servo(9).set(180);
-  client.digital(13).set(true);
+  client.digital(8).set(true);
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 2400.0) < 5.0; })) << servo_pulse_us(uno);
-  EXPECT_TRUE(wait_for([&] { return uno.digital_level(13); }));
+  EXPECT_TRUE(wait_for([&] { return uno.digital_level(8); }));
   // The state stream reports the pin; a control of an uninitialised pin is the deployed error.
   EXPECT_TRUE(wait_for([&] {
-    const auto state = client.pin_state(proxy::PinKind::digital, 13);
+    const auto state = client.pin_state(proxy::PinKind::digital, 8);
     return state && state->has_value && state->value == 1;
   }));
   client.digital(7).set(true);

@@ -231,9 +231,9 @@ TEST_F(CompatDeviceTest, InitOfAnInitialisedPinIsIgnoredSilently) {
 TEST_F(CompatDeviceTest, ServoOnAnyPinAndDigitalOutputsOnD1) {
   take();  // the boot announcement
   servo_init(3, 90);
-  servo_init(12, 90);
+  servo_init(18, 90);  // A4: an ordinary pin (the load cell is on D12/D13)
   digital_init(1, 0);  // the UART's TX: state kept and reported, the pin left to the UART
-  EXPECT_EQ(take(), (Lines{"event 1 3", "event 1 12", "event 3 1"}));
+  EXPECT_EQ(take(), (Lines{"event 1 3", "event 1 18", "event 3 1"}));
   servo_control(3, 120);
   digital_control(1, true);
   EXPECT_EQ(take(), (Lines{"event 2 3", "event 4 1"}));
@@ -241,34 +241,36 @@ TEST_F(CompatDeviceTest, ServoOnAnyPinAndDigitalOutputsOnD1) {
   EXPECT_FALSE(hw.pins[1].output);  // never touched
   EXPECT_TRUE(device.digital_level(1));
   device.send_states();
-  EXPECT_EQ(take(), (Lines{"servo 3 120", "servo 12 -1", "digital 1 1"}));
+  EXPECT_EQ(take(), (Lines{"servo 3 120", "servo 18 -1", "digital 1 1"}));
 }
 
 TEST_F(CompatDeviceTest, InitsTheBoardCannotDoAreErrorsAndChangeNothing) {
   take();
-  servo_init(18, 90);  // A4: the load cell's
-  digital_init(19, 1);  // A5: the load cell's
+  servo_init(12, 90);  // D12: the load cell's DOUT
+  digital_init(13, 1);  // D13: the load cell's PD_SCK
   digital_init(20, 1);  // no such pin
-  EXPECT_EQ(take(), (Lines{"error 2 18", "error 2 19", "error 2 20"}));
-  for (uint32_t pin = 2; pin < 14; ++pin) servo_init(pin, 90);  // 12 servos: every channel
-  take();
-  servo_init(14, 90);
-  EXPECT_EQ(take(), (Lines{"error 2 14"}));
-  EXPECT_FALSE(device.is_servo(14));
+  EXPECT_EQ(take(), (Lines{"error 2 12", "error 2 13", "error 2 20"}));
+  for (uint32_t pin = 2; pin < 18; ++pin) {
+    if (pin != 12 && pin != 13) servo_init(pin, 90);  // 14 inits, 12 servos: every channel
+  }
+  EXPECT_EQ(take().back(), "error 2 17");
+  servo_init(18, 90);
+  EXPECT_EQ(take(), (Lines{"error 2 18"}));
+  EXPECT_FALSE(device.is_servo(18));
 }
 
 TEST_F(CompatDeviceTest, StatesEveryFiftyMillisecondsForEachInitialisedOutput) {
-  digital_init(13, 1);
+  digital_init(8, 1);
   servo_init(10, 45);
   take();
   for (Millis now = 1; now < 50; ++now) device.poll(now);
   EXPECT_TRUE(take().empty());
   device.poll(50);
-  EXPECT_EQ(take(), (Lines{"servo 10 -1", "digital 13 1"}));
+  EXPECT_EQ(take(), (Lines{"servo 10 -1", "digital 8 1"}));
   for (Millis now = 51; now < 100; ++now) device.poll(now);
   EXPECT_TRUE(take().empty());
   device.poll(100);
-  EXPECT_EQ(take(), (Lines{"servo 10 -1", "digital 13 1"}));
+  EXPECT_EQ(take(), (Lines{"servo 10 -1", "digital 8 1"}));
   device.poll(1000);  // a stalled loop: one round, no burst
   EXPECT_EQ(take().size(), 2u);
   device.poll(1049);
@@ -326,10 +328,10 @@ TEST_F(CompatDeviceTest, DcMotorInitsAreKeyedByTheirPinsAndBounded) {
   take();  // the boot announcement
   dc_motor_init(5, 6);
   dc_motor_init(5, 6, 100);       // known: ignored silently
-  dc_motor_init(12, 13, 200, 3);  // potentiometer off A0..A5
+  dc_motor_init(3, 8, 200, 3);    // potentiometer off A0..A5
   dc_motor_init(7, 8, 1000);      // power above 255 drives as 255
   dc_motor_init(10, 11);          // a third motor
-  EXPECT_EQ(take(), (Lines{"event 5 5", "error 2 12", "event 5 7", "error 2 10"}));
+  EXPECT_EQ(take(), (Lines{"event 5 5", "error 2 3", "event 5 7", "error 2 10"}));
   hw.adc[0] = 10;
   device.poll(1);
   dc_motor_control(7, 8, 20);
@@ -349,10 +351,42 @@ TEST_F(CompatDeviceTest, StepperAndUnknownMessagesAnswerUnknownMessageWithData0)
 }
 
 TEST_F(CompatDeviceTest, FramesWithoutTheLeadingDelimiterToo) {
-  digital_init(13, 0);
+  digital_init(8, 0);
   take();
-  feed({0x07, 0x22, 0x04, 0x08, 0x0d, 0x10, 0x01, 0x00});
-  EXPECT_EQ(take(), (Lines{"event 4 13"}));
+  feed({0x07, 0x22, 0x04, 0x08, 0x08, 0x10, 0x01, 0x00});  // DigitalControl{8, true}
+  EXPECT_EQ(take(), (Lines{"event 4 8"}));
+}
+
+// The HX711 is where the deployed firmware clocks and reads it (D13 / D12, docs/proxy.md): no init may
+// take those pins, whatever its kind, and A4/A5 (where its constants point) are ordinary pins.
+TEST_F(CompatDeviceTest, TheLoadCellsPinsD12AndD13RefuseEveryInitAndA4A5AreOrdinaryPins) {
+  static_assert(kLoadCellDataPin == 12 && kLoadCellClockPin == 13, "the deployed board's wiring");
+  take();  // the boot announcement
+  servo_init(12, 90);
+  servo_init(13, 90);
+  digital_init(12, 0);
+  digital_init(13, 1);
+  dc_motor_init(13, 6);  // forward on the clock
+  dc_motor_init(5, 12);  // reverse on the data pin
+  In limits = RocketryProto_ArduinoIn_init_zero;
+  limits.which_data = RocketryProto_ArduinoIn_dcMotorInit_tag;
+  limits.data.dcMotorInit = {12, 13, 14, 5, 6, 200};  // limit switches on the load cell's pins
+  send(limits);
+  EXPECT_EQ(take(), (Lines{"error 2 12", "error 2 13", "error 2 12", "error 2 13", "error 2 13", "error 2 5",
+                           "error 2 5"}));
+  EXPECT_TRUE(hw.calls.empty());
+  EXPECT_FALSE(device.is_servo(13));
+  EXPECT_FALSE(device.is_digital(13));
+  digital_control(13, true);  // not a digital output: only the error
+  EXPECT_EQ(take(), (Lines{"error 2 13"}));
+  EXPECT_EQ(device.counters().refused, 8u);
+  digital_init(19, 1);           // A5 (a servo on A4: ServoOnAnyPinAndDigitalOutputsOnD1)
+  dc_motor_init(5, 6, 200, 18);  // the potentiometer on A4
+  EXPECT_EQ(take(), (Lines{"event 3 19", "event 5 5"}));
+  EXPECT_TRUE(hw.pins[19].output);
+  EXPECT_TRUE(hw.pins[19].level);
+  EXPECT_EQ(hw.calls[0], "init 19 1");
+  EXPECT_EQ(hw.calls[3], "input 18 1");
 }
 
 }  // namespace

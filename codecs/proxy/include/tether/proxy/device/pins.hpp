@@ -13,7 +13,7 @@
 ///
 /// Compatibility mode (`proxy-compat`): the deployed firmware's Arduino Servo library arithmetic,
 /// `arduino_servo_pulse_us`: 0..180 degrees -> 544..2400 us (90 -> 1472, 120 -> 1781, 45 -> 1008), any
-/// pin (interrupt-driven pulses), the HX711 load cell on A4 (DOUT) / A5 (PD_SCK).
+/// pin (interrupt-driven pulses), the HX711 load cell on D12 (DOUT) / D13 (PD_SCK).
 #pragma once
 
 #include <stdint.h>
@@ -89,10 +89,12 @@ constexpr uint16_t arduino_servo_pulse_us(int16_t value) {
           : (value > kArduinoServoMaxPulseUs ? kArduinoServoMaxPulseUs : value));
 }
 
-/// Compatibility mode: the HX711 load cell's data pin (A4) and clock pin (A5); no output may use them.
-constexpr uint8_t kLoadCellDataPin = 18;
-constexpr uint8_t kLoadCellClockPin = 19;  ///< See kLoadCellDataPin.
-/// Compatibility mode: true for a pin an output may use (0..19 but the load cell's A4/A5). D0/D1 are
+/// Compatibility mode: the HX711 load cell's data pin (D12, PB4) and clock pin (D13, PB5), where the
+/// deployed firmware reads and clocks it (its PINB/PORTB bits; its A4/A5 constants are not what it drives:
+/// docs/proxy.md, compatibility table). No servo, digital output or DC motor may use them.
+constexpr uint8_t kLoadCellDataPin = 12;
+constexpr uint8_t kLoadCellClockPin = 13;  ///< See kLoadCellDataPin.
+/// Compatibility mode: true for a pin an output may use (0..19 but the load cell's D12/D13). D0/D1 are
 /// accepted as the deployed firmware does; the UART keeps driving them (see compat_device.hpp).
 constexpr bool compat_output_pin(uint32_t pin) {
   return pin < kPinCount && pin != kLoadCellDataPin && pin != kLoadCellClockPin;

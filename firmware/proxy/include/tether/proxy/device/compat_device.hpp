@@ -10,7 +10,8 @@
 /// an empty frame, ignored; frames without it are accepted too. Bad COBS and frames over kMaxPayload (64)
 /// bytes are dropped and counted (`counters().link`), without a message (the deployed firmware has none).
 ///
-/// ## Behaviour (the deployed firmware's, as measured; "Tether:" marks where it differs)
+/// ## Behaviour (the deployed firmware's, uORocketry e5f01c9, measured on a simulated Uno unless an item says
+/// it is read from its source; "Tether:" marks where this device differs)
 ///   1. `begin` (end of setup) sends `EventMessage{RESET}` (`02 0a 01 00` on the wire).
 ///   2. ServoInit{pin, safePosition}: the pin becomes a servo at 1500 us (Arduino `Servo::attach`), its
 ///      reported position is -1 until the first control, safePosition is NOT applied (the deployed
@@ -43,11 +44,16 @@
 ///  10. Every kStatePeriodMs (50 ms) from `begin`: `ServoState{pin, position}` for each servo,
 ///      `DigitalState{pin, activated}` for each digital output (pin order), `DCMotorState{forward,
 ///      reverse, position, direction 1/0/-1, minLimitSwitch, maxLimitSwitch}` for each motor (init
-///      order), then `LoadCellState{value}` when the HX711 (A4/A5) has a conversion ready (`02 3a 01 00`
+///      order), then `LoadCellState{value}` when the HX711 (D12/D13) has a conversion ready (`02 3a 01 00`
 ///      for 0, what an unwired input reads in the simulator).
-/// Tether: inits it cannot do -- a pin that does not exist (20 and up), A4/A5 (the load cell's), a 13th
-/// servo, a third DC motor, a potentiometer off A0..A5 -- answer `ErrorMessage{PIN_NOT_INITIALIZED,
-/// data = pin}` (a DC motor: its forward pin) and change nothing; `motorPower` above 255 drives as 255.
+///  11. The HX711: the deployed firmware clocks PD_SCK on D13 and reads DOUT on D12 (its PORTB/PINB bits,
+///      read from its source; measured: 25-pulse bursts on D13 every period, A5 never toggles). Tether:
+///      the same pins (kLoadCellDataPin, kLoadCellClockPin), D13 an output from `begin` on, the ready
+///      check on D12 (the deployed firmware's reads A4), the 24-bit conversion sign-extended.
+/// Tether: inits it cannot do -- a pin that does not exist (20 and up), D12/D13 (the load cell's: a
+/// DigitalInit 13 too), a 13th servo, a third DC motor, a potentiometer off A0..A5 -- answer
+/// `ErrorMessage{PIN_NOT_INITIALIZED, data = pin}` (a DC motor: its forward pin) and change nothing;
+/// `motorPower` above 255 drives as 255.
 ///
 /// Memory (ATmega328P): about 160 bytes of static RAM with the decoder. No heap.
 #pragma once
@@ -94,7 +100,8 @@ class CompatDevice {
   CompatDevice(const CompatDevice&) = delete;
   CompatDevice& operator=(const CompatDevice&) = delete;
 
-  /// End of setup: prepares the load cell, sends EventMessage{RESET}, starts the state stream's clock.
+  /// End of setup: prepares the load cell (D12/D13), sends EventMessage{RESET}, starts the state stream's
+  /// clock.
   void begin(Millis now);
   /// Handles one received byte; a completed frame is handled at once.
   void handle_byte(uint8_t byte);

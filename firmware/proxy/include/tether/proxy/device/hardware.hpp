@@ -24,7 +24,7 @@
 ///   - DC motor outputs: `analog_write` as Arduino's analogWrite: PWM on D5/D6 (Timer0, fast PWM, clk/64,
 ///     976 Hz), 0 -> low and 255 -> high everywhere; other pins: low below 128, high from 128 (Timer1 is
 ///     the servos', Timer2 the millisecond clock, so D3/D9/D10/D11 have no PWM here).
-///   - Inputs: `input_init` / `input_read`, `analog_read` (A0..A5), the HX711 on A4/A5.
+///   - Inputs: `input_init` / `input_read`, `analog_read` (A0..A5), the HX711 on D12 (DOUT) / D13 (PD_SCK).
 /// D0/D1 belong to the UART: compat callers never pass them to these functions.
 #pragma once
 
@@ -58,7 +58,7 @@ bool input_read(uint8_t pin);
 uint16_t analog_read(uint8_t channel);
 /// Compat: makes `pin` (2..19) an output driven as Arduino's analogWrite(pin, value) does (see above).
 void analog_write(uint8_t pin, uint8_t value);
-/// Compat: prepares the HX711 on A4 (DOUT) / A5 (PD_SCK).
+/// Compat: prepares the HX711 on D12 (DOUT, an input) / D13 (PD_SCK, an output at low).
 void load_cell_begin();
 /// Compat: a ready HX711 conversion into `value` (24-bit two's complement sign-extended); false while
 /// it converts (DOUT high).
