@@ -748,6 +748,27 @@ RocketryProto::ArduinoIn digital_control(std::uint32_t pin, bool activate) {
   return in;
 }
 
+// A DC motor forward on D5, reverse on D6 (Timer0 PWM below full power), limit switches D2/D4, potentiometer A0.
+RocketryProto::ArduinoIn dc_motor_init(std::uint32_t power) {
+  RocketryProto::ArduinoIn in;
+  auto* motor = in.mutable_dcmotorinit();
+  motor->set_limitswitchminpin(2);
+  motor->set_limitswitchmaxpin(4);
+  motor->set_potentiometerpin(14);
+  motor->set_motorforwardpin(5);
+  motor->set_motorreversepin(6);
+  motor->set_motorpower(power);
+  return in;
+}
+
+RocketryProto::ArduinoIn dc_motor_control(std::int32_t position) {
+  RocketryProto::ArduinoIn in;
+  in.mutable_dcmotorcontrol()->set_pinforward(5);
+  in.mutable_dcmotorcontrol()->set_pinreverse(6);
+  in.mutable_dcmotorcontrol()->set_position(position);
+  return in;
+}
+
 template <typename Predicate>
 std::size_t count_if(const std::vector<RocketryProto::ArduinoOut>& messages, Predicate predicate) {
   return static_cast<std::size_t>(std::count_if(messages.begin(), messages.end(), predicate));
@@ -1089,6 +1110,144 @@ TEST(ProxyCompatPins, TheLoadCellsClockTakesNoInitAndA5IsAnOrdinaryOutput) {
   EXPECT_TRUE(board.uno().digital_level(19));
   EXPECT_FALSE(board.uno().digital_level(13));
   EXPECT_GE(load_cell_states(messages), 2u);  // the load cell went on
+}
+
+// DigitalInit drives safeState (the deployed firmware does too: digitalWrite after pinMode, D7 went high on
+// both). Tether writes the level before the direction, so a pin initialised high is never driven low on its
+// way there (the deployed order drives it low for a few microseconds); safeState 0 gives a low output.
+TEST(ProxyCompatPins, DigitalInitDrivesSafeStateWithoutALowGlitch) {
+  namespace reg = transports::atmega328p;
+  CompatBoard board;
+  auto& uno = board.uno();
+  board.received();
+  uno.watch_io(reg::PORTD);
+  uno.watch_io(reg::DDRD);
+  board.send(digital_init(7, 1));
+  board.send(digital_init(6, 0));
+  board.run(60);
+  EXPECT_TRUE(uno.pin(7).output);
+  EXPECT_TRUE(uno.digital_level(7));
+  EXPECT_TRUE(uno.pin(6).output);
+  EXPECT_FALSE(uno.digital_level(6));
+  // Every write to PORTD or DDRD, in order: D7 is never an output at low.
+  struct Write {
+    std::uint64_t cycle;
+    bool port;
+    bool d7;
+  };
+  std::vector<Write> writes;
+  for (const std::uint16_t address : {reg::PORTD, reg::DDRD}) {
+    ASSERT_EQ(uno.io_accesses_dropped(address), 0u);
+    for (const auto& access : uno.io_accesses(address)) {
+      if (access.write) writes.push_back({access.cycle, address == reg::PORTD, (access.value & 0x80) != 0});
+    }
+  }
+  std::sort(writes.begin(), writes.end(), [](const Write& a, const Write& b) { return a.cycle < b.cycle; });
+  bool port7 = false;
+  bool ddr7 = false;
+  bool became_output = false;
+  for (const Write& write : writes) {
+    (write.port ? port7 : ddr7) = write.d7;
+    EXPECT_FALSE(ddr7 && !port7) << "D7 an output at low at cycle " << write.cycle;
+    became_output = became_output || ddr7;
+  }
+  EXPECT_TRUE(became_output);
+  const auto states = board.received();
+  EXPECT_GT(count_if(states, [](const auto& m) { return m.has_digitalstate() && m.digitalstate().pin() == 7 &&
+                                                        m.digitalstate().activated(); }),
+            0u);
+  EXPECT_GT(count_if(states, [](const auto& m) { return m.has_digitalstate() && m.digitalstate().pin() == 6 &&
+                                                        !m.digitalstate().activated(); }),
+            0u);
+}
+
+// The state stream every 50.0 ms of board time, whatever it carries (the deployed firmware's: 56.0 ms idle,
+// 57.1 ms with a servo and a digital output). Each period is measured between the first UDR0 writes of two
+// bursts, exact cycles.
+TEST(ProxyCompatPins, TheStateStreamComesEveryFiftyMillisecondsWhateverItCarries) {
+  namespace reg = transports::atmega328p;
+  for (const bool loaded : {false, true}) {
+    SCOPED_TRACE(loaded ? "a servo and a digital output" : "idle");
+    CompatBoard board;
+    if (loaded) {
+      board.send(servo_init(9));
+      board.send(servo_control(9, 90));
+      board.send(digital_init(7, 1));
+      board.run(100);
+    }
+    board.received();
+    auto& uno = board.uno();
+    uno.watch_io(reg::UDR0);
+    board.run(1000);
+    const auto messages = board.received();
+    if (loaded) {
+      EXPECT_GE(count_if(messages, [](const auto& m) { return m.has_servostate(); }), 19u);
+      EXPECT_GE(count_if(messages, [](const auto& m) { return m.has_digitalstate(); }), 19u);
+    }
+    std::vector<std::uint64_t> bursts;  // the cycle of each burst's first byte
+    std::uint64_t last = 0;
+    for (const auto& access : uno.io_accesses(reg::UDR0)) {
+      if (!access.write) continue;
+      if (bursts.empty() || access.cycle - last > uno.to_cycles(std::chrono::milliseconds(5))) {
+        bursts.push_back(access.cycle);
+      }
+      last = access.cycle;
+    }
+    ASSERT_EQ(uno.io_accesses_dropped(reg::UDR0), 0u);
+    ASSERT_GE(bursts.size(), 19u);
+    double shortest = 1e9;
+    double longest = 0;
+    for (std::size_t i = 1; i < bursts.size(); ++i) {
+      const double period = microseconds(uno.to_duration(bursts[i] - bursts[i - 1])) / 1000.0;
+      shortest = std::min(shortest, period);
+      longest = std::max(longest, period);
+    }
+    std::printf("%s: %zu periods of %.4f..%.4f ms\n", loaded ? "loaded" : "idle", bursts.size() - 1, shortest,
+                longest);
+    EXPECT_NEAR(shortest, 50.0, 0.02);
+    EXPECT_NEAR(longest, 50.0, 0.02);
+  }
+}
+
+// Reset{} restarts through the watchdog: a real reset. Every pin the host had driven is a floating input
+// again and the servo and the motor's PWM stop; setup then drives only the load cell's clock. (The
+// deployed firmware jumps to address 0: its D7 stayed high and D9/D5/D6 stayed outputs. Why this one is
+// the safer: docs/proxy.md, compatibility table.)
+TEST(ProxyCompatPins, ResetLeavesEveryOutputAFloatingInputAndStopsThePulses) {
+  CompatBoard board;
+  auto& uno = board.uno();
+  board.send(servo_init(9));
+  board.send(servo_control(9, 90));
+  board.send(digital_init(7, 1));
+  board.send(dc_motor_init(64));
+  board.send(dc_motor_control(500));  // A0 reads 0: forward, PWM on D5
+  board.run(100);
+  ASSERT_TRUE(uno.pin(7).output);
+  ASSERT_TRUE(uno.digital_level(7));
+  ASSERT_NEAR(board.pulse_us(9), 1472.0, 2.0);
+  ASSERT_NEAR(microseconds(uno.pulse_timing(5).period), 1024.0, 1.0);
+  ASSERT_TRUE(uno.pin(6).output);
+  board.received();
+  RocketryProto::ArduinoIn reset;
+  reset.mutable_reset();
+  board.send(reset);
+  board.run(300);
+  EXPECT_EQ(uno.stats().firmware_watchdog_resets, 1u);
+  EXPECT_EQ(count_if(board.received(), [](const auto& m) { return m.has_eventmessage() &&
+                                                                  m.eventmessage().type() == RocketryProto::RESET; }),
+            1u);
+  for (int pin = 2; pin < 20; ++pin) {
+    if (pin == 13) continue;
+    EXPECT_FALSE(uno.pin(pin).output) << "pin " << pin;
+    EXPECT_TRUE(uno.pin(pin).floating) << "pin " << pin;
+  }
+  EXPECT_TRUE(uno.pin(13).output);  // the load cell's clock, low
+  EXPECT_FALSE(uno.digital_level(13));
+  const std::uint64_t servo_edges = uno.pulse_timing(9).edges;
+  const std::uint64_t motor_edges = uno.pulse_timing(5).edges;
+  board.run(100);
+  EXPECT_EQ(uno.pulse_timing(9).edges, servo_edges);
+  EXPECT_EQ(uno.pulse_timing(5).edges, motor_edges);
 }
 
 TEST(ProxyCompatPins, StepperMotorControlIsAnsweredWithData0) {

@@ -18,10 +18,11 @@
 ///      firmware stores it and never uses it); then `EventMessage{SERVO_INIT, pin}`. Any pin can carry
 ///      a servo (interrupt-driven pulses, up to 12 servos). A ServoInit of a pin that already is a servo
 ///      is ignored silently (nothing sent, nothing changes).
-///   3. DigitalInit{pin, safeState}: the pin becomes an output; then `EventMessage{DIGITAL_INIT, pin}`.
-///      Tether: the pin is driven to safeState (non-zero = high) at once. Again ignored silently for a pin
-///      already digital. D0/D1 are accepted (state kept and reported) but stay the UART's on the wire,
-///      as on the chip, where the USART overrides the port.
+///   3. DigitalInit{pin, safeState}: the pin becomes an output at safeState (non-zero = high; measured: D7
+///      went high on both) and reports it; then `EventMessage{DIGITAL_INIT, pin}`. Tether: the level is
+///      written before the direction (the deployed firmware's pinMode-then-digitalWrite drives the pin low
+///      in between). Again ignored silently for a pin already digital. D0/D1 are accepted (state kept and
+///      reported) but stay the UART's on the wire, as on the chip, where the USART overrides the port.
 ///   4. ServoControl{pin, position}: `EventMessage{SERVO_CONTROL, pin}`, then `Servo::write(position)`
 ///      semantics (pins.hpp `arduino_servo_pulse_us`: below 544 an angle clamped to 0..180 -> 544..2400
 ///      us, from 544 on microseconds up to 2400); the reported position is the value written (the
@@ -39,13 +40,17 @@
 ///      reads each motor's potentiometer and limit switches and stops a moving motor when the switch in
 ///      its direction closes (reads high) or its reading passed the target.
 ///   7. StepperMotorControl, and any other oneof case: `ErrorMessage{UNKNOWN_MESSAGE, data 0}`.
-///   8. Reset{}: the restart hook (flush the UART, watchdog reset), nothing sent first.
+///   8. Reset{}: the restart hook (flush the UART, watchdog reset), nothing sent first. Tether: a real
+///      reset, every pin a floating input until setup; the deployed firmware jumps to address 0, so its
+///      outputs stay driven (measured: D7 stayed high, D9/D5/D6 stayed outputs, the servo pulses stopped).
 ///   9. A payload that is not an ArduinoIn: `ErrorMessage{DECODE_ERROR}` (`02 12 01 00`).
-///  10. Every kStatePeriodMs (50 ms) from `begin`: `ServoState{pin, position}` for each servo,
-///      `DigitalState{pin, activated}` for each digital output (pin order), `DCMotorState{forward,
-///      reverse, position, direction 1/0/-1, minLimitSwitch, maxLimitSwitch}` for each motor (init
-///      order), then `LoadCellState{value}` when the HX711 (D12/D13) has a conversion ready (`02 3a 01 00`
-///      for 0, what an unwired input reads in the simulator).
+///  10. The state stream: `ServoState{pin, position}` for each servo, `DigitalState{pin, activated}` for
+///      each digital output (pin order), `DCMotorState{forward, reverse, position, direction 1/0/-1,
+///      minLimitSwitch, maxLimitSwitch}` for each motor (init order), then `LoadCellState{value}` when the
+///      HX711 has a conversion ready (`02 3a 01 00` for 0, what an unwired input reads in the simulator).
+///      Tether: every kStatePeriodMs (50.0 ms) from `begin`, whatever it sends. The deployed firmware
+///      sends when `millis() - last > 50`, `last` taken after its sends: measured 56.0 ms idle, 57.1 ms
+///      with a servo and a digital output.
 ///  11. The HX711: the deployed firmware clocks PD_SCK on D13 and reads DOUT on D12 (its PORTB/PINB bits,
 ///      read from its source; measured: 25-pulse bursts on D13 every period, A5 never toggles). Tether:
 ///      the same pins (kLoadCellDataPin, kLoadCellClockPin), D13 an output from `begin` on, the ready
@@ -85,7 +90,7 @@ struct CompatDeviceCounters {
 /// A deployed-variant proxy device. Not copyable; main loop only.
 class CompatDevice {
  public:
-  /// Period of the state stream.
+  /// Period of the state stream, exactly (the deployed firmware's is 56-57 ms: item 10 above).
   static constexpr Duration kStatePeriodMs = 50;
   /// Largest ArduinoIn payload accepted (its bound is 38 bytes).
   static constexpr size_t kMaxPayload = 64;
