@@ -40,40 +40,53 @@ void start_timer() {
   TCCR1A = 0;  // normal mode, compare outputs disconnected (the ISR drives the pins)
   TCCR1B = 0;
   g_current = g_count;  // between frames
-  g_frame_start = static_cast<uint16_t>(TCNT1 + 64u);
-  OCR1A = g_frame_start;
+  g_frame_start = static_cast<uint16_t>(TCNT1 + 64u + kLeadTicks);
+  OCR1A = static_cast<uint16_t>(g_frame_start - kLeadTicks);
   TIFR1 = _BV(OCF1A);   // drop a stale match
   TIMSK1 = static_cast<uint8_t>(TIMSK1 | _BV(OCIE1A));
   TCCR1B = _BV(CS11);   // clk/8: 0.5 us per tick
 }
 
 // One compare per edge pair: the running pulse (or the sentinel, between frames) ends and the next (or the
-// sentinel, after the last channel) starts, through the same instructions every time, so every edge comes
-// the same number of cycles after its compare and each width is its ticks (measured in simavr: within
-// 0.5 us, the ending write's few cycles).
+// sentinel, after the last channel) starts. The compare comes kLeadTicks before the edges' tick; the routine
+// computes both port values, waits for that tick on TCNT1 and stores them back to back (the ending edge,
+// then the starting one 3 cycles later as compiled), the same instructions every time. So an edge is late
+// only by the wait loop's phase against the tick (0..5 cycles) unless the routine itself was held off for
+// longer than the lead. Reading the ports before the wait is safe: interrupts stay off in this routine, so
+// nothing else writes them in between.
 inline void on_compare() {
   const uint8_t current = g_current;
   const uint8_t count = g_count;
-  const uint16_t compare = OCR1A;
+  const uint16_t edge = static_cast<uint16_t>(OCR1A + kLeadTicks);
   const uint8_t next = current < count ? static_cast<uint8_t>(current + 1u) : 0;
   const Channel& ending = g_channels[current];
   const Channel& starting = g_channels[next];
   volatile uint8_t* const ending_port = ending.port;
-  const uint8_t ending_mask = static_cast<uint8_t>(~ending.mask);
   volatile uint8_t* const starting_port = starting.port;
-  const uint8_t starting_mask = starting.mask;
-  *ending_port = static_cast<uint8_t>(*ending_port & ending_mask);
-  *starting_port = static_cast<uint8_t>(*starting_port | starting_mask);
-  if (current >= count) g_frame_start = compare;  // this compare started a new frame
+  const uint8_t ending_value = static_cast<uint8_t>(*ending_port & static_cast<uint8_t>(~ending.mask));
+  const uint8_t starting_value =
+      static_cast<uint8_t>((starting_port == ending_port ? ending_value : *starting_port) | starting.mask);
+  // Within the lead the distance fits the low byte, whose read makes the shortest loop; past the edges'
+  // tick (held off for longer than the lead) there is nothing to wait for.
+  if (static_cast<int16_t>(TCNT1 - edge) < 0) {
+    const uint8_t edge_low = static_cast<uint8_t>(edge);
+    while (static_cast<int8_t>(static_cast<uint8_t>(TCNT1L - edge_low)) < 0) {
+    }
+  }
+  *ending_port = ending_value;
+  *starting_port = starting_value;
+  if (current >= count) g_frame_start = edge;  // this compare started a new frame
+  uint16_t next_edge;
   if (next < count) {
-    OCR1A = static_cast<uint16_t>(compare + starting.ticks);
+    next_edge = static_cast<uint16_t>(edge + starting.ticks);
     g_current = next;
   } else {
-    const uint16_t used = static_cast<uint16_t>(compare - g_frame_start);
-    OCR1A = static_cast<uint16_t>(used + kMinGapTicks <= kFrameTicks ? g_frame_start + kFrameTicks
-                                                                      : compare + kMinGapTicks);
+    const uint16_t used = static_cast<uint16_t>(edge - g_frame_start);
+    next_edge = static_cast<uint16_t>(used + kMinGapTicks <= kFrameTicks ? g_frame_start + kFrameTicks
+                                                                          : edge + kMinGapTicks);
     g_current = count;  // between frames
   }
+  OCR1A = static_cast<uint16_t>(next_edge - kLeadTicks);
 }
 
 }  // namespace

@@ -6,8 +6,8 @@
 /// image links one of them.
 ///
 /// Timer1 runs in normal mode at clk/8 (0.5 us per tick) and is never reset: each interrupt ends the
-/// current channel's pulse, starts the next one's and sets OCR1A to the previous compare plus the new
-/// width, so widths do not drift with interrupt latency (each edge is late by the same few cycles). After
+/// current channel's pulse, starts the next one's and sets the next edges' tick to its own plus the new
+/// width (OCR1A that tick less kLeadTicks), so widths do not drift with interrupt latency. After
 /// the last channel the next frame starts 20 ms after the previous one (or at once when the pulses took
 /// longer: 12 channels at 2400 us need 28.8 ms, as in the Servo library).
 /// Contracts:
@@ -16,7 +16,12 @@
 ///      USART overrides the pin on the chip anyway).
 ///   2. `write` takes effect at the pin's next pulse; a pulse already running keeps its width.
 ///   3. Every function is safe with interrupts on (each runs in an atomic block).
-/// Jitter: an edge waits for any interrupt routine already running (UART, millisecond clock): a few us.
+/// Jitter: the compare interrupt comes kLeadTicks before the edges' tick and waits for that tick on TCNT1,
+/// so an interrupt routine already running when it comes (UART, millisecond clock) or an atomic block delays
+/// the routine, not the edges, as long as it ends within the lead. Left: the wait loop's phase against the
+/// tick (0..5 cycles) and the stores' spacing (the starting edge 3 cycles after the ending one): a pulse is
+/// -8..+2 cycles off its width, within one tick (measured in simavr, every edge against its compare:
+/// interop ProxyCompatPins.AServoPulseIsItsTicks*).
 #pragma once
 
 #include <stdint.h>
@@ -31,6 +36,18 @@ constexpr uint8_t kMaxChannels = 12;
 constexpr uint16_t kFrameTicks = 40000;
 /// Gap before the next frame when the pulses took the whole frame (ticks).
 constexpr uint16_t kMinGapTicks = 200;
+/// Timer1 ticks (0.5 us) from a compare interrupt to the edges it makes: 56 (28 us, 448 cycles). The
+/// routine needs ~135 cycles from its compare to its wait (entry, saving 20 registers, reading the two
+/// channels and ports). What can hold it off longer, worst paths from the image's disassembly: the UART's
+/// receive routine (~100 cycles with every error counter bumped, ~185 if they all carried through four bytes
+/// at once) then the millisecond clock's, which outranks this one (~45 cycles, ~80 carrying through four
+/// bytes): ~270 cycles at most, or an atomic block (the longest: a servo write searching 12 channels, ~150)
+/// then the clock's. 448 - 135 = 313 covers them all; measured on the simulated Uno with the UART busy, a
+/// DC motor's PWM, 12 servos: up to 78.
+/// The cost: the routine waits out the rest, ~20 us per compare (two compares a frame for one servo, 0.2 %
+/// of the CPU; 13 for twelve, 1.3 %). These figures are the proxy-compat image's; a TetherProxy sketch runs
+/// the Arduino core's interrupt routines instead (not measured).
+constexpr uint16_t kLeadTicks = 56;
 
 /// Timer1 ticks (0.5 us) for a pulse of `pulse_us`.
 constexpr uint16_t ticks_for(uint16_t pulse_us) { return static_cast<uint16_t>(2u * pulse_us); }
