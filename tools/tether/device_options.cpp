@@ -5,10 +5,13 @@
 #include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
+#include <mutex>
 #include <string_view>
 #include <system_error>
+#include <thread>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -288,6 +291,54 @@ void OpenDevice::close() {
   if (rover_) std::call_once(*close_once_, [this] { rover_->close(); });
 }
 
+namespace {
+
+// While alive, closes the stream an opening made as soon as `stopped()` holds (looked at every 50 ms on a
+// thread of its own): the opening then fails at once, with the link's error.
+class CloseOnStop {
+ public:
+  explicit CloseOnStop(std::function<bool()> stopped) {
+    if (!stopped) return;
+    watcher_ = std::thread([this, stopped = std::move(stopped)] {
+      std::unique_lock lock(mutex_);
+      while (!done_) {
+        if (stream_ && stopped()) {
+          stream_->close();  // thread-safe: runs on the stream's strand
+          return;
+        }
+        changed_.wait_for(lock, std::chrono::milliseconds(50));
+      }
+    });
+  }
+  ~CloseOnStop() {
+    if (!watcher_.joinable()) return;
+    {
+      const std::lock_guard lock(mutex_);
+      done_ = true;
+    }
+    changed_.notify_all();
+    watcher_.join();
+  }
+  CloseOnStop(const CloseOnStop&) = delete;
+  CloseOnStop& operator=(const CloseOnStop&) = delete;
+
+  /// The opening's `wrap_stream`: remembers the stream, changes nothing.
+  std::shared_ptr<transports::ByteStream> watch(std::shared_ptr<transports::ByteStream> stream) {
+    const std::lock_guard lock(mutex_);
+    stream_ = stream;
+    return stream;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool done_ = false;
+  std::shared_ptr<transports::ByteStream> stream_;
+  std::thread watcher_;
+};
+
+}  // namespace
+
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                       const ClientHooks& hooks, Progress& progress, std::string& error) {
   // The progress line goes away however opening ends (the caller prints the error or the first output).
@@ -309,6 +360,12 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
       progress.show(std::string(commands->readying));
     }
   };
+  CloseOnStop close_on_stop(hooks.stopped);
+  if (hooks.stopped) {
+    open_options.wrap_stream = [&close_on_stop](const devices::DeviceConfig&, std::shared_ptr<transports::ByteStream> stream) {
+      return close_on_stop.watch(std::move(stream));
+    };
+  }
   progress.show("opening " + devices::describe(target.config.transport) + "...");
   try {
     opened.rover_ = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, open_options));

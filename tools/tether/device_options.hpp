@@ -72,6 +72,9 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
 struct ClientHooks {
   /// Called with the new client, before it gets ready (proxy handshake and inits): attach event handlers.
   std::function<void(const devices::DeviceClient& client)> on_client;
+  /// Looked at every 50 ms while the device opens (a stop signal's flag): once it returns true the device's
+  /// link is closed, so the opening ends at once instead of waiting out a proxy handshake.
+  std::function<bool()> stopped;
 };
 
 /// An opened device with its codec's client: a rover of one device (`devices::open_rover`), so the command

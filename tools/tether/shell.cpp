@@ -336,6 +336,7 @@ int run_shell(int argc, char** argv) {
   hooks.on_client = [&](const devices::DeviceClient& client) {
     session = commands.open_shell(client, target->config, context);
   };
+  hooks.stopped = [] { return g_stop_signalled.load(); };
 
   // Caught from before the opening: a stop signal while the device opens ends the shell (exit 0) as later.
   g_stop_signalled = false;

@@ -121,7 +121,9 @@ int run_stats(int argc, char** argv) {
   const std::atomic<bool>& stop = catch_stop_signals();
   transports::IoThread io;
   Progress progress("stats");
-  auto device = open_device(*target, io.executor(), ClientHooks(), progress, error);
+  ClientHooks hooks;
+  hooks.stopped = [&stop] { return stop.load(); };
+  auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device && stop) return 0;
   if (!device) return command_text().fail(target->label + ": " + error);
   if (stop) {
