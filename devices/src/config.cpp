@@ -884,7 +884,10 @@ class StructureCheck final : public nlohmann::json_sax<json> {
     std::string text;
     for (const Frame& frame : frames_) {
       if (frame.array) {
-        text += "[" + std::to_string(frame.index) + "]";
+        // Appended piece by piece: g++ 12 at -O3 warns (-Wrestrict, a false positive) on "[" + to_string().
+        text += '[';
+        text += std::to_string(frame.index);
+        text += ']';
       } else {
         if (!text.empty()) text += ".";
         text += frame.key;
