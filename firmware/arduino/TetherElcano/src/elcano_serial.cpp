@@ -92,19 +92,11 @@ ParseStateError ParseState::update() {
   const tether::Millis now = millis();
   node_.set_capture(tether::elcano::TypeSet::from_bits(static_cast<uint8_t>(capture)));
   ParseStateError result = ParseStateError::unavailable;
-  while (input != nullptr && result == ParseStateError::unavailable) {
+  while (result == ParseStateError::unavailable) {
     if (received_next_ == received_end_) {
       // Every byte waiting (up to the chunk) in one go, then the node takes them as a run: a call per
-      // byte into the node was most of a forwarded byte's cost (issue 17).
-      int waiting = input->available();
-      if (waiting <= 0) break;
-      if (waiting > static_cast<int>(sizeof received_)) waiting = static_cast<int>(sizeof received_);
-      uint8_t count = 0;
-      while (count < waiting) {
-        const int byte = input->read();
-        if (byte < 0) break;
-        received_[count++] = static_cast<uint8_t>(byte);
-      }
+      // byte into the node was most of a forwarded byte's cost.
+      const uint8_t count = input.read_run(received_, sizeof received_);
       if (count == 0) break;
       received_next_ = 0;
       received_end_ = count;

@@ -15,7 +15,7 @@ void encode_and_send() {
   const tether::Result<size_t> size = tether::proxy::encode_frame(
       tether::ByteView(payload, sizeof payload), tether::proxy::Integrity::crc16, true,
       tether::MutableByteView(frame, sizeof frame));
-  if (size.ok()) tether::arduino::write_frame(static_cast<Stream*>(&Serial), tether::ByteView(frame, size.value()));
+  if (size.ok()) tether::arduino::write_frame_hardware(&Serial, tether::ByteView(frame, size.value()));  // proxy(Serial)'s sink
 }
 
 void setup() {
