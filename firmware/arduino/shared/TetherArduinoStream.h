@@ -5,20 +5,193 @@
 /// (firmware/arduino/assemble-library.cmake).
 ///
 /// Two kinds of port:
-///   - the core's `HardwareSerial` (`Serial`, `Serial1`..): its own member functions, called without
-///     virtual dispatch (`serial.HardwareSerial::read()`, the documented API with a qualified name), so
-///     the link-time optimiser the Arduino IDE runs (-flto) inlines them into the run's loop: one
-///     available() per run, then the ring's bytes at a few cycles each;
+///   - the core's `HardwareSerial` (`Serial`, `Serial1`..): its receive and transmit rings are reached the
+///     way the class offers them to derived classes (its protected members, through `SerialRings`), so a
+///     run is read with one look at the ring's indices and a copy (or in place: `rx_run` / `rx_consume`),
+///     and written with one index update and one interrupt enable, under the core's own rules (the same
+///     idle-UART shortcut, TXC handling and interrupt-safe publication as its write()). The core's
+///     read() and write() cost 27 and ~80 cycles a byte, called; these loops a few. A core whose
+///     HardwareSerial lacks the AVR core's rings (SERIAL_RX_BUFFER_SIZE / SERIAL_TX_BUFFER_SIZE up to 256,
+///     the UART0 bit names) gets the core's own functions called without virtual dispatch instead;
 ///   - any other `Stream` (SoftwareSerial, a USB CDC port, a sketch's own class): one virtual available()
 ///     per run, then a virtual read() per byte (all a `Stream` offers).
 #pragma once
 
 #include <Arduino.h>
 #include <stdint.h>
+#include <string.h>
+#include <util/atomic.h>
+
+#if defined(ARDUINO_ARCH_AVR) && defined(SERIAL_RX_BUFFER_SIZE) && defined(SERIAL_TX_BUFFER_SIZE) && \
+    SERIAL_RX_BUFFER_SIZE <= 256 && SERIAL_TX_BUFFER_SIZE <= 256 && defined(UDRE0) && defined(TXC0) && \
+    defined(U2X0) && defined(UDRIE0)
+#define TETHER_ARDUINO_SERIAL_RINGS 1
+#else
+#define TETHER_ARDUINO_SERIAL_RINGS 0
+#endif
 
 namespace tether {
 namespace arduino {
 
+// Small helpers on the hot paths are forced inline: -Os (what the Arduino IDE compiles with) would call
+// them, and a call's register saves cost more than their bodies.
+#define TETHER_ARDUINO_INLINE inline __attribute__((always_inline))
+
+#if TETHER_ARDUINO_SERIAL_RINGS
+/// The AVR core's HardwareSerial state, reached through its protected members (a derived class may name
+/// them; the pointers to members apply to any HardwareSerial). Never constructed.
+class SerialRings : public HardwareSerial {
+ public:
+  static unsigned char* rx_buffer(HardwareSerial& s) { return s.*(&SerialRings::_rx_buffer); }
+  static volatile rx_buffer_index_t& rx_head(HardwareSerial& s) { return s.*(&SerialRings::_rx_buffer_head); }
+  static volatile rx_buffer_index_t& rx_tail(HardwareSerial& s) { return s.*(&SerialRings::_rx_buffer_tail); }
+  static unsigned char* tx_buffer(HardwareSerial& s) { return s.*(&SerialRings::_tx_buffer); }
+  static volatile tx_buffer_index_t& tx_head(HardwareSerial& s) { return s.*(&SerialRings::_tx_buffer_head); }
+  static volatile tx_buffer_index_t& tx_tail(HardwareSerial& s) { return s.*(&SerialRings::_tx_buffer_tail); }
+  static volatile uint8_t* ucsra(HardwareSerial& s) { return s.*(&SerialRings::_ucsra); }
+  static volatile uint8_t* ucsrb(HardwareSerial& s) { return s.*(&SerialRings::_ucsrb); }
+  static volatile uint8_t* udr(HardwareSerial& s) { return s.*(&SerialRings::_udr); }
+  static bool& written(HardwareSerial& s) { return s.*(&SerialRings::_written); }
+};
+
+/// Copies `count` bytes (a byte loop, no call).
+TETHER_ARDUINO_INLINE void copy_bytes(uint8_t* to, const uint8_t* from, uint8_t count) {
+  for (; count != 0; --count) *to++ = *from++;
+}
+
+/// True when `serial`'s receive ring holds a byte: one comparison of its indices.
+TETHER_ARDUINO_INLINE bool rx_waiting(HardwareSerial& serial) { return SerialRings::rx_head(serial) != SerialRings::rx_tail(serial); }
+
+/// The oldest bytes waiting in `serial`'s receive ring that lie one after the other in memory (up to the
+/// newest or the ring's end): sets `data` to the first and returns how many (0: none). They stay in the
+/// ring (its interrupt only adds after them) until `rx_consume`.
+TETHER_ARDUINO_INLINE uint8_t rx_run(HardwareSerial& serial, const uint8_t*& data) {
+  const uint8_t tail = SerialRings::rx_tail(serial);
+  const uint8_t head = SerialRings::rx_head(serial);  // one read of the interrupt's index
+  data = SerialRings::rx_buffer(serial) + tail;
+  return static_cast<uint8_t>(head >= tail ? head - tail : SERIAL_RX_BUFFER_SIZE - tail);
+}
+
+/// Frees the `count` oldest bytes of `serial`'s receive ring (at most what `rx_run` returned).
+TETHER_ARDUINO_INLINE void rx_consume(HardwareSerial& serial, uint8_t count) {
+  unsigned int tail = static_cast<unsigned int>(SerialRings::rx_tail(serial)) + count;
+  if (tail >= SERIAL_RX_BUFFER_SIZE) tail -= SERIAL_RX_BUFFER_SIZE;
+  SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(tail);  // one store: the interrupt's room
+}
+
+/// Copies up to `capacity` waiting bytes (at least one) out of `serial`'s receive ring; returns how many.
+/// One byte loop with little setup: in a sketch's loop the ring mostly holds one byte (the loop comes round
+/// faster than the line delivers). Out of line: its callers' empty polls (`rx_waiting`) pay for none of its
+/// registers.
+__attribute__((noinline)) inline uint8_t read_ring(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
+  const unsigned char* const ring = SerialRings::rx_buffer(serial);
+  const uint8_t head = SerialRings::rx_head(serial);  // one read of the interrupt's index
+  const uint8_t tail = SerialRings::rx_tail(serial);
+  uint8_t waiting = static_cast<uint8_t>(head - tail);  // modulo 256: the ring's count when it has 256 bytes
+  if (SERIAL_RX_BUFFER_SIZE != 256 && head < tail) waiting = static_cast<uint8_t>(waiting + SERIAL_RX_BUFFER_SIZE);
+  const uint8_t count = waiting < capacity ? waiting : capacity;
+  const unsigned char* from = ring + tail;
+  const unsigned char* const ring_end = ring + SERIAL_RX_BUFFER_SIZE;
+  uint8_t left = count;
+  do {
+    *bytes++ = *from++;
+    if (from == ring_end) from = ring;
+  } while (--left != 0);
+  SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(from - ring);  // one store: the interrupt's room
+  return count;
+}
+
+/// Takes up to `capacity` bytes waiting in `serial`'s receive ring into `bytes`; returns how many. A lone
+/// byte, what a sketch's loop mostly finds (it comes round faster than the line delivers), is taken inline.
+TETHER_ARDUINO_INLINE uint8_t read_run(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
+  const uint8_t tail = SerialRings::rx_tail(serial);
+  const uint8_t head = SerialRings::rx_head(serial);  // one read of the interrupt's index
+  if (head == tail) return 0;
+  const uint8_t next = static_cast<uint8_t>(tail + 1u == SERIAL_RX_BUFFER_SIZE ? 0u : tail + 1u);
+  if (next != head) return read_ring(serial, bytes, capacity);
+  bytes[0] = SerialRings::rx_buffer(serial)[tail];
+  SerialRings::rx_tail(serial) = next;  // one store: the interrupt's room
+  return 1;
+}
+
+/// Writes `byte` straight into `serial`'s data register when the UART is idle and nothing is queued (the
+/// core's shortcut, in its order: the data register first, then TXC cleared, together); false otherwise.
+TETHER_ARDUINO_INLINE bool write_idle(HardwareSerial& serial, uint8_t byte) {
+  volatile uint8_t* const ucsra = SerialRings::ucsra(serial);
+  if (SerialRings::tx_head(serial) != SerialRings::tx_tail(serial) || (*ucsra & _BV(UDRE0)) == 0) return false;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    *SerialRings::udr(serial) = byte;
+#ifdef MPCM0
+    *ucsra = static_cast<uint8_t>((*ucsra & (_BV(U2X0) | _BV(MPCM0))) | _BV(TXC0));
+#else
+    *ucsra = static_cast<uint8_t>(*ucsra & (_BV(U2X0) | _BV(TXC0)));
+#endif
+  }
+  return true;
+}
+
+/// Queues the bytes [bytes, end) on `serial`'s transmit ring: as many as it has room for in one pass (at
+/// most two stretches: to the ring's end, then from its start), whose head is then published together with
+/// the interrupt's enable in one atomic step (the core's rule: the head never without the enable); the idle
+/// shortcut when the ring ran empty; the core's write() for a byte that finds the ring full (it waits, or
+/// with interrupts off polls the UART itself).
+__attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
+  unsigned char* const ring = SerialRings::tx_buffer(serial);
+  while (bytes != end) {
+    if (write_idle(serial, *bytes)) {
+      ++bytes;
+      continue;
+    }
+    const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
+    const uint8_t head = SerialRings::tx_head(serial);
+    unsigned int room = static_cast<unsigned int>(tail) - head - 1u;  // one slot stays free (full != empty)
+    if (tail <= head) room += SERIAL_TX_BUFFER_SIZE;
+    if (room == 0) {
+      serial.HardwareSerial::write(*bytes++);
+      continue;
+    }
+    const size_t left = static_cast<size_t>(end - bytes);
+    const uint8_t count = left < room ? static_cast<uint8_t>(left) : static_cast<uint8_t>(room);
+    const unsigned int to_end = SERIAL_TX_BUFFER_SIZE - static_cast<unsigned int>(head);
+    uint8_t next;
+    if (count < to_end) {
+      copy_bytes(ring + head, bytes, count);
+      next = static_cast<uint8_t>(head + count);
+    } else {
+      const uint8_t first = static_cast<uint8_t>(to_end);
+      copy_bytes(ring + head, bytes, first);
+      copy_bytes(ring, bytes + first, static_cast<uint8_t>(count - first));
+      next = static_cast<uint8_t>(count - first);
+    }
+    bytes += count;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      SerialRings::tx_head(serial) = next;
+      *SerialRings::ucsrb(serial) = static_cast<uint8_t>(*SerialRings::ucsrb(serial) | _BV(UDRIE0));
+    }
+  }
+}
+
+/// Queues `byte` on `serial`'s transmit ring (`write_ring`; out of line: the byte's address stays off the
+/// callers' frames).
+__attribute__((noinline)) inline void write_queued(HardwareSerial& serial, uint8_t byte) {
+  write_ring(serial, &byte, &byte + 1);
+}
+
+/// Sends `byte` on `serial` as its write() would: straight into the idle UART (a reply's first byte, the
+/// turnaround) or queued.
+TETHER_ARDUINO_INLINE void write_byte(HardwareSerial& serial, uint8_t byte) {
+  SerialRings::written(serial) = true;  // what flush() checks
+  if (!write_idle(serial, byte)) write_queued(serial, byte);
+}
+
+/// Queues `size` bytes on `serial` as its write() would each (see `write_idle`, `write_ring`).
+TETHER_ARDUINO_INLINE void write_all(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
+  SerialRings::written(serial) = true;  // what flush() checks
+  const uint8_t* const end = bytes + size;
+  if (bytes != end && write_idle(serial, *bytes)) ++bytes;
+  if (bytes != end) write_ring(serial, bytes, end);
+}
+#else
 /// Takes up to `capacity` bytes waiting in `serial`'s receive ring into `bytes`; returns how many.
 inline uint8_t read_run(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
   const int waiting = serial.HardwareSerial::available();
@@ -29,9 +202,19 @@ inline uint8_t read_run(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity
   return count;
 }
 
+/// Queues `size` bytes on `serial` (waiting while its TX ring is full), each through the core's own
+/// write(uint8_t) without virtual dispatch.
+inline void write_all(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
+  for (size_t i = 0; i != size; ++i) serial.HardwareSerial::write(bytes[i]);
+}
+
+/// Sends `byte` on `serial` through the core's own write(uint8_t).
+inline void write_byte(HardwareSerial& serial, uint8_t byte) { serial.HardwareSerial::write(byte); }
+#endif
+
 /// Takes up to `capacity` bytes waiting in `stream` into `bytes`; returns how many (a read() that finds
-/// nothing ends the run early).
-inline uint8_t read_run(Stream& stream, uint8_t* bytes, uint8_t capacity) {
+/// nothing ends the run early). Out of line: it keeps its registers off the HardwareSerial path.
+__attribute__((noinline)) inline uint8_t read_run(Stream& stream, uint8_t* bytes, uint8_t capacity) {
   const int waiting = stream.available();
   const uint8_t count = waiting < static_cast<int>(capacity) ? static_cast<uint8_t>(waiting) : capacity;
   for (uint8_t i = 0; i != count; ++i) {
@@ -43,22 +226,21 @@ inline uint8_t read_run(Stream& stream, uint8_t* bytes, uint8_t capacity) {
 }
 
 /// Reads a run from `hardware` when it is set (the fast path), else from `stream`.
-inline uint8_t read_run(HardwareSerial* hardware, Stream& stream, uint8_t* bytes, uint8_t capacity) {
+TETHER_ARDUINO_INLINE uint8_t read_run(HardwareSerial* hardware, Stream& stream, uint8_t* bytes, uint8_t capacity) {
   return hardware != nullptr ? read_run(*hardware, bytes, capacity) : read_run(stream, bytes, capacity);
 }
 
-/// Queues `size` bytes on `serial` (waiting while its TX ring is full), each through the core's own
-/// write(uint8_t) without virtual dispatch.
-inline void write_all(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
-  for (size_t i = 0; i != size; ++i) serial.HardwareSerial::write(bytes[i]);
+/// Writes `size` bytes to `stream` (Print's write(buffer, size)). Out of line, as `read_run(Stream&)`.
+__attribute__((noinline)) inline void write_all(Print& stream, const uint8_t* bytes, size_t size) {
+  stream.write(bytes, size);
 }
 
-/// Writes `size` bytes to `hardware` when it is set, else to `stream` (Print's write(buffer, size)).
-inline void write_all(HardwareSerial* hardware, Print& stream, const uint8_t* bytes, size_t size) {
+/// Writes `size` bytes to `hardware` when it is set, else to `stream`.
+TETHER_ARDUINO_INLINE void write_all(HardwareSerial* hardware, Print& stream, const uint8_t* bytes, size_t size) {
   if (hardware != nullptr) {
     write_all(*hardware, bytes, size);
   } else {
-    stream.write(bytes, size);
+    write_all(stream, bytes, size);
   }
 }
 

@@ -34,10 +34,24 @@ void release_timer1();
 /// The bytes waiting on the port (at most one RX buffer's worth per call, so a sender faster than the loop
 /// cannot keep it from polling), handed to `feed(ByteView)` in runs: `feed` returns how many of a run it
 /// used (a device stops at each completed frame) and is called again with the rest. `hardware` is the
-/// port when it is the core's HardwareSerial (its own functions, inlined), else null (`stream`'s virtual
-/// calls); see TetherArduinoStream.h.
+/// port when it is the core's HardwareSerial, whose ring is fed in place (no copy), else null (`stream`'s
+/// virtual calls, through a copy); see TetherArduinoStream.h.
 template <typename Feed>
 void drain(HardwareSerial* hardware, Stream& stream, Feed feed) {
+#if TETHER_ARDUINO_SERIAL_RINGS
+  if (hardware != nullptr) {
+    if (!rx_waiting(*hardware)) return;
+    for (uint8_t taken = 0; taken < 64;) {
+      const uint8_t* data;
+      const uint8_t run = rx_run(*hardware, data);
+      if (run == 0) return;
+      const uint8_t used = static_cast<uint8_t>(feed(ByteView(data, run)));
+      rx_consume(*hardware, used);
+      taken = static_cast<uint8_t>(taken + used);
+    }
+    return;
+  }
+#endif
   uint8_t run[32];
   for (uint8_t round = 0; round != 2; ++round) {
     const uint8_t count = read_run(hardware, stream, run, sizeof run);

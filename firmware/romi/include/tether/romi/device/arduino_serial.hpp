@@ -4,10 +4,10 @@
 /// this header declares nothing.
 ///
 /// Bytes go in runs, as over Tether's own UART (`UartStream`): `read_some` takes what the port holds with
-/// one available() and `write_all` a reply's bytes in one loop. On the core's `HardwareSerial` (`Serial`,
-/// which is what the constructor below sees for `ArduinoSerial serial(Serial)`) both call the core's own
-/// functions without virtual dispatch, which the IDE's link-time optimiser inlines; on any other `Stream`
-/// they make the `Stream`'s virtual calls (TetherArduinoStream.h).
+/// one look at the port and `write_all` a reply's bytes in one loop. On the core's `HardwareSerial`
+/// (`Serial`, which is what the constructor below sees for `ArduinoSerial serial(Serial)`) both work on the
+/// core's rings directly; on any other `Stream` they make the `Stream`'s virtual calls, one available()
+/// per run (TetherArduinoStream.h).
 ///
 ///     ArduinoSerial serial(Serial);            // at global scope: only stores the reference
 ///     RomiSerial romi(serial, serial, handlers, count);
@@ -46,7 +46,9 @@ class ArduinoSerial final : public IInputStream, public IOutputStream {
   /// Sends `c` (HardwareSerial waits while its TX buffer is full).
   bool write(char c) override {
     const uint8_t byte = static_cast<uint8_t>(c);
-    return (hardware_ != nullptr ? hardware_->HardwareSerial::write(byte) : serial_->write(byte)) == 1;
+    if (hardware_ == nullptr) return serial_->write(byte) == 1;
+    tether::arduino::write_byte(*hardware_, byte);  // a reply's '#': straight into the idle UART
+    return true;
   }
   /// Takes up to `capacity` waiting bytes: one available(), then the bytes it counted.
   uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
