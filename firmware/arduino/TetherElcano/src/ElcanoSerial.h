@@ -110,6 +110,8 @@ class InputPort {
   uint8_t read_run(uint8_t* bytes, uint8_t capacity) const {
     return stream_ == nullptr ? 0 : tether::arduino::read_run(hardware_, *stream_, bytes, capacity);
   }
+  /// The core's HardwareSerial when its receive ring can be read in place (TetherArduinoStream.h), else null.
+  HardwareSerial* ring() const { return TETHER_ARDUINO_SERIAL_RINGS ? hardware_ : nullptr; }
 
  private:
   Stream* stream_ = nullptr;
