@@ -116,6 +116,7 @@ TETHER_ARDUINO_INLINE uint8_t read_run(HardwareSerial& serial, uint8_t* bytes, u
 
 /// Writes `byte` straight into `serial`'s data register when the UART is idle and nothing is queued (the
 /// core's shortcut, in its order: the data register first, then TXC cleared, together); false otherwise.
+/// Once a byte is queued, the interrupt sends the rest: the ring never empties while bytes wait.
 TETHER_ARDUINO_INLINE bool write_idle(HardwareSerial& serial, uint8_t byte) {
   volatile uint8_t* const ucsra = SerialRings::ucsra(serial);
   if (SerialRings::tx_head(serial) != SerialRings::tx_tail(serial) || (*ucsra & _BV(UDRE0)) == 0) return false;
@@ -132,26 +133,22 @@ TETHER_ARDUINO_INLINE bool write_idle(HardwareSerial& serial, uint8_t byte) {
 
 /// Queues the bytes [bytes, end) on `serial`'s transmit ring: as many as it has room for in one pass (at
 /// most two stretches: to the ring's end, then from its start), whose head is then published together with
-/// the interrupt's enable in one atomic step (the core's rule: the head never without the enable); the idle
-/// shortcut when the ring ran empty; the core's write() for a byte that finds the ring full (it waits, or
-/// with interrupts off polls the UART itself).
+/// the interrupt's enable in one atomic step (the core's rule: the head never without the enable); the
+/// core's write() for a byte that finds the ring full (it waits, or with interrupts off polls the UART
+/// itself).
 __attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
   unsigned char* const ring = SerialRings::tx_buffer(serial);
-  while (bytes != end) {
-    if (write_idle(serial, *bytes)) {
-      ++bytes;
-      continue;
-    }
+  do {
     const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
     const uint8_t head = SerialRings::tx_head(serial);
-    unsigned int room = static_cast<unsigned int>(tail) - head - 1u;  // one slot stays free (full != empty)
-    if (tail <= head) room += SERIAL_TX_BUFFER_SIZE;
+    uint8_t room = static_cast<uint8_t>(static_cast<unsigned int>(tail) - head - 1u);  // one slot stays free
+    if (SERIAL_TX_BUFFER_SIZE != 256 && tail <= head) room = static_cast<uint8_t>(room + SERIAL_TX_BUFFER_SIZE);
     if (room == 0) {
       serial.HardwareSerial::write(*bytes++);
       continue;
     }
     const size_t left = static_cast<size_t>(end - bytes);
-    const uint8_t count = left < room ? static_cast<uint8_t>(left) : static_cast<uint8_t>(room);
+    const uint8_t count = left < room ? static_cast<uint8_t>(left) : room;
     const unsigned int to_end = SERIAL_TX_BUFFER_SIZE - static_cast<unsigned int>(head);
     uint8_t next;
     if (count < to_end) {
@@ -168,7 +165,7 @@ __attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const u
       SerialRings::tx_head(serial) = next;
       *SerialRings::ucsrb(serial) = static_cast<uint8_t>(*SerialRings::ucsrb(serial) | _BV(UDRIE0));
     }
-  }
+  } while (bytes != end);
 }
 
 /// Queues `byte` on `serial`'s transmit ring (`write_ring`; out of line: the byte's address stays off the
@@ -188,7 +185,7 @@ TETHER_ARDUINO_INLINE void write_byte(HardwareSerial& serial, uint8_t byte) {
 TETHER_ARDUINO_INLINE void write_all(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
   SerialRings::written(serial) = true;  // what flush() checks
   const uint8_t* const end = bytes + size;
-  if (bytes != end && write_idle(serial, *bytes)) ++bytes;
+  while (bytes != end && write_idle(serial, *bytes)) ++bytes;  // as long as the UART takes them at once
   if (bytes != end) write_ring(serial, bytes, end);
 }
 #else
