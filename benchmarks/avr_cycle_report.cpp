@@ -339,13 +339,39 @@ int measure_sketches(std::vector<SketchRow>& rows) {
       }
     }
     frame[corrupt] ^= 1;
+    const std::string bad_crc(reinterpret_cast<const char*>(frame), size);
     std::string out;
-    auto cycles = sketch.call(std::string(reinterpret_cast<const char*>(frame), size), 1, out);
+    auto cycles = sketch.call(bad_crc, 1, out);
     const char* decode = "TetherProxy (Arduino core): decode frame, 32 B payload (CRC-16 checked, dropped)";
     if (!cycles || !out.empty()) {
       fail(decode);
     } else {
       rows.push_back({"arduino.proxy.decode.32", decode, static_cast<unsigned>(size), *cycles});
+    }
+    {  // the same frame through the path of any other Stream (Serial passed as a Stream&)
+      BenchSketch stream_sketch("bench.ProxyStreamBench");
+      const char* what = "TetherProxy (Arduino core) over a plain Stream: decode frame, 32 B payload (dropped)";
+      const auto stream_cycles = stream_sketch.call(bad_crc, 1, out);
+      if (!stream_cycles || !out.empty()) {
+        fail(what);
+      } else {
+        rows.push_back({"arduino.proxy.decode.32.stream", what, static_cast<unsigned>(size), *stream_cycles});
+      }
+    }
+    {  // the deployed variant (no CRC): a 32-byte block announced as 47, so the frame is decoded to its
+       // delimiter and dropped there (framing error; nothing else runs)
+      BenchSketch compat_sketch("bench.ProxyCompatBench");
+      std::string compat(1, '\0');
+      compat += static_cast<char>(48);
+      for (std::size_t i = 0; i < sizeof payload; ++i) compat += static_cast<char>(payload[i]);
+      compat += '\0';
+      const char* what = "TetherProxyCompat (Arduino core): decode frame, 32 B payload (no CRC, dropped)";
+      const auto compat_cycles = compat_sketch.call(compat, 1, out);
+      if (!compat_cycles || !out.empty()) {
+        fail(what);
+      } else {
+        rows.push_back({"arduino.proxy_compat.decode.32", what, static_cast<unsigned>(compat.size()), *compat_cycles});
+      }
     }
     const char* encode = "TetherProxy (Arduino core): encode frame, 32 B payload, queued on Serial";
     cycles = sketch.call("", 255, out);
