@@ -54,9 +54,11 @@ class SerialRings : public HardwareSerial {
   static bool& written(HardwareSerial& s) { return s.*(&SerialRings::_written); }
 };
 
-/// Copies `count` bytes (a byte loop, no call).
+/// Copies `count` bytes, at least one (a byte loop, no call: 7 cycles a byte on the AVR).
 TETHER_ARDUINO_INLINE void copy_bytes(uint8_t* to, const uint8_t* from, uint8_t count) {
-  for (; count != 0; --count) *to++ = *from++;
+  do {
+    *to++ = *from++;
+  } while (--count != 0);
 }
 
 /// True when `serial`'s receive ring holds a byte: one comparison of its indices.
@@ -80,24 +82,35 @@ TETHER_ARDUINO_INLINE void rx_consume(HardwareSerial& serial, uint8_t count) {
 }
 
 /// Copies up to `capacity` waiting bytes (at least one) out of `serial`'s receive ring; returns how many.
-/// One byte loop with little setup: in a sketch's loop the ring mostly holds one byte (the loop comes round
-/// faster than the line delivers). Out of line: its callers' empty polls (`rx_waiting`) pay for none of its
+/// At most two stretches (to the ring's end, then from its start), each a plain byte copy; one tail store
+/// frees them for the interrupt. Out of line: its callers' empty polls (`rx_waiting`) pay for none of its
 /// registers.
 __attribute__((noinline)) inline uint8_t read_ring(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
   const unsigned char* const ring = SerialRings::rx_buffer(serial);
   const uint8_t head = SerialRings::rx_head(serial);  // one read of the interrupt's index
-  const uint8_t tail = SerialRings::rx_tail(serial);
-  uint8_t waiting = static_cast<uint8_t>(head - tail);  // modulo 256: the ring's count when it has 256 bytes
-  if (SERIAL_RX_BUFFER_SIZE != 256 && head < tail) waiting = static_cast<uint8_t>(waiting + SERIAL_RX_BUFFER_SIZE);
-  const uint8_t count = waiting < capacity ? waiting : capacity;
-  const unsigned char* from = ring + tail;
-  const unsigned char* const ring_end = ring + SERIAL_RX_BUFFER_SIZE;
-  uint8_t left = count;
-  do {
-    *bytes++ = *from++;
-    if (from == ring_end) from = ring;
-  } while (--left != 0);
-  SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(from - ring);  // one store: the interrupt's room
+  uint8_t tail = SerialRings::rx_tail(serial);
+  if (capacity == 0) return 0;
+  uint8_t count = 0;
+  if (head < tail) {  // wrapped: the stretch up to the ring's end first
+    const uint8_t last = static_cast<uint8_t>(SERIAL_RX_BUFFER_SIZE - 1 - tail);  // slots after tail's
+    if (last >= capacity) {  // the bytes wanted end before the ring's end
+      copy_bytes(bytes, ring + tail, capacity);
+      SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(tail + capacity);
+      return capacity;
+    }
+    count = static_cast<uint8_t>(last + 1u);
+    copy_bytes(bytes, ring + tail, count);
+    tail = 0;
+  }
+  const uint8_t room = static_cast<uint8_t>(capacity - count);
+  if (room != 0 && head != tail) {
+    const uint8_t waiting = static_cast<uint8_t>(head - tail);  // head > tail here
+    const uint8_t run = waiting < room ? waiting : room;
+    copy_bytes(bytes + count, ring + tail, run);
+    count = static_cast<uint8_t>(count + run);
+    tail = static_cast<uint8_t>(tail + run);
+  }
+  SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(tail);  // one store: the interrupt's room
   return count;
 }
 
@@ -131,47 +144,68 @@ TETHER_ARDUINO_INLINE bool write_idle(HardwareSerial& serial, uint8_t byte) {
   return true;
 }
 
-/// Queues the bytes [bytes, end) on `serial`'s transmit ring: as many as it has room for in one pass (at
-/// most two stretches: to the ring's end, then from its start), whose head is then published together with
-/// the interrupt's enable in one atomic step (the core's rule: the head never without the enable); the
-/// core's write() for a byte that finds the ring full (it waits, or with interrupts off polls the UART
-/// itself).
-__attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
-  unsigned char* const ring = SerialRings::tx_buffer(serial);
+/// Hands the bytes [bytes, end) to the core's write() one by one: it waits while the transmit ring is
+/// full (or, with interrupts off, polls the UART itself). Out of line: the ring's fast path below makes no
+/// call, so it keeps its values in the registers a call may clobber and saves none.
+__attribute__((noinline)) inline void write_waiting(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
   do {
-    const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
-    const uint8_t head = SerialRings::tx_head(serial);
-    uint8_t room = static_cast<uint8_t>(static_cast<unsigned int>(tail) - head - 1u);  // one slot stays free
-    if (SERIAL_TX_BUFFER_SIZE != 256 && tail <= head) room = static_cast<uint8_t>(room + SERIAL_TX_BUFFER_SIZE);
-    if (room == 0) {
-      serial.HardwareSerial::write(*bytes++);
-      continue;
-    }
-    const size_t left = static_cast<size_t>(end - bytes);
-    const uint8_t count = left < room ? static_cast<uint8_t>(left) : room;
-    const unsigned int to_end = SERIAL_TX_BUFFER_SIZE - static_cast<unsigned int>(head);
-    uint8_t next;
-    if (count < to_end) {
-      copy_bytes(ring + head, bytes, count);
-      next = static_cast<uint8_t>(head + count);
-    } else {
-      const uint8_t first = static_cast<uint8_t>(to_end);
-      copy_bytes(ring + head, bytes, first);
-      copy_bytes(ring, bytes + first, static_cast<uint8_t>(count - first));
-      next = static_cast<uint8_t>(count - first);
-    }
-    bytes += count;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      SerialRings::tx_head(serial) = next;
-      *SerialRings::ucsrb(serial) = static_cast<uint8_t>(*SerialRings::ucsrb(serial) | _BV(UDRIE0));
-    }
+    serial.HardwareSerial::write(*bytes++);
   } while (bytes != end);
 }
 
-/// Queues `byte` on `serial`'s transmit ring (`write_ring`; out of line: the byte's address stays off the
-/// callers' frames).
+/// Publishes `head` as the transmit ring's new head together with the interrupt's enable, in one atomic
+/// step (the core's rule: the head never without the enable).
+TETHER_ARDUINO_INLINE void tx_publish(HardwareSerial& serial, uint8_t head) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    SerialRings::tx_head(serial) = head;
+    *SerialRings::ucsrb(serial) = static_cast<uint8_t>(*SerialRings::ucsrb(serial) | _BV(UDRIE0));
+  }
+}
+
+/// Queues the bytes [bytes, end) on `serial`'s transmit ring: as many as it has room for in one pass (at
+/// most two stretches: to the ring's end, then from its start), whose head is then published with the
+/// interrupt's enable (`tx_publish`); what finds the ring full goes through `write_waiting`.
+__attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
+  const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
+  const uint8_t head = SerialRings::tx_head(serial);
+  uint8_t room = static_cast<uint8_t>(static_cast<unsigned int>(tail) - head - 1u);  // one slot stays free
+  if (SERIAL_TX_BUFFER_SIZE != 256 && tail <= head) room = static_cast<uint8_t>(room + SERIAL_TX_BUFFER_SIZE);
+  if (room != 0) {
+    const uint16_t left = static_cast<uint16_t>(end - bytes);
+    uint8_t count = left < room ? static_cast<uint8_t>(left) : room;
+    unsigned char* const ring = SerialRings::tx_buffer(serial);
+    uint8_t* to = ring + head;
+    const uint8_t last = static_cast<uint8_t>(SERIAL_TX_BUFFER_SIZE - 1 - head);  // slots after head's
+    uint8_t next;
+    if (count <= last) {
+      next = static_cast<uint8_t>(head + count);
+    } else {  // to the ring's end, then from its start
+      const uint8_t first = static_cast<uint8_t>(last + 1u);
+      copy_bytes(to, bytes, first);
+      bytes += first;
+      to = ring;
+      count = static_cast<uint8_t>(count - first);
+      next = count;
+    }
+    if (count != 0) {
+      copy_bytes(to, bytes, count);
+      bytes += count;
+    }
+    tx_publish(serial, next);
+  }
+  if (bytes != end) write_waiting(serial, bytes, end);
+}
+
+/// Queues `byte` on `serial`'s transmit ring (`write_waiting` when it is full).
 __attribute__((noinline)) inline void write_queued(HardwareSerial& serial, uint8_t byte) {
-  write_ring(serial, &byte, &byte + 1);
+  const uint8_t head = SerialRings::tx_head(serial);
+  const uint8_t next = static_cast<uint8_t>(head + 1u == SERIAL_TX_BUFFER_SIZE ? 0u : head + 1u);
+  if (next == SerialRings::tx_tail(serial)) {
+    serial.HardwareSerial::write(byte);
+    return;
+  }
+  SerialRings::tx_buffer(serial)[head] = byte;
+  tx_publish(serial, next);
 }
 
 /// Sends `byte` on `serial` as its write() would: straight into the idle UART (a reply's first byte, the
