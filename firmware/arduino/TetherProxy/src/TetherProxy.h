@@ -31,34 +31,40 @@ namespace arduino {
 /// Gives Timer1 to Tether's servo drivers: the Arduino core's init() leaves it running (phase-correct PWM
 /// for analogWrite), and the drivers configure the timer only when they find it stopped.
 void release_timer1();
-/// The bytes waiting on the port (at most one RX buffer's worth per call, so a sender faster than the loop
-/// cannot keep it from polling), handed to `feed(ByteView)` in runs: `feed` returns how many of a run it
-/// used (a device stops at each completed frame) and is called again with the rest. `hardware` is the
-/// port when it is the core's HardwareSerial, whose ring is fed in place (no copy), else null (`stream`'s
-/// virtual calls, through a copy); see TetherArduinoStream.h.
+/// The bytes waiting in `hardware`'s receive ring (at most one ring's worth per call, so a sender faster
+/// than the loop cannot keep it from polling), handed to `feed(ByteView)` in place, in runs: `feed` returns
+/// how many of a run it used (a device stops at each completed frame) and is called again with the rest.
+/// False, doing nothing, when `hardware` is null or its ring is out of reach (TetherArduinoStream.h): then
+/// `drain_copy`.
 template <typename Feed>
-void drain(HardwareSerial* hardware, Stream& stream, Feed feed) {
+TETHER_ARDUINO_INLINE bool drain_ring(HardwareSerial* hardware, Feed feed) {
 #if TETHER_ARDUINO_SERIAL_RINGS
-  if (hardware != nullptr) {
-    if (!rx_waiting(*hardware)) return;
-    for (uint8_t taken = 0; taken < 64;) {
-      const uint8_t* data;
-      const uint8_t run = rx_run(*hardware, data);
-      if (run == 0) return;
-      const uint8_t used = static_cast<uint8_t>(feed(ByteView(data, run)));
-      rx_consume(*hardware, used);
-      taken = static_cast<uint8_t>(taken + used);
-    }
-    return;
+  if (hardware == nullptr) return false;
+  if (!rx_waiting(*hardware)) return true;
+  for (uint8_t taken = 0; taken < 64;) {
+    const uint8_t* data;
+    const uint8_t run = rx_run(*hardware, data);
+    if (run == 0) return true;
+    const uint8_t used = static_cast<uint8_t>(feed(ByteView(data, run)));
+    rx_consume(*hardware, used);
+    taken = static_cast<uint8_t>(taken + used);
   }
+  return true;
+#else
+  (void)hardware;
+  (void)feed;
+  return false;
 #endif
-  uint8_t run[32];
-  for (uint8_t round = 0; round != 2; ++round) {
-    const uint8_t count = read_run(hardware, stream, run, sizeof run);
-    for (uint8_t used = 0; used != count;) {
-      used = static_cast<uint8_t>(used + feed(ByteView(run + used, static_cast<size_t>(count - used))));
-    }
-    if (count != sizeof run) return;  // drained
+}
+/// Up to 64 bytes waiting on the port, copied out with one available() (`read_run`: the Stream's virtual
+/// calls, or the core's own functions) and handed to `feed` as `drain_ring` does. One run of 64 (a frame
+/// of a 32-byte payload is 37): every run handed over costs the device's entry once.
+template <typename Feed>
+void drain_copy(HardwareSerial* hardware, Stream& stream, Feed feed) {
+  uint8_t run[64];
+  const uint8_t count = read_run(hardware, stream, run, sizeof run);
+  for (uint8_t used = 0; used != count;) {
+    used = static_cast<uint8_t>(used + feed(ByteView(run + used, static_cast<size_t>(count - used))));
   }
 }
 /// Frame sink writing to the `Stream` passed as context (blocks while the TX buffer is full).
@@ -101,15 +107,19 @@ class TetherProxy {
   void poll() {
     // One clock read per call, none per byte: the bytes waiting arrived before it.
     const tether::Millis now = millis();
-    tether::arduino::drain(hardware_, stream_, [this, now](tether::ByteView run) {
-      return device_.handle_bytes(run, now);
-    });
+    if (!tether::arduino::drain_ring(hardware_, [this, now](tether::ByteView run) { return device_.handle_bytes(run, now); })) {
+      drain_stream(now);
+    }
     device_.poll(now);
   }
   /// True once the 10 s ping failsafe fired (until a Ping and PingFailsafeReset).
   bool failsafe_triggered() const { return device_.failsafe_triggered(); }
 
  private:
+  // Any other Stream (or a core without the rings): out of line, its buffer off poll()'s frame.
+  __attribute__((noinline)) void drain_stream(tether::Millis now) {
+    tether::arduino::drain_copy(hardware_, stream_, [this, now](tether::ByteView run) { return device_.handle_bytes(run, now); });
+  }
   Stream& stream_;
   HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
   tether::proxy::device::OutputTable outputs_;
@@ -141,11 +151,17 @@ class TetherProxyCompat {
   }
   /// Call from loop(): handles received bytes and the 50 ms state stream.
   void poll() {
-    tether::arduino::drain(hardware_, stream_, [this](tether::ByteView run) { return device_.handle_bytes(run); });
+    if (!tether::arduino::drain_ring(hardware_, [this](tether::ByteView run) { return device_.handle_bytes(run); })) {
+      drain_stream();
+    }
     device_.poll(millis());
   }
 
  private:
+  // As TetherProxy's.
+  __attribute__((noinline)) void drain_stream() {
+    tether::arduino::drain_copy(hardware_, stream_, [this](tether::ByteView run) { return device_.handle_bytes(run); });
+  }
   Stream& stream_;
   HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
   tether::proxy::device::CompatDevice device_;
