@@ -40,7 +40,6 @@ template <typename Feed>
 TETHER_ARDUINO_INLINE bool drain_ring(HardwareSerial* hardware, Feed feed) {
 #if TETHER_ARDUINO_SERIAL_RINGS
   if (hardware == nullptr) return false;
-  if (!rx_waiting(*hardware)) return true;
   for (uint8_t taken = 0; taken < 64;) {
     const uint8_t* data;
     const uint8_t run = rx_run(*hardware, data);
