@@ -94,11 +94,11 @@ TETHER_ARDUINO_INLINE void rx_consume(HardwareSerial& serial, uint8_t count) {
   SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(tail);  // one store: the interrupt's room
 }
 
-/// Copies up to `capacity` waiting bytes (at least one) out of `serial`'s receive ring; returns how many.
-/// At most two stretches (to the ring's end, then from its start), each a plain byte copy; one tail store
-/// frees them for the interrupt. Out of line: its callers' empty polls (`rx_waiting`) pay for none of its
-/// registers.
-__attribute__((noinline)) inline uint8_t read_ring(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
+/// Copies up to `capacity` waiting bytes out of `serial`'s receive ring; returns how many. At most two
+/// stretches (to the ring's end, then from its start), each a plain byte copy; one tail store frees them
+/// for the interrupt. Inline: for a caller that is itself out of line (`read_run_all`); others call
+/// `read_ring`.
+TETHER_ARDUINO_INLINE uint8_t take_ring(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
   const unsigned char* const ring = SerialRings::rx_buffer(serial);
   const uint8_t head = SerialRings::rx_head(serial);  // one read of the interrupt's index
   uint8_t tail = SerialRings::rx_tail(serial);
@@ -125,6 +125,11 @@ __attribute__((noinline)) inline uint8_t read_ring(HardwareSerial& serial, uint8
   }
   SerialRings::rx_tail(serial) = static_cast<rx_buffer_index_t>(tail);  // one store: the interrupt's room
   return count;
+}
+
+/// `take_ring` out of line: its callers' empty polls (`rx_waiting`) pay for none of its registers.
+__attribute__((noinline)) inline uint8_t read_ring(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
+  return take_ring(serial, bytes, capacity);
 }
 
 /// Takes up to `capacity` bytes waiting in `serial`'s receive ring into `bytes`; returns how many. A lone
@@ -177,8 +182,9 @@ TETHER_ARDUINO_INLINE void tx_publish(HardwareSerial& serial, uint8_t head) {
 
 /// Queues the bytes [bytes, end) on `serial`'s transmit ring: as many as it has room for in one pass (at
 /// most two stretches: to the ring's end, then from its start), whose head is then published with the
-/// interrupt's enable (`tx_publish`); what finds the ring full goes through `write_waiting`.
-__attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
+/// interrupt's enable (`tx_publish`); what finds the ring full goes through `write_waiting`. Inline: for a
+/// caller out of line itself (`write_all_inline`); others call `write_ring`.
+TETHER_ARDUINO_INLINE void put_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
   const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
   const uint8_t head = SerialRings::tx_head(serial);
   uint8_t room = static_cast<uint8_t>(static_cast<unsigned int>(tail) - head - 1u);  // one slot stays free
@@ -209,6 +215,11 @@ __attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const u
   if (bytes != end) write_waiting(serial, bytes, end);
 }
 
+/// `put_ring` out of line.
+__attribute__((noinline)) inline void write_ring(HardwareSerial& serial, const uint8_t* bytes, const uint8_t* end) {
+  put_ring(serial, bytes, end);
+}
+
 /// Queues `byte` on `serial`'s transmit ring (`write_waiting` when it is full).
 __attribute__((noinline)) inline void write_queued(HardwareSerial& serial, uint8_t byte) {
   const uint8_t head = SerialRings::tx_head(serial);
@@ -235,6 +246,13 @@ TETHER_ARDUINO_INLINE void write_all(HardwareSerial& serial, const uint8_t* byte
   while (bytes != end && write_idle(serial, *bytes)) ++bytes;  // as long as the UART takes them at once
   if (bytes != end) write_ring(serial, bytes, end);
 }
+/// `write_all` for a caller that is out of line itself (a stream's write_all): the ring's copy inline in it.
+TETHER_ARDUINO_INLINE void write_all_inline(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
+  SerialRings::written(serial) = true;  // what flush() checks
+  const uint8_t* const end = bytes + size;
+  while (bytes != end && write_idle(serial, *bytes)) ++bytes;  // as long as the UART takes them at once
+  if (bytes != end) put_ring(serial, bytes, end);
+}
 #else
 /// Takes up to `capacity` bytes waiting in `serial`'s receive ring into `bytes`; returns how many.
 inline uint8_t read_run(HardwareSerial& serial, uint8_t* bytes, uint8_t capacity) {
@@ -254,6 +272,9 @@ inline void write_all(HardwareSerial& serial, const uint8_t* bytes, size_t size)
 
 /// Sends `byte` on `serial` through the core's own write(uint8_t).
 inline void write_byte(HardwareSerial& serial, uint8_t byte) { serial.HardwareSerial::write(byte); }
+
+/// `write_all`.
+inline void write_all_inline(HardwareSerial& serial, const uint8_t* bytes, size_t size) { write_all(serial, bytes, size); }
 #endif
 
 /// Takes up to `capacity` bytes waiting in `stream` into `bytes`; returns how many (a read() that finds
@@ -272,6 +293,17 @@ __attribute__((noinline)) inline uint8_t read_run(Stream& stream, uint8_t* bytes
 /// Reads a run from `hardware` when it is set (the fast path), else from `stream`.
 TETHER_ARDUINO_INLINE uint8_t read_run(HardwareSerial* hardware, Stream& stream, uint8_t* bytes, uint8_t capacity) {
   return hardware != nullptr ? read_run(*hardware, bytes, capacity) : read_run(stream, bytes, capacity);
+}
+
+/// `read_run` for a caller that is out of line itself (a stream's read_some): the ring's copy inline in it.
+TETHER_ARDUINO_INLINE uint8_t read_run_inline(HardwareSerial* hardware, Stream& stream, uint8_t* bytes, uint8_t capacity) {
+#if TETHER_ARDUINO_SERIAL_RINGS
+  if (hardware == nullptr) return read_run(stream, bytes, capacity);
+  if (!rx_waiting(*hardware)) return 0;
+  return take_ring(*hardware, bytes, capacity);
+#else
+  return read_run(hardware, stream, bytes, capacity);
+#endif
 }
 
 /// Writes `size` bytes to `stream` (Print's write(buffer, size)). Out of line, as `read_run(Stream&)`.

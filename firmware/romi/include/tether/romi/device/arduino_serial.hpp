@@ -52,11 +52,15 @@ class ArduinoSerial final : public IInputStream, public IOutputStream {
   }
   /// Takes up to `capacity` waiting bytes: one available(), then the bytes it counted.
   uint8_t read_some(uint8_t* bytes, uint8_t capacity) override {
-    return tether::arduino::read_run(hardware_, *serial_, bytes, capacity);
+    return tether::arduino::read_run_inline(hardware_, *serial_, bytes, capacity);
   }
   /// Queues a reply's `size` bytes (HardwareSerial waits while its TX buffer is full).
   void write_all(const uint8_t* bytes, uint8_t size) override {
-    tether::arduino::write_all(hardware_, *serial_, bytes, size);
+    if (hardware_ == nullptr) {
+      tether::arduino::write_all(*serial_, bytes, size);
+    } else {
+      tether::arduino::write_all_inline(*hardware_, bytes, size);
+    }
   }
 
  private:
