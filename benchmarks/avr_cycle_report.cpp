@@ -9,6 +9,12 @@
 //      firmware reads the request's '\n' from UDR0 to the cycle it writes the reply's first byte to UDR0.
 //      Calls/s against the wire bound: (request + reply bytes) at the simulated UART's byte time.
 //   3. Flash and static RAM of the images (their avr-size -C reports).
+//   4. The Arduino libraries as sketches run them (arduino-builder, the Arduino core's Serial and its UART
+//      interrupts; firmware/arduino/tests/bench/README.md): per request / frame / message, the host puts
+//      the whole input into Serial's receive ring through the core's interrupt, then writes a row id to
+//      GPIOR1, and the sketch makes one library call between two GPIOR0 writes with interrupts held
+//      (cycles between the writes, the writes' own cycle removed). The closed loop of (2) on the
+//      TetherRomi Blink example itself, unchanged (`L[1]` / `L[0]` alternately).
 //   build/benchmarks/tether_avr_cycle_report [--json FILE]
 // tools/avr-cycle-table FILE prints the README's markdown table from the JSON.
 #include <algorithm>
@@ -23,6 +29,7 @@
 #include <vector>
 
 #include "bench_rows.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace {
@@ -46,6 +53,14 @@ struct LoopResult {
   double calls_per_second = 0;
   double wire_bound = 0;  // calls/s with zero turnaround
   std::uint64_t turnaround_min = 0, turnaround_median = 0, turnaround_max = 0;
+};
+
+// One measurement of an Arduino sketch (section 4).
+struct SketchRow {
+  std::string key;
+  std::string what;
+  unsigned bytes = 0;  // the input (and reply, for Romi) bytes the call handled
+  double cycles = 0;
 };
 
 struct ImageSize {
@@ -147,39 +162,46 @@ std::string romi_request(const std::string& payload, std::uint8_t id) {
   return frame + hex + "\r\n";
 }
 
-int closed_loop(LoopResult& result) {
+// The host sends a request as soon as the previous reply's last byte arrived; `payloads` are sent in turn
+// and each reply must start with `#<payload's opcode>` + `reply_body` + ':'.
+int closed_loop(LoopResult& result, const std::string& firmware, const std::vector<std::string>& payloads,
+                const std::string& reply_body) {
   VirtualUnoOptions options;
-  options.firmware = TETHER_FIRMWARE_DIR "/romi-bench.elf";
+  options.firmware = firmware;
   options.quantum = std::chrono::microseconds(1);  // the host answers within 16 cycles of a reply's end
   VirtualUno uno(options);
   uno.run_for(std::chrono::milliseconds(20));  // boot: the UART is up
   uno.watch_io(reg::UDR0);
   constexpr auto kWindow = std::chrono::milliseconds(500);
   std::uint8_t id = 1;
+  std::size_t turn = 0;
   std::string reply;
   std::uint64_t first_send = uno.cycles();
   std::uint64_t last_reply = 0;
   bool bad_reply = false;
-  std::string request = romi_request("e", id);
+  std::string request = romi_request(payloads[0], id);
   result.request_bytes = static_cast<unsigned>(request.size());
   uno.set_output_handler([&](const std::uint8_t* data, std::size_t size) {
     for (std::size_t i = 0; i < size; ++i) {
       reply += static_cast<char>(data[i]);
       if (data[i] != '\n') continue;
-      if (reply.rfind("#e[0,1,2]:", 0) != 0) bad_reply = true;
+      const std::string expected = "#" + payloads[turn].substr(0, 1) + reply_body + ":";
+      if (reply.rfind(expected, 0) != 0) bad_reply = true;
       result.reply_bytes = static_cast<unsigned>(reply.size());
       reply.clear();
       ++result.calls;
       last_reply = uno.cycles();
       id = static_cast<std::uint8_t>(id == 255 ? 1 : id + 1);
-      uno.write(romi_request("e", id));
+      turn = (turn + 1) % payloads.size();
+      uno.write(romi_request(payloads[turn], id));
     }
   });
   uno.write(request);
   uno.run_for(kWindow);
   uno.set_output_handler({});
   if (bad_reply || result.calls == 0) {
-    std::fprintf(stderr, "romi-bench.elf did not answer #e with [0,1,2] in the closed loop\n");
+    std::fprintf(stderr, "%s did not answer every request with %s in the closed loop\n", firmware.c_str(),
+                 reply_body.c_str());
     return 1;
   }
   result.cycles_per_byte = uno.uart().cycles_per_byte;
@@ -198,7 +220,7 @@ int closed_loop(LoopResult& result) {
     }
   }
   if (turnarounds.empty()) {
-    std::fprintf(stderr, "romi-bench.elf: no UDR0 read of a '\\n' followed by a write\n");
+    std::fprintf(stderr, "%s: no UDR0 read of a '\\n' followed by a write\n", firmware.c_str());
     return 1;
   }
   std::sort(turnarounds.begin(), turnarounds.end());
@@ -206,6 +228,196 @@ int closed_loop(LoopResult& result) {
   result.turnaround_median = turnarounds[turnarounds.size() / 2];
   result.turnaround_max = turnarounds.back();
   return 0;
+}
+
+// --- 4. The Arduino libraries as sketches run them --------------------------------------------------------
+
+constexpr std::uint16_t kGpior1 = 0x4A;  // the host's row id for the sketch (bench/README.md)
+constexpr std::uint16_t kGpior2 = 0x4B;  // the ElcanoBench sketch's outcome + 1
+
+std::string sketch_path(const std::string& name) { return std::string(TETHER_ARDUINO_SKETCH_DIR "/") + name + ".elf"; }
+
+// A bench sketch on the virtual Uno: `call` puts `input` into Serial's receive ring (the core's UART
+// interrupt takes each byte as the wire delivers it), then has the sketch run its measured call once.
+class BenchSketch {
+ public:
+  explicit BenchSketch(const std::string& name) : uno_(options(name)) {
+    uno_.run_for(std::chrono::milliseconds(30));  // boot: setup() done, Serial up
+    uno_.watch_io(reg::GPIOR0);
+    uno_.set_output_handler([this](const std::uint8_t* data, std::size_t size) {
+      output_.append(reinterpret_cast<const char*>(data), size);
+    });
+  }
+  ~BenchSketch() { uno_.set_output_handler({}); }
+
+  // Cycles of the call that handled `input` (std::nullopt: no single marked call); `output` is what the
+  // sketch sent meanwhile.
+  std::optional<double> call(const std::string& input, std::uint8_t row, std::string& output) {
+    output_.clear();
+    const std::uint64_t byte_cycles = uno_.uart().cycles_per_byte;
+    uno_.write(input);
+    uno_.run_for(uno_.to_duration(byte_cycles * (input.size() + 2)));  // every byte in the ring
+    const std::size_t before = uno_.io_accesses(reg::GPIOR0).size();
+    uno_.io_write(kGpior1, row);
+    uno_.run_for(std::chrono::milliseconds(5));  // the call, then its output on the wire
+    const std::vector<IoAccess> accesses = uno_.io_accesses(reg::GPIOR0);
+    output = output_;
+    // Exactly two writes: the row id, then 0.
+    if (accesses.size() != before + 2 || !accesses[before].write || accesses[before].value != row ||
+        accesses[before + 1].value != 0) {
+      return std::nullopt;
+    }
+    // The first write's own cycle (OUT) is inside the span.
+    return static_cast<double>(accesses[before + 1].cycle - accesses[before].cycle - 1);
+  }
+  VirtualUno& uno() { return uno_; }
+
+ private:
+  static VirtualUnoOptions options(const std::string& name) {
+    VirtualUnoOptions options;
+    options.firmware = sketch_path(name);
+    options.quantum = std::chrono::microseconds(10);
+    return options;
+  }
+  VirtualUno uno_;
+  std::string output_;
+};
+
+int measure_sketches(std::vector<SketchRow>& rows) {
+  int status = 0;
+  const auto fail = [&](const char* what) {
+    std::fprintf(stderr, "%s: the sketch did not run this call, or it failed\n", what);
+    status = 1;
+  };
+  {  // TetherRomi: the Blink example's structure with romi-bench's handlers
+    BenchSketch sketch("bench.RomiBench");
+    struct Request {
+      const char* key;
+      const char* payload;
+      const char* body;
+      const char* what;
+    };
+    const Request requests[] = {
+        {"arduino.romi.request.a", "a", "[0]", "TetherRomi (Arduino core): #a in -> #a[0] out"},
+        {"arduino.romi.request.e", "e", "[0,1,2]", "TetherRomi (Arduino core): #e in -> #e[0,1,2] out"},
+        {"arduino.romi.request.c", "c[1000,-2000]", "[0]", "TetherRomi (Arduino core): #c[1000,-2000] in -> #c[0] out"},
+        {"arduino.romi.request.d", "d[\"Hello there\"]", "[0]",
+         "TetherRomi (Arduino core): #d[\"Hello there\"] in -> #d[0] out"},
+    };
+    std::uint8_t id = 1;
+    for (const Request& request : requests) {
+      const std::string in = romi_request(request.payload, id);
+      std::string out;
+      const auto cycles = sketch.call(in, 1, out);
+      const std::string expected = "#" + std::string(1, request.payload[0]) + request.body + ":";
+      if (!cycles || out.rfind(expected, 0) != 0 || out.back() != '\n') {
+        fail(request.what);
+      } else {
+        rows.push_back({request.key, request.what, static_cast<unsigned>(in.size() + out.size()), *cycles});
+      }
+      ++id;
+    }
+  }
+  {  // TetherProxy: the Proxy example
+    BenchSketch sketch("bench.ProxyBench");
+    std::uint8_t payload[32];
+    for (std::size_t i = 0; i < sizeof payload; ++i) payload[i] = static_cast<std::uint8_t>(i * 37 + 1);
+    std::uint8_t frame[48];
+    const std::size_t size = tether::proxy::encode_frame(tether::ByteView(payload, sizeof payload),
+                                                         tether::proxy::Integrity::crc16, true,
+                                                         tether::MutableByteView(frame, sizeof frame))
+                                 .value();
+    // A data byte (not a COBS code byte, never 0 before or after) changed: the whole frame is decoded and
+    // its CRC-16 checked, and the frame dropped there (nothing else runs).
+    std::size_t code = 1;  // frame[0] is the leading delimiter
+    std::size_t corrupt = 0;
+    for (std::size_t i = 1; i + 1 < size && corrupt == 0; ++i) {
+      if (i == code) {
+        code += frame[i];
+      } else if (i > 8 && frame[i] > 1) {
+        corrupt = i;
+      }
+    }
+    frame[corrupt] ^= 1;
+    const std::string bad_crc(reinterpret_cast<const char*>(frame), size);
+    std::string out;
+    auto cycles = sketch.call(bad_crc, 1, out);
+    const char* decode = "TetherProxy (Arduino core): decode frame, 32 B payload (CRC-16 checked, dropped)";
+    if (!cycles || !out.empty()) {
+      fail(decode);
+    } else {
+      rows.push_back({"arduino.proxy.decode.32", decode, static_cast<unsigned>(size), *cycles});
+    }
+    {  // the same frame through the path of any other Stream (Serial passed as a Stream&)
+      BenchSketch stream_sketch("bench.ProxyStreamBench");
+      const char* what = "TetherProxy (Arduino core) over a plain Stream: decode frame, 32 B payload (dropped)";
+      const auto stream_cycles = stream_sketch.call(bad_crc, 1, out);
+      if (!stream_cycles || !out.empty()) {
+        fail(what);
+      } else {
+        rows.push_back({"arduino.proxy.decode.32.stream", what, static_cast<unsigned>(size), *stream_cycles});
+      }
+    }
+    {  // the deployed variant (no CRC): a 32-byte block announced as 47, so the frame is decoded to its
+       // delimiter and dropped there (framing error; nothing else runs)
+      BenchSketch compat_sketch("bench.ProxyCompatBench");
+      std::string compat(1, '\0');
+      compat += static_cast<char>(48);
+      for (std::size_t i = 0; i < sizeof payload; ++i) compat += static_cast<char>(payload[i]);
+      compat += '\0';
+      const char* what = "TetherProxyCompat (Arduino core): decode frame, 32 B payload (no CRC, dropped)";
+      const auto compat_cycles = compat_sketch.call(compat, 1, out);
+      if (!compat_cycles || !out.empty()) {
+        fail(what);
+      } else {
+        rows.push_back({"arduino.proxy_compat.decode.32", what, static_cast<unsigned>(compat.size()), *compat_cycles});
+      }
+    }
+    const char* encode = "TetherProxy (Arduino core): encode frame, 32 B payload, queued on Serial";
+    cycles = sketch.call("", 255, out);
+    if (!cycles || out.size() != size) {
+      fail(encode);
+    } else {
+      rows.push_back({"arduino.proxy.encode.32", encode, static_cast<unsigned>(size), *cycles});
+    }
+    // Ping{messageId 1}: 08 01 12 00; answered by Ack{messageId 1}.
+    const std::uint8_t ping[] = {0x08, 0x01, 0x12, 0x00};
+    const std::size_t ping_size = tether::proxy::encode_frame(tether::ByteView(ping, sizeof ping),
+                                                              tether::proxy::Integrity::crc16, true,
+                                                              tether::MutableByteView(frame, sizeof frame))
+                                      .value();
+    const char* handle = "TetherProxy (Arduino core): Ping in -> Ack out (whole poll())";
+    cycles = sketch.call(std::string(reinterpret_cast<const char*>(frame), ping_size), 1, out);
+    if (!cycles || out.empty() || out.back() != 0) {
+      fail(handle);
+    } else {
+      rows.push_back({"arduino.proxy.ping", handle, static_cast<unsigned>(ping_size + out.size()), *cycles});
+    }
+  }
+  {  // TetherElcano: the DriveNode example (capturing drives and segments)
+    BenchSketch sketch("bench.ElcanoBench");
+    struct Message {
+      const char* key;
+      const char* text;
+      const char* what;
+    };
+    const Message messages[] = {
+        {"arduino.elcano.b.read.drive", "D{s 50}{a 25}\n", "TetherElcano (Arduino core): update() captures D{s 50}{a 25}"},
+        {"arduino.elcano.b.read.segment", "X{n 4}{s 160}{b 80}{p 3200,-64000}\n",
+         "TetherElcano (Arduino core): update() captures X{n 4}...{p 3200,-64000}"},
+    };
+    for (const Message& message : messages) {
+      std::string out;
+      const auto cycles = sketch.call(message.text, 1, out);
+      // ParseStateError::success + 1
+      if (!cycles || sketch.uno().io_read(kGpior2) != 1) {
+        fail(message.what);
+      } else {
+        rows.push_back({message.key, message.what, static_cast<unsigned>(std::strlen(message.text)), *cycles});
+      }
+    }
+  }
+  return status;
 }
 
 // avr-size -C writes "Program:   6804 bytes (20.8% Full)" and "Data:        710 bytes (34.7% Full)".
@@ -249,7 +461,7 @@ int main(int argc, char** argv) {
   }
 
   LoopResult loop;
-  const int loop_status = closed_loop(loop);
+  const int loop_status = closed_loop(loop, TETHER_FIRMWARE_DIR "/romi-bench.elf", {"e"}, "[0,1,2]");
   status |= loop_status;
   if (loop_status == 0) {
     std::printf("\nromi-bench closed loop at 115200 (#e, %u + %u bytes, %llu cycles per byte on the wire):\n",
@@ -274,6 +486,27 @@ int main(int argc, char** argv) {
     }
   }
 
+  std::vector<SketchRow> sketch_rows;
+  status |= measure_sketches(sketch_rows);
+  std::printf("\nArduino libraries as sketches (arduino-builder, Arduino core; one call, interrupts held)\n");
+  std::printf("%-84s %6s %8s %12s\n", "operation", "bytes", "cycles", "cycles/byte");
+  for (const SketchRow& r : sketch_rows) {
+    std::printf("%-84s %6u %8.0f %12.1f\n", r.what.c_str(), r.bytes, r.cycles, r.cycles / r.bytes);
+  }
+  LoopResult blink;
+  const int blink_status = closed_loop(blink, sketch_path("TetherRomi.Blink"), {"L[1]", "L[0]"}, "[0]");
+  status |= blink_status;
+  if (blink_status == 0) {
+    std::printf("\nTetherRomi Blink example closed loop at 115200 (L[1]/L[0], %u + %u bytes):\n", blink.request_bytes,
+                blink.reply_bytes);
+    std::printf("  turnaround (UDR0 read of '\\n' -> first UDR0 write): min %llu, median %llu, max %llu cycles\n",
+                static_cast<unsigned long long>(blink.turnaround_min),
+                static_cast<unsigned long long>(blink.turnaround_median),
+                static_cast<unsigned long long>(blink.turnaround_max));
+    std::printf("  %u calls, %.1f calls/s, wire bound %.1f calls/s: %.1f %%\n", blink.calls, blink.calls_per_second,
+                blink.wire_bound, 100.0 * blink.calls_per_second / blink.wire_bound);
+  }
+
   if (json_path != nullptr) {
     std::ostringstream json;
     json << "{\n  \"cpu\": \"ATmega328P\", \"clock_hz\": 16000000, \"baseline_cycles\": " << baseline
@@ -292,6 +525,22 @@ int main(int argc, char** argv) {
            << ", \"calls_per_second\": " << loop.calls_per_second << ", \"wire_bound\": " << loop.wire_bound
            << ", \"turnaround_min\": " << loop.turnaround_min << ", \"turnaround_median\": " << loop.turnaround_median
            << ", \"turnaround_max\": " << loop.turnaround_max << "}";
+    }
+    json << ",\n  \"arduino_rows\": [\n";
+    for (std::size_t i = 0; i < sketch_rows.size(); ++i) {
+      const SketchRow& r = sketch_rows[i];
+      json << "    {\"key\": " << json_string(r.key) << ", \"what\": " << json_string(r.what)
+           << ", \"bytes\": " << r.bytes << ", \"cycles\": " << r.cycles << "}"
+           << (i + 1 < sketch_rows.size() ? "," : "") << "\n";
+    }
+    json << "  ]";
+    if (blink_status == 0) {
+      json << ",\n  \"arduino_closed_loop\": {\"sketch\": \"TetherRomi.Blink\", \"baud\": 115200, \"request_bytes\": "
+           << blink.request_bytes << ", \"reply_bytes\": " << blink.reply_bytes
+           << ", \"cycles_per_byte\": " << blink.cycles_per_byte << ", \"calls\": " << blink.calls
+           << ", \"calls_per_second\": " << blink.calls_per_second << ", \"wire_bound\": " << blink.wire_bound
+           << ", \"turnaround_min\": " << blink.turnaround_min << ", \"turnaround_median\": " << blink.turnaround_median
+           << ", \"turnaround_max\": " << blink.turnaround_max << "}";
     }
     json << ",\n  \"images\": [\n";
     for (std::size_t i = 0; i < sizes.size(); ++i) {

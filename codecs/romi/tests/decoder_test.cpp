@@ -243,6 +243,34 @@ TEST(RomiEnvelope, ResetDropsTheFrameInProgress) {
   }
 }
 
+TEST(RomiEnvelope, AbandonDropsTheFrameAndKeepsItsOpcodeWithoutAnId) {
+  LinkCounters counters;
+  Decoder<kDeviceDecoderCapacity> decoder(counters);
+  // Dropped at its '\r' (the id read, only the '\n' missing): the frame says its opcode, no id.
+  for (char c : std::string("#e:7b04\r")) decoder.feed(static_cast<uint8_t>(c));
+  ASSERT_TRUE(decoder.awaiting_end());
+  EXPECT_EQ(decoder.frame().id, 0x7b);
+  decoder.abandon();
+  EXPECT_FALSE(decoder.in_frame());
+  EXPECT_EQ(decoder.frame().opcode, 'e');
+  EXPECT_EQ(decoder.frame().id, 0);
+  EXPECT_FALSE(decoder.frame().has_id);
+  EXPECT_TRUE(decoder.frame().payload.empty());
+  EXPECT_EQ(decoder.feed(static_cast<uint8_t>('\n')), DecodeStatus::more);  // nothing completes
+  // A log line or a frame without an opcode character yet: '_'.
+  for (const std::string partial : {"#!lo", "#", "#[1"}) {
+    for (char c : partial) decoder.feed(static_cast<uint8_t>(c));
+    decoder.abandon();
+    EXPECT_EQ(decoder.frame().opcode, '_') << partial;
+    EXPECT_FALSE(decoder.frame().log) << partial;
+  }
+  // The next frame decodes.
+  for (char c : std::string("#e:7b04\r")) EXPECT_EQ(decoder.feed(static_cast<uint8_t>(c)), DecodeStatus::more);
+  EXPECT_EQ(decoder.feed(static_cast<uint8_t>('\n')), DecodeStatus::frame);
+  EXPECT_EQ(decoder.frame().opcode, 'e');
+  EXPECT_EQ(decoder.frame().id, 0x7b);
+}
+
 TEST(RomiEnvelope, SpanFeedingStopsAtEachEventAndMatchesByteFeeding) {
   // feed(bytes) stops after the byte that completes a frame or an error, so a read loop sees every
   // event, in order, whatever the read sizes: the same events as byte-at-a-time feeding.

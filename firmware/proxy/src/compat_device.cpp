@@ -67,6 +67,12 @@ void CompatDevice::handle_byte(uint8_t byte) {
   if (decoder_.feed(byte) == DecodeStatus::frame) handle_payload(decoder_.frame());
 }
 
+size_t CompatDevice::handle_bytes(ByteView bytes) {
+  const FeedResult fed = decoder_.feed(bytes);
+  if (fed.status == DecodeStatus::frame) handle_payload(decoder_.frame());
+  return fed.consumed;
+}
+
 void CompatDevice::poll(Millis now) {
   run_dc_motors();
   if (!next_states_.expired(now)) return;

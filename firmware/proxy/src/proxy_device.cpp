@@ -108,7 +108,8 @@ void ProxyDevice::handle_byte(uint8_t byte, Millis now) {
   if (status == DecodeStatus::frame) handle_payload(decoder_.frame(), decoder_.checksum(), now);
 }
 
-size_t ProxyDevice::handle_bytes(ByteView bytes, Millis now) {
+size_t ProxyDevice::handle_bytes(const uint8_t* data, size_t size, Millis now) {
+  const ByteView bytes(data, size);
   // One feed stops at the first frame or error, so the frame state changes at most once in it: started,
   // or ended (a frame both started and ended inside the run leaves the deadline as it was: disarmed).
   const bool was_in_frame = decoder_.in_frame();

@@ -24,6 +24,7 @@
 
 #include <Arduino.h>
 
+#include "TetherArduinoStream.h"
 #include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names
 #include "tether/core/counters.hpp"
 #include "tether/elcano/ring_node.hpp"
@@ -80,6 +81,43 @@ struct SerialData {
   bool write(Print* device) const;
 };
 
+/// Where a node reads from: set it to any `Stream` (`ps.input = &mySerial;`). The core's hardware ports
+/// (`ps.input = &Serial;`) are read through their own functions, inlined (TetherArduinoStream.h): one
+/// available() per run and a few cycles a byte, where a `Stream` costs two virtual calls a byte.
+class InputPort {
+ public:
+  InputPort() = default;
+  InputPort(const InputPort&) = delete;
+  InputPort& operator=(const InputPort&) = delete;
+  /// Reads `stream` from now on.
+  InputPort& operator=(Stream* stream) {
+    stream_ = stream;
+    hardware_ = nullptr;
+    return *this;
+  }
+  /// Reads the core's hardware port `serial` from now on (the fast path).
+  InputPort& operator=(HardwareSerial* serial) {
+    stream_ = serial;
+    hardware_ = serial;
+    return *this;
+  }
+  /// Reads nothing.
+  InputPort& operator=(decltype(nullptr)) { return *this = static_cast<Stream*>(nullptr); }
+  /// The stream read (null: none).
+  operator Stream*() const { return stream_; }
+  Stream* operator->() const { return stream_; }
+  /// Takes up to `capacity` waiting bytes into `bytes`; returns how many (0 without a stream).
+  uint8_t read_run(uint8_t* bytes, uint8_t capacity) const {
+    return stream_ == nullptr ? 0 : tether::arduino::read_run(hardware_, *stream_, bytes, capacity);
+  }
+  /// The core's HardwareSerial when its receive ring can be read in place (TetherArduinoStream.h), else null.
+  HardwareSerial* ring() const { return TETHER_ARDUINO_SERIAL_RINGS ? hardware_ : nullptr; }
+
+ private:
+  Stream* stream_ = nullptr;
+  HardwareSerial* hardware_ = nullptr;  // stream_ when it is the core's HardwareSerial
+};
+
 /// A ring node: reads `input`, hands captured messages to `*dt`, forwards the rest to `output`.
 class ParseState {
  public:
@@ -88,12 +126,12 @@ class ParseState {
   ParseState& operator=(const ParseState&) = delete;
 
   SerialData* dt = nullptr;         ///< Where a captured message goes.
-  Stream* input = nullptr;          ///< Bytes from the previous node.
+  InputPort input;                  ///< Bytes from the previous node (any `Stream`; `&Serial` is the fast path).
   Print* output = nullptr;          ///< Bytes to the next node.
   MsgType capture = MsgType::none;  ///< Types this node consumes (others are forwarded).
 
   /// Call from loop(): reads what `input` has until something completes, handles timers, writes paced
-  /// output. Never blocks. Bytes are read up to 16 at a time and handed to the node as a run; those
+  /// output. Never blocks. Bytes are read up to 16 at a time (one available() each time) and handed to the node as a run; those
   /// after a completed message are kept for the next call.
   ParseStateError update();
   /// Originates `data` into the ring (paced; dropped by this node if it comes back). False when it does

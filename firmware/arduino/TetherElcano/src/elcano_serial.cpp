@@ -92,28 +92,38 @@ ParseStateError ParseState::update() {
   const tether::Millis now = millis();
   node_.set_capture(tether::elcano::TypeSet::from_bits(static_cast<uint8_t>(capture)));
   ParseStateError result = ParseStateError::unavailable;
-  while (input != nullptr && result == ParseStateError::unavailable) {
-    if (received_next_ == received_end_) {
-      // Every byte waiting (up to the chunk) in one go, then the node takes them as a run: a call per
-      // byte into the node was most of a forwarded byte's cost (issue 17).
-      int waiting = input->available();
-      if (waiting <= 0) break;
-      if (waiting > static_cast<int>(sizeof received_)) waiting = static_cast<int>(sizeof received_);
-      uint8_t count = 0;
-      while (count < waiting) {
-        const int byte = input->read();
-        if (byte < 0) break;
-        received_[count++] = static_cast<uint8_t>(byte);
+  while (result == ParseStateError::unavailable) {
+    // Up to and including the byte that completes something; the rest waits for the next update(): in
+    // the core's receive ring (the HardwareSerial path reads it in place), or in received_.
+    tether::ByteView run;
+    HardwareSerial* const ring = input.ring();
+    if (received_next_ != received_end_ || ring == nullptr) {
+      if (received_next_ == received_end_) {
+        // Every byte waiting (up to the chunk) in one go, then the node takes them as a run: a call per
+        // byte into the node was most of a forwarded byte's cost.
+        const uint8_t count = input.read_run(received_, sizeof received_);
+        if (count == 0) break;
+        received_next_ = 0;
+        received_end_ = count;
       }
+      run = tether::ByteView(received_ + received_next_, static_cast<size_t>(received_end_ - received_next_));
+    } else {
+#if TETHER_ARDUINO_SERIAL_RINGS
+      const uint8_t* data;
+      const uint8_t count = tether::arduino::rx_run(*ring, data);
       if (count == 0) break;
-      received_next_ = 0;
-      received_end_ = count;
+      run = tether::ByteView(data, count);
+#endif
     }
-    // Up to and including the byte that completes something; the rest waits for the next update().
     size_t used = 0;
-    const RingEvent::Kind kind = node_.consume(
-        tether::ByteView(received_ + received_next_, static_cast<size_t>(received_end_ - received_next_)), now, used);
-    received_next_ = static_cast<uint8_t>(received_next_ + used);
+    const RingEvent::Kind kind = node_.consume(run, now, used);
+    if (run.data() == received_ + received_next_) {
+      received_next_ = static_cast<uint8_t>(received_next_ + used);
+    } else {
+#if TETHER_ARDUINO_SERIAL_RINGS
+      tether::arduino::rx_consume(*ring, static_cast<uint8_t>(used));
+#endif
+    }
     switch (kind) {
       case RingEvent::Kind::none: break;
       case RingEvent::Kind::captured:

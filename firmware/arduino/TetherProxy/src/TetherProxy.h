@@ -20,6 +20,7 @@
 
 #include <Arduino.h>
 
+#include "TetherArduinoStream.h"
 #include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names
 #include "tether/proxy/device.hpp"
 #include "TetherRestoreArduinoMacros.h"
@@ -30,18 +31,45 @@ namespace arduino {
 /// Gives Timer1 to Tether's servo drivers: the Arduino core's init() leaves it running (phase-correct PWM
 /// for analogWrite), and the drivers configure the timer only when they find it stopped.
 void release_timer1();
-/// Bytes available on `stream`, fed one by one to `feed(byte)`; at most one RX buffer's worth per call so a
-/// sender faster than the loop cannot keep it from polling.
+/// The bytes waiting in `hardware`'s receive ring (at most one ring's worth per call, so a sender faster
+/// than the loop cannot keep it from polling), handed to `feed(ByteView)` in place, in runs: `feed` returns
+/// how many of a run it used (a device stops at each completed frame) and is called again with the rest.
+/// False, doing nothing, when `hardware` is null or its ring is out of reach (TetherArduinoStream.h): then
+/// `drain_copy`.
 template <typename Feed>
-void drain(Stream& stream, Feed feed) {
-  for (uint8_t count = 0; count < 64 && stream.available() > 0; ++count) {
-    const int byte = stream.read();
-    if (byte < 0) break;
-    feed(static_cast<uint8_t>(byte));
+TETHER_ARDUINO_INLINE bool drain_ring(HardwareSerial* hardware, Feed feed) {
+#if TETHER_ARDUINO_SERIAL_RINGS
+  if (hardware == nullptr) return false;
+  for (uint8_t taken = 0; taken < 64;) {
+    const uint8_t* data;
+    const uint8_t run = rx_run(*hardware, data);
+    if (run == 0) return true;
+    const uint8_t used = static_cast<uint8_t>(feed(ByteView(data, run)));
+    rx_consume(*hardware, used);
+    taken = static_cast<uint8_t>(taken + used);
+  }
+  return true;
+#else
+  (void)hardware;
+  (void)feed;
+  return false;
+#endif
+}
+/// Up to 64 bytes waiting on the port, copied out with one available() (`read_run`: the Stream's virtual
+/// calls, or the core's own functions) and handed to `feed` as `drain_ring` does. One run of 64 (a frame
+/// of a 32-byte payload is 37): every run handed over costs the device's entry once.
+template <typename Feed>
+void drain_copy(HardwareSerial* hardware, Stream& stream, Feed feed) {
+  uint8_t run[64];
+  const uint8_t count = read_run(hardware, stream, run, sizeof run);
+  for (uint8_t used = 0; used != count;) {
+    used = static_cast<uint8_t>(used + feed(ByteView(run + used, static_cast<size_t>(count - used))));
   }
 }
 /// Frame sink writing to the `Stream` passed as context (blocks while the TX buffer is full).
 void write_frame(void* stream, ByteView frame);
+/// Frame sink writing to the `HardwareSerial` passed as context, through its own write() (no virtual calls).
+void write_frame_hardware(void* serial, ByteView frame);
 /// Restart hook: flushes the `Stream` passed as context (the Reset's ack must leave) and resets through
 /// the watchdog.
 void restart(void* stream);
@@ -55,8 +83,16 @@ class TetherProxy {
   /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
   explicit TetherProxy(Stream& stream)
       : stream_(stream),
+        hardware_(nullptr),
         device_(outputs_, tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream},
                 tether::arduino::restart, &stream) {}
+  /// Device talking through the core's hardware port `serial` (`Serial`): the fast path, its bytes read
+  /// and written through the port's own functions.
+  explicit TetherProxy(HardwareSerial& serial)
+      : stream_(serial),
+        hardware_(&serial),
+        device_(outputs_, tether::proxy::device::FrameSink{tether::arduino::write_frame_hardware, &serial},
+                tether::arduino::restart, static_cast<Stream*>(&serial)) {}
   TetherProxy(const TetherProxy&) = delete;
   TetherProxy& operator=(const TetherProxy&) = delete;
 
@@ -68,14 +104,23 @@ class TetherProxy {
   }
   /// Call from loop(): handles received bytes, timers (failsafe, info, partial frames).
   void poll() {
-    tether::arduino::drain(stream_, [this](uint8_t byte) { device_.handle_byte(byte, millis()); });
-    device_.poll(millis());
+    // One clock read per call, none per byte: the bytes waiting arrived before it.
+    const tether::Millis now = millis();
+    if (!tether::arduino::drain_ring(hardware_, [this, now](tether::ByteView run) { return device_.handle_bytes(run, now); })) {
+      drain_stream(now);
+    }
+    device_.poll(now);
   }
   /// True once the 10 s ping failsafe fired (until a Ping and PingFailsafeReset).
   bool failsafe_triggered() const { return device_.failsafe_triggered(); }
 
  private:
+  // Any other Stream (or a core without the rings): out of line, its buffer off poll()'s frame.
+  __attribute__((noinline)) void drain_stream(tether::Millis now) {
+    tether::arduino::drain_copy(hardware_, stream_, [this, now](tether::ByteView run) { return device_.handle_bytes(run, now); });
+  }
   Stream& stream_;
+  HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
   tether::proxy::device::OutputTable outputs_;
   tether::proxy::device::ProxyDevice device_;
 };
@@ -86,8 +131,15 @@ class TetherProxyCompat {
   /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
   explicit TetherProxyCompat(Stream& stream)
       : stream_(stream),
+        hardware_(nullptr),
         device_(tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream}, tether::arduino::restart,
                 &stream) {}
+  /// Device talking through the core's hardware port `serial` (`Serial`): the fast path.
+  explicit TetherProxyCompat(HardwareSerial& serial)
+      : stream_(serial),
+        hardware_(&serial),
+        device_(tether::proxy::device::FrameSink{tether::arduino::write_frame_hardware, &serial},
+                tether::arduino::restart, static_cast<Stream*>(&serial)) {}
   TetherProxyCompat(const TetherProxyCompat&) = delete;
   TetherProxyCompat& operator=(const TetherProxyCompat&) = delete;
 
@@ -98,11 +150,18 @@ class TetherProxyCompat {
   }
   /// Call from loop(): handles received bytes and the 50 ms state stream.
   void poll() {
-    tether::arduino::drain(stream_, [this](uint8_t byte) { device_.handle_byte(byte); });
+    if (!tether::arduino::drain_ring(hardware_, [this](tether::ByteView run) { return device_.handle_bytes(run); })) {
+      drain_stream();
+    }
     device_.poll(millis());
   }
 
  private:
+  // As TetherProxy's.
+  __attribute__((noinline)) void drain_stream() {
+    tether::arduino::drain_copy(hardware_, stream_, [this](tether::ByteView run) { return device_.handle_bytes(run); });
+  }
   Stream& stream_;
+  HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
   tether::proxy::device::CompatDevice device_;
 };

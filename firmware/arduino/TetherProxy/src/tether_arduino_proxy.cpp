@@ -18,6 +18,10 @@ void release_timer1() {
 
 void write_frame(void* stream, ByteView frame) { static_cast<Stream*>(stream)->write(frame.data(), frame.size()); }
 
+void write_frame_hardware(void* serial, ByteView frame) {
+  write_all(*static_cast<HardwareSerial*>(serial), frame.data(), frame.size());
+}
+
 void restart(void* stream) {
   static_cast<Stream*>(stream)->flush();
   firmware::system_reset();

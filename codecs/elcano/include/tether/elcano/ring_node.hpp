@@ -215,6 +215,9 @@ class RingNode {
   uint8_t queue_[OutputCapacity];
   uint8_t head_ = 0;  // next write (mod OutputCapacity)
   uint8_t tail_ = 0;  // next read
+  // Records in use: the loops over origins_ (every completed message, every poll) run only when one is,
+  // and a node that originates nothing never looks at them.
+  uint8_t origins_used_ = 0;
   Origin origins_[OriginSlots];
 };
 

@@ -17,6 +17,7 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::enqueue(ByteView by
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView stripped) {
   if (stripped.size() > 255) return false;
+  if (origins_used_ == 0) return false;
   const uint8_t length = static_cast<uint8_t>(stripped.size());
   // The CRC only when a record of that length exists: most traffic through a node is not its own.
   bool candidate = false;
@@ -31,6 +32,7 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView 
   }
   if (oldest == nullptr) return false;
   oldest->used = false;
+  --origins_used_;
   return true;
 }
 
@@ -118,7 +120,11 @@ Status RingNode<MessageCapacity, OutputCapacity, OriginSlots>::originate(const M
     }
     if (slot == nullptr || tick_difference(origin.expires.at(), slot->expires.at()) < 0) slot = &origin;
   }
-  if (slot->used) add_one(counters_->origins_evicted);
+  if (slot->used) {
+    add_one(counters_->origins_evicted);
+  } else {
+    ++origins_used_;
+  }
   slot->used = true;
   slot->length = static_cast<uint8_t>(stripped_size);
   slot->crc = signature_crc(ByteView(stripped, stripped_size));
@@ -149,9 +155,11 @@ RingEvent RingNode<MessageCapacity, OutputCapacity, OriginSlots>::poll(Millis no
     event.error = Error::timed_out;
     return event;
   }
+  if (origins_used_ == 0) return event;
   for (Origin& origin : origins_) {
     if (origin.used && origin.expires.expired(now)) {
       origin.used = false;
+      --origins_used_;
       add_one(counters_->origins_expired);
     }
   }
@@ -182,6 +190,7 @@ void RingNode<MessageCapacity, OutputCapacity, OriginSlots>::reset() {
   head_ = 0;
   tail_ = 0;
   for (Origin& origin : origins_) origin.used = false;
+  origins_used_ = 0;
 }
 
 }  // namespace elcano

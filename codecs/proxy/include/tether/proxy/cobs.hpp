@@ -129,7 +129,7 @@ class CobsDecoder {
   /// Decoder counting into `counters` (oversize_frames, framing_errors, resyncs); outlives it. With
   /// `checked_from` < `Capacity`, `checksum()` covers each frame's decoded bytes from that offset on.
   constexpr explicit CobsDecoder(LinkCounters& counters, size_t checked_from = kUnchecked)
-      : counters_(&counters), buffer_{}, checked_from_(static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked)) {}
+      : counters_(&counters), checked_from_(static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked)), buffer_{} {}
 
   /// Consumes one byte.
   __attribute__((always_inline)) DecodeStatus feed(uint8_t byte) {
@@ -455,8 +455,10 @@ class CobsDecoder {
     return DecodeStatus::error;
   }
 
+  // The state first, the buffer last: on the AVR the run loop reaches every state member as `this` plus a
+  // displacement (ldd/std take up to 63); behind a 66-byte buffer each needed its own pointer register
+  // (saved and restored: 18 registers and a stack frame where 9 do).
   LinkCounters* counters_;
-  uint8_t buffer_[Capacity];
   Index size_ = 0;
   Index checked_from_;      // first decoded byte the checksum covers (kUnchecked: none)
   uint8_t left_ = 0;        // data bytes left in the current block (0 while skipping)
@@ -465,6 +467,7 @@ class CobsDecoder {
   bool skipping_ = false;   // after an error: ignore bytes until the next 0x00
   FrameError error_ = FrameError::none;
   detail::CobsCrc crc_;
+  uint8_t buffer_[Capacity];
 };
 
 }  // namespace proxy

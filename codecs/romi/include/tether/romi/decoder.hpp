@@ -141,6 +141,13 @@ class Decoder {
     size_ = 0;
     frame_ = Frame();
   }
+  /// Forgets the frame in progress as `reset()` does, but `frame()` then holds its opcode so far
+  /// (`partial_opcode()`) and no id: what a device's answer to the dropped frame echoes.
+  void abandon() {
+    const char opcode = partial_opcode();
+    reset();
+    frame_.opcode = opcode;
+  }
   /// True between a `#` and the end of that frame, also while the rest of a failed frame is skipped.
   bool in_frame() const { return state_ != State::idle; }
   /// True between a `#` and the byte that completes the frame or fails it: a request is being received

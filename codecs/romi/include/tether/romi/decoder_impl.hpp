@@ -121,7 +121,7 @@ DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
     case State::expect_lf:
       if (byte != '\n') return fail(Error::expected_end);
       state_ = State::idle;
-      add_one(counters_->frames_ok);
+      ++counters_->frames_ok;  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
       return DecodeStatus::frame;
   }
   return DecodeStatus::more;

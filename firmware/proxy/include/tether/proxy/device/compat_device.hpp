@@ -110,6 +110,10 @@ class CompatDevice {
   void begin(Millis now);
   /// Handles one received byte; a completed frame is handled at once.
   void handle_byte(uint8_t byte);
+  /// Handles received bytes up to and including the first one that completes a frame (handled at once) or
+  /// drops one; returns how many it used: call again with the rest. The same as `handle_byte` on each, but
+  /// a run of data bytes goes through the decoder's tight loop.
+  size_t handle_bytes(ByteView bytes);
   /// Runs the DC motors' control loop and streams the states when due. Call every loop pass.
   void poll(Millis now);
   /// Sends every state now (what `poll` does every 50 ms).

@@ -123,7 +123,10 @@ class ProxyDevice {
   /// at once) or drops one; returns how many it used: call again with the rest. The same as handing them
   /// to `handle_byte` one by one, but a run of data bytes goes through the decoder's tight loop; the image
   /// hands it what its UART ring holds in place (`Uart0::peek`), with no copy.
-  size_t handle_bytes(ByteView bytes, Millis now);
+  size_t handle_bytes(ByteView bytes, Millis now) { return handle_bytes(bytes.data(), bytes.size(), now); }
+  /// The same on the `size` bytes at `data` (what the view's callers compile to: a view built for the call
+  /// went through the stack on the AVR).
+  size_t handle_bytes(const uint8_t* data, size_t size, Millis now);
   /// Handles time: failsafe, ArduinoInfo, drop reports, partial-frame deadline. Call every loop pass
   /// (at least every few ms: the failsafe fires at the first poll past its limit).
   void poll(Millis now);

@@ -319,17 +319,23 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   void dispatch(const Frame& frame);
   // The reply of send_ok() and send(); out of line, or avr-gcc copies it into every handler that calls them.
   __attribute__((noinline)) void handler_reply(ByteView body);
-  void send_response(char opcode, uint8_t id, ByteView body);
+  // The responses' functions echo the opcode and id of the decoder's frame: the request being handled
+  // (a parsed request's opcode is its frame's), the frame a protocol error answers, or the frame a
+  // deadline dropped (Decoder::abandon). Their arguments then fit the registers a call may clobber (on
+  // the AVR: nothing saved to forward them, and tail calls).
+  // A handler's response (or -20, -31 for it), `size` bytes at `body` (that fit the reply buffer: checked
+  // by handler_reply), cached unless the request is manual.
+  void send_response(const uint8_t* body, uint8_t size);
   // Sends `[code]` for a protocol code (-1..-99): a handler's response (-20, -31: remembered like the
   // handler's own, send_response) or the device's own (counted as rejected, never cached).
-  void send_code(char opcode, uint8_t id, Error code, bool handler_reply);
+  void send_code(Error code, bool handler_reply);
   // A reply that must not touch the cache (manual requests), formed on the stack: out of line, so its
   // 72-byte buffer stays off the common path.
-  __attribute__((noinline)) void send_uncached(char opcode, uint8_t id, ByteView body);
+  __attribute__((noinline)) void send_uncached(const uint8_t* body, uint8_t size);
   // Forms the response into `frame` (the reply buffer, i.e. the cache's copy, or a caller's buffer with
-  // room for body + kResponseOverhead) and sends it. One function for every response: the inlined
+  // room for `size` + kResponseOverhead) and sends it. One function for every response: the inlined
   // formatter is linked once.
-  __attribute__((noinline)) void send_frame(char opcode, uint8_t id, ByteView body, uint8_t* frame);
+  __attribute__((noinline)) void send_frame(const uint8_t* body, uint8_t size, uint8_t* frame);
   void start_frame();  // sends a frame's '#', unless receive() sent it already
   void write(ByteView bytes);
 };

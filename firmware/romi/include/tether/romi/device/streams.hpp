@@ -26,9 +26,12 @@ class IInputStream {
   virtual bool read(char& c) = 0;
   /// Stores up to `capacity` waiting bytes in `bytes`; returns how many (0: none waiting). Must not
   /// block. Fewer than `capacity` tells the device that the stream is drained: it reads again at its
-  /// next `handle_input()`, not at once. The default calls `read` per byte; a stream over a buffer overrides it to copy them in one
-  /// call (the device's byte loop then makes one virtual call per batch, not per byte).
+  /// next `handle_input()`, not at once. The default asks `available()` once per call (the device's
+  /// polls mostly find nothing: then that is all they cost), then calls `read` per byte until it finds
+  /// none or `capacity` is reached; a stream over a buffer overrides it to copy them in one call (the
+  /// device's byte loop then makes one virtual call per batch, not per byte).
   virtual uint8_t read_some(uint8_t* bytes, uint8_t capacity) {
+    if (!available()) return 0;
     uint8_t count = 0;
     char c;
     while (count < capacity && read(c)) bytes[count++] = static_cast<uint8_t>(c);
