@@ -3,9 +3,12 @@
 // flushed without --boot-wait), so a test can script what the "device" says without racing the command.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <boost/asio/buffer.hpp>
 
 #include <chrono>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -41,5 +44,14 @@ struct FakePort {
     return received;
   }
 };
+
+/// A configuration file (`name` in the test's temporary folder) of one proxy device "silent" on `port` whose
+/// opening waits 10 minutes for the handshake: only a stop can end it within a test's time.
+inline std::string patient_proxy_config(const std::string& port, const std::string& name) {
+  const std::string file = ::testing::TempDir() + name;
+  std::ofstream(file) << R"({"devices": [{"name": "silent", "codec": "proxy", "transport": {"serial": {"path": ")"
+                      << port << R"(", "boot_wait_ms": 0}}, "options": {"open_timeout_ms": 600000}}]})";
+  return file;
+}
 
 }  // namespace tether::cli::testing

@@ -209,15 +209,6 @@ TEST(TetherShell, ElcanoShellToADeviceThatStoppedReadingEndsOnASignal) {
   std::filesystem::remove(input);
 }
 
-// A configuration of one proxy device on `port` whose opening waits 10 minutes for the handshake: only a
-// stop can end it within a test's time.
-std::string patient_proxy_config(const std::string& port, const std::string& name) {
-  const std::string file = ::testing::TempDir() + name;
-  std::ofstream(file) << R"({"devices": [{"name": "silent", "codec": "proxy", "transport": {"serial": {"path": ")"
-                      << port << R"(", "boot_wait_ms": 0}}, "options": {"open_timeout_ms": 600000}}]})";
-  return file;
-}
-
 // Ctrl-C while the device opens (a proxy device that never answers its handshake) ends the shell with 0,
 // as its help says for SIGINT, not with the signal's status.
 TEST(TetherShell, CtrlCWhileTheDeviceOpensExitsZero) {

@@ -85,15 +85,6 @@ TEST(TetherStats, PassiveRomiSendsNothing) {
   EXPECT_EQ(report["link"]["frames_ok"], 0);
 }
 
-// A configuration of one proxy device on `port` whose opening waits 10 minutes for the handshake: only a
-// stop can end it within a test's time.
-std::string patient_proxy_config(const std::string& port, const std::string& name) {
-  const std::string file = ::testing::TempDir() + name;
-  std::ofstream(file) << R"({"devices": [{"name": "silent", "codec": "proxy", "transport": {"serial": {"path": ")"
-                      << port << R"(", "boot_wait_ms": 0}}, "options": {"open_timeout_ms": 600000}}]})";
-  return file;
-}
-
 // Ctrl-C while the device opens ends the run with 0, as SIGINT does later.
 TEST(TetherStats, CtrlCWhileTheDeviceOpensExitsZero) {
   FakePort port;  // never answers
