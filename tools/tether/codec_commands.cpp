@@ -287,8 +287,8 @@ class ElcanoShell final : public ShellSession {
       printer.event(ring_event_line(event, generation));
       if (std::holds_alternative<elcano::events::Undeliverable>(event)) replies->settled();
       if (std::holds_alternative<elcano::events::LinkFailed>(event)) {
+        link_failed();            // first: the shell's exit status reads it as soon as the wait below ends
         replies->link_failed();
-        link_failed();
       }
     });
     receive_captured(client_, printer_, generation_, replies_);
