@@ -189,13 +189,18 @@ namespace {
 
 constexpr char kEraseLine[] = "\r\033[K";
 
-// A stop signal's default action, after erasing the progress line (async-signal-safe calls only).
-void erase_progress_and_die(int signal_number) {
-  (void)!::write(STDERR_FILENO, kEraseLine, sizeof kEraseLine - 1);
+// Puts `signal_number` back to its default action (async-signal-safe).
+void restore_default_action(int signal_number) {
   struct sigaction default_action {};
   default_action.sa_handler = SIG_DFL;
   sigemptyset(&default_action.sa_mask);
   ::sigaction(signal_number, &default_action, nullptr);
+}
+
+// A stop signal's default action, after erasing the progress line (async-signal-safe calls only).
+void erase_progress_and_die(int signal_number) {
+  (void)!::write(STDERR_FILENO, kEraseLine, sizeof kEraseLine - 1);
+  restore_default_action(signal_number);
   ::raise(signal_number);
 }
 
@@ -215,10 +220,7 @@ void disarm_progress_erasure() {
   for (const int signal_number : {SIGINT, SIGTERM}) {
     struct sigaction current {};
     if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != erase_progress_and_die) continue;
-    struct sigaction default_action {};
-    default_action.sa_handler = SIG_DFL;
-    sigemptyset(&default_action.sa_mask);
-    ::sigaction(signal_number, &default_action, nullptr);
+    restore_default_action(signal_number);
   }
 }
 

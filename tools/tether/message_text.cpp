@@ -10,6 +10,7 @@
 #include <set>
 
 #include "cli_support.hpp"
+#include "tether/core/utf8.hpp"
 #include "tether/elcano/decoder.hpp"
 
 namespace tether::cli {
@@ -213,32 +214,18 @@ std::string printable(std::string_view bytes) {
     text += kDigits[byte >> 4];
     text += kDigits[byte & 0x0F];
   };
-  const auto byte_at = [&](std::size_t i) { return static_cast<unsigned char>(bytes[i]); };
-  const auto continuation = [&](std::size_t i) { return i < bytes.size() && (byte_at(i) & 0xC0) == 0x80; };
+  const auto* const data = reinterpret_cast<const std::uint8_t*>(bytes.data());
   std::size_t i = 0;
   while (i < bytes.size()) {
-    const unsigned char lead = byte_at(i);
+    const std::uint8_t lead = data[i];
     if (lead >= 0x20 && lead < 0x7F) {
       text += static_cast<char>(lead);
       ++i;
       continue;
     }
-    // The length of a well-formed UTF-8 sequence starting here (RFC 3629: no overlong forms, no
-    // surrogates, nothing above U+10FFFF), or 0.
-    std::size_t length = 0;
-    if (lead >= 0xC2 && lead <= 0xDF && continuation(i + 1)) {
-      length = lead == 0xC2 && byte_at(i + 1) < 0xA0 ? 0 : 2;  // U+0080..U+009F: C1 controls
-    } else if (lead >= 0xE0 && lead <= 0xEF && continuation(i + 1) && continuation(i + 2)) {
-      const unsigned char second = byte_at(i + 1);
-      const bool overlong = lead == 0xE0 && second < 0xA0;
-      const bool surrogate = lead == 0xED && second >= 0xA0;
-      length = overlong || surrogate ? 0 : 3;
-    } else if (lead >= 0xF0 && lead <= 0xF4 && continuation(i + 1) && continuation(i + 2) && continuation(i + 3)) {
-      const unsigned char second = byte_at(i + 1);
-      const bool overlong = lead == 0xF0 && second < 0x90;
-      const bool too_large = lead == 0xF4 && second >= 0x90;
-      length = overlong || too_large ? 0 : 4;
-    }
+    // Controls are escaped: C0 and DEL (single bytes) and C1 (U+0080..U+009F, C2 80..C2 9F).
+    std::size_t length = lead < 0x80 ? 0 : utf8_sequence_length(data, bytes.size(), i);
+    if (length == 2 && lead == 0xC2 && data[i + 1] < 0xA0) length = 0;
     if (length == 0) {
       escape(lead);
       ++i;

@@ -6,8 +6,11 @@
 #include <google/protobuf/unknown_field_set.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
+
+#include "tether/core/utf8.hpp"
 
 namespace tether::proxy {
 namespace {
@@ -17,26 +20,9 @@ namespace pb = google::protobuf;
 // Deeper than any message of the schemas; bounds the recursion on hostile input.
 constexpr int kMaxDepth = 32;
 
-// The length of the well-formed UTF-8 sequence at `at` (RFC 3629), or 0.
+// The length of the well-formed UTF-8 sequence at `at`, or 0.
 std::size_t utf8_sequence(std::string_view text, std::size_t at) {
-  const auto byte = [&](std::size_t i) { return i < text.size() ? static_cast<unsigned char>(text[i]) : 0u; };
-  const auto continuation = [&](std::size_t i) { return (byte(i) & 0xC0u) == 0x80u; };
-  const unsigned lead = byte(at);
-  if (lead < 0x80) return 1;
-  if (lead >= 0xC2 && lead <= 0xDF) return continuation(at + 1) ? 2 : 0;
-  if (lead >= 0xE0 && lead <= 0xEF) {
-    if (!continuation(at + 1) || !continuation(at + 2)) return 0;
-    if (lead == 0xE0 && byte(at + 1) < 0xA0) return 0;   // overlong
-    if (lead == 0xED && byte(at + 1) >= 0xA0) return 0;  // surrogate
-    return 3;
-  }
-  if (lead >= 0xF0 && lead <= 0xF4) {
-    if (!continuation(at + 1) || !continuation(at + 2) || !continuation(at + 3)) return 0;
-    if (lead == 0xF0 && byte(at + 1) < 0x90) return 0;   // overlong
-    if (lead == 0xF4 && byte(at + 1) >= 0x90) return 0;  // above U+10FFFF
-    return 4;
-  }
-  return 0;
+  return utf8_sequence_length(reinterpret_cast<const std::uint8_t*>(text.data()), text.size(), at);
 }
 
 bool is_utf8(std::string_view text) {
