@@ -1,12 +1,14 @@
 # cmake -DPREFIX=... -DCXX=... -DSCRATCH=... -DMODE=alone|after_asio [-DUSAGE_FLAGS="..."] [-DJOBS=N] -P headers.cmake
-# Compiles every installed public header in a translation unit of its own: alone (it includes what it
-# uses), or after <boost/asio.hpp> and nothing else, as users write it (include order does not matter), with
-# the project's warnings as errors. USAGE_FLAGS: the compile options the package gives its users
+# Compiles every installed public header: alone, in a translation unit of its own (it includes what it
+# uses), or after <boost/asio.hpp> on a unit's first line, as users write it (include order does not
+# matter), with the project's warnings as errors. USAGE_FLAGS: the compile options the package gives its users
 # (cmake/asio-cxx20.cmake), as a consumer gets them.
 #
-# Cost: parsing <boost/asio.hpp> is most of each after_asio unit (about 2.5 s of CPU), so that prefix is
-# compiled once into a precompiled header that every unit starts from (-Winvalid-pch -Werror: a PCH g++
-# cannot use fails the test instead of silently parsing again). JOBS compilers run at once (default 2).
+# Cost: alone needs a unit per header (nothing may come before it). after_asio checks what asio-first users
+# compile, so its units are what they write: <boost/asio.hpp> on the first line, then Tether headers; JOBS
+# units (a share of the headers each) instead of a unit per header, which parsed asio once per header
+# (about 100 s of CPU of the suite's). A unit that fails is split into one unit per header (asio, then that
+# header) so the message names each header that does not compile. JOBS compilers run at once (default 2).
 file(GLOB_RECURSE headers RELATIVE ${PREFIX}/include ${PREFIX}/include/tether/*.hpp)
 # *_impl.hpp hold template definitions their header includes at its end; they are not included alone.
 list(FILTER headers EXCLUDE REGEX "^tether/proxy_messages/|_impl\\.hpp$")
@@ -18,34 +20,57 @@ file(MAKE_DIRECTORY ${SCRATCH})
 separate_arguments(usage_flags UNIX_COMMAND "${USAGE_FLAGS}")
 set(flags -std=c++20 -Wall -Wextra -Wconversion -Wsign-conversion -Wshadow -Werror -DBOOST_ASIO_NO_DEPRECATED
   -I${PREFIX}/include -isystem ${PREFIX}/include/tether/proxy_messages)
-
-if(MODE STREQUAL "after_asio")
-  # The unit is <boost/asio.hpp> and then the header; the first comes precompiled (with the usage flags, as a
-  # user's first line is compiled) through -include, which g++ takes from the .gch only when it comes before
-  # any other -include.
-  file(WRITE ${SCRATCH}/asio_first.hpp "#include <boost/asio.hpp>\n")
-  execute_process(COMMAND ${CXX} ${flags} ${usage_flags} -x c++-header ${SCRATCH}/asio_first.hpp
-    -o ${SCRATCH}/asio_first.hpp.gch RESULT_VARIABLE result ERROR_VARIABLE err)
-  if(NOT result EQUAL 0)
-    message(FATAL_ERROR "<boost/asio.hpp> does not compile as a precompiled header:\n${err}")
-  endif()
-  list(APPEND flags -Winvalid-pch -include ${SCRATCH}/asio_first.hpp)
-elseif(NOT MODE STREQUAL "alone")
+if(NOT MODE MATCHES "^(alone|after_asio)$")
   message(FATAL_ERROR "MODE must be alone or after_asio, not '${MODE}'")
 endif()
 list(APPEND flags ${usage_flags})
 
-# One unit per header: unit_<n>.cpp.
+# The units: unit_<n>.cpp, whose headers are unit_<n>_headers. alone: one header each; after_asio: JOBS
+# units, asio first, the headers dealt round.
+list(LENGTH headers header_count)
+set(prefix "")
+set(unit_count ${header_count})
+if(MODE STREQUAL "after_asio")
+  set(prefix "#include <boost/asio.hpp>\n")
+  if(unit_count GREATER JOBS)
+    set(unit_count ${JOBS})
+  endif()
+endif()
 set(units "")
+if(unit_count GREATER 0)
+  math(EXPR last "${unit_count} - 1")
+  foreach(unit RANGE ${last})
+    list(APPEND units ${unit})
+    set(unit_${unit}_text "${prefix}")
+    set(unit_${unit}_headers "")
+  endforeach()
+endif()
 set(index 0)
 foreach(header IN LISTS headers)
-  file(WRITE ${SCRATCH}/unit_${index}.cpp "#include <${header}>\n")
-  list(APPEND units ${index})
+  math(EXPR unit "${index} % ${unit_count}")
+  string(APPEND unit_${unit}_text "#include <${header}>\n")
+  list(APPEND unit_${unit}_headers ${header})
   math(EXPR index "${index} + 1")
 endforeach()
+foreach(unit IN LISTS units)
+  file(WRITE ${SCRATCH}/unit_${unit}.cpp "${unit_${unit}_text}")
+endforeach()
+
+# compile_alone(<header>): its own unit (after asio in after_asio mode); a failure is reported with g++'s
+# message and the header added to `failed`.
+function(compile_alone header)
+  file(WRITE ${SCRATCH}/single.cpp "${prefix}#include <${header}>\n")
+  execute_process(COMMAND ${CXX} ${flags} -fsyntax-only ${SCRATCH}/single.cpp RESULT_VARIABLE result
+    ERROR_VARIABLE err)
+  if(NOT result EQUAL 0)
+    string(SUBSTRING "${err}" 0 1500 err)
+    message(SEND_ERROR "${header} (${MODE}) does not compile:\n${err}")
+    set(failed ${failed} ${header} PARENT_SCOPE)
+  endif()
+endfunction()
 
 # JOBS units at a time: execute_process runs its COMMANDs concurrently (as a pipeline whose stages read and
-# write nothing: -fsyntax-only). A unit that fails is compiled again alone for its own message.
+# write nothing: -fsyntax-only). A unit that fails is compiled again header by header for the messages.
 set(failed "")
 list(LENGTH units count)
 set(start 0)
@@ -55,22 +80,29 @@ while(start LESS count)
   foreach(offset RANGE 1 ${JOBS})
     math(EXPR at "${start} + ${offset} - 1")
     if(at LESS count)
-      list(APPEND batch ${at})
-      list(APPEND commands COMMAND ${CXX} ${flags} -fsyntax-only ${SCRATCH}/unit_${at}.cpp)
+      list(GET units ${at} unit)
+      list(APPEND batch ${unit})
+      list(APPEND commands COMMAND ${CXX} ${flags} -fsyntax-only ${SCRATCH}/unit_${unit}.cpp)
     endif()
   endforeach()
   execute_process(${commands} RESULTS_VARIABLE results OUTPUT_QUIET ERROR_QUIET)
-  foreach(at result IN ZIP_LISTS batch results)
+  foreach(unit result IN ZIP_LISTS batch results)
     if(NOT result EQUAL 0)
-      list(GET headers ${at} header)
-      execute_process(COMMAND ${CXX} ${flags} -fsyntax-only ${SCRATCH}/unit_${at}.cpp ERROR_VARIABLE err)
-      string(SUBSTRING "${err}" 0 1500 err)
-      message(SEND_ERROR "${header} (${MODE}) does not compile:\n${err}")
-      list(APPEND failed ${header})
+      list(LENGTH failed failed_before)
+      foreach(header IN LISTS unit_${unit}_headers)
+        compile_alone(${header})
+      endforeach()
+      list(LENGTH failed failed_after)
+      if(failed_after EQUAL failed_before)  # each compiles after asio; together they do not
+        execute_process(COMMAND ${CXX} ${flags} -fsyntax-only ${SCRATCH}/unit_${unit}.cpp ERROR_VARIABLE err)
+        string(SUBSTRING "${err}" 0 1500 err)
+        message(SEND_ERROR "${unit_${unit}_headers} (${MODE}) do not compile together:\n${err}")
+        list(APPEND failed ${unit_${unit}_headers})
+      endif()
     endif()
   endforeach()
   math(EXPR start "${start} + ${JOBS}")
 endwhile()
 list(LENGTH failed failures)
-message(STATUS "${count} headers, ${failures} failed (${MODE})")
+message(STATUS "${header_count} headers in ${count} units, ${failures} failed (${MODE})")
 file(REMOVE_RECURSE ${SCRATCH})

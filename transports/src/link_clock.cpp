@@ -35,7 +35,7 @@ class SteadyTimer final : public LinkTimer {
   boost::asio::steady_timer timer_;
 };
 
-class SteadyClock final : public LinkClock {
+class SteadyLinkClock final : public LinkClock {
  public:
   Millis now() const override { return static_cast<Millis>(steady_milliseconds()); }
   std::unique_ptr<LinkTimer> make_timer(const boost::asio::any_io_executor& executor) override {
@@ -46,7 +46,7 @@ class SteadyClock final : public LinkClock {
 }  // namespace
 
 std::shared_ptr<LinkClock> steady_link_clock() {
-  static const std::shared_ptr<LinkClock> clock = std::make_shared<SteadyClock>();
+  static const std::shared_ptr<LinkClock> clock = std::make_shared<SteadyLinkClock>();
   return clock;
 }
 

@@ -156,12 +156,12 @@ TEST(SocatPtyPair, BulkDataCrossesARealSocatPair) {
   const auto a_path = (dir / "a").string();
   const auto b_path = (dir / "b").string();
   {
-    testing::ChildProcess socat({"socat", "pty,raw,echo=0,link=" + a_path, "pty,raw,echo=0,link=" + b_path});
-    ASSERT_TRUE(testing::eventually(
+    ::tether::testing::ChildProcess socat({"socat", "pty,raw,echo=0,link=" + a_path, "pty,raw,echo=0,link=" + b_path});
+    ASSERT_TRUE(::tether::testing::eventually(
         [&] { return std::filesystem::exists(a_path) && std::filesystem::exists(b_path); }, 5000ms));
     auto a = SerialPortStream::open(io.executor(), a_path);
     auto b = SerialPortStream::open(io.executor(), b_path);
-    auto generator = testing::seeded_generator(11);
+    auto generator = ::tether::testing::seeded_generator(11);
     std::string payload(4000, '\0');
     for (auto& c : payload) c = static_cast<char>(generator());
     std::thread writer([&] { a->write(asio::buffer(payload)); });

@@ -63,7 +63,7 @@ TEST(FaultInjectingStream, WithoutFaultsEveryByteArrivesUnchangedAndIsCounted) {
 }
 
 TEST(FaultInjectingStream, InjectedRatesMatchTheConfigurationInBothDirections) {
-  const uint64_t seed = testing::random_seed();
+  const uint64_t seed = ::tether::testing::random_seed();
   FaultConfig config;
   config.bit_error_rate = 1e-3;
   config.drop_rate = 0.01;

@@ -27,8 +27,6 @@ namespace {
 
 using nlohmann::json;
 
-const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
-
 TEST(TetherCall, VirtualBoardByImageName) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   const Outcome run = run_tether({"call", "--virtual", "romi-test", "e"});

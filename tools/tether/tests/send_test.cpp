@@ -26,8 +26,6 @@ namespace {
 
 using nlohmann::json;
 
-const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
-
 // One JSON object per output line.
 std::vector<json> json_lines(const Outcome& run) {
   std::vector<json> results;

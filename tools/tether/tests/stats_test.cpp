@@ -15,8 +15,6 @@ namespace {
 
 using nlohmann::json;
 
-const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
-
 void expect_link_counters(const json& link) {
   for (const char* name : {"frames_ok", "crc_errors", "framing_errors", "oversize_frames", "resyncs",
                            "partial_timeouts", "stale", "duplicates", "retries", "timeouts", "resets", "failsafes"}) {

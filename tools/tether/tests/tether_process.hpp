@@ -106,4 +106,9 @@ class Terminal {
   std::thread reader_;
 };
 
+#ifdef TETHER_SOURCE_DIR
+/// The virtual rover of docs/examples/rover-virtual.json: a device of every codec on simulated Unos.
+inline const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
+#endif
+
 }  // namespace tether::cli::testing

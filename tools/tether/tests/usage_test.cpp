@@ -28,8 +28,6 @@
 namespace tether::cli::testing {
 namespace {
 
-const std::string kRover = std::string(TETHER_SOURCE_DIR) + "/docs/examples/rover-virtual.json";
-
 void expect_usage_error(const std::vector<std::string>& arguments, const std::string& message) {
   SCOPED_TRACE(::testing::PrintToString(arguments));
   const Outcome run = run_tether(arguments);

@@ -98,7 +98,7 @@ Meaning through_a_document(const std::string& body) {
 // Random short bodies from JSON's and Romi's characters: the typed reading (its direct path and the SAX
 // path) means exactly what the document means, for valid and invalid text alike.
 TEST(RomiResponse, RandomBodiesMeanWhatTheirDocumentMeans) {
-  std::mt19937_64 random = testing::seeded_generator(17);
+  std::mt19937_64 random = ::tether::testing::seeded_generator(17);
   const std::string alphabet = "[[[]]],,,,\"\"\"-0123456789.eE \\atrufnl{}:xu";
   for (int i = 0; i < 20000; ++i) {
     std::string body = i % 2 == 0 ? "[" : "";

@@ -1,0 +1,23 @@
+# tether_unity_build(<target>...): with TETHER_UNITY_BUILD on, each <target> is compiled in CMake's unity
+# batches (UNITY_BUILD: up to 8 of its sources included into one translation unit).
+#
+# Why: in a Debug + sanitizer build most of a source's compile time is code generation for the templates it
+# instantiates (asio's operations, GoogleTest's machinery, std::function managers, nlohmann::json), and the
+# sources of one target instantiate mostly the same ones: 60 % of the code in tether_command_tests' objects
+# was emitted more than once. A batch compiles each once.
+#
+# Off by default: an edit recompiles the whole batch, and a per-source build is what checks that each source
+# includes what it uses (the packaging tests' builds, which do not turn it on, compile the libraries that
+# way). `tools/setup test` (CI) turns it on. A target listed here must be unity-safe: no two of its sources
+# define the same name inside an unnamed namespace or at file scope, and no source names `testing::...`
+# relying on which `testing` namespaces happen to be visible (qualify: `::tether::testing::...`).
+include_guard(GLOBAL)
+
+function(tether_unity_build)
+  if(NOT TETHER_UNITY_BUILD)
+    return()
+  endif()
+  foreach(target IN LISTS ARGN)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
+  endforeach()
+endfunction()
