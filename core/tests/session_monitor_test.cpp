@@ -107,6 +107,26 @@ TEST(SessionMonitor, UnsolicitedResetEventWithNewIdIsDetected) {
   EXPECT_EQ(drain(monitor, 60), (std::vector<std::string>{"init 9", "established"}));
 }
 
+TEST(SessionMonitor, LostStateOfAnEstablishedSessionIsAReset) {
+  LinkCounters counters;
+  Monitor monitor(timing(), counters);
+  ASSERT_EQ(monitor.register_init(4), Status::ok);
+  monitor.start(0);
+  drain(monitor, 0);
+  monitor.on_state_lost(10);  // before a session: nothing was set up to lose
+  EXPECT_TRUE(drain(monitor, 10).empty());
+  monitor.on_reset_event(21, 20);
+  monitor.on_state_lost(20);  // while the inits are replayed: they are what sets it up
+  EXPECT_EQ(drain(monitor, 20), (std::vector<std::string>{"init 4", "established"}));
+  EXPECT_EQ(counters.resets, 0u);
+  monitor.on_state_lost(30);
+  EXPECT_EQ(drain(monitor, 30), (std::vector<std::string>{"detected", "reset"}));
+  EXPECT_EQ(counters.resets, 1u);
+  monitor.on_reset_event(22, 40);
+  EXPECT_EQ(drain(monitor, 40), (std::vector<std::string>{"init 4", "established"}));
+  EXPECT_EQ(monitor.session_id(), 22u);
+}
+
 TEST(SessionMonitor, WithResetAckRequiredABootAnnouncementBeforeTheAckIsNotAdopted) {
   // Regression: the device's own boot ResetEvent arrived while our Reset was on the way; adopting it made
   // the reboot our Reset caused look like an unexpected restart.

@@ -458,6 +458,8 @@ class ClientImpl final : public transports::ClientLink {
   void lose_session() {
     established_ = false;
     monitor_done_ = false;
+    initialised_pins_.clear();
+    state_lost_ = false;
     replays_outstanding_ = 0;
     replayed_this_round_ = 0;
     session_queue_.clear();
@@ -592,6 +594,7 @@ class ClientImpl final : public transports::ClientLink {
     switch (completion.outcome) {
       case session::CallOutcome::ok:
         ++counters_.acks;
+        if (pending->init) initialised_pins_.insert(pending->init->second);
         break;
       case session::CallOutcome::cancelled:
         error = asio::error::operation_aborted;
@@ -618,7 +621,9 @@ class ClientImpl final : public transports::ClientLink {
     --replays_outstanding_;
     const auto entry = inits_.find(pending->replay_key);
     if (entry != inits_.end()) {
-      for (auto& waiter : entry->second.waiters) complete(std::move(waiter->handler), error_code(), result);
+      // An init sent while the session was being set up waited for this replay: its outcome is theirs
+      // (a refused one too: they never saw a refusal of their own).
+      for (auto& waiter : entry->second.waiters) complete(std::move(waiter->handler), error, result);
       entry->second.waiters.clear();
     }
     maybe_established();
@@ -798,6 +803,7 @@ class ClientImpl final : public transports::ClientLink {
       case ArduinoOut::kError:
         emit(events::DeviceError{out.error().text(),
                                  out.error().level() == Error::FATAL ? ErrorLevel::fatal : ErrorLevel::warning});
+        state_lost_ = lost_an_init(out.error().text());  // acted on at the refusal's ack
         return;
       case ArduinoOut::kInfo:
         on_info(out.info().sessionid(), out.info().pingfailsafetriggered(), now);
@@ -815,9 +821,18 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void on_ack(std::uint32_t id, bool refused, Millis now) {
+    // The device sends a refusal's Error right before its ack: the flag is about this ack only.
+    const bool lost = std::exchange(state_lost_, false);
     if (table_.contains(id)) {
       const Table::ReplyResult reply = table_.on_reply(id, refused ? SessionPolicy::kRefused : SessionPolicy::kAcked, now);
       if (reply.verdict == Table::Verdict::completed) on_completion(reply.completion, now);
+      if (refused && lost) {
+        const bool was_in_session = in_session();
+        const std::uint32_t stored = monitor_.session_id();
+        monitor_.on_state_lost(now);
+        if (was_in_session && !in_session()) detected_ = {stored, 0};  // no id revealed it
+        run_monitor(now);
+      }
       return;
     }
     for (const UntrackedId& slot : untracked_) {
@@ -829,6 +844,26 @@ class ClientImpl final : public transports::ClientLink {
       }
     }
     (void)table_.on_reply(id, 0, now);  // not in flight: the table counts it stale
+  }
+
+  // True when `text` is the device's refusal of a message to a pin it holds no init for ("pin 9 not
+  // initialised", proxy_device.hpp rule 6) and the device took that pin's init in this session: it has
+  // restarted since, and the ResetEvent that said so was lost (the next ArduinoInfo, up to 5 s later, would
+  // be the first to show it). A pin whose init the device refused is not one: nothing was lost.
+  bool lost_an_init(const std::string& text) const {
+    static constexpr std::string_view kPrefix = "pin ";
+    static constexpr std::string_view kSuffix = " not initialised";
+    if (monitor_.state() != session::SessionState::established || text.size() <= kPrefix.size() + kSuffix.size() ||
+        text.compare(0, kPrefix.size(), kPrefix) != 0 ||
+        text.compare(text.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
+      return false;
+    }
+    std::uint32_t pin = 0;
+    for (std::size_t i = kPrefix.size(); i < text.size() - kSuffix.size(); ++i) {
+      if (text[i] < '0' || text[i] > '9' || pin > 1000) return false;
+      pin = pin * 10 + static_cast<std::uint32_t>(text[i] - '0');
+    }
+    return initialised_pins_.count(pin) != 0;
   }
 
   bool in_session() const {
@@ -1027,6 +1062,8 @@ class ClientImpl final : public transports::ClientLink {
   bool ever_established_ = false;
   bool failsafe_seen_ = false;
   std::pair<std::uint32_t, std::uint32_t> detected_{0, 0};  // (stored, reported) of the last reset detected
+  std::set<std::uint32_t> initialised_pins_;  // pins whose init the device acked in this session
+  bool state_lost_ = false;  // the device refused a message for want of an init it had acked (lost_an_init)
 
   // Any thread.
   transports::Published<Counters> published_;

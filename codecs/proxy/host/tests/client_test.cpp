@@ -396,6 +396,69 @@ TEST(ProxyClient, UnsolicitedResetEventWithANewIdIsAReset) {
   EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 2u);
 }
 
+// A device that restarted while its ResetEvent was lost on the line refuses the next control for want of
+// the init it had acked ("pin 9 not initialised"): that reveals the restart at once, not at the next
+// ArduinoInfo up to 5 s later (the demo's proxy device under noise failed every operation until then).
+TEST(ProxyClient, AControlRefusedForWantOfItsAckedInitRevealsARestartWhoseResetEventWasLost) {
+  IoThread io;
+  auto restarted = std::make_shared<std::atomic<bool>>(false);
+  auto session = std::make_shared<std::atomic<std::uint32_t>>(100);
+  Link link(io.executor(), test_options(), [restarted, session](const DeviceFrame& frame, FakeDevice& device) {
+    if (!frame.decoded) return;
+    if (frame.in.has_servocontrol() && *restarted) {
+      device.send(FakeDevice::error("pin 9 not initialised", Error::WARNING));
+      device.send(FakeDevice::ack(frame.in.messageid(), true));
+      return;
+    }
+    if (frame.in.has_servoinit()) *restarted = false;
+    device.send(FakeDevice::ack(frame.in.messageid()));
+    if (frame.in.has_reset()) device.send(FakeDevice::reset_event((*session)++));
+  });
+  link.client->servo(9).init(90);
+  ASSERT_TRUE(link.established());
+  *restarted = true;  // the device restarts; its ResetEvent never arrives
+  boost::system::error_code error;
+  link.client->servo(9).set(45, error);
+  EXPECT_EQ(error, ProxyError::refused) << error.message();
+  ASSERT_TRUE(link.established(2));  // Reset, the new session's ResetEvent, the init replayed
+  const auto detected = link.log.of<events::ResetDetected>();
+  ASSERT_EQ(detected.size(), 1u);
+  EXPECT_EQ(detected[0].previous_session_id, 100u);
+  EXPECT_EQ(detected[0].reported_session_id, 0u);  // no session id revealed it
+  EXPECT_EQ(link.client->counters().link.resets, 1u);
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kServoInit).size(), 2u);
+  link.client->servo(9).set(45, error);
+  EXPECT_FALSE(error) << error.message();
+}
+
+// The same refusal for a pin whose init the device refused (not a servo pin) is the application's mistake,
+// not a restart: no Reset.
+TEST(ProxyClient, ARefusalForAPinWhoseInitTheDeviceRefusedIsNotARestart) {
+  IoThread io;
+  Link link(io.executor(), test_options(), [](const DeviceFrame& frame, FakeDevice& device) {
+    if (!frame.decoded) return;
+    if (frame.in.has_servoinit() || frame.in.has_servocontrol()) {
+      device.send(FakeDevice::error(frame.in.has_servoinit() ? "servo on pin 5: D9/D10 only" : "pin 5 not initialised",
+                                    Error::WARNING));
+      device.send(FakeDevice::ack(frame.in.messageid(), true));
+      return;
+    }
+    device.send(FakeDevice::ack(frame.in.messageid()));
+    if (frame.in.has_reset()) device.send(FakeDevice::reset_event(100));
+  });
+  boost::system::error_code error;
+  link.client->servo(5).init(90, error);
+  EXPECT_EQ(error, ProxyError::refused);
+  ASSERT_TRUE(link.established());
+  link.client->servo(5).set(45, error);
+  EXPECT_EQ(error, ProxyError::refused);
+  link.client->digital(4).set(true, error);  // the link goes on: the ack of a later send
+  EXPECT_FALSE(error) << error.message();
+  EXPECT_TRUE(link.log.of<events::ResetDetected>().empty());
+  EXPECT_EQ(frames_of(link.device->frames(), ArduinoIn::kReset).size(), 1u);
+  EXPECT_EQ(link.client->counters().link.resets, 0u);
+}
+
 TEST(ProxyClient, MessageInFlightWhenTheDeviceRestartsFailsWithDeviceReset) {
   IoThread io;
   Options options = test_options();

@@ -119,6 +119,14 @@ class SessionMonitor {
     }
   }
 
+  /// The device showed that it no longer holds what the session set up (the proxy device refuses a control
+  /// for want of the init it acknowledged): it restarted and the ResetEvent that said so was lost. Treated
+  /// as a changed session id, without waiting for the next report to carry it.
+  void on_state_lost(Millis now) {
+    (void)now;
+    if (state_ == SessionState::established) detect_reset();
+  }
+
   /// Next action. Call until it returns `ActionKind::none`.
   Action poll(Millis now) {
     Action action;

@@ -308,7 +308,9 @@ struct SessionEstablished {
 /// Primary: the device reported another session than the stored one: it restarted. Recovery follows.
 struct ResetDetected {
   std::uint32_t previous_session_id = 0;  ///< The stored session.
-  std::uint32_t reported_session_id = 0;  ///< The id that revealed the restart.
+  /// The id that revealed the restart; 0 when the device revealed it by refusing a message for want of
+  /// an init it had acknowledged ("pin N not initialised": its ResetEvent was lost on the line).
+  std::uint32_t reported_session_id = 0;
 };
 /// Compat: the device's `EventMessage` (RESET at the end of its setup, SERVO_CONTROL before acting, ...).
 struct CompatEvent {
