@@ -36,11 +36,15 @@ bool to_message(const SerialData& data, Message& message) {
 }
 
 void from_message(const Message& message, SerialData& data) {
-  switch (message.type) {
-    case Type::drive: data.kind = MsgType::drive; break;
-    case Type::sensor: data.kind = MsgType::sensor; break;
-    case Type::goal: data.kind = MsgType::goal; break;
-    case Type::segment: data.kind = MsgType::seg; break;
+  if (message.type == Type::drive) {  // the usual capture, ahead of the switch's search
+    data.kind = MsgType::drive;
+  } else {
+    switch (message.type) {
+      case Type::drive: data.kind = MsgType::drive; break;
+      case Type::sensor: data.kind = MsgType::sensor; break;
+      case Type::goal: data.kind = MsgType::goal; break;
+      case Type::segment: data.kind = MsgType::seg; break;
+    }
   }
   data.number = message.number;
   data.speed_cmPs = message.speed;
@@ -97,7 +101,8 @@ ParseStateError ParseState::update() {
     // the core's receive ring (the HardwareSerial path reads it in place), or in received_.
     tether::ByteView run;
     HardwareSerial* const ring = input.ring();
-    if (received_next_ != received_end_ || ring == nullptr) {
+    const bool copied = received_next_ != received_end_ || ring == nullptr;
+    if (copied) {
       if (received_next_ == received_end_) {
         // Every byte waiting (up to the chunk) in one go, then the node takes them as a run: a call per
         // byte into the node was most of a forwarded byte's cost.
@@ -117,7 +122,7 @@ ParseStateError ParseState::update() {
     }
     size_t used = 0;
     const RingEvent::Kind kind = node_.consume(run, now, used);
-    if (run.data() == received_ + received_next_) {
+    if (copied) {
       received_next_ = static_cast<uint8_t>(received_next_ + used);
     } else {
 #if TETHER_ARDUINO_SERIAL_RINGS
@@ -156,7 +161,7 @@ bool ParseState::write(const SerialData& data) {
 }
 
 void ParseState::pump(tether::Millis now) {
-  if (output == nullptr || node_.pending_output() == 0) return;
+  if (node_.pending_output() == 0 || output == nullptr) return;  // usually nothing is pending
   const int room = output->availableForWrite();
   if (room <= 0) return;
   uint8_t chunk[32];

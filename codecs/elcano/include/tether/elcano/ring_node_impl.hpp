@@ -16,8 +16,9 @@ bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::enqueue(ByteView by
 
 template <size_t MessageCapacity, size_t OutputCapacity, uint8_t OriginSlots>
 bool RingNode<MessageCapacity, OutputCapacity, OriginSlots>::came_back(ByteView stripped) {
-  if (stripped.size() > 255) return false;
+  // The records first: a node that originates nothing skips the length check too.
   if (origins_used_ == 0) return false;
+  if (stripped.size() > 255) return false;
   const uint8_t length = static_cast<uint8_t>(stripped.size());
   // The CRC only when a record of that length exists: most traffic through a node is not its own.
   bool candidate = false;
