@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <deque>
 #include <map>
 #include <mutex>
@@ -827,10 +828,7 @@ class ClientImpl final : public transports::ClientLink {
       const Table::ReplyResult reply = table_.on_reply(id, refused ? SessionPolicy::kRefused : SessionPolicy::kAcked, now);
       if (reply.verdict == Table::Verdict::completed) on_completion(reply.completion, now);
       if (refused && lost) {
-        const bool was_in_session = in_session();
-        const std::uint32_t stored = monitor_.session_id();
-        monitor_.on_state_lost(now);
-        if (was_in_session && !in_session()) detected_ = {stored, 0};  // no id revealed it
+        tell_monitor(0, [&] { monitor_.on_state_lost(now); });  // no id revealed it
         run_monitor(now);
       }
       return;
@@ -858,12 +856,20 @@ class ClientImpl final : public transports::ClientLink {
         text.compare(text.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
       return false;
     }
+    const char* const last = text.data() + text.size() - kSuffix.size();
     std::uint32_t pin = 0;
-    for (std::size_t i = kPrefix.size(); i < text.size() - kSuffix.size(); ++i) {
-      if (text[i] < '0' || text[i] > '9' || pin > 1000) return false;
-      pin = pin * 10 + static_cast<std::uint32_t>(text[i] - '0');
-    }
-    return initialised_pins_.count(pin) != 0;
+    const auto [end, error] = std::from_chars(text.data() + kPrefix.size(), last, pin);
+    return error == std::errc() && end == last && initialised_pins_.count(pin) != 0;
+  }
+
+  // Hands the monitor an observation (`tell`); a session that ends by it is recorded as detected, the
+  // device having reported `reported` (ResetDetected).
+  template <typename Tell>
+  void tell_monitor(std::uint32_t reported, Tell&& tell) {
+    const bool was_in_session = in_session();
+    const std::uint32_t stored = monitor_.session_id();
+    tell();
+    if (was_in_session && !in_session()) detected_ = {stored, reported};
   }
 
   bool in_session() const {
@@ -872,10 +878,7 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void on_info(std::uint32_t session_id, bool failsafe, Millis now) {
-    const bool was_in_session = in_session();
-    const std::uint32_t stored = monitor_.session_id();
-    monitor_.on_session_report(session_id, now);
-    if (was_in_session && !in_session()) detected_ = {stored, session_id};
+    tell_monitor(session_id, [&] { monitor_.on_session_report(session_id, now); });
     run_monitor(now);  // ResetDetected before the report that revealed it; FailsafeTriggered too
     if (failsafe && !failsafe_seen_) emit(events::FailsafeTriggered{session_id});
     failsafe_seen_ = failsafe;
@@ -883,11 +886,8 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void on_reset_event(std::uint32_t session_id, Millis now) {
-    const bool was_in_session = in_session();
     const bool was_awaiting = monitor_.state() == session::SessionState::awaiting_reset_event;
-    const std::uint32_t stored = monitor_.session_id();
-    monitor_.on_reset_event(session_id, now);
-    if (was_in_session && !in_session()) detected_ = {stored, session_id};
+    tell_monitor(session_id, [&] { monitor_.on_reset_event(session_id, now); });
     if (was_awaiting && in_session()) {  // a new session adopted: a new replay round
       replayed_this_round_ = 0;
       monitor_done_ = false;
