@@ -73,7 +73,7 @@ function(tether_debian_package)
   set(CPACK_PACKAGE_CONTACT "Tether developers <dev@tether.invalid>")
   set(CPACK_DEBIAN_PACKAGE_MAINTAINER "${CPACK_PACKAGE_CONTACT}")
   set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
-  set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # tether_0.1.0_amd64.deb
+  set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # tether_0.2.0_amd64.deb
   set(CPACK_DEBIAN_COMPRESSION_TYPE xz)
   set(CPACK_STRIP_FILES ON)
   set(CPACK_PACKAGE_DIRECTORY ${PROJECT_BINARY_DIR}/packages)

@@ -5,8 +5,6 @@ namespace tether {
 const char* to_string(Status status) {
   switch (status) {
     case Status::ok: return "ok";
-    case Status::timeout: return "timed out";
-    case Status::cancelled: return "cancelled";
     case Status::busy: return "busy: no free slot";
     case Status::buffer_too_small: return "buffer too small";
     case Status::frame_too_long: return "frame too long";

@@ -454,7 +454,7 @@ TEST(DevicesConfigErrors, LoadConfigNamesTheFile) {
   std::filesystem::remove_all(directory);
 }
 
-// Issue 16: nlohmann keeps the last of two equal keys silently; a config whose "baud" is given twice
+// nlohmann keeps the last of two equal keys silently; a config whose "baud" is given twice
 // meant one of them.
 TEST(DevicesConfigErrors, DuplicateKeysAreRejectedWithTheirPath) {
   EXPECT_EQ(error_of(R"({"devices": [{"name": "a", "name": "b", "codec": "romi", "transport": )" + kSerial + "}]}"),
@@ -470,7 +470,7 @@ TEST(DevicesConfigErrors, DuplicateKeysAreRejectedWithTheirPath) {
                                R"(}, {"name": "b", "codec": "romi", "transport": )" + kSerial + "}]}"));
 }
 
-// Issue 16: a 52 MB configuration (600,000 devices) took 16 s and ~1 GB before any error.
+// a 52 MB configuration (600,000 devices) took 16 s and ~1 GB before any error.
 TEST(DevicesConfigErrors, ConfigurationsOverOneMebibyteAreRejectedUnread) {
   std::string text = one_device("romi", kSerial);
   text.append(kMaxConfigBytes + 1 - text.size(), ' ');
@@ -518,7 +518,7 @@ TEST(DevicesConfigErrors, LoadingADirectorySaysSo) {
   }
 }
 
-// Issue 16: a NUL in a device name cut the error messages that named it short.
+// a NUL in a device name cut the error messages that named it short.
 TEST(DevicesConfigErrors, ControlCharactersInDeviceNamesAreRejectedInFull) {
   const std::string message =
       error_of(R"({"devices": [{"name": "a\u0000b", "codec": "romi", "transport": )" + kSerial + "}]}");

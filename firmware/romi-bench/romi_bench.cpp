@@ -1,4 +1,4 @@
-// Romi bench image: the 4-handler device of issue 17 (a, e, c, d; romi_bench_handlers.hpp) on Tether's
+// Romi bench image: the 4-handler device (a, e, c, d; romi_bench_handlers.hpp) on Tether's
 // own UART driver, 115200 8N1, no banner. benchmarks/avr_cycle_report.cpp runs it in a closed loop on
 // the virtual Uno (turnaround, calls/s against the wire bound) and reports its flash and static RAM.
 #include "romi_bench_handlers.hpp"

@@ -1,5 +1,5 @@
 /// @file romi_bench_handlers.hpp
-/// The four handlers of the issue-17 Romi measurements (a, e, c, d), shared by the romi-bench image
+/// The four handlers of the Romi cycle measurements (a, e, c, d), shared by the romi-bench image
 /// (closed loop on the virtual Uno) and the bench-codecs image (one request in memory), so both measure
 /// the same device. They do no work of their own: what is measured is the device.
 ///   a: no argument, `[0]` | e: no argument, `[0,1,2]` | c: two integers, `[0]` | d: a string, `[0]`

@@ -132,7 +132,7 @@ TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas
   } catch (const boost::system::system_error& error) {
     refused = error.code();
   }
-  // Received and refused: the Error, then an Ack that says refused, and the send fails (issue 16).
+  // Received and refused: the Error, then an Ack that says refused, and the send fails.
   EXPECT_EQ(refused, tether::proxy::ProxyError::refused) << refused.message();
   std::vector<events::DeviceError> errors = log.all<events::DeviceError>();
   ASSERT_EQ(errors.size(), 1u);
@@ -258,7 +258,7 @@ TEST(ProxyInterop, UnderLineNoiseEveryAckedCommandRanExactlyOnce) {
 // not execution order: with 8 in flight, a first copy the device's RX ring lost runs later from a re-send,
 // so up to 7 ids older than X (within kIdWindow of X's anchor) can run after X, and a replay "6 frames
 // after X's first copy" may come 13 executions after X, where no 8-entry filter can know it. That was the
-// accounting of issue 16's first replay test (its 4 failures in 10 runs).
+// accounting of an earlier replay test (its 4 failures in 10 runs).
 struct WireFaults {
   unsigned drop_ack_every = 0;
   unsigned duplicate_every = 0;
@@ -468,7 +468,7 @@ class AckDropper {
   tether::testing::WireTap tap_;  // last: its threads stop before the state above goes
 };
 
-// Issue 16: the device remembers the last 8 messageIds it executed. The test above keeps one message in
+// the device remembers the last 8 messageIds it executed. The test above keeps one message in
 // flight, so that filter is never under pressure (and it passes when no PinState arrives at all). Here
 // twelve pins are driven at once (the client's 8 in flight, the rest queued), acks are lost so messages
 // are re-sent while the other pins go on, and the board is power-cycled twice in the middle. Every pin's
@@ -627,7 +627,7 @@ TEST(ProxyInterop, DuplicatedFramesAmongManyInFlightRunOncePerBoot) {
   many_in_flight_through_resets(WireFaults{7, 5});
 }
 
-// Issue 16: a frame the device already acked in its current boot comes back 1..6 other ids later (a wire
+// a frame the device already acked in its current boot comes back 1..6 other ids later (a wire
 // that replays, not only duplicates back to back). The 8-entry filter must recognise every such replay.
 TEST(ProxyInterop, ReplayedAckedFramesAmongManyInFlightRunOncePerBoot) {
   many_in_flight_through_resets(WireFaults{7, 0, true});

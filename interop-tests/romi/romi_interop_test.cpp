@@ -412,7 +412,7 @@ TEST(RomiInterop, LostAnswerIsSentAgainWithRetryOnTimeoutAndAnsweredFromTheCache
   EXPECT_EQ(call.counters.timeouts, 0u);
 }
 
-// Issue 16: the reply cache keyed on (id, CRC-16 of the request) answered a new host session whose first
+// the reply cache keyed on (id, CRC-16 of the request) answered a new host session whose first
 // call repeated the previous session's last one (same id, same command: 1 in 256 with random first ids)
 // from the cache, and the command did not run (`tether call --id 5 'g[1]'` twice). A cached reply now
 // answers repeats for the host's 2 s call budget after it was sent, no longer. This thread carries the

@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <limits>
+#include <type_traits>
+#include <variant>
 
 #include "binding.hpp"
 #include "clients.hpp"
@@ -67,22 +69,38 @@ Duration milliseconds(double seconds, const char* name) {
   return static_cast<Duration>(std::lround(seconds * 1000.0));
 }
 
-// The Python surface keeps one namespace per event: the old model's fields (`elcano::to_client_event`).
+// The Python surface keeps one namespace per event: `kind` names it; `message`, `error` and
+// `request_failed` are set where the kind has them (None, not a default message or "success").
 py::object ring_event(const elcano::Event& ring_event) {
-  static constexpr const char* kinds[] = {"undeliverable", "read_error", "forward_dropped", "receive_overflow",
-                                          "link_failed"};
-  const elcano::ClientEvent event = elcano::to_client_event(ring_event);
-  using Kind = elcano::ClientEvent::Kind;
-  // Each field only where the kind has one: None, not a default message or "success".
-  const bool has_message = event.kind == Kind::undeliverable || event.kind == Kind::forward_dropped ||
-                           event.kind == Kind::receive_overflow;
+  const char* kind = "";
+  py::object message = py::none();
   py::object error = py::none();
-  if (event.kind == Kind::link_failed) error = py::str(event.link_error.message());
-  if (event.kind == Kind::read_error) error = py::str(std::string(elcano::describe(event.error)));
-  return py::module_::import("types").attr("SimpleNamespace")(
-      "kind"_a = kinds[static_cast<int>(event.kind)],
-      "message"_a = has_message ? py::cast(event.message) : py::object(py::none()), "error"_a = error,
-      "request_failed"_a = event.request_failed);
+  bool request_failed = false;
+  std::visit(
+      [&](const auto& event) {
+        using E = std::decay_t<decltype(event)>;
+        if constexpr (std::is_same_v<E, elcano::events::Undeliverable>) {
+          kind = "undeliverable";
+          message = py::cast(event.message);
+          request_failed = event.request_failed;
+        } else if constexpr (std::is_same_v<E, elcano::events::InputDropped>) {
+          kind = "read_error";
+          error = py::str(std::string(elcano::describe(event.error)));
+        } else if constexpr (std::is_same_v<E, elcano::events::ForwardDropped>) {
+          kind = "forward_dropped";
+          message = py::cast(event.message);
+        } else if constexpr (std::is_same_v<E, elcano::events::ReceiveOverflow>) {
+          kind = "receive_overflow";
+          message = py::cast(event.message);
+        } else {
+          static_assert(std::is_same_v<E, elcano::events::LinkFailed>, "every Elcano event has a kind");
+          kind = "link_failed";
+          error = py::str(event.error.message());
+        }
+      },
+      ring_event);
+  return py::module_::import("types").attr("SimpleNamespace")("kind"_a = kind, "message"_a = message,
+                                                              "error"_a = error, "request_failed"_a = request_failed);
 }
 
 // `start` begins the operation with its handler bound to the future's cancellation.

@@ -312,7 +312,7 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           },
           py::arg("pin"), "The digital output on ``pin``.")
       .def(
-          "add_event_handler",
+          "on_event",
           [](ProxyClient& self, py::object callback) {
             if (!PyCallable_Check(callback.ptr())) throw py::type_error("expected a callable");
             return self.get().on_event([handler = PyCallback(callback)](const proxy::Event& event) {

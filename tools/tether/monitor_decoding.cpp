@@ -10,7 +10,7 @@
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"
+#include "tether/romi/decoder.hpp"
 
 namespace tether::cli {
 

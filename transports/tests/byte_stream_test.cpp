@@ -212,7 +212,7 @@ TEST(ByteStream, BlockingCallsFromAnotherThread) {
 }
 
 TEST(ByteStream, WriteWithADeadlineGivesUpOnAPeerThatNeverReads) {
-  // Regression (issue 16): `tether monitor` blocked for ever writing to a device that did not read.
+  // Regression: `tether monitor` blocked for ever writing to a device that did not read.
   asio::io_context io;
   auto guard = asio::make_work_guard(io);
   std::thread runner([&] { io.run(); });

@@ -10,7 +10,6 @@
 #include "tether/elcano/decoder.hpp"
 #include "tether/elcano/encoder.hpp"
 #include "tether/elcano/message.hpp"
-#include "tether/elcano/reader.hpp"  // the deprecated names, tested for one release
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::elcano {
@@ -417,7 +416,7 @@ std::string random_stream(std::mt19937_64& random) {
 }
 
 TEST(ElcanoReader, SpanFeedingReportsExactlyWhatByteFeedingDoes) {
-  // feed(bytes) runs its own loop over attribute bytes (issue 17: the AVR's cycles); it must be
+  // feed(bytes) runs its own loop over attribute bytes (the AVR's cycles); it must be
   // indistinguishable from feeding the bytes one at a time, whatever the input and the chunking.
   std::mt19937_64 random = testing::seeded_generator(17);
   for (int round = 0; round < 1000; ++round) {
@@ -433,7 +432,7 @@ TEST(ElcanoReader, SpanFeedingReportsExactlyWhatByteFeedingDoes) {
 
 TEST(ElcanoReader, AMessageReadAfterOthersIsTheMessageAFreshDecoderReads) {
   // A decoder is kept from message to message (a ring node's, for its lifetime) and clears its message
-  // at each header: no field of an earlier message may show through (issue 17 moved that clearing into
+  // at each header: no field of an earlier message may show through (the clearing happens inside
   // feed(bytes)'s run). Each message delivered from a random stream, in random chunks, must equal what a
   // new decoder reads from its forwarded bytes.
   std::mt19937_64 random = testing::seeded_generator(1717);
@@ -476,28 +475,6 @@ TEST(ElcanoReader, AMessageReadAfterOthersIsTheMessageAFreshDecoderReads) {
   }
   EXPECT_GT(compared, 300);  // the streams did deliver messages to compare
 }
-
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
-TEST(ElcanoReader, DeprecatedReaderStillReportsEventsForOneRelease) {
-  // Installed code written against Reader/ReadEvent/ReadError keeps working (with a warning).
-  LinkCounters counters;
-  Reader<> reader(Generation::d, counters);
-  std::vector<ReadEvent> events;
-  for (char c : std::string("D{s50}{a25}74\nD{s50}{a25}75\n")) {
-    const ReadEvent event = reader.feed(static_cast<uint8_t>(c));
-    if (event.kind != ReadEvent::Kind::none) events.push_back(event);
-  }
-  ASSERT_EQ(events.size(), 2u);
-  EXPECT_EQ(events[0].kind, ReadEvent::Kind::message);
-  EXPECT_EQ(events[0].message.speed, 50);
-  EXPECT_EQ(events[1].kind, ReadEvent::Kind::error);
-  EXPECT_EQ(events[1].error, ReadError::bad_crc);
-  EXPECT_STREQ(to_string(ReadError::bad_crc), "bad_crc");
-  uint8_t out[32];
-  EXPECT_EQ(write_message(events[0].message, Generation::d, out).value(), 14u);
-}
-#pragma GCC diagnostic pop
 
 TEST(ElcanoReader, AfterAnErrorItSkipsToTheNextHeader) {
   const Read result = read("D{s 1x}{a 2}\nG{n 3}{b 679}{p -23456,123450}\n", Generation::b);

@@ -51,7 +51,7 @@ bool is_string_char(uint8_t c) {
 
 Result<size_t> encode_request(ByteView payload, uint8_t id, MutableByteView out) {
   // The size is known up front: one check, a copy, and the CRC over the written run (the host's hot
-  // path, issue 17: a bounds check and a CRC step per byte cost more than the rest of the frame).
+  // path: a bounds check and a CRC step per byte cost more than the rest of the frame).
   const size_t size = payload.size() + kFrameOverhead;
   if (size > out.size()) return Status::buffer_too_small;
   uint8_t* next = out.data();
@@ -127,7 +127,7 @@ RequestBuilder& RequestBuilder::add_int(int32_t value) {
     return *this;
   }
   // The argument's text (separator, sign, digits, ']') is written in place, its length known first: one
-  // length check instead of a checked append per character (issue 17: the host's per-frame cost).
+  // length check instead of a checked append per character (the host's per-frame cost).
   const uint32_t magnitude = value < 0 ? static_cast<uint32_t>(-value) : static_cast<uint32_t>(value);
   const size_t digits = 1u + (magnitude >= 10u) + (magnitude >= 100u) + (magnitude >= 1000u) + (magnitude >= 10000u);
   const bool opens = arguments_ == 0 && !has_string_;

@@ -99,7 +99,7 @@ TEST(RomiRequestBuilder, LongestLegalRequestFitsSixtyFourBytes) {
 }
 
 TEST(RomiRequestBuilder, APayloadOfTheHostLimitBuildsAndOneCharacterMoreIsTooLong) {
-  // An argument is written whole after one length check (issue 17): the limit falls exactly where it did
+  // An argument is written whole after one length check: the limit falls exactly where it did
   // when each character was checked, whichever argument reaches it, and a rejected one writes nothing.
   const auto build = [](int last, int arguments) {
     RequestBuilder builder('m');

@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "tether/romi/encoder.hpp"
-#include "tether/romi/envelope_decoder.hpp"  // the deprecated names, tested for one release
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::romi {
@@ -339,7 +338,7 @@ std::string request_frame(const std::string& payload, uint8_t id) {
 }
 
 TEST(RomiEnvelope, SpanFeedingMatchesByteFeedingAtTheCapacityAndOnEveryError) {
-  // feed(bytes) takes a frame's body in its own loop, bounded by the room left (issue 17): every chunking
+  // feed(bytes) takes a frame's body in its own loop, bounded by the room left: every chunking
   // gives byte feeding's events and counters, for a frame that fills the device's decoder exactly, one a
   // byte longer, colons in a log line, a '#' inside a frame, a CRC mismatch, a manual frame, '\n' without
   // '\r', bad metadata, junk between frames.
@@ -436,34 +435,6 @@ TEST(RomiEnvelope, BodyRunsDecodeExactlyLikeSingleBytes) {
     if (HasFailure()) return;
   }
 }
-
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
-TEST(RomiEnvelope, DeprecatedEnvelopeDecoderStillReportsEventsForOneRelease) {
-  // Installed code written against EnvelopeDecoder/EnvelopeEvent keeps working (with a warning).
-  LinkCounters counters;
-  EnvelopeDecoder<kHostDecoderCapacity> decoder(counters);
-  std::vector<EnvelopeEvent> events;
-  std::vector<std::string> payloads;  // copied: a payload view is valid until the next feed
-  for (char c : std::string("#e:7b04\r\n#!up:xxxx\r\n#s[1]:2a00\r\n")) {
-    const EnvelopeEvent e = decoder.feed(static_cast<uint8_t>(c));
-    if (e.kind == EnvelopeEvent::Kind::none) continue;
-    events.push_back(e);
-    payloads.emplace_back(reinterpret_cast<const char*>(e.payload.data()), e.payload.size());
-  }
-  ASSERT_EQ(events.size(), 3u);
-  EXPECT_EQ(events[0].kind, EnvelopeEvent::Kind::frame);
-  EXPECT_EQ(events[0].id, 0x7b);
-  EXPECT_EQ(events[0].opcode, 'e');
-  EXPECT_EQ(events[1].kind, EnvelopeEvent::Kind::log);
-  EXPECT_EQ(payloads[1], "up");
-  EXPECT_EQ(events[2].kind, EnvelopeEvent::Kind::error);
-  EXPECT_EQ(events[2].error, ErrorCode::crc_mismatch);
-  EXPECT_EQ(events[2].opcode, 's');
-  EXPECT_TRUE(events[2].has_id);
-  EXPECT_STREQ(message(-4), "crc mismatch");
-}
-#pragma GCC diagnostic pop
 
 }  // namespace
 }  // namespace tether::romi

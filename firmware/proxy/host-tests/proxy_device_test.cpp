@@ -233,7 +233,7 @@ TEST_F(ProxyDeviceTest, UnknownMessage) {
   EXPECT_EQ(take(), (Lines{"warning unknown message", "ack 42 refused"}));
 }
 
-// Issue 16: a rebooted device got re-sends of controls before the host saw its ResetEvent and replayed the
+// a rebooted device got re-sends of controls before the host saw its ResetEvent and replayed the
 // inits; it acked them without running them and the caller was told they took effect. The ack says so now,
 // and a refused message is not remembered: its re-send after the init runs.
 TEST_F(ProxyDeviceTest, AControlOfAnUninitialisedPinIsAckedAsRefusedAndItsResendRunsOnceInitialised) {

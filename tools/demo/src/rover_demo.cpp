@@ -379,7 +379,7 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
   LatencyHistogram latencies;
   std::optional<Pulses> last_ok;
   // Operations that are one device command: what the pins show is the last one the witness saw EXECUTED,
-  // confirmed or not (issue 16: an arm call whose answer was lost after it ran left the pins at its values,
+  // confirmed or not (an arm call whose answer was lost after it ran left the pins at its values,
   // and the check against the last confirmed one reported a mismatch). Newest last; a key repeats only
   // after hundreds of operations.
   std::deque<std::pair<std::uint32_t, Pulses>> single_commands;

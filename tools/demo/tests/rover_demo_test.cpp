@@ -143,7 +143,7 @@ TEST(RoverDemo, TheCompatDeviceEndsAtTheLastCommandEvenWhenItsInitsWereLostInThe
 }
 
 
-// Issue 16 (1-hour soak: 209 ServoControls confirmed to the caller that the device never ran, ~3.5 per power
+// (1-hour soak: 209 ServoControls confirmed to the caller that the device never ran, ~3.5 per power
 // cycle). The proxy device alone, power-cycled every 8 operations: through repeated reboots nothing is
 // confirmed that did not run. (The race behind the soak's figure -- a re-send reaching the rebooted device
 // before the host saw its ResetEvent -- is rare at this scale; ProxyDeviceTest and ProxyClient pin it.)

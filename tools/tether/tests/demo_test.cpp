@@ -57,7 +57,7 @@ TEST(TetherDemo, BadArgumentsAndConfigsAreErrorsWithAMessage) {
   run = run_tether({"demo", "--config", file});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("devices[0].codec"), std::string::npos) << run.err;
-  // Issue 16: a directory read as an empty file ("invalid JSON ... unexpected end of input").
+  // a directory read as an empty file ("invalid JSON ... unexpected end of input").
   run = run_tether({"demo", "--config", ::testing::TempDir()});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find(::testing::TempDir() + ": Is a directory"), std::string::npos) << run.err;

@@ -96,7 +96,7 @@ TEST(TetherUsage, DeviceSelectionErrors) {
   expect_usage_error({"stats", "--config", "/nonexistent/rover.json", "--device", "arm"}, "/nonexistent/rover.json");
 }
 
-// Issue 16: `send --virtual nosuchimage` said the image "speaks romi, not the proxy protocol" (the codec
+// `send --virtual nosuchimage` said the image "speaks romi, not the proxy protocol" (the codec
 // guessed from the name came first).
 TEST(TetherUsage, MissingFirmwareImageIsNotFound) {
   for (const std::vector<std::string>& arguments :
@@ -143,7 +143,7 @@ TEST(TetherUsage, FirmwareImageThatIsNoFileIsNamedForWhatItIs) {
   std::filesystem::remove(fifo);
 }
 
-// Issue 16: configuration files that are not one, too large, or list too many names.
+// configuration files that are not one, too large, or list too many names.
 // g++ 12 at -O3 (Release) reports a -Wrestrict overlap inside libstdc++'s operator+ for
 // `"d" + std::string` that cannot happen (GCC bug 105329); silenced for this test only.
 #if defined(__GNUC__) && !defined(__clang__) && __GNUC__ == 12

@@ -647,38 +647,6 @@ void start_receive(const std::shared_ptr<RingClientImpl>& impl, OperationId oper
 }  // namespace detail
 
 // ---------------------------------------------------------------------------------------------------------
-// Events
-
-ClientEvent to_client_event(const Event& event) {
-  ClientEvent old;
-  if (const auto* undeliverable = std::get_if<events::Undeliverable>(&event)) {
-    old.kind = ClientEvent::Kind::undeliverable;
-    old.message = undeliverable->message;
-    old.request_failed = undeliverable->request_failed;
-  } else if (const auto* dropped = std::get_if<events::InputDropped>(&event)) {
-    old.kind = ClientEvent::Kind::read_error;
-    old.error = dropped->error;
-  } else if (const auto* forward = std::get_if<events::ForwardDropped>(&event)) {
-    old.kind = ClientEvent::Kind::forward_dropped;
-    old.message = forward->message;
-  } else if (const auto* overflow = std::get_if<events::ReceiveOverflow>(&event)) {
-    old.kind = ClientEvent::Kind::receive_overflow;
-    old.message = overflow->message;
-  } else if (const auto* failed = std::get_if<events::LinkFailed>(&event)) {
-    old.kind = ClientEvent::Kind::link_failed;
-    old.link_error = failed->error;
-  }
-  return old;
-}
-
-namespace {
-EventHandler from_legacy(LegacyEventHandler handler) {
-  if (!handler) return EventHandler();
-  return [handler = std::move(handler)](const Event& event) { handler(to_client_event(event)); };
-}
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------------------
 // RingClient
 
 namespace {
@@ -700,13 +668,6 @@ RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& option
     : ClientFront(std::make_shared<detail::RingClientImpl>(checked_stream(std::move(stream), options), options)) {
   on_event(std::move(handler));
   impl()->start();
-}
-
-RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& options, LegacyEventHandler handler)
-    : RingClient(std::move(stream), options, from_legacy(std::move(handler))) {}
-
-EventHandlerId RingClient::add_event_handler(LegacyEventHandler handler) {
-  return on_event(from_legacy(std::move(handler)));
 }
 
 void RingClient::send(const Message& message, error_code& error) {

@@ -538,7 +538,7 @@ Observed observe(const std::string& traffic, std::size_t captured, std::size_t f
 }
 
 TEST(RingClient, ReceivedRunsGiveWhatTheSameBytesOneAtATimeGive) {
-  // The client hands each received run to its node in one call up to every event (issue 17); a stream of
+  // The client hands each received run to its node in one call up to every event; a stream of
   // one byte per read gives the byte-by-byte result. Captured sensors (more than the receive queue
   // holds), forwarded messages (one with whitespace, stripped), read errors of several kinds, a header
   // inside a message, a message longer than the reader holds, bytes between messages.

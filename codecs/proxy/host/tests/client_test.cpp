@@ -27,7 +27,7 @@ bool is_servo_control(const DeviceFrame& frame) { return frame.decoded && frame.
 
 // --- sends and acks ---------------------------------------------------------------------------------------
 
-// Issue 16: a device that acks a control without acting on it (here: a rebooted one whose inits were not
+// a device that acks a control without acting on it (here: a rebooted one whose inits were not
 // replayed yet) must not have the caller told it took effect.
 TEST(ProxyClient, AnAckThatSaysRefusedFailsTheSend) {
   IoThread io;
@@ -755,7 +755,7 @@ TEST(ProxyClient, AtMostEightInFlight) {
       kPrompt));
 }
 
-// Issue 16: the device remembers the last 8 ids it executed (pings too). With one message unacked (its
+// the device remembers the last 8 ids it executed (pings too). With one message unacked (its
 // ack lost) and the other pins busy, the client went on sending new ids as acks freed slots: the device
 // forgot the unacked id and executed its next re-send again. Every id must stay within 8 consecutive ids
 // of the oldest unacked one, pings included, until it is acked.

@@ -152,19 +152,6 @@ class ClientImpl final : public transports::ClientLink {
 
   transports::EventHandlers<Event>& event_handlers() { return events_; }
 
-  // The deprecated setters: each replaces the handler it added before.
-  void set_legacy_handler(EventHandlerId& slot, EventHandler handler) {
-    const EventHandlerId added = events_.add(std::move(handler));
-    EventHandlerId previous = 0;
-    {
-      std::lock_guard lock(mutex_);
-      previous = std::exchange(slot, added);
-    }
-    events_.remove(previous);
-  }
-  EventHandlerId log_handler_ = 0;          // guarded by mutex_
-  EventHandlerId link_failed_handler_ = 0;  // guarded by mutex_
-
   void set_timing(const session::CallTiming& timing) {
     post_to_strand([this, timing] { table_.set_timing(timing); });
   }
@@ -295,7 +282,7 @@ class ClientImpl final : public transports::ClientLink {
 
   // --- the link's hooks -----------------------------------------------------------------------------------
 
-  // A received run goes to the decoder in one call up to each frame or error (issue 17: its body loop).
+  // A received run goes to the decoder in one call up to each frame or error (its body loop).
   void on_bytes(const std::uint8_t* data, std::size_t size) override {
     for (std::size_t used = 0; used < size;) {
       const FeedResult fed = decoder_.feed(ByteView(data + used, size - used));
@@ -474,7 +461,6 @@ class ClientImpl final : public transports::ClientLink {
 
   // Any thread.
   transports::Published<LinkCounters> published_;
-  std::mutex mutex_;  // guards the deprecated setters' handler ids
   transports::EventHandlers<Event> events_;
 };
 
@@ -525,29 +511,6 @@ std::uint8_t random_first_id() {
   static std::mt19937 generator{std::random_device{}()};
   const std::lock_guard lock(mutex);
   return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 254)(generator));
-}
-
-namespace {
-// The deprecated setters' handler as an event handler: `pick(event)` of every event of type `Alternative`.
-template <typename Alternative, typename Handler, typename Pick>
-EventHandler only(Handler handler, Pick pick) {
-  if (!handler) return EventHandler();
-  return [handler = std::move(handler), pick](const Event& event) {
-    if (const auto* typed = std::get_if<Alternative>(&event)) handler(pick(*typed));
-  };
-}
-}  // namespace
-
-void Client::set_log_handler(LogHandler handler) {
-  impl()->set_legacy_handler(impl()->log_handler_, only<events::Log>(std::move(handler), [](const events::Log& log) {
-                               return std::string_view(log.text);
-                             }));
-}
-
-void Client::set_link_failed_handler(LinkFailedHandler handler) {
-  impl()->set_legacy_handler(impl()->link_failed_handler_,
-                             only<events::LinkFailed>(std::move(handler),
-                                                      [](const events::LinkFailed& failed) { return failed.error; }));
 }
 
 void Client::set_timing(const session::CallTiming& timing) { impl()->set_timing(timing); }

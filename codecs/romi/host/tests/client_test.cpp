@@ -531,36 +531,6 @@ TEST(RomiClient, BlockingCallFromTheLogHandlerFailsInsteadOfDeadlocking) {
   client.remove_event_handler(id);
 }
 
-// The deprecated setters (one release): each replaces the handler it set before; an empty one removes it.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
-TEST(RomiClient, TheDeprecatedLogSetterReplacesItsHandler) {
-  IoThread io;
-  Link link(io.executor());
-  std::atomic<int> first{0}, second{0}, failures{0};
-  std::promise<void> seen;
-  link.client->set_log_handler([&](std::string_view) { ++first; });
-  link.client->set_log_handler([&](std::string_view text) {
-    if (++second == 1) {
-      EXPECT_EQ(text, "one");
-    }
-  });
-  link.client->set_link_failed_handler([&](error_code) { ++failures; });
-  link.client->on_event(on_log([&](std::string_view) { seen.set_value(); }));
-  link.device->send(FakeDevice::log("one"));
-  ASSERT_EQ(seen.get_future().wait_for(kPrompt), std::future_status::ready);
-  link.client->set_log_handler(nullptr);
-  link.client->set_link_failed_handler(nullptr);
-  link.device->close();
-  error_code error;
-  link.client->call("a", error);  // the link failure reached every handler before this completes
-  EXPECT_EQ(error, asio::error::eof);
-  EXPECT_EQ(first.load(), 0);
-  EXPECT_EQ(second.load(), 1);
-  EXPECT_EQ(failures.load(), 0);
-}
-#pragma GCC diagnostic pop
-
 // --- timing -----------------------------------------------------------------------------------------------
 
 // Every Link runs on a manual clock: deadlines pass only when a test advances it, so the tests below assert

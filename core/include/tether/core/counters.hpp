@@ -29,7 +29,7 @@ struct LinkCounters {
 /// Adds one to a diagnostics counter (counters wrap at 2^32). The codecs' decoders and the device
 /// libraries count through it. On the AVR it is out of line: an inline 32-bit increment of a member is
 /// 24 to 38 bytes of flash (four loads, an add with carries, four stores) where a call is 6, and a device
-/// has a dozen of them (issue 17: romi-bench's flash). Not for interrupt handlers: a call there makes the
+/// has a dozen of them (romi-bench's flash). Not for interrupt handlers: a call there makes the
 /// handler save every call-clobbered register (`add_one_in_interrupt` is theirs).
 #if defined(__AVR__)
 __attribute__((noinline)) inline void add_one(uint32_t& counter) { ++counter; }

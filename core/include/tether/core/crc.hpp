@@ -13,7 +13,7 @@
 /// eight bytes per step ("slicing by 8", `detail::SlicedCrc`), all inline. `update(uint8_t)` is inline
 /// on both so that a codec can fold the CRC into its own byte loop instead of a second pass.
 ///
-/// Why slicing on the host (issue 17): a byte-table CRC is one dependent table load per byte (~1.7 ns
+/// Why slicing on the host: a byte-table CRC is one dependent table load per byte (~1.7 ns
 /// here), which alone made a ~32-byte frame's encode + decode cost more than its 100 ns budget. Slicing
 /// makes it one dependent load per eight bytes; bytes fed one at a time are held (at most seven) until
 /// eight are there, so a codec's per-byte calls get the same speed as a run.

@@ -13,8 +13,6 @@ namespace tether {
 /// Outcome of a portable operation. Values are stable: they are logged and counted.
 enum class Status : uint8_t {
   ok = 0,             ///< Success.
-  timeout,            ///< A deadline or call budget ran out.
-  cancelled,          ///< The caller cancelled the operation.
   busy,               ///< No free slot (request table full, buffer in use).
   buffer_too_small,   ///< Output buffer cannot hold the result.
   frame_too_long,     ///< Incoming frame exceeds the configured maximum.

@@ -63,8 +63,8 @@ class Decoder {
   Decoder(Generation generation, LinkCounters& counters) : generation_(generation), counters_(&counters) {}
 
   /// Consumes one byte. The bytes inside attributes (`{`, a letter, digits, `}`, spaces) take a short
-  /// inline path; headers, line ends and everything unusual go through the state machine (issue 17:
-  /// the per-byte cost on the AVR). Both give the same results.
+  /// inline path; headers, line ends and everything unusual go through the state machine (the
+  /// per-byte cost on the AVR). Both give the same results.
   DecodeStatus feed(uint8_t byte) {
     if (size_ != Capacity) {
       if (state_ == State::number) {
@@ -119,7 +119,7 @@ class Decoder {
   /// Consumes `bytes` up to and including the first one that completes a message or an error, with
   /// exactly the results of feeding them one at a time. The bytes inside a message (attributes, the
   /// generation D trailer) are taken in one loop with the write position, the state and the digit count
-  /// in registers (issue 17: on the AVR the call per byte and the members' loads and stores cost more
+  /// in registers (on the AVR the call per byte and the members' loads and stores cost more
   /// than the parsing itself). Prefer it wherever bytes arrive in runs.
   FeedResult feed(ByteView bytes);
   /// After `frame`: the message.

@@ -61,7 +61,7 @@ __attribute__((TETHER_ELCANO_RUN_OPTIMIZE noinline)) typename Decoder<Capacity>:
     const uint8_t* next, const uint8_t* end) {
   // Exactly what feed(byte) does with these bytes, as straight-line code: where the code is says which
   // state the message is in (a label per state), the write cursor, the number and its digit count live in
-  // registers, and the members are written back once, when the run stops (issue 17: a state variable
+  // registers, and the members are written back once, when the run stops (a state variable
   // dispatched per byte and the members' loads and stores cost more on the AVR than the parsing). It
   // stops before any byte it does not take (`\n`, a tenth digit, anything unusual), so that feed(byte)
   // sees that byte with the members in step. Each byte keeps at most one: limiting the run to the room

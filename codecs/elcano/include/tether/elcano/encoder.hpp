@@ -15,12 +15,6 @@ namespace elcano {
 /// field is missing or the type is unknown; `Status::buffer_too_small`.
 Result<size_t> encode_message(const Message& message, Generation generation, MutableByteView out);
 
-/// Deprecated name of `encode_message`; removed in the next release.
-[[deprecated("use elcano::encode_message")]] inline Result<size_t> write_message(const Message& message,
-                                                                                 Generation generation,
-                                                                                 MutableByteView out) {
-  return encode_message(message, generation, out);
-}
 
 }  // namespace elcano
 }  // namespace tether

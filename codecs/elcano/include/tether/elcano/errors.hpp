@@ -25,10 +25,6 @@ enum class Error : uint8_t {
 /// Short name of `error` (the reference's where it has one: `bad_crc`, ...); never null.
 const char* describe(Error error);
 
-/// Deprecated name of `Error`; removed in the next release.
-using ReadError [[deprecated("use elcano::Error")]] = Error;
-/// Deprecated name of `describe(Error)`; removed in the next release.
-[[deprecated("use elcano::describe")]] inline const char* to_string(Error error) { return describe(error); }
 
 }  // namespace elcano
 }  // namespace tether

@@ -54,7 +54,7 @@ bool type_from_name(ByteView name, Type& type);
 bool has_required_fields(const Message& message);
 
 namespace detail {
-/// has_required_fields inline, for the decoder's line end (issue 17: the call and a position check every
+/// has_required_fields inline, for the decoder's line end (the call and a position check every
 /// type paid cost a drive ~60 AVR cycles); the position is checked only for the types that carry one.
 __attribute__((always_inline)) inline bool required_fields_set(const Message& m) {
   switch (m.type) {

@@ -158,7 +158,7 @@ class RingNode {
   RingEvent::Kind consume(uint8_t byte, Millis now);
   /// Consumes `bytes` up to and including the first one that produces an event; `consumed` says how
   /// many were used (feed the rest after handling the event). The same events as `consume(byte, now)`
-  /// byte by byte, through the reader's span loop (issue 17: a call per byte dominates the AVR's cost).
+  /// byte by byte, through the reader's span loop (a call per byte dominates the AVR's cost).
   RingEvent::Kind consume(ByteView bytes, Millis now, size_t& consumed);
   /// The whole event `consume` just reported as `kind`, as `feed` returns it (message and error copied).
   RingEvent event(RingEvent::Kind kind) const;

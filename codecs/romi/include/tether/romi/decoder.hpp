@@ -128,7 +128,7 @@ class Decoder {
   __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);
   /// Consumes `bytes` up to and including the first one that completes a frame or an error, with exactly
   /// the results of feeding them one at a time. A frame's body bytes are taken by `feed_body_run`, the
-  /// write position in a register (issue 17: the host's cost per frame; a byte store may alias the
+  /// write position in a register (the host's cost per frame; a byte store may alias the
   /// members, so byte by byte they are reloaded after every byte). Prefer it wherever bytes arrive in runs.
   FeedResult feed(ByteView bytes);
   /// After `frame`: the frame; after `error`: what was parsed of it (see the file overview).

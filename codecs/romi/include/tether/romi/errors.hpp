@@ -68,10 +68,6 @@ inline const char* describe(int16_t code) { return describe(static_cast<Error>(c
 /// (The reference host retries exactly these; -7 needs a human to fix the typed command.)
 inline bool is_envelope_error(int16_t code) { return code <= -1 && code >= -6; }
 
-/// Deprecated name of `Error` (before the codecs shared one vocabulary); removed in the next release.
-using ErrorCode [[deprecated("use romi::Error")]] = Error;
-/// Deprecated name of `describe(int16_t)`; removed in the next release.
-[[deprecated("use romi::describe")]] inline const char* message(int16_t code) { return describe(code); }
 
 }  // namespace romi
 }  // namespace tether

@@ -174,28 +174,6 @@ using EventHandler = transports::EventHandlers<Event>::Handler;
 /// Identifies a handler for `RingClient::remove_event_handler`.
 using EventHandlerId = transports::EventHandlers<Event>::Id;
 
-/// The old event model (one struct with a `Kind`), deprecated for `Event`: what
-/// `add_event_handler(LegacyEventHandler)` delivers, converted from `Event`.
-struct ClientEvent {
-  /// Event kinds.
-  enum class Kind : std::uint8_t {
-    undeliverable,     ///< `events::Undeliverable`.
-    read_error,        ///< `events::InputDropped`.
-    forward_dropped,   ///< `events::ForwardDropped`.
-    receive_overflow,  ///< `events::ReceiveOverflow`.
-    link_failed,       ///< `events::LinkFailed`.
-  };
-  Kind kind = Kind::read_error;          ///< What happened.
-  Message message;                       ///< For undeliverable, forward_dropped, receive_overflow.
-  Error error = Error::success;          ///< For read_error.
-  bool request_failed = false;           ///< For undeliverable.
-  error_code link_error;                 ///< For link_failed.
-};
-/// Handler of the old event model (deprecated: use `EventHandler`).
-using LegacyEventHandler = std::function<void(const ClientEvent& event)>;
-/// `event` in the old model.
-ClientEvent to_client_event(const Event& event);
-
 /// The client's counters (a snapshot; they only grow).
 struct Counters {
   /// Reader (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs), partial-message deadline
@@ -251,9 +229,6 @@ class RingClient : public transports::ClientFront<detail::RingClientImpl, Event>
   /// or a `receive_queue_bound` of 0.
   explicit RingClient(std::shared_ptr<transports::ByteStream> stream, const Options& options = Options(),
                       EventHandler handler = EventHandler());
-  /// The constructor with a handler of the old event model.
-  [[deprecated("use an elcano::EventHandler")]] RingClient(std::shared_ptr<transports::ByteStream> stream,
-                                                            const Options& options, LegacyEventHandler handler);
 
   /// Originates `message` and completes with `void(error_code)` once its last byte was handed to the
   /// stream (paced: that may take a while on a slow ring). Any completion token (callback, `use_future`,
@@ -302,9 +277,6 @@ class RingClient : public transports::ClientFront<detail::RingClientImpl, Event>
   /// The configured capture set. Any thread.
   TypeSet capture() const;
 
-  /// Adds a handler of the old event model (each `Event` converted by `to_client_event`). Any thread.
-  [[deprecated("use on_event")]] EventHandlerId add_event_handler(LegacyEventHandler handler);
-
   /// Snapshot of the counters. Any thread; updated after each batch of bytes, each write and each
   /// completion (a caller reading them after a completion sees what led to it).
   Counters counters() const;
@@ -315,10 +287,5 @@ class RingClient : public transports::ClientFront<detail::RingClientImpl, Event>
     return initiate<MessageSignature>(std::forward<MessageToken>(token), &detail::start_receive, timeout);
   }
 };
-
-/// Old names (before one vocabulary for the three clients), kept for programs written against them.
-using RingClientOptions [[deprecated("use elcano::Options")]] = Options;
-/// Old name of `Counters`.
-using RingClientCounters [[deprecated("use elcano::Counters")]] = Counters;
 
 }  // namespace tether::elcano

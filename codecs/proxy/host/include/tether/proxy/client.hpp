@@ -560,11 +560,6 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
   /// device's `EventMessage{RESET}` then triggers the replay. Any thread; returns at once.
   void restart_session();
 
-  /// Old name of `on_event`.
-  [[deprecated("use on_event")]] EventHandlerId add_event_handler(EventHandler handler) {
-    return on_event(std::move(handler));
-  }
-
   /// Snapshot of the counters. Any thread; updated after each batch of bytes and each completion.
   Counters counters() const;
   /// Where the session stands. Any thread.
@@ -586,14 +581,5 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
     return request;
   }
 };
-
-/// Old names (before one vocabulary for the three clients), kept for programs written against them.
-using ProxyClient [[deprecated("use proxy::Client")]] = Client;
-/// Old name of `Options`.
-using ProxyOptions [[deprecated("use proxy::Options")]] = Options;
-/// Old name of `Counters`.
-using ProxyCounters [[deprecated("use proxy::Counters")]] = Counters;
-/// Old name of `Event`.
-using ProxyEvent [[deprecated("use proxy::Event")]] = Event;
 
 }  // namespace tether::proxy

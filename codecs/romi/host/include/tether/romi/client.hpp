@@ -213,12 +213,6 @@ using EventHandler = transports::EventHandlers<Event>::Handler;
 /// Identifies a handler for `Client::remove_event_handler`.
 using EventHandlerId = transports::EventHandlers<Event>::Id;
 
-/// Old log sink (`set_log_handler`, deprecated): the text of every log line. Same contract as an event
-/// handler.
-using LogHandler = std::function<void(std::string_view text)>;
-/// Old link-failure sink (`set_link_failed_handler`, deprecated): `events::LinkFailed`'s error.
-using LinkFailedHandler = std::function<void(error_code error)>;
-
 /// Completion signature of every asynchronous call.
 using CallSignature = void(error_code, RomiResponse);
 
@@ -280,10 +274,6 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
   /// Blocking manual call; throws like `call(command)`.
   RomiResponse call_manual(const Command& command);
 
-  /// Replaces the handler of `events::Log` set by this function (an empty function removes it). Any thread.
-  [[deprecated("use on_event: events::Log")]] void set_log_handler(LogHandler handler);
-  /// Replaces the handler of `events::LinkFailed` set by this function. Any thread.
-  [[deprecated("use on_event: events::LinkFailed")]] void set_link_failed_handler(LinkFailedHandler handler);
   /// Changes the timing of calls that start from now on (calls in flight keep theirs). Any thread.
   void set_timing(const session::CallTiming& timing);
 
@@ -294,10 +284,5 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
  private:
   RomiResponse blocking_call(const Command& command, bool manual, error_code& error);
 };
-
-/// Old names (before one vocabulary for the three clients), kept for programs written against them.
-using RomiClient [[deprecated("use romi::Client")]] = Client;
-/// Old name of `Options`.
-using ClientOptions [[deprecated("use romi::Options")]] = Options;
 
 }  // namespace tether::romi

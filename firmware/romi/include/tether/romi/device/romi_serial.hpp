@@ -179,7 +179,7 @@ namespace detail {
 /// device value-initializes it, so it is zero-filled in one loop: on the AVR the
 /// members' own zero initializers then cost nothing, instead of one store per member (4 bytes of flash
 /// each): romi-bench's static constructor went from 296 to 190 bytes, and to 116 with the decoder and the
-/// pointers inside (issue 17). The buffers whose sizes are the device's capacities are not here but in
+/// pointers inside. The buffers whose sizes are the device's capacities are not here but in
 /// `BasicRomiSerial` (static storage is zero anyway, and the device writes them before reading them).
 struct RomiSerialState {
   enum class Call : uint8_t { none, awaiting_reply, replied };
