@@ -1,7 +1,9 @@
 // Runs a libFuzzer-style target without libFuzzer (any compiler): every file of the corpus folders given
-// on the command line, then seeded random inputs and mutations of the corpus. On an abort, the input is
-// written to ./fuzz-crash-<seed>-<n> so it can be added to the corpus as a regression.
+// on the command line (in name order), then seeded random inputs and mutations of the corpus. On an abort,
+// the input is written to ./fuzz-crash-<seed> so it can be added to the target's corpus archive as a
+// regression (tools/fuzz add NAME FILE).
 //   usage: <target> [--iterations N] [corpus folders...]    (RANDOM_SEED replays a run)
+#include <algorithm>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
@@ -44,8 +46,13 @@ int main(int argc, char** argv) {
       iterations = std::stol(argv[++i]);
       continue;
     }
-    for (const auto& entry : std::filesystem::directory_iterator(arg)) {
-      std::ifstream file(entry.path(), std::ios::binary);
+    // In name order, not the directory's: the mutations below pick corpus entries by index, so RANDOM_SEED
+    // replays the same inputs whatever filesystem or build folder the corpus was unpacked into.
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(arg)) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& path : files) {
+      std::ifstream file(path, std::ios::binary);
       corpus.emplace_back(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
     }
   }

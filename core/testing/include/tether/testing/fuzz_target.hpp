@@ -4,8 +4,9 @@
 /// decoder and checks its invariants with `TETHER_FUZZ_CHECK`, which aborts (a finding) when one breaks.
 ///
 /// The same file builds two ways (cmake/fuzz.cmake):
-///   - in every build, linked with a driver (core/testing/src/fuzz_driver.cpp) that runs the corpus in
-///     the target's folder plus seeded random inputs and mutations; a ctest test, honours RANDOM_SEED;
+///   - in every build, linked with a driver (core/testing/src/fuzz_driver.cpp) that runs the target's
+///     corpus (fuzz/corpus-NAME.tar.xz, unpacked by the build) plus seeded random inputs and mutations; a
+///     ctest test, honours RANDOM_SEED;
 ///   - with clang and libFuzzer for coverage-guided runs: `tools/fuzz <target> [seconds]`, or every target
 ///     in turn with a table of execs, edges, corpus size and crashes: `tools/fuzz --all --minutes N`. That
 ///     build instruments every library a target links (coverage feedback, ASan, UBSan halting).
