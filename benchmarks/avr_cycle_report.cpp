@@ -16,7 +16,8 @@
 //      (cycles between the writes, the writes' own cycle removed). The closed loop of (2) on the
 //      TetherRomi Blink example itself, unchanged (`L[1]` / `L[0]` alternately).
 //   build/benchmarks/tether_avr_cycle_report [--json FILE]
-// tools/avr-cycle-table FILE prints the README's markdown table from the JSON.
+// tools/avr-cycle-table FILE [--write] prints the markdown tables from the JSON (or rewrites them in
+// benchmarks/README.md).
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
