@@ -734,13 +734,13 @@ CodecOptions parse_elcano(const OptionsContext& context) {
 }
 
 void validate_romi(const CodecOptions& codec_options, const std::string& options_path) {
-  const auto* options = std::get_if<RomiOptions>(&codec_options);
+  const auto* options = codec_options.get_if<RomiOptions>();
   if (options == nullptr) fail(options_path, "codec romi needs RomiOptions");
   check_call_timing(options_path, options->timing);
 }
 
 void validate_proxy(const CodecOptions& codec_options, const std::string& options_path, Codec codec) {
-  const auto* options = std::get_if<ProxyDeviceOptions>(&codec_options);
+  const auto* options = codec_options.get_if<ProxyDeviceOptions>();
   if (options == nullptr) fail(options_path, "codec " + std::string(to_string(codec)) + " needs ProxyDeviceOptions");
   const proxy::Mode mode = codec == Codec::proxy ? proxy::Mode::primary : proxy::Mode::compat;
   if (options->client.mode != mode) {
@@ -771,7 +771,7 @@ void validate_proxy(const CodecOptions& codec_options, const std::string& option
 }
 
 void validate_elcano(const CodecOptions& codec_options, const std::string& options_path) {
-  const auto* options = std::get_if<ElcanoOptions>(&codec_options);
+  const auto* options = codec_options.get_if<ElcanoOptions>();
   if (options == nullptr) fail(options_path, "codec elcano needs ElcanoOptions");
   check_call_timing(options_path, options->timing);
   if (options->pacing.baud == 0) fail(options_path + ".pacing", "baud must be at least 1");

@@ -104,8 +104,8 @@ std::string init_text(const PinInit& init) {
 }  // namespace
 
 void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, const std::string& path) {
-  proxy::Client& client = *std::get<std::shared_ptr<proxy::Client>>(device_client);
-  const auto& options = std::get<ProxyDeviceOptions>(device.options);
+  proxy::Client& client = *device_client.get<proxy::Client>();
+  const auto& options = device.options.get<ProxyDeviceOptions>();
   auto state = std::make_shared<ProxyReadiness>();
   const bool primary = options.client.mode == proxy::Mode::primary;
   const proxy::EventHandlerId handler = client.on_event([state](const proxy::Event& event) {
@@ -167,7 +167,7 @@ void await_proxy(const DeviceClient& device_client, const DeviceConfig& device, 
 
 DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
                        std::shared_ptr<transports::LinkClock> clock) {
-  const auto& options = std::get<RomiOptions>(device.options);
+  const auto& options = device.options.get<RomiOptions>();
   romi::Options client_options;
   client_options.timing = options.timing;
   client_options.clock = std::move(clock);
@@ -177,14 +177,14 @@ DeviceClient open_romi(std::shared_ptr<transports::ByteStream> stream, const Dev
 
 DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
                         std::shared_ptr<transports::LinkClock> clock) {
-  proxy::Options client_options = std::get<ProxyDeviceOptions>(device.options).client;
+  proxy::Options client_options = device.options.get<ProxyDeviceOptions>().client;
   client_options.clock = std::move(clock);
   return std::make_shared<proxy::Client>(std::move(stream), std::move(client_options));
 }
 
 DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
                          std::shared_ptr<transports::LinkClock> clock) {
-  const auto& options = std::get<ElcanoOptions>(device.options);
+  const auto& options = device.options.get<ElcanoOptions>();
   elcano::Options client_options;
   client_options.node.generation = options.generation;
   client_options.node.capture = options.capture;
@@ -287,9 +287,7 @@ Rover& Rover::operator=(Rover&& other) noexcept {
 
 void Rover::close() {
   for (auto device = devices_.rbegin(); device != devices_.rend(); ++device) {
-    std::visit([](const auto& client) {
-      if (client) client->close();
-    }, device->client);
+    device->client.close();
   }
   for (auto stop = stops_.rbegin(); stop != stops_.rend(); ++stop) (*stop)();
   devices_.clear();
@@ -325,19 +323,19 @@ const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted,
 
 std::shared_ptr<romi::Client> Rover::romi(std::string_view name) const {
   const RoverDevice& device = lookup(name, "romi", [](Codec codec) { return codec == Codec::romi; });
-  return std::get<std::shared_ptr<romi::Client>>(device.client);
+  return device.client.get<romi::Client>();
 }
 
 std::shared_ptr<proxy::Client> Rover::proxy(std::string_view name) const {
   const RoverDevice& device = lookup(name, "proxy or proxy-compat", [](Codec codec) {
     return codec == Codec::proxy || codec == Codec::proxy_compat;
   });
-  return std::get<std::shared_ptr<proxy::Client>>(device.client);
+  return device.client.get<proxy::Client>();
 }
 
 std::shared_ptr<elcano::RingClient> Rover::elcano(std::string_view name) const {
   const RoverDevice& device = lookup(name, "elcano", [](Codec codec) { return codec == Codec::elcano; });
-  return std::get<std::shared_ptr<elcano::RingClient>>(device.client);
+  return device.client.get<elcano::RingClient>();
 }
 
 // --- open_rover -------------------------------------------------------------------------------------------

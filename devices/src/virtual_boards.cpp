@@ -134,7 +134,7 @@ OpenedTransport open_virtual_device(const DeviceConfig& device, const std::strin
     opened.clock = transports::VirtualUnoClock::create(board_stream);
     opened.stream = std::move(board_stream);
   } else {
-    const ElcanoOptions* elcano = std::get_if<ElcanoOptions>(&device.options);
+    const ElcanoOptions* elcano = device.options.get_if<ElcanoOptions>();
     opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
                                       elcano != nullptr ? *elcano : ElcanoOptions(), device.name,
                                       transport_path + ".virtual_ring", executor, opened.stop, opened.boards);

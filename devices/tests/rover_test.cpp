@@ -153,7 +153,7 @@ TEST(DevicesRover, AMissingSerialPortFailsTheOpenAndClosesTheDevicesOpenedBefore
   std::vector<std::shared_ptr<romi::Client>> opened;
   OpenOptions hooks;
   hooks.on_opened = [&](const RoverDevice& device) {
-    opened.push_back(std::get<std::shared_ptr<romi::Client>>(device.client));
+    opened.push_back(device.client.get<romi::Client>());
   };
   const ConfigError error = open_error(config, io.executor(), hooks);
   EXPECT_STREQ(error.what(), "devices[1].transport.serial.path: /dev/tether-no-such-port: No such file or directory");
@@ -322,7 +322,7 @@ TEST(DevicesRover, AMissingRingImageFailsTheOpenAndClosesTheDevicesOpenedBefore)
           {"firmware": "elcano-node"}, {"firmware": "no-such-node"}]}}})"});
   std::shared_ptr<romi::Client> arm;
   OpenOptions hooks;
-  hooks.on_opened = [&](const RoverDevice& device) { arm = std::get<std::shared_ptr<romi::Client>>(device.client); };
+  hooks.on_opened = [&](const RoverDevice& device) { arm = device.client.get<romi::Client>(); };
   const ConfigError error = open_error(config, io.executor(), hooks);
   EXPECT_EQ(std::string(error.what()), "devices[1].transport.virtual_ring.boards[1].firmware: " +
                                            std::string(TETHER_FIRMWARE_DIR) +

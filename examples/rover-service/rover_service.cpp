@@ -22,18 +22,18 @@
 namespace {
 
 bool drive(const tether::devices::RoverDevice& device) {
-  if (const auto* romi = std::get_if<std::shared_ptr<tether::romi::Client>>(&device.client)) {
-    const tether::romi::RomiResponse answer = (*romi)->call("S[1500,1500]");
+  if (const auto romi = device.client.get<tether::romi::Client>()) {
+    const tether::romi::RomiResponse answer = romi->call("S[1500,1500]");
     std::cout << device.name << " (romi): " << answer.values.dump() << "\n";
     return answer.code == 0;
   }
-  if (const auto* proxy = std::get_if<std::shared_ptr<tether::proxy::Client>>(&device.client)) {
-    const tether::proxy::SendResult sent = (*proxy)->servo(9).set(90);  // the configuration's inits ran
+  if (const auto proxy = device.client.get<tether::proxy::Client>()) {
+    const tether::proxy::SendResult sent = proxy->servo(9).set(90);  // the configuration's inits ran
     std::cout << device.name << " (proxy): servo 9 at 90, " << int(sent.attempts) << " attempt(s)"
               << (sent.acked ? ", acked" : "") << "\n";
     return true;
   }
-  const auto& ring = std::get<std::shared_ptr<tether::elcano::RingClient>>(device.client);
+  const auto ring = device.client.get<tether::elcano::RingClient>();
   tether::elcano::Message drive;  // D{s 50}{a 25}
   drive.type = tether::elcano::Type::drive;
   drive.speed = 50;

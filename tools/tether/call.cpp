@@ -143,7 +143,7 @@ int run_call(int argc, char** argv) {
                                       std::string(devices::to_string(target->config.codec)) +
                                       ", not romi (`tether send`, `shell` or `monitor` talk to it)");
   }
-  auto& romi_options = std::get<devices::RomiOptions>(target->config.options);
+  auto& romi_options = target->config.options.get<devices::RomiOptions>();
   if (arguments.timeout_ms) {
     romi_options.timing.call_budget = *arguments.timeout_ms;
     romi_options.timing.attempt_timeout = std::min<std::uint32_t>(*arguments.timeout_ms, romi::kControllerDeadlineMs);
@@ -162,7 +162,7 @@ int run_call(int argc, char** argv) {
     Progress progress("call");
     ClientHooks hooks;
     hooks.on_client = [](const devices::DeviceClient& client) {
-      std::get<std::shared_ptr<romi::Client>>(client)->on_event([](const romi::Event& event) {
+      client.get<romi::Client>()->on_event([](const romi::Event& event) {
         if (const auto* log = std::get_if<romi::events::Log>(&event)) {
           std::fprintf(stderr, "%s\n", romi_log_line(log->text).text.c_str());  // the shell's form
         }

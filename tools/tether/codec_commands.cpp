@@ -43,7 +43,7 @@ const char* const kShellCommands = "Shell commands: :help, :stats (the session's
 // --- romi -------------------------------------------------------------------------------------------------------
 
 std::shared_ptr<romi::Client> romi_client(const devices::DeviceClient& client) {
-  return std::get<std::shared_ptr<romi::Client>>(client);
+  return client.get<romi::Client>();
 }
 
 class RomiShell final : public ShellSession {
@@ -111,7 +111,7 @@ CodecCommands romi_commands() {
 // --- proxy and proxy-compat -------------------------------------------------------------------------------------
 
 std::shared_ptr<proxy::Client> proxy_client(const devices::DeviceClient& client) {
-  return std::get<std::shared_ptr<proxy::Client>>(client);
+  return client.get<proxy::Client>();
 }
 
 class ProxyShell final : public ShellSession {
@@ -213,7 +213,7 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
 // --- elcano -----------------------------------------------------------------------------------------------------
 
 std::shared_ptr<elcano::RingClient> ring_client(const devices::DeviceClient& client) {
-  return std::get<std::shared_ptr<elcano::RingClient>>(client);
+  return client.get<elcano::RingClient>();
 }
 
 // What became of the messages sent into an Elcano ring: each one ends captured somewhere (what the host
@@ -276,7 +276,7 @@ class ElcanoShell final : public ShellSession {
               const ShellContext& context)
       : client_(std::move(client)),
         printer_(context.printer),
-        generation_(std::get<devices::ElcanoOptions>(config.options).generation),
+        generation_(config.options.get<devices::ElcanoOptions>().generation),
         lone_board_(context.options != nullptr && !context.options->firmware.empty()),
         capture_given_(context.options != nullptr && context.options->capture.has_value()) {
     const ShellPrinter printer = context.printer;
@@ -369,7 +369,7 @@ CodecCommands elcano_commands() {
     node.eeprom = settings;
     // ... which the host captures (unless --capture says otherwise).
     if (!options.capture) {
-      std::get<devices::ElcanoOptions>(config.options).capture = elcano::TypeSet::of(elcano::Type::sensor);
+      config.options.get<devices::ElcanoOptions>().capture = elcano::TypeSet::of(elcano::Type::sensor);
     }
     ring.boards.push_back(node);
     ring.pacing = transports::Pacing::real_time;

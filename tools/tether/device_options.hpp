@@ -90,8 +90,7 @@ class OpenDevice {
   /// The client as `Client` (`romi::Client`), or null when the codec has another.
   template <typename Client>
   std::shared_ptr<Client> client_as() const {
-    const auto* client = std::get_if<std::shared_ptr<Client>>(&client_);
-    return client != nullptr ? *client : nullptr;
+    return client_.get<Client>();
   }
   /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`).
   nlohmann::ordered_json counters() const;

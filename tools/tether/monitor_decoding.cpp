@@ -275,12 +275,12 @@ std::unique_ptr<MonitorDecoder> make_romi_monitor_decoder(const devices::DeviceC
 
 std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
                                                            Millis now) {
-  return std::make_unique<ProxyDecoder>(std::get<devices::ProxyDeviceOptions>(config.options).client.mode, role, now);
+  return std::make_unique<ProxyDecoder>(config.options.get<devices::ProxyDeviceOptions>().client.mode, role, now);
 }
 
 std::unique_ptr<MonitorDecoder> make_elcano_monitor_decoder(const devices::DeviceConfig& config,
                                                             const DecoderRole& role, Millis now) {
-  const auto& options = std::get<devices::ElcanoOptions>(config.options);
+  const auto& options = config.options.get<devices::ElcanoOptions>();
   if (role.ring_node) return std::make_unique<ElcanoRingNodeDecoder>(options, now);
   return std::make_unique<ElcanoReaderDecoder>(options.generation);
 }

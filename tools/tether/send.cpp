@@ -179,7 +179,7 @@ int run_send(int argc, char** argv) {
                                       ", not the proxy protocol" +
                                       (codec == devices::Codec::romi ? " (use `tether call` or `tether shell`)" : ""));
   }
-  auto& proxy_options = std::get<devices::ProxyDeviceOptions>(target->config.options);
+  auto& proxy_options = target->config.options.get<devices::ProxyDeviceOptions>();
   const proxy::Mode mode = proxy_options.client.mode;
   if (arguments.timeout_ms) proxy_options.client.timing.send_budget = *arguments.timeout_ms;
 
@@ -200,7 +200,7 @@ int run_send(int argc, char** argv) {
   const auto seen = std::make_shared<Observed>();
   ClientHooks hooks;
   hooks.on_client = [seen](const devices::DeviceClient& client) {
-    std::get<std::shared_ptr<proxy::Client>>(client)->on_event([seen](const proxy::Event& event) { observe(*seen, event); });
+    client.get<proxy::Client>()->on_event([seen](const proxy::Event& event) { observe(*seen, event); });
   };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device) return command_text().fail(target->label + ": " + error);

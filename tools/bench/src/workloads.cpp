@@ -280,7 +280,7 @@ class ElcanoRoundWorkload final : public demo::Workload {
 
 // The first init of `kind` in a proxy device's config: the pin a one-pin operation drives.
 std::optional<std::uint32_t> first_pin(const devices::DeviceConfig& config, devices::PinInit::Kind kind) {
-  for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
+  for (const devices::PinInit& init : config.options.get<devices::ProxyDeviceOptions>().inits) {
     if (init.kind == kind) return init.pin;
   }
   return std::nullopt;
@@ -306,15 +306,15 @@ std::unique_ptr<demo::Workload> make_bench_workload(const devices::RoverDevice& 
                                                     const devices::DeviceConfig& config, WorkloadKind kind,
                                                     Payload payload, std::string& why) {
   const bool large = payload == Payload::large;
-  if (const auto* romi = std::get_if<std::shared_ptr<romi::Client>>(&device.client)) {
+  if (const auto romi = device.client.get<romi::Client>()) {
     if (kind == WorkloadKind::sensor) {
-      if (large) return std::make_unique<RomiAllChannelsWorkload>(*romi);
+      if (large) return std::make_unique<RomiAllChannelsWorkload>(romi);
       return demo::make_sensor_workload(device, why);
     }
-    if (large) return std::make_unique<RomiLabelledServoWorkload>(*romi);
+    if (large) return std::make_unique<RomiLabelledServoWorkload>(romi);
     return demo::make_workload(device, config);
   }
-  if (const auto* proxy = std::get_if<std::shared_ptr<proxy::Client>>(&device.client)) {
+  if (const auto proxy = device.client.get<proxy::Client>()) {
     if (kind == WorkloadKind::servo && payload == Payload::demo) return demo::make_workload(device, config);
     const bool servo = large;
     const auto pin = first_pin(config, servo ? devices::PinInit::Kind::servo : devices::PinInit::Kind::digital);
@@ -323,11 +323,11 @@ std::unique_ptr<demo::Workload> make_bench_workload(const devices::RoverDevice& 
             " operation";
       return nullptr;
     }
-    return std::make_unique<ProxyControlWorkload>(*proxy, *pin, servo, kind == WorkloadKind::sensor);
+    return std::make_unique<ProxyControlWorkload>(proxy, *pin, servo, kind == WorkloadKind::sensor);
   }
-  if (const auto* ring = std::get_if<std::shared_ptr<elcano::RingClient>>(&device.client)) {
-    if (kind == WorkloadKind::sensor) return std::make_unique<ElcanoRoundWorkload>(*ring, elcano::Type::goal, large);
-    if (large) return std::make_unique<ElcanoRoundWorkload>(*ring, elcano::Type::segment, true);
+  if (const auto ring = device.client.get<elcano::RingClient>()) {
+    if (kind == WorkloadKind::sensor) return std::make_unique<ElcanoRoundWorkload>(ring, elcano::Type::goal, large);
+    if (large) return std::make_unique<ElcanoRoundWorkload>(ring, elcano::Type::segment, true);
     return demo::make_workload(device, config);
   }
   why = "no " + std::string(to_string(kind)) + " operation for codec " + std::string(devices::to_string(device.codec));

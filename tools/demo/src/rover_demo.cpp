@@ -254,30 +254,21 @@ devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
 }
 
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
-  return std::visit(
-      [&](const auto& client) -> std::unique_ptr<Workload> {
-        using Client = typename std::decay_t<decltype(client)>::element_type;
-        if constexpr (std::is_same_v<Client, romi::Client>) {
-          return std::make_unique<RomiWorkload>(client);
-        } else if constexpr (std::is_same_v<Client, proxy::Client>) {
-          std::vector<devices::PinInit> servos;
-          for (const devices::PinInit& init : std::get<devices::ProxyDeviceOptions>(config.options).inits) {
-            if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
-          }
-          return std::make_unique<ProxyWorkload>(client, std::move(servos), client->mode() == proxy::Mode::compat);
-        } else if constexpr (std::is_same_v<Client, elcano::RingClient>) {
-          return std::make_unique<ElcanoWorkload>(client);
-        } else {
-          throw std::invalid_argument("the demo has no servo workload for codec " +
-                                      std::string(devices::to_string(device.codec)));
-        }
-      },
-      device.client);
+  if (const auto romi = device.client.get<romi::Client>()) return std::make_unique<RomiWorkload>(romi);
+  if (const auto proxy = device.client.get<proxy::Client>()) {
+    std::vector<devices::PinInit> servos;
+    for (const devices::PinInit& init : config.options.get<devices::ProxyDeviceOptions>().inits) {
+      if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
+    }
+    return std::make_unique<ProxyWorkload>(proxy, std::move(servos), proxy->mode() == proxy::Mode::compat);
+  }
+  if (const auto ring = device.client.get<elcano::RingClient>()) return std::make_unique<ElcanoWorkload>(ring);
+  throw std::invalid_argument("the demo has no servo workload for codec " + std::string(devices::to_string(device.codec)));
 }
 
 std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why) {
-  if (const auto* romi = std::get_if<std::shared_ptr<romi::Client>>(&device.client)) {
-    return std::make_unique<RomiSensorWorkload>(*romi);
+  if (const auto romi = device.client.get<romi::Client>()) {
+    return std::make_unique<RomiSensorWorkload>(romi);
   }
   why = "no sensor read in the " + std::string(devices::to_string(device.codec)) +
         " demo images (proxy: pins are reported only in the state stream; elcano: the sensor report answers a drive)";

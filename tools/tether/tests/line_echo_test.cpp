@@ -98,8 +98,7 @@ TEST(LineEchoCodec, ARegisteredCodecIsParsedCheckedAndOpenedLikeTheBuiltInOnes) 
   const devices::RoverConfig config = devices::parse_config(config_text(device.path()));
   ASSERT_EQ(config.devices.size(), 1u);
   EXPECT_EQ(config.devices[0].codec, codec);
-  const auto& options = std::get<devices::ExtensionOptions>(config.devices[0].options);
-  EXPECT_EQ(std::any_cast<const line_echo::Options&>(options.value).timeout_ms, 2000u);
+  EXPECT_EQ(config.devices[0].options.get<line_echo::Options>().timeout_ms, 2000u);
 
   // Its option keys are checked like a built-in codec's, both ways.
   try {
@@ -124,8 +123,7 @@ TEST(LineEchoCodec, ARegisteredCodecIsParsedCheckedAndOpenedLikeTheBuiltInOnes) 
 
   transports::IoThread io;
   devices::Rover rover = devices::open_rover(config, io.executor());
-  const auto client = std::dynamic_pointer_cast<line_echo::Client>(
-      std::get<std::shared_ptr<devices::ExtensionClient>>(rover.devices()[0].client));
+  const auto client = rover.devices()[0].client.get<line_echo::Client>();
   ASSERT_NE(client, nullptr);
   boost::system::error_code error;
   EXPECT_EQ(client->call("hello", error), "hello");

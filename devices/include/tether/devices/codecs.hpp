@@ -12,15 +12,18 @@
 ///   devices::CodecRow row;
 ///   row.name = "line-echo";
 ///   row.option_keys = {"timeout_ms"};
-///   row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions { ... };
+///   row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions {
+///     return LineEchoOptions{...};                        // any copyable type
+///   };
 ///   row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-///                 std::shared_ptr<transports::LinkClock> clock)
-///       -> devices::DeviceClient { return std::make_shared<LineEchoClient>(stream, ..., clock); };
+///                 std::shared_ptr<transports::LinkClock> clock) -> devices::DeviceClient {
+///     return std::make_shared<LineEchoClient>(stream, device.options.get<LineEchoOptions>(), clock);
+///   };
 ///   const devices::Codec line_echo = devices::register_codec(row);
 /// @endcode
 ///
-/// A registered codec's options live in `ExtensionOptions` and its client is an `ExtensionClient` (the
-/// alternatives of `CodecOptions` and `DeviceClient` the built-in codecs do not use).
+/// Built-in and registered codecs are reached the same way: `device.options.get<LineEchoOptions>()`,
+/// `device.client.get<LineEchoClient>()` (`CodecOptions`, `DeviceClient`).
 #pragma once
 
 #include <cstdint>

@@ -45,6 +45,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -245,14 +246,53 @@ struct ElcanoOptions {
   session::CallTiming timing = elcano::default_call_timing();
 };
 
-/// Options of a codec registered at run time (codecs.hpp): whatever its row's parser made of them.
-struct ExtensionOptions {
-  std::any value;  ///< The codec's own options type.
-};
+/// A device's codec options: a value of the options type its codec defines (`RomiOptions`,
+/// `ProxyDeviceOptions`, `ElcanoOptions`, or a registered codec's own), reached by that type. Every codec,
+/// built in or registered (codecs.hpp), stores and reads its options the same way:
+///
+/// @code
+///   devices::CodecOptions options = devices::RomiOptions{};
+///   if (auto* romi = options.get_if<devices::RomiOptions>()) romi->first_id = 7;
+///   const auto& same = options.get<devices::RomiOptions>();   // throws std::invalid_argument if not
+/// @endcode
+class CodecOptions {
+ public:
+  /// No options (what a codec's parser replaces; a device is never opened with none).
+  CodecOptions() = default;
+  /// Holds `options`, any copyable type.
+  template <typename Options,
+            typename = std::enable_if_t<!std::is_same_v<std::decay_t<Options>, CodecOptions>>>
+  CodecOptions(Options&& options)  // NOLINT: implicit: `device.options = RomiOptions{}`
+      : value_(std::forward<Options>(options)) {}
 
-/// A codec's options; the alternative matches `DeviceConfig::codec` (proxy and proxy-compat share one;
-/// registered codecs use `ExtensionOptions`).
-using CodecOptions = std::variant<RomiOptions, ProxyDeviceOptions, ElcanoOptions, ExtensionOptions>;
+  /// The options if they are an `Options`, else null.
+  template <typename Options>
+  const Options* get_if() const {
+    return std::any_cast<Options>(&value_);
+  }
+  /// The options if they are an `Options`, else null.
+  template <typename Options>
+  Options* get_if() {
+    return std::any_cast<Options>(&value_);
+  }
+  /// The options as an `Options`. Throws `std::invalid_argument` when they are of another type.
+  template <typename Options>
+  const Options& get() const {
+    if (const Options* options = get_if<Options>()) return *options;
+    throw std::invalid_argument("devices::CodecOptions: the options are of another codec's type");
+  }
+  /// The options as an `Options`. Throws `std::invalid_argument` when they are of another type.
+  template <typename Options>
+  Options& get() {
+    if (Options* options = get_if<Options>()) return *options;
+    throw std::invalid_argument("devices::CodecOptions: the options are of another codec's type");
+  }
+  /// True when options are held.
+  bool has_value() const { return value_.has_value(); }
+
+ private:
+  std::any value_;
+};
 
 /// One device of the rover.
 struct DeviceConfig {

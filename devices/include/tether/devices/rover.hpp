@@ -16,7 +16,7 @@
 ///      (created, started, owned by the rover: it stops when the device closes);
 ///   2. the codec's client, made by its row of the codec table (codecs.hpp): `romi::Client`,
 ///      `proxy::Client` (primary or compat mode), `elcano::RingClient` (see "Elcano" below), or a
-///      registered codec's `ExtensionClient`;
+///      registered codec's own client;
 ///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
 ///      the session handshake is done, within `ProxyDeviceOptions::open_timeout`. A device that does not
@@ -58,7 +58,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
-#include <variant>
+#include <typeinfo>
 #include <vector>
 
 #include "tether/devices/config.hpp"
@@ -72,19 +72,48 @@
 
 namespace tether::devices {
 
-/// The client of a codec registered at run time (codecs.hpp): its own client type derives from this, so the
-/// rover can close it; users reach it with `std::dynamic_pointer_cast`.
-class ExtensionClient {
+/// The client of an opened device: a shared pointer to its codec's client (`romi::Client`, `proxy::Client`,
+/// `elcano::RingClient`, or a registered codec's own), reached by that type. Every codec, built in or
+/// registered (codecs.hpp), hands out its client the same way:
+///
+/// @code
+///   if (auto arm = device.client.get<romi::Client>()) arm->call("e");   // null for another codec's client
+/// @endcode
+///
+/// A client type only needs a `close()` (idempotent, never waiting for the device): the rover calls it when
+/// it closes.
+class DeviceClient {
  public:
-  virtual ~ExtensionClient() = default;
-  /// Closes the client and its stream; idempotent, never waits for the device.
-  virtual void close() = 0;
-};
+  /// No client.
+  DeviceClient() = default;
+  /// Holds `client` (null: no client).
+  template <typename Client>
+  DeviceClient(std::shared_ptr<Client> client)  // NOLINT: implicit: a codec's `open` returns its client
+      : client_(client), type_(client ? &typeid(Client) : nullptr), close_(client ? &close_client<Client> : nullptr) {}
 
-/// The client of an opened device: one alternative per client type (proxy and proxy-compat share one;
-/// registered codecs use `ExtensionClient`).
-using DeviceClient = std::variant<std::shared_ptr<romi::Client>, std::shared_ptr<proxy::Client>,
-                                  std::shared_ptr<elcano::RingClient>, std::shared_ptr<ExtensionClient>>;
+  /// The client if it is a `Client`, else null.
+  template <typename Client>
+  std::shared_ptr<Client> get() const {
+    if (type_ == nullptr || *type_ != typeid(Client)) return nullptr;
+    return std::static_pointer_cast<Client>(client_);
+  }
+  /// Closes the client (nothing when there is none).
+  void close() const {
+    if (close_ != nullptr) close_(client_.get());
+  }
+  /// True when a client is held.
+  explicit operator bool() const { return client_ != nullptr; }
+
+ private:
+  template <typename Client>
+  static void close_client(void* client) {
+    static_cast<Client*>(client)->close();
+  }
+
+  std::shared_ptr<void> client_;
+  const std::type_info* type_ = nullptr;
+  void (*close_)(void*) = nullptr;
+};
 
 /// One opened device.
 struct RoverDevice {

@@ -75,11 +75,11 @@ void Client::close() { stream_->close(); }
 namespace {
 
 std::shared_ptr<Client> client_of(const devices::DeviceClient& client) {
-  return std::dynamic_pointer_cast<Client>(std::get<std::shared_ptr<devices::ExtensionClient>>(client));
+  return client.get<Client>();
 }
 
 const Options& options_of(const devices::DeviceConfig& device) {
-  return std::any_cast<const Options&>(std::get<devices::ExtensionOptions>(device.options).value);
+  return device.options.get<Options>();
 }
 
 class Shell final : public cli::ShellSession {
@@ -140,7 +140,7 @@ devices::Codec register_line_echo() {
         }
         options.timeout_ms = value.get<std::uint32_t>();
       }
-      return devices::ExtensionOptions{options};
+      return options;
     };
     row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
                   std::shared_ptr<transports::LinkClock>) -> devices::DeviceClient {  // its timeout is steady
@@ -150,7 +150,7 @@ devices::Codec register_line_echo() {
     cli::CodecCommands commands;
     commands.image_prefixes = {"line-echo"};
     commands.default_options = [](std::uint32_t, const cli::DeviceOptions&) -> devices::CodecOptions {
-      return devices::ExtensionOptions{Options()};
+      return Options();
     };
     commands.counters = [](const devices::DeviceClient& client) {
       return nlohmann::ordered_json{{"link", cli::link_counters_json(client_of(client)->counters())}};

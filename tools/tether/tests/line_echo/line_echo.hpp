@@ -43,14 +43,15 @@ class LineDecoder {
 };
 
 /// The host's client: one blocking call at a time.
-class Client final : public devices::ExtensionClient {
+class Client final {
  public:
   Client(std::shared_ptr<transports::ByteStream> stream, Options options);
   /// Sends `text` (one line, at most `kMaxLine` characters, no '\n') and returns the line that came back;
   /// `error` set on a bad line (invalid_argument), no answer in time (timed_out) or a failed link.
   std::string call(std::string_view text, boost::system::error_code& error);
   LinkCounters counters() const;
-  void close() override;
+  /// Closes the stream (what the rover calls when it closes).
+  void close();
 
  private:
   std::shared_ptr<transports::ByteStream> stream_;
