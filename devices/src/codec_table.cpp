@@ -16,43 +16,11 @@ namespace {
 constexpr unsigned kFirstRegisteredValue = 16;
 
 std::vector<CodecRow> builtin_rows() {
-  std::vector<CodecRow> rows(4);
-  rows[0].codec = Codec::romi;
-  rows[0].name = "romi";
-  rows[0].client_name = "romi::Client";
-  rows[0].option_keys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
-  rows[0].parse_options = detail::parse_romi;
-  rows[0].validate = detail::validate_romi;
-  rows[0].open = detail::open_romi;
-
-  // proxy and proxy-compat: one client and parser, the mode from the codec.
-  const auto proxy_row = [](CodecRow& row, Codec codec, std::string_view name, std::string_view client_name) {
-    row.codec = codec;
-    row.name = name;
-    row.client_name = client_name;
-    row.parse_options = detail::parse_proxy;
-    row.validate = [codec](const CodecOptions& options, const std::string& path) {
-      detail::validate_proxy(options, path, codec);
-    };
-    row.open = detail::open_proxy;
-    row.await_ready = detail::await_proxy;
-  };
-  proxy_row(rows[1], Codec::proxy, "proxy", "proxy::Client");
-  rows[1].option_keys = {"baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms",
-                         "max_sends",      "queue_timeout_ms", "ping_period_ms",       "reset_timeout_ms",
-                         "open_timeout_ms", "inits"};
-  proxy_row(rows[2], Codec::proxy_compat, "proxy-compat", "proxy::Client (proxy::Options::compat())");
-  rows[2].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
-  rows[2].default_baud = 57600;  // the deployed firmware's
-
-  rows[3].codec = Codec::elcano;
-  rows[3].name = "elcano";
-  rows[3].client_name = "elcano::RingClient";
-  rows[3].option_keys = {"generation", "capture", "pacing", "attempt_timeout_ms", "call_budget_ms", "max_attempts"};
-  rows[3].virtual_boards = VirtualBoards::ring;
-  rows[3].parse_options = detail::parse_elcano;
-  rows[3].validate = detail::validate_elcano;
-  rows[3].open = detail::open_elcano;
+  std::vector<CodecRow> rows = detail::plugin_rows();
+  // In the order of their values: the order configurations' error messages list them in.
+  std::stable_sort(rows.begin(), rows.end(), [](const CodecRow& a, const CodecRow& b) {
+    return static_cast<unsigned>(a.codec) < static_cast<unsigned>(b.codec);
+  });
   return rows;
 }
 
@@ -117,6 +85,14 @@ Codec register_codec(CodecRow row) {
   row.codec = static_cast<Codec>(kFirstRegisteredValue + registered);
   rows.rows.push_back(std::move(row));
   return rows.rows.back().codec;
+}
+
+std::string_view to_string(Codec codec) {
+  try {
+    return codec_row(codec).name;
+  } catch (const std::out_of_range&) {
+    return "unknown";
+  }
 }
 
 }  // namespace tether::devices

@@ -2,7 +2,9 @@
 #include "tether/devices/config.hpp"
 
 #include "builtin_codecs.hpp"
+#include "tether/devices/json_reader.hpp"
 #include "tether/elcano/node/config.hpp"
+#include "tether/elcano/plugin.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -20,242 +22,22 @@
 
 namespace tether::devices {
 
-// --- error category -------------------------------------------------------------------------------------
-
-namespace {
-
-class DevicesCategory final : public boost::system::error_category {
- public:
-  const char* name() const noexcept override { return "tether.devices"; }
-  std::string message(int value) const override {
-    switch (static_cast<DevicesError>(value)) {
-      case DevicesError::invalid_config: return "invalid configuration";
-      case DevicesError::unknown_device: return "no device of that name";
-      case DevicesError::wrong_codec: return "the device speaks another codec";
-      case DevicesError::not_supported: return "not supported by this build";
-      case DevicesError::device_not_ready: return "the device did not answer its handshake in time";
-    }
-    return "unknown tether.devices error";
-  }
-};
-
-std::string compose(const std::string& file, const std::string& path, const std::string& detail) {
-  std::string text;
-  if (!file.empty()) text += file + ": ";
-  if (!path.empty()) text += path + ": ";
-  return text + detail;
-}
-
-}  // namespace
-
-const boost::system::error_category& devices_category() {
-  static const DevicesCategory category;
-  return category;
-}
-
-error_code make_error_code(DevicesError error) { return error_code(static_cast<int>(error), devices_category()); }
-
-ConfigError::ConfigError(std::string path, std::string detail, error_code code, std::string file)
-    : std::runtime_error(compose(file, path, detail)),
-      path_(std::move(path)),
-      detail_(std::move(detail)),
-      code_(code),
-      file_(std::move(file)) {}
-
-std::string_view to_string(Codec codec) {
-  try {
-    return codec_row(codec).name;
-  } catch (const std::out_of_range&) {
-    return "unknown";
-  }
-}
-
 // --- helpers ----------------------------------------------------------------------------------------------
 
 namespace {
 
+// The reader of json_reader.hpp under this file's short names.
 using json = nlohmann::json;
-using Names = std::vector<std::string_view>;
+using Node = JsonNode;
+using Object = JsonObject;
 
-[[noreturn]] void fail(const std::string& path, std::string detail) { throw ConfigError(path, std::move(detail)); }
-
-// `text` as a JSON string literal (quotes, escapes).
-std::string quote_json(std::string_view text) { return json(std::string(text)).dump(); }
-
-// How a value is shown after "got": `string "fast"`, `number -3`, `boolean true`, `null`, `object`, `array`.
-std::string show(const json& value) {
-  switch (value.type()) {
-    case json::value_t::string: return "string " + value.dump();
-    case json::value_t::boolean: return std::string("boolean ") + (value.get<bool>() ? "true" : "false");
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "number " + value.dump();
-    case json::value_t::null: return "null";
-    case json::value_t::object: return value.empty() ? "an empty object" : "object";
-    case json::value_t::array: return value.empty() ? "an empty array" : "array";
-    default: return "an invalid value";
-  }
-}
-
-std::string join(const Names& names, std::string_view separator = ", ") {
-  std::string text;
-  for (std::string_view name : names) {
-    if (!text.empty()) text += separator;
-    text += name;
-  }
-  return text;
-}
-
-// Optimal string alignment distance (Levenshtein plus adjacent transpositions).
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1, 0));
-  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
-  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
-      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
-      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
-        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
-      }
-    }
-  }
-  return d[a.size()][b.size()];
-}
-
-// The closest candidate when it is plausibly a typo of `word`.
+[[noreturn]] void fail(const std::string& path, std::string detail) { fail_config(path, std::move(detail)); }
+std::string join(const Names& names, std::string_view separator = ", ") { return join_names(names, separator); }
 std::optional<std::string_view> closest(std::string_view word, const Names& candidates) {
-  std::optional<std::string_view> best;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-  for (std::string_view candidate : candidates) {
-    const std::size_t distance = edit_distance(word, candidate);
-    if (distance < best_distance) {
-      best_distance = distance;
-      best = candidate;
-    }
-  }
-  if (!best) return std::nullopt;
-  const std::size_t limit = std::max<std::size_t>(1, std::min<std::size_t>(3, best->size() / 3));
-  if (best_distance > limit) return std::nullopt;
-  return best;
+  return closest_name(word, candidates);
 }
-
 bool contains(const Names& names, std::string_view name) {
   return std::find(names.begin(), names.end(), name) != names.end();
-}
-
-// A JSON value and its path.
-struct Node {
-  const json& value;
-  std::string path;
-
-  Node key(std::string_view name) const {
-    return Node{value.at(std::string(name)), path.empty() ? std::string(name) : path + "." + std::string(name)};
-  }
-  Node index(std::size_t i) const { return Node{value.at(i), path + "[" + std::to_string(i) + "]"}; }
-  [[noreturn]] void expected(std::string_view what) const {
-    fail(path, "expected " + std::string(what) + ", got " + show(value));
-  }
-};
-
-// An object node: key checks and member access.
-class Object {
- public:
-  explicit Object(const Node& node) : node_(node) {
-    if (!node.value.is_object()) node.expected("an object");
-  }
-  const Node& node() const { return node_; }
-  const std::string& path() const { return node_.path; }
-
-  // Every key must be in `allowed`; `elsewhere` (key -> what it belongs to) explains keys of other codecs.
-  void allow_only(const Names& allowed, const std::map<std::string, std::string>& elsewhere = {}) const {
-    for (const auto& item : node_.value.items()) {
-      const std::string& key = item.key();
-      if (contains(allowed, key)) continue;
-      if (const auto other = elsewhere.find(key); other != elsewhere.end()) {
-        fail(path(), "key " + quote_json(key) + " " + other->second);
-      }
-      if (const auto near = closest(key, allowed)) {
-        fail(path(), "unknown key " + quote_json(key) + " (did you mean " + quote_json(*near) + "?)");
-      }
-      fail(path(), "unknown key " + quote_json(key) + " (allowed: " + join(allowed) + ")");
-    }
-  }
-  bool has(std::string_view key) const { return node_.value.contains(std::string(key)); }
-  std::optional<Node> optional(std::string_view key) const {
-    if (!has(key)) return std::nullopt;
-    return node_.key(key);
-  }
-  Node required(std::string_view key) const {
-    if (!has(key)) fail(path(), "missing key " + quote_json(key));
-    return node_.key(key);
-  }
-
- private:
-  Node node_;
-};
-
-std::uint64_t read_unsigned(const Node& node, std::uint64_t min = 0,
-                            std::uint64_t max = std::numeric_limits<std::uint64_t>::max()) {
-  const json& value = node.value;
-  // Parsed text stores non-negative integers as unsigned; documents built in code may hold them signed.
-  const bool unsigned_integer =
-      value.is_number_unsigned() || (value.is_number_integer() && value.get<std::int64_t>() >= 0);
-  if (!unsigned_integer) node.expected("an unsigned integer");
-  const auto number = value.get<std::uint64_t>();
-  if (number < min || number > max) {
-    fail(node.path, "expected an unsigned integer in " + std::to_string(min) + ".." + std::to_string(max) + ", got " +
-                        std::to_string(number));
-  }
-  return number;
-}
-
-// A duration in milliseconds: 0 (or `min`) .. 2^31 - 1 (the engine's deadlines stay comparable).
-Duration read_ms(const Node& node, Duration min = 0) {
-  return static_cast<Duration>(read_unsigned(node, min, 0x7FFFFFFFu));
-}
-
-bool read_bool(const Node& node) {
-  if (!node.value.is_boolean()) node.expected("a boolean");
-  return node.value.get<bool>();
-}
-
-std::string read_string(const Node& node) {
-  if (!node.value.is_string()) node.expected("a string");
-  return node.value.get<std::string>();
-}
-
-std::string read_nonempty_string(const Node& node) {
-  if (!node.value.is_string() || node.value.get_ref<const std::string&>().empty()) node.expected("a non-empty string");
-  return node.value.get<std::string>();
-}
-
-double read_rate(const Node& node) {
-  if (!node.value.is_number()) node.expected("a number in [0, 1]");
-  const double rate = node.value.get<double>();
-  if (!(rate >= 0.0 && rate <= 1.0)) node.expected("a number in [0, 1]");
-  return rate;
-}
-
-// One of `names` (returns its index); `what` names the kind of value in the message ("codec").
-std::size_t read_choice(const Node& node, std::string_view what, const Names& names) {
-  if (!node.value.is_string()) {
-    node.expected("a " + std::string(what) + " name (one of " + join(names) + ")");
-  }
-  const auto& text = node.value.get_ref<const std::string&>();
-  std::size_t i = 0;
-  for (std::string_view name : names) {
-    if (name == text) return i;
-    ++i;
-  }
-  std::string detail = "unknown " + std::string(what) + " " + quote_json(text) + " (expected one of " + join(names) + ")";
-  if (const auto near = closest(text, names)) detail += "; did you mean " + quote_json(*near) + "?";
-  fail(node.path, detail);
-}
-
-template <typename Visit>
-void for_each_element(const Node& node, Visit visit) {
-  for (std::size_t i = 0; i < node.value.size(); ++i) visit(node.index(i), i);
 }
 
 // --- transports -------------------------------------------------------------------------------------------
@@ -361,23 +143,6 @@ VirtualTransport parse_virtual(const Node& node, const std::string& device_name,
   return virt;
 }
 
-// The codec's names (elcano::to_string), in the order of kElcanoTypeValues.
-constexpr std::array<elcano::Type, 4> kElcanoTypeValues = {elcano::Type::drive, elcano::Type::sensor,
-                                                           elcano::Type::goal, elcano::Type::segment};
-const Names kElcanoTypes = {elcano::to_string(elcano::Type::drive), elcano::to_string(elcano::Type::sensor),
-                            elcano::to_string(elcano::Type::goal), elcano::to_string(elcano::Type::segment)};
-
-elcano::TypeSet read_types(const Node& node) {
-  if (!node.value.is_array()) node.expected("an array of message types (" + join(kElcanoTypes) + ")");
-  elcano::TypeSet set;
-  for_each_element(node, [&](const Node& element, std::size_t) {
-    const elcano::Type type = kElcanoTypeValues.at(read_choice(element, "message type", kElcanoTypes));
-    if (set.contains(type)) fail(element.path, "message type " + element.value.dump() + " is listed twice");
-    set = set.with(type);
-  });
-  return set;
-}
-
 constexpr std::size_t kEepromBytes = 1024;  // ATmega328P
 
 // Behaviour names, bit i = 1 << i (the elcano-node image's k* behaviour bits).
@@ -397,7 +162,7 @@ RingNodeSettings parse_node_settings(const Node& node, bool with_link, std::uint
   }
   RingNodeSettings node_settings;
   node_settings.node_number = default_node_number;
-  if (auto c = settings.optional("capture")) node_settings.capture = read_types(*c);
+  if (auto c = settings.optional("capture")) node_settings.capture = elcano::read_message_types(*c);
   if (auto b = settings.optional("behaviours")) {
     if (!b->value.is_array()) b->expected("an array of behaviours (" + join(kBehaviours) + ")");
     for_each_element(*b, [&](const Node& element, std::size_t) {
@@ -533,101 +298,6 @@ std::map<std::string, std::string> foreign_keys(const CodecRow& codec) {
   return owners;
 }
 
-void read_call_timing(const Object& object, session::CallTiming& timing) {
-  if (auto v = object.optional("attempt_timeout_ms")) timing.attempt_timeout = read_ms(*v, 1);
-  if (auto v = object.optional("call_budget_ms")) timing.call_budget = read_ms(*v, 1);
-  if (auto v = object.optional("max_attempts")) timing.max_attempts = static_cast<std::uint8_t>(read_unsigned(*v, 1, 255));
-}
-
-RomiOptions parse_romi_options(const Object& object) {
-  RomiOptions options;
-  read_call_timing(object, options.timing);
-  if (auto v = object.optional("retry_on_timeout")) options.timing.retry_on_timeout = read_bool(*v);
-  if (auto v = object.optional("first_id")) options.first_id = static_cast<std::uint8_t>(read_unsigned(*v, 0, 254));
-  return options;
-}
-
-const char* kind_name(PinInit::Kind kind) { return kind == PinInit::Kind::servo ? "servo" : "digital"; }
-
-PinInit parse_init(const Node& node) {
-  const Object object(node);
-  PinInit init;
-  const Node kind = object.required("kind");
-  init.kind = read_choice(kind, "init kind", {"servo", "digital"}) == 0 ? PinInit::Kind::servo : PinInit::Kind::digital;
-  if (init.kind == PinInit::Kind::servo) {
-    object.allow_only({"kind", "pin", "safe_position"}, {{"safe_state", "is for digital inits (servo: safe_position)"}});
-  } else {
-    object.allow_only({"kind", "pin", "safe_state"}, {{"safe_position", "is for servo inits (digital: safe_state)"}});
-  }
-  init.pin = static_cast<std::uint32_t>(read_unsigned(object.required("pin"), 0, 255));
-  if (init.kind == PinInit::Kind::servo) {
-    init.safe_value = static_cast<std::int32_t>(read_unsigned(object.required("safe_position"), 0, 180));
-  } else {
-    init.safe_value = read_bool(object.required("safe_state")) ? 1 : 0;
-  }
-  return init;
-}
-
-ProxyDeviceOptions parse_proxy_options(const Object* object, Codec codec, const TransportConfig& transport) {
-  ProxyDeviceOptions options;
-  options.client = codec == Codec::proxy ? proxy::Options::primary() : proxy::Options::compat();
-  if (const auto* serial = std::get_if<SerialTransport>(&transport)) options.client.timing.baud = serial->options.baud;
-  if (object == nullptr) return options;
-  proxy::ProxyTiming& timing = options.client.timing;
-  if (auto v = object->optional("baud")) timing.baud = static_cast<std::uint32_t>(read_unsigned(*v, 1, 0xFFFFFFFFu));
-  if (auto v = object->optional("bits_per_byte")) timing.bits_per_byte = static_cast<std::uint32_t>(read_unsigned(*v, 1, 64));
-  if (auto v = object->optional("processing_margin_ms")) timing.processing_margin = read_ms(*v);
-  if (auto v = object->optional("send_budget_ms")) timing.send_budget = read_ms(*v, 1);
-  if (auto v = object->optional("max_sends")) timing.max_sends = static_cast<std::uint8_t>(read_unsigned(*v, 1, 255));
-  if (auto v = object->optional("queue_timeout_ms")) timing.queue_timeout = read_ms(*v, 1);
-  if (auto v = object->optional("ping_period_ms")) timing.ping_period = read_ms(*v);
-  if (auto v = object->optional("reset_timeout_ms")) timing.session.reset_timeout = read_ms(*v, 1);
-  if (auto v = object->optional("stale_after_ms")) timing.stale_after = read_ms(*v, 1);
-  if (auto v = object->optional("replay_on_reset")) options.client.compat_replay_on_reset = read_bool(*v);
-  if (auto v = object->optional("open_timeout_ms")) options.open_timeout = std::chrono::milliseconds(read_ms(*v, 1));
-  if (auto v = object->optional("inits")) {
-    if (!v->value.is_array()) v->expected("an array of inits");
-    if (v->value.size() > proxy::kMaxInits) {
-      fail(v->path, "expected at most " + std::to_string(proxy::kMaxInits) + " inits, got " +
-                        std::to_string(v->value.size()));
-    }
-    for_each_element(*v, [&](const Node& element, std::size_t i) {
-      const PinInit init = parse_init(element);
-      for (std::size_t j = 0; j < i; ++j) {
-        const PinInit& earlier = options.inits[j];
-        if (earlier.kind == init.kind && earlier.pin == init.pin) {
-          fail(element.path, std::string(kind_name(init.kind)) + " " + std::to_string(init.pin) +
-                                 " is already initialised by inits[" + std::to_string(j) + "]");
-        }
-      }
-      options.inits.push_back(init);
-    });
-  }
-  return options;
-}
-
-ElcanoOptions parse_elcano_options(const Object* object, const TransportConfig& transport) {
-  ElcanoOptions options;
-  if (const auto* serial = std::get_if<SerialTransport>(&transport)) options.pacing.baud = serial->options.baud;
-  if (object == nullptr) return options;
-  if (auto v = object->optional("generation")) {
-    options.generation = read_choice(*v, "generation", {"B", "D"}) == 0 ? elcano::Generation::b : elcano::Generation::d;
-  }
-  if (auto v = object->optional("capture")) options.capture = read_types(*v);
-  if (auto v = object->optional("pacing")) {
-    const Object pacing(*v);
-    pacing.allow_only({"receiver_buffer", "receiver_poll_interval_ms"});
-    if (auto p = pacing.optional("receiver_buffer")) {
-      options.pacing.receiver_buffer = static_cast<std::uint16_t>(read_unsigned(*p, 1, 65535));
-    }
-    if (auto p = pacing.optional("receiver_poll_interval_ms")) {
-      options.pacing.receiver_poll_interval = static_cast<std::uint16_t>(read_unsigned(*p, 0, 65535));
-    }
-  }
-  read_call_timing(*object, options.timing);
-  return options;
-}
-
 CodecOptions parse_options(const std::optional<Node>& node, const std::string& path, Codec codec,
                            const TransportConfig& transport) {
   const CodecRow& row = codec_row(codec);
@@ -640,12 +310,6 @@ CodecOptions parse_options(const std::optional<Node>& node, const std::string& p
     context.options = &node->value;
   }
   return row.parse_options(context);
-}
-
-// The options object a built-in parser reads, if any.
-std::optional<Object> options_object(const OptionsContext& context) {
-  if (context.options == nullptr) return std::nullopt;
-  return Object(Node{*context.options, context.path});
 }
 
 Names codec_names() {
@@ -669,12 +333,6 @@ DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
 // --- validation of typed configurations ----------------------------------------------------------------------
 
 std::string device_path(std::size_t i) { return "devices[" + std::to_string(i) + "]"; }
-
-void check_call_timing(const std::string& options_path, const session::CallTiming& timing) {
-  if (timing.attempt_timeout == 0) fail(options_path + ".attempt_timeout_ms", "must be at least 1");
-  if (timing.call_budget == 0) fail(options_path + ".call_budget_ms", "must be at least 1");
-  if (timing.max_attempts == 0) fail(options_path + ".max_attempts", "must be at least 1");
-}
 
 std::string transport_key(const TransportConfig& transport) {
   return std::string(*(kTransports.begin() + static_cast<std::ptrdiff_t>(transport.index())));
@@ -716,66 +374,21 @@ void validate_device(const DeviceConfig& device, std::size_t i) {
 
 // --- the built-in codecs' options (rows in codec_table.cpp) ---------------------------------------------------
 
+// --- helpers of codec rows (codecs.hpp) ----------------------------------------------------------------------
+
+void read_call_timing(const JsonObject& object, session::CallTiming& timing) {
+  if (auto v = object.optional("attempt_timeout_ms")) timing.attempt_timeout = read_ms(*v, 1);
+  if (auto v = object.optional("call_budget_ms")) timing.call_budget = read_ms(*v, 1);
+  if (auto v = object.optional("max_attempts")) timing.max_attempts = static_cast<std::uint8_t>(read_unsigned(*v, 1, 255));
+}
+
+void check_call_timing(const std::string& options_path, const session::CallTiming& timing) {
+  if (timing.attempt_timeout == 0) fail(options_path + ".attempt_timeout_ms", "must be at least 1");
+  if (timing.call_budget == 0) fail(options_path + ".call_budget_ms", "must be at least 1");
+  if (timing.max_attempts == 0) fail(options_path + ".max_attempts", "must be at least 1");
+}
+
 namespace detail {
-
-CodecOptions parse_romi(const OptionsContext& context) {
-  const std::optional<Object> object = options_object(context);
-  return object ? parse_romi_options(*object) : RomiOptions();
-}
-
-CodecOptions parse_proxy(const OptionsContext& context) {
-  const std::optional<Object> object = options_object(context);
-  return parse_proxy_options(object ? &*object : nullptr, context.codec, *context.transport);
-}
-
-CodecOptions parse_elcano(const OptionsContext& context) {
-  const std::optional<Object> object = options_object(context);
-  return parse_elcano_options(object ? &*object : nullptr, *context.transport);
-}
-
-void validate_romi(const CodecOptions& codec_options, const std::string& options_path) {
-  const auto* options = codec_options.get_if<RomiOptions>();
-  if (options == nullptr) fail(options_path, "codec romi needs RomiOptions");
-  check_call_timing(options_path, options->timing);
-}
-
-void validate_proxy(const CodecOptions& codec_options, const std::string& options_path, Codec codec) {
-  const auto* options = codec_options.get_if<ProxyDeviceOptions>();
-  if (options == nullptr) fail(options_path, "codec " + std::string(to_string(codec)) + " needs ProxyDeviceOptions");
-  const proxy::Mode mode = codec == Codec::proxy ? proxy::Mode::primary : proxy::Mode::compat;
-  if (options->client.mode != mode) {
-    fail(options_path, "the client's mode does not match codec " + std::string(to_string(codec)));
-  }
-  const proxy::ProxyTiming& timing = options->client.timing;
-  if (timing.baud == 0) fail(options_path + ".baud", "must be at least 1");
-  if (timing.bits_per_byte == 0) fail(options_path + ".bits_per_byte", "must be at least 1");
-  if (timing.send_budget == 0) fail(options_path + ".send_budget_ms", "must be at least 1");
-  if (timing.max_sends == 0) fail(options_path + ".max_sends", "must be at least 1");
-  if (options->inits.size() > proxy::kMaxInits) fail(options_path + ".inits", "too many inits");
-  for (std::size_t k = 0; k < options->inits.size(); ++k) {
-    const PinInit& init = options->inits[k];
-    const std::string init_path = options_path + ".inits[" + std::to_string(k) + "]";
-    if (init.kind == PinInit::Kind::servo && (init.safe_value < 0 || init.safe_value > 180)) {
-      fail(init_path + ".safe_position", "must be in 0..180");
-    }
-    if (init.kind == PinInit::Kind::digital && init.safe_value != 0 && init.safe_value != 1) {
-      fail(init_path + ".safe_state", "must be 0 or 1");
-    }
-    for (std::size_t j = 0; j < k; ++j) {
-      if (options->inits[j].kind == init.kind && options->inits[j].pin == init.pin) {
-        fail(init_path, std::string(kind_name(init.kind)) + " " + std::to_string(init.pin) +
-                            " is already initialised by inits[" + std::to_string(j) + "]");
-      }
-    }
-  }
-}
-
-void validate_elcano(const CodecOptions& codec_options, const std::string& options_path) {
-  const auto* options = codec_options.get_if<ElcanoOptions>();
-  if (options == nullptr) fail(options_path, "codec elcano needs ElcanoOptions");
-  check_call_timing(options_path, options->timing);
-  if (options->pacing.baud == 0) fail(options_path + ".pacing", "baud must be at least 1");
-}
 
 }  // namespace detail
 
@@ -803,7 +416,7 @@ void validate(const RoverConfig& config) {
 }
 
 RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& options) {
-  if (!document.is_object()) fail("", "expected a JSON object at the top level, got " + show(document));
+  if (!document.is_object()) fail("", "expected a JSON object at the top level, got " + show_json(document));
   const Object root(Node{document, ""});
   root.allow_only({"name", "devices"});
   RoverConfig config;

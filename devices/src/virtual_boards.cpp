@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tether/elcano/node/config.hpp"
+#include "tether/elcano/plugin.hpp"
 #include "tether/transports/fault_model.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/virtual_uno.hpp"
@@ -59,7 +60,7 @@ struct VirtualRing {
   }
 };
 
-std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const ElcanoOptions& options,
+std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const elcano::DeviceOptions& options,
                                                           const std::string& device_name, const std::string& path,
                                                           const boost::asio::any_io_executor& executor,
                                                           std::function<void()>& stop,
@@ -134,9 +135,9 @@ OpenedTransport open_virtual_device(const DeviceConfig& device, const std::strin
     opened.clock = transports::VirtualUnoClock::create(board_stream);
     opened.stream = std::move(board_stream);
   } else {
-    const ElcanoOptions* elcano = device.options.get_if<ElcanoOptions>();
+    const elcano::DeviceOptions* elcano = device.options.get_if<elcano::DeviceOptions>();
     opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
-                                      elcano != nullptr ? *elcano : ElcanoOptions(), device.name,
+                                      elcano != nullptr ? *elcano : elcano::DeviceOptions(), device.name,
                                       transport_path + ".virtual_ring", executor, opened.stop, opened.boards);
     // The group keeps its boards in lockstep, so any board's time is the ring's: the first, which the host
     // writes to (as VirtualUnoClock::create(stream) picks). It keeps the ring alive, as the stream does.

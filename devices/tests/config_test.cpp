@@ -9,6 +9,9 @@
 
 #include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
+#include "tether/elcano/plugin.hpp"
+#include "tether/proxy/plugin.hpp"
+#include "tether/romi/plugin.hpp"
 
 namespace tether::devices {
 namespace {
@@ -55,7 +58,7 @@ TEST(DevicesConfig, MinimalSerialRomiDeviceGetsTheDefaults) {
   EXPECT_EQ(serial.options.baud, 115200u);
   EXPECT_EQ(serial.options.boot_wait, std::chrono::milliseconds(2000));
   EXPECT_TRUE(serial.options.exclusive);
-  const auto& options = device.options.get<RomiOptions>();
+  const auto& options = device.options.get<romi::DeviceOptions>();
   EXPECT_EQ(options.timing.attempt_timeout, 1000u);
   EXPECT_EQ(options.timing.call_budget, 2000u);
   EXPECT_EQ(options.timing.max_attempts, 3u);
@@ -66,7 +69,7 @@ TEST(DevicesConfig, MinimalSerialRomiDeviceGetsTheDefaults) {
 
 TEST(DevicesConfig, RomiFirstIdCanBeFixed) {
   const RoverConfig config = parse_config(one_device("romi", kSerial, R"({"first_id": 7})"));
-  EXPECT_EQ(config.devices[0].options.get<RomiOptions>().first_id, std::optional<std::uint8_t>(7));
+  EXPECT_EQ(config.devices[0].options.get<romi::DeviceOptions>().first_id, std::optional<std::uint8_t>(7));
 }
 
 TEST(DevicesConfig, EverySerialAndRomiKeyIsRead) {
@@ -85,7 +88,7 @@ TEST(DevicesConfig, EverySerialAndRomiKeyIsRead) {
   EXPECT_TRUE(serial.low_latency);
   EXPECT_FALSE(serial.exclusive);
   EXPECT_FALSE(serial.hang_up_on_close);
-  const auto& timing = config.devices[0].options.get<RomiOptions>().timing;
+  const auto& timing = config.devices[0].options.get<romi::DeviceOptions>().timing;
   EXPECT_EQ(timing.attempt_timeout, 300u);
   EXPECT_EQ(timing.call_budget, 900u);
   EXPECT_EQ(timing.max_attempts, 2u);
@@ -99,7 +102,7 @@ TEST(DevicesConfig, ProxyOptionsAndInits) {
           "queue_timeout_ms": 2000, "ping_period_ms": 250, "reset_timeout_ms": 1000, "open_timeout_ms": 4000,
           "inits": [{"kind": "servo", "pin": 9, "safe_position": 45},
                     {"kind": "digital", "pin": 13, "safe_state": true}]})"));
-  const auto& options = config.devices[0].options.get<ProxyDeviceOptions>();
+  const auto& options = config.devices[0].options.get<proxy::DeviceOptions>();
   EXPECT_EQ(options.client.mode, proxy::Mode::primary);
   EXPECT_EQ(options.client.timing.baud, 230400u) << "follows the serial port";
   EXPECT_EQ(options.client.timing.bits_per_byte, 10u);
@@ -112,10 +115,10 @@ TEST(DevicesConfig, ProxyOptionsAndInits) {
   EXPECT_TRUE(options.client.timing.session.require_reset_ack);
   EXPECT_EQ(options.open_timeout, std::chrono::milliseconds(4000));
   ASSERT_EQ(options.inits.size(), 2u);
-  EXPECT_EQ(options.inits[0].kind, PinInit::Kind::servo);
+  EXPECT_EQ(options.inits[0].kind, proxy::PinInit::Kind::servo);
   EXPECT_EQ(options.inits[0].pin, 9u);
   EXPECT_EQ(options.inits[0].safe_value, 45);
-  EXPECT_EQ(options.inits[1].kind, PinInit::Kind::digital);
+  EXPECT_EQ(options.inits[1].kind, proxy::PinInit::Kind::digital);
   EXPECT_EQ(options.inits[1].pin, 13u);
   EXPECT_EQ(options.inits[1].safe_value, 1);
 }
@@ -124,7 +127,7 @@ TEST(DevicesConfig, ProxyCompatDefaultsToTheDeployedBaudAndCompatMode) {
   const RoverConfig config = parse_config(one_device("proxy-compat", kSerial, R"({"stale_after_ms": 800,
       "replay_on_reset": false})"));
   EXPECT_EQ(std::get<SerialTransport>(config.devices[0].transport).options.baud, 57600u);
-  const auto& options = config.devices[0].options.get<ProxyDeviceOptions>();
+  const auto& options = config.devices[0].options.get<proxy::DeviceOptions>();
   EXPECT_EQ(options.client.mode, proxy::Mode::compat);
   EXPECT_EQ(options.client.timing.baud, 57600u);
   EXPECT_EQ(options.client.timing.stale_after, 800u);
@@ -139,7 +142,7 @@ TEST(DevicesConfig, TcpTransport) {
   EXPECT_EQ(tcp.port, 4001u);
   EXPECT_EQ(tcp.connect_timeout, std::chrono::milliseconds(700));
   EXPECT_EQ(describe(config.devices[0].transport), "tcp rover-pi:4001");
-  EXPECT_EQ(config.devices[0].options.get<ProxyDeviceOptions>().client.timing.baud, 57600u);
+  EXPECT_EQ(config.devices[0].options.get<proxy::DeviceOptions>().client.timing.baud, 57600u);
 }
 
 TEST(DevicesConfig, VirtualTransportResolvesFirmwareNamesAndReadsFaults) {
@@ -203,7 +206,7 @@ TEST(DevicesConfig, ElcanoOptionsAndVirtualRing) {
   EXPECT_EQ(std::get<std::vector<std::uint8_t>>(ring.boards[1].eeprom), (std::vector<std::uint8_t>{69, 78, 1}));
   EXPECT_TRUE(std::get<std::vector<std::uint8_t>>(ring.boards[2].eeprom).empty());
   EXPECT_EQ(describe(config.devices[0].transport), "virtual ring of 3 boards (elcano-node.elf, node.elf; fast)");
-  const auto& options = config.devices[0].options.get<ElcanoOptions>();
+  const auto& options = config.devices[0].options.get<elcano::DeviceOptions>();
   EXPECT_EQ(options.generation, elcano::Generation::d);
   EXPECT_EQ(options.capture, elcano::TypeSet::of(elcano::Type::sensor).with(elcano::Type::drive));
   EXPECT_EQ(options.pacing.receiver_buffer, 32u);
@@ -218,7 +221,7 @@ TEST(DevicesConfig, ElcanoOptionsAndVirtualRing) {
 TEST(DevicesConfig, ElcanoOverSerialPacesAtThePortsBaud) {
   const RoverConfig config =
       parse_config(one_device("elcano", R"({"serial": {"path": "/dev/ttyUSB0", "baud": 9600}})"));
-  EXPECT_EQ(config.devices[0].options.get<ElcanoOptions>().pacing.baud, 9600u);
+  EXPECT_EQ(config.devices[0].options.get<elcano::DeviceOptions>().pacing.baud, 9600u);
 }
 
 TEST(DevicesConfig, CommentsAreAllowed) {
@@ -242,7 +245,7 @@ TEST(DevicesConfig, ADocumentBuiltInCodeParsesLikeText) {
   document["devices"].push_back(device);
   const RoverConfig config = parse_document(document);
   EXPECT_EQ(std::get<TcpTransport>(config.devices[0].transport).port, 4001u);
-  EXPECT_EQ(config.devices[0].options.get<RomiOptions>().timing.max_attempts, 2u);
+  EXPECT_EQ(config.devices[0].options.get<romi::DeviceOptions>().timing.max_attempts, 2u);
   document["devices"][0]["options"]["max_attempts"] = -1;
   try {
     parse_document(document);
@@ -558,15 +561,15 @@ TEST(DevicesConfigErrors, ValidateCatchesInconsistentConfigsBuiltInCode) {
   device.name = "servos";
   device.codec = Codec::proxy;
   device.transport = SerialTransport{"/dev/ttyACM0", {}};
-  device.options = RomiOptions();
+  device.options = romi::DeviceOptions();
   config.devices.push_back(device);
   try {
     validate(config);
     ADD_FAILURE();
   } catch (const ConfigError& error) {
-    EXPECT_STREQ(error.what(), "devices[0].options: codec proxy needs ProxyDeviceOptions");
+    EXPECT_STREQ(error.what(), "devices[0].options: codec proxy needs proxy::DeviceOptions");
   }
-  ProxyDeviceOptions compat;
+  proxy::DeviceOptions compat;
   compat.client = proxy::Options::compat();
   config.devices[0].options = compat;
   EXPECT_THROW(validate(config), ConfigError) << "mode does not match the codec";
@@ -622,9 +625,9 @@ TEST(DevicesExamples, RomiDevicesOfTheExamplesRunTetherFirmwareSoSilentAttemptsA
     SCOPED_TRACE(file);
     const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / file, options);
     ASSERT_EQ(config.devices[0].codec, Codec::romi);
-    EXPECT_TRUE(config.devices[0].options.get<RomiOptions>().timing.retry_on_timeout);
+    EXPECT_TRUE(config.devices[0].options.get<romi::DeviceOptions>().timing.retry_on_timeout);
   }
-  EXPECT_FALSE(RomiOptions().timing.retry_on_timeout);
+  EXPECT_FALSE(romi::DeviceOptions().timing.retry_on_timeout);
 }
 
 TEST(DevicesExamples, TheEmbeddedVirtualConfigIsTheExampleFile) {

@@ -30,6 +30,7 @@
 #include "message_text.hpp"
 #include "shell_text.hpp"
 #include "tether/romi/client.hpp"
+#include "tether/romi/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
 
 namespace tether::cli {
@@ -143,7 +144,7 @@ int run_call(int argc, char** argv) {
                                       std::string(devices::to_string(target->config.codec)) +
                                       ", not romi (`tether send`, `shell` or `monitor` talk to it)");
   }
-  auto& romi_options = target->config.options.get<devices::RomiOptions>();
+  auto& romi_options = target->config.options.get<romi::DeviceOptions>();
   if (arguments.timeout_ms) {
     romi_options.timing.call_budget = *arguments.timeout_ms;
     romi_options.timing.attempt_timeout = std::min<std::uint32_t>(*arguments.timeout_ms, romi::kControllerDeadlineMs);

@@ -14,6 +14,9 @@
 #include "cli_support.hpp"
 #include "device_options.hpp"
 #include "message_text.hpp"
+#include "tether/elcano/plugin.hpp"
+#include "tether/proxy/plugin.hpp"
+#include "tether/romi/plugin.hpp"
 
 namespace tether::cli {
 
@@ -78,7 +81,7 @@ CodecCommands romi_commands() {
   row.name = "romi";
   row.image_prefixes = {"romi"};
   row.default_options = [](std::uint32_t, const DeviceOptions&) -> devices::CodecOptions {
-    return devices::RomiOptions();
+    return romi::DeviceOptions();
   };
   row.counters = [](const devices::DeviceClient& client) {
     return nlohmann::ordered_json{{"link", link_counters_json(romi_client(client)->counters().link)}};
@@ -177,7 +180,7 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
   row.name = name;
   row.image_prefixes = {name};
   row.default_options = [mode](std::uint32_t baud, const DeviceOptions&) -> devices::CodecOptions {
-    devices::ProxyDeviceOptions options;
+    proxy::DeviceOptions options;
     options.client = mode == proxy::Mode::primary ? proxy::Options::primary() : proxy::Options::compat();
     options.client.timing.baud = baud;
     return options;
@@ -276,7 +279,7 @@ class ElcanoShell final : public ShellSession {
               const ShellContext& context)
       : client_(std::move(client)),
         printer_(context.printer),
-        generation_(config.options.get<devices::ElcanoOptions>().generation),
+        generation_(config.options.get<elcano::DeviceOptions>().generation),
         lone_board_(context.options != nullptr && !context.options->firmware.empty()),
         capture_given_(context.options != nullptr && context.options->capture.has_value()) {
     const ShellPrinter printer = context.printer;
@@ -349,7 +352,7 @@ CodecCommands elcano_commands() {
   row.image_prefixes = {"elcano"};
   row.ring_options = true;
   row.default_options = [](std::uint32_t baud, const DeviceOptions& options) -> devices::CodecOptions {
-    devices::ElcanoOptions elcano_options;
+    elcano::DeviceOptions elcano_options;
     elcano_options.generation = options.generation.value_or(elcano::Generation::b);
     elcano_options.capture = options.capture.value_or(elcano::TypeSet());
     elcano_options.pacing.baud = baud;
@@ -369,7 +372,7 @@ CodecCommands elcano_commands() {
     node.eeprom = settings;
     // ... which the host captures (unless --capture says otherwise).
     if (!options.capture) {
-      config.options.get<devices::ElcanoOptions>().capture = elcano::TypeSet::of(elcano::Type::sensor);
+      config.options.get<elcano::DeviceOptions>().capture = elcano::TypeSet::of(elcano::Type::sensor);
     }
     ring.boards.push_back(node);
     ring.pacing = transports::Pacing::real_time;

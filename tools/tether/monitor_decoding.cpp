@@ -6,10 +6,12 @@
 
 #include "message_text.hpp"
 #include "tether/elcano/decoder.hpp"
+#include "tether/elcano/plugin.hpp"
 #include "tether/elcano/ring_node.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
+#include "tether/proxy/plugin.hpp"
 #include "tether/romi/decoder.hpp"
 
 namespace tether::cli {
@@ -181,7 +183,7 @@ MonitorRecord elcano_error_record(elcano::Error error) {
 // The host's node of an Elcano ring: captures, forwards the rest (paced), as `RingClient` would.
 class ElcanoRingNodeDecoder final : public MonitorDecoder {
  public:
-  ElcanoRingNodeDecoder(const devices::ElcanoOptions& options, Millis now)
+  ElcanoRingNodeDecoder(const elcano::DeviceOptions& options, Millis now)
       : generation_(options.generation), node_(config(options), now, counters_, ring_) {}
 
   void feed(std::uint8_t byte, Millis now, std::vector<MonitorRecord>& records) override {
@@ -216,7 +218,7 @@ class ElcanoRingNodeDecoder final : public MonitorDecoder {
   LinkCounters counters() const override { return counters_; }
 
  private:
-  static elcano::RingNodeConfig config(const devices::ElcanoOptions& options) {
+  static elcano::RingNodeConfig config(const elcano::DeviceOptions& options) {
     elcano::RingNodeConfig node;
     node.generation = options.generation;
     node.capture = options.capture;
@@ -275,12 +277,12 @@ std::unique_ptr<MonitorDecoder> make_romi_monitor_decoder(const devices::DeviceC
 
 std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
                                                            Millis now) {
-  return std::make_unique<ProxyDecoder>(config.options.get<devices::ProxyDeviceOptions>().client.mode, role, now);
+  return std::make_unique<ProxyDecoder>(config.options.get<proxy::DeviceOptions>().client.mode, role, now);
 }
 
 std::unique_ptr<MonitorDecoder> make_elcano_monitor_decoder(const devices::DeviceConfig& config,
                                                             const DecoderRole& role, Millis now) {
-  const auto& options = config.options.get<devices::ElcanoOptions>();
+  const auto& options = config.options.get<elcano::DeviceOptions>();
   if (role.ring_node) return std::make_unique<ElcanoRingNodeDecoder>(options, now);
   return std::make_unique<ElcanoReaderDecoder>(options.generation);
 }

@@ -21,6 +21,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "message_text.hpp"
+#include "tether/proxy/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
 
 namespace tether::cli {
@@ -179,7 +180,7 @@ int run_send(int argc, char** argv) {
                                       ", not the proxy protocol" +
                                       (codec == devices::Codec::romi ? " (use `tether call` or `tether shell`)" : ""));
   }
-  auto& proxy_options = target->config.options.get<devices::ProxyDeviceOptions>();
+  auto& proxy_options = target->config.options.get<proxy::DeviceOptions>();
   const proxy::Mode mode = proxy_options.client.mode;
   if (arguments.timeout_ms) proxy_options.client.timing.send_budget = *arguments.timeout_ms;
 

@@ -13,6 +13,7 @@
 
 #include "tether/core/execution_witness.hpp"
 #include "tether/elcano/node/behaviour.hpp"
+#include "tether/proxy/plugin.hpp"
 
 namespace tether::bench {
 
@@ -279,8 +280,8 @@ class ElcanoRoundWorkload final : public demo::Workload {
 };
 
 // The first init of `kind` in a proxy device's config: the pin a one-pin operation drives.
-std::optional<std::uint32_t> first_pin(const devices::DeviceConfig& config, devices::PinInit::Kind kind) {
-  for (const devices::PinInit& init : config.options.get<devices::ProxyDeviceOptions>().inits) {
+std::optional<std::uint32_t> first_pin(const devices::DeviceConfig& config, proxy::PinInit::Kind kind) {
+  for (const proxy::PinInit& init : config.options.get<proxy::DeviceOptions>().inits) {
     if (init.kind == kind) return init.pin;
   }
   return std::nullopt;
@@ -317,7 +318,7 @@ std::unique_ptr<demo::Workload> make_bench_workload(const devices::RoverDevice& 
   if (const auto proxy = device.client.get<proxy::Client>()) {
     if (kind == WorkloadKind::servo && payload == Payload::demo) return demo::make_workload(device, config);
     const bool servo = large;
-    const auto pin = first_pin(config, servo ? devices::PinInit::Kind::servo : devices::PinInit::Kind::digital);
+    const auto pin = first_pin(config, servo ? proxy::PinInit::Kind::servo : proxy::PinInit::Kind::digital);
     if (!pin) {
       why = std::string("its config inits no ") + (servo ? "servo" : "digital") + " pin for the " + to_string(payload) +
             " operation";

@@ -21,6 +21,7 @@
 #include "tether/devices/rover.hpp"
 #include "tether/elcano/node/behaviour.hpp"
 #include "tether/proxy/device/pins.hpp"
+#include "tether/proxy/plugin.hpp"
 #include "tether/transports/fault_injecting_stream.hpp"
 #include "tether/transports/io_thread.hpp"
 
@@ -97,11 +98,11 @@ class RomiSensorWorkload final : public Workload {
 
 class ProxyWorkload final : public Workload {
  public:
-  ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<devices::PinInit> servo_inits, bool compat)
+  ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<proxy::PinInit> servo_inits, bool compat)
       : client_(std::move(client)), inits_(std::move(servo_inits)), compat_(compat) {
     if (inits_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
     if (inits_.size() > 2) inits_.resize(2);
-    for (const devices::PinInit& init : inits_) pins_.push_back(init.pin);
+    for (const proxy::PinInit& init : inits_) pins_.push_back(init.pin);
   }
   std::string operation() const override {
     std::string text = std::to_string(pins_.size()) + " x ServoControl";
@@ -197,7 +198,7 @@ class ProxyWorkload final : public Workload {
     if (pin == 10) pulses.d10 = us;
   }
   std::shared_ptr<proxy::Client> client_;
-  std::vector<devices::PinInit> inits_;  // the servo inits of the config (at most two)
+  std::vector<proxy::PinInit> inits_;  // the servo inits of the config (at most two)
   std::vector<std::uint32_t> pins_;      // their pins
   bool compat_;
   std::vector<std::int32_t> last_positions_;  // of the last operation, one per pin
@@ -256,9 +257,9 @@ devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
   if (const auto romi = device.client.get<romi::Client>()) return std::make_unique<RomiWorkload>(romi);
   if (const auto proxy = device.client.get<proxy::Client>()) {
-    std::vector<devices::PinInit> servos;
-    for (const devices::PinInit& init : config.options.get<devices::ProxyDeviceOptions>().inits) {
-      if (init.kind == devices::PinInit::Kind::servo) servos.push_back(init);
+    std::vector<proxy::PinInit> servos;
+    for (const proxy::PinInit& init : config.options.get<proxy::DeviceOptions>().inits) {
+      if (init.kind == proxy::PinInit::Kind::servo) servos.push_back(init);
     }
     return std::make_unique<ProxyWorkload>(proxy, std::move(servos), proxy->mode() == proxy::Mode::compat);
   }

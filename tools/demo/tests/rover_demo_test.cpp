@@ -9,6 +9,7 @@
 
 #include "tether/devices/config.hpp"
 
+#include "tether/proxy/plugin.hpp"
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::demo {
@@ -131,7 +132,7 @@ TEST(RoverDemo, TheCompatDeviceEndsAtTheLastCommandEvenWhenItsInitsWereLostInThe
   options.bit_error_rate = 0;
   devices::RoverConfig config = embedded_rover_with_only(options, "legacy");
   ASSERT_EQ(config.devices.size(), 1u);
-  config.devices[0].options.get<devices::ProxyDeviceOptions>().client.compat_replay_on_reset = false;
+  config.devices[0].options.get<proxy::DeviceOptions>().client.compat_replay_on_reset = false;
   options.config = config;
   const DemoReport report = run_demo(options);
   ASSERT_EQ(report.devices.size(), 1u);

@@ -12,6 +12,9 @@
 
 #include "cli_support.hpp"
 #include "monitor_decoding.hpp"
+#include "tether/elcano/plugin.hpp"
+#include "tether/proxy/plugin.hpp"
+#include "tether/romi/plugin.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
 namespace {
@@ -24,19 +27,19 @@ devices::DeviceConfig config_for(std::uint8_t selector) {
   switch (selector % 4) {
     case 0:
       config.codec = devices::Codec::romi;
-      config.options = devices::RomiOptions();
+      config.options = romi::DeviceOptions();
       break;
     case 1:
     case 2: {
       config.codec = selector % 4 == 1 ? devices::Codec::proxy : devices::Codec::proxy_compat;
-      devices::ProxyDeviceOptions options;
+      proxy::DeviceOptions options;
       options.client.mode = selector % 4 == 1 ? proxy::Mode::primary : proxy::Mode::compat;
       config.options = options;
       break;
     }
     default: {
       config.codec = devices::Codec::elcano;
-      devices::ElcanoOptions options;
+      elcano::DeviceOptions options;
       options.generation = (selector & 0x40) != 0 ? elcano::Generation::d : elcano::Generation::b;
       options.capture = elcano::TypeSet::from_bits(static_cast<std::uint8_t>(selector >> 4));
       config.options = options;

@@ -29,13 +29,16 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "tether/core/session/request_table.hpp"
 #include "tether/devices/config.hpp"
+#include "tether/devices/json_reader.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/transports/byte_stream.hpp"
 
@@ -59,7 +62,20 @@ struct OptionsContext {
   Codec codec = Codec::romi;
   /// The device's transport, already parsed (a serial transport's baud is the default of a codec's own).
   const TransportConfig* transport = nullptr;
+
+  /// The options object to read (json_reader.hpp), or nothing when the device has none.
+  std::optional<JsonObject> object() const {
+    if (options == nullptr) return std::nullopt;
+    return JsonObject(JsonNode{*options, path});
+  }
 };
+
+/// Reads the call-timing keys a codec with calls takes: `attempt_timeout_ms`, `call_budget_ms` (both >= 1)
+/// and `max_attempts` (1..255), into `timing` (what is absent keeps its value).
+void read_call_timing(const JsonObject& object, session::CallTiming& timing);
+/// Checks call timing built in code: every one of those values at least 1, else a `ConfigError` at
+/// `options_path`'s key.
+void check_call_timing(const std::string& options_path, const session::CallTiming& timing);
 
 /// One codec: its names, options, transports and how a device speaking it is opened. Every function is
 /// called on the thread that parses or opens; they report errors by throwing `ConfigError`.

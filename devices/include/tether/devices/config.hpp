@@ -49,13 +49,8 @@
 #include <variant>
 #include <vector>
 
-#include "tether/core/session/request_table.hpp"
-#include "tether/core/session/write_pacer.hpp"
 #include "tether/elcano/message.hpp"
 #include "tether/elcano/ring_node.hpp"
-#include "tether/elcano/session_policy.hpp"
-#include "tether/proxy/client.hpp"
-#include "tether/romi/session_policy.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -144,7 +139,7 @@ struct VirtualTransport {
 
 /// Node settings of an `elcano-node` board given as structure instead of raw EEPROM bytes (the image's
 /// configuration block, firmware/elcano-node/README.md; generation and baud are the ring's: the device's
-/// `ElcanoOptions`).
+/// `elcano::DeviceOptions`).
 struct RingNodeSettings {
   elcano::TypeSet capture;                ///< Message types the node consumes.
   std::uint8_t behaviour_bits = 0;        ///< What it does with them (`behaviours`: bit 0 answer_goal_with_segment,
@@ -202,58 +197,14 @@ using TransportConfig = std::variant<SerialTransport, TcpTransport, VirtualTrans
 /// `virtual romi-test.elf (real_time, seed 0)`, `virtual ring of 3 boards (elcano-node.elf)`.
 std::string describe(const TransportConfig& transport);
 
-/// Options of a `romi` device.
-struct RomiOptions {
-  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::Options`).
-  session::CallTiming timing = romi::default_call_timing();
-  /// Id of the first request (`first_id`, 0..254). Unset: random when the device opens. A fixed first id
-  /// would make the first request of a restarted service look, to a device that remembers the last id of
-  /// the previous session, like that request sent again (answered from its cache, or -15 by the reference).
-  std::optional<std::uint8_t> first_id;
-};
-
-/// One pin init a proxy device replays after every reset (`proxy::Client` registers it; see client.hpp).
-struct PinInit {
-  /// Which kind of output.
-  enum class Kind {
-    servo,    ///< `ServoInit{pin, safePosition}`; `safe_value` in degrees 0..180.
-    digital,  ///< `DigitalInit{pin, safeState}`; `safe_value` 0 or 1.
-  };
-  Kind kind = Kind::servo;      ///< Servo or digital output.
-  std::uint32_t pin = 0;        ///< Arduino pin number.
-  std::int32_t safe_value = 0;  ///< Safe position (servo) or state (digital).
-};
-
-/// Options of a `proxy` or `proxy-compat` device.
-struct ProxyDeviceOptions {
-  /// Mode (from the codec) and timing (`ProxyTiming`; its `baud` follows a serial transport's baud unless
-  /// the configuration sets it).
-  proxy::Options client;
-  /// Inits sent, in order, when the device opens (and replayed by the client after every reset).
-  std::vector<PinInit> inits;
-  /// How long opening waits for the session handshake (primary mode) and the inits.
-  std::chrono::milliseconds open_timeout{15000};
-};
-
-/// Options of an `elcano` device (the host's node in the ring).
-struct ElcanoOptions {
-  elcano::Generation generation = elcano::Generation::b;  ///< Wire generation of the ring.
-  elcano::TypeSet capture;                                ///< Types the host consumes (besides call replies).
-  /// The link to the next node: `receiver_buffer`, `receiver_poll_interval`; `baud` follows a serial
-  /// transport (115200 otherwise).
-  session::LinkPacing pacing;
-  /// Calls (a request answered by a reply type): attempt window, budget, sends.
-  session::CallTiming timing = elcano::default_call_timing();
-};
-
-/// A device's codec options: a value of the options type its codec defines (`RomiOptions`,
-/// `ProxyDeviceOptions`, `ElcanoOptions`, or a registered codec's own), reached by that type. Every codec,
+/// A device's codec options: a value of the options type its codec defines (`romi::DeviceOptions`,
+/// `proxy::DeviceOptions`, `elcano::DeviceOptions`, or a registered codec's own), reached by that type. Every codec,
 /// built in or registered (codecs.hpp), stores and reads its options the same way:
 ///
 /// @code
-///   devices::CodecOptions options = devices::RomiOptions{};
-///   if (auto* romi = options.get_if<devices::RomiOptions>()) romi->first_id = 7;
-///   const auto& same = options.get<devices::RomiOptions>();   // throws std::invalid_argument if not
+///   devices::CodecOptions options = romi::DeviceOptions{};
+///   if (auto* romi = options.get_if<romi::DeviceOptions>()) romi->first_id = 7;
+///   const auto& same = options.get<romi::DeviceOptions>();   // throws std::invalid_argument if not
 /// @endcode
 class CodecOptions {
  public:
@@ -262,7 +213,7 @@ class CodecOptions {
   /// Holds `options`, any copyable type.
   template <typename Options,
             typename = std::enable_if_t<!std::is_same_v<std::decay_t<Options>, CodecOptions>>>
-  CodecOptions(Options&& options)  // NOLINT: implicit: `device.options = RomiOptions{}`
+  CodecOptions(Options&& options)  // NOLINT: implicit: `device.options = romi::DeviceOptions{}`
       : value_(std::forward<Options>(options)) {}
 
   /// The options if they are an `Options`, else null.

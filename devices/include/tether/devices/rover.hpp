@@ -19,7 +19,7 @@
 ///      registered codec's own client;
 ///   3. proxy devices: the configured inits, in order (registered for replay after every device reset);
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
-///      the session handshake is done, within `ProxyDeviceOptions::open_timeout`. A device that does not
+///      the session handshake is done, within `proxy::DeviceOptions::open_timeout`. A device that does not
 ///      answer fails the open (`DevicesError::device_not_ready`).
 /// Nothing is half-opened: when a device fails, the devices opened before it are closed (in reverse
 /// order) before the error is reported. Errors are `ConfigError`s naming the JSON path of the culprit and

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "codec_commands.hpp"
+#include "tether/devices/json_reader.hpp"
 #include "tether/transports/transport_error.hpp"
 
 namespace tether::line_echo {
@@ -133,12 +134,11 @@ devices::Codec register_line_echo() {
     row.option_keys = {"timeout_ms"};
     row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions {
       Options options;
-      if (context.options != nullptr && context.options->contains("timeout_ms")) {
-        const nlohmann::json& value = context.options->at("timeout_ms");
-        if (!value.is_number_unsigned() || value.get<std::uint64_t>() == 0 || value.get<std::uint64_t>() > 60000) {
-          throw devices::ConfigError(context.path + ".timeout_ms", "expected milliseconds in 1..60000, got " + value.dump());
+      // The configuration parser's own reader: errors name the value's path and what was expected.
+      if (const auto object = context.object()) {
+        if (const auto timeout = object->optional("timeout_ms")) {
+          options.timeout_ms = static_cast<std::uint32_t>(devices::read_unsigned(*timeout, 1, 60000));
         }
-        options.timeout_ms = value.get<std::uint32_t>();
       }
       return options;
     };

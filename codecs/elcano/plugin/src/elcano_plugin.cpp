@@ -1,0 +1,99 @@
+// The Elcano codec's plugin (plugin.hpp): an `elcano` device in a configuration and its ring client.
+#include <array>
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <variant>
+
+#include "tether/elcano/plugin.hpp"
+
+namespace tether::elcano {
+
+namespace {
+
+// The codec's names (to_string), in the order of kElcanoTypeValues.
+constexpr std::array<Type, 4> kElcanoTypeValues = {Type::drive, Type::sensor, Type::goal, Type::segment};
+const devices::Names kElcanoTypes = {to_string(Type::drive), to_string(Type::sensor), to_string(Type::goal),
+                                     to_string(Type::segment)};
+
+}  // namespace
+
+TypeSet read_message_types(const devices::JsonNode& node) {
+  if (!node.value.is_array()) node.expected("an array of message types (" + devices::join_names(kElcanoTypes) + ")");
+  TypeSet set;
+  devices::for_each_element(node, [&](const devices::JsonNode& element, std::size_t) {
+    const Type type = kElcanoTypeValues.at(devices::read_choice(element, "message type", kElcanoTypes));
+    if (set.contains(type))
+      devices::fail_config(element.path, "message type " + element.value.dump() + " is listed twice");
+    set = set.with(type);
+  });
+  return set;
+}
+
+namespace {
+
+DeviceOptions parse_elcano_options(const devices::JsonObject* object, const devices::TransportConfig& transport) {
+  DeviceOptions options;
+  if (const auto* serial = std::get_if<devices::SerialTransport>(&transport))
+    options.pacing.baud = serial->options.baud;
+  if (object == nullptr) return options;
+  if (auto v = object->optional("generation")) {
+    options.generation = devices::read_choice(*v, "generation", {"B", "D"}) == 0 ? Generation::b : Generation::d;
+  }
+  if (auto v = object->optional("capture")) options.capture = read_message_types(*v);
+  if (auto v = object->optional("pacing")) {
+    const devices::JsonObject pacing(*v);
+    pacing.allow_only({"receiver_buffer", "receiver_poll_interval_ms"});
+    if (auto p = pacing.optional("receiver_buffer")) {
+      options.pacing.receiver_buffer = static_cast<std::uint16_t>(devices::read_unsigned(*p, 1, 65535));
+    }
+    if (auto p = pacing.optional("receiver_poll_interval_ms")) {
+      options.pacing.receiver_poll_interval = static_cast<std::uint16_t>(devices::read_unsigned(*p, 0, 65535));
+    }
+  }
+  devices::read_call_timing(*object, options.timing);
+  return options;
+}
+
+devices::CodecOptions parse_elcano(const devices::OptionsContext& context) {
+  const std::optional<devices::JsonObject> object = context.object();
+  return parse_elcano_options(object ? &*object : nullptr, *context.transport);
+}
+
+void validate_elcano(const devices::CodecOptions& codec_options, const std::string& options_path) {
+  const auto* options = codec_options.get_if<DeviceOptions>();
+  if (options == nullptr) devices::fail_config(options_path, "codec elcano needs elcano::DeviceOptions");
+  devices::check_call_timing(options_path, options->timing);
+  if (options->pacing.baud == 0) devices::fail_config(options_path + ".pacing", "baud must be at least 1");
+}
+
+devices::DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
+                                  std::shared_ptr<transports::LinkClock> clock) {
+  const auto& options = device.options.get<DeviceOptions>();
+  Options client_options;
+  client_options.node.generation = options.generation;
+  client_options.node.capture = options.capture;
+  client_options.node.pacing = options.pacing;
+  client_options.timing = options.timing;
+  client_options.clock = std::move(clock);
+  return std::make_shared<RingClient>(std::move(stream), client_options);
+}
+
+}  // namespace
+
+std::vector<devices::CodecRow> codec_rows() {
+  devices::CodecRow row;
+  row.codec = devices::Codec::elcano;
+  row.name = "elcano";
+  row.client_name = "elcano::RingClient";
+  row.option_keys = {"generation", "capture", "pacing", "attempt_timeout_ms", "call_budget_ms", "max_attempts"};
+  row.virtual_boards = devices::VirtualBoards::ring;
+  row.parse_options = parse_elcano;
+  row.validate = validate_elcano;
+  row.open = open_elcano;
+  return {row};
+}
+
+}  // namespace tether::elcano

@@ -1,0 +1,49 @@
+/// @file plugin.hpp
+/// The proxy codec's plugin: what a rover configuration's `"codec": "proxy"` and `"codec": "proxy-compat"`
+/// devices are (their options and pin inits, parsed and checked here), how they open (`proxy::Client` in
+/// primary or compat mode) and when they are ready (the session handshake and the inits). Registered with
+/// the devices library by codecs/proxy/plugin/CMakeLists.txt (`tether_codec_plugin`); docs/codecs.md.
+///
+/// @code
+///   const auto& options = device.options.get<proxy::DeviceOptions>();   // a DeviceConfig of codec proxy
+///   for (const proxy::PinInit& init : options.inits) log(init.pin);
+/// @endcode
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <vector>
+
+#include "tether/devices/codecs.hpp"
+#include "tether/proxy/client.hpp"
+
+namespace tether::proxy {
+
+/// One pin init a proxy device replays after every reset (`proxy::Client` registers it; see client.hpp).
+struct PinInit {
+  /// Which kind of output.
+  enum class Kind {
+    servo,    ///< `ServoInit{pin, safePosition}`; `safe_value` in degrees 0..180.
+    digital,  ///< `DigitalInit{pin, safeState}`; `safe_value` 0 or 1.
+  };
+  Kind kind = Kind::servo;      ///< Servo or digital output.
+  std::uint32_t pin = 0;        ///< Arduino pin number.
+  std::int32_t safe_value = 0;  ///< Safe position (servo) or state (digital).
+};
+
+/// Options of a `proxy` or `proxy-compat` device (keys in docs/config.md).
+struct DeviceOptions {
+  /// Mode (from the codec) and timing (`ProxyTiming`; its `baud` follows a serial transport's baud unless
+  /// the configuration sets it).
+  Options client;
+  /// Inits sent, in order, when the device opens (and replayed by the client after every reset).
+  std::vector<PinInit> inits;
+  /// How long opening waits for the session handshake (primary mode) and the inits.
+  std::chrono::milliseconds open_timeout{15000};
+};
+
+/// The codec's rows of the devices table: `proxy` (primary mode) and `proxy-compat` (the deployed variant,
+/// 57600 baud), one parser and client.
+std::vector<devices::CodecRow> codec_rows();
+
+}  // namespace tether::proxy

@@ -1,0 +1,36 @@
+/// @file plugin.hpp
+/// The Romi codec's plugin: what a rover configuration's `"codec": "romi"` device is (its options, parsed
+/// and checked here) and how it opens (`romi::Client` on the device's byte stream). Registered with the
+/// devices library by codecs/romi/plugin/CMakeLists.txt (`tether_codec_plugin`); docs/codecs.md.
+///
+/// @code
+///   const auto& options = device.options.get<romi::DeviceOptions>();   // a DeviceConfig of codec romi
+///   std::shared_ptr<romi::Client> arm = rover.devices()[0].client.get<romi::Client>();
+/// @endcode
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "tether/core/session/request_table.hpp"
+#include "tether/devices/codecs.hpp"
+#include "tether/romi/client.hpp"
+#include "tether/romi/session_policy.hpp"
+
+namespace tether::romi {
+
+/// Options of a `romi` device (keys in docs/config.md).
+struct DeviceOptions {
+  /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::Options`).
+  session::CallTiming timing = default_call_timing();
+  /// Id of the first request (`first_id`, 0..254). Unset: random when the device opens. A fixed first id
+  /// would make the first request of a restarted service look, to a device that remembers the last id of
+  /// the previous session, like that request sent again (answered from its cache, or -15 by the reference).
+  std::optional<std::uint8_t> first_id;
+};
+
+/// The codec's row of the devices table: `romi`, its option keys, parser and checks, `romi::Client`.
+std::vector<devices::CodecRow> codec_rows();
+
+}  // namespace tether::romi

@@ -1,0 +1,55 @@
+// The Romi codec's plugin (plugin.hpp): its options in a configuration and its client on a device's stream.
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "tether/devices/json_reader.hpp"
+#include "tether/romi/plugin.hpp"
+
+namespace tether::romi {
+
+namespace {
+
+devices::CodecOptions parse(const devices::OptionsContext& context) {
+  DeviceOptions options;
+  const std::optional<devices::JsonObject> object = context.object();
+  if (!object) return options;
+  devices::read_call_timing(*object, options.timing);
+  if (auto v = object->optional("retry_on_timeout")) options.timing.retry_on_timeout = devices::read_bool(*v);
+  if (auto v = object->optional("first_id")) {
+    options.first_id = static_cast<std::uint8_t>(devices::read_unsigned(*v, 0, 254));
+  }
+  return options;
+}
+
+void validate(const devices::CodecOptions& codec_options, const std::string& options_path) {
+  const auto* options = codec_options.get_if<DeviceOptions>();
+  if (options == nullptr) devices::fail_config(options_path, "codec romi needs romi::DeviceOptions");
+  devices::check_call_timing(options_path, options->timing);
+}
+
+devices::DeviceClient open(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
+                           std::shared_ptr<transports::LinkClock> clock) {
+  const auto& options = device.options.get<DeviceOptions>();
+  Options client_options;
+  client_options.timing = options.timing;
+  client_options.clock = std::move(clock);
+  client_options.first_id(options.first_id ? *options.first_id : random_first_id());
+  return std::make_shared<Client>(std::move(stream), client_options);
+}
+
+}  // namespace
+
+std::vector<devices::CodecRow> codec_rows() {
+  devices::CodecRow row;
+  row.codec = devices::Codec::romi;
+  row.name = "romi";
+  row.client_name = "romi::Client";
+  row.option_keys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
+  row.parse_options = parse;
+  row.validate = validate;
+  row.open = open;
+  return {row};
+}
+
+}  // namespace tether::romi
