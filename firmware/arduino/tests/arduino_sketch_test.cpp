@@ -195,20 +195,20 @@ interop::RingOptions ring_with(const std::string& name) {
 TEST(TetherElcanoDriveNode, CapturesDrivesAnswersWithSensorReportsAndForwardsTheRest) {
   interop::Ring ring(ring_with("TetherElcano.DriveNode"));
   ring.run(100ms);  // boot
-  ASSERT_EQ(ring.send(interop::drive(50, 25)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(50, 25)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::captured, elcano::Type::sensor) == 1; }, 1s));
   const interop::HostEvent& report = ring.events().back();
-  EXPECT_TRUE(interop::same_message(report.event.message, interop::sensor(50, 25, 0, 0, 0)))
+  EXPECT_TRUE(report.event.message == elcano::Message::sensor(50, 25, 0, 0, 0))
       << interop::describe(report.event.message);
   EXPECT_TRUE(ring.board(1).digital_level(13));  // the sketch's reaction: moving
-  ASSERT_EQ(ring.send(interop::drive(0, -10)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(0, -10)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::captured, elcano::Type::sensor) == 2; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::sensor(0, -10, 0, 0, 0)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::sensor(0, -10, 0, 0, 0));
   EXPECT_FALSE(ring.board(1).digital_level(13));
   // A goal nobody captures goes round through the sketch and comes back to the host, unchanged.
-  ASSERT_EQ(ring.send(interop::goal(3, 679, -23456, 123450)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::goal(3, 679, -23456, 123450)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::goal) == 1; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::goal(3, 679, -23456, 123450)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::goal(3, 679, -23456, 123450));
   // Nothing was captured by the host but the two reports, and no drive came round.
   ring.run(300ms);
   EXPECT_EQ(ring.count(elcano::RingEvent::Kind::captured), 2u);
@@ -220,16 +220,16 @@ TEST(TetherElcanoSkeleton, TheReadmeSkeletonCapturesDrivesAndForwardsEverythingE
   interop::Ring ring(ring_with("TetherElcano.Skeleton"));
   ring.run(100ms);
   // A sensor and a segment from the host go round (the host captures sensors: it takes its own one back).
-  ASSERT_EQ(ring.send(interop::segment(1, 1599, 270, 14263, 123456)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::segment(1, 1599, 270, 14263, 123456)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::segment) == 1; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::segment(1, 1599, 270, 14263, 123456)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::segment(1, 1599, 270, 14263, 123456));
   // A drive is consumed by the sketch: it never comes back, its origin record expires at the host.
-  ASSERT_EQ(ring.send(interop::drive(259, -3)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(259, -3)), Status::ok);
   ring.run(3s);
   EXPECT_EQ(ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::drive), 0u);
   EXPECT_EQ(ring.host_ring().origins_expired, 1u);
   // The ring still carries messages after that.
-  ASSERT_EQ(ring.send(interop::goal(2, 679, 0, 0)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::goal(2, 679, 0, 0)), Status::ok);
   EXPECT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::goal) == 1; }, 1s));
 }
 
