@@ -6,10 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <mutex>
 #include <string>
-#include <variant>
-#include <vector>
 
 #include "ring_harness.hpp"
 #include "tether/proxy/client.hpp"
@@ -17,6 +14,7 @@
 #include "tether/testing/child_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
 namespace tether::arduino {
@@ -80,25 +78,7 @@ double servo_pulse_us(transports::VirtualUno& uno) {
   return std::chrono::duration<double, std::micro>(uno.pulse_timing(9).high_time).count();
 }
 
-struct EventLog {
-  std::mutex mutex;
-  std::vector<proxy::Event> events;
-  proxy::EventHandler handler() {
-    return [this](const proxy::Event& event) {
-      std::lock_guard lock(mutex);
-      events.push_back(event);
-    };
-  }
-  template <typename T>
-  std::vector<T> all() {
-    std::lock_guard lock(mutex);
-    std::vector<T> found;
-    for (const auto& event : events) {
-      if (const T* value = std::get_if<T>(&event)) found.push_back(*value);
-    }
-    return found;
-  }
-};
+using EventLog = transports::testing::EventLog<proxy::Event>;
 
 TEST(TetherProxyProxy, AcksMovesTheServoOnD9AndTheDigitalPin) {
   IoThread io;
@@ -138,7 +118,7 @@ TEST(TetherProxyProxy, WithoutPingsThePinsGoSafeAfterTenSecondsOfSimulatedTime) 
   client.digital(13).set(true);
   ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1944.0) < 5.0; })) << servo_pulse_us(uno);
   ASSERT_LT(uno.simulated_time(), 10s) << "the handshake took too long to test the 10 s rule";
-  ASSERT_TRUE(wait_for([&] { return !log.all<proxy::events::FailsafeTriggered>().empty(); }, 60s));
+  ASSERT_TRUE(wait_for([&] { return !log.of<proxy::events::FailsafeTriggered>().empty(); }, 60s));
   // Safe values (servo 45 degrees = 1250 us, D13 low), never before 10 s of silence.
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1250.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_FALSE(uno.digital_level(13));
@@ -153,7 +133,7 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
   EventLog log;
   proxy::Client client(stream, proxy::Options::compat(), log.handler());
   ASSERT_TRUE(wait_for([&] {
-    for (const auto& event : log.all<proxy::events::CompatEvent>()) {
+    for (const auto& event : log.of<proxy::events::CompatEvent>()) {
       if (event.type == ::RocketryProto::RESET) return true;
     }
     return false;
@@ -171,7 +151,7 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
   }));
   client.digital(7).set(true);
   EXPECT_TRUE(wait_for([&] {
-    for (const auto& error : log.all<proxy::events::CompatError>()) {
+    for (const auto& error : log.of<proxy::events::CompatError>()) {
       if (error.type == ::RocketryProto::PIN_NOT_INITIALIZED && error.data == 7) return true;
     }
     return false;
