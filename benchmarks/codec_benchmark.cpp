@@ -116,24 +116,9 @@ BENCHMARK(BM_RomiDecodeLongResponse);
 // A drive message D{s 50}{a 25} and a segment X{n 4}{s 160}{b 80}{p 3200,-64000} (docs/elcano.md), in
 // generation B (spaces, no check) and D (no spaces, CRC-8 trailer).
 
-elcano::Message elcano_drive() {
-  elcano::Message m;
-  m.type = elcano::Type::drive;
-  m.speed = 50;
-  m.angle = 25;
-  return m;
-}
+elcano::Message elcano_drive() { return elcano::Message::drive(50, 25); }
 
-elcano::Message elcano_segment() {
-  elcano::Message m;
-  m.type = elcano::Type::segment;
-  m.number = 4;
-  m.speed = 160;
-  m.bearing = 80;
-  m.east = 3200;
-  m.north = -64000;
-  return m;
-}
+elcano::Message elcano_segment() { return elcano::Message::segment(4, 160, 80, 3200, -64000); }
 
 std::vector<uint8_t> elcano_bytes(const elcano::Message& message, elcano::Generation generation) {
   uint8_t out[96];

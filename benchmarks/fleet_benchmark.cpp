@@ -184,13 +184,7 @@ class ElcanoRing final : public FakeDevice {
       if (decoder_.feed(data[i]) != DecodeStatus::frame) continue;
       const elcano::Message& goal = decoder_.frame();
       if (goal.type != elcano::Type::goal) continue;
-      elcano::Message segment;
-      segment.type = elcano::Type::segment;
-      segment.number = goal.number;
-      segment.speed = 160;
-      segment.bearing = 80;
-      segment.east = 3200;
-      segment.north = -64000;
+      const elcano::Message segment = elcano::Message::segment(goal.number, 160, 80, 3200, -64000);
       std::uint8_t out[96];
       const Result<size_t> bytes = elcano::encode_message(segment, elcano::Generation::b, out);
       if (bytes.ok()) send(out, bytes.value());
@@ -337,12 +331,7 @@ int main(int argc, char** argv) {
   std::int32_t goal_number = 0;
   for (auto& client : elcano_clients) {
     callers.push_back(std::make_unique<Caller>(host_io, period, [c = client.get(), &goal_number](std::function<void(bool)> done) {
-      elcano::Message goal;
-      goal.type = elcano::Type::goal;
-      goal.number = ++goal_number % 1000;
-      goal.bearing = 90;
-      goal.east = 100;
-      goal.north = 200;
+      const elcano::Message goal = elcano::Message::goal(++goal_number % 1000, 90, 100, 200);
       c->async_request(goal, elcano::Type::segment,
                        [done = std::move(done), number = goal.number](elcano::error_code error, elcano::Message reply) {
                          done(!error && reply.number == number);

@@ -15,12 +15,14 @@
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
+#include "tether/transports/testing/read_exactly.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
 namespace tether::transports {
 namespace {
 
 using namespace std::chrono_literals;
+using ::tether::transports::testing::read_exactly;
 using tether::transports::IoThread;
 
 const std::string kBanner = "tether echo\r\n";
@@ -30,13 +32,6 @@ VirtualUnoOptions echo_board(Pacing pacing = Pacing::real_time) {
   options.firmware = TETHER_ECHO_ELF;
   options.pacing = pacing;
   return options;
-}
-
-std::string read_exactly(ByteStream& stream, std::size_t size, std::chrono::milliseconds timeout = 10s) {
-  std::string result(size, '\0');
-  std::size_t total = 0;
-  while (total < size) total += stream.read_some(asio::buffer(result.data() + total, size - total), timeout);
-  return result;
 }
 
 std::string random_text(std::size_t size, uint64_t stream) {
@@ -49,7 +44,7 @@ std::string random_text(std::size_t size, uint64_t stream) {
 // Writes `payload` in line-sized pieces while reading the echo back; the UART runs at 115200 either way.
 void expect_echo(ByteStream& stream, const std::string& payload) {
   std::thread writer([&] { stream.write(asio::buffer(payload)); });
-  const std::string echoed = read_exactly(stream, payload.size());
+  const std::string echoed = read_exactly(stream, payload.size(), 10s);
   writer.join();
   const auto mismatch = std::mismatch(echoed.begin(), echoed.end(), payload.begin());
   EXPECT_EQ(mismatch.first, echoed.end()) << "first difference at byte " << (mismatch.first - echoed.begin());
@@ -58,7 +53,7 @@ void expect_echo(ByteStream& stream, const std::string& payload) {
 TEST(EchoOverTransports, InProcessStreamGetsTheBannerThenEveryByteBack) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), echo_board(Pacing::fast));
-  EXPECT_EQ(read_exactly(*stream, kBanner.size()), kBanner);
+  EXPECT_EQ(read_exactly(*stream, kBanner.size(), 10s), kBanner);
   expect_echo(*stream, random_text(3000, 1));
   EXPECT_EQ(stream->discarded(), 0u);
   stream->close();
@@ -116,10 +111,10 @@ TEST(EchoOverTransports, RealSer2netInFrontOfTheBoard) {
 TEST(EchoOverTransports, ScheduledResetRebootsTheFirmwareAndTheStreamStaysUsable) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), echo_board(Pacing::fast));
-  EXPECT_EQ(read_exactly(*stream, kBanner.size()), kBanner);
+  EXPECT_EQ(read_exactly(*stream, kBanner.size(), 10s), kBanner);
   for (const ResetKind kind : {ResetKind::watchdog, ResetKind::power_cycle}) {
     stream->board().reset(kind, 10ms);
-    EXPECT_EQ(read_exactly(*stream, kBanner.size()), kBanner);  // the firmware booted again
+    EXPECT_EQ(read_exactly(*stream, kBanner.size(), 10s), kBanner);  // the firmware booted again
     expect_echo(*stream, random_text(200, 5));
   }
   EXPECT_EQ(stream->board().stats().boots, 3u);

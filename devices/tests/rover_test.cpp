@@ -221,14 +221,9 @@ TEST(DevicesRover, AnInvalidConfigBuiltInCodeIsRejectedBeforeAnythingOpens) {
 }
 
 
+// The tests' goal number `number` towards `bearing`, at 100,200.
 elcano::Message goal(std::int32_t number, std::int32_t bearing) {
-  elcano::Message message;
-  message.type = elcano::Type::goal;
-  message.number = number;
-  message.bearing = bearing;
-  message.east = 100;
-  message.north = 200;
-  return message;
+  return elcano::Message::goal(number, bearing, 100, 200);
 }
 
 TEST(DevicesRover, TheDefaultVirtualRoverOpensEveryCodecIncludingTheElcanoRing) {

@@ -34,10 +34,7 @@ bool drive(const tether::devices::RoverDevice& device) {
     return true;
   }
   const auto ring = device.client.get<tether::elcano::RingClient>();
-  tether::elcano::Message drive;  // D{s 50}{a 25}
-  drive.type = tether::elcano::Type::drive;
-  drive.speed = 50;
-  drive.angle = 25;
+  const tether::elcano::Message drive = tether::elcano::Message::drive(50, 25);  // D{s 50}{a 25}
   const tether::elcano::Message report = ring->request(drive, tether::elcano::Type::sensor);
   std::cout << device.name << " (elcano): answered by " << tether::elcano::to_string(report.type) << "\n";
   return report.type == tether::elcano::Type::sensor;

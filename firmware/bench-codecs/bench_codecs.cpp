@@ -158,25 +158,6 @@ bool proxy_decode(size_t size, size_t payload) {
   return read;
 }
 
-elcano::Message drive_message() {
-  elcano::Message m;
-  m.type = elcano::Type::drive;
-  m.speed = 50;
-  m.angle = 25;
-  return m;
-}
-
-elcano::Message segment_message() {
-  elcano::Message m;
-  m.type = elcano::Type::segment;
-  m.number = 4;
-  m.speed = 160;
-  m.bearing = 80;
-  m.east = 3200;
-  m.north = -64000;
-  return m;
-}
-
 
 // Writes `message` into `input` (outside any measurement); returns its size.
 uint8_t prepare_input(const elcano::Message& message, elcano::Generation generation) {
@@ -280,8 +261,8 @@ __attribute__((noinline)) void romi_and_proxy_rows(tether::LinkCounters& counter
 __attribute__((noinline)) void elcano_rows(tether::LinkCounters& counters) {
   bool read = false;
   size_t written = 0;
-  const elcano::Message drive = drive_message();
-  const elcano::Message segment = segment_message();
+  const elcano::Message drive = elcano::Message::drive(50, 25);
+  const elcano::Message segment = elcano::Message::segment(4, 160, 80, 3200, -64000);
   // One decoder per generation, built outside the measurements and kept from message to message, as a node
   // keeps its reader (RingNode holds one for its lifetime): a row is what a message costs the node.
   {
@@ -315,7 +296,7 @@ __attribute__((noinline)) void elcano_rows(tether::LinkCounters& counters) {
 }
 
 __attribute__((noinline)) void elcano_ring_rows(tether::LinkCounters& counters) {
-  const elcano::Message drive = drive_message();
+  const elcano::Message drive = elcano::Message::drive(50, 25);
   uint8_t size = 0;
   // Ring nodes are built outside the measurement (their construction is a boot cost, not a per-message one).
   tether::elcano::RingCounters ring;

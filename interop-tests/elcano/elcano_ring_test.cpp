@@ -135,7 +135,7 @@ TEST(ElcanoNodeConfig, EepromBlockIsAdoptedAndAnythingElseFallsBackToTheBuildDef
     EXPECT_EQ(fallback.loop_period, 0);
   }
   // So nodes 2 and 3 pass a drive through, and it comes back to the host that sent it.
-  ASSERT_EQ(ring.send(drive(10, 5)), Status::ok);
+  ASSERT_EQ(ring.send(Message::drive(10, 5)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::undeliverable) == 1; }, kPatience));
   EXPECT_EQ(ring.stats(kBoard2).ring.forwarded, 1u);
   EXPECT_EQ(ring.stats(kBoard3).ring.forwarded, 1u);
@@ -155,11 +155,11 @@ TEST(ElcanoReferenceRing, EachMessageReachesItsCapturingNodeAndNothingElseConsum
   EXPECT_EQ(ring.board(kBoard1).pulse_timing(pins::D9).edges, 0u) << "only node 3 drives servos";
 
   // A drive from the host: nodes 1 and 2 forward it, node 3 consumes it, sets the servos and reports.
-  ASSERT_EQ(ring.send(drive(200, -20)), Status::ok);
+  ASSERT_EQ(ring.send(Message::drive(200, -20)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::captured, Type::sensor) == 1; }, kPatience));
   const RingEvent* report = last_event(ring, RingEvent::Kind::captured);
   ASSERT_NE(report, nullptr);
-  EXPECT_TRUE(same_message(report->message, sensor(200, -20, 0, 0, 0))) << describe(report->message);
+  EXPECT_TRUE(report->message == Message::sensor(200, -20, 0, 0, 0)) << describe(report->message);
   ring.run(60ms);  // the new pulse width shows from the next full 20 ms period
   EXPECT_EQ(pulse_us(ring.board(kBoard3), pins::D9), 1600) << "1500 + 200 / 2";
   EXPECT_EQ(pulse_us(ring.board(kBoard3), pins::D10), 1278) << "1500 + (-20) * 100 / 9";
@@ -177,9 +177,9 @@ TEST(ElcanoReferenceRing, EachMessageReachesItsCapturingNodeAndNothingElseConsum
 
   // A sensor from the host: node 1 forwards it, node 2 consumes it and answers a drive; node 3 does as
   // before. No segment yet: stop, wheels straight.
-  ASSERT_EQ(ring.send(sensor(120, 3, 10, 500, 600)), Status::ok);
+  ASSERT_EQ(ring.send(Message::sensor(120, 3, 10, 500, 600)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::captured, Type::sensor) == 2; }, kPatience));
-  EXPECT_TRUE(same_message(last_event(ring, RingEvent::Kind::captured)->message, sensor(0, 0, 0, 0, 0)));
+  EXPECT_TRUE(last_event(ring, RingEvent::Kind::captured)->message == Message::sensor(0, 0, 0, 0, 0));
   s1 = ring.stats(kBoard1);
   s2 = ring.stats(kBoard2);
   s3 = ring.stats(kBoard3);
@@ -192,9 +192,9 @@ TEST(ElcanoReferenceRing, EachMessageReachesItsCapturingNodeAndNothingElseConsum
 
   // A segment from the host: node 2 consumes it; with the heading of 10 it has from the sensor, bearing
   // 60 is a 50 degree error: steering clamped to 45.
-  ASSERT_EQ(ring.send(segment(4, 300, 60, 1, 2)), Status::ok);
+  ASSERT_EQ(ring.send(Message::segment(4, 300, 60, 1, 2)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::captured, Type::sensor) == 3; }, kPatience));
-  EXPECT_TRUE(same_message(last_event(ring, RingEvent::Kind::captured)->message, sensor(300, 45, 0, 0, 0)));
+  EXPECT_TRUE(last_event(ring, RingEvent::Kind::captured)->message == Message::sensor(300, 45, 0, 0, 0));
   ring.run(60ms);
   EXPECT_EQ(pulse_us(ring.board(kBoard3), pins::D9), 1650);
   EXPECT_EQ(pulse_us(ring.board(kBoard3), pins::D10), 2000);
@@ -229,7 +229,7 @@ TEST(ElcanoReferenceRing, GoalSegmentDriveSensorChainCompletes) {
   const Millis started = ring.now();
   node::Behaviour expected_node2(node::kAnswerSegmentWithDrive);
   for (int chain = 0; chain < kChains; ++chain) {
-    const Message request = goal(chain, bearings(random), positions(random), positions(random));
+    const Message request = Message::goal(chain, bearings(random), positions(random), positions(random));
     const Message expected_segment = node::Behaviour(node::kAnswerGoalWithSegment).on_captured(request).message;
     const Message expected_drive = expected_node2.on_captured(expected_segment).message;
     const Message expected = node::Behaviour(node::kReportDriveAsSensor).on_captured(expected_drive).message;
@@ -239,7 +239,7 @@ TEST(ElcanoReferenceRing, GoalSegmentDriveSensorChainCompletes) {
     ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::captured, Type::sensor) > before; }, kPatience))
         << "chain " << chain << ": " << describe(request);
     const RingEvent* answer = last_event(ring, RingEvent::Kind::captured);
-    EXPECT_TRUE(same_message(answer->message, expected))
+    EXPECT_TRUE(answer->message == expected)
         << describe(request) << " -> " << describe(answer->message) << ", expected " << describe(expected);
     latencies.push_back(ring.now() - sent);
   }
@@ -279,7 +279,7 @@ TEST(ElcanoReferenceRing, TypeNobodyCapturesComesBackAndIsReportedUndeliverableO
   Ring ring(options);
   ring.run(10ms);
   ASSERT_EQ(ring.stats(kBoard2).capture_bits, kSegmentBit);
-  ASSERT_EQ(ring.send(sensor(1, 2, 3, 4, 5)), Status::ok);
+  ASSERT_EQ(ring.send(Message::sensor(1, 2, 3, 4, 5)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(RingEvent::Kind::undeliverable) >= 1; }, kPatience));
   const Millis returned = ring.now();
   ring.run(3s);  // longer than the origin record lives: nothing else comes round
@@ -338,7 +338,7 @@ TEST(ElcanoReferenceRing, GenerationDUnderLineNoiseDropsCorruptMessagesAndRetrie
   std::uniform_int_distribution<std::int32_t> bearings(0, 359);
   const Millis started = ring.now();
   for (int call = 0; call < kCalls; ++call) {
-    const Message request = goal(call, bearings(random), 100 * call, -50 * call);
+    const Message request = Message::goal(call, bearings(random), 100 * call, -50 * call);
     ASSERT_TRUE(table.begin_with(call_id(Type::sensor), ring.now()).ok());
     ASSERT_EQ(ring.send(request), Status::ok);
     in_flight = true;
@@ -413,7 +413,7 @@ TEST(ElcanoReferenceRing, BoardResetStopsTheChainNoLongerThanItsReboot) {
     chains.push_back(Chain{ring.now(), 0, false});
     open[bearing].clear();  // a chain lost to a reset never completes: forget it when its angle comes round
     open[bearing].push_back(k);
-    ASSERT_EQ(ring.send(goal(static_cast<std::int32_t>(k), bearing, 0, 0)), Status::ok);
+    ASSERT_EQ(ring.send(Message::goal(static_cast<std::int32_t>(k), bearing, 0, 0)), Status::ok);
   };
   auto run_with_goals = [&](Millis duration) {
     const Millis end = ring.now() + duration;
@@ -513,7 +513,7 @@ FlowResult run_stream(std::size_t slow, bool paced) {
   ring.run(10ms);
   FlowResult result;
   const Millis started = ring.now();
-  auto message = [&result] { return segment(static_cast<std::int32_t>(result.sent), 150, 30, 100, 200); };
+  auto message = [&result] { return Message::segment(static_cast<std::int32_t>(result.sent), 150, 30, 100, 200); };
   if (slow == 0) {
     // The host streams as fast as its pacing lets it: originate whenever its queue has room.
     while (result.sent < kMessages && ring.now() - started < 10000) {

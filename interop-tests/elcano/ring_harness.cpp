@@ -32,52 +32,6 @@ std::vector<node::NodeConfig> reference_ring(Generation generation) {
   };
 }
 
-Message goal(std::int32_t number, std::int32_t bearing, std::int32_t east, std::int32_t north) {
-  Message message;
-  message.type = Type::goal;
-  message.number = number;
-  message.bearing = bearing;
-  message.east = east;
-  message.north = north;
-  return message;
-}
-
-Message segment(std::int32_t number, std::int32_t speed, std::int32_t bearing, std::int32_t east, std::int32_t north) {
-  Message message;
-  message.type = Type::segment;
-  message.number = number;
-  message.speed = speed;
-  message.bearing = bearing;
-  message.east = east;
-  message.north = north;
-  return message;
-}
-
-Message drive(std::int32_t speed, std::int32_t angle) {
-  Message message;
-  message.type = Type::drive;
-  message.speed = speed;
-  message.angle = angle;
-  return message;
-}
-
-Message sensor(std::int32_t speed, std::int32_t angle, std::int32_t bearing, std::int32_t east, std::int32_t north) {
-  Message message;
-  message.type = Type::sensor;
-  message.speed = speed;
-  message.angle = angle;
-  message.bearing = bearing;
-  message.east = east;
-  message.north = north;
-  return message;
-}
-
-bool same_message(const Message& a, const Message& b) {
-  return a.type == b.type && a.number == b.number && a.speed == b.speed && a.angle == b.angle &&
-         a.obstacle == b.obstacle && a.bearing == b.bearing && a.probability == b.probability && a.east == b.east &&
-         a.north == b.north;
-}
-
 std::string describe(const Message& message) {
   std::uint8_t text[128];
   const Result<std::size_t> written = encode_message(message, Generation::b, MutableByteView(text, sizeof text));

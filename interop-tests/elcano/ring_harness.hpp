@@ -35,14 +35,6 @@ node::NodeConfig node_config(std::uint8_t number, std::uint8_t capture_bits, std
 /// and segments and answers drives; board 3 captures drives, drives D9/D10 and reports a sensor back.
 std::vector<node::NodeConfig> reference_ring(Generation generation = Generation::b);
 
-/// A message built from its fields (unset ones stay kUnset).
-Message goal(std::int32_t number, std::int32_t bearing, std::int32_t east, std::int32_t north);
-Message segment(std::int32_t number, std::int32_t speed, std::int32_t bearing, std::int32_t east, std::int32_t north);
-Message drive(std::int32_t speed, std::int32_t angle);
-Message sensor(std::int32_t speed, std::int32_t angle, std::int32_t bearing, std::int32_t east, std::int32_t north);
-
-/// Field-by-field equality.
-bool same_message(const Message& a, const Message& b);
 /// The message in generation B text (for failure messages).
 std::string describe(const Message& message);
 

@@ -16,7 +16,6 @@
 #include <set>
 #include <string>
 #include <thread>
-#include <variant>
 #include <vector>
 
 #include "../stack_paint.hpp"
@@ -28,6 +27,7 @@
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
@@ -73,26 +73,7 @@ Options on_board_time(const std::shared_ptr<VirtualUnoStream>& stream, Options o
   return options;
 }
 
-// Records every event.
-struct EventLog {
-  std::mutex mutex;
-  std::vector<Event> events;
-  EventHandler handler() {
-    return [this](const Event& event) {
-      std::lock_guard lock(mutex);
-      events.push_back(event);
-    };
-  }
-  template <typename T>
-  std::vector<T> all() {
-    std::lock_guard lock(mutex);
-    std::vector<T> found;
-    for (const auto& event : events) {
-      if (const T* value = std::get_if<T>(&event)) found.push_back(*value);
-    }
-    return found;
-  }
-};
+using EventLog = transports::testing::EventLog<Event>;
 
 TEST(ProxyInterop, InitAndControlDriveTheServoPulseAndTheDigitalPin) {
   IoThread io;
@@ -134,7 +115,7 @@ TEST(ProxyInterop, AnOutOfRangeServoPositionIsAnErrorAndLeavesTheServoWhereItWas
   }
   // Received and refused: the Error, then an Ack that says refused, and the send fails.
   EXPECT_EQ(refused, tether::proxy::ProxyError::refused) << refused.message();
-  std::vector<events::DeviceError> errors = log.all<events::DeviceError>();
+  std::vector<events::DeviceError> errors = log.of<events::DeviceError>();
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(errors[0].text, "pin 9: position 999 not in 0..180");
   // Three servo periods of simulated time after the device refused it: a new width would show by now.
@@ -162,7 +143,7 @@ TEST(ProxyInterop, WithoutPingsThePinsGoSafeAfterTenSecondsAndTheFailsafeIsRepor
   client.digital(13).set(true);
   const auto commanded_at = uno.simulated_time();
   ASSERT_LT(commanded_at, 10s) << "the handshake took too long to test the 10 s rule";
-  ASSERT_TRUE(wait_for([&] { return !log.all<events::FailsafeTriggered>().empty(); }));
+  ASSERT_TRUE(wait_for([&] { return !log.of<events::FailsafeTriggered>().empty(); }));
   // Safe values: servo 45 degrees = 1250 us, D13 low; and never before 10 s of silence since boot.
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1250.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_FALSE(uno.digital_level(13));
@@ -186,9 +167,9 @@ TEST(ProxyInterop, AnMcuResetIsDetectedAndTheInitsAreReplayedWithoutTheApplicati
   const auto first_session = client.session().session_id;
   uno.reset(transports::ResetKind::power_cycle, 20ms);  // behind the host's back
   // The power-up leaves the pins undriven; the replayed inits drive them to their safe values again.
-  ASSERT_TRUE(wait_for([&] { return log.all<events::SessionEstablished>().size() >= 2; }));
-  EXPECT_GE(log.all<events::ResetDetected>().size(), 1u);
-  EXPECT_FALSE(log.all<events::SessionEstablished>().back().first);
+  ASSERT_TRUE(wait_for([&] { return log.of<events::SessionEstablished>().size() >= 2; }));
+  EXPECT_GE(log.of<events::ResetDetected>().size(), 1u);
+  EXPECT_FALSE(log.of<events::SessionEstablished>().back().first);
   EXPECT_NE(client.session().session_id, first_session);
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1500.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_TRUE(uno.digital_level(13));
@@ -227,7 +208,7 @@ TEST(ProxyInterop, UnderLineNoiseEveryAckedCommandRanExactlyOnce) {
   uno.set_faults(transports::Direction::from_mcu, transports::FaultConfig());
   let_board_run(uno, 200ms);
   std::multiset<int> reported;
-  for (const auto& report : log.all<events::PinReport>()) {
+  for (const auto& report : log.of<events::PinReport>()) {
     if (report.pin == 9 && !report.failsafe && report.value != 0) reported.insert(report.value);
   }
   for (int value : reported) EXPECT_EQ(reported.count(value), 1u) << "position " << value << " executed twice";
@@ -540,7 +521,7 @@ void many_in_flight_through_resets(WireFaults faults) {
   }
   let_board_run(uno, 300ms);  // reports of failed messages that did run may trail
   std::map<std::uint32_t, int> reports;
-  for (const auto& report : log.all<events::PinReport>()) {
+  for (const auto& report : log.of<events::PinReport>()) {
     for (const Lane& lane : lanes) {
       if (report.pin == lane.pin && !report.failsafe && report.value == lane.on) ++reports[lane.pin];
     }
@@ -573,7 +554,7 @@ void many_in_flight_through_resets(WireFaults faults) {
               "%u re-sends, %zu resets detected\n",
               total_acked, kBatches * kRounds * static_cast<int>(lanes.size()), executions.size(),
               ran_twice_in_a_boot, wire.dropped(), wire.duplicated(), link.retries,
-              log.all<events::ResetDetected>().size());
+              log.of<events::ResetDetected>().size());
   const transports::VirtualUnoStats board_stats = uno.stats();
   std::printf("board: %llu boots (%llu power cycles, %llu watchdog), %llu bytes lost at the receiver\n",
               static_cast<unsigned long long>(board_stats.boots), static_cast<unsigned long long>(board_stats.power_cycles),
@@ -613,7 +594,7 @@ void many_in_flight_through_resets(WireFaults faults) {
     EXPECT_GE(resent_for_lost_acks, 5u);
   }
   EXPECT_GE(link.retries, resent_for_lost_acks);
-  EXPECT_GE(log.all<events::ResetDetected>().size(), 2u);
+  EXPECT_GE(log.of<events::ResetDetected>().size(), 2u);
   client.close();
 }
 
@@ -642,7 +623,7 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
   // Like the deployed host: command the device once it announced the end of its setup (it re-sends
   // nothing after that, but a client re-sends its inits on a RESET announcement).
   ASSERT_TRUE(wait_for([&] {
-    for (const auto& event : log.all<events::CompatEvent>()) {
+    for (const auto& event : log.of<events::CompatEvent>()) {
       if (event.type == RocketryProto::RESET) return true;
     }
     return false;
@@ -661,7 +642,7 @@ TEST(ProxyInterop, CompatModeDrivesTheDeployedFirmware) {
   }));
   client.digital(7).set(true);
   EXPECT_TRUE(wait_for([&] {
-    for (const auto& error : log.all<events::CompatError>()) {
+    for (const auto& error : log.of<events::CompatError>()) {
       if (error.type == RocketryProto::PIN_NOT_INITIALIZED && error.data == 7) return true;
     }
     return false;

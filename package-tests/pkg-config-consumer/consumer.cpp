@@ -27,10 +27,7 @@ tether::transports::VirtualUnoOptions board(const std::filesystem::path& image) 
 }
 
 bool elcano_round_trip() {
-  tether::elcano::Message drive;
-  drive.type = tether::elcano::Type::drive;
-  drive.speed = 50;
-  drive.angle = 25;
+  const tether::elcano::Message drive = tether::elcano::Message::drive(50, 25);
   std::uint8_t wire[64];
   const auto written = tether::elcano::encode_message(drive, tether::elcano::Generation::d,
                                                      tether::MutableByteView(wire, sizeof wire));

@@ -169,13 +169,7 @@ segment number east north bearing speed.)doc");
       .def_property_readonly("type", [](const elcano::Message& m) { return elcano::to_string(m.type); },
                              "drive, sensor, goal or segment.")
       .def("__repr__", &message_repr)
-      .def("__eq__", [](const elcano::Message& a, const elcano::Message& b) {
-        if (a.type != b.type) return false;
-        for (const Field& field : kFields) {
-          if (a.*field.member != b.*field.member) return false;
-        }
-        return true;
-      })
+      .def("__eq__", [](const elcano::Message& a, const elcano::Message& b) { return a == b; })
       .def(
           "to_wire",
           [](const elcano::Message& m, const std::string& generation) {

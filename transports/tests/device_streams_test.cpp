@@ -24,29 +24,24 @@
 #include "tether/transports/pty_stream.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
+#include "tether/transports/testing/read_exactly.hpp"
 
 namespace tether::transports {
 namespace {
 
 using namespace std::chrono_literals;
+using ::tether::transports::testing::read_exactly;
 
 using IoThread = tether::transports::IoThread;
-
-std::string read_exactly(ByteStream& stream, std::size_t size, std::chrono::milliseconds timeout = 5s) {
-  std::string result(size, '\0');
-  std::size_t total = 0;
-  while (total < size) total += stream.read_some(asio::buffer(result.data() + total, size - total), timeout);
-  return result;
-}
 
 TEST(PtyStream, SerialPortOnTheSlaveTalksToTheMaster) {
   IoThread io;
   auto pty = PtyStream::open(io.executor());
   auto port = SerialPortStream::open(io.executor(), pty->slave_path());
   pty->write(asio::buffer(std::string("to port\r\n")));
-  EXPECT_EQ(read_exactly(*port, 9), "to port\r\n");  // raw: no CR/LF translation, no echo
+  EXPECT_EQ(read_exactly(*port, 9, 5s), "to port\r\n");  // raw: no CR/LF translation, no echo
   port->write(asio::buffer(std::string("to pty")));
-  EXPECT_EQ(read_exactly(*pty, 6), "to pty");
+  EXPECT_EQ(read_exactly(*pty, 6, 5s), "to pty");
   EXPECT_NE(port->description().find(pty->slave_path()), std::string::npos);
   port->close();
   pty->close();
@@ -102,7 +97,7 @@ TEST(SerialPortStream, WaitsForTheReadyBannerAndKeepsWhatFollows) {
   ASSERT_EQ(future.wait_for(5s), std::future_status::ready);
   auto port = future.get();
   ASSERT_NE(port, nullptr);
-  EXPECT_EQ(read_exactly(*port, 5), "first");
+  EXPECT_EQ(read_exactly(*port, 5, 5s), "first");
   port->close();
   pty->close();
 }
@@ -127,7 +122,7 @@ TEST(SerialPortStream, BootNoiseBeforeTheWaitEndsIsDiscarded) {
   options.boot_wait = 50ms;
   auto port = SerialPortStream::open(io.executor(), pty->slave_path(), options);
   pty->write(asio::buffer(std::string("app")));
-  EXPECT_EQ(read_exactly(*port, 3), "app");
+  EXPECT_EQ(read_exactly(*port, 3, 5s), "app");
   port->close();
   pty->close();
 }
@@ -165,7 +160,7 @@ TEST(SocatPtyPair, BulkDataCrossesARealSocatPair) {
     std::string payload(4000, '\0');
     for (auto& c : payload) c = static_cast<char>(generator());
     std::thread writer([&] { a->write(asio::buffer(payload)); });
-    const std::string received = read_exactly(*b, payload.size());
+    const std::string received = read_exactly(*b, payload.size(), 5s);
     writer.join();
     EXPECT_EQ(received, payload);
     a->close();
@@ -188,7 +183,7 @@ TEST(TcpStream, RoundTripOnLoopback) {
   });
   auto stream = TcpStream::connect(io.executor(), "127.0.0.1", port);
   stream->write(asio::buffer(std::string("hello")));
-  EXPECT_EQ(read_exactly(*stream, 5), "hello");
+  EXPECT_EQ(read_exactly(*stream, 5, 5s), "hello");
   server.join();
   stream->close();
 }
@@ -254,7 +249,7 @@ TEST(Ser2net, TcpClientReachesAPtyDeviceThroughARealSer2net) {
     ASSERT_TRUE(ser2net.wait_until_listening(5000ms));
     auto stream = TcpStream::connect(io.executor(), "127.0.0.1", ser2net.port());
     stream->write(asio::buffer(std::string("through ser2net")));
-    EXPECT_EQ(read_exactly(*stream, 15), "THROUGH SER2NET");
+    EXPECT_EQ(read_exactly(*stream, 15, 5s), "THROUGH SER2NET");
     stream->close();
   }
   running = false;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tether/elcano/decoder.hpp"
@@ -43,66 +44,105 @@ Read read(const std::string& bytes, Generation generation) {
   return result;
 }
 
-Message drive(int32_t s, int32_t a) {
-  Message m;
-  m.type = Type::drive;
-  m.speed = s;
-  m.angle = a;
-  return m;
-}
-Message sensor(int32_t s, int32_t a, int32_t b, int32_t e, int32_t n) {
-  Message m;
-  m.type = Type::sensor;
-  m.speed = s;
-  m.angle = a;
-  m.bearing = b;
-  m.east = e;
-  m.north = n;
-  return m;
-}
-Message goal(int32_t num, int32_t b, int32_t e, int32_t n, int32_t r = kUnset) {
-  Message m;
-  m.type = Type::goal;
-  m.number = num;
-  m.bearing = b;
-  m.east = e;
-  m.north = n;
-  m.probability = r;
-  return m;
-}
-Message segment(int32_t num, int32_t s, int32_t b, int32_t e, int32_t n) {
-  Message m;
-  m.type = Type::segment;
-  m.number = num;
-  m.speed = s;
-  m.bearing = b;
-  m.east = e;
-  m.north = n;
-  return m;
+// The named constructors and operators add no state to a message; the operators are constexpr.
+static_assert(sizeof(Message) == 4 + 8 * sizeof(int32_t));
+static_assert(Message() == Message() && !(Message() != Message()));
+
+TEST(ElcanoMessage, NamedConstructorsSetTheirTypesFieldsAndLeaveEveryOtherUnset) {
+  const Message drive = Message::drive(50, 25);
+  EXPECT_EQ(drive.type, Type::drive);
+  EXPECT_EQ(drive.speed, 50);
+  EXPECT_EQ(drive.angle, 25);
+  for (const int32_t field : {drive.number, drive.obstacle, drive.bearing, drive.probability, drive.east,
+                              drive.north}) {
+    EXPECT_EQ(field, kUnset);
+  }
+  const Message sensor = Message::sensor(69, -12, 432, 420, 90210);
+  EXPECT_EQ(sensor.type, Type::sensor);
+  EXPECT_EQ(sensor.speed, 69);
+  EXPECT_EQ(sensor.angle, -12);
+  EXPECT_EQ(sensor.bearing, 432);
+  EXPECT_EQ(sensor.east, 420);
+  EXPECT_EQ(sensor.north, 90210);
+  for (const int32_t field : {sensor.number, sensor.obstacle, sensor.probability}) EXPECT_EQ(field, kUnset);
+  const Message goal = Message::goal(2, 679, 0, 0, 59);
+  EXPECT_EQ(goal.type, Type::goal);
+  EXPECT_EQ(goal.number, 2);
+  EXPECT_EQ(goal.bearing, 679);
+  EXPECT_EQ(goal.east, 0);
+  EXPECT_EQ(goal.north, 0);
+  EXPECT_EQ(goal.probability, 59);
+  for (const int32_t field : {goal.speed, goal.angle, goal.obstacle}) EXPECT_EQ(field, kUnset);
+  EXPECT_EQ(Message::goal(3, 679, -23456, 123450).probability, kUnset);  // r is optional
+  const Message segment = Message::segment(4, 160, 80, 3200, -64000);
+  EXPECT_EQ(segment.type, Type::segment);
+  EXPECT_EQ(segment.number, 4);
+  EXPECT_EQ(segment.speed, 160);
+  EXPECT_EQ(segment.bearing, 80);
+  EXPECT_EQ(segment.east, 3200);
+  EXPECT_EQ(segment.north, -64000);
+  for (const int32_t field : {segment.angle, segment.obstacle, segment.probability}) EXPECT_EQ(field, kUnset);
+  for (const Message& m : {drive, sensor, goal, segment}) EXPECT_TRUE(has_required_fields(m)) << to_string(m.type);
 }
 
-bool same(const Message& a, const Message& b) {
-  return a.type == b.type && a.number == b.number && a.speed == b.speed && a.angle == b.angle &&
-         a.obstacle == b.obstacle && a.bearing == b.bearing && a.probability == b.probability && a.east == b.east &&
-         a.north == b.north;
+TEST(ElcanoMessage, NamedConstructorsWriteTheSpecsBytesAndEqualWhatIsReadBack) {
+  const std::pair<Message, std::string> vectors[] = {
+      {Message::drive(50, 25), "D{s 50}{a 25}\n"},
+      {Message::sensor(69, -12, 432, 420, 90210), "S{s 69}{a -12}{b 432}{p 420,90210}\n"},
+      {Message::goal(3, 679, -23456, 123450), "G{n 3}{b 679}{p -23456,123450}\n"},
+      {Message::goal(2, 679, 0, 0, 59), "G{n 2}{b 679}{p 0,0}{r 59}\n"},
+      {Message::segment(4, 160, 80, 3200, -64000), "X{n 4}{s 160}{b 80}{p 3200,-64000}\n"},
+  };
+  for (const auto& [message, bytes] : vectors) {
+    EXPECT_EQ(written(message, Generation::b), bytes);
+    const Read back = read(bytes, Generation::b);
+    ASSERT_EQ(back.messages.size(), 1u) << bytes;
+    EXPECT_TRUE(back.messages[0] == message) << bytes;
+    EXPECT_FALSE(back.messages[0] != message) << bytes;
+  }
+}
+
+TEST(ElcanoMessage, EqualityComparesTheTypeAndEveryFieldUnsetIncluded) {
+  const Message base = Message::segment(4, 160, 80, 3200, -64000);
+  EXPECT_TRUE(base == base);
+  EXPECT_FALSE(base != base);
+  Message other_type = base;
+  other_type.type = Type::goal;
+  EXPECT_FALSE(base == other_type);
+  EXPECT_TRUE(base != other_type);
+  // Each field on its own: changed, and set where the base leaves it unset (kUnset is not 0).
+  int32_t Message::*const fields[] = {&Message::number,  &Message::speed,       &Message::angle, &Message::obstacle,
+                                      &Message::bearing, &Message::probability, &Message::east,  &Message::north};
+  for (int32_t Message::*const field : fields) {
+    Message changed = base;
+    changed.*field = base.*field == kUnset ? 0 : base.*field + 1;
+    EXPECT_FALSE(base == changed) << changed.*field;
+    EXPECT_TRUE(base != changed) << changed.*field;
+  }
+  EXPECT_FALSE(Message::drive(0, 0) == Message());  // a default message is a drive with nothing set
+  EXPECT_TRUE(Message::drive(kUnset, kUnset) == Message());
 }
 
 TEST(ElcanoWriter, GenerationBVectors) {
-  EXPECT_EQ(written(drive(50, 25), Generation::b), "D{s 50}{a 25}\n");
-  EXPECT_EQ(written(drive(1500, 60), Generation::b), "D{s 1500}{a 60}\n");
-  EXPECT_EQ(written(drive(259, -3), Generation::b), "D{s 259}{a -3}\n");
-  EXPECT_EQ(written(sensor(69, -12, 432, 420, 90210), Generation::b), "S{s 69}{a -12}{b 432}{p 420,90210}\n");
-  EXPECT_EQ(written(sensor(1691, 165, -30, -91, 30), Generation::b), "S{s 1691}{a 165}{b -30}{p -91,30}\n");
-  EXPECT_EQ(written(goal(3, 679, -23456, 123450), Generation::b), "G{n 3}{b 679}{p -23456,123450}\n");
-  EXPECT_EQ(written(goal(2, 679, 0, 0, 59), Generation::b), "G{n 2}{b 679}{p 0,0}{r 59}\n");
-  EXPECT_EQ(written(segment(1, 1599, 270, 14263, 123456), Generation::b), "X{n 1}{s 1599}{b 270}{p 14263,123456}\n");
-  EXPECT_EQ(written(segment(4, 160, 80, 3200, -64000), Generation::b), "X{n 4}{s 160}{b 80}{p 3200,-64000}\n");
+  EXPECT_EQ(written(Message::drive(50, 25), Generation::b), "D{s 50}{a 25}\n");
+  EXPECT_EQ(written(Message::drive(1500, 60), Generation::b), "D{s 1500}{a 60}\n");
+  EXPECT_EQ(written(Message::drive(259, -3), Generation::b), "D{s 259}{a -3}\n");
+  EXPECT_EQ(written(Message::sensor(69, -12, 432, 420, 90210), Generation::b),
+            "S{s 69}{a -12}{b 432}{p 420,90210}\n");
+  EXPECT_EQ(written(Message::sensor(1691, 165, -30, -91, 30), Generation::b), "S{s 1691}{a 165}{b -30}{p -91,30}\n");
+  EXPECT_EQ(written(Message::goal(3, 679, -23456, 123450), Generation::b), "G{n 3}{b 679}{p -23456,123450}\n");
+  EXPECT_EQ(written(Message::goal(2, 679, 0, 0, 59), Generation::b), "G{n 2}{b 679}{p 0,0}{r 59}\n");
+  EXPECT_EQ(written(Message::segment(1, 1599, 270, 14263, 123456), Generation::b),
+            "X{n 1}{s 1599}{b 270}{p 14263,123456}\n");
+  EXPECT_EQ(written(Message::segment(4, 160, 80, 3200, -64000), Generation::b),
+            "X{n 4}{s 160}{b 80}{p 3200,-64000}\n");
 }
 
 TEST(ElcanoWriter, GenerationDVectors) {
-  EXPECT_EQ(written(drive(50, 25), Generation::d), "D{s50}{a25}74\n");
-  EXPECT_EQ(written(drive(1500, 60), Generation::d), "D{s1500}{a60}179\n");
-  EXPECT_EQ(written(segment(4, 160, 80, 3200, -64000), Generation::d), "X{n4}{s160}{b80}{p3200}{q-64000}243\n");
+  EXPECT_EQ(written(Message::drive(50, 25), Generation::d), "D{s50}{a25}74\n");
+  EXPECT_EQ(written(Message::drive(1500, 60), Generation::d), "D{s1500}{a60}179\n");
+  EXPECT_EQ(written(Message::segment(4, 160, 80, 3200, -64000), Generation::d),
+            "X{n4}{s160}{b80}{p3200}{q-64000}243\n");
 }
 
 TEST(ElcanoWriter, MissingRequiredFieldIsRejected) {
@@ -114,14 +154,15 @@ TEST(ElcanoWriter, MissingRequiredFieldIsRejected) {
 }
 
 TEST(ElcanoReader, EveryVectorReadsBackToItsMessage) {
-  const std::vector<Message> all = {drive(50, 25), drive(259, -3), sensor(69, -12, 432, 420, 90210),
-                                    goal(2, 679, 0, 0, 59), segment(4, 160, 80, 3200, -64000)};
+  const std::vector<Message> all = {Message::drive(50, 25), Message::drive(259, -3),
+                                    Message::sensor(69, -12, 432, 420, 90210), Message::goal(2, 679, 0, 0, 59),
+                                    Message::segment(4, 160, 80, 3200, -64000)};
   for (const Generation generation : {Generation::b, Generation::d}) {
     std::string stream;
     for (const auto& m : all) stream += written(m, generation);
     const Read result = read(stream, generation);
     ASSERT_EQ(result.messages.size(), all.size());
-    for (std::size_t i = 0; i < all.size(); ++i) EXPECT_TRUE(same(result.messages[i], all[i])) << i;
+    for (std::size_t i = 0; i < all.size(); ++i) EXPECT_TRUE(result.messages[i] == all[i]) << i;
     EXPECT_TRUE(result.errors.empty());
   }
 }
@@ -186,10 +227,7 @@ TEST(ElcanoWriter, NumbersAreWrittenInDecimalAtEveryDigitCountAndReadBack) {
                             2147483646, -1, -9, -10, -6553, -65535, -65536, -1000000000, INT32_MIN};
   for (const Generation generation : {Generation::b, Generation::d}) {
     for (const int32_t value : values) {
-      Message m;
-      m.type = Type::drive;
-      m.speed = value;
-      m.angle = -(value / 7);
+      const Message m = Message::drive(value, -(value / 7));
       const std::string text = written(m, generation);
       const std::string space = generation == Generation::b ? " " : "";
       EXPECT_EQ(text.rfind("D{s" + space + std::to_string(value) + "}{a" + space + std::to_string(-(value / 7)) + "}", 0),

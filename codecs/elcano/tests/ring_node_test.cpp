@@ -18,24 +18,6 @@ namespace {
 
 using Node = RingNode<96, 256, 4>;
 
-Message drive(int32_t speed, int32_t angle) {
-  Message m;
-  m.type = Type::drive;
-  m.speed = speed;
-  m.angle = angle;
-  return m;
-}
-
-Message goal(int32_t number) {
-  Message m;
-  m.type = Type::goal;
-  m.number = number;
-  m.bearing = 90;
-  m.east = 100;
-  m.north = -200;
-  return m;
-}
-
 RingNodeConfig config(TypeSet capture, Generation generation = Generation::b) {
   RingNodeConfig c;
   c.generation = generation;
@@ -99,7 +81,7 @@ TEST(RingNode, MessagesLeaveWholeAndInOrderWithOriginatedOnes) {
   RingCounters ring;
   Node node(config(TypeSet()), 0, link, ring);
   feed(node, "D{s 1}{a 1}\n", 0);
-  ASSERT_EQ(node.originate(drive(2, 2), 0), Status::ok);
+  ASSERT_EQ(node.originate(Message::drive(2, 2), 0), Status::ok);
   feed(node, "D{s 3}{a 3}\n", 0);
   EXPECT_EQ(output(node, 0), "D{s1}{a1}\nD{s 2}{a 2}\nD{s3}{a3}\n");
 }
@@ -109,7 +91,7 @@ TEST(RingNode, OwnMessageComingBackIsReportedUndeliverableOnce) {
   LinkCounters link;
   RingCounters ring;
   Node origin(config(TypeSet()), 0, link, ring);
-  ASSERT_EQ(origin.originate(drive(50, 25), 0), Status::ok);
+  ASSERT_EQ(origin.originate(Message::drive(50, 25), 0), Status::ok);
   const std::string sent = output(origin, 0);
   EXPECT_EQ(sent, "D{s 50}{a 25}\n");  // the spec's writer format: nothing added for loop protection
   // Round the ring: another node forwards it (whitespace-stripped), then it reaches the origin again.
@@ -135,8 +117,8 @@ TEST(RingNode, TheSameMessageSentTwiceComesBackTwice) {
   LinkCounters link;
   RingCounters ring;
   Node node(config(TypeSet()), 0, link, ring);
-  ASSERT_EQ(node.originate(drive(1, 1), 0), Status::ok);
-  ASSERT_EQ(node.originate(drive(1, 1), 0), Status::ok);
+  ASSERT_EQ(node.originate(Message::drive(1, 1), 0), Status::ok);
+  ASSERT_EQ(node.originate(Message::drive(1, 1), 0), Status::ok);
   output(node, 0);
   Fed fed = feed(node, "D{s1}{a1}\nD{s1}{a1}\nD{s1}{a1}\n", 5);
   ASSERT_EQ(fed.events.size(), 3u);
@@ -151,7 +133,7 @@ TEST(RingNode, OriginRecordsExpireAfterTheReturnTimeout) {
   RingNodeConfig c = config(TypeSet());
   c.return_timeout = 100;
   Node node(c, 0, link, ring);
-  ASSERT_EQ(node.originate(drive(1, 1), 0), Status::ok);
+  ASSERT_EQ(node.originate(Message::drive(1, 1), 0), Status::ok);
   output(node, 0);
   EXPECT_TRUE(node.next_wakeup(0).armed());
   EXPECT_EQ(node.next_wakeup(0).at(), 100u);
@@ -171,8 +153,8 @@ TEST(RingNode, ARingOfThreeReturnsAnUncapturedMessageToItsOriginOnly) {
   Node host(config(TypeSet::of(Type::sensor)), 0, link[0], ring[0]);
   Node a(config(TypeSet::of(Type::goal)), 0, link[1], ring[1]);
   Node b(config(TypeSet()), 0, link[2], ring[2]);
-  ASSERT_EQ(host.originate(goal(1), 0), Status::ok);
-  ASSERT_EQ(host.originate(drive(7, 8), 0), Status::ok);
+  ASSERT_EQ(host.originate(Message::goal(1, 90, 100, -200), 0), Status::ok);
+  ASSERT_EQ(host.originate(Message::drive(7, 8), 0), Status::ok);
   std::vector<RingEvent> host_events;
   for (Millis now = 0; now < 10; ++now) {
     feed(a, output(host, now), now);
@@ -231,7 +213,7 @@ TEST(RingNode, OutputIsPacedForASlowReceiver) {
   c.pacing.receiver_buffer = 64;
   c.pacing.receiver_poll_interval = 20;  // 32-byte bursts, 1.6 bytes per ms
   Node node(c, 0, link, ring);
-  for (int i = 0; i < 6; ++i) ASSERT_EQ(node.originate(drive(1000 + i, 10), 0), Status::ok);
+  for (int i = 0; i < 6; ++i) ASSERT_EQ(node.originate(Message::drive(1000 + i, 10), 0), Status::ok);
   EXPECT_EQ(output(node, 0).size(), 32u);
   EXPECT_EQ(output(node, 0).size(), 0u);
   const Deadline wake = node.next_wakeup(0);
@@ -251,10 +233,10 @@ TEST(RingNode, FullQueueDropsForwardsWithAReportAndPushesBackOnOriginate) {
   RingCounters ring;
   // 16-byte messages, a queue of 63 bytes: originate keeps 16 bytes free for forwarding.
   RingNode<16, 64, 2> node(config(TypeSet()), 0, link, ring);
-  ASSERT_EQ(node.originate(drive(10, 10), 0), Status::ok);  // "D{s 10}{a 10}\n": 14 bytes
-  ASSERT_EQ(node.originate(drive(20, 20), 0), Status::ok);  // 28
-  ASSERT_EQ(node.originate(drive(30, 30), 0), Status::ok);  // 42
-  EXPECT_EQ(node.originate(drive(40, 40), 0), Status::busy);  // 56 would leave 7 < 16
+  ASSERT_EQ(node.originate(Message::drive(10, 10), 0), Status::ok);  // "D{s 10}{a 10}\n": 14 bytes
+  ASSERT_EQ(node.originate(Message::drive(20, 20), 0), Status::ok);  // 28
+  ASSERT_EQ(node.originate(Message::drive(30, 30), 0), Status::ok);  // 42
+  EXPECT_EQ(node.originate(Message::drive(40, 40), 0), Status::busy);  // 56 would leave 7 < 16
   std::vector<RingEvent> events = feed(node, "D{s1}{a1}\nD{s2}{a2}\nD{s3}{a3}\n", 0).events;  // 10 bytes each
   ASSERT_EQ(events.size(), 3u);
   EXPECT_EQ(events[0].kind, RingEvent::Kind::forwarded);  // the reserve takes them: 52,
@@ -268,7 +250,7 @@ TEST(RingNode, EvictedOriginRecordsAreCounted) {
   LinkCounters link;
   RingCounters ring;
   RingNode<96, 256, 2> node(config(TypeSet()), 0, link, ring);
-  for (int i = 0; i < 3; ++i) ASSERT_EQ(node.originate(drive(i, i), static_cast<Millis>(i)), Status::ok);
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(node.originate(Message::drive(i, i), static_cast<Millis>(i)), Status::ok);
   EXPECT_EQ(ring.origins_evicted, 1u);
   output(node, 10);
   // The first one's record was overwritten: it is forwarded again; the two others are recognised.
@@ -357,7 +339,7 @@ TEST(RingNode, SpanConsumeDoesExactlyWhatByteConsumeDoes) {
     Node by_byte(config(capture, generation), 0, link_a, ring_a);
     Node by_span(config(capture, generation), 0, link_b, ring_b);
     // Some of the node's own messages, so that some come back.
-    ASSERT_EQ(by_byte.originate(drive(7, 8), 0), by_span.originate(drive(7, 8), 0));
+    ASSERT_EQ(by_byte.originate(Message::drive(7, 8), 0), by_span.originate(Message::drive(7, 8), 0));
     std::string stream;
     for (int i = 0; i < 12; ++i) stream += pieces[pick(random)];
     stream += generation == Generation::b ? "D{s 7}{a 8}\n" : "D{s7}{a8}247\n";

@@ -6,10 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <mutex>
 #include <string>
-#include <variant>
-#include <vector>
 
 #include "ring_harness.hpp"
 #include "tether/proxy/client.hpp"
@@ -17,6 +14,7 @@
 #include "tether/testing/child_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
 namespace tether::arduino {
@@ -80,25 +78,7 @@ double servo_pulse_us(transports::VirtualUno& uno) {
   return std::chrono::duration<double, std::micro>(uno.pulse_timing(9).high_time).count();
 }
 
-struct EventLog {
-  std::mutex mutex;
-  std::vector<proxy::Event> events;
-  proxy::EventHandler handler() {
-    return [this](const proxy::Event& event) {
-      std::lock_guard lock(mutex);
-      events.push_back(event);
-    };
-  }
-  template <typename T>
-  std::vector<T> all() {
-    std::lock_guard lock(mutex);
-    std::vector<T> found;
-    for (const auto& event : events) {
-      if (const T* value = std::get_if<T>(&event)) found.push_back(*value);
-    }
-    return found;
-  }
-};
+using EventLog = transports::testing::EventLog<proxy::Event>;
 
 TEST(TetherProxyProxy, AcksMovesTheServoOnD9AndTheDigitalPin) {
   IoThread io;
@@ -138,7 +118,7 @@ TEST(TetherProxyProxy, WithoutPingsThePinsGoSafeAfterTenSecondsOfSimulatedTime) 
   client.digital(13).set(true);
   ASSERT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1944.0) < 5.0; })) << servo_pulse_us(uno);
   ASSERT_LT(uno.simulated_time(), 10s) << "the handshake took too long to test the 10 s rule";
-  ASSERT_TRUE(wait_for([&] { return !log.all<proxy::events::FailsafeTriggered>().empty(); }, 60s));
+  ASSERT_TRUE(wait_for([&] { return !log.of<proxy::events::FailsafeTriggered>().empty(); }, 60s));
   // Safe values (servo 45 degrees = 1250 us, D13 low), never before 10 s of silence.
   EXPECT_TRUE(wait_for([&] { return std::abs(servo_pulse_us(uno) - 1250.0) < 5.0; })) << servo_pulse_us(uno);
   EXPECT_FALSE(uno.digital_level(13));
@@ -153,7 +133,7 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
   EventLog log;
   proxy::Client client(stream, proxy::Options::compat(), log.handler());
   ASSERT_TRUE(wait_for([&] {
-    for (const auto& event : log.all<proxy::events::CompatEvent>()) {
+    for (const auto& event : log.of<proxy::events::CompatEvent>()) {
       if (event.type == ::RocketryProto::RESET) return true;
     }
     return false;
@@ -171,7 +151,7 @@ TEST(TetherProxyProxyCompat, TheDeployedHostsProtocolMovesTheServoWithServoLibra
   }));
   client.digital(7).set(true);
   EXPECT_TRUE(wait_for([&] {
-    for (const auto& error : log.all<proxy::events::CompatError>()) {
+    for (const auto& error : log.of<proxy::events::CompatError>()) {
       if (error.type == ::RocketryProto::PIN_NOT_INITIALIZED && error.data == 7) return true;
     }
     return false;
@@ -195,20 +175,20 @@ interop::RingOptions ring_with(const std::string& name) {
 TEST(TetherElcanoDriveNode, CapturesDrivesAnswersWithSensorReportsAndForwardsTheRest) {
   interop::Ring ring(ring_with("TetherElcano.DriveNode"));
   ring.run(100ms);  // boot
-  ASSERT_EQ(ring.send(interop::drive(50, 25)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(50, 25)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::captured, elcano::Type::sensor) == 1; }, 1s));
   const interop::HostEvent& report = ring.events().back();
-  EXPECT_TRUE(interop::same_message(report.event.message, interop::sensor(50, 25, 0, 0, 0)))
+  EXPECT_TRUE(report.event.message == elcano::Message::sensor(50, 25, 0, 0, 0))
       << interop::describe(report.event.message);
   EXPECT_TRUE(ring.board(1).digital_level(13));  // the sketch's reaction: moving
-  ASSERT_EQ(ring.send(interop::drive(0, -10)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(0, -10)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::captured, elcano::Type::sensor) == 2; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::sensor(0, -10, 0, 0, 0)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::sensor(0, -10, 0, 0, 0));
   EXPECT_FALSE(ring.board(1).digital_level(13));
   // A goal nobody captures goes round through the sketch and comes back to the host, unchanged.
-  ASSERT_EQ(ring.send(interop::goal(3, 679, -23456, 123450)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::goal(3, 679, -23456, 123450)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::goal) == 1; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::goal(3, 679, -23456, 123450)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::goal(3, 679, -23456, 123450));
   // Nothing was captured by the host but the two reports, and no drive came round.
   ring.run(300ms);
   EXPECT_EQ(ring.count(elcano::RingEvent::Kind::captured), 2u);
@@ -220,16 +200,16 @@ TEST(TetherElcanoSkeleton, TheReadmeSkeletonCapturesDrivesAndForwardsEverythingE
   interop::Ring ring(ring_with("TetherElcano.Skeleton"));
   ring.run(100ms);
   // A sensor and a segment from the host go round (the host captures sensors: it takes its own one back).
-  ASSERT_EQ(ring.send(interop::segment(1, 1599, 270, 14263, 123456)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::segment(1, 1599, 270, 14263, 123456)), Status::ok);
   ASSERT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::segment) == 1; }, 1s));
-  EXPECT_TRUE(interop::same_message(ring.events().back().event.message, interop::segment(1, 1599, 270, 14263, 123456)));
+  EXPECT_TRUE(ring.events().back().event.message == elcano::Message::segment(1, 1599, 270, 14263, 123456));
   // A drive is consumed by the sketch: it never comes back, its origin record expires at the host.
-  ASSERT_EQ(ring.send(interop::drive(259, -3)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::drive(259, -3)), Status::ok);
   ring.run(3s);
   EXPECT_EQ(ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::drive), 0u);
   EXPECT_EQ(ring.host_ring().origins_expired, 1u);
   // The ring still carries messages after that.
-  ASSERT_EQ(ring.send(interop::goal(2, 679, 0, 0)), Status::ok);
+  ASSERT_EQ(ring.send(elcano::Message::goal(2, 679, 0, 0)), Status::ok);
   EXPECT_TRUE(ring.run_until([&] { return ring.count(elcano::RingEvent::Kind::undeliverable, elcano::Type::goal) == 1; }, 1s));
 }
 

@@ -244,14 +244,16 @@ class ElcanoRoundWorkload final : public demo::Workload {
   }
   demo::Outcome run(unsigned i) override {
     demo::Outcome outcome;
-    elcano::Message request;
-    request.type = type_;
-    request.number = static_cast<std::int32_t>(wide_ ? 100000 + i % 900000 : 1 + i % 9);
-    request.bearing = static_cast<std::int32_t>((i * 29u) % 360u) - 180;
-    request.east = wide_ ? -1000000 - static_cast<std::int32_t>((i * 7919u) % 8000000u) : static_cast<std::int32_t>(i % 10);
-    request.north = wide_ ? 1000000 + static_cast<std::int32_t>((i * 104729u) % 8000000u) : 0;
-    if (type_ == elcano::Type::segment) request.speed = static_cast<std::int32_t>((i * 97u) % 1600u) - 800;
-    if (type_ == elcano::Type::goal && wide_) request.probability = static_cast<std::int32_t>(i % 100);
+    const auto number = static_cast<std::int32_t>(wide_ ? 100000 + i % 900000 : 1 + i % 9);
+    const std::int32_t bearing = static_cast<std::int32_t>((i * 29u) % 360u) - 180;
+    const std::int32_t east =
+        wide_ ? -1000000 - static_cast<std::int32_t>((i * 7919u) % 8000000u) : static_cast<std::int32_t>(i % 10);
+    const std::int32_t north = wide_ ? 1000000 + static_cast<std::int32_t>((i * 104729u) % 8000000u) : 0;
+    const elcano::Message request =
+        type_ == elcano::Type::segment
+            ? elcano::Message::segment(number, static_cast<std::int32_t>((i * 97u) % 1600u) - 800, bearing, east, north)
+            : elcano::Message::goal(number, bearing, east, north,
+                                    wide_ ? static_cast<std::int32_t>(i % 100) : elcano::kUnset);
     const std::int32_t speed = type_ == elcano::Type::segment ? request.speed : elcano::node::kCruiseSpeed;
     const std::int32_t angle = elcano::node::steering_for(request.bearing, 0);
     outcome.expected = {elcano::node::throttle_pulse_us(speed), elcano::node::steering_pulse_us(angle)};

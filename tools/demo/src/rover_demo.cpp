@@ -210,10 +210,8 @@ class ElcanoWorkload final : public Workload {
   std::string operation() const override { return "request D{s}{a} -> the drive node's S report"; }
   Outcome run(unsigned i) override {
     Outcome outcome;
-    elcano::Message drive;
-    drive.type = elcano::Type::drive;
-    drive.speed = static_cast<std::int32_t>((i * 97u) % 1600u) - 800;
-    drive.angle = static_cast<std::int32_t>((i * 7u) % 61u) - 30;
+    const elcano::Message drive = elcano::Message::drive(static_cast<std::int32_t>((i * 97u) % 1600u) - 800,
+                                                         static_cast<std::int32_t>((i * 7u) % 61u) - 30);
     outcome.expected = {elcano::node::throttle_pulse_us(drive.speed), elcano::node::steering_pulse_us(drive.angle)};
     error_code error;
     const elcano::Message reply = client_->request(drive, elcano::Type::sensor, error);

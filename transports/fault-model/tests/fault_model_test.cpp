@@ -11,12 +11,14 @@
 #include <stdexcept>
 #include <vector>
 
+#include "tether/testing/binomial.hpp"
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::transports {
 namespace {
 
 using namespace std::chrono_literals;
+using ::tether::testing::expect_binomial;
 
 std::vector<std::uint8_t> random_bytes(std::size_t count, std::uint64_t stream) {
   auto generator = testing::seeded_generator(stream);
@@ -26,14 +28,6 @@ std::vector<std::uint8_t> random_bytes(std::size_t count, std::uint64_t stream) 
 }
 
 std::uint64_t model_seed(std::uint64_t stream) { return FaultRandom::mix(testing::random_seed(), stream); }
-
-// |observed - n p| must stay within 5 standard deviations of a binomial(n, p), plus one for rounding.
-void expect_binomial(std::uint64_t observed, std::uint64_t trials, double p, const char* what) {
-  const double mean = static_cast<double>(trials) * p;
-  const double sigma = std::sqrt(static_cast<double>(trials) * p * (1.0 - p));
-  EXPECT_LE(std::abs(static_cast<double>(observed) - mean), 5.0 * sigma + 1.0)
-      << what << ": observed " << observed << " of " << trials << ", expected " << mean << " +- " << sigma;
-}
 
 TEST(FaultModel, InactiveModelPassesEverythingThroughAndCounts) {
   FaultModel model;

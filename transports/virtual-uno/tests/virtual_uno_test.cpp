@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "test_support.hpp"
+#include "tether/testing/binomial.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -25,6 +26,7 @@ namespace tether::transports {
 namespace {
 
 using namespace std::chrono_literals;
+using ::tether::testing::expect_binomial;
 using test::ChildProcess;
 using test::count_occurrences;
 using test::echo_options;
@@ -52,14 +54,6 @@ void boot(VirtualUno& uno, OutputRecorder& recorder, std::size_t banners = 1) {
   ASSERT_TRUE(test::run_until(stepper(uno), [&] { return count_occurrences(recorder.text(), kEchoBanner) >= banners; },
                               1s))
       << "no banner; got '" << recorder.text() << "'";
-}
-
-// |observed - n p| within 5 standard deviations of a binomial(n, p), plus one.
-void expect_binomial(std::uint64_t observed, std::uint64_t trials, double p, const char* what) {
-  const double mean = static_cast<double>(trials) * p;
-  const double sigma = std::sqrt(static_cast<double>(trials) * p * (1.0 - p));
-  EXPECT_LE(std::abs(static_cast<double>(observed) - mean), 5.0 * sigma + 1.0)
-      << what << ": " << observed << " of " << trials << ", expected " << mean << " +- " << sigma;
 }
 
 // --- the byte stream -----------------------------------------------------------------------------------

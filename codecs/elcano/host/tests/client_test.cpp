@@ -173,11 +173,11 @@ TEST(RingClient, UndeliverableRequestFailsFastAndIsReportedOnce) {
   EXPECT_TRUE(reports[0].request_failed);
   EXPECT_TRUE(same(reports[0].message, goal(1)));
   // The echo was dropped, not forwarded round again: a marker sent after it arrives right after the goal.
-  link.ring->send(wire(drive(1, 2)));
+  link.ring->send(wire(Message::drive(1, 2)));
   ASSERT_TRUE(link.ring->wait_for_messages(2));
   const auto records = link.ring->messages();
   EXPECT_EQ(records[0].message.type, Type::goal);
-  EXPECT_TRUE(same(records[1].message, drive(1, 2)));
+  EXPECT_TRUE(same(records[1].message, Message::drive(1, 2)));
   const Counters counters = link.client->counters();
   EXPECT_EQ(counters.ring.undeliverable, 1u);
   EXPECT_EQ(counters.link.retries, 0u);
@@ -189,7 +189,7 @@ TEST(RingClient, UndeliverableSendIsReportedOnce) {
   Link link(io.executor(), on_steady_clock(test_options(20000, 40000)), [](const RingRecord& record, FakeRing& ring) {
     if (record.ok && record.message.type == Type::drive) ring.send(record.wire);  // nobody takes drives
   });
-  link.client->send(drive(50, 25));
+  link.client->send(Message::drive(50, 25));
   ASSERT_TRUE(link.log.wait_for<events::Undeliverable>());
   // One more message through the ring proves the echo was handled (and not forwarded) before it.
   link.ring->send(wire(goal(4)));
@@ -200,7 +200,7 @@ TEST(RingClient, UndeliverableSendIsReportedOnce) {
   const auto reports = link.log.of<events::Undeliverable>();
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_FALSE(reports[0].request_failed);
-  EXPECT_TRUE(same(reports[0].message, drive(50, 25)));
+  EXPECT_TRUE(same(reports[0].message, Message::drive(50, 25)));
   EXPECT_EQ(link.client->counters().ring.undeliverable, 1u);
 }
 
@@ -236,7 +236,7 @@ TEST(RingClient, SecondRequestForTheSameReplyTypeIsBusy) {
   Completions completions;
   link.client->async_request(goal(1), Type::segment, completions.message_handler(0));
   link.client->async_request(goal(2), Type::segment, completions.message_handler(1));
-  link.client->async_request(drive(1, 1), Type::sensor, completions.message_handler(2));  // another type: fine
+  link.client->async_request(Message::drive(1, 1), Type::sensor, completions.message_handler(2));  // another type: fine
   ASSERT_TRUE(completions.wait_for(1));
   ASSERT_TRUE(completions.at(1).has_value());
   EXPECT_EQ(completions.at(1)->error, RingError::reply_type_busy);
@@ -244,7 +244,7 @@ TEST(RingClient, SecondRequestForTheSameReplyTypeIsBusy) {
   ASSERT_TRUE(link.ring->wait_for_messages(2));  // goal 1 and the drive; goal 2 never went out
   const auto records = link.ring->messages();
   EXPECT_TRUE(same(records[0].message, goal(1)));
-  EXPECT_TRUE(same(records[1].message, drive(1, 1)));
+  EXPECT_TRUE(same(records[1].message, Message::drive(1, 1)));
   EXPECT_EQ(completions.calls(), 1u);
   link.client->close();
   ASSERT_TRUE(completions.wait_for(3));
@@ -262,7 +262,7 @@ TEST(RingClient, SendsWaitForRoomInOrderAndFailBusyBeyondTheSendQueue) {
   constexpr std::size_t kSends = 20;
   Completions completions;
   for (std::size_t i = 0; i < kSends; ++i) {
-    link.client->async_send(drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
+    link.client->async_send(Message::drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
   }
   // A receive queued after the sends completes after they were all accepted or refused (strand order).
   error_code barrier;
@@ -301,7 +301,7 @@ TEST(RingClient, SendThatFindsNoRoomInTimeFails) {
   Completions completions;
   const Millis start = clock->now();
   for (std::size_t i = 0; i < kSends; ++i) {
-    link.client->async_send(drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
+    link.client->async_send(Message::drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
   }
   error_code barrier;
   (void)link.client->receive(0, barrier);
@@ -334,7 +334,7 @@ TEST(RingClient, SendsToADeviceThatStoppedReadingFailAtTheirSendTimeout) {
   Completions completions;
   const Millis start = clock->now();
   for (std::size_t i = 0; i < kSends; ++i) {
-    client.async_send(drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
+    client.async_send(Message::drive(static_cast<std::int32_t>(i), 0), completions.send_handler(i));
   }
   client.async_request(goal(1), Type::segment, completions.message_handler(kSends));
   error_code barrier;
@@ -366,14 +366,14 @@ TEST(RingClient, ReceivesCapturedMessagesInOrder) {
   Link link(io.executor(), options);
   // A receive made before the message arrives waits for it.
   std::future<Message> early = link.client->async_receive(asio::use_future);
-  link.ring->send(wire(sensor(1)) + wire(sensor(2)) + wire(drive(5, 5)) + wire(sensor(3)));
+  link.ring->send(wire(sensor(1)) + wire(sensor(2)) + wire(Message::drive(5, 5)) + wire(sensor(3)));
   ASSERT_EQ(early.wait_for(kPrompt), std::future_status::ready);
   EXPECT_TRUE(same(early.get(), sensor(1)));
   EXPECT_TRUE(same(link.client->receive(3000), sensor(2)));
   EXPECT_TRUE(same(link.client->receive(3000), sensor(3)));
   // The drive was not captured: forwarded.
   ASSERT_TRUE(link.ring->wait_for_messages(1));
-  EXPECT_TRUE(same(link.ring->messages()[0].message, drive(5, 5)));
+  EXPECT_TRUE(same(link.ring->messages()[0].message, Message::drive(5, 5)));
   // Nothing more: the timeout ends the wait; 0 means "only what is queued".
   const Millis start = clock->now();
   std::future<Message> none = link.client->async_receive(100, asio::use_future);
@@ -430,12 +430,12 @@ TEST(RingClient, CaptureSetCanChange) {
   EXPECT_EQ(link.client->capture(), TypeSet());
   link.client->set_capture(TypeSet::of(Type::drive));
   EXPECT_EQ(link.client->capture(), TypeSet::of(Type::drive));
-  link.ring->send(wire(drive(1, 1)));
-  EXPECT_TRUE(same(link.client->receive(3000), drive(1, 1)));
+  link.ring->send(wire(Message::drive(1, 1)));
+  EXPECT_TRUE(same(link.client->receive(3000), Message::drive(1, 1)));
   link.client->set_capture(TypeSet());
-  link.ring->send(wire(drive(2, 2)));
+  link.ring->send(wire(Message::drive(2, 2)));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
-  EXPECT_TRUE(same(link.ring->messages()[0].message, drive(2, 2)));
+  EXPECT_TRUE(same(link.ring->messages()[0].message, Message::drive(2, 2)));
 }
 
 // --- forwarding ----------------------------------------------------------------------------------------
@@ -462,7 +462,7 @@ TEST(RingClient, ForwardedAndOriginatedMessagesLeaveWhole) {
   Completions completions;
   for (int i = 0; i < 5; ++i) {
     link.ring->send(wire(goal(i)));
-    link.client->async_send(drive(i, i), completions.send_handler(static_cast<std::size_t>(i)));
+    link.client->async_send(Message::drive(i, i), completions.send_handler(static_cast<std::size_t>(i)));
   }
   ASSERT_TRUE(completions.wait_for(5));
   ASSERT_TRUE(link.ring->wait_for_messages(10));
@@ -478,7 +478,7 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   Link link(io.executor(), options);
   constexpr std::size_t kMessages = 25;  // 25 x 14 bytes: more than the 255-byte queue
   std::string burst;
-  for (std::size_t i = 0; i < kMessages; ++i) burst += wire(drive(10 + static_cast<std::int32_t>(i), 25));
+  for (std::size_t i = 0; i < kMessages; ++i) burst += wire(Message::drive(10 + static_cast<std::int32_t>(i), 25));
   link.ring->send(burst);
   ASSERT_TRUE(eventually([&] {
     const Counters c = link.client->counters();
@@ -489,7 +489,7 @@ TEST(RingClient, ForwardingThatFindsTheQueueFullDropsAndReports) {
   const auto reports = link.log.of<events::ForwardDropped>();
   ASSERT_EQ(reports.size(), counters.ring.queue_full_drops);
   // The last ones were dropped: the queue keeps the first in order.
-  EXPECT_TRUE(same(reports.back().message, drive(10 + static_cast<std::int32_t>(kMessages) - 1, 25)));
+  EXPECT_TRUE(same(reports.back().message, Message::drive(10 + static_cast<std::int32_t>(kMessages) - 1, 25)));
 }
 
 // --- reading the ring's bytes --------------------------------------------------------------------------
@@ -547,9 +547,10 @@ TEST(RingClient, ReceivedRunsGiveWhatTheSameBytesOneAtATimeGive) {
     for (int i = 0; i < 30; ++i) text += "{s 1}";
     return text + "\n";
   }();
-  const std::string traffic = wire(sensor(1)) + "D{s 7} {a 8}\n" + "G{n1}{z9}\n" + "X{n4}{s1" + wire(drive(5, 6)) +
-                              "junk\n" + wire(sensor(2)) + too_long + "S{s 99999999999}\n" + wire(segment(3)) +
-                              "\r\n\n" + wire(sensor(3)) + "D{s1}{a}\n" + wire(goal(4)) + wire(sensor(4));
+  const std::string traffic = wire(sensor(1)) + "D{s 7} {a 8}\n" + "G{n1}{z9}\n" + "X{n4}{s1" +
+                              wire(Message::drive(5, 6)) + "junk\n" + wire(sensor(2)) + too_long +
+                              "S{s 99999999999}\n" + wire(segment(3)) + "\r\n\n" + wire(sensor(3)) + "D{s1}{a}\n" +
+                              wire(goal(4)) + wire(sensor(4));
   const Observed by_byte = observe(traffic, 4, 4, 1);
   const Observed by_run = observe(traffic, 4, 4, 4096);
   EXPECT_EQ(by_run.forwarded, by_byte.forwarded);
@@ -596,7 +597,7 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
   Completions completions;
   std::size_t total = 0;
   for (std::size_t i = 0; i < kSends; ++i) {
-    const Message message = drive(static_cast<std::int32_t>(100 + i), 25);
+    const Message message = Message::drive(static_cast<std::int32_t>(100 + i), 25);
     total += wire(message).size();
     link.client->async_send(message, completions.send_handler(i));
   }
@@ -617,7 +618,7 @@ TEST(RingClient, WritesNeverRunAheadOfThePacer) {
   // In order, whole.
   const auto records = link.ring->messages();
   for (std::size_t i = 0; i < kSends; ++i) {
-    EXPECT_TRUE(same(records[i].message, drive(static_cast<std::int32_t>(100 + i), 25))) << "message " << i;
+    EXPECT_TRUE(same(records[i].message, Message::drive(static_cast<std::int32_t>(100 + i), 25))) << "message " << i;
   }
   EXPECT_EQ(link.client->counters().bytes_written, total);
 }
@@ -636,15 +637,15 @@ TEST(RingClient, PartialMessageIsDroppedAtItsDeadline) {
   EXPECT_EQ(reports[0].error, Error::timed_out);
   EXPECT_EQ(link.client->counters().link.partial_timeouts, 1u);
   // The reader resynchronised: the next message passes.
-  link.ring->send(wire(drive(6, 6)));
+  link.ring->send(wire(Message::drive(6, 6)));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
-  EXPECT_TRUE(same(link.ring->messages()[0].message, drive(6, 6)));
+  EXPECT_TRUE(same(link.ring->messages()[0].message, Message::drive(6, 6)));
 }
 
 TEST(RingClient, ReadErrorsAreReportedAndNotForwarded) {
   IoThread io;
   Link link(io.executor(), test_options());
-  link.ring->send("Q{s 1}\nD{s 1}{z 2}\n" + wire(drive(3, 3)));
+  link.ring->send("Q{s 1}\nD{s 1}{z 2}\n" + wire(Message::drive(3, 3)));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
   EXPECT_EQ(link.ring->received(), "D{s3}{a3}\n");
   const auto reports = link.log.of<events::InputDropped>();
@@ -668,8 +669,8 @@ TEST(RingClient, GenerationDRequestsForwardsAndChecksTheCrc) {
   EXPECT_EQ(records[0].wire.rfind("G{n1}{b90}{p100}{q200}", 0), 0u);  // no spaces, p and q, CRC trailer
 
   // Forwarded byte-identical (the CRC stays valid); a damaged CRC is dropped and reported.
-  const std::string passing = wire(drive(50, 25), Generation::d);
-  std::string damaged = wire(drive(51, 25), Generation::d);
+  const std::string passing = wire(Message::drive(50, 25), Generation::d);
+  std::string damaged = wire(Message::drive(51, 25), Generation::d);
   damaged[damaged.size() - 2] = damaged[damaged.size() - 2] == '0' ? '1' : '0';
   link.ring->send(damaged + passing);
   ASSERT_TRUE(link.ring->wait_for_messages(2));
@@ -709,12 +710,12 @@ TEST(RingClient, InvalidMessagesAreRejectedBeforeTheWire) {
   EXPECT_EQ(error, RingError::invalid_message);
   (void)link.client->request(goal(1), static_cast<Type>('Z'), error);
   EXPECT_EQ(error, RingError::invalid_reply_type);
-  Message unknown = drive(1, 1);
+  Message unknown = Message::drive(1, 1);
   unknown.type = static_cast<Type>('Q');
   EXPECT_THROW(link.client->send(unknown), boost::system::system_error);
-  link.client->send(drive(1, 1));  // the wire carries only this
+  link.client->send(Message::drive(1, 1));  // the wire carries only this
   ASSERT_TRUE(link.ring->wait_for_messages(1));
-  EXPECT_EQ(link.ring->received(), wire(drive(1, 1)));
+  EXPECT_EQ(link.ring->received(), wire(Message::drive(1, 1)));
 }
 
 // --- cancellation ----------------------------------------------------------------------------------------
@@ -761,7 +762,7 @@ TEST(RingClient, CloseCompletesEveryPendingOperationWithOperationAborted) {
   Completions completions;
   link.client->async_request(goal(1), Type::segment, completions.message_handler(0));  // in flight
   link.client->async_receive(completions.message_handler(1));                          // waiting
-  link.client->async_send(drive(1, 1), completions.send_handler(2));                    // being written
+  link.client->async_send(Message::drive(1, 1), completions.send_handler(2));          // being written
   error_code barrier;
   (void)link.client->receive(0, barrier);  // every operation above was accepted
   EXPECT_EQ(completions.calls(), 0u);
@@ -771,7 +772,7 @@ TEST(RingClient, CloseCompletesEveryPendingOperationWithOperationAborted) {
   EXPECT_FALSE(link.client->is_open());
   // Later operations fail the same way.
   error_code error;
-  link.client->send(drive(1, 1), error);
+  link.client->send(Message::drive(1, 1), error);
   EXPECT_EQ(error, asio::error::operation_aborted);
   (void)link.client->request(goal(1), Type::segment, error);
   EXPECT_EQ(error, asio::error::operation_aborted);
@@ -792,7 +793,7 @@ TEST(RingClient, LinkFailureFailsPendingOperationsAndIsReported) {
   ASSERT_TRUE(link.log.wait_for<events::LinkFailed>());
   EXPECT_EQ(link.log.of<events::LinkFailed>()[0].error, completions.at(0)->error);
   error_code error;
-  link.client->send(drive(1, 1), error);
+  link.client->send(Message::drive(1, 1), error);
   EXPECT_EQ(error, completions.at(0)->error);  // the link's error, for every later operation
 }
 
@@ -807,7 +808,7 @@ TEST(RingClient, BlockingCallFromTheStrandFailsInsteadOfDeadlocking) {
   RingClient client(host_end, options, [&](const Event&) {
     if (once.exchange(true)) return;
     error_code error;
-    client_ptr->send(drive(1, 1), error);
+    client_ptr->send(Message::drive(1, 1), error);
     seen.set_value(error);
   });
   client_ptr = &client;

@@ -52,45 +52,11 @@ std::string wire(const Message& message, Generation generation) {
   return std::string(reinterpret_cast<const char*>(buffer.data()), size.ok() ? size.value() : 0);
 }
 
-Message drive(std::int32_t speed, std::int32_t angle) {
-  Message message;
-  message.type = Type::drive;
-  message.speed = speed;
-  message.angle = angle;
-  return message;
-}
+Message sensor(std::int32_t speed) { return Message::sensor(speed, -12, 432, 420, 90210); }
 
-Message sensor(std::int32_t speed) {
-  Message message;
-  message.type = Type::sensor;
-  message.speed = speed;
-  message.angle = -12;
-  message.bearing = 432;
-  message.east = 420;
-  message.north = 90210;
-  return message;
-}
+Message goal(std::int32_t number) { return Message::goal(number, 90, 100, 200); }
 
-Message goal(std::int32_t number) {
-  Message message;
-  message.type = Type::goal;
-  message.number = number;
-  message.bearing = 90;
-  message.east = 100;
-  message.north = 200;
-  return message;
-}
-
-Message segment(std::int32_t number) {
-  Message message;
-  message.type = Type::segment;
-  message.number = number;
-  message.speed = 160;
-  message.bearing = 80;
-  message.east = 3200;
-  message.north = -64000;
-  return message;
-}
+Message segment(std::int32_t number) { return Message::segment(number, 160, 80, 3200, -64000); }
 
 Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<transports::LinkClock> clock) {
   Options options;

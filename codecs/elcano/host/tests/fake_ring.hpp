@@ -95,13 +95,11 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
 /// The bytes of `message` in `generation` (what the host writes when it originates it).
 std::string wire(const Message& message, Generation generation = Generation::b);
 
-/// A drive message D{s speed}{a angle}.
-Message drive(std::int32_t speed, std::int32_t angle);
-/// A sensor message S{s}{a}{b}{p E,N}.
+/// The tests' sensor report with speed `speed`: S{s speed}{a -12}{b 432}{p 420,90210}.
 Message sensor(std::int32_t speed);
-/// A goal G{n}{b}{p E,N}.
+/// The tests' goal number `number`: G{n number}{b 90}{p 100,200}.
 Message goal(std::int32_t number);
-/// A segment X{n}{s}{b}{p E,N}.
+/// The tests' segment number `number`: X{n number}{s 160}{b 80}{p 3200,-64000}.
 Message segment(std::int32_t number);
 
 /// Options for tests: fast pacing (115200 baud, a 64-byte receiver that keeps up), the engine's shape

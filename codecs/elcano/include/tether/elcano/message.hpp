@@ -42,7 +42,65 @@ struct Message {
   int32_t probability = kUnset;  ///< `r` (goal, optional).
   int32_t east = kUnset;         ///< `p` east cm (sensor, goal, segment; written only with north).
   int32_t north = kUnset;        ///< `p` north cm (gen B: second value of `p`; gen D: `q`).
+
+  // The named constructors fill exactly the fields their type carries (the writer's table in message.cpp)
+  // and leave every other one unset, so a message built with them is equal to the same message read off
+  // the wire. Static members keep Message an aggregate of the same size. Not constexpr: the Arduino IDE
+  // compiles TetherElcano's copy of this header as C++11, where a constexpr function is one return
+  // statement and a struct with member initialisers is no aggregate, so nothing could build the result.
+
+  /// A drive `D{s speed}{a angle}`.
+  static Message drive(int32_t speed, int32_t angle) {
+    Message m{};
+    m.type = Type::drive;
+    m.speed = speed;
+    m.angle = angle;
+    return m;
+  }
+  /// A sensor report `S{s speed}{a angle}{b bearing}{p east,north}`.
+  static Message sensor(int32_t speed, int32_t angle, int32_t bearing, int32_t east, int32_t north) {
+    Message m{};
+    m.type = Type::sensor;
+    m.speed = speed;
+    m.angle = angle;
+    m.bearing = bearing;
+    m.east = east;
+    m.north = north;
+    return m;
+  }
+  /// A goal `G{n number}{b bearing}{p east,north}`, with `{r probability}` unless it is `kUnset` (optional).
+  static Message goal(int32_t number, int32_t bearing, int32_t east, int32_t north, int32_t probability = kUnset) {
+    Message m{};
+    m.type = Type::goal;
+    m.number = number;
+    m.bearing = bearing;
+    m.east = east;
+    m.north = north;
+    m.probability = probability;
+    return m;
+  }
+  /// A path segment `X{n number}{s speed}{b bearing}{p east,north}`.
+  static Message segment(int32_t number, int32_t speed, int32_t bearing, int32_t east, int32_t north) {
+    Message m{};
+    m.type = Type::segment;
+    m.number = number;
+    m.speed = speed;
+    m.bearing = bearing;
+    m.east = east;
+    m.north = north;
+    return m;
+  }
 };
+
+/// Field-by-field equality: same type and the same value (or both unset) in every field, `obstacle` and
+/// the fields the type does not carry included.
+constexpr bool operator==(const Message& a, const Message& b) {
+  return a.type == b.type && a.number == b.number && a.speed == b.speed && a.angle == b.angle &&
+         a.obstacle == b.obstacle && a.bearing == b.bearing && a.probability == b.probability && a.east == b.east &&
+         a.north == b.north;
+}
+/// Not `operator==`.
+constexpr bool operator!=(const Message& a, const Message& b) { return !(a == b); }
 
 /// Name of a message type: `drive`, `sensor`, `goal`, `segment` (configs, tools, logs).
 const char* to_string(Type type);
