@@ -51,7 +51,7 @@ const CommandText& command_text() {
           "'t[\"hello\"]' -> [0,\"hello\"], 'f' -> [101,\"I will try again tomorrow\"] (exit status 1).\n"
           "Try it: `tether call --virtual romi-test e`.\n"
           "\n") +
-          kDeviceUsage +
+          device_usage() +
           "  (a device of another codec than romi is refused)\n"
           "\n"
           "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"

@@ -1,8 +1,8 @@
 // The `tether` command's columns of the codec table (devices/codecs.hpp): for each codec, how the device
 // options build it from the command line, its counters, its shell (what a typed line does, what its events
-// print) and its monitor decoder. Subcommands look a codec up here instead of switching on it, so a new codec
-// is one devices row plus one row here, registered together (`register_codec`); docs/codecs.md, "Adding a
-// codec".
+// print) and its monitor decoder. Subcommands look a codec up here instead of switching on it. A codec's rows
+// come from its plugin (`tether_codec_plugin(... COMMANDS ...)` in codecs/<codec>/plugin/), or from a program
+// that registers a codec at start-up (`register_codec`); docs/codecs.md, "Adding a codec".
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -101,6 +101,16 @@ struct CodecCommands {
   /// Sends `probe` once; true when the device answered.
   std::function<bool(const devices::DeviceClient& client, const std::string& probe)> send_probe;
 };
+
+/// The shell commands every shell takes, for the end of a codec's `:help`.
+inline constexpr const char* kShellCommands =
+    "Shell commands: :help, :stats (the session's counters), :quit (or Ctrl-D).";
+
+namespace detail {
+/// The rows of every codec plugin that has them (`tether_codec_plugin(... COMMANDS ...)`; generated from
+/// plugin_commands.cpp.in).
+std::vector<CodecCommands> plugin_command_rows();
+}  // namespace detail
 
 /// The row of `codec`, or null when the `tether` command has none (a codec registered with the devices
 /// library only).

@@ -29,10 +29,10 @@
 
 namespace tether::cli {
 
-const char* const kDeviceUsage =
-    "device (exactly one of):\n"
-    "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
-    "    --codec C         romi, proxy, proxy-compat or elcano (default: romi; proxy for send)\n"
+namespace {
+
+// The device options after `--codec` (its line lists the codecs the command has rows for).
+const char* const kDeviceUsageRest =
     "    --baud N          line speed (default 115200; 57600 for proxy-compat)\n"
     "    --boot-wait MS    wait after opening and drop what the board printed meanwhile (default 0; 2000 for\n"
     "                      an Arduino Uno, which resets when the port opens)\n"
@@ -50,6 +50,16 @@ const char* const kDeviceUsage =
     "                      segment (default: none; everything else is forwarded round the ring)\n"
     "  --virtual with an elcano image is a ring of one board that captures drive messages and answers each\n"
     "  with a sensor report S{s}{a}{b 0}{p 0,0}, which the host captures (default --capture sensor).\n";
+
+}  // namespace
+
+std::string device_usage() {
+  return "device (exactly one of):\n"
+         "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
+         "    --codec C         " + codec_choices() + " (default: romi; proxy for send)\n" +
+         kDeviceUsageRest;
+}
+
 
 std::string firmware_dir() {
   if (const char* dir = std::getenv("TETHER_FIRMWARE_DIR"); dir != nullptr && *dir != '\0') return dir;

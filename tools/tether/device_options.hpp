@@ -43,8 +43,8 @@ struct DeviceOptions {
   std::optional<elcano::TypeSet> capture;        ///< --capture (elcano)
 };
 
-/// The usage text of the device options (for the subcommands' usage).
-extern const char* const kDeviceUsage;
+/// The usage text of the device options (for the subcommands' usage); `--codec` lists every codec with rows.
+std::string device_usage();
 
 /// `parse_arguments` for a subcommand that names a device: `--help`, then the device options (stored in
 /// `options`; a bad value is a usage error), then `handle` for the subcommand's own arguments.

@@ -74,7 +74,7 @@ const CommandText& command_text() {
           "(JSON: \"direction\":\"host->device\"). On an Elcano ring the tap only decodes: the application is\n"
           "the host's node.\n"
           "\n") +
-      kDeviceUsage +
+      device_usage() +
       "\n"
       "  --utc          ISO 8601 UTC wall-clock timestamps instead of milliseconds since the start\n"
       "  --json         one JSON object per line: {\"t_ms\":12.345,\"kind\":\"frame\",...} (\"time\" with --utc)\n"

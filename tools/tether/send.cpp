@@ -51,7 +51,7 @@ const CommandText& command_text() {
       "Servo positions are degrees 0..180 in both modes (others are usage errors). A compat device ignores\n"
       "an init of a pin it already has, silently, as the deployed firmware does: no answer comes.\n"
       "\n" +
-      kDeviceUsage +
+      device_usage() +
       "  (send speaks the proxy protocol: --port defaults to --codec proxy)\n"
       "\n"
       "  --timeout MS   primary mode: time from a message's first send to its ack, re-sends included\n"

@@ -70,7 +70,7 @@ const CommandText& command_text() {
           "above the line being typed. With stdin from a pipe or a file: one message per line; at the end of\n"
           "the input an elcano shell waits up to 3 s for the answers to the messages it sent.\n"
           "\n") +
-      kDeviceUsage +
+      device_usage() +
       "\n"
       "  --json         every output line is a JSON object with a \"type\": answer, log, sent, event, stats,\n"
       "                 error, open\n"

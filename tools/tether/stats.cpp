@@ -40,7 +40,7 @@ const CommandText& command_text() {
           "  elcano        the host's ring node: messages it does not capture are forwarded\n"
           "The same report is `:stats` in `tether shell`.\n"
           "\n") +
-      kDeviceUsage +
+      device_usage() +
       "\n"
       "  --duration S   how long to run (default 5; 0: open, probe once, print)\n"
       "  --probe CMD    romi: the command sent every interval (default '?')\n"

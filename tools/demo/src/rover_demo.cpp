@@ -32,210 +32,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using error_code = boost::system::error_code;
 
-// Values of operation i: spread over the range, different each time, deterministic.
-std::uint16_t throttle_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 73u) % 800u); }
-std::uint16_t steering_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 131u) % 800u); }
-std::int32_t degrees(unsigned i, unsigned stride) { return static_cast<std::int32_t>((i * stride) % 181u); }
-
-class RomiWorkload final : public Workload {
- public:
-  explicit RomiWorkload(std::shared_ptr<romi::Client> client) : client_(std::move(client)) {}
-  std::string operation() const override { return "call S[throttle_us,steering_us] -> [0]"; }
-  Outcome run(unsigned i) override {
-    Outcome outcome;
-    outcome.expected = {throttle_us(i), steering_us(i)};
-    error_code error;
-    const romi::RomiResponse response =
-        client_->call("S[" + std::to_string(outcome.expected.d9) + "," + std::to_string(outcome.expected.d10) + "]",
-                      error);
-    if (error) {
-      outcome.error = error.message();
-    } else if (response.code != 0) {
-      outcome.error = "device answered " + response.values.dump();
-      outcome.cause = "device answered code " + std::to_string(response.code);
-    } else {
-      outcome.ok = true;
-    }
-    outcome.commands.emplace_back(witness_key(outcome.expected.d9, outcome.expected.d10), outcome.ok);
-    return outcome;
-  }
-  LinkCounters link() const override { return client_->counters().link; }
-
- private:
-  std::shared_ptr<romi::Client> client_;
-};
-
-class RomiSensorWorkload final : public Workload {
- public:
-  explicit RomiSensorWorkload(std::shared_ptr<romi::Client> client) : client_(std::move(client)) {}
-  std::string operation() const override { return "call A[channel 0..5] -> [0,value 0..1023]"; }
-  Outcome run(unsigned i) override {
-    Outcome outcome;
-    error_code error;
-    const romi::RomiResponse response = client_->call("A[" + std::to_string(i % kChannels) + "]", error);
-    if (error) {
-      outcome.error = error.message();
-    } else if (response.code != 0) {
-      outcome.error = "device answered " + response.values.dump();
-      outcome.cause = "device answered code " + std::to_string(response.code);
-    } else if (response.values.size() != 2 || !response.values[1].is_number_integer() ||
-               response.values[1].get<int>() < 0 || response.values[1].get<int>() > kAdcMax) {
-      outcome.wrong = true;
-      outcome.cause = "wrong answer";
-      outcome.error = "reading " + response.values.dump() + " is not [0, 0..1023]";
-    } else {
-      outcome.ok = true;
-    }
-    return outcome;
-  }
-  LinkCounters link() const override { return client_->counters().link; }
-
- private:
-  static constexpr unsigned kChannels = 6;  // A0..A5
-  static constexpr int kAdcMax = 1023;      // 10-bit ADC
-  std::shared_ptr<romi::Client> client_;
-};
-
-class ProxyWorkload final : public Workload {
- public:
-  ProxyWorkload(std::shared_ptr<proxy::Client> client, std::vector<proxy::PinInit> servo_inits, bool compat)
-      : client_(std::move(client)), inits_(std::move(servo_inits)), compat_(compat) {
-    if (inits_.empty()) throw std::invalid_argument("the proxy device has no servo init to drive");
-    if (inits_.size() > 2) inits_.resize(2);
-    for (const proxy::PinInit& init : inits_) pins_.push_back(init.pin);
-  }
-  std::string operation() const override {
-    std::string text = std::to_string(pins_.size()) + " x ServoControl";
-    return text + (compat_ ? " written, unconfirmed (no acks in this variant)" : " -> Ack each");
-  }
-  Outcome run(unsigned i) override {
-    Outcome outcome;
-    std::vector<std::future<proxy::SendResult>> sends;
-    last_positions_.clear();
-    for (std::size_t k = 0; k < pins_.size(); ++k) {
-      const std::int32_t position = degrees(i, k == 0 ? 37u : 53u);
-      last_positions_.push_back(position);
-      set_expected(outcome.expected, pins_[k], pulse_us(position));
-      sends.push_back(client_->servo(pins_[k]).async_set(position, boost::asio::use_future));
-    }
-    outcome.ok = true;
-    for (std::size_t k = 0; k < sends.size(); ++k) {
-      bool sent = true;
-      try {
-        sends[k].get();
-      } catch (const boost::system::system_error& error) {  // what use_future throws for an error_code
-        if (outcome.ok) outcome.error = error.code().message();
-        outcome.ok = false;
-        sent = false;
-      }
-      // The firmware's key: pin, position.
-      outcome.commands.emplace_back(
-          witness_key(static_cast<std::uint16_t>(pins_[k]), static_cast<std::uint16_t>(last_positions_[k])), sent);
-    }
-    return outcome;
-  }
-  LinkCounters link() const override { return client_->counters().link; }
-  bool confirms() const override { return !compat_; }
-  std::optional<std::uint32_t> resets_detected() const override {
-    if (compat_) return std::nullopt;  // compat announces RESET, but has no session to tell restarts apart
-    return client_->counters().link.resets;
-  }
-  // Compat: nothing is acked, so a write lost in the reboot (or to noise) leaves a pin at an older value,
-  // and a RESET announcement lost to noise leaves the rebooted device without its inits (the client
-  // replays them on that announcement). Write each servo's init and last position again until the
-  // device's state stream (~50 ms) reports the position -- the only witness this variant has; the device
-  // ignores an init of a pin it already has. The deployed host does none of this; the demo does it so the
-  // pin check compares with a known command.
-  std::optional<Pulses> settle(std::uint32_t& rewrites) override {
-    if (!compat_ || last_positions_.empty()) return std::nullopt;
-    Pulses expected;
-    // Degrees on the deployed Servo library's 544..2400 us: 10.3 us a degree. Its timer-interrupt pulses are
-    // exact but for an edge whose compare meets the UART's interrupt routine: held off up to ~80 cycles
-    // measured, that pulse is up to ~5.3 us short (ProxyCompatPins.AServoPulseIsItsTicksGiveOrTakeTheInterrupt
-    // ThatDelayedAnEdge, edge cycles against compares in simavr). The pin check saw one such pulse, 2190 us for
-    // 2193, which a 2 us tolerance counted as another command; the check passes on any matching pulse of 500 ms
-    // of them, and such a pulse is rare (8 of 99 with a control every millisecond, none at one a frame).
-    expected.tolerance_us = 5.0;
-    for (std::size_t k = 0; k < pins_.size(); ++k) set_expected(expected, pins_[k], pulse_us(last_positions_[k]));
-    const auto give_up = Clock::now() + std::chrono::seconds(5);
-    while (Clock::now() < give_up) {
-      const auto written = Clock::now();
-      const Millis written_ms = client_->now();  // the clock of the pins' `updated`
-      for (std::size_t k = 0; k < pins_.size(); ++k) {
-        error_code error;
-        client_->servo(pins_[k]).init(inits_[k].safe_value, error);
-        client_->servo(pins_[k]).set(last_positions_[k], error);
-        ++rewrites;
-      }
-      const auto wait_until = std::min(give_up, written + std::chrono::milliseconds(300));
-      while (Clock::now() < wait_until) {
-        if (reported_since(written_ms)) return expected;
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-      }
-    }
-    return expected;  // never reported: the pin check shows what the pins do
-  }
-
- private:
-  bool reported_since(Millis written) const {
-    for (std::size_t k = 0; k < pins_.size(); ++k) {
-      const std::optional<proxy::PinStatus> state = client_->servo(pins_[k]).state();
-      if (!state || !state->has_value || tick_difference(state->updated, written) <= 0 ||
-          state->value != last_positions_[k]) {
-        return false;
-      }
-    }
-    return true;
-  }
-  // The pulse a position gives: the primary image's 1000..2000 us, or the deployed Servo library's
-  // 544..2400 us that proxy-compat reproduces.
-  std::uint16_t pulse_us(std::int32_t position) const {
-    return compat_ ? proxy::device::arduino_servo_pulse_us(static_cast<std::int16_t>(position))
-                   : proxy::device::servo_pulse_us(position);
-  }
-  static void set_expected(Pulses& pulses, std::uint32_t pin, std::uint16_t us) {
-    if (pin == 9) pulses.d9 = us;
-    if (pin == 10) pulses.d10 = us;
-  }
-  std::shared_ptr<proxy::Client> client_;
-  std::vector<proxy::PinInit> inits_;  // the servo inits of the config (at most two)
-  std::vector<std::uint32_t> pins_;      // their pins
-  bool compat_;
-  std::vector<std::int32_t> last_positions_;  // of the last operation, one per pin
-};
-
-class ElcanoWorkload final : public Workload {
- public:
-  explicit ElcanoWorkload(std::shared_ptr<elcano::RingClient> client) : client_(std::move(client)) {}
-  std::string operation() const override { return "request D{s}{a} -> the drive node's S report"; }
-  Outcome run(unsigned i) override {
-    Outcome outcome;
-    const elcano::Message drive = elcano::Message::drive(static_cast<std::int32_t>((i * 97u) % 1600u) - 800,
-                                                         static_cast<std::int32_t>((i * 7u) % 61u) - 30);
-    outcome.expected = {elcano::node::throttle_pulse_us(drive.speed), elcano::node::steering_pulse_us(drive.angle)};
-    error_code error;
-    const elcano::Message reply = client_->request(drive, elcano::Type::sensor, error);
-    if (error) {
-      outcome.error = error.message();
-    } else if (reply.speed != drive.speed || reply.angle != drive.angle) {
-      outcome.wrong = true;
-      outcome.cause = "wrong answer";
-      outcome.error = "report s=" + std::to_string(reply.speed) + " a=" + std::to_string(reply.angle) +
-                      " for s=" + std::to_string(drive.speed) + " a=" + std::to_string(drive.angle);
-    } else {
-      outcome.ok = true;
-    }
-    // The drive node's key: the drive's speed and angle.
-    outcome.commands.emplace_back(
-        witness_key(static_cast<std::uint16_t>(drive.speed), static_cast<std::uint16_t>(drive.angle)), outcome.ok);
-    return outcome;
-  }
-  LinkCounters link() const override { return client_->counters().link; }
-
- private:
-  std::shared_ptr<elcano::RingClient> client_;
-};
-
 }  // namespace
 
 devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
@@ -252,26 +48,82 @@ devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
   return devices::open_rover(config, executor, open_options);
 }
 
-std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
-  if (const auto romi = device.client.get<romi::Client>()) return std::make_unique<RomiWorkload>(romi);
-  if (const auto proxy = device.client.get<proxy::Client>()) {
-    std::vector<proxy::PinInit> servos;
-    for (const proxy::PinInit& init : config.options.get<proxy::DeviceOptions>().inits) {
-      if (init.kind == proxy::PinInit::Kind::servo) servos.push_back(init);
-    }
-    return std::make_unique<ProxyWorkload>(proxy, std::move(servos), proxy->mode() == proxy::Mode::compat);
+const char* to_string(WorkloadKind kind) { return kind == WorkloadKind::sensor ? "sensor" : "servo"; }
+
+const char* to_string(Payload payload) {
+  switch (payload) {
+    case Payload::small:
+      return "small";
+    case Payload::large:
+      return "large";
+    case Payload::demo:
+      break;
   }
-  if (const auto ring = device.client.get<elcano::RingClient>()) return std::make_unique<ElcanoWorkload>(ring);
-  throw std::invalid_argument("the demo has no servo workload for codec " + std::string(devices::to_string(device.codec)));
+  return "demo";
 }
 
-std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why) {
-  if (const auto romi = device.client.get<romi::Client>()) {
-    return std::make_unique<RomiSensorWorkload>(romi);
+namespace {
+
+// The workloads of every codec: the plugins', then the ones registered at run time.
+struct WorkloadTable {
+  std::mutex mutex;
+  std::deque<CodecWorkloads> rows;  // references stay valid while rows are added
+  WorkloadTable() {
+    for (CodecWorkloads& row : detail::plugin_workload_rows()) rows.push_back(std::move(row));
   }
-  why = "no sensor read in the " + std::string(devices::to_string(device.codec)) +
-        " demo images (proxy: pins are reported only in the state stream; elcano: the sensor report answers a drive)";
+};
+
+WorkloadTable& workload_table() {
+  static WorkloadTable instance;
+  return instance;
+}
+
+}  // namespace
+
+const CodecWorkloads* codec_workloads(devices::Codec codec) {
+  const std::string_view name = devices::to_string(codec);
+  WorkloadTable& table = workload_table();
+  const std::lock_guard lock(table.mutex);
+  for (const CodecWorkloads& row : table.rows) {
+    if (row.name == name) return &row;
+  }
   return nullptr;
+}
+
+void register_workloads(CodecWorkloads workloads) {
+  if (!workloads.make) throw std::invalid_argument("register_workloads: no make function");
+  WorkloadTable& table = workload_table();
+  const std::lock_guard lock(table.mutex);
+  for (const CodecWorkloads& row : table.rows) {
+    if (row.name == workloads.name) {
+      throw std::invalid_argument("register_workloads: codec " + std::string(workloads.name) +
+                                  " has workloads already");
+    }
+  }
+  table.rows.push_back(std::move(workloads));
+}
+
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config,
+                                        WorkloadKind kind, Payload payload, std::string& why) {
+  const CodecWorkloads* row = codec_workloads(device.codec);
+  if (row == nullptr) {
+    why = "no " + std::string(to_string(kind)) + " operation for codec " +
+          std::string(devices::to_string(device.codec));
+    return nullptr;
+  }
+  return row->make(device, config, kind, payload, why);
+}
+
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config) {
+  std::string why;
+  std::unique_ptr<Workload> workload = make_workload(device, config, WorkloadKind::servo, Payload::demo, why);
+  if (!workload) {
+    throw std::invalid_argument(why.starts_with("no servo operation for codec ")
+                                    ? "the demo has no servo workload for codec " +
+                                          std::string(devices::to_string(device.codec))
+                                    : why);
+  }
+  return workload;
 }
 
 namespace {

@@ -5,6 +5,8 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
+
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -151,6 +153,39 @@ TEST(LineEchoCodec, DrivenThroughTetherShellFromAConfiguration) {
   terminal.type(":quit\n");
   EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
   EXPECT_EQ(device.received(), "hello there\n");
+}
+
+// The demo and the bench loop over the codecs' workloads: the test codec's own, registered beside its rows,
+// is all they need.
+TEST(LineEchoCodec, DrivenThroughTetherDemoAndBenchByItsOwnWorkload) {
+  EchoDevice device;
+  const ConfigFile config(config_text(device.path()));
+  const Outcome demo = run_program(LINE_ECHO_TETHER_BINARY, {"demo", "--config", config.path.string(), "--iterations",
+                                                             "5", "--period", "0", "--ber", "0", "--json"});
+  ASSERT_EQ(demo.status, 0) << demo.out << demo.err;
+  const nlohmann::json report = nlohmann::json::parse(demo.out);
+  const nlohmann::json& echo = report.at("devices").at(0);
+  EXPECT_EQ(echo.at("codec"), "line-echo");
+  EXPECT_EQ(echo.at("operations"), 5);
+  EXPECT_EQ(echo.at("successes"), 5);
+  EXPECT_EQ(echo.at("wrong"), 0);
+  EXPECT_EQ(echo.at("operation"), "line \"op N\" -> the same line back");
+
+  const auto out = std::filesystem::temp_directory_path() / ("tether-line-echo-bench-" + std::to_string(::getpid()));
+  const Outcome bench =
+      run_program(LINE_ECHO_TETHER_BINARY, {"bench", "--config", config.path.string(), "--iterations", "5", "--sweep",
+                                            "ber=0", "--sweep", "rate=max", "--out", out.string(), "--no-plots"});
+  EXPECT_EQ(bench.status, 0) << bench.out << bench.err;
+  std::ifstream bench_json(out / "bench.json");
+  ASSERT_TRUE(bench_json.good()) << bench.out << bench.err;
+  const nlohmann::json measured = nlohmann::json::parse(bench_json);
+  std::filesystem::remove_all(out);
+  ASSERT_EQ(measured.at("points").size(), 1u) << measured.dump();
+  const nlohmann::json& point = measured.at("points").at(0);
+  EXPECT_EQ(point.at("device"), "echo");
+  EXPECT_EQ(point.at("operations"), 5);
+  EXPECT_EQ(point.at("successes"), 5);
+  EXPECT_TRUE(measured.at("skipped").empty()) << measured.at("skipped").dump();
 }
 
 TEST(LineEchoCodec, TheShippedCommandDoesNotKnowIt) {

@@ -48,6 +48,11 @@ bool matches(std::string_view text, std::string_view pattern) {
 }
 
 Outcome run_tether(const std::vector<std::string>& arguments, const std::vector<std::string>& environment) {
+  return run_program(TETHER_BINARY, arguments, environment);
+}
+
+Outcome run_program(const std::string& binary, const std::vector<std::string>& arguments,
+                    const std::vector<std::string>& environment) {
   static std::atomic<int> counter{0};
   const auto err_path = std::filesystem::temp_directory_path() / ("tether_command_test_" + std::to_string(::getpid()) +
                                                                   "_" + std::to_string(counter++) + ".err");
@@ -56,7 +61,7 @@ Outcome run_tether(const std::vector<std::string>& arguments, const std::vector<
     argv.push_back("/usr/bin/env");
     argv.insert(argv.end(), environment.begin(), environment.end());
   }
-  argv.push_back(TETHER_BINARY);
+  argv.push_back(binary);
   argv.insert(argv.end(), arguments.begin(), arguments.end());
   Outcome run;
   {

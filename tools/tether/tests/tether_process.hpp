@@ -44,6 +44,9 @@ bool matches(std::string_view text, std::string_view pattern);
 /// Runs `tether ARGS...` to completion (hang protection: 60 s), stdin from /dev/null; `environment`
 /// (`NAME=VALUE` entries) is added to its environment.
 Outcome run_tether(const std::vector<std::string>& arguments, const std::vector<std::string>& environment = {});
+/// `run_tether` of another build of the command (`binary`: a test build with codecs of its own).
+Outcome run_program(const std::string& binary, const std::vector<std::string>& arguments,
+                    const std::vector<std::string>& environment = {});
 
 /// `build/firmware/<name>.elf`.
 std::filesystem::path firmware(const std::string& name);

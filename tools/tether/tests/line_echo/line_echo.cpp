@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "codec_commands.hpp"
+#include "tether/demo/workload.hpp"
 #include "tether/devices/json_reader.hpp"
 #include "tether/transports/transport_error.hpp"
 
@@ -124,6 +125,33 @@ class Monitor final : public cli::MonitorDecoder {
   LinkCounters counters_;
 };
 
+// `tether demo` / `tether bench`: one line sent, the same line back (another line is a wrong answer).
+class Workload final : public demo::Workload {
+ public:
+  explicit Workload(std::shared_ptr<Client> client) : client_(std::move(client)) {}
+  std::string operation() const override { return "line \"op N\" -> the same line back"; }
+  demo::Outcome run(unsigned i) override {
+    demo::Outcome outcome;
+    const std::string sent = "op " + std::to_string(i);
+    boost::system::error_code error;
+    const std::string echo = client_->call(sent, error);
+    if (error) {
+      outcome.error = error.message();
+    } else if (echo != sent) {
+      outcome.wrong = true;
+      outcome.cause = "wrong answer";
+      outcome.error = "echo \"" + echo + "\" for \"" + sent + "\"";
+    } else {
+      outcome.ok = true;
+    }
+    return outcome;
+  }
+  LinkCounters link() const override { return client_->counters(); }
+
+ private:
+  std::shared_ptr<Client> client_;
+};
+
 }  // namespace
 
 devices::Codec register_line_echo() {
@@ -166,6 +194,16 @@ devices::Codec register_line_echo() {
     commands.monitor_decoder = [](const devices::DeviceConfig&, const cli::DecoderRole&, Millis) {
       return std::unique_ptr<cli::MonitorDecoder>(std::make_unique<Monitor>());
     };
+    demo::register_workloads({"line-echo",
+                              [](const devices::RoverDevice& device, const devices::DeviceConfig&,
+                                 demo::WorkloadKind kind, demo::Payload, std::string& why)
+                                  -> std::unique_ptr<demo::Workload> {
+                                if (kind != demo::WorkloadKind::servo) {
+                                  why = "line-echo has no sensor to read";
+                                  return nullptr;
+                                }
+                                return std::make_unique<Workload>(client_of(device.client));
+                              }});
     return cli::register_codec(std::move(row), std::move(commands));
   }();
   return codec;

@@ -8,8 +8,10 @@
 /// zero from getting an old reply to a different command. The reply bytes of each remembered request are
 /// kept (up to `ReplyCapacity` bytes) so the device can send the very same reply again.
 ///
-/// Romi uses Depth 1 with a 64-byte reply; the proxy protocol Depth >= the host's requests in flight and no
-/// reply bytes (its reply, an Ack, is rebuilt from the id).
+/// The proxy device uses it with Depth >= the host's requests in flight and no reply bytes (its reply, an
+/// Ack, is rebuilt from the id). The Romi device does not: with one entry it keeps the request's own bytes
+/// as an exact key and its reply in the buffer it formed it in (romi_serial.cpp), which costs less RAM than
+/// a fingerprint beside a separate reply copy.
 #pragma once
 
 #include <stdint.h>

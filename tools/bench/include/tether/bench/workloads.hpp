@@ -24,22 +24,11 @@
 
 namespace tether::bench {
 
-/// Which operation a run measures.
-enum class WorkloadKind {
-  servo,   ///< Drive outputs and get the confirmation (a ring: a request round the ring).
-  sensor,  ///< Read a value back from the device (see the file comment per codec).
-};
-/// `servo` / `sensor`.
-const char* to_string(WorkloadKind kind);
-
-/// The size of the operation measured.
-enum class Payload {
-  demo,   ///< The demo's own operation (Romi S / A, proxy 2 x ServoControl, Elcano drive).
-  small,  ///< The smallest operation of the kind (see the file comment).
-  large,  ///< The largest operation of the kind.
-};
-/// `demo` / `small` / `large`.
-const char* to_string(Payload payload);
+/// Which operation a run measures (demo/workload.hpp).
+using WorkloadKind = demo::WorkloadKind;
+/// The size of the operation measured (demo/workload.hpp).
+using Payload = demo::Payload;
+using demo::to_string;
 
 /// The operation of `kind` and `payload` on `device` (config: its entry in the rover's config). Null, with
 /// `why` set, when the device cannot do it (a codec without it, a proxy config without the pin it needs).

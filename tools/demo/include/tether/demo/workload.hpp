@@ -5,9 +5,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -67,15 +69,62 @@ devices::Rover open_rover_with_fault_links(const devices::RoverConfig& config,
                                            const boost::asio::any_io_executor& executor, std::uint64_t seed,
                                            std::vector<std::shared_ptr<transports::FaultInjectingStream>>& links);
 
-/// The workload of the device's client (the demo drives servos the way each client can). Throws
-/// std::invalid_argument for a codec without one or a proxy device without a servo init.
-std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config);
+/// Which operation a run measures (`tether bench --workload`; the demo's is `servo`).
+enum class WorkloadKind {
+  servo,   ///< Drive outputs and get the confirmation (a ring: a request round the ring).
+  sensor,  ///< Read a value back from the device (tether/bench/workloads.hpp says what, per codec).
+};
+/// `servo` / `sensor`.
+const char* to_string(WorkloadKind kind);
 
-/// A sensor read on the device's client, beside the servo workload (`tether bench --workload sensor`):
-/// Romi `A[channel]` -> `[0, value]` (an ADC reading 0..1023 of A0..A5, cycling; a value out of range or
-/// another shape is a wrong answer). Null, with `why` set, for the other codecs: their reads are not a
-/// request with an answer (the proxy reports a pin's state after a control, an Elcano ring answers a goal
-/// with the drive node's report), so `tether bench` builds them itself (tools/bench workloads.hpp).
-std::unique_ptr<Workload> make_sensor_workload(const devices::RoverDevice& device, std::string& why);
+/// The size of the operation measured (`tether bench --payload`; the demo's is `demo`).
+enum class Payload {
+  demo,   ///< The demo's own operation (Romi S / A, proxy 2 x ServoControl, Elcano drive).
+  small,  ///< The smallest operation of the kind.
+  large,  ///< The largest operation of the kind.
+};
+/// `demo` / `small` / `large`.
+const char* to_string(Payload payload);
+
+/// The throttle pulse of operation `i` (us): spread over 1100..1899, different from one operation to the next.
+inline std::uint16_t throttle_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 73u) % 800u); }
+/// The steering pulse of operation `i` (us), like `throttle_us` with another stride.
+inline std::uint16_t steering_us(unsigned i) { return static_cast<std::uint16_t>(1100 + (i * 131u) % 800u); }
+/// A servo position of operation `i` (degrees 0..180), `stride` degrees from the last.
+inline std::int32_t degrees(unsigned i, unsigned stride) { return static_cast<std::int32_t>((i * stride) % 181u); }
+
+/// One codec's workloads: how its devices do each operation. Built-in codecs' come from their plugins
+/// (`tether_codec_plugin(... WORKLOADS ...)`); a codec registered at run time adds its own
+/// (`register_workloads`).
+struct CodecWorkloads {
+  /// The codec's name (its devices row's).
+  std::string_view name;
+  /// The operation of `kind` and `payload` on `device` (`config`: its entry in the rover's configuration).
+  /// Null, with `why` set, when the device cannot do it; may throw `std::invalid_argument` for a device
+  /// configured without what the operation needs.
+  std::function<std::unique_ptr<Workload>(const devices::RoverDevice& device, const devices::DeviceConfig& config,
+                                          WorkloadKind kind, Payload payload, std::string& why)>
+      make;
+};
+
+/// The workloads of `codec`, or null when it has none.
+const CodecWorkloads* codec_workloads(devices::Codec codec);
+/// Adds a codec's workloads (for start-up, before a demo or bench runs). Throws `std::invalid_argument`
+/// when `workloads.name` already has some or `make` is unset.
+void register_workloads(CodecWorkloads workloads);
+
+namespace detail {
+/// The workloads of every codec plugin that has them (generated from plugin_workloads.cpp.in).
+std::vector<CodecWorkloads> plugin_workload_rows();
+}  // namespace detail
+
+/// The operation of `kind` and `payload` on `device`; null, with `why` set, when its codec has none or the
+/// device cannot do it.
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config,
+                                        WorkloadKind kind, Payload payload, std::string& why);
+
+/// The demo's workload on the device (servo, demo payload: the demo drives servos the way each client
+/// can). Throws std::invalid_argument for a codec without one or a proxy device without a servo init.
+std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config);
 
 }  // namespace tether::demo
