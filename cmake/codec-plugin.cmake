@@ -16,6 +16,34 @@
 # docs/codecs.md, "Adding a codec".
 include_guard(GLOBAL)
 
+# One optional part of a plugin: an object library of its sources against `api`, listed for its collector.
+function(_tether_codec_plugin_part name part api)
+  add_library(tether_${name}_${part} OBJECT ${ARGN})
+  target_link_libraries(tether_${name}_${part} PUBLIC ${api} tether_${name}_plugin)
+  tether_warnings(tether_${name}_${part})
+  set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_PARTS_${part} ${name})
+endfunction()
+
+# tether_codec_plugin_collect(PART part ROW_TYPE type FUNCTION function TEMPLATE file OUTPUT file OBJECTS var):
+# for the library that holds one part (commands, workloads) of every plugin: OUTPUT is TEMPLATE configured
+# with @TETHER_PLUGIN_DECLARATIONS@ (each plugin's `std::vector<ROW_TYPE> tether::<plugin>::FUNCTION();`) and
+# @TETHER_PLUGIN_CALLS@ (an `add(...)` of each), and VAR lists the plugins' objects of that part.
+function(tether_codec_plugin_collect)
+  cmake_parse_arguments(COLLECT "" "PART;ROW_TYPE;FUNCTION;TEMPLATE;OUTPUT;OBJECTS" "" ${ARGN})
+  get_property(_plugins GLOBAL PROPERTY TETHER_CODEC_PLUGIN_PARTS_${COLLECT_PART})
+  set(TETHER_PLUGIN_DECLARATIONS "")
+  set(TETHER_PLUGIN_CALLS "")
+  set(_objects "")
+  foreach(_plugin IN LISTS _plugins)
+    string(APPEND TETHER_PLUGIN_DECLARATIONS "namespace tether::${_plugin} {\nstd::vector<${COLLECT_ROW_TYPE}> "
+      "${COLLECT_FUNCTION}();\n}  // namespace tether::${_plugin}\n")
+    string(APPEND TETHER_PLUGIN_CALLS "  add(tether::${_plugin}::${COLLECT_FUNCTION}());\n")
+    list(APPEND _objects $<TARGET_OBJECTS:tether_${_plugin}_${COLLECT_PART}>)
+  endforeach()
+  configure_file(${COLLECT_TEMPLATE} ${COLLECT_OUTPUT} @ONLY)
+  set(${COLLECT_OBJECTS} ${_objects} PARENT_SCOPE)
+endfunction()
+
 function(tether_codec_plugin name)
   cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;WORKLOADS" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
@@ -37,15 +65,9 @@ function(tether_codec_plugin name)
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_INCLUDE ${PLUGIN_INCLUDE})
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_LIBRARIES "${PLUGIN_LIBRARIES}")
   if(PLUGIN_COMMANDS)
-    add_library(tether_${name}_commands OBJECT ${PLUGIN_COMMANDS})
-    target_link_libraries(tether_${name}_commands PUBLIC tether_cli_api ${target})
-    tether_warnings(tether_${name}_commands)
-    set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_COMMANDS ${name})
+    _tether_codec_plugin_part(${name} commands tether_cli_api ${PLUGIN_COMMANDS})
   endif()
   if(PLUGIN_WORKLOADS)
-    add_library(tether_${name}_workloads OBJECT ${PLUGIN_WORKLOADS})
-    target_link_libraries(tether_${name}_workloads PUBLIC tether_workloads_api ${target})
-    tether_warnings(tether_${name}_workloads)
-    set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_WORKLOADS ${name})
+    _tether_codec_plugin_part(${name} workloads tether_workloads_api ${PLUGIN_WORKLOADS})
   endif()
 endfunction()

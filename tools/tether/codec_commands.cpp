@@ -13,6 +13,7 @@
 
 #include "cli_support.hpp"
 #include "device_options.hpp"
+#include "tether/devices/codec_rows.hpp"
 
 namespace tether::cli {
 
@@ -37,39 +38,19 @@ nlohmann::ordered_json link_counters_json(const LinkCounters& counters) {
 
 namespace {
 
-// --- the table --------------------------------------------------------------------------------------------------
-
-struct Table {
-  std::mutex mutex;
-  std::deque<CodecCommands> rows;  // references stay valid while rows are added
-  Table() {
-    for (CodecCommands& row : detail::plugin_command_rows()) rows.push_back(std::move(row));
-  }
-};
-
-Table& table() {
-  static Table instance;
+devices::CodecRows<CodecCommands>& table() {
+  static devices::CodecRows<CodecCommands> instance(detail::plugin_command_rows());
   return instance;
 }
 
 }  // namespace
 
-const CodecCommands* codec_commands(devices::Codec codec) {
-  const std::string_view name = devices::to_string(codec);
-  Table& rows = table();
-  const std::lock_guard lock(rows.mutex);
-  for (const CodecCommands& row : rows.rows) {
-    if (row.name == name) return &row;
-  }
-  return nullptr;
-}
+const CodecCommands* codec_commands(devices::Codec codec) { return table().find(devices::to_string(codec)); }
 
 devices::Codec register_codec(devices::CodecRow device, CodecCommands commands) {
   commands.name = device.name;
   const devices::Codec codec = devices::register_codec(std::move(device));
-  Table& rows = table();
-  const std::lock_guard lock(rows.mutex);
-  rows.rows.push_back(std::move(commands));
+  table().add(std::move(commands), "cli::register_codec");
   return codec;
 }
 

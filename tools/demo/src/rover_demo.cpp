@@ -18,6 +18,7 @@
 
 #include "tether/core/execution_witness.hpp"
 #include "tether/demo/exactly_once.hpp"
+#include "tether/devices/codec_rows.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/elcano/node/behaviour.hpp"
 #include "tether/proxy/device/pins.hpp"
@@ -65,42 +66,20 @@ const char* to_string(Payload payload) {
 namespace {
 
 // The workloads of every codec: the plugins', then the ones registered at run time.
-struct WorkloadTable {
-  std::mutex mutex;
-  std::deque<CodecWorkloads> rows;  // references stay valid while rows are added
-  WorkloadTable() {
-    for (CodecWorkloads& row : detail::plugin_workload_rows()) rows.push_back(std::move(row));
-  }
-};
-
-WorkloadTable& workload_table() {
-  static WorkloadTable instance;
+devices::CodecRows<CodecWorkloads>& workload_table() {
+  static devices::CodecRows<CodecWorkloads> instance(detail::plugin_workload_rows());
   return instance;
 }
 
 }  // namespace
 
 const CodecWorkloads* codec_workloads(devices::Codec codec) {
-  const std::string_view name = devices::to_string(codec);
-  WorkloadTable& table = workload_table();
-  const std::lock_guard lock(table.mutex);
-  for (const CodecWorkloads& row : table.rows) {
-    if (row.name == name) return &row;
-  }
-  return nullptr;
+  return workload_table().find(devices::to_string(codec));
 }
 
 void register_workloads(CodecWorkloads workloads) {
   if (!workloads.make) throw std::invalid_argument("register_workloads: no make function");
-  WorkloadTable& table = workload_table();
-  const std::lock_guard lock(table.mutex);
-  for (const CodecWorkloads& row : table.rows) {
-    if (row.name == workloads.name) {
-      throw std::invalid_argument("register_workloads: codec " + std::string(workloads.name) +
-                                  " has workloads already");
-    }
-  }
-  table.rows.push_back(std::move(workloads));
+  workload_table().add(std::move(workloads), "register_workloads");
 }
 
 std::unique_ptr<Workload> make_workload(const devices::RoverDevice& device, const devices::DeviceConfig& config,
