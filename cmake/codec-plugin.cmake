@@ -1,5 +1,5 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
-#                     [WORKLOADS sources...]): a codec's plugin, declared in its own folder
+#                     [WORKLOADS sources...] [PYTHON sources...]): a codec's plugin, declared in its own folder
 # (codecs/<codec>/plugin/CMakeLists.txt). This call is the codec's whole registration:
 #  - SOURCES define the plugin's parts, their public declarations in HEADER (relative to INCLUDE, default
 #    `include`): `std::vector<tether::devices::CodecRow> tether::<NAME>::codec_rows()`, the codec's rows of
@@ -12,7 +12,10 @@
 #    compiled against the command's own headers (`tether_cli_api`) into it;
 #  - WORKLOADS define `std::vector<tether::demo::CodecWorkloads> tether::<NAME>::workload_rows()`, how its devices
 #    do the operations `tether demo` and `tether bench` measure (tools/demo/include/tether/demo/workload.hpp),
-#    compiled into the demo's library (`tether_workloads_api`).
+#    compiled into the demo's library (`tether_workloads_api`);
+#  - PYTHON define `void tether::<NAME>::register_python(pybind11::module_&)`, the codec's part of the Python
+#    module (its submodule, its client's wrapper, its `Rover` getter), compiled into the module against the
+#    binding's headers (python/src) when the module is built.
 # docs/codecs.md, "Adding a codec".
 include_guard(GLOBAL)
 
@@ -45,7 +48,7 @@ function(tether_codec_plugin_collect)
 endfunction()
 
 function(tether_codec_plugin name)
-  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;WORKLOADS" ${ARGN})
+  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;WORKLOADS;PYTHON" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -69,5 +72,11 @@ function(tether_codec_plugin name)
   endif()
   if(PLUGIN_WORKLOADS)
     _tether_codec_plugin_part(${name} workloads tether_workloads_api ${PLUGIN_WORKLOADS})
+  endif()
+  if(PLUGIN_PYTHON)
+    # Compiled by the module itself (python/CMakeLists.txt), which may be skipped (no pybind11).
+    list(TRANSFORM PLUGIN_PYTHON PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
+    set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_PARTS_python ${name})
+    set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_PYTHON ${PLUGIN_PYTHON})
   endif()
 endfunction()

@@ -189,9 +189,8 @@ std::tuple<Results...> wait_interruptibly(const boost::asio::any_io_executor& ex
 }
 
 void register_transports(py::module_& module);
-void register_romi(py::module_& module);
-void register_proxy(py::module_& module);
-void register_elcano(py::module_& module);
 void register_devices(py::module_& module);
+/// Every codec plugin's part of the module (generated from plugin_python.cpp.in), after the two above.
+void register_plugins(py::module_& module);
 
 }  // namespace tether::python

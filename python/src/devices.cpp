@@ -8,35 +8,13 @@
 #include <stdexcept>
 
 #include "binding.hpp"
-#include "clients.hpp"
+#include "rover_holder.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
 
 namespace tether::python {
 
 namespace {
-
-// A rover and the io thread running it; clients handed out keep it alive.
-struct RoverHolder {
-  std::shared_ptr<transports::IoThread> io;
-  std::shared_ptr<devices::Rover> rover;
-  ProcessGeneration generation;
-  ~RoverHolder() {
-    if (generation.inherited()) {  // the parent's threads run it: keep it as it is
-      leak(rover);
-      leak(io);
-      return;
-    }
-    py::gil_scoped_release release;
-    rover.reset();
-    io.reset();
-  }
-  devices::Rover& get() {
-    if (generation.inherited()) raise_inherited("the rover");
-    if (!rover || !rover->is_open()) raise_closed("the rover");
-    return *rover;
-  }
-};
 
 [[noreturn]] void raise_config(const devices::ConfigError& failure) {
   py::object exception =
@@ -46,35 +24,14 @@ struct RoverHolder {
   throw py::error_already_set();
 }
 
-template <typename Wrapper, typename Get>
-std::shared_ptr<Wrapper> client_of(const std::shared_ptr<RoverHolder>& holder, const std::string& name, Get get) {
-  auto wrapper = std::make_shared<Wrapper>();
-  try {
-    wrapper->client = get(holder->get(), name);
-  } catch (const std::out_of_range& failure) {
-    throw py::key_error(failure.what());
-  }
-  wrapper->io = holder->io;
-  wrapper->owner = holder;
-  return wrapper;
-}
-
 }  // namespace
 
 void register_devices(py::module_& parent) {
   py::class_<RoverHolder, std::shared_ptr<RoverHolder>>(parent, "Rover", R"doc(The opened devices of a rover (devices::Rover).
 
-``romi(name)``, ``proxy(name)``, ``elcano(name)`` return the device's client (KeyError for an unknown name or
-another codec); clients stay usable until the rover is closed, then raise ClosedError.)doc")
-      .def("romi", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
-             return client_of<RomiClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.romi(n); });
-           }, py::arg("name"), "The client of the romi device ``name``.")
-      .def("proxy", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
-             return client_of<ProxyClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.proxy(n); });
-           }, py::arg("name"), "The client of the proxy or proxy-compat device ``name``.")
-      .def("elcano", [](const std::shared_ptr<RoverHolder>& h, const std::string& name) {
-             return client_of<RingClient>(h, name, [](devices::Rover& r, const std::string& n) { return r.elcano(n); });
-           }, py::arg("name"), "The ring client of the elcano device ``name``.")
+Each codec adds its getter: ``romi(name)``, ``proxy(name)``, ``elcano(name)`` return the device's client
+(KeyError for an unknown name or another codec); clients stay usable until the rover is closed, then raise
+ClosedError.)doc")
       .def_property_readonly("devices", [](RoverHolder& h) {
              py::list names;
              for (const auto& device : h.get().devices()) {

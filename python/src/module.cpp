@@ -11,8 +11,6 @@ PYBIND11_MODULE(_tether, module) {
   module.def("_after_fork_in_child", &python::after_fork_in_child,
              "Called in a child after os.fork(): its new clients get their own io thread.");
   python::register_transports(module);
-  python::register_romi(module);
-  python::register_proxy(module);
-  python::register_elcano(module);
   python::register_devices(module);
+  python::register_plugins(module);
 }

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "binding.hpp"
+#include "tether/core/counters.hpp"
 #include "tether/transports/pty_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/virtual_uno.hpp"
@@ -161,6 +162,23 @@ namespace {
 }  // namespace
 
 void register_transports(py::module_& parent) {
+  py::class_<LinkCounters>(parent, "LinkCounters", "Counters of a link's decoder and session engine (they only grow).")
+      .def_readonly("frames_ok", &LinkCounters::frames_ok, "Frames that passed every check.")
+      .def_readonly("crc_errors", &LinkCounters::crc_errors, "Frames dropped for a checksum mismatch.")
+      .def_readonly("framing_errors", &LinkCounters::framing_errors, "Frames dropped as malformed.")
+      .def_readonly("oversize_frames", &LinkCounters::oversize_frames, "Frames dropped for their size.")
+      .def_readonly("resyncs", &LinkCounters::resyncs, "Times the decoder skipped garbage.")
+      .def_readonly("partial_timeouts", &LinkCounters::partial_timeouts, "Partial frames dropped at their deadline.")
+      .def_readonly("stale", &LinkCounters::stale, "Replies whose id was not in flight (dropped).")
+      .def_readonly("retries", &LinkCounters::retries, "Re-sends of a request with the same id.")
+      .def_readonly("timeouts", &LinkCounters::timeouts, "Calls that ran out of time.")
+      .def_readonly("resets", &LinkCounters::resets, "Device resets detected.")
+      .def("__repr__", [](const LinkCounters& c) {
+        return "LinkCounters(frames_ok=" + std::to_string(c.frames_ok) + ", crc_errors=" + std::to_string(c.crc_errors) +
+               ", framing_errors=" + std::to_string(c.framing_errors) + ", stale=" + std::to_string(c.stale) +
+               ", retries=" + std::to_string(c.retries) + ", timeouts=" + std::to_string(c.timeouts) + ")";
+      });
+
   py::module_ module = parent.def_submodule("transports", "Byte streams a client opens on: serial, TCP, pty.");
 
   py::class_<Transport>(module, "Transport", "A byte stream for one client (``Client(transport)`` takes it).")

@@ -7,10 +7,24 @@
 #include <variant>
 
 #include "binding.hpp"
-#include "clients.hpp"
+#include "rover_holder.hpp"
+#include "tether/elcano/client.hpp"
 #include "virtual_board.hpp"
 
 namespace tether::python {
+
+// The Python-side object of the client: it holds the client, the io thread running it and whatever owns
+// the stream (a rover, a virtual board). Destroyed with the GIL released: closing a client drops its Python
+// callbacks, which take the GIL themselves.
+/// `tether.elcano.RingClient`.
+struct RingClient {
+  std::shared_ptr<transports::IoThread> io;
+  std::shared_ptr<elcano::RingClient> client;
+  std::shared_ptr<void> owner;
+  ProcessGeneration generation;
+  ~RingClient();
+  elcano::RingClient& get();
+};
 
 namespace {
 
@@ -140,7 +154,16 @@ elcano::RingClient& RingClient::get() {
   return *client;
 }
 
+void register_elcano(py::module_& parent);
+
 void register_elcano(py::module_& parent) {
+  rover_class(parent).def(
+      "elcano",
+      [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
+        return client_of<RingClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.elcano(n); });
+      },
+      py::arg("name"), "The ring client of the elcano device ``name``.");
+
   py::module_ module = parent.def_submodule("elcano", "The Elcano ring: the host as one node of a ring of boards.");
 
   py::class_<elcano::Message> message_class(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
@@ -306,3 +329,12 @@ board's simulated time (see ``tether.romi.Client``).)doc")
 }
 
 }  // namespace tether::python
+
+namespace tether::elcano {
+
+/// The codec's part of the Python module (collected by python/CMakeLists.txt: plugin_python.cpp.in).
+void register_python(pybind11::module_& module);
+
+void register_python(pybind11::module_& module) { python::register_elcano(module); }
+
+}  // namespace tether::elcano

@@ -5,10 +5,24 @@
 #include <limits>
 
 #include "binding.hpp"
-#include "clients.hpp"
+#include "rover_holder.hpp"
+#include "tether/proxy/client.hpp"
 #include "virtual_board.hpp"
 
 namespace tether::python {
+
+// The Python-side object of the client: it holds the client, the io thread running it and whatever owns
+// the stream (a rover, a virtual board). Destroyed with the GIL released: closing a client drops its Python
+// callbacks, which take the GIL themselves.
+/// `tether.proxy.Client`.
+struct ProxyClient {
+  std::shared_ptr<transports::IoThread> io;
+  std::shared_ptr<proxy::Client> client;
+  std::shared_ptr<void> owner;
+  ProcessGeneration generation;
+  ~ProxyClient();
+  proxy::Client& get();
+};
 
 namespace {
 
@@ -154,7 +168,16 @@ proxy::Client& ProxyClient::get() {
   return *client;
 }
 
+void register_proxy(py::module_& parent);
+
 void register_proxy(py::module_& parent) {
+  rover_class(parent).def(
+      "proxy",
+      [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
+        return client_of<ProxyClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.proxy(n); });
+      },
+      py::arg("name"), "The client of the proxy or proxy-compat device ``name``.");
+
   py::module_ module = parent.def_submodule(
       "proxy", "The COBS + CRC-16 protobuf protocol (primary) and the deployed variant (compat).");
 
@@ -369,3 +392,12 @@ board's simulated time (see ``tether.romi.Client``).)doc")
 }
 
 }  // namespace tether::python
+
+namespace tether::proxy {
+
+/// The codec's part of the Python module (collected by python/CMakeLists.txt: plugin_python.cpp.in).
+void register_python(pybind11::module_& module);
+
+void register_python(pybind11::module_& module) { python::register_proxy(module); }
+
+}  // namespace tether::proxy

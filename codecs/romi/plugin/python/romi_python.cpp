@@ -11,11 +11,32 @@
 #include <vector>
 
 #include "binding.hpp"
-#include "clients.hpp"
+#include "rover_holder.hpp"
+#include "tether/romi/client.hpp"
 #include "virtual_board.hpp"
 #include "tether/romi/client.hpp"
 
 namespace tether::python {
+
+// The Python-side object of the client: it holds the client, the io thread running it and whatever owns
+// the stream (a rover, a virtual board). Destroyed with the GIL released: closing a client drops its Python
+// callbacks, which take the GIL themselves.
+/// Where a Romi client's log lines go: the `on_log` callback and every `log_lines()` iterator (romi.cpp).
+struct RomiLogFanout;
+
+/// `tether.romi.Client`.
+struct RomiClient {
+  std::shared_ptr<transports::IoThread> io;
+  std::shared_ptr<romi::Client> client;
+  std::shared_ptr<void> owner;
+  std::shared_ptr<RomiLogFanout> logs;  // made (and set as the client's log handler) on first use
+  ProcessGeneration generation;
+  ~RomiClient();
+  /// The client; raises ClosedError after close().
+  romi::Client& get();
+  /// The fan-out of log lines, installed as the client's log handler when first asked for.
+  RomiLogFanout& log_fanout();
+};
 
 py::object json_to_python(const nlohmann::json& value) {
   switch (value.type()) {
@@ -221,25 +242,17 @@ romi::Client& RomiClient::get() {
   return *client;
 }
 
-void register_romi(py::module_& parent) {
-  py::module_ module = parent.def_submodule("romi", "The Romi text protocol: request/response with a Tether client.");
+void register_romi(py::module_& parent);
 
-  py::class_<LinkCounters>(parent, "LinkCounters", "Counters of a link's decoder and session engine (they only grow).")
-      .def_readonly("frames_ok", &LinkCounters::frames_ok, "Frames that passed every check.")
-      .def_readonly("crc_errors", &LinkCounters::crc_errors, "Frames dropped for a checksum mismatch.")
-      .def_readonly("framing_errors", &LinkCounters::framing_errors, "Frames dropped as malformed.")
-      .def_readonly("oversize_frames", &LinkCounters::oversize_frames, "Frames dropped for their size.")
-      .def_readonly("resyncs", &LinkCounters::resyncs, "Times the decoder skipped garbage.")
-      .def_readonly("partial_timeouts", &LinkCounters::partial_timeouts, "Partial frames dropped at their deadline.")
-      .def_readonly("stale", &LinkCounters::stale, "Replies whose id was not in flight (dropped).")
-      .def_readonly("retries", &LinkCounters::retries, "Re-sends of a request with the same id.")
-      .def_readonly("timeouts", &LinkCounters::timeouts, "Calls that ran out of time.")
-      .def_readonly("resets", &LinkCounters::resets, "Device resets detected.")
-      .def("__repr__", [](const LinkCounters& c) {
-        return "LinkCounters(frames_ok=" + std::to_string(c.frames_ok) + ", crc_errors=" + std::to_string(c.crc_errors) +
-               ", framing_errors=" + std::to_string(c.framing_errors) + ", stale=" + std::to_string(c.stale) +
-               ", retries=" + std::to_string(c.retries) + ", timeouts=" + std::to_string(c.timeouts) + ")";
-      });
+void register_romi(py::module_& parent) {
+  rover_class(parent).def(
+      "romi",
+      [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
+        return client_of<RomiClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.romi(n); });
+      },
+      py::arg("name"), "The client of the romi device ``name``.");
+
+  py::module_ module = parent.def_submodule("romi", "The Romi text protocol: request/response with a Tether client.");
 
   py::class_<romi::Counters>(module, "Counters", "What a Romi client counted: the link's decoder and engine.")
       .def_readonly("link", &romi::Counters::link, "Decoder and engine counters.");
@@ -386,3 +399,12 @@ the oldest are dropped and counted in ``dropped``. Works alongside ``on_log``.)d
 }
 
 }  // namespace tether::python
+
+namespace tether::romi {
+
+/// The codec's part of the Python module (collected by python/CMakeLists.txt: plugin_python.cpp.in).
+void register_python(pybind11::module_& module);
+
+void register_python(pybind11::module_& module) { python::register_romi(module); }
+
+}  // namespace tether::romi
