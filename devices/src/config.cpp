@@ -36,9 +36,7 @@ std::string join(const Names& names, std::string_view separator = ", ") { return
 std::optional<std::string_view> closest(std::string_view word, const Names& candidates) {
   return closest_name(word, candidates);
 }
-bool contains(const Names& names, std::string_view name) {
-  return std::find(names.begin(), names.end(), name) != names.end();
-}
+bool contains(const Names& names, std::string_view name) { return contains_name(names, name); }
 
 // --- transports -------------------------------------------------------------------------------------------
 

@@ -29,11 +29,11 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return d[a.size()][b.size()];
 }
 
-bool contains(const Names& names, std::string_view name) {
+}  // namespace
+
+bool contains_name(const Names& names, std::string_view name) {
   return std::find(names.begin(), names.end(), name) != names.end();
 }
-
-}  // namespace
 
 void fail_config(const std::string& path, std::string detail) { throw ConfigError(path, std::move(detail)); }
 
@@ -102,7 +102,7 @@ JsonObject::JsonObject(const JsonNode& node) : node_(node) {
 void JsonObject::allow_only(const Names& allowed, const std::map<std::string, std::string>& elsewhere) const {
   for (const auto& item : node_.value.items()) {
     const std::string& key = item.key();
-    if (contains(allowed, key)) continue;
+    if (contains_name(allowed, key)) continue;
     if (const auto other = elsewhere.find(key); other != elsewhere.end()) {
       fail_config(path(), "key " + quote_json(key) + " " + other->second);
     }

@@ -36,6 +36,8 @@ using Names = std::vector<std::string_view>;
 std::string quote_json(std::string_view text);
 /// How a value is shown after "got": `string "fast"`, `number -3`, `boolean true`, `null`, `object`, `array`.
 std::string show_json(const nlohmann::json& value);
+/// True when `names` holds `name`.
+bool contains_name(const Names& names, std::string_view name);
 /// `names` joined by `separator`.
 std::string join_names(const Names& names, std::string_view separator = ", ");
 /// The closest of `candidates` when it is plausibly a typo of `word` (edit distance, transpositions counted
