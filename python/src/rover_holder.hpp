@@ -33,6 +33,39 @@ struct RoverHolder {
   }
 };
 
+/// What a Python client object holds: its client, the io thread running it and whatever owns the stream (a
+/// rover, a virtual board). Destroyed with the GIL released (closing a client drops its Python callbacks,
+/// which take the GIL themselves); in a forked child kept as it is (the parent's threads run it).
+template <typename Client>
+struct ClientHolder {
+  std::shared_ptr<transports::IoThread> io;  ///< The io thread.
+  std::shared_ptr<Client> client;            ///< The client.
+  std::shared_ptr<void> owner;               ///< What owns the client's stream.
+  ProcessGeneration generation;              ///< Where it was made.
+
+  ClientHolder() = default;
+  ClientHolder(const ClientHolder&) = delete;
+  ClientHolder& operator=(const ClientHolder&) = delete;
+  ~ClientHolder() {
+    if (generation.inherited()) {
+      leak(client);
+      leak(owner);
+      leak(io);
+      return;
+    }
+    py::gil_scoped_release release;
+    client.reset();
+    owner.reset();
+    io.reset();
+  }
+  /// The client; raises ClosedError naming `what` after close() or in a forked child.
+  Client& get(const char* what) {
+    if (generation.inherited()) raise_inherited(what);
+    if (!client || !client->is_open()) raise_closed(what);
+    return *client;
+  }
+};
+
 /// `tether.Rover`, registered by `register_devices` (before the codecs' bindings), to add methods to.
 inline py::class_<RoverHolder, std::shared_ptr<RoverHolder>> rover_class(py::module_& module) {
   return py::reinterpret_borrow<py::class_<RoverHolder, std::shared_ptr<RoverHolder>>>(module.attr("Rover"));

@@ -13,17 +13,9 @@
 
 namespace tether::python {
 
-// The Python-side object of the client: it holds the client, the io thread running it and whatever owns
-// the stream (a rover, a virtual board). Destroyed with the GIL released: closing a client drops its Python
-// callbacks, which take the GIL themselves.
 /// `tether.elcano.RingClient`.
-struct RingClient {
-  std::shared_ptr<transports::IoThread> io;
-  std::shared_ptr<elcano::RingClient> client;
-  std::shared_ptr<void> owner;
-  ProcessGeneration generation;
-  ~RingClient();
-  elcano::RingClient& get();
+struct RingClient : ClientHolder<elcano::RingClient> {
+  elcano::RingClient& get() { return ClientHolder::get("the ring client"); }
 };
 
 namespace {
@@ -134,25 +126,6 @@ py::object message_future(
 }
 
 }  // namespace
-
-RingClient::~RingClient() {
-  if (generation.inherited()) {  // the parent's threads run it: keep it as it is
-    leak(client);
-    leak(owner);
-    leak(io);
-    return;
-  }
-  py::gil_scoped_release release;
-  client.reset();
-  owner.reset();
-  io.reset();
-}
-
-elcano::RingClient& RingClient::get() {
-  if (generation.inherited()) raise_inherited("the ring client");
-  if (!client || !client->is_open()) raise_closed("the ring client");
-  return *client;
-}
 
 void register_elcano(py::module_& parent);
 

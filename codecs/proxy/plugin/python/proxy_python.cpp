@@ -11,17 +11,9 @@
 
 namespace tether::python {
 
-// The Python-side object of the client: it holds the client, the io thread running it and whatever owns
-// the stream (a rover, a virtual board). Destroyed with the GIL released: closing a client drops its Python
-// callbacks, which take the GIL themselves.
 /// `tether.proxy.Client`.
-struct ProxyClient {
-  std::shared_ptr<transports::IoThread> io;
-  std::shared_ptr<proxy::Client> client;
-  std::shared_ptr<void> owner;
-  ProcessGeneration generation;
-  ~ProxyClient();
-  proxy::Client& get();
+struct ProxyClient : ClientHolder<proxy::Client> {
+  proxy::Client& get() { return ClientHolder::get("the proxy client"); }
 };
 
 namespace {
@@ -148,25 +140,6 @@ py::object pin_status(const std::optional<proxy::PinStatus>& status) {
 }
 
 }  // namespace
-
-ProxyClient::~ProxyClient() {
-  if (generation.inherited()) {  // the parent's threads run it: keep it as it is
-    leak(client);
-    leak(owner);
-    leak(io);
-    return;
-  }
-  py::gil_scoped_release release;
-  client.reset();
-  owner.reset();
-  io.reset();
-}
-
-proxy::Client& ProxyClient::get() {
-  if (generation.inherited()) raise_inherited("the proxy client");
-  if (!client || !client->is_open()) raise_closed("the proxy client");
-  return *client;
-}
 
 void register_proxy(py::module_& parent);
 
