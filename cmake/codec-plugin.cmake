@@ -1,5 +1,5 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
-#                     [WORKLOADS sources...] [PYTHON sources...]): a codec's plugin, declared in its own folder
+#                     [SUBCOMMANDS sources...] [WORKLOADS sources...] [PYTHON sources...]): a codec's plugin, declared in its own folder
 # (codecs/<codec>/plugin/CMakeLists.txt). This call is the codec's whole registration:
 #  - SOURCES define the plugin's parts, their public declarations in HEADER (relative to INCLUDE, default
 #    `include`): `std::vector<tether::devices::CodecRow> tether::<NAME>::codec_rows()`, the codec's rows of
@@ -9,7 +9,11 @@
 #    the list); INCLUDE is installed with the other headers and public to `Tether::devices` users;
 #  - COMMANDS define `std::vector<tether::cli::CodecCommands> tether::<NAME>::command_rows()`, the codec's rows
 #    of the `tether` command (tools/tether/codec_commands.hpp: shell, monitor, stats, command-line defaults),
-#    compiled against the command's own headers (`tether_cli_api`) into it;
+#    compiled against the command's own headers (`tether_cli_api`) into it, with what they print for the
+#    codec's devices (shell lines, monitor decoders);
+#  - SUBCOMMANDS define `std::vector<tether::cli::Command> tether::<NAME>::subcommands()`, subcommands of
+#    `tether` that only this codec has (tools/tether/commands.hpp: `tether call` is the Romi plugin's),
+#    compiled against the same headers into the command's subcommand library;
 #  - WORKLOADS define `std::vector<tether::demo::CodecWorkloads> tether::<NAME>::workload_rows()`, how its devices
 #    do the operations `tether demo` and `tether bench` measure (tools/demo/include/tether/demo/workload.hpp),
 #    compiled into the demo's library (`tether_workloads_api`);
@@ -48,7 +52,7 @@ function(tether_codec_plugin_collect)
 endfunction()
 
 function(tether_codec_plugin name)
-  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;WORKLOADS;PYTHON" ${ARGN})
+  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -69,6 +73,9 @@ function(tether_codec_plugin name)
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_LIBRARIES "${PLUGIN_LIBRARIES}")
   if(PLUGIN_COMMANDS)
     _tether_codec_plugin_part(${name} commands tether_cli_api ${PLUGIN_COMMANDS})
+  endif()
+  if(PLUGIN_SUBCOMMANDS)
+    _tether_codec_plugin_part(${name} subcommands tether_cli_api ${PLUGIN_SUBCOMMANDS})
   endif()
   if(PLUGIN_WORKLOADS)
     _tether_codec_plugin_part(${name} workloads tether_workloads_api ${PLUGIN_WORKLOADS})

@@ -17,6 +17,8 @@
 #include <thread>
 #include <utility>
 
+#include "tether/core/utf8.hpp"
+
 namespace tether::cli {
 
 CommandText::CommandText(std::string_view name, std::string usage, OnUsageError on_usage_error)
@@ -354,6 +356,38 @@ void LinePrinter::set_output_handler(std::function<void(const std::string&)> han
 LinePrinter& out() {
   static LinePrinter printer;
   return printer;
+}
+
+std::string printable(std::string_view bytes) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string text;
+  text.reserve(bytes.size());
+  const auto escape = [&](unsigned char byte) {
+    text += "\\x";
+    text += kDigits[byte >> 4];
+    text += kDigits[byte & 0x0F];
+  };
+  const auto* const data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+  std::size_t i = 0;
+  while (i < bytes.size()) {
+    const std::uint8_t lead = data[i];
+    if (lead >= 0x20 && lead < 0x7F) {
+      text += static_cast<char>(lead);
+      ++i;
+      continue;
+    }
+    // Controls are escaped: C0 and DEL (single bytes) and C1 (U+0080..U+009F, C2 80..C2 9F).
+    std::size_t length = lead < 0x80 ? 0 : utf8_sequence_length(data, bytes.size(), i);
+    if (length == 2 && lead == 0xC2 && data[i + 1] < 0xA0) length = 0;
+    if (length == 0) {
+      escape(lead);
+      ++i;
+      continue;
+    }
+    text.append(bytes.substr(i, length));
+    i += length;
+  }
+  return text;
 }
 
 }  // namespace tether::cli

@@ -183,4 +183,10 @@ class LinePrinter {
 /// The process's stdout printer.
 LinePrinter& out();
 
+/// Text a device sent, safe to print on a terminal: C0 control bytes (NUL, ESC, BEL, CR, LF, ...), DEL,
+/// C1 controls (U+0080..U+009F) and bytes that are not UTF-8 become `\xNN` (one per byte); valid UTF-8
+/// otherwise passes unchanged. Every human-readable line that carries device text goes through it (JSON
+/// output escapes on its own).
+std::string printable(std::string_view bytes);
+
 }  // namespace tether::cli

@@ -62,6 +62,16 @@ class ShellSession {
   virtual void finish(const std::atomic<bool>& /*stop*/) {}
 };
 
+/// A device option of the command line that only some codecs take (`--generation B|D`): parsed with the
+/// other device options, kept as given (`DeviceOptions::codec_flags`) and read by the row's
+/// `default_options`. Refused with `--config` (the configuration sets it) and for a codec without it.
+struct CodecFlag {
+  std::string_view name;   ///< `--generation` (it takes a value)
+  std::string_view usage;  ///< its lines of the usage text, aligned like the others' (`    --generation B|D  ...\n`)
+  /// What `value` should have been (`B or D`: "--generation needs B or D, got 'x'"), or nothing when it is fine.
+  std::function<std::optional<std::string>(std::string_view value)> check;
+};
+
 /// The `tether` command's row of a codec.
 struct CodecCommands {
   /// The codec's name: its devices row's (`romi`).
@@ -69,8 +79,10 @@ struct CodecCommands {
   /// `--virtual IMAGE`: images whose file name starts with one of these speak it (the longest prefix wins;
   /// no match: romi).
   std::vector<std::string_view> image_prefixes;
-  /// Takes `--generation` and `--capture` (the elcano ring's options).
-  bool ring_options = false;
+  /// The device options only it takes, in the usage text under `<name> only, with --port or --virtual:`.
+  std::vector<CodecFlag> flags;
+  /// Printed after them: what else a person should know of its devices on the command line.
+  std::string_view usage_note;
   /// The options of a device named by `--port` or `--virtual` (`baud`: the line speed).
   std::function<devices::CodecOptions(std::uint32_t baud, const DeviceOptions& options)> default_options;
   /// `--virtual`: the transport of a lone board running `firmware` (and what it changes in the options).

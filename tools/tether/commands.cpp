@@ -1,14 +1,18 @@
-// The subcommand table: one row per subcommand (name, entry point, one-line help).
+// The subcommand table: one row per subcommand (name, entry point, one-line help), the codec plugins' among them.
 #include "commands.hpp"
+
+#include <iterator>
+#include <vector>
 
 namespace tether::cli {
 
 namespace {
 
-constexpr Command kCommands[] = {
+constexpr Command kFirst[] = {
     {"sim", run_sim, "run a firmware image on a virtual Arduino Uno, its UART on a pseudo-terminal"},
-    {"call", run_call, "send one Romi command to a device (serial port or pty) and print its answer as JSON"},
-    {"send", run_send, "send proxy messages by name and fields (servo-control pin=9 position=90); print the acks"},
+};
+
+constexpr Command kRest[] = {
     {"shell", run_shell, "interactive terminal for a device: type messages, see answers and what it sends"},
     {"monitor", run_monitor, "decode and print everything a device sends, with timestamps (passive)"},
     {"demo", run_demo, "compare the protocols: the same servo workload on every device of a (virtual) rover, with noise and resets"},
@@ -19,6 +23,15 @@ constexpr Command kCommands[] = {
 
 }  // namespace
 
-std::span<const Command> commands() { return kCommands; }
+std::span<const Command> commands() {
+  static const std::vector<Command> table = [] {
+    std::vector<Command> rows(std::begin(kFirst), std::end(kFirst));
+    const std::vector<Command> plugins = detail::plugin_subcommands();
+    rows.insert(rows.end(), plugins.begin(), plugins.end());
+    rows.insert(rows.end(), std::begin(kRest), std::end(kRest));
+    return rows;
+  }();
+  return table;
+}
 
 }  // namespace tether::cli

@@ -17,7 +17,6 @@
 #include <variant>
 #include <vector>
 
-#include "message_text.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/transport_error.hpp"
@@ -43,22 +42,37 @@ const char* const kDeviceUsageRest =
     "                      (romi-test, proxy, proxy-compat, elcano-node) in the firmware folder\n"
     "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
     "                      The codec follows the name (proxy-compat*, proxy*, elcano*, else romi)\n"
-    "                      unless --codec says\n"
-    "  elcano only, with --port or --virtual:\n"
-    "    --generation B|D  the ring's wire generation (default B)\n"
-    "    --capture TYPES   message types the host consumes: a comma-separated list of drive, sensor, goal,\n"
-    "                      segment (default: none; everything else is forwarded round the ring)\n"
-    "  --virtual with an elcano image is a ring of one board that captures drive messages and answers each\n"
-    "  with a sensor report S{s}{a}{b 0}{p 0,0}, which the host captures (default --capture sensor).\n";
+    "                      unless --codec says\n";
+
+// The first codec row that takes the flag `name`, or null.
+const CodecFlag* find_codec_flag(std::string_view name) {
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands == nullptr) continue;
+    for (const CodecFlag& flag : commands->flags) {
+      if (flag.name == name) return &flag;
+    }
+  }
+  return nullptr;
+}
 
 }  // namespace
 
 std::string device_usage() {
-  return "device (exactly one of):\n"
-         "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
-         "    --codec C         " + codec_choices() + " (default: romi; proxy for send)\n" +
-         kDeviceUsageRest;
+  std::string usage = "device (exactly one of):\n"
+                      "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
+                      "    --codec C         " + codec_choices() + " (default: romi; proxy for send)\n" +
+                      kDeviceUsageRest;
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands == nullptr || (commands->flags.empty() && commands->usage_note.empty())) continue;
+    if (!commands->flags.empty()) usage += "  " + std::string(row->name) + " only, with --port or --virtual:\n";
+    for (const CodecFlag& flag : commands->flags) usage += flag.usage;
+    usage += commands->usage_note;
+  }
+  return usage;
 }
+
 
 
 std::string firmware_dir() {
@@ -88,9 +102,10 @@ enum class OptionParse { not_mine, consumed, error };
 // `error` gets the message of a bad value.
 OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions& options, std::string& error) {
   const std::string_view argument = argv[index];
-  static constexpr std::string_view kWithValue[] = {"--port",   "--baud",    "--codec",      "--boot-wait", "--config",
-                                                    "--device", "--virtual", "--generation", "--capture"};
-  if (std::find(std::begin(kWithValue), std::end(kWithValue), argument) == std::end(kWithValue)) {
+  static constexpr std::string_view kWithValue[] = {"--port",   "--baud",   "--codec",  "--boot-wait",
+                                                    "--config", "--device", "--virtual"};
+  const CodecFlag* const flag = find_codec_flag(argument);
+  if (flag == nullptr && std::find(std::begin(kWithValue), std::end(kWithValue), argument) == std::end(kWithValue)) {
     return OptionParse::not_mine;
   }
   if (index + 1 >= argc) {
@@ -123,17 +138,10 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
   } else if (argument == "--virtual") {
     if (value.empty()) return bad("a firmware image");
     options.firmware = value;
-  } else if (argument == "--generation") {
-    if (value == "B" || value == "b") {
-      options.generation = elcano::Generation::b;
-    } else if (value == "D" || value == "d") {
-      options.generation = elcano::Generation::d;
-    } else {
-      return bad("B or D");
-    }
   } else {
-    options.capture = parse_elcano_types(value);
-    if (!options.capture) return bad("message types (drive,sensor,goal,segment)");
+    if (const auto expected = flag->check(value)) return bad(*expected);
+    std::erase_if(options.codec_flags, [&](const auto& given) { return given.first == argument; });
+    options.codec_flags.emplace_back(std::string(argument), std::string(value));
   }
   return OptionParse::consumed;
 }
@@ -173,13 +181,15 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   if (config) {
     for (const auto& [given, name] :
          {std::pair{options.codec.has_value(), "--codec"}, std::pair{options.baud.has_value(), "--baud"},
-          std::pair{options.boot_wait_ms.has_value(), "--boot-wait"},
-          std::pair{options.generation.has_value(), "--generation"},
-          std::pair{options.capture.has_value(), "--capture"}}) {
+          std::pair{options.boot_wait_ms.has_value(), "--boot-wait"}}) {
       if (given) {
         error = std::string(name) + " does not apply with --config (the configuration sets it)";
         return std::nullopt;
       }
+    }
+    if (!options.codec_flags.empty()) {
+      error = options.codec_flags.front().first + " does not apply with --config (the configuration sets it)";
+      return std::nullopt;
     }
     if (options.config_file.empty()) {
       error = "--device needs --config FILE";
@@ -250,14 +260,17 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   }
   const devices::Codec codec = options.codec ? *options.codec : (board ? codec_of_image(firmware) : default_codec);
   const CodecCommands& commands = *codec_commands(codec);  // parse_codec and codec_of_image name rows it has
-  if (!commands.ring_options && (options.generation || options.capture)) {
-    std::string ring_codecs;
+  for (const auto& [given, value] : options.codec_flags) {
+    const auto takes = [&given = given](const CodecCommands& row) {
+      return std::any_of(row.flags.begin(), row.flags.end(), [&](const CodecFlag& flag) { return flag.name == given; });
+    };
+    if (takes(commands)) continue;
+    std::string codecs;
     for (const devices::CodecRow* row : devices::codec_rows()) {
       const CodecCommands* other = codec_commands(row->codec);
-      if (other != nullptr && other->ring_options) ring_codecs += (ring_codecs.empty() ? "" : " or ") + std::string(row->name);
+      if (other != nullptr && takes(*other)) codecs += (codecs.empty() ? "" : " or ") + std::string(row->name);
     }
-    error = std::string(options.generation ? "--generation" : "--capture") + " applies to the " + ring_codecs +
-            " codec only";
+    error = given + " applies to the " + codecs + " codec only";
     return std::nullopt;
   }
   const std::uint32_t baud = options.baud.value_or(devices::codec_row(codec).default_baud);

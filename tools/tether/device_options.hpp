@@ -14,15 +14,15 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include "cli_support.hpp"
 #include "codec_commands.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
-#include "tether/elcano/client.hpp"
-#include "tether/proxy/client.hpp"
-#include "tether/romi/client.hpp"
 #include "tether/transports/byte_stream.hpp"
 
 namespace tether::cli {
@@ -39,8 +39,17 @@ struct DeviceOptions {
   std::string config_file;                       ///< --config
   std::string device;                            ///< --device
   std::string firmware;                          ///< --virtual
-  std::optional<elcano::Generation> generation;  ///< --generation (elcano)
-  std::optional<elcano::TypeSet> capture;        ///< --capture (elcano)
+  /// The flags only some codecs take (their rows' `CodecCommands::flags`, `--generation D`), as given and
+  /// in that order; each value already passed its flag's check.
+  std::vector<std::pair<std::string, std::string>> codec_flags;
+
+  /// The value given to the codec flag `name` (`--capture`), or null.
+  const std::string* codec_flag(std::string_view name) const {
+    for (const auto& [flag, value] : codec_flags) {
+      if (flag == name) return &value;
+    }
+    return nullptr;
+  }
 };
 
 /// The usage text of the device options (for the subcommands' usage); `--codec` lists every codec with rows.
@@ -57,10 +66,6 @@ struct DeviceTarget {
   devices::DeviceConfig config;
   std::string label;  ///< `serial /dev/pts/3 115200 (romi)`, `arm in rover.json (devices[0])`
 };
-
-/// Behaviour bits of the board of a lone `--virtual elcano-node` (a ring of one, which captures drive
-/// messages): drive the servos (0x08) and report each drive as a sensor message `S{s}{a}{b 0}{p 0,0}` (0x10).
-inline constexpr std::uint8_t kLoneVirtualNodeBehaviour = 0x08 | 0x10;
 
 /// Checks the options (exactly one way of naming a device, no option that does not apply) and builds the
 /// target. Nothing on failure, with `error` set (a usage error: exit status 2).

@@ -1,6 +1,6 @@
-// What `tether monitor` makes of a byte stream: each codec's decoder turning bytes into records (one output
-// line each: frames, log lines, messages, errors, resyncs) and their text and JSON forms. Separate from the
-// command so the fuzz target `monitor_decoding` runs exactly this path on random bytes.
+// What `tether monitor` makes of a byte stream: a codec's decoder turning bytes into records (one output line
+// each: frames, log lines, messages, errors, resyncs) and their text and JSON forms. Each codec's plugin
+// defines its decoder (codecs/<codec>/plugin/src/<codec>_text.*) and its fuzz target runs it on random bytes.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -36,6 +36,8 @@ struct MonitorRecord {
 std::string record_text(const MonitorRecord& record);
 /// `{"kind": ..., <fields>}` (the JSON line after the timestamp).
 nlohmann::ordered_json record_json(const MonitorRecord& record);
+/// `resync   skipped bytes to the next frame start`: what a decoder adds when its resync counter moved.
+MonitorRecord resync_record();
 
 /// A codec's receiving side, fed with one direction's bytes.
 class MonitorDecoder {
@@ -69,15 +71,5 @@ struct DecoderRole {
 /// its row's `monitor_decoder` (codec_commands.hpp); null when the codec has none.
 std::unique_ptr<MonitorDecoder> make_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
                                                      Millis now);
-
-/// The built-in codecs' decoders (their rows in codec_commands.cpp): romi (both directions share the envelope),
-/// proxy (the mode's schema for the role's direction; keepalive pings), elcano (the host's ring node, or a
-/// plain reader when `role.ring_node` is false).
-std::unique_ptr<MonitorDecoder> make_romi_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
-                                                          Millis now);
-std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
-                                                           Millis now);
-std::unique_ptr<MonitorDecoder> make_elcano_monitor_decoder(const devices::DeviceConfig& config,
-                                                            const DecoderRole& role, Millis now);
 
 }  // namespace tether::cli

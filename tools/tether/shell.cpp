@@ -39,7 +39,6 @@
 #include "codec_commands.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
 #include "shell_text.hpp"
 #include "tether/transports/io_thread.hpp"
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <string_view>
 
-#include "message_text.hpp"
+#include "cli_support.hpp"
 
 namespace tether::cli::testing {
 namespace {

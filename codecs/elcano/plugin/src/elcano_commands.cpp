@@ -8,7 +8,9 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -16,7 +18,7 @@
 #include "cli_support.hpp"
 #include "codec_commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
+#include "elcano_text.hpp"
 #include "monitor_decoding.hpp"
 #include "shell_text.hpp"
 #include "tether/elcano/plugin.hpp"
@@ -24,6 +26,17 @@
 namespace tether::cli {
 
 namespace {
+
+// Behaviour bits of the board of a lone `--virtual elcano-node` (a ring of one, which captures drive
+// messages): drive the servos (0x08) and report each drive as a sensor message `S{s}{a}{b 0}{p 0,0}` (0x10).
+constexpr std::uint8_t kLoneVirtualNodeBehaviour = 0x08 | 0x10;
+
+// `--generation`: B or D (either case).
+std::optional<elcano::Generation> parse_generation(std::string_view text) {
+  if (text == "B" || text == "b") return elcano::Generation::b;
+  if (text == "D" || text == "d") return elcano::Generation::d;
+  return std::nullopt;
+}
 
 std::shared_ptr<elcano::RingClient> ring_client(const devices::DeviceClient& client) {
   return client.get<elcano::RingClient>();
@@ -91,7 +104,7 @@ class ElcanoShell final : public ShellSession {
         printer_(context.printer),
         generation_(config.options.get<elcano::DeviceOptions>().generation),
         lone_board_(context.options != nullptr && !context.options->firmware.empty()),
-        capture_given_(context.options != nullptr && context.options->capture.has_value()) {
+        capture_given_(context.options != nullptr && context.options->codec_flag("--capture") != nullptr) {
     const ShellPrinter printer = context.printer;
     const std::function<void()> link_failed = context.link_failed;
     const elcano::Generation generation = generation_;
@@ -160,11 +173,31 @@ CodecCommands elcano_commands() {
   CodecCommands row;
   row.name = "elcano";
   row.image_prefixes = {"elcano"};
-  row.ring_options = true;
+  row.flags = {
+      {"--generation", "    --generation B|D  the ring's wire generation (default B)\n",
+       [](std::string_view value) -> std::optional<std::string> {
+         if (parse_generation(value)) return std::nullopt;
+         return "B or D";
+       }},
+      {"--capture",
+       "    --capture TYPES   message types the host consumes: a comma-separated list of drive, sensor, goal,\n"
+       "                      segment (default: none; everything else is forwarded round the ring)\n",
+       [](std::string_view value) -> std::optional<std::string> {
+         if (parse_elcano_types(value)) return std::nullopt;
+         return "message types (drive,sensor,goal,segment)";
+       }},
+  };
+  row.usage_note =
+      "  --virtual with an elcano image is a ring of one board that captures drive messages and answers each\n"
+      "  with a sensor report S{s}{a}{b 0}{p 0,0}, which the host captures (default --capture sensor).\n";
   row.default_options = [](std::uint32_t baud, const DeviceOptions& options) -> devices::CodecOptions {
     elcano::DeviceOptions elcano_options;
-    elcano_options.generation = options.generation.value_or(elcano::Generation::b);
-    elcano_options.capture = options.capture.value_or(elcano::TypeSet());
+    if (const std::string* generation = options.codec_flag("--generation")) {
+      elcano_options.generation = *parse_generation(*generation);  // checked when parsed
+    }
+    if (const std::string* capture = options.codec_flag("--capture")) {
+      elcano_options.capture = *parse_elcano_types(*capture);
+    }
     elcano_options.pacing.baud = baud;
     return elcano_options;
   };
@@ -181,7 +214,7 @@ CodecCommands elcano_commands() {
     settings.behaviour_bits = kLoneVirtualNodeBehaviour;
     node.eeprom = settings;
     // ... which the host captures (unless --capture says otherwise).
-    if (!options.capture) {
+    if (options.codec_flag("--capture") == nullptr) {
       config.options.get<elcano::DeviceOptions>().capture = elcano::TypeSet::of(elcano::Type::sensor);
     }
     ring.boards.push_back(node);

@@ -12,7 +12,7 @@
 #include "cli_support.hpp"
 #include "codec_commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
+#include "proxy_text.hpp"
 #include "monitor_decoding.hpp"
 #include "shell_text.hpp"
 #include "tether/proxy/plugin.hpp"

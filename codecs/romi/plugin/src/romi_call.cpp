@@ -23,12 +23,12 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
-#include "shell_text.hpp"
+#include "romi_text.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/romi/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
@@ -133,6 +133,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 
 }  // namespace
 
+int run_call(int argc, char** argv);
+
 int run_call(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
@@ -198,3 +200,15 @@ int run_call(int argc, char** argv) {
 }
 
 }  // namespace tether::cli
+
+namespace tether::romi {
+
+/// The subcommands this codec adds to `tether` (collected by tools/tether/CMakeLists.txt:
+/// plugin_subcommands.cpp.in).
+std::vector<cli::Command> subcommands();
+
+std::vector<cli::Command> subcommands() {
+  return {{"call", cli::run_call, "send one Romi command to a device (serial port or pty) and print its answer as JSON"}};
+}
+
+}  // namespace tether::romi

@@ -20,7 +20,7 @@
 #include "cli_support.hpp"
 #include "commands.hpp"
 #include "device_options.hpp"
-#include "message_text.hpp"
+#include "proxy_text.hpp"
 #include "tether/proxy/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
 
@@ -167,6 +167,8 @@ std::string plural(std::uint32_t count, const char* word) {
 }
 
 }  // namespace
+
+int run_send(int argc, char** argv);
 
 int run_send(int argc, char** argv) {
   Arguments arguments;
@@ -331,3 +333,16 @@ int run_send(int argc, char** argv) {
 }
 
 }  // namespace tether::cli
+
+namespace tether::proxy {
+
+/// The subcommands this codec adds to `tether` (collected by tools/tether/CMakeLists.txt:
+/// plugin_subcommands.cpp.in).
+std::vector<cli::Command> subcommands();
+
+std::vector<cli::Command> subcommands() {
+  return {{"send", cli::run_send,
+           "send proxy messages by name and fields (servo-control pin=9 position=90); print the acks"}};
+}
+
+}  // namespace tether::proxy

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "message_text.hpp"
+#include "proxy_text.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
 namespace {

@@ -1,5 +1,5 @@
-// Proxy and Elcano messages as text (see message_text.hpp).
-#include "message_text.hpp"
+// The proxy codec as the `tether` command shows it (see proxy_text.hpp).
+#include "proxy_text.hpp"
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
@@ -10,8 +10,10 @@
 #include <set>
 
 #include "cli_support.hpp"
-#include "tether/core/utf8.hpp"
-#include "tether/elcano/decoder.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device_message.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/proxy/plugin.hpp"
 
 namespace tether::cli {
 
@@ -203,39 +205,90 @@ bool fill(pb::Message& root, std::span<const std::string> words, ProxyCommand& c
   return true;
 }
 
-}  // namespace
-
-std::string printable(std::string_view bytes) {
+std::string hex(ByteView bytes) {
   static constexpr char kDigits[] = "0123456789abcdef";
   std::string text;
-  text.reserve(bytes.size());
-  const auto escape = [&](unsigned char byte) {
-    text += "\\x";
+  for (const std::uint8_t byte : bytes) {
+    if (!text.empty()) text += ' ';
     text += kDigits[byte >> 4];
     text += kDigits[byte & 0x0F];
-  };
-  const auto* const data = reinterpret_cast<const std::uint8_t*>(bytes.data());
-  std::size_t i = 0;
-  while (i < bytes.size()) {
-    const std::uint8_t lead = data[i];
-    if (lead >= 0x20 && lead < 0x7F) {
-      text += static_cast<char>(lead);
-      ++i;
-      continue;
-    }
-    // Controls are escaped: C0 and DEL (single bytes) and C1 (U+0080..U+009F, C2 80..C2 9F).
-    std::size_t length = lead < 0x80 ? 0 : utf8_sequence_length(data, bytes.size(), i);
-    if (length == 2 && lead == 0xC2 && data[i + 1] < 0xA0) length = 0;
-    if (length == 0) {
-      escape(lead);
-      ++i;
-      continue;
-    }
-    text.append(bytes.substr(i, length));
-    i += length;
   }
   return text;
 }
+
+class ProxyDecoder final : public MonitorDecoder {
+ public:
+  ProxyDecoder(proxy::Mode mode, const DecoderRole& role, Millis now)
+      : mode_(mode),
+        direction_(role.direction),
+        keepalive_(role.keepalive && mode == proxy::Mode::primary),
+        decoder_(mode == proxy::Mode::primary ? proxy::Integrity::crc16 : proxy::Integrity::none, counters_),
+        next_ping_(now) {}
+
+  void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
+    const std::uint32_t resyncs = counters_.resyncs;
+    const DecodeStatus status = decoder_.feed(byte);
+    if (counters_.resyncs != resyncs) records.push_back(resync_record());
+    if (status == DecodeStatus::error) {
+      const char* cause = proxy::describe(decoder_.error());
+      records.push_back({"error", cause, {{"status", cause}}, false});
+      return;
+    }
+    if (status != DecodeStatus::frame) return;
+    const ByteView payload = decoder_.frame();
+    const std::unique_ptr<google::protobuf::Message> message = schema_message();
+    if (!proxy::parse_device_message(*message, payload)) {
+      const std::string bytes = hex(payload);
+      records.push_back({"undecodable", bytes, {{"payload_hex", bytes}}, false});
+      return;
+    }
+    records.push_back({"message", describe_proxy_message(*message), proxy_message_json(*message), true});
+  }
+
+  std::string output(Millis now) override {
+    if (!keepalive_ || !tick_reached(now, next_ping_)) return {};
+    next_ping_ = static_cast<Millis>(now + 1000);
+    proxy::ArduinoIn ping;
+    ping.set_messageid(++message_id_);
+    ping.mutable_ping();
+    const std::string payload = ping.SerializeAsString();
+    std::uint8_t frame[proxy::max_frame_size(32)];
+    const Result<std::size_t> written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
+                                                            proxy::Integrity::crc16, true, MutableByteView(frame));
+    if (!written.ok()) return {};
+    return std::string(reinterpret_cast<const char*>(frame), written.value());
+  }
+
+  std::optional<Duration> next_wakeup(Millis now) override {
+    if (!keepalive_) return std::nullopt;
+    const std::int32_t left = tick_difference(next_ping_, now);
+    return left > 0 ? static_cast<Duration>(left) : 0;
+  }
+
+  LinkCounters counters() const override { return counters_; }
+
+ private:
+  // The message type of this direction in this mode's schema.
+  std::unique_ptr<google::protobuf::Message> schema_message() const {
+    const bool primary = mode_ == proxy::Mode::primary;
+    if (direction_ == Direction::host_to_device) {
+      if (primary) return std::make_unique<proxy::ArduinoIn>();
+      return std::make_unique<RocketryProto::ArduinoIn>();
+    }
+    if (primary) return std::make_unique<proxy::ArduinoOut>();
+    return std::make_unique<RocketryProto::ArduinoOut>();
+  }
+
+  proxy::Mode mode_;
+  Direction direction_;
+  bool keepalive_;
+  LinkCounters counters_;
+  proxy::Decoder<proxy::kMaxPayload> decoder_;
+  Millis next_ping_;
+  std::uint32_t message_id_ = 0x4d4f4e00;  // "MON": far from a client's ids
+};
+
+}  // namespace
 
 std::string kebab_case(std::string_view camel) {
   std::string text;
@@ -332,63 +385,80 @@ nlohmann::ordered_json proxy_message_json(const pb::Message& message) {
   return object;
 }
 
-std::optional<elcano::Message> parse_elcano(std::string_view text, std::string& error) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.remove_suffix(1);
-  elcano::Error first = elcano::Error::success;
-  for (const elcano::Generation generation : {elcano::Generation::b, elcano::Generation::d}) {
-    LinkCounters counters;
-    elcano::Decoder<256> reader(generation, counters);
-    DecodeStatus status = DecodeStatus::more;
-    for (const char c : text) {
-      status = reader.feed(static_cast<std::uint8_t>(c));
-      if (status != DecodeStatus::more) break;
-    }
-    if (status == DecodeStatus::more) status = reader.feed('\n');
-    if (status == DecodeStatus::frame) return reader.frame();
-    if (first == elcano::Error::success) {
-      first = status == DecodeStatus::error ? reader.error() : elcano::Error::bad_lcurly;
-    }
+ShellLine proxy_event_line(const proxy::Event& event) {
+  namespace ev = proxy::events;
+  if (const auto* error = std::get_if<ev::DeviceError>(&event)) {
+    const bool fatal = error->level == proxy::ErrorLevel::fatal;
+    return {std::string("device ") + (fatal ? "FATAL" : "error") + ": " + printable(error->text),
+            {{"event", "device_error"}, {"text", error->text}, {"level", fatal ? "fatal" : "warning"}}};
   }
-  error = std::string("not an Elcano message (") + elcano::describe(first) +
-          "): expected e.g. D{s 50}{a 25}, S{s 1}{a 2}{b 3}{p 4,5}, G{n 1}{p 0,0}{b 90}";
-  return std::nullopt;
+  if (const auto* info = std::get_if<ev::DeviceInfo>(&event)) {
+    return {"info: session " + std::to_string(info->session_id) +
+                (info->ping_failsafe_triggered ? ", failsafe triggered" : ""),
+            {{"event", "info"},
+             {"session_id", info->session_id},
+             {"ping_failsafe_triggered", info->ping_failsafe_triggered}}};
+  }
+  if (const auto* failsafe = std::get_if<ev::FailsafeTriggered>(&event)) {
+    return {"FAILSAFE triggered (no ping for 10 s)", {{"event", "failsafe"}, {"session_id", failsafe->session_id}}};
+  }
+  if (const auto* report = std::get_if<ev::PinReport>(&event)) {
+    const char* kind = report->kind == proxy::PinKind::servo     ? "servo"
+                       : report->kind == proxy::PinKind::digital ? "digital"
+                                                                 : "pin";
+    return {std::string(kind) + " " + std::to_string(report->pin) + " = " + std::to_string(report->value) +
+                (report->failsafe ? " (failsafe)" : ""),
+            {{"event", "pin"},
+             {"kind", kind},
+             {"pin", report->pin},
+             {"value", report->value},
+             {"failsafe", report->failsafe}}};
+  }
+  if (const auto* lost = std::get_if<ev::PinLost>(&event)) {
+    return {"pin " + std::to_string(lost->pin) + " lost (silent " + std::to_string(lost->silent_ms) + " ms)",
+            {{"event", "pin_lost"}, {"pin", lost->pin}, {"silent_ms", lost->silent_ms}}};
+  }
+  if (const auto* established = std::get_if<ev::SessionEstablished>(&event)) {
+    return {"session " + std::to_string(established->session_id) + " established" +
+                (established->inits > 0 ? " (" + std::to_string(established->inits) + " inits replayed)" : ""),
+            {{"event", "session"},
+             {"session_id", established->session_id},
+             {"inits", established->inits},
+             {"first", established->first}}};
+  }
+  if (const auto* reset = std::get_if<ev::ResetDetected>(&event)) {
+    return {"device reset detected (session " + std::to_string(reset->previous_session_id) + " -> " +
+                std::to_string(reset->reported_session_id) + "); recovering",
+            {{"event", "reset_detected"},
+             {"previous_session_id", reset->previous_session_id},
+             {"reported_session_id", reset->reported_session_id}}};
+  }
+  if (const auto* compat = std::get_if<ev::CompatEvent>(&event)) {
+    const std::string name = RocketryProto::EventTypes_Name(compat->type);
+    return {"device event " + name + " " + std::to_string(compat->data),
+            {{"event", "compat_event"}, {"name", name}, {"data", compat->data}}};
+  }
+  if (const auto* compat_error = std::get_if<ev::CompatError>(&event)) {
+    const std::string name = RocketryProto::ErrorTypes_Name(compat_error->type);
+    return {"device error " + name + " " + std::to_string(compat_error->data),
+            {{"event", "compat_error"}, {"name", name}, {"data", compat_error->data}}};
+  }
+  if (const auto* state = std::get_if<ev::CompatState>(&event)) {
+    return {"device state " + describe_proxy_message(state->message),
+            {{"event", "compat_state"}, {"message", proxy_message_json(state->message)}}};
+  }
+  if (const auto* undecodable = std::get_if<ev::UndecodableMessage>(&event)) {
+    return {std::string(undecodable->malformed ? "undecodable" : "unknown") + " message (" +
+                std::to_string(undecodable->payload.size()) + " bytes)",
+            {{"event", "undecodable"}, {"malformed", undecodable->malformed}}};
+  }
+  const auto& failed = std::get<ev::LinkFailed>(event);
+  return {"link failed: " + failed.error.message(), {{"event", "link_failed"}, {"message", failed.error.message()}}};
 }
 
-std::string format_elcano(const elcano::Message& message, elcano::Generation generation) {
-  std::uint8_t buffer[160];
-  const Result<std::size_t> written = elcano::encode_message(message, generation, MutableByteView(buffer));
-  if (!written.ok()) return "?";
-  std::size_t size = written.value();
-  while (size > 0 && (buffer[size - 1] == '\n' || buffer[size - 1] == '\r')) --size;
-  return std::string(reinterpret_cast<const char*>(buffer), size);
-}
-
-nlohmann::ordered_json elcano_json(const elcano::Message& message) {
-  nlohmann::ordered_json object = {{"type", elcano::to_string(message.type)}};
-  const std::pair<const char*, std::int32_t> fields[] = {
-      {"n", message.number},  {"s", message.speed},       {"a", message.angle},   {"o", message.obstacle},
-      {"b", message.bearing}, {"r", message.probability}, {"east", message.east}, {"north", message.north}};
-  for (const auto& [name, value] : fields) {
-    if (value != elcano::kUnset) object[name] = value;
-  }
-  return object;
-}
-
-std::optional<elcano::TypeSet> parse_elcano_types(std::string_view text) {
-  elcano::TypeSet set;
-  if (text.empty() || text == "none") return set;
-  while (!text.empty()) {
-    const std::size_t comma = text.find(',');
-    const std::string_view word = text.substr(0, comma);
-    elcano::Type type;
-    if (!elcano::type_from_name(ByteView::from_chars(word.data(), word.size()), type)) {
-      return std::nullopt;
-    }
-    set = set.with(type);
-    if (comma == std::string_view::npos) break;
-    text.remove_prefix(comma + 1);
-  }
-  return set;
+std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                           Millis now) {
+  return std::make_unique<ProxyDecoder>(config.options.get<proxy::DeviceOptions>().client.mode, role, now);
 }
 
 }  // namespace tether::cli

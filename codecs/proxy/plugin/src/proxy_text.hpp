@@ -1,31 +1,30 @@
-// Messages as people type and read them: proxy messages as `servo-control pin=9 position=90` (kebab-case
-// names of the schema's messages and fields, found by protobuf reflection, so a new message in the schema
-// needs no change here), and Elcano messages as `D{s 50}{a 25}`.
+// The proxy codec as the `tether` command shows it: messages as people type and read them
+// (`servo-control pin=9 position=90`: kebab-case names of the schema's messages and fields, found by protobuf
+// reflection, so a new message in the schema needs no change here), the client's events as shell lines, and
+// the monitor's decoder. Beside the codec's command rows, so the command itself knows no codec; the fuzz
+// targets run these very paths.
 #pragma once
 
 #include <google/protobuf/message.h>
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <variant>
 
+#include "monitor_decoding.hpp"
 #include "rocketry.pb.h"
-#include "tether/elcano/message.hpp"
-#include "tether/elcano/ring_node.hpp"
+#include "shell_text.hpp"
+#include "tether/devices/config.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether_proxy.pb.h"
 
 namespace tether::cli {
-
-/// Text a device sent, safe to print on a terminal: C0 control bytes (NUL, ESC, BEL, CR, LF, ...), DEL,
-/// C1 controls (U+0080..U+009F) and bytes that are not UTF-8 become `\xNN` (one per byte); valid UTF-8
-/// otherwise passes unchanged. Every human-readable line that carries device text goes through it (JSON
-/// output escapes on its own).
-std::string printable(std::string_view bytes);
 
 /// `servoControl` -> `servo-control`.
 std::string kebab_case(std::string_view camel);
@@ -57,14 +56,12 @@ std::string describe_proxy_message(const google::protobuf::Message& message);
 /// `{"type": "ack", "fields": {"messageId": 5}}` of an `ArduinoOut`.
 nlohmann::ordered_json proxy_message_json(const google::protobuf::Message& message);
 
-/// Parses a typed Elcano message (`D{s 50}{a 25}`, generation B syntax, or generation D with its CRC
-/// trailer); a missing trailing newline is fine. Nothing on failure, with the reader's reason in `error`.
-std::optional<elcano::Message> parse_elcano(std::string_view text, std::string& error);
-/// The message as the writer puts it on the wire in `generation`, without the newline.
-std::string format_elcano(const elcano::Message& message, elcano::Generation generation);
-/// `{"type": "drive", "s": 50, "a": 25}` (set fields only).
-nlohmann::ordered_json elcano_json(const elcano::Message& message);
-/// A set of message types: `drive,sensor` (also the header letters `D,S`; `none` or empty: no type).
-std::optional<elcano::TypeSet> parse_elcano_types(std::string_view text);
+/// A proxy client's event (`servo 9 = 90`, `device error: ...`, `session 7 established`, ...).
+ShellLine proxy_event_line(const proxy::Event& event);
+
+/// `tether monitor`'s decoder of proxy frames: the mode's schema for the role's direction; in primary mode
+/// with `role.keepalive`, a Ping every second as output.
+std::unique_ptr<MonitorDecoder> make_proxy_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,
+                                                           Millis now);
 
 }  // namespace tether::cli
