@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <deque>
 #include <mutex>
+#include <string>
 #include <stdexcept>
 #include <utility>
 
@@ -21,6 +22,16 @@ std::vector<CodecRow> builtin_rows() {
   std::stable_sort(rows.begin(), rows.end(), [](const CodecRow& a, const CodecRow& b) {
     return static_cast<unsigned>(a.codec) < static_cast<unsigned>(b.codec);
   });
+  // Each plugin declares its value: two plugins with one value, or one in the registered range, is a build
+  // that cannot tell its codecs apart.
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const bool taken = i > 0 && rows[i].codec == rows[i - 1].codec;
+    if (taken || static_cast<unsigned>(rows[i].codec) >= kFirstRegisteredValue) {
+      throw std::logic_error("codec plugin " + std::string(rows[i].name) + ": its value " +
+                             std::to_string(static_cast<unsigned>(rows[i].codec)) +
+                             (taken ? " is " + std::string(rows[i - 1].name) + "'s" : " is not below 16"));
+    }
+  }
   return rows;
 }
 

@@ -197,37 +197,25 @@ const RoverDevice* Rover::find(std::string_view name) const {
   return nullptr;
 }
 
-const RoverDevice& Rover::lookup(std::string_view name, std::string_view wanted, bool (*accepts)(Codec)) const {
+const RoverDevice& Rover::lookup(std::string_view name) const {
   const RoverDevice* device = find(name);
+  if (device != nullptr) return *device;
   const std::string quoted_name = nlohmann::json(std::string(name)).dump();
-  if (device == nullptr) {
-    if (devices_.empty()) throw std::out_of_range("rover: no device " + quoted_name + " (the rover has no devices)");
-    NameList names;
-    for (const auto& each : devices_) names.add(each.name);
-    throw std::out_of_range("rover: no device " + quoted_name + " (devices: " + names.text() + ")");
+  if (devices_.empty()) throw std::out_of_range("rover: no device " + quoted_name + " (the rover has no devices)");
+  NameList names;
+  for (const auto& each : devices_) names.add(each.name);
+  throw std::out_of_range("rover: no device " + quoted_name + " (devices: " + names.text() + ")");
+}
+
+void Rover::throw_other_client(const RoverDevice& device, const std::type_info& wanted) {
+  std::string codecs;
+  for (const CodecRow* row : codec_rows()) {
+    if (row->client_type == nullptr || *row->client_type != wanted) continue;
+    codecs += (codecs.empty() ? "" : " or ") + std::string(row->name);
   }
-  if (!accepts(device->codec)) {
-    throw std::out_of_range("rover: device " + quoted_name + " speaks " + std::string(to_string(device->codec)) +
-                            ", not " + std::string(wanted));
-  }
-  return *device;
-}
-
-std::shared_ptr<romi::Client> Rover::romi(std::string_view name) const {
-  const RoverDevice& device = lookup(name, "romi", [](Codec codec) { return codec == Codec::romi; });
-  return device.client.get<romi::Client>();
-}
-
-std::shared_ptr<proxy::Client> Rover::proxy(std::string_view name) const {
-  const RoverDevice& device = lookup(name, "proxy or proxy-compat", [](Codec codec) {
-    return codec == Codec::proxy || codec == Codec::proxy_compat;
-  });
-  return device.client.get<proxy::Client>();
-}
-
-std::shared_ptr<elcano::RingClient> Rover::elcano(std::string_view name) const {
-  const RoverDevice& device = lookup(name, "elcano", [](Codec codec) { return codec == Codec::elcano; });
-  return device.client.get<elcano::RingClient>();
+  if (codecs.empty()) codecs = std::string("a device with a ") + wanted.name() + " client";
+  throw std::out_of_range("rover: device " + nlohmann::json(device.name).dump() + " speaks " +
+                          std::string(to_string(device.codec)) + ", not " + codecs);
 }
 
 // --- open_rover -------------------------------------------------------------------------------------------

@@ -52,7 +52,7 @@ TEST(DevicesConfig, MinimalSerialRomiDeviceGetsTheDefaults) {
   ASSERT_EQ(config.devices.size(), 1u);
   const DeviceConfig& device = config.devices[0];
   EXPECT_EQ(device.name, "dev");
-  EXPECT_EQ(device.codec, Codec::romi);
+  EXPECT_EQ(device.codec, romi::kCodec);
   const auto& serial = std::get<SerialTransport>(device.transport);
   EXPECT_EQ(serial.path, "/dev/ttyACM0");
   EXPECT_EQ(serial.options.baud, 115200u);
@@ -313,14 +313,14 @@ TEST(DevicesCodecTable, BuiltInRowsInOrderAndRegistrationErrors) {
     EXPECT_EQ(find_codec(row->name), row);
   }
   EXPECT_EQ(names, "romi proxy proxy-compat elcano");
-  EXPECT_EQ(codec_row(Codec::proxy_compat).default_baud, 57600u);
-  EXPECT_EQ(codec_row(Codec::elcano).virtual_boards, VirtualBoards::ring);
+  EXPECT_EQ(codec_row(proxy::kCompatCodec).default_baud, 57600u);
+  EXPECT_EQ(codec_row(elcano::kCodec).virtual_boards, VirtualBoards::ring);
   EXPECT_EQ(find_codec("mavlink"), nullptr);
   EXPECT_THROW(codec_row(static_cast<Codec>(200)), std::out_of_range);
   EXPECT_EQ(to_string(static_cast<Codec>(200)), "unknown");
 
   // Rejected rows leave the table as it was.
-  CodecRow taken = codec_row(Codec::romi);
+  CodecRow taken = codec_row(romi::kCodec);
   EXPECT_THROW(register_codec(taken), std::invalid_argument);
   CodecRow incomplete;
   incomplete.name = "incomplete";
@@ -559,7 +559,7 @@ TEST(DevicesConfigErrors, ValidateCatchesInconsistentConfigsBuiltInCode) {
   }
   DeviceConfig device;
   device.name = "servos";
-  device.codec = Codec::proxy;
+  device.codec = proxy::kCodec;
   device.transport = SerialTransport{"/dev/ttyACM0", {}};
   device.options = romi::DeviceOptions();
   config.devices.push_back(device);
@@ -573,7 +573,7 @@ TEST(DevicesConfigErrors, ValidateCatchesInconsistentConfigsBuiltInCode) {
   compat.client = proxy::Options::compat();
   config.devices[0].options = compat;
   EXPECT_THROW(validate(config), ConfigError) << "mode does not match the codec";
-  config.devices[0].codec = Codec::proxy_compat;
+  config.devices[0].codec = proxy::kCompatCodec;
   EXPECT_NO_THROW(validate(config));
 }
 
@@ -587,13 +587,13 @@ std::string read_file(const std::filesystem::path& path) {
 TEST(DevicesExamples, RoverJsonHasOneDevicePerCodecOnRealHardware) {
   const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / "rover.json");
   ASSERT_EQ(config.devices.size(), 5u);
-  EXPECT_EQ(config.devices[0].codec, Codec::romi);
+  EXPECT_EQ(config.devices[0].codec, romi::kCodec);
   EXPECT_EQ(std::get<SerialTransport>(config.devices[0].transport).path, "/dev/ttyACM0");
-  EXPECT_EQ(config.devices[1].codec, Codec::proxy);
+  EXPECT_EQ(config.devices[1].codec, proxy::kCodec);
   EXPECT_EQ(std::get<SerialTransport>(config.devices[1].transport).path, "/dev/ttyACM1");
-  EXPECT_EQ(config.devices[2].codec, Codec::proxy_compat);
+  EXPECT_EQ(config.devices[2].codec, proxy::kCompatCodec);
   EXPECT_TRUE(std::holds_alternative<TcpTransport>(config.devices[2].transport));
-  EXPECT_EQ(config.devices[3].codec, Codec::elcano);
+  EXPECT_EQ(config.devices[3].codec, elcano::kCodec);
   EXPECT_EQ(std::get<SerialTransport>(config.devices[3].transport).path, "/dev/ttyUSB0");
 }
 
@@ -624,7 +624,7 @@ TEST(DevicesExamples, RomiDevicesOfTheExamplesRunTetherFirmwareSoSilentAttemptsA
   for (const char* file : {"rover.json", "rover-virtual.json"}) {
     SCOPED_TRACE(file);
     const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / file, options);
-    ASSERT_EQ(config.devices[0].codec, Codec::romi);
+    ASSERT_EQ(config.devices[0].codec, romi::kCodec);
     EXPECT_TRUE(config.devices[0].options.get<romi::DeviceOptions>().timing.retry_on_timeout);
   }
   EXPECT_FALSE(romi::DeviceOptions().timing.retry_on_timeout);

@@ -16,6 +16,9 @@
 #include <vector>
 
 #include "tether/devices/rover.hpp"
+#include "tether/elcano/plugin.hpp"
+#include "tether/proxy/plugin.hpp"
+#include "tether/romi/plugin.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
@@ -76,27 +79,27 @@ TEST(DevicesRover, OpensOneVirtualDevicePerCodecUsesThemAndClosesCleanly) {
 
   ASSERT_EQ(rover.devices().size(), 3u);
   EXPECT_EQ(rover.devices()[0].name, "arm");
-  EXPECT_EQ(rover.devices()[0].codec, Codec::romi);
+  EXPECT_EQ(rover.devices()[0].codec, romi::kCodec);
   EXPECT_EQ(rover.devices()[0].transport.rfind("virtual romi-test.elf (real_time, seed ", 0), 0u)
       << rover.devices()[0].transport;
-  EXPECT_EQ(rover.devices()[1].codec, Codec::proxy);
-  EXPECT_EQ(rover.devices()[2].codec, Codec::proxy_compat);
+  EXPECT_EQ(rover.devices()[1].codec, proxy::kCodec);
+  EXPECT_EQ(rover.devices()[2].codec, proxy::kCompatCodec);
 
   // romi: a call is answered.
-  const auto arm = rover.romi("arm");
+  const auto arm = rover.client<romi::Client>("arm");
   const romi::RomiResponse values = arm->call("e");
   EXPECT_EQ(values.code, 0);
   EXPECT_EQ(values.values, nlohmann::json::parse("[0,1,2]"));
 
   // proxy: the session is up, the inits were acked, a send is acked.
-  const auto servos = rover.proxy("servos");
+  const auto servos = rover.client<proxy::Client>("servos");
   EXPECT_TRUE(servos->session().established);
   EXPECT_GE(servos->counters().acks, 2u) << "both inits acked during the open";
   const proxy::SendResult set = servos->servo(9).set(120);
   EXPECT_TRUE(set.acked);
 
   // proxy-compat: a send is written.
-  const auto legacy = rover.proxy("legacy");
+  const auto legacy = rover.client<proxy::Client>("legacy");
   EXPECT_EQ(legacy->mode(), proxy::Mode::compat);
   boost::system::error_code error;
   legacy->servo(9).set(120, error);
@@ -117,28 +120,28 @@ TEST(DevicesRover, LookupsOfMissingNamesAndWrongCodecsSayWhatIsThere) {
   IoThread io;
   Rover rover = open_rover(rover_of({romi_device("arm"), romi_device("head")}), io.executor());
   try {
-    rover.romi("armm");
+    rover.client<romi::Client>("armm");
     ADD_FAILURE();
   } catch (const std::out_of_range& error) {
     EXPECT_STREQ(error.what(), R"(rover: no device "armm" (devices: "arm", "head"))");
   }
   try {
-    rover.proxy("arm");
+    rover.client<proxy::Client>("arm");
     ADD_FAILURE();
   } catch (const std::out_of_range& error) {
     EXPECT_STREQ(error.what(), R"(rover: device "arm" speaks romi, not proxy or proxy-compat)");
   }
   EXPECT_EQ(rover.find("nothing"), nullptr);
   ASSERT_NE(rover.find("head"), nullptr);
-  EXPECT_EQ(rover.find("head")->codec, Codec::romi);
+  EXPECT_EQ(rover.find("head")->codec, romi::kCodec);
 
   Rover moved = std::move(rover);
   EXPECT_FALSE(rover.is_open());  // NOLINT(bugprone-use-after-move): documented as left empty
   EXPECT_TRUE(moved.is_open());
-  EXPECT_EQ(moved.romi("head")->call("e").code, 0);
+  EXPECT_EQ(moved.client<romi::Client>("head")->call("e").code, 0);
   moved.close();
   try {
-    moved.romi("arm");
+    moved.client<romi::Client>("arm");
     ADD_FAILURE();
   } catch (const std::out_of_range& error) {
     EXPECT_STREQ(error.what(), R"(rover: no device "arm" (the rover has no devices))");
@@ -231,17 +234,17 @@ TEST(DevicesRover, TheDefaultVirtualRoverOpensEveryCodecIncludingTheElcanoRing) 
   const RoverConfig config = parse_config(default_virtual_rover_config(), firmware());
   Rover rover = open_rover(config, io.executor());
   ASSERT_EQ(rover.devices().size(), 5u);
-  EXPECT_EQ(rover.devices()[3].codec, Codec::elcano);
+  EXPECT_EQ(rover.devices()[3].codec, elcano::kCodec);
   EXPECT_EQ(rover.devices()[3].transport, "virtual ring of 3 boards (elcano-node.elf; real_time)");
 
-  EXPECT_EQ(rover.romi("arm")->call("S[1200,1800]").code, 0);  // the romi-rover image
-  EXPECT_TRUE(rover.proxy("servos")->servo(10).set(45).acked);
+  EXPECT_EQ(rover.client<romi::Client>("arm")->call("S[1200,1800]").code, 0);  // the romi-rover image
+  EXPECT_TRUE(rover.client<proxy::Client>("servos")->servo(10).set(45).acked);
   boost::system::error_code error;
-  rover.proxy("legacy")->digital(7).set(true, error);
+  rover.client<proxy::Client>("legacy")->digital(7).set(true, error);
   EXPECT_FALSE(error) << error.message();
 
   // The reference ring: goal -> board 1 -> segment -> board 2 -> drive -> board 3 (servos) -> sensor -> host.
-  const auto ring = rover.elcano("ring");
+  const auto ring = rover.client<elcano::RingClient>("ring");
   const elcano::Message sensor = ring->request(goal(1, 90), elcano::Type::sensor);
   EXPECT_EQ(sensor.type, elcano::Type::sensor);
   EXPECT_EQ(sensor.speed, 150) << "the segment's cruise speed, driven and reported";
@@ -293,7 +296,7 @@ TEST(DevicesRover, AVirtualDeviceOnABoardSlowerThanRealTimeKeepsItsDeadlinesOnBo
   Rover rover = open_rover(rover_of({romi_device()}), io.executor());
   const RoverDevice& device = rover.devices().front();
   ASSERT_EQ(device.boards.size(), 1u);
-  const auto client = rover.romi("arm");
+  const auto client = rover.client<romi::Client>("arm");
   SlowedBoard slow(device.boards.front());
   const auto started = device.boards.front()->simulated_time();
   boost::system::error_code error;
@@ -336,7 +339,7 @@ TEST(DevicesRover, ARingWithRawEepromBytesRunsTheBuildDefaults) {
                                           firmware());
   Rover rover = open_rover(config, io.executor());
   boost::system::error_code error;
-  rover.elcano("ring")->request(goal(2, 0), elcano::Type::segment, error);
+  rover.client<elcano::RingClient>("ring")->request(goal(2, 0), elcano::Type::segment, error);
   EXPECT_EQ(error, elcano::RingError::undeliverable) << error.message();
 }
 
@@ -354,7 +357,7 @@ TEST(DevicesRover, AsyncOpenRunsOnAServicesOwnSingleThreadedEventLoop) {
   ASSERT_TRUE(rover.has_value());
   ASSERT_FALSE(failure);
   std::optional<romi::RomiResponse> answer;
-  rover->romi("arm")->async_call("e", [&](boost::system::error_code, romi::RomiResponse response) {
+  rover->client<romi::Client>("arm")->async_call("e", [&](boost::system::error_code, romi::RomiResponse response) {
     answer = std::move(response);
   });
   while (!answer && std::chrono::steady_clock::now() < limit) io.run_one_for(std::chrono::milliseconds(50));
@@ -375,7 +378,7 @@ TEST(DevicesRover, AsyncOpenWithAFutureRethrowsTheConfigError) {
     EXPECT_STREQ(error.what(), "devices[1].transport.serial.path: /dev/tether-none: No such file or directory");
   }
   Rover rover = async_open_rover(rover_of({romi_device()}), io.executor(), boost::asio::use_future).get();
-  EXPECT_EQ(rover.romi("arm")->call("e").code, 0);
+  EXPECT_EQ(rover.client<romi::Client>("arm")->call("e").code, 0);
 }
 
 TEST(DevicesRover, AKeptRingHandleOutlivesTheRoverSafely) {
@@ -384,7 +387,7 @@ TEST(DevicesRover, AKeptRingHandleOutlivesTheRoverSafely) {
   {
     Rover rover = open_rover(parse_config(R"({"devices": [{"name": "ring", "codec": "elcano",
         "transport": {"virtual_ring": {"boards": [{}, {}]}}}]})", firmware()), io.executor());
-    ring = rover.elcano("ring");
+    ring = rover.client<elcano::RingClient>("ring");
   }  // the rover closes the client and stops the ring; the boards live as long as the client's stream
   boost::system::error_code error;
   ring->send(goal(3, 0), error);

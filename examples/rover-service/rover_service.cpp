@@ -61,9 +61,9 @@ int main(int argc, char** argv) {
   bool romi = false, proxy = false, elcano = false, all_answered = true;
   try {
     for (const tether::devices::RoverDevice& device : rover.devices()) {
-      bool& done = device.codec == tether::devices::Codec::romi     ? romi
-                   : device.codec == tether::devices::Codec::elcano ? elcano
-                                                                    : proxy;
+      bool& done = device.client.get<tether::romi::Client>()         ? romi
+                   : device.client.get<tether::elcano::RingClient>() ? elcano
+                                                                     : proxy;
       if (done) continue;
       done = true;
       all_answered = drive(device) && all_answered;

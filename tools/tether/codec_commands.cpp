@@ -74,9 +74,18 @@ std::string codec_choices() {
   return text;
 }
 
+devices::Codec default_codec() {
+  const std::vector<const devices::CodecRow*> rows = devices::codec_rows();
+  for (const devices::CodecRow* row : rows) {
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands != nullptr && commands->is_default) return row->codec;
+  }
+  return rows.empty() ? devices::Codec{} : rows.front()->codec;
+}
+
 devices::Codec codec_of_image(const std::filesystem::path& firmware) {
   const std::string stem = firmware.stem().string();
-  devices::Codec codec = devices::Codec::romi;
+  devices::Codec codec = default_codec();
   std::size_t longest = 0;
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);

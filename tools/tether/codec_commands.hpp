@@ -77,8 +77,11 @@ struct CodecCommands {
   /// The codec's name: its devices row's (`romi`).
   std::string_view name;
   /// `--virtual IMAGE`: images whose file name starts with one of these speak it (the longest prefix wins;
-  /// no match: romi).
+  /// no match: the default codec).
   std::vector<std::string_view> image_prefixes;
+  /// The codec of a `--port` without `--codec` and of a `--virtual` image no prefix matches (one row has it:
+  /// romi's).
+  bool is_default = false;
   /// The device options only it takes, in the usage text under `<name> only, with --port or --virtual:`.
   std::vector<CodecFlag> flags;
   /// Printed after them: what else a person should know of its devices on the command line.
@@ -136,6 +139,8 @@ devices::Codec register_codec(devices::CodecRow device, CodecCommands commands);
 std::optional<devices::Codec> parse_codec(std::string_view text);
 /// The codecs the command knows: `romi, proxy, proxy-compat or elcano`.
 std::string codec_choices();
+/// The codec whose row `is_default` (else the first row's).
+devices::Codec default_codec();
 /// The codec of a `--virtual` image (by its file name).
 devices::Codec codec_of_image(const std::filesystem::path& firmware);
 

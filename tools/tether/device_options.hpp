@@ -107,7 +107,7 @@ class OpenDevice {
   friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                const ClientHooks& hooks, Progress& progress, std::string& error);
   // Copies of the rover's one device: the rover forgets its devices when it closes.
-  devices::Codec codec_ = devices::Codec::romi;
+  devices::Codec codec_{};
   devices::DeviceClient client_;
   std::string description_;
   std::shared_ptr<devices::Rover> rover_;

@@ -103,7 +103,7 @@ int run_stats(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
-  const auto target = resolve_device(arguments.device, devices::Codec::romi, error);
+  const auto target = resolve_device(arguments.device, default_codec(), error);
   if (!target) return command_text().usage_error(error);
   const CodecCommands& commands = *codec_commands(target->config.codec);
   const bool probes = static_cast<bool>(commands.send_probe);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "device_options.hpp"
+#include "tether/romi/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
 
 namespace {
@@ -42,7 +43,7 @@ TEST(OpenDevice, ClientAndCountersStayReadableAfterClose) {
   options.port = pty.path();
   options.boot_wait_ms = 0;
   std::string error;
-  const auto target = cli::resolve_device(options, devices::Codec::romi, error);
+  const auto target = cli::resolve_device(options, romi::kCodec, error);
   ASSERT_TRUE(target) << error;
   transports::IoThread io;
   cli::Progress progress("test");
@@ -50,7 +51,7 @@ TEST(OpenDevice, ClientAndCountersStayReadableAfterClose) {
   ASSERT_TRUE(device) << error;
   device->close();
   device->close();  // idempotent
-  EXPECT_EQ(device->codec(), devices::Codec::romi);
+  EXPECT_EQ(device->codec(), romi::kCodec);
   ASSERT_NE(device->client_as<romi::Client>(), nullptr);
   EXPECT_FALSE(device->client_as<romi::Client>()->is_open());
   nlohmann::ordered_json counters;

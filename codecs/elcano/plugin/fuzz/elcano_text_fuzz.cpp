@@ -81,7 +81,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::uint8_t selector = data[0];
   if ((selector & 0x01) == 0) {
     devices::DeviceConfig config;
-    config.codec = devices::Codec::elcano;
+    config.codec = elcano::kCodec;
     elcano::DeviceOptions options;
     options.generation = (selector & 0x40) != 0 ? elcano::Generation::d : elcano::Generation::b;
     options.capture = elcano::TypeSet::from_bits(static_cast<std::uint8_t>(selector >> 4));

@@ -133,7 +133,7 @@ void register_elcano(py::module_& parent) {
   rover_class(parent).def(
       "elcano",
       [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
-        return client_of<RingClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.elcano(n); });
+        return client_of<RingClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.client<elcano::RingClient>(n); });
       },
       py::arg("name"), "The ring client of the elcano device ``name``.");
 

@@ -85,9 +85,10 @@ devices::DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream
 
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
-  row.codec = devices::Codec::elcano;
+  row.codec = kCodec;
   row.name = "elcano";
   row.client_name = "elcano::RingClient";
+  row.client_type = &typeid(RingClient);
   row.option_keys = {"generation", "capture", "pacing", "attempt_timeout_ms", "call_budget_ms", "max_attempts"};
   row.virtual_boards = devices::VirtualBoards::ring;
   row.parse_options = parse_elcano;

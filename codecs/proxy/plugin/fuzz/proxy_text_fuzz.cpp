@@ -127,7 +127,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if ((selector & 0x01) == 0) {
     devices::DeviceConfig config;
     const bool compat = (selector & 0x02) != 0;
-    config.codec = compat ? devices::Codec::proxy_compat : devices::Codec::proxy;
+    config.codec = compat ? proxy::kCompatCodec : proxy::kCodec;
     proxy::DeviceOptions options;
     options.client.mode = compat ? proxy::Mode::compat : proxy::Mode::primary;
     config.options = options;

@@ -147,7 +147,7 @@ void register_proxy(py::module_& parent) {
   rover_class(parent).def(
       "proxy",
       [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
-        return client_of<ProxyClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.proxy(n); });
+        return client_of<ProxyClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.client<proxy::Client>(n); });
       },
       py::arg("name"), "The client of the proxy or proxy-compat device ``name``.");
 

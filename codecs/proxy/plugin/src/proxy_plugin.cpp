@@ -46,7 +46,7 @@ PinInit parse_init(const devices::JsonNode& node) {
 DeviceOptions parse_proxy_options(const devices::JsonObject* object, devices::Codec codec,
                                   const devices::TransportConfig& transport) {
   DeviceOptions options;
-  options.client = codec == devices::Codec::proxy ? Options::primary() : Options::compat();
+  options.client = codec == kCodec ? Options::primary() : Options::compat();
   if (const auto* serial = std::get_if<devices::SerialTransport>(&transport))
     options.client.timing.baud = serial->options.baud;
   if (object == nullptr) return options;
@@ -114,7 +114,7 @@ void validate_proxy(const devices::CodecOptions& codec_options, const std::strin
   if (options == nullptr)
     devices::fail_config(options_path,
                          "codec " + std::string(devices::to_string(codec)) + " needs proxy::DeviceOptions");
-  const Mode mode = codec == devices::Codec::proxy ? Mode::primary : Mode::compat;
+  const Mode mode = codec == kCodec ? Mode::primary : Mode::compat;
   if (options->client.mode != mode) {
     devices::fail_config(options_path,
                          "the client's mode does not match codec " + std::string(devices::to_string(codec)));
@@ -224,6 +224,7 @@ std::vector<devices::CodecRow> codec_rows() {
     row.codec = codec;
     row.name = name;
     row.client_name = client_name;
+    row.client_type = &typeid(Client);
     row.parse_options = parse_proxy;
     row.validate = [codec](const devices::CodecOptions& options, const std::string& path) {
       validate_proxy(options, path, codec);
@@ -231,11 +232,11 @@ std::vector<devices::CodecRow> codec_rows() {
     row.open = open_proxy;
     row.await_ready = await_proxy;
   };
-  fill(rows[0], devices::Codec::proxy, "proxy", "proxy::Client");
+  fill(rows[0], kCodec, "proxy", "proxy::Client");
   rows[0].option_keys = {
       "baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms", "max_sends", "queue_timeout_ms",
       "ping_period_ms", "reset_timeout_ms", "open_timeout_ms",      "inits"};
-  fill(rows[1], devices::Codec::proxy_compat, "proxy-compat", "proxy::Client (proxy::Options::compat())");
+  fill(rows[1], kCompatCodec, "proxy-compat", "proxy::Client (proxy::Options::compat())");
   rows[1].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[1].default_baud = 57600;  // the deployed firmware's
   return rows;

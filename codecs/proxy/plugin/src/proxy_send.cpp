@@ -174,13 +174,12 @@ int run_send(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;
-  auto target = resolve_device(arguments.device, devices::Codec::proxy, error);
+  auto target = resolve_device(arguments.device, proxy::kCodec, error);
   if (!target) return command_text().usage_error(error);
-  if (target->config.codec != devices::Codec::proxy && target->config.codec != devices::Codec::proxy_compat) {
+  if (target->config.codec != proxy::kCodec && target->config.codec != proxy::kCompatCodec) {
     const devices::Codec codec = target->config.codec;
     return command_text().usage_error(target->label + " speaks " + std::string(devices::to_string(codec)) +
-                                      ", not the proxy protocol" +
-                                      (codec == devices::Codec::romi ? " (use `tether call` or `tether shell`)" : ""));
+                                      ", not the proxy protocol (`tether shell` and `monitor` talk to it)");
   }
   auto& proxy_options = target->config.options.get<proxy::DeviceOptions>();
   const proxy::Mode mode = proxy_options.client.mode;

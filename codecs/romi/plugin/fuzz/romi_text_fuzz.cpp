@@ -64,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::uint8_t selector = data[0];
   if ((selector & 0x01) == 0) {
     devices::DeviceConfig config;
-    config.codec = devices::Codec::romi;
+    config.codec = romi::kCodec;
     config.options = romi::DeviceOptions();
     decode(config, selector, data, size);
     return 0;

@@ -248,7 +248,7 @@ void register_romi(py::module_& parent) {
   rover_class(parent).def(
       "romi",
       [](const std::shared_ptr<RoverHolder>& holder, const std::string& device) {
-        return client_of<RomiClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.romi(n); });
+        return client_of<RomiClient>(holder, device, [](devices::Rover& rover, const std::string& n) { return rover.client<romi::Client>(n); });
       },
       py::arg("name"), "The client of the romi device ``name``.");
 

@@ -139,9 +139,9 @@ int run_call(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error_text;
-  auto target = resolve_device(arguments.device, devices::Codec::romi, error_text);
+  auto target = resolve_device(arguments.device, romi::kCodec, error_text);
   if (!target) return command_text().usage_error(error_text);
-  if (target->config.codec != devices::Codec::romi) {
+  if (target->config.codec != romi::kCodec) {
     return command_text().usage_error(target->label + " speaks " +
                                       std::string(devices::to_string(target->config.codec)) +
                                       ", not romi (`tether send`, `shell` or `monitor` talk to it)");

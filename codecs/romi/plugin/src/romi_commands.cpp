@@ -55,6 +55,7 @@ CodecCommands romi_commands() {
   CodecCommands row;
   row.name = "romi";
   row.image_prefixes = {"romi"};
+  row.is_default = true;
   row.default_options = [](std::uint32_t, const DeviceOptions&) -> devices::CodecOptions {
     return romi::DeviceOptions();
   };

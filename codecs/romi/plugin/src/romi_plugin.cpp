@@ -42,9 +42,10 @@ devices::DeviceClient open(std::shared_ptr<transports::ByteStream> stream, const
 
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
-  row.codec = devices::Codec::romi;
+  row.codec = kCodec;
   row.name = "romi";
   row.client_name = "romi::Client";
+  row.client_type = &typeid(Client);
   row.option_keys = {"attempt_timeout_ms", "call_budget_ms", "max_attempts", "retry_on_timeout", "first_id"};
   row.parse_options = parse;
   row.validate = validate;

@@ -32,6 +32,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <typeinfo>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -59,7 +60,7 @@ struct OptionsContext {
   /// JSON path of the options (`devices[1].options`), for the `ConfigError`s the parser throws.
   std::string path;
   /// The row's codec (one parser may serve two rows: proxy and proxy-compat).
-  Codec codec = Codec::romi;
+  Codec codec{};
   /// The device's transport, already parsed (a serial transport's baud is the default of a codec's own).
   const TransportConfig* transport = nullptr;
 
@@ -80,12 +81,15 @@ void check_call_timing(const std::string& options_path, const session::CallTimin
 /// One codec: its names, options, transports and how a device speaking it is opened. Every function is
 /// called on the thread that parses or opens; they report errors by throwing `ConfigError`.
 struct CodecRow {
-  /// The codec's value (`register_codec` assigns it to a new row).
-  Codec codec = Codec::romi;
+  /// The codec's value: a plugin's own constant (below 16); `register_codec` assigns one to a new row.
+  Codec codec{};
   /// Its name in configurations (`"codec": "romi"`), in messages and on the command line (`--codec`).
   std::string_view name;
   /// What opens it, for messages and documentation: `romi::Client`.
   std::string_view client_name;
+  /// The type of its client (`&typeid(romi::Client)`): `Rover::client<Client>` names the codecs whose client a
+  /// device does not have. Null: not named.
+  const std::type_info* client_type = nullptr;
   /// Keys allowed in the device's `"options"`; a key of another codec's only is named as such.
   std::vector<std::string_view> option_keys;
   /// Line speed of a serial transport that does not set one.

@@ -100,14 +100,11 @@ class ConfigError : public std::runtime_error {
   std::string file_;
 };
 
-/// The protocol a device speaks: a row of the codec table (codecs.hpp). Values other than these name codecs a
-/// program registered (`register_codec`).
-enum class Codec : std::uint8_t {
-  romi,          ///< Romi text request/response (`romi::Client`).
-  proxy,         ///< COBS + CRC-16 protobuf, designed protocol (`proxy::Client`, primary mode).
-  proxy_compat,  ///< The deployed proxy variant (`proxy::Client`, `proxy::Options::compat()`).
-  elcano,        ///< Elcano ring (`elcano::RingClient`).
-};
+/// The protocol a device speaks: the value of a row of the codec table (codecs.hpp). A codec plugin declares
+/// its own beside its options (`romi::kCodec`, `proxy::kCodec`, `proxy::kCompatCodec`, `elcano::kCodec`:
+/// below 16, one each, checked when the table is built); a codec a program registers gets one assigned
+/// (`register_codec`, 16 and up). `Codec{}` (0) is the Romi codec's.
+enum class Codec : std::uint8_t {};
 
 /// The codec's name in configurations: `romi`, `proxy`, `proxy-compat`, `elcano` (its row's `name`;
 /// `unknown` for a value no row has).
@@ -248,7 +245,7 @@ class CodecOptions {
 /// One device of the rover.
 struct DeviceConfig {
   std::string name;           ///< Unique within the rover, non-empty.
-  Codec codec = Codec::romi;  ///< Protocol.
+  Codec codec{};  ///< Protocol (a plugin's `kCodec`, or a registered codec's value).
   TransportConfig transport;  ///< How it is reached.
   CodecOptions options;       ///< The codec's options (defaults when the document gives none).
 };

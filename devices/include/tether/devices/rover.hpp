@@ -4,8 +4,8 @@
 /// @code
 ///   transports::IoThread io;                                           // or any thread running an io_context
 ///   devices::Rover rover = devices::open_rover(config, io.executor());  // throws devices::ConfigError
-///   rover.romi("arm")->call("L[1]");
-///   rover.proxy("servos")->servo(9).set(120);
+///   rover.client<romi::Client>("arm")->call("L[1]");                 // tether/romi/client.hpp
+///   rover.client<proxy::Client>("servos")->servo(9).set(120);        // tether/proxy/client.hpp
 ///   for (const devices::RoverDevice& device : rover.devices()) log(device.name, device.transport);
 ///   rover.close();                                                     // or let it go out of scope
 /// @endcode
@@ -62,9 +62,6 @@
 #include <vector>
 
 #include "tether/devices/config.hpp"
-#include "tether/elcano/client.hpp"
-#include "tether/proxy/client.hpp"
-#include "tether/romi/client.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
@@ -118,7 +115,7 @@ class DeviceClient {
 /// One opened device.
 struct RoverDevice {
   std::string name;           ///< Its name in the configuration.
-  Codec codec = Codec::romi;  ///< Its codec.
+  Codec codec{};              ///< Its codec.
   std::string transport;      ///< `describe(transport)`: `serial /dev/ttyACM0 115200`, `virtual proxy.elf (...)`.
   DeviceClient client;        ///< The client (`romi::Client`, `proxy::Client`, `elcano::RingClient`).
   /// The simulated boards behind a virtual device (one, or a ring's in ring order); empty for hardware.
@@ -165,13 +162,16 @@ class Rover {
   Rover(const Rover&) = delete;
   Rover& operator=(const Rover&) = delete;
 
-  /// The client of the romi device `name`. Throws `std::out_of_range` when there is no such device or it
-  /// speaks another codec (the message says which, and lists the devices).
-  std::shared_ptr<romi::Client> romi(std::string_view name) const;
-  /// The client of the proxy or proxy-compat device `name`. Throws `std::out_of_range` like `romi()`.
-  std::shared_ptr<proxy::Client> proxy(std::string_view name) const;
-  /// The ring client of the elcano device `name`. Throws `std::out_of_range` like `romi()`.
-  std::shared_ptr<elcano::RingClient> elcano(std::string_view name) const;
+  /// The client of device `name`, which must be a `Client` (`rover.client<romi::Client>("arm")`; a proxy
+  /// or proxy-compat device's is a `proxy::Client`, an elcano device's an `elcano::RingClient`). Throws
+  /// `std::out_of_range` when there is no such device (the message lists the devices) or its client is
+  /// another type (the message says which codec it speaks and which have a `Client`).
+  template <typename Client>
+  std::shared_ptr<Client> client(std::string_view name) const {
+    const RoverDevice& device = lookup(name);
+    if (auto typed = device.client.get<Client>()) return typed;
+    throw_other_client(device, typeid(Client));
+  }
   /// The device `name`, or null.
   const RoverDevice* find(std::string_view name) const;
   /// Every device, in the configuration's order.
@@ -185,7 +185,8 @@ class Rover {
 
  private:
   friend class detail::RoverOpener;
-  const RoverDevice& lookup(std::string_view name, std::string_view wanted, bool (*accepts)(Codec)) const;
+  const RoverDevice& lookup(std::string_view name) const;
+  [[noreturn]] static void throw_other_client(const RoverDevice& device, const std::type_info& wanted);
 
   std::vector<RoverDevice> devices_;
   std::vector<std::function<void()>> stops_;  // stop what the clients do not (virtual rings), after they closed

@@ -22,6 +22,9 @@
 
 namespace tether::elcano {
 
+/// The codec's value in the devices table (`DeviceConfig::codec`, `RoverDevice::codec`).
+inline constexpr devices::Codec kCodec{3};
+
 /// Options of an `elcano` device, the host's node in the ring (keys in docs/config.md).
 struct DeviceOptions {
   Generation generation = Generation::b;  ///< Wire generation of the ring.

@@ -19,6 +19,11 @@
 
 namespace tether::proxy {
 
+/// The `proxy` codec's value in the devices table (`DeviceConfig::codec`, `RoverDevice::codec`).
+inline constexpr devices::Codec kCodec{1};
+/// The `proxy-compat` codec's value: the same client in compat mode (`proxy::Options::compat()`).
+inline constexpr devices::Codec kCompatCodec{2};
+
 /// One pin init a proxy device replays after every reset (`proxy::Client` registers it; see client.hpp).
 struct PinInit {
   /// Which kind of output.

@@ -20,6 +20,9 @@
 
 namespace tether::romi {
 
+/// The codec's value in the devices table (`DeviceConfig::codec`, `RoverDevice::codec`).
+inline constexpr devices::Codec kCodec{0};
+
 /// Options of a `romi` device (keys in docs/config.md).
 struct DeviceOptions {
   /// Attempt window, call budget, sends per call, re-send on a silent attempt (`romi::Options`).
