@@ -21,11 +21,13 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include "tether/core/wakeup.hpp"
 #include "tether/transports/client_link.hpp"
+#include "tether/transports/pending_operations.hpp"
 
 namespace tether::elcano {
 
@@ -70,7 +72,8 @@ class RingClientImpl final : public transports::ClientLink {
         options_(options),
         node_(options.node, now(), counters_.link, counters_.ring),
         table_(options.timing, 0, counters_.link),
-        capture_(options.node.capture) {
+        capture_(options.node.capture),
+        pending_(executor(), [this] { publish(); }) {
     published_capture_.set(capture_);
   }
 
@@ -94,11 +97,14 @@ class RingClientImpl final : public transports::ClientLink {
       post_completion(std::move(handler), error_code(asio::error::operation_aborted));
       return;
     }
-    auto item = std::make_unique<Outgoing>();
-    item->message = message;
-    item->send_handler = std::move(handler);
-    item->operation = operation;
-    post_to_strand([this, item = std::move(item)]() mutable { accept_send(std::move(item)); });
+    RingOperation send;
+    send.kind = Kind::send;
+    send.message = message;
+    // One queue for every operation: a send's handler takes the message argument and drops it.
+    MessageHandler completion = [handler = std::move(handler)](error_code error, Message) mutable { handler(error); };
+    post_to_strand([this, operation, completion = std::move(completion), send = std::move(send)]() mutable {
+      accept_send(operation, std::move(completion), std::move(send));
+    });
   }
 
   void submit_request(OperationId operation, const Message& message, Type reply_type, MessageHandler handler) {
@@ -115,13 +121,14 @@ class RingClientImpl final : public transports::ClientLink {
       post_completion(std::move(handler), error_code(asio::error::operation_aborted), Message());
       return;
     }
-    auto call = std::make_shared<Call>();
-    call->reply = reply_type;
-    call->message = message;
-    call->bytes = std::move(bytes);
-    call->handler = std::move(handler);
-    call->operation = operation;
-    post_to_strand([this, call = std::move(call)]() mutable { accept_request(std::move(call)); });
+    RingOperation call;
+    call.kind = Kind::request;
+    call.reply = reply_type;
+    call.message = message;
+    call.bytes = std::move(bytes);
+    post_to_strand([this, operation, handler = std::move(handler), call = std::move(call)]() mutable {
+      accept_request(operation, std::move(handler), std::move(call));
+    });
   }
 
   void submit_receive(OperationId operation, std::optional<Duration> timeout, MessageHandler handler) {
@@ -129,11 +136,9 @@ class RingClientImpl final : public transports::ClientLink {
       post_completion(std::move(handler), error_code(asio::error::operation_aborted), Message());
       return;
     }
-    auto receiver = std::make_unique<Receiver>();
-    receiver->handler = std::move(handler);
-    receiver->timeout = timeout;
-    receiver->operation = operation;
-    post_to_strand([this, receiver = std::move(receiver)]() mutable { accept_receive(std::move(receiver)); });
+    post_to_strand([this, operation, timeout, handler = std::move(handler)]() mutable {
+      accept_receive(operation, timeout, std::move(handler));
+    });
   }
 
   void set_capture(TypeSet capture) {
@@ -151,39 +156,28 @@ class RingClientImpl final : public transports::ClientLink {
   Counters counters() const { return published_.get(); }
 
  private:
-  // A request from acceptance to completion.
-  struct Call {
-    Type reply = Type::segment;
-    Message message;
-    std::string bytes;            // as written: recognises the request when it comes back
-    MessageHandler handler;
-    OperationId operation = 0;
-    bool sent = false;            // first originated: its reply type is captured from then on
-    bool resend_pending = false;  // the engine asked for a re-send that found no room yet
-    std::uint64_t end = 0;        // output offset after its first origination's last byte
-  };
-  // A send or a request's first origination waiting for room in the node's output queue.
-  struct Outgoing {
-    std::shared_ptr<Call> call;  // a request; else a send:
-    Message message;
-    SendHandler send_handler;
-    OperationId operation = 0;  // sends (a request's is its call's)
-    Millis deadline = 0;        // sends: `send_timeout` after acceptance
-  };
-  // A send originated, completing once its last byte (at offset `end` of the output) was written, or
-  // failing at its deadline when the stream did not take it by then (a device that stopped reading).
-  struct Written {
+  enum class Kind : std::uint8_t { send, request, receive };
+  // A send, a request or a receive from acceptance to completion (sends and receives may have a deadline:
+  // `send_timeout` after acceptance, the receive's timeout).
+  struct RingOperation {
+    Kind kind = Kind::send;
+    Message message;              // sends and requests
+    // Sends and requests: handed to the node (else it waits for room in its output queue, in submission
+    // order); `end` is the output offset after that origination's last byte. A send completes once the
+    // stream took it; a request's reply type is captured from then on.
+    bool originated = false;
     std::uint64_t end = 0;
-    SendHandler handler;
-    OperationId operation = 0;
-    Millis deadline = 0;
+    // Requests.
+    Type reply = Type::segment;
+    std::string bytes;            // as written: recognises the request when it comes back
+    bool resend_pending = false;  // the engine asked for a re-send that found no room yet
   };
-  struct Receiver {
-    MessageHandler handler;
-    OperationId operation = 0;
-    std::optional<Duration> timeout;
-    Millis deadline = 0;
-  };
+  using Operations = transports::PendingOperations<MessageSignature, RingOperation>;
+  using Entry = Operations::iterator;
+
+  static bool waits_for_room(const RingOperation& operation) {
+    return operation.kind != Kind::receive && !operation.originated;
+  }
 
   // --- accepting operations ----------------------------------------------------------------------------
 
@@ -194,115 +188,117 @@ class RingClientImpl final : public transports::ClientLink {
     return error_code();
   }
 
-  void accept_send(std::unique_ptr<Outgoing> item) {
+  void accept_send(OperationId operation, MessageHandler handler, RingOperation send) {
+    const Entry entry = pending_.add(operation, std::move(handler), std::move(send));
     if (const error_code error = unusable()) {
-      complete(std::move(item->send_handler), error);
+      pending_.complete(entry, error, Message());
       return;
     }
     const Millis now = this->now();
-    item->deadline = static_cast<Millis>(now + options_.send_timeout);
-    enqueue(std::move(item), now);
+    entry->deadline.arm(now, options_.send_timeout);
+    enqueue(entry, now);
     pump(now);
   }
 
-  void accept_request(std::shared_ptr<Call> call) {
+  void accept_request(OperationId operation, MessageHandler handler, RingOperation call) {
+    const Entry entry = pending_.add(operation, std::move(handler), std::move(call));
     if (const error_code error = unusable()) {
-      complete(std::move(call->handler), error, Message());
+      pending_.complete(entry, error, Message());
       return;
     }
-    const std::uint8_t id = call_id(call->reply);
+    const std::uint8_t id = call_id(entry->state.reply);
     const Millis now = this->now();
     if (calls_.count(id) != 0 || !table_.begin_with(id, now).ok()) {
-      complete(std::move(call->handler), RingError::reply_type_busy, Message());
+      pending_.complete(entry, RingError::reply_type_busy, Message());
       return;
     }
-    calls_.emplace(id, call);
-    auto item = std::make_unique<Outgoing>();
-    item->call = std::move(call);
-    enqueue(std::move(item), now);
+    calls_.emplace(id, entry);
+    enqueue(entry, now);
     pump(now);
   }
 
-  void accept_receive(std::unique_ptr<Receiver> receiver) {
+  void accept_receive(OperationId operation, std::optional<Duration> timeout, MessageHandler handler) {
+    RingOperation receive;
+    receive.kind = Kind::receive;
+    const Entry entry = pending_.add(operation, std::move(handler), std::move(receive));
     if (const error_code error = unusable()) {
-      complete(std::move(receiver->handler), error, Message());
+      pending_.complete(entry, error, Message());
       return;
     }
-    if (!received_.empty() && receivers_.empty()) {
+    if (!received_.empty() && first_receiver() == entry) {  // no receiver waits before it
       Message message = received_.front();
       received_.pop_front();
-      complete(std::move(receiver->handler), error_code(), message);
+      pending_.complete(entry, error_code(), message);
       return;
     }
-    if (receiver->timeout && *receiver->timeout == 0) {
-      complete(std::move(receiver->handler), RingError::receive_timed_out, Message());
+    if (timeout && *timeout == 0) {
+      pending_.complete(entry, RingError::receive_timed_out, Message());
       return;
     }
     const Millis now = this->now();
-    if (receiver->timeout) receiver->deadline = static_cast<Millis>(now + *receiver->timeout);
-    receivers_.push_back(std::move(receiver));
+    if (timeout) entry->deadline.arm(now, *timeout);
     pump(now);
   }
 
-  // Originates `item` now if nothing waits before it and there is room; else queues it within the bound.
-  void enqueue(std::unique_ptr<Outgoing> item, Millis now) {
-    if (outgoing_.empty() && !resend_waiting() && originate(*item, now)) return;
-    if (outgoing_.size() >= options_.send_queue_bound) {
-      if (item->call) {
-        const std::shared_ptr<Call> call = item->call;
-        (void)table_.cancel(call_id(call->reply));
-        calls_.erase(call_id(call->reply));
-        complete(std::move(call->handler), RingError::send_queue_full, Message());
-      } else {
-        complete(std::move(item->send_handler), RingError::send_queue_full);
-      }
-      return;
+  Entry first_receiver() {
+    return std::find_if(pending_.begin(), pending_.end(),
+                        [](const Operations::Operation& operation) { return operation.state.kind == Kind::receive; });
+  }
+
+  // Originates `entry` now if nothing waits before it and there is room; else it waits within the bound.
+  void enqueue(Entry entry, Millis now) {
+    std::size_t waiting = 0;  // others waiting for room
+    for (const auto& operation : pending_) {
+      if (waits_for_room(operation.state)) ++waiting;
     }
-    outgoing_.push_back(std::move(item));
+    --waiting;  // `entry` itself
+    if (waiting == 0 && !resend_waiting() && originate(entry, now)) return;
+    if (waiting >= options_.send_queue_bound) {
+      if (entry->state.kind == Kind::request) {
+        (void)table_.cancel(call_id(entry->state.reply));
+        calls_.erase(call_id(entry->state.reply));
+      }
+      pending_.complete(entry, RingError::send_queue_full, Message());
+    }
   }
 
   // --- originating ---------------------------------------------------------------------------------------
 
   bool resend_waiting() const {
-    return std::any_of(calls_.begin(), calls_.end(), [](const auto& entry) { return entry.second->resend_pending; });
+    return std::any_of(calls_.begin(), calls_.end(), [](const auto& entry) { return entry.second->state.resend_pending; });
   }
 
-  // Hands `item` to the node. False when the output queue has no room (the item stays the caller's).
-  bool originate(Outgoing& item, Millis now) {
-    const Message& message = item.call ? item.call->message : item.message;
-    const Status status = node_.originate(message, now);
+  // Hands `entry` to the node. False when the output queue has no room (it keeps waiting); true when it
+  // was originated, or failed and completed (the entry is gone then).
+  bool originate(Entry entry, Millis now) {
+    RingOperation& operation = entry->state;
+    const Status status = node_.originate(operation.message, now);
     if (status == Status::busy) return false;
-    if (status != Status::ok) {  // not reached: validated on submission. The caller drops the item.
-      if (item.call) {
-        (void)table_.cancel(call_id(item.call->reply));
-        calls_.erase(call_id(item.call->reply));
-        complete(std::move(item.call->handler), RingError::invalid_message, Message());
-      } else {
-        complete(std::move(item.send_handler), RingError::invalid_message);
+    if (status != Status::ok) {  // not reached: validated on submission
+      if (operation.kind == Kind::request) {
+        (void)table_.cancel(call_id(operation.reply));
+        calls_.erase(call_id(operation.reply));
       }
+      pending_.complete(entry, RingError::invalid_message, Message());
       return true;
     }
-    if (item.call) {
-      item.call->sent = true;
-      item.call->end = taken_ + node_.pending_output();
-      refresh_capture();
-    } else {
-      written_.push_back(
-          Written{taken_ + node_.pending_output(), std::move(item.send_handler), item.operation, item.deadline});
-    }
+    operation.originated = true;
+    operation.end = taken_ + node_.pending_output();
+    if (operation.kind == Kind::request) refresh_capture();
     return true;
   }
 
   // Re-sends first, then waiting messages in order, while the node has room.
   void originate_waiting(Millis now) {
     for (auto& [id, call] : calls_) {
-      if (!call->resend_pending) continue;
-      if (node_.originate(call->message, now) != Status::ok) return;
-      call->resend_pending = false;
+      if (!call->state.resend_pending) continue;
+      if (node_.originate(call->state.message, now) != Status::ok) return;
+      call->state.resend_pending = false;
     }
-    while (!outgoing_.empty()) {
-      if (!originate(*outgoing_.front(), now)) return;
-      outgoing_.pop_front();
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      const Entry next = std::next(it);
+      if (waits_for_room(it->state) && !originate(it, now)) return;
+      it = next;
     }
   }
 
@@ -310,7 +306,7 @@ class RingClientImpl final : public transports::ClientLink {
   void refresh_capture() {
     TypeSet effective = capture_;
     for (const auto& [id, call] : calls_) {
-      if (call->sent) effective = effective.with(call->reply);
+      if (call->state.originated) effective = effective.with(call->state.reply);
     }
     node_.set_capture(effective);
   }
@@ -329,14 +325,15 @@ class RingClientImpl final : public transports::ClientLink {
           [this, size](error_code error) { on_flushed(error, size); });
   }
 
+  // Sends whose last byte the stream took complete.
   void on_flushed(const error_code& error, std::size_t size) {
     writing_ = false;
     if (error) return;  // closed or failed: on_closed / on_link_failed fail what waits
     written_total_ += size;
     counters_.bytes_written += static_cast<std::uint32_t>(size);
-    while (!written_.empty() && written_.front().end <= written_total_) {
-      complete(std::move(written_.front().handler), error_code());  // empty when it expired
-      written_.pop_front();
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      const bool written = it->state.kind == Kind::send && it->state.originated && it->state.end <= written_total_;
+      it = written ? pending_.complete(it, error_code(), Message()) : std::next(it);
     }
     pump(now());
   }
@@ -382,7 +379,7 @@ class RingClientImpl final : public transports::ClientLink {
 
   void on_captured(const Message& message, Millis now) {
     const auto found = calls_.find(call_id(message.type));
-    if (found != calls_.end() && found->second->sent) {
+    if (found != calls_.end() && found->second->state.originated) {
       const Table::ReplyResult result = table_.on_reply(found->first, 0, now);
       if (result.verdict == Table::Verdict::completed) {
         ++counters_.replies;
@@ -390,10 +387,9 @@ class RingClientImpl final : public transports::ClientLink {
         return;
       }
     }
-    if (!receivers_.empty()) {
-      std::unique_ptr<Receiver> receiver = std::move(receivers_.front());
-      receivers_.pop_front();
-      complete(std::move(receiver->handler), error_code(), message);
+    const Entry receiver = first_receiver();
+    if (receiver != pending_.end()) {
+      pending_.complete(receiver, error_code(), message);
       return;
     }
     received_.push_back(message);
@@ -410,10 +406,11 @@ class RingClientImpl final : public transports::ClientLink {
     const std::string bytes = encode(message, options_.node.generation);
     events::Undeliverable report{message, false};
     for (const auto& [id, call] : calls_) {
-      if (!call->sent || call->bytes != bytes) continue;
+      if (!call->state.originated || call->state.bytes != bytes) continue;
+      const Entry failed = call;
       (void)table_.cancel(id);
       report.request_failed = true;
-      finish(call, RingError::undeliverable, Message());
+      finish(failed, RingError::undeliverable, Message());
       break;
     }
     emit(report);
@@ -421,28 +418,26 @@ class RingClientImpl final : public transports::ClientLink {
 
   // --- completions ---------------------------------------------------------------------------------------
 
-  // Ends request `call` (already out of the engine) with `error` or `reply`.
-  void finish(std::shared_ptr<Call> call, error_code error, const Message& reply) {
-    calls_.erase(call_id(call->reply));
-    if (!call->sent) {
-      std::erase_if(outgoing_, [&](const auto& item) { return item->call == call; });
-    }
+  // Ends request `call` (already out of the engine) with `error` or `reply` (one still waiting for its
+  // first origination leaves the queue with it).
+  void finish(Entry call, error_code error, const Message& reply) {
+    calls_.erase(call_id(call->state.reply));
     refresh_capture();
-    complete(std::move(call->handler), error, reply);
+    pending_.complete(call, error, reply);
   }
 
   // An engine completion (timeout; `ok` and `cancelled` are finished where they happen).
   void on_completion(const Table::Completion& completion) {
     const auto found = calls_.find(completion.id);
     if (found == calls_.end()) return;
+    const RingOperation& call = found->second->state;
     error_code error;
     switch (completion.outcome) {
       case session::CallOutcome::timeout:
       case session::CallOutcome::remote_error:  // not produced: every reply of the type succeeds
       case session::CallOutcome::ok:            // not produced by poll
         // A request that never fully reached the stream did not go unanswered: it was never asked.
-        error = (!found->second->sent || written_total_ < found->second->end) ? RingError::send_timed_out
-                                                                              : RingError::timed_out;
+        error = (!call.originated || written_total_ < call.end) ? RingError::send_timed_out : RingError::timed_out;
         break;
       case session::CallOutcome::cancelled:
         error = asio::error::operation_aborted;
@@ -452,36 +447,13 @@ class RingClientImpl final : public transports::ClientLink {
   }
 
   void fail_all(const error_code& error) {
-    std::map<std::uint8_t, std::shared_ptr<Call>> calls = std::move(calls_);
+    pending_.fail_all([&](Operations::Operation& operation) {
+      if (operation.state.kind == Kind::request) (void)table_.cancel(call_id(operation.state.reply));
+      return std::tuple<error_code, Message>(error, Message());
+    });
     calls_.clear();
-    for (auto& [id, call] : calls) {
-      (void)table_.cancel(id);
-      complete(std::move(call->handler), error, Message());
-    }
-    for (auto& item : outgoing_) {
-      if (!item->call) complete(std::move(item->send_handler), error);
-    }
-    outgoing_.clear();
-    for (auto& written : written_) complete(std::move(written.handler), error);
-    written_.clear();
-    for (auto& receiver : receivers_) complete(std::move(receiver->handler), error, Message());
-    receivers_.clear();
     abort_writes(error);
     refresh_capture();
-  }
-
-  // Hands a result to its caller (posted, never on the strand); the counters are published first, so a
-  // caller reading them after its completion sees what led to it.
-  template <typename Handler, typename... Args>
-  void complete(Handler handler, Args... args) {
-    if (!handler) return;
-    publish();
-    post_completion(std::move(handler), std::move(args)...);
-  }
-
-  void complete(SendHandler handler, RingError error) { complete(std::move(handler), error_code(error)); }
-  void complete(MessageHandler handler, RingError error, Message message) {
-    complete(std::move(handler), error_code(error), std::move(message));
   }
 
   // --- events --------------------------------------------------------------------------------------------
@@ -506,32 +478,20 @@ class RingClientImpl final : public transports::ClientLink {
 
   void on_timer() override { pump(now()); }
 
-  // The application cancelled one operation (the header lists what that means for each kind).
+  // The application cancelled one operation (the header lists what that means for each kind). A send
+  // already handed to the node is written all the same and completes then.
   void on_cancel(OperationId operation) override {
-    const error_code aborted = asio::error::operation_aborted;
-    for (const auto& [id, call] : calls_) {
-      if (call->operation != operation) continue;
-      (void)table_.cancel(id);
-      finish(call, aborted, Message());  // also drops its first origination still waiting for room
-      pump(now());
-      return;
-    }
-    const auto waiting = std::find_if(outgoing_.begin(), outgoing_.end(),
-                                      [&](const auto& item) { return !item->call && item->operation == operation; });
-    if (waiting != outgoing_.end()) {
-      complete(std::move((*waiting)->send_handler), aborted);
-      outgoing_.erase(waiting);
-      pump(now());
-      return;
-    }
-    const auto receiver = std::find_if(receivers_.begin(), receivers_.end(),
-                                       [&](const auto& r) { return r->operation == operation; });
-    if (receiver != receivers_.end()) {
-      complete(std::move((*receiver)->handler), aborted, Message());
-      receivers_.erase(receiver);
-      pump(now());
-    }
-    // A send already handed to the node (`written_`) is written all the same and completes then.
+    const Entry found = pending_.find(operation);
+    if (found == pending_.end() || (found->state.kind == Kind::send && found->state.originated)) return;
+    pending_.cancel(operation, [&](Operations::Operation& cancelled) {
+      if (cancelled.state.kind == Kind::request) {  // also drops its first origination still waiting for room
+        (void)table_.cancel(call_id(cancelled.state.reply));
+        calls_.erase(call_id(cancelled.state.reply));
+        refresh_capture();
+      }
+      return std::tuple<error_code, Message>(asio::error::operation_aborted, Message());
+    });
+    pump(now());
   }
 
   // --- the pump ------------------------------------------------------------------------------------------
@@ -549,43 +509,27 @@ class RingClientImpl final : public transports::ClientLink {
       if (step.action == Table::Action::resend) {
         const auto found = calls_.find(step.id);
         // A request still waiting for its first origination needs no second copy.
-        if (found != calls_.end() && found->second->sent) found->second->resend_pending = true;
+        if (found != calls_.end() && found->second->state.originated) found->second->state.resend_pending = true;
       } else {
         on_completion(step.completion);
       }
     }
-    expire(now);
+    // Sends that waited `send_timeout` for room or for the stream to take them (their bytes stay in the
+    // output: the node cannot take them back), receives past their timeout; in that order.
+    const auto failed_with = [](RingError error) {
+      return [error](Operations::Operation&) { return std::tuple<error_code, Message>(error, Message()); };
+    };
+    const auto waiting_send = [](const Operations::Operation& send) {
+      return send.state.kind == Kind::send && !send.state.originated;
+    };
+    const auto originated_send = [](const Operations::Operation& send) { return send.state.kind == Kind::send; };
+    pending_.expire_if(now, waiting_send, failed_with(RingError::send_timed_out));
+    pending_.expire_if(now, originated_send, failed_with(RingError::send_timed_out));
+    pending_.expire(now, failed_with(RingError::receive_timed_out));  // only receives are left with a deadline
     originate_waiting(now);
     flush(now);
     arm_timer(now);
     publish();
-  }
-
-  // Sends that waited `send_timeout` for room or for the stream to take them, receives past their timeout.
-  void expire(Millis now) {
-    for (auto it = outgoing_.begin(); it != outgoing_.end();) {
-      if (!(*it)->call && tick_reached(now, (*it)->deadline)) {
-        complete(std::move((*it)->send_handler), RingError::send_timed_out);
-        it = outgoing_.erase(it);
-      } else {
-        ++it;
-      }
-    }
-    // Its bytes stay in the output (the node cannot take them back): the entry keeps its place, so the
-    // sends behind it still complete when the stream takes theirs.
-    for (auto& written : written_) {
-      if (written.handler && tick_reached(now, written.deadline)) {
-        complete(std::move(written.handler), RingError::send_timed_out);  // leaves it empty
-      }
-    }
-    for (auto it = receivers_.begin(); it != receivers_.end();) {
-      if ((*it)->timeout && tick_reached(now, (*it)->deadline)) {
-        complete(std::move((*it)->handler), RingError::receive_timed_out, Message());
-        it = receivers_.erase(it);
-      } else {
-        ++it;
-      }
-    }
   }
 
   void arm_timer(Millis now) {
@@ -593,15 +537,7 @@ class RingClientImpl final : public transports::ClientLink {
     // While a write is on the stream the pacer may already allow more: that is for the write's completion
     // to take (it pumps), not for the timer, which would fire at once again and again.
     consider(wake, node_.next_wakeup(now, !writing_));
-    for (const auto& item : outgoing_) {
-      if (!item->call) consider(wake, deadline_at(item->deadline));
-    }
-    for (const auto& written : written_) {
-      if (written.handler) consider(wake, deadline_at(written.deadline));
-    }
-    for (const auto& receiver : receivers_) {
-      if (receiver->timeout) consider(wake, deadline_at(receiver->deadline));
-    }
+    consider(wake, pending_.next_deadline());  // sends and receives with a timeout
     ClientLink::arm_timer(wake);
   }
 
@@ -614,10 +550,8 @@ class RingClientImpl final : public transports::ClientLink {
   Node node_;
   Table table_;
   TypeSet capture_;
-  std::map<std::uint8_t, std::shared_ptr<Call>> calls_;  // by call id (the reply type)
-  std::deque<std::unique_ptr<Outgoing>> outgoing_;
-  std::deque<Written> written_;
-  std::deque<std::unique_ptr<Receiver>> receivers_;
+  Operations pending_;                   // sends, requests and receives in acceptance order
+  std::map<std::uint8_t, Entry> calls_;  // requests by call id (the reply type)
   std::deque<Message> received_;
   std::uint64_t taken_ = 0;          // bytes taken from the node's output queue
   std::uint64_t written_total_ = 0;  // of which written to the stream

@@ -10,7 +10,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <array>
-#include <deque>
+#include <tuple>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -21,6 +21,7 @@
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/decoder.hpp"
 #include "tether/transports/client_link.hpp"
+#include "tether/transports/pending_operations.hpp"
 
 namespace tether::romi {
 
@@ -118,7 +119,10 @@ namespace detail {
 class ClientImpl final : public transports::ClientLink {
  public:
   ClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
-      : ClientLink(std::move(stream), options.clock), decoder_(counters_), table_(options.timing, options.last_id, counters_) {}
+      : ClientLink(std::move(stream), options.clock),
+        decoder_(counters_),
+        table_(options.timing, options.last_id, counters_),
+        calls_(executor(), [this] { publish(); }) {}
 
   // Starts the read loop (after construction: it needs shared_from_this).
   void start() {
@@ -137,14 +141,12 @@ class ClientImpl final : public transports::ClientLink {
       post_completion(std::move(handler), aborted, failed_response(aborted, opcode));
       return;
     }
-    auto call = std::make_unique<Call>();
-    call->payload = command.payload();
-    call->opcode = opcode;
-    call->manual = manual;
-    call->operation = operation;
-    call->handler = std::move(handler);
-    post_to_strand([this, call = std::move(call)]() mutable {
-      queue_.push_back(std::move(call));
+    Call call;
+    call.payload = command.payload();
+    call.opcode = opcode;
+    call.manual = manual;
+    post_to_strand([this, operation, call = std::move(call), handler = std::move(handler)]() mutable {
+      calls_.add(operation, std::move(handler), std::move(call));
       start_next();
       publish();
     });
@@ -159,12 +161,12 @@ class ClientImpl final : public transports::ClientLink {
   LinkCounters counters() const { return published_.get(); }
 
  private:
+  // A call from acceptance to completion; the oldest is in flight once `started`.
   struct Call {
     std::string payload;
     char opcode = '\0';
     bool manual = false;
-    OperationId operation = 0;
-    CallHandler handler;
+    bool started = false;
     std::shared_ptr<const std::string> frame;  // the encoded bytes, re-sent as they are
     std::uint8_t id = 0;
     Millis sent_at = 0;     // first send: a timeout says how long the call waited from here
@@ -176,16 +178,19 @@ class ClientImpl final : public transports::ClientLink {
     RomiResponse answer;  // the intact answer that completed the call
   };
   using Table = RequestTable;
+  using Calls = transports::PendingOperations<CallSignature, Call>;
+
+  // The call in flight (the oldest, once started), or null.
+  Call* current() { return !calls_.empty() && calls_.begin()->state.started ? &calls_.begin()->state : nullptr; }
 
   // --- calls -----------------------------------------------------------------------------------------
 
   void start_next() {
-    while (!current_ && !queue_.empty()) {
-      std::unique_ptr<Call> call = std::move(queue_.front());
-      queue_.pop_front();
+    while (!calls_.empty() && !calls_.begin()->state.started) {
+      Call* const call = &calls_.begin()->state;
       if (!is_open() || link_error()) {
         const error_code error = link_error() ? link_error() : error_code(asio::error::operation_aborted);
-        complete(std::move(call->handler), error, failed_response(error, call->opcode));
+        calls_.complete(calls_.begin(), error, failed_response(error, call->opcode));
         continue;
       }
       const Millis started = now();
@@ -214,15 +219,15 @@ class ClientImpl final : public transports::ClientLink {
                                                         size.ok() ? size.value() : 0);
       call->sent_at = started;
       call->budget_end = static_cast<Millis>(started + table_.timing().call_budget);
-      current_ = std::move(call);
-      write(current_->frame);
+      call->started = true;
+      write(call->frame);
       arm_timer();
     }
   }
 
   // Ends the current call with the engine's verdict; `waited` is how long a timed-out call waited.
   void finish(const Table::Completion& completion, Duration waited = 0) {
-    std::unique_ptr<Call> call = std::move(current_);
+    Call* const call = current();
     error_code error;
     RomiResponse response;
     switch (completion.outcome) {
@@ -249,35 +254,25 @@ class ClientImpl final : public transports::ClientLink {
     }
     response.id = call->id;
     response.attempts = completion.attempts;
-    complete(std::move(call->handler), error, std::move(response));
+    calls_.complete(calls_.begin(), error, std::move(response));
     start_next();
     arm_timer();
   }
 
-  // Ends the call in flight (there is one) with `error`: out of the engine, its late answer is stale.
-  void abort_current(const error_code& error) {
-    const Result<Table::Completion> cancelled = table_.cancel(current_->id);
-    std::unique_ptr<Call> call = std::move(current_);
-    RomiResponse response = failed_response(error, call->opcode);
-    response.id = call->id;
-    response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
-    complete(std::move(call->handler), error, std::move(response));
+  // What `call` completes with when it ends with `error` before its answer (cancelled, closed, failed
+  // link); a call in flight leaves the engine (its late answer is stale).
+  std::tuple<error_code, RomiResponse> aborted(Call& call, const error_code& error) {
+    RomiResponse response = failed_response(error, call.opcode);
+    if (call.started) {
+      const Result<Table::Completion> cancelled = table_.cancel(call.id);
+      response.id = call.id;
+      response.attempts = cancelled.ok() ? cancelled.value().attempts : 0;
+    }
+    return {error, std::move(response)};
   }
 
   void fail_all(const error_code& error) {
-    if (current_) abort_current(error);
-    while (!queue_.empty()) {
-      std::unique_ptr<Call> call = std::move(queue_.front());
-      queue_.pop_front();
-      complete(std::move(call->handler), error, failed_response(error, call->opcode));
-    }
-  }
-
-  // Hands the result of a call to its caller (on the strand). The counters are published first, so a
-  // caller reading them after its completion sees its call.
-  void complete(CallHandler handler, error_code error, RomiResponse response) {
-    publish();
-    post_completion(std::move(handler), error, std::move(response));
+    calls_.fail_all([&](Calls::Operation& call) { return aborted(call.state, error); });
   }
 
   // --- the link's hooks -----------------------------------------------------------------------------------
@@ -305,18 +300,13 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   void on_cancel(OperationId operation) override {
-    const error_code aborted = asio::error::operation_aborted;
-    if (current_ && current_->operation == operation) {
-      abort_current(aborted);
+    const bool in_flight = current() != nullptr && calls_.begin()->id == operation;
+    const error_code error = asio::error::operation_aborted;
+    if (!calls_.cancel(operation, [&](Calls::Operation& call) { return aborted(call.state, error); })) return;
+    if (in_flight) {
       start_next();
       arm_timer();
-      return;
     }
-    const auto queued = std::find_if(queue_.begin(), queue_.end(), [operation](const auto& call) { return call->operation == operation; });
-    if (queued == queue_.end()) return;
-    std::unique_ptr<Call> call = std::move(*queued);
-    queue_.erase(queued);
-    complete(std::move(call->handler), aborted, failed_response(aborted, call->opcode));
   }
 
   void on_event(DecodeStatus status) {
@@ -339,35 +329,35 @@ class ClientImpl final : public transports::ClientLink {
 
   void on_frame(const Frame& event) {
     const Millis at = now();
-    if (!event.has_id || !current_) {
+    Call* const call = current();
+    if (!event.has_id || !call) {
       // A frame with `xxxx` metadata (not a log line) or an answer nobody waits for.
       stale(at, event);
       return;
     }
     RomiResponse answer = parse_answer(event.payload, event.opcode);
-    const bool matches = current_->manual ? event.id == 0 && opcode_matches(current_->opcode, event.opcode, answer.code)
-                                          : event.id == current_->id &&
-                                                opcode_matches(current_->opcode, event.opcode, answer.code);
+    const bool matches = call->manual ? event.id == 0 && opcode_matches(call->opcode, event.opcode, answer.code)
+                                      : event.id == call->id && opcode_matches(call->opcode, event.opcode, answer.code);
     if (!matches) {
       // An envelope error under another id (`#e[-2]:00..`: the device could not read our id) means the
       // device executed nothing, so the same bytes may go again. It never completes the call: only this
       // request's own answer does, so once the sends are used up it is stale like any other frame.
-      if (is_envelope_error(answer.code) && table_.attempts(current_->id) < table_.timing().max_attempts) {
+      if (is_envelope_error(answer.code) && table_.attempts(call->id) < table_.timing().max_attempts) {
         on_exchange_damaged(answer.code, at);
         return;
       }
       stale(at, event);
       return;
     }
-    const Table::ReplyResult result = table_.on_reply(current_->id, answer.code, at);
+    const Table::ReplyResult result = table_.on_reply(call->id, answer.code, at);
     switch (result.verdict) {
       case Table::Verdict::completed:
-        current_->failed_without_answer = false;
-        current_->answer = std::move(answer);
+        call->failed_without_answer = false;
+        call->answer = std::move(answer);
         finish(result.completion);
         return;
       case Table::Verdict::resend:
-        write(current_->frame);
+        write(call->frame);
         return;
       case Table::Verdict::stale:  // not reached: the call is in flight
         table_.on_activity(at);
@@ -391,7 +381,7 @@ class ClientImpl final : public transports::ClientLink {
   // carry) is no lost answer: it only re-arms the window.
   void on_damaged_frame(Error error, const Frame& event) {
     const Millis at = now();
-    if (!current_) return;
+    if (current() == nullptr) return;
     const auto code = static_cast<std::int16_t>(error);
     if (!is_envelope_error(code) || event.log) {
       table_.on_activity(at);
@@ -403,14 +393,15 @@ class ClientImpl final : public transports::ClientLink {
   // The request or its answer was damaged on the way and no answer of this request is in hand: the same
   // bytes go again while the engine allows; otherwise the call fails with `code` as its error_code.
   void on_exchange_damaged(std::int16_t code, Millis at) {
-    const Table::ReplyResult result = table_.on_reply(current_->id, code, at);
+    Call* const call = current();
+    const Table::ReplyResult result = table_.on_reply(call->id, code, at);
     switch (result.verdict) {
       case Table::Verdict::completed:
-        current_->failed_without_answer = true;
+        call->failed_without_answer = true;
         finish(result.completion);
         return;
       case Table::Verdict::resend:
-        write(current_->frame);
+        write(call->frame);
         return;
       case Table::Verdict::stale:
         return;
@@ -432,9 +423,10 @@ class ClientImpl final : public transports::ClientLink {
       const Deadline due = table_.next_wakeup();  // the deadline poll acts on, however late the timer fired
       const Table::Step step = table_.poll(at);
       if (step.action == Table::Action::idle) break;
+      Call* const call = current();
       if (step.action == Table::Action::resend) {
-        if (current_) write(current_->frame);
-      } else if (current_ && current_->id == step.id) {
+        if (call) write(call->frame);
+      } else if (call && call->id == step.id) {
         finish(step.completion, waited_until(due, at));
       }
     }
@@ -444,9 +436,10 @@ class ClientImpl final : public transports::ClientLink {
 
   // How long the current call waited when its deadline `due` passed, seen at `at`: to its budget's end
   // when that passed too (the engine checks the budget first), else to the attempt window's end.
-  Duration waited_until(const Deadline& due, Millis at) const {
-    const Millis end = tick_reached(at, current_->budget_end) || !due.armed() ? current_->budget_end : due.at();
-    return static_cast<Duration>(std::max<std::int32_t>(tick_difference(end, current_->sent_at), 0));
+  Duration waited_until(const Deadline& due, Millis at) {
+    const Call* const call = current();
+    const Millis end = tick_reached(at, call->budget_end) || !due.armed() ? call->budget_end : due.at();
+    return static_cast<Duration>(std::max<std::int32_t>(tick_difference(end, call->sent_at), 0));
   }
 
   void publish() { published_.set(counters_); }
@@ -455,8 +448,7 @@ class ClientImpl final : public transports::ClientLink {
   LinkCounters counters_;
   Decoder<kHostDecoderCapacity> decoder_;
   Table table_;
-  std::unique_ptr<Call> current_;
-  std::deque<std::unique_ptr<Call>> queue_;
+  Calls calls_;  // in acceptance order; the first is in flight once started
   bool skip_id_zero_ = false;
 
   // Any thread.
