@@ -278,16 +278,41 @@ inline void write_all_inline(HardwareSerial& serial, const uint8_t* bytes, size_
 #endif
 
 /// Takes up to `capacity` bytes waiting in `stream` into `bytes`; returns how many (a read() that finds
-/// nothing ends the run early). Out of line: it keeps its registers off the HardwareSerial path.
+/// nothing ends the run early). Out of line: it keeps its registers off the HardwareSerial path. One
+/// available() per run; the stream's read() is looked up once per run too (GCC's bound member function
+/// extension: the virtual call's target as a plain function pointer), so each byte costs the call itself,
+/// not the two table loads before it, and the loop runs on a write pointer, not an index.
 __attribute__((noinline)) inline uint8_t read_run(Stream& stream, uint8_t* bytes, uint8_t capacity) {
   const int waiting = stream.available();
+  if (waiting <= 0 || capacity == 0) return 0;
   const uint8_t count = waiting < static_cast<int>(capacity) ? static_cast<uint8_t>(waiting) : capacity;
-  for (uint8_t i = 0; i != count; ++i) {
+  uint8_t* to = bytes;
+  uint8_t* const end = bytes + count;
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpmf-conversions"
+  typedef int (*ReadFunction)(Stream*);
+  const ReadFunction read = reinterpret_cast<ReadFunction>(stream.*(&Stream::read));
+#pragma GCC diagnostic pop
+  do {
+    const int byte = read(&stream);
+    if (byte < 0) break;
+#if defined(__AVR__)
+    // A post-increment store: the compiler's own kept the pointer one ahead and stepped it back (5
+    // cycles a byte more).
+    __asm__ volatile("st %a[to]+, %[byte]" : [to] "+e"(to) : [byte] "r"(static_cast<uint8_t>(byte)) : "memory");
+#else
+    *to++ = static_cast<uint8_t>(byte);
+#endif
+  } while (to != end);
+#else
+  do {
     const int byte = stream.read();
-    if (byte < 0) return i;
-    bytes[i] = static_cast<uint8_t>(byte);
-  }
-  return count;
+    if (byte < 0) break;
+    *to++ = static_cast<uint8_t>(byte);
+  } while (to != end);
+#endif
+  return static_cast<uint8_t>(to - bytes);
 }
 
 /// Reads a run from `hardware` when it is set (the fast path), else from `stream`.

@@ -83,7 +83,7 @@ struct SerialData {
 
 /// Where a node reads from: set it to any `Stream` (`ps.input = &mySerial;`). The core's hardware ports
 /// (`ps.input = &Serial;`) are read through their own functions, inlined (TetherArduinoStream.h): one
-/// available() per run and a few cycles a byte, where a `Stream` costs two virtual calls a byte.
+/// available() per run and a few cycles a byte, where a `Stream` costs a call to its read() a byte.
 class InputPort {
  public:
   InputPort() = default;

@@ -71,7 +71,7 @@ RingEvent::Kind RingNode<MessageCapacity, OutputCapacity, OriginSlots>::on_read(
     return RingEvent::Kind::undeliverable;
   }
   if (config_.capture.contains(reader_.frame().type)) {
-    ++counters_->captured;
+    add_one_in_interrupt(counters_->captured);  // the carry loop inline: ~10 AVR cycles, `++` ~24
     return RingEvent::Kind::captured;
   }
   if (!enqueue(forward)) {
