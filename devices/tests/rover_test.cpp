@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "tether/devices/rover.hpp"
+#include "tether/devices/virtual_boards.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
@@ -24,6 +25,15 @@ namespace tether::devices {
 namespace {
 
 using transports::IoThread;
+
+// Every rover here has virtual devices: enabled once, before the first test.
+class EnableVirtualBoards : public ::testing::Environment {
+ public:
+  void SetUp() override { enable_virtual_boards(); }
+};
+[[maybe_unused]] ::testing::Environment* const virtual_boards_enabled =
+    ::testing::AddGlobalTestEnvironment(new EnableVirtualBoards);
+
 
 ParseOptions firmware() {
   ParseOptions options;
