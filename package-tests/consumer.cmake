@@ -25,8 +25,8 @@ if(STEP STREQUAL "build_installed")
   run_checked(${CMAKE_COMMAND} --build ${BINARY} -j2)
 elseif(STEP STREQUAL "build_subdirectory")
   file(REMOVE_RECURSE ${BINARY})
-  # No build type given: Tether must not force one on its parent; its tests, benchmarks and AVR images
-  # stay off (not the top-level project).
+  # No build type given: Tether must not force one on its parent; its tests, benchmarks, tools and AVR
+  # images stay off (not the top-level project).
   # Tether is compiled again here, as a parent project would: plain flags (no sanitizers, no optimisation)
   # keep this, the suite's longest test, short; the prefix consumer above checks the sanitized build.
   set(plain -G "Unix Makefiles" -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_CXX_FLAGS=-O0)
@@ -39,7 +39,7 @@ elseif(STEP STREQUAL "build_subdirectory")
   if(NOT build_type MATCHES "^CMAKE_BUILD_TYPE:[A-Z]*=$")
     message(FATAL_ERROR "Tether forced its parent's build type: ${build_type}")
   endif()
-  foreach(off TETHER_BUILD_TESTS TETHER_BUILD_BENCHMARKS TETHER_BUILD_AVR)
+  foreach(off TETHER_BUILD_TESTS TETHER_BUILD_BENCHMARKS TETHER_BUILD_AVR TETHER_BUILD_TOOLS)
     file(STRINGS ${BINARY}/CMakeCache.txt value REGEX "^${off}:")
     if(NOT value MATCHES "=OFF$")
       message(FATAL_ERROR "${off} is not off by default for a subproject: ${value}")

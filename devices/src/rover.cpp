@@ -1,6 +1,7 @@
 // Opening a rover: transports, clients, proxy inits; rollback on failure; typed lookups.
 #include "tether/devices/rover.hpp"
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -15,7 +16,7 @@
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/transport_error.hpp"
-#include "virtual_boards.hpp"
+#include "virtual_board_opener.hpp"
 
 namespace tether::devices {
 
@@ -23,8 +24,9 @@ namespace detail {
 
 namespace {
 
-// Set before main when the program links Tether::virtual_uno (virtual_boards.cpp); null otherwise.
-constinit VirtualBoardOpener virtual_board_opener = nullptr;
+// Set by enable_virtual_boards() (Tether::virtual_uno); null until then. Atomic: a program may enable them on
+// one thread while another opens a rover of hardware.
+constinit std::atomic<VirtualBoardOpener> virtual_board_opener{nullptr};
 
 std::string device_path(std::size_t index) { return "devices[" + std::to_string(index) + "]"; }
 
@@ -68,12 +70,13 @@ OpenedTransport open_device_transport(const DeviceConfig& device, const std::str
       opened.stream = open_serial(*serial, transport_path + ".serial", executor);
     } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
       opened.stream = open_tcp(*tcp, transport_path + ".tcp", executor);
-    } else if (virtual_board_opener != nullptr) {
-      opened = virtual_board_opener(device, transport_path, executor);
+    } else if (const VirtualBoardOpener opener = virtual_board_opener.load(std::memory_order_acquire)) {
+      opened = opener(device, transport_path, executor);
     } else {
       fail(transport_path + (std::holds_alternative<VirtualTransport>(device.transport) ? ".virtual" : ".virtual_ring"),
-           "virtual boards need the simulator, which this program does not link: link Tether::virtual_uno "
-           "(CMake) or tether-virtual-uno (pkg-config)",
+           "virtual boards are not enabled in this program: call tether::devices::enable_virtual_boards() "
+           "(tether/devices/virtual_boards.hpp) first, and link Tether::virtual_uno (CMake) or tether-virtual-uno "
+           "(pkg-config), which runs the simulator",
            make_error_code(DevicesError::not_supported));
     }
   } catch (const ConfigError&) {
@@ -86,9 +89,8 @@ OpenedTransport open_device_transport(const DeviceConfig& device, const std::str
 
 }  // namespace
 
-bool register_virtual_board_opener(VirtualBoardOpener opener) {
-  virtual_board_opener = opener;
-  return true;
+void register_virtual_board_opener(VirtualBoardOpener opener) noexcept {
+  virtual_board_opener.store(opener, std::memory_order_release);
 }
 
 /// Opens devices into a Rover; closes what it opened when one fails.

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "tether/devices/rover.hpp"
+#include "tether/devices/virtual_boards.hpp"
 #include "tether/elcano/plugin.hpp"
 #include "tether/proxy/plugin.hpp"
 #include "tether/romi/plugin.hpp"
@@ -27,6 +28,15 @@ namespace tether::devices {
 namespace {
 
 using transports::IoThread;
+
+// Every rover here has virtual devices: enabled once, before the first test.
+class EnableVirtualBoards : public ::testing::Environment {
+ public:
+  void SetUp() override { enable_virtual_boards(); }
+};
+[[maybe_unused]] ::testing::Environment* const virtual_boards_enabled =
+    ::testing::AddGlobalTestEnvironment(new EnableVirtualBoards);
+
 
 ParseOptions firmware() {
   ParseOptions options;

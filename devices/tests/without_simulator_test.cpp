@@ -21,6 +21,8 @@ void expect_simulator_missing(const RoverConfig& config, std::size_t device, con
     EXPECT_EQ(error.code(), make_error_code(DevicesError::not_supported));
     EXPECT_EQ(error.path(), path);
     EXPECT_NE(std::string(error.what()).find("link Tether::virtual_uno"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("call tether::devices::enable_virtual_boards()"), std::string::npos)
+        << error.what();
   }
 }
 

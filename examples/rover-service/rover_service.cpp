@@ -18,6 +18,9 @@
 #include <tether/proxy/client.hpp>
 #include <tether/romi/client.hpp>
 #include <tether/transports/io_thread.hpp>
+#ifdef ROVER_SERVICE_VIRTUAL_BOARDS
+#include <tether/devices/virtual_boards.hpp>
+#endif
 
 namespace {
 
@@ -47,6 +50,9 @@ int main(int argc, char** argv) {
     std::cerr << "usage: rover-service CONFIG [FIRMWARE_DIR]\n";
     return 2;
   }
+#ifdef ROVER_SERVICE_VIRTUAL_BOARDS
+  tether::devices::enable_virtual_boards();  // this build links Tether::virtual_uno
+#endif
   tether::transports::IoThread io;
   tether::devices::Rover rover;
   try {

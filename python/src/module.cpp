@@ -1,5 +1,6 @@
 // The native module tether._tether; the package (tether/__init__.py) re-exports it.
 #include "binding.hpp"
+#include "tether/devices/virtual_boards.hpp"
 
 PYBIND11_MODULE(_tether, module) {
   namespace python = tether::python;
@@ -11,6 +12,7 @@ PYBIND11_MODULE(_tether, module) {
   module.def("_after_fork_in_child", &python::after_fork_in_child,
              "Called in a child after os.fork(): its new clients get their own io thread.");
   python::register_transports(module);
+  tether::devices::enable_virtual_boards();  // tether.open_rover opens virtual devices too
   python::register_devices(module);
   python::register_plugins(module);
 }

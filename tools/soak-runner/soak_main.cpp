@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "tether/demo/rover_demo.hpp"
+#include "tether/devices/virtual_boards.hpp"
 
 namespace {
 
@@ -98,6 +99,7 @@ bool parse_number(std::string_view text, double& value) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tether::devices::enable_virtual_boards();  // the demo rover is virtual
   tether::demo::DemoOptions options;
   options.firmware_dir = TETHER_FIRMWARE_DIR;
   options.bit_error_rate = 1e-3;

@@ -7,6 +7,7 @@
 
 #include "cli_support.hpp"
 #include "commands.hpp"
+#include "tether/devices/virtual_boards.hpp"
 
 #ifndef TETHER_VERSION
 #error "TETHER_VERSION must be the project's version (top-level CMakeLists.txt)"
@@ -48,6 +49,7 @@ int checked_output(std::string_view command, int status) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tether::devices::enable_virtual_boards();  // --virtual, `sim`, `demo` and configurations with virtual devices
   if (argc < 2) {
     print_usage(stderr);
     return 2;

@@ -8,12 +8,22 @@
 #include <vector>
 
 #include "tether/devices/config.hpp"
+#include "tether/devices/virtual_boards.hpp"
 
 #include "tether/proxy/plugin.hpp"
 #include "tether/testing/random_seed.hpp"
 
 namespace tether::demo {
 namespace {
+
+// Every rover here has virtual devices: enabled once, before the first test.
+class EnableVirtualBoards : public ::testing::Environment {
+ public:
+  void SetUp() override { devices::enable_virtual_boards(); }
+};
+[[maybe_unused]] ::testing::Environment* const virtual_boards_enabled =
+    ::testing::AddGlobalTestEnvironment(new EnableVirtualBoards);
+
 
 DemoOptions short_run() {
   DemoOptions options;

@@ -21,6 +21,9 @@
 ///      opening waits until they complete (primary: acked; compat: written) and, in primary mode, until
 ///      the session handshake is done, within `proxy::DeviceOptions::open_timeout`. A device that does not
 ///      answer fails the open (`DevicesError::device_not_ready`).
+/// Virtual boards and rings open only in a program that links `Tether::virtual_uno` and called
+/// `enable_virtual_boards()` (tether/devices/virtual_boards.hpp) first; otherwise their devices fail with a
+/// `ConfigError` (`DevicesError::not_supported`) saying so, and a hardware-only service links no simulator.
 /// Nothing is half-opened: when a device fails, the devices opened before it are closed (in reverse
 /// order) before the error is reported. Errors are `ConfigError`s naming the JSON path of the culprit and
 /// carrying the transport's or client's error_code:

@@ -5,8 +5,10 @@
 
 #include "commands.hpp"
 #include "line_echo.hpp"
+#include "tether/devices/virtual_boards.hpp"
 
 int main(int argc, char** argv) {
+  tether::devices::enable_virtual_boards();  // as the shipped `tether` does
   tether::line_echo::register_line_echo();
   if (argc < 2) {
     std::fprintf(stderr, "usage: %s <command> [args...]\n", argv[0]);

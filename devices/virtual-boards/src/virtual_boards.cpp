@@ -1,6 +1,7 @@
-// Virtual boards and rings of a rover configuration, on the simulator. Part of Tether::virtual_uno: linking it
-// pulls this file in (-Wl,-u,tether_devices_virtual_boards, see CMakeLists.txt) and its initialisation hands
-// the opener to rover.cpp.
+// Virtual boards and rings of a rover configuration, on the simulator. Tether::virtual_uno: enable_virtual_boards()
+// hands the opener to rover.cpp.
+#include "tether/devices/virtual_boards.hpp"
+
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -19,7 +20,7 @@
 #include "tether/transports/virtual_uno.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
-#include "virtual_boards.hpp"
+#include "virtual_board_opener.hpp"
 
 namespace tether::devices::detail {
 
@@ -150,9 +151,8 @@ OpenedTransport open_virtual_device(const DeviceConfig& device, const std::strin
 
 }  // namespace tether::devices::detail
 
-// The symbol the link option names: defining it registers the opener.
-extern "C" {
-extern const bool tether_devices_virtual_boards;
-const bool tether_devices_virtual_boards =
-    tether::devices::detail::register_virtual_board_opener(&tether::devices::detail::open_virtual_device);
-}
+namespace tether::devices {
+
+void enable_virtual_boards() noexcept { detail::register_virtual_board_opener(&detail::open_virtual_device); }
+
+}  // namespace tether::devices
