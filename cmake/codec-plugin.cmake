@@ -71,6 +71,13 @@ function(tether_codec_plugin name)
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_HEADER ${PLUGIN_HEADER})
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_INCLUDE ${PLUGIN_INCLUDE})
   set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_LIBRARIES "${PLUGIN_LIBRARIES}")
+  # The parts for the tools (the command, the demo, the bench) only when they are built (TETHER_BUILD_TOOLS:
+  # a parent project does not build them).
+  if(NOT TETHER_BUILD_TOOLS)
+    set(PLUGIN_COMMANDS "")
+    set(PLUGIN_SUBCOMMANDS "")
+    set(PLUGIN_WORKLOADS "")
+  endif()
   if(PLUGIN_COMMANDS)
     _tether_codec_plugin_part(${name} commands tether_cli_api ${PLUGIN_COMMANDS})
   endif()

@@ -66,9 +66,18 @@ Libs: -L${libdir} @_libs@
   install(FILES ${_pc} DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 endfunction()
 
+# tether_package_dependency(component package [args...]): find_package(Tether COMPONENTS ...) looks for
+# `package args` (find_dependency) when the package holds `component`; for the component's own folder.
+function(tether_package_dependency component)
+  list(JOIN ARGN " " _arguments)
+  set_property(GLOBAL APPEND_STRING PROPERTY TETHER_PACKAGE_DEPENDENCIES
+    "if(\"${component}\" IN_LIST _tether_built_components)\n  find_dependency(${_arguments})\nendif()\n")
+endfunction()
+
 # The export set, TetherConfig.cmake and TetherConfigVersion.cmake. Called once every library is defined.
 function(tether_install_package)
   install(EXPORT TetherTargets NAMESPACE Tether:: DESTINATION ${TETHER_INSTALL_CMAKEDIR})
+  get_property(TETHER_PACKAGE_DEPENDENCIES GLOBAL PROPERTY TETHER_PACKAGE_DEPENDENCIES)
   configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/TetherConfig.cmake.in
     ${PROJECT_BINARY_DIR}/TetherConfig.cmake INSTALL_DESTINATION ${TETHER_INSTALL_CMAKEDIR}
     PATH_VARS TETHER_INSTALL_FIRMWAREDIR)
