@@ -1,5 +1,6 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
-#                     [SUBCOMMANDS sources...] [WORKLOADS sources...] [PYTHON sources...]): a codec's plugin, declared in its own folder
+#                     [SUBCOMMANDS sources...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]):
+#                     a codec's plugin, declared in its own folder
 # (codecs/<codec>/plugin/CMakeLists.txt). This call is the codec's whole registration:
 #  - SOURCES define the plugin's parts, their public declarations in HEADER (relative to INCLUDE, default
 #    `include`): `std::vector<tether::devices::CodecRow> tether::<NAME>::codec_rows()`, the codec's rows of
@@ -14,6 +15,9 @@
 #  - SUBCOMMANDS define `std::vector<tether::cli::Command> tether::<NAME>::subcommands()`, subcommands of
 #    `tether` that only this codec has (tools/tether/commands.hpp: `tether call` is the Romi plugin's),
 #    compiled against the same headers into the command's subcommand library;
+#  - TEXT_FUZZ is the fuzz target `<NAME>_text` of what the command rows print (tools/tether/text_fuzzing.hpp),
+#    its corpus `corpus-<NAME>_text.tar.xz` beside it, built with the tests (the plugin's `src` on its
+#    include path, for the rows' own headers);
 #  - WORKLOADS define `std::vector<tether::demo::CodecWorkloads> tether::<NAME>::workload_rows()`, how its devices
 #    do the operations `tether demo` and `tether bench` measure (tools/demo/include/tether/demo/workload.hpp),
 #    compiled into the demo's library (`tether_workloads_api`);
@@ -52,7 +56,8 @@ function(tether_codec_plugin_collect)
 endfunction()
 
 function(tether_codec_plugin name)
-  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE" "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON" ${ARGN})
+  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE;TEXT_FUZZ" "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON"
+    ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -83,6 +88,17 @@ function(tether_codec_plugin name)
   endif()
   if(PLUGIN_SUBCOMMANDS)
     _tether_codec_plugin_part(${name} subcommands tether_cli_api ${PLUGIN_SUBCOMMANDS})
+  endif()
+  if(PLUGIN_TEXT_FUZZ AND PLUGIN_COMMANDS AND TETHER_BUILD_TESTS)
+    include(fuzz)
+    cmake_path(GET PLUGIN_TEXT_FUZZ PARENT_PATH _fuzz_dir)
+    # Fewer generated inputs than a decoder's target: each runs a whole monitor decoder or shell line.
+    tether_fuzz_target(${name}_text
+      SOURCES ${PLUGIN_TEXT_FUZZ}
+      LIBRARIES tether_cli_text
+      CORPUS ${_fuzz_dir}/corpus-${name}_text.tar.xz
+      ITERATIONS 10000)
+    target_include_directories(fuzz_${name}_text PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   endif()
   if(PLUGIN_WORKLOADS)
     _tether_codec_plugin_part(${name} workloads tether_workloads_api ${PLUGIN_WORKLOADS})

@@ -4,13 +4,7 @@
 #   STEP=build_subdirectory  configure + build it with Tether as a subdirectory (SOURCE) into BINARY
 #   STEP=run  run BINARY's rover-service-virtual on the virtual rover (CONFIG, FIRMWARE), and check that
 #             rover-service links no libsimavr and refuses the virtual rover naming Tether::virtual_uno
-function(run_checked)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE out)
-  if(NOT result EQUAL 0)
-    list(JOIN ARGN " " command)
-    message(FATAL_ERROR "${command}: exit ${result}\n${out}")
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/run-checked.cmake)
 
 set(common -G "Unix Makefiles" -DCMAKE_CXX_COMPILER=${CXX} "-DCMAKE_CXX_FLAGS=${CXX_FLAGS}"
   "-DCMAKE_EXE_LINKER_FLAGS=${LINKER_FLAGS}")

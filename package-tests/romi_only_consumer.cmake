@@ -8,13 +8,7 @@
 #   the same project with TETHER_COMPONENTS=elcano (configure only): not nlohmann-json either.
 # SOURCE: Tether's source tree; BINARY: scratch folder; CXX, LAUNCHER: the compiler and its launcher.
 cmake_minimum_required(VERSION 3.25)  # policies of a script: IN_LIST
-function(run_checked)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE out)
-  if(NOT result EQUAL 0)
-    list(JOIN ARGN " " command)
-    message(FATAL_ERROR "${command}: exit ${result}\n${out}")
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/run-checked.cmake)
 
 # Configures the consumer into `binary` with TETHER_COMPONENTS=`components`; fails when it looked for one of
 # `forbidden` (lower case, matched in find_package names and cache entry names).

@@ -4,13 +4,7 @@
 #   STEP=build  configure + build SOURCE/examples/cpp-romiserial against PREFIX into BINARY (the compiler
 #               and sanitizer flags of this build, CXX_FLAGS/LINKER_FLAGS: the installed libraries carry them)
 #   STEP=run    each program on `tether sim <image>` (PREFIX's command and images), a bounded loop
-function(run_checked)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE out)
-  if(NOT result EQUAL 0)
-    list(JOIN ARGN " " command)
-    message(FATAL_ERROR "${command}: exit ${result}\n${out}")
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/run-checked.cmake)
 
 if(STEP STREQUAL "build")
   file(REMOVE_RECURSE ${BINARY})

@@ -7,7 +7,6 @@
 #include <string>
 #include <string_view>
 
-
 namespace tether::cli {
 
 /// One line of shell output in both forms.
