@@ -5,9 +5,11 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -199,8 +201,19 @@ void restore_default_action(int signal_number) {
   ::sigaction(signal_number, &default_action, nullptr);
 }
 
+// A progress line being written, and a stop signal on its way: the handler may run on another thread than
+// the one writing, so it waits for a write in flight to end (bounded: the writer may be the thread it
+// interrupted) and a write that sees the stop does not start; else a line written after the erasure stays on
+// the terminal. Lock-free atomics: safe in a signal handler.
+std::atomic<int> g_progress_writers{0};
+std::atomic<bool> g_progress_stopping{false};
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free);
+
 // A stop signal's default action, after erasing the progress line (async-signal-safe calls only).
 void erase_progress_and_die(int signal_number) {
+  g_progress_stopping.store(true);
+  const struct timespec step = {0, 1000000};  // 1 ms, up to 500 ms
+  for (int waited = 0; waited < 500 && g_progress_writers.load() > 0; ++waited) ::nanosleep(&step, nullptr);
   (void)!::write(STDERR_FILENO, kEraseLine, sizeof kEraseLine - 1);
   restore_default_action(signal_number);
   ::raise(signal_number);
@@ -235,8 +248,12 @@ Progress::~Progress() { clear(); }
 void Progress::show(const std::string& text) {
   if (!enabled_) return;
   if (!shown_) arm_progress_erasure();
-  std::fprintf(stderr, "\r\033[Ktether %s: %s", command_.c_str(), text.c_str());
-  std::fflush(stderr);
+  g_progress_writers.fetch_add(1);
+  if (!g_progress_stopping.load()) {
+    std::fprintf(stderr, "\r\033[Ktether %s: %s", command_.c_str(), text.c_str());
+    std::fflush(stderr);
+  }
+  g_progress_writers.fetch_sub(1);
   shown_ = true;
 }
 
