@@ -211,6 +211,10 @@ std::optional<int> Terminal::wait_exit(std::chrono::milliseconds timeout) {
     const pid_t done = ::waitpid(pid_, &status, WNOHANG);
     if (done == pid_) {
       status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+      // What the program wrote last may still be in the terminal: the screen is whole once the reader has
+      // seen the terminal close (bounded, for a descendant that keeps it open).
+      std::unique_lock lock(mutex_);
+      changed_.wait_for(lock, 5s, [&] { return closed_; });
       return status_;
     }
     if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;

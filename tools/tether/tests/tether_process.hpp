@@ -91,7 +91,8 @@ class Terminal {
   bool expect(std::string_view text, std::chrono::milliseconds timeout = std::chrono::seconds(20));
   /// Everything printed so far.
   std::string screen() const;
-  /// Waits for the exit; the exit status, nothing after `timeout`.
+  /// Waits for the exit; the exit status, nothing after `timeout`. Once it has one, `screen()` holds
+  /// everything the program printed (the reader has seen the terminal close).
   std::optional<int> wait_exit(std::chrono::milliseconds timeout = std::chrono::seconds(20));
 
  private:
