@@ -1,6 +1,9 @@
 // Opening a rover: transports, clients, proxy inits; rollback on failure; typed lookups.
 #include "tether/devices/rover.hpp"
 
+#include <cxxabi.h>
+
+#include <cstdlib>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -215,7 +218,13 @@ void Rover::throw_other_client(const RoverDevice& device, const std::type_info& 
     if (row->client_type == nullptr || *row->client_type != wanted) continue;
     codecs += (codecs.empty() ? "" : " or ") + std::string(row->name);
   }
-  if (codecs.empty()) codecs = std::string("a device with a ") + wanted.name() + " client";
+  if (codecs.empty()) {
+    // No row has that client: name the type as written (`tether::romi::Client`), not its mangled name.
+    int status = 0;
+    const std::unique_ptr<char, void (*)(void*)> readable(abi::__cxa_demangle(wanted.name(), nullptr, nullptr, &status),
+                                                          std::free);
+    codecs = std::string("a device with a ") + (status == 0 && readable ? readable.get() : wanted.name()) + " client";
+  }
   throw std::out_of_range("rover: device " + nlohmann::json(device.name).dump() + " speaks " +
                           std::string(to_string(device.codec)) + ", not " + codecs);
 }

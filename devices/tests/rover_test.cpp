@@ -141,6 +141,13 @@ TEST(DevicesRover, LookupsOfMissingNamesAndWrongCodecsSayWhatIsThere) {
   } catch (const std::out_of_range& error) {
     EXPECT_STREQ(error.what(), R"(rover: device "arm" speaks romi, not proxy or proxy-compat)");
   }
+  try {
+    rover.client<transports::ByteStream>("arm");  // no codec's client: the type is named as written
+    ADD_FAILURE();
+  } catch (const std::out_of_range& error) {
+    EXPECT_STREQ(error.what(),
+                 R"(rover: device "arm" speaks romi, not a device with a tether::transports::ByteStream client)");
+  }
   EXPECT_EQ(rover.find("nothing"), nullptr);
   ASSERT_NE(rover.find("head"), nullptr);
   EXPECT_EQ(rover.find("head")->codec, romi::kCodec);

@@ -168,9 +168,8 @@ std::string plural(std::uint32_t count, const char* word) {
 
 }  // namespace
 
-int run_send(int argc, char** argv);
-
-int run_send(int argc, char** argv) {
+// Internal: reached through this plugin's subcommands() only.
+static int run_send(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error;

@@ -133,9 +133,8 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 
 }  // namespace
 
-int run_call(int argc, char** argv);
-
-int run_call(int argc, char** argv) {
+// Internal: reached through this plugin's subcommands() only.
+static int run_call(int argc, char** argv) {
   Arguments arguments;
   if (const auto status = parse(argc, argv, arguments)) return *status;
   std::string error_text;
