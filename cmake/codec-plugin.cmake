@@ -1,5 +1,6 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
-#                     [SUBCOMMANDS sources...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]):
+#                     [SUBCOMMANDS sources...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]
+#                     [PYTHON_STUB file] [PYTHON_ROVER_CLIENT class] [PYTHON_FIXTURES file] [PYTHON_TESTS files...]):
 #                     a codec's plugin, declared in its own folder
 # (codecs/<codec>/plugin/CMakeLists.txt). This call is the codec's whole registration:
 #  - SOURCES define the plugin's parts, their public declarations in HEADER (relative to INCLUDE, default
@@ -23,7 +24,14 @@
 #    compiled into the demo's library (`tether_workloads_api`);
 #  - PYTHON define `void tether::<NAME>::register_python(pybind11::module_&)`, the codec's part of the Python
 #    module (its submodule, its client's wrapper, its `Rover` getter), compiled into the module against the
-#    binding's headers (python/src) when the module is built.
+#    binding's headers (python/src) when the module is built;
+#  - PYTHON_STUB is the type stub of that submodule, shipped as `tether/<NAME>.pyi` (python/tests/test_stubs.py
+#    checks it names exactly what the submodule has); PYTHON_ROVER_CLIENT is the class of the stub that the
+#    `Rover.<NAME>(name)` getter returns, declared in the package's stub (tether/__init__.pyi, generated);
+#  - PYTHON_TESTS are pytest files, run together as the ctest test `python.<NAME>` (label `python`);
+#    PYTHON_FIXTURES is a pytest plugin module of the codec's fixtures (its boards, its clients), loaded with
+#    `-p <module>` by every Python test (the binding's own tests use them too), as the generic fixtures are
+#    (python/tests/generic_fixtures.py).
 # docs/codecs.md, "Adding a codec".
 include_guard(GLOBAL)
 
@@ -56,8 +64,8 @@ function(tether_codec_plugin_collect)
 endfunction()
 
 function(tether_codec_plugin name)
-  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE;TEXT_FUZZ" "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON"
-    ${ARGN})
+  cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE;TEXT_FUZZ;PYTHON_STUB;PYTHON_ROVER_CLIENT;PYTHON_FIXTURES"
+    "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON;PYTHON_TESTS" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -108,5 +116,16 @@ function(tether_codec_plugin name)
     list(TRANSFORM PLUGIN_PYTHON PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
     set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_PARTS_python ${name})
     set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_PYTHON ${PLUGIN_PYTHON})
+    foreach(_file IN ITEMS PYTHON_STUB PYTHON_FIXTURES)
+      if(PLUGIN_${_file})
+        cmake_path(ABSOLUTE_PATH PLUGIN_${_file} BASE_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} NORMALIZE)
+      endif()
+    endforeach()
+    list(TRANSFORM PLUGIN_PYTHON_TESTS PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
+    foreach(_part IN ITEMS PYTHON_STUB PYTHON_ROVER_CLIENT PYTHON_FIXTURES PYTHON_TESTS)
+      set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_${_part} "${PLUGIN_${_part}}")
+    endforeach()
+  elseif(PLUGIN_PYTHON_STUB OR PLUGIN_PYTHON_ROVER_CLIENT OR PLUGIN_PYTHON_FIXTURES OR PLUGIN_PYTHON_TESTS)
+    message(FATAL_ERROR "tether_codec_plugin(${name}): PYTHON_... parts need the PYTHON sources")
   endif()
 endfunction()

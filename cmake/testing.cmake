@@ -5,7 +5,7 @@
 #   cli     the `tether` command and its subcommands
 #   fuzz    the fuzz targets' corpus replays
 #   package install, consumers, public headers
-#   python  the pytest suite over the Python package (python/tests)
+#   python  the pytest suite over the Python package (python/tests, codecs/*/plugin/python)
 set(TETHER_TEST_LABELS unit client sim cli fuzz package python)
 
 function(_tether_check_label label)

@@ -134,6 +134,7 @@ elseif(STEP STREQUAL "unpacked")
       usr/include/tether/romi/client.hpp
       usr/share/tether/examples/rover-service/CMakeLists.txt
       usr/lib/python3/dist-packages/tether/__init__.py usr/lib/python3/dist-packages/tether/py.typed
+      usr/lib/python3/dist-packages/tether/__init__.pyi usr/lib/python3/dist-packages/tether/romi.pyi
       usr/share/doc/python3-tether/copyright)
     if(NOT EXISTS ${root}/${file})
       message(SEND_ERROR "not in the packages: /${file}")

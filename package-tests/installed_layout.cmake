@@ -37,6 +37,16 @@ foreach(file IN LISTS expected)
     message(SEND_ERROR "not installed: ${PREFIX}/${file}")
   endif()
 endforeach()
+# The Python package, when this build has it, with its stubs: the package's (made by the build) and each
+# codec's (from its plugin's folder).
+file(GLOB python_package LIST_DIRECTORIES true ${PREFIX}/lib/python3*/*-packages/tether)
+if(python_package)
+  foreach(file __init__.py __init__.pyi romi.pyi proxy.pyi elcano.pyi transports.pyi compat.pyi py.typed)
+    if(NOT EXISTS ${python_package}/${file})
+      message(SEND_ERROR "not installed: ${python_package}/${file}")
+    endif()
+  endforeach()
+endif()
 
 execute_process(COMMAND ${PREFIX}/bin/tether --version OUTPUT_VARIABLE out RESULT_VARIABLE result)
 if(NOT result EQUAL 0 OR NOT out MATCHES "${VERSION}")

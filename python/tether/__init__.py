@@ -14,24 +14,24 @@ Errors: ``RomiError``, ``ProxyError``, ``ElcanoError``, ``TransportError``, ``Co
 import atexit as _atexit
 import os as _os
 import sys as _sys
+import types as _types
 
 from . import _tether
 from ._errors import (ClosedError, ConfigError, ElcanoError, ElcanoMessageError, ElcanoTimeoutError,
                       ProxyError, ProxyMessageError, ProxyTimeoutError, RomiCommandError, RomiError,
                       RomiTimeoutError, TetherError, TransportError, TransportTimeoutError)
 
-romi = _tether.romi
-proxy = _tether.proxy
-elcano = _tether.elcano
-transports = _tether.transports
 VirtualUno = _tether.VirtualUno
 VirtualUnoClock = _tether.VirtualUnoClock
 Rover = _tether.Rover
 LinkCounters = _tether.LinkCounters
 __version__ = _tether.__version__
 
-# `import tether.romi` and `from tether.romi import Client` work like for modules on disk.
-for _name in ("romi", "proxy", "elcano", "transports"):
+# The module's submodules: `tether.transports` and one per codec plugin (`tether.romi`, ...). `import
+# tether.romi` and `from tether.romi import Client` work like for modules on disk.
+_SUBMODULES = [_name for _name, _value in vars(_tether).items() if isinstance(_value, _types.ModuleType)]
+for _name in _SUBMODULES:
+    globals()[_name] = getattr(_tether, _name)
     _sys.modules[f"{__name__}.{_name}"] = getattr(_tether, _name)
 
 # Installed packages find the images installed with them (share/tether/firmware beside lib/); the build
@@ -68,7 +68,7 @@ def open_rover(path, *, firmware_dir=None):
 
 _atexit.register(_tether._interpreter_exiting)
 
-__all__ = ["romi", "proxy", "elcano", "transports", "compat", "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
+__all__ = [*_SUBMODULES, "compat", "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
            "open_rover", "firmware_dir", "TetherError", "RomiError", "ProxyError", "ElcanoError",
            "TransportError", "ConfigError", "ClosedError", "RomiTimeoutError", "ProxyTimeoutError",
            "ElcanoTimeoutError", "TransportTimeoutError", "RomiCommandError", "ProxyMessageError",

@@ -1,8 +1,7 @@
-"""Fixtures of the binding's tests: virtual boards of every codec (real-time pacing, like hardware).
-
-Clients are opened on the board itself (``tether.romi.Client(board)``): their deadlines run on the board's
-simulated time, so a loaded machine that slows the simulation cannot time a call out before the device has
-had its time (with the wall clock, a call to a real-time board timed out once that way at load ~5)."""
+"""The generic fixtures of the binding's tests, a pytest plugin module loaded with ``-p generic_fixtures`` by
+every Python test (python/tests/CMakeLists.txt), here and in the codecs' plugin folders (a conftest.py would
+serve the tests of its own folder only). Each codec's own (its boards, its clients) are in its plugin's
+fixtures module (tether_codec_plugin's PYTHON_FIXTURES, cmake/codec-plugin.cmake)."""
 
 import threading
 
@@ -30,24 +29,10 @@ def print_board_if_failed(request, board):
 
 
 @pytest.fixture
-def romi_board(request):
-    with tether.VirtualUno("romi-test", seed=1) as board:
-        yield board
-        print_board_if_failed(request, board)
-
-
-@pytest.fixture
-def romi_client(romi_board):
-    with tether.romi.Client(romi_board) as client:
-        yield client
-
-
-@pytest.fixture
-def held_board(request):
-    """A romi-test board that moves only when the test advances it (``run_for``)."""
-    with tether.VirtualUno("romi-test", seed=1, start=False) as board:
-        yield board
-        print_board_if_failed(request, board)
+def report_board(request):
+    """``report_board(board)`` after a board fixture's test (its teardown): prints the board's side of the
+    story if the test failed (the codecs' board fixtures call it)."""
+    return lambda board: print_board_if_failed(request, board)
 
 
 class Call(threading.Thread):
