@@ -1,12 +1,14 @@
-// Fuzz target of the JSON configuration loader: the input is a rover configuration and, the same bytes,
-// an `elcano-node` file (`tether flash --eeprom`). Invariants: bad input is a `ConfigError` (what the
-// commands print), never another exception, a crash or a sanitizer finding; what parses also passes
-// `validate` (parsing guarantees it) and a parsed node file encodes into a block.
+// Fuzz target of the JSON configuration loader: the input is a rover configuration and, the same bytes, an
+// EEPROM file of every codec whose boards take one (`tether flash --eeprom`: an `elcano-node` file).
+// Invariants: bad input is a `ConfigError` (what the commands print), never another exception, a crash or a
+// sanitizer finding; what parses also passes `validate` (parsing guarantees it), and an EEPROM file that
+// parses is bytes for a flash page (parsing encodes them).
 #include <cstddef>
 #include <cstdint>
 #include <exception>
 #include <string_view>
 
+#include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/testing/fuzz_target.hpp"
 
@@ -41,9 +43,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     TETHER_FUZZ_CHECK(!config.devices.empty());
     TETHER_FUZZ_CHECK(parses([&] { validate(config); }));
   }
-  NodeFile node;
-  if (parses([&] { node = parse_node_file(text); })) {
-    TETHER_FUZZ_CHECK(parses([&] { encode_node_block(node.settings, node.generation, node.baud); }));
+  for (const CodecRow* row : codec_rows()) {
+    if (!row->eeprom_file.parse) continue;
+    EepromUpload upload;
+    if (parses([&] { upload = row->eeprom_file.parse(text); })) TETHER_FUZZ_CHECK(!upload.bytes.empty());
   }
   return 0;
 }

@@ -3,8 +3,6 @@
 
 #include "builtin_codecs.hpp"
 #include "tether/devices/json_reader.hpp"
-#include "tether/elcano/node/config.hpp"
-#include "tether/elcano/plugin.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -143,57 +141,23 @@ VirtualTransport parse_virtual(const Node& node, const std::string& device_name,
 
 constexpr std::size_t kEepromBytes = 1024;  // ATmega328P
 
-// Behaviour names, bit i = 1 << i (the elcano-node image's k* behaviour bits).
-const Names kBehaviours = {"answer_goal_with_segment", "answer_segment_with_drive", "answer_sensor_with_drive",
-                               "drive_servos", "report_drive_as_sensor"};
+// A ring board's `eeprom` settings object, read by the codec's row once the device's options are parsed.
+struct PendingBoardSettings {
+  std::size_t board = 0;
+  Node settings;
+};
 
-// An elcano-node's settings object (`boards[i].eeprom`); a node file (`with_link`) also has the ring's
-// `generation` and `baud`, which its caller reads.
-RingNodeSettings parse_node_settings(const Node& node, bool with_link, std::uint8_t default_node_number) {
-  const Object settings(node);
-  if (with_link) {
-    settings.allow_only({"capture", "behaviours", "next_receiver_buffer", "next_poll_interval_ms", "loop_period_ms",
-                         "node_number", "generation", "baud"});
-  } else {
-    settings.allow_only({"capture", "behaviours", "next_receiver_buffer", "next_poll_interval_ms", "loop_period_ms",
-                         "node_number"});
-  }
-  RingNodeSettings node_settings;
-  node_settings.node_number = default_node_number;
-  if (auto c = settings.optional("capture")) node_settings.capture = elcano::read_message_types(*c);
-  if (auto b = settings.optional("behaviours")) {
-    if (!b->value.is_array()) b->expected("an array of behaviours (" + join(kBehaviours) + ")");
-    for_each_element(*b, [&](const Node& element, std::size_t) {
-      const auto bit = static_cast<std::uint8_t>(1u << read_choice(element, "behaviour", kBehaviours));
-      if ((node_settings.behaviour_bits & bit) != 0) {
-        fail(element.path, "behaviour " + element.value.dump() + " is listed twice");
-      }
-      node_settings.behaviour_bits = static_cast<std::uint8_t>(node_settings.behaviour_bits | bit);
-    });
-  }
-  if (auto n = settings.optional("next_receiver_buffer")) {
-    node_settings.next_receiver_buffer = static_cast<std::uint16_t>(read_unsigned(*n, 2, 65535));
-  }
-  if (auto n = settings.optional("next_poll_interval_ms")) {
-    node_settings.next_poll_interval = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
-  }
-  if (auto n = settings.optional("loop_period_ms")) {
-    node_settings.loop_period = static_cast<std::uint16_t>(read_unsigned(*n, 0, 65535));
-  }
-  if (auto n = settings.optional("node_number")) {
-    node_settings.node_number = static_cast<std::uint8_t>(read_unsigned(*n, 0, 255));
-  }
-  return node_settings;
-}
-
-RingBoardConfig parse_ring_board(const Node& node, std::size_t index, const ParseOptions& options) {
+RingBoardConfig parse_ring_board(const Node& node, std::size_t index, const CodecRow& row, const ParseOptions& options,
+                                 std::vector<PendingBoardSettings>& pending) {
   const Object object(node);
   object.allow_only({"firmware", "eeprom"});
   RingBoardConfig board;
   if (auto v = object.optional("firmware")) {
     board.firmware = resolve_firmware(*v, options);
+  } else if (!row.ring_board_image.empty()) {
+    board.firmware = resolve_firmware(Node{json(row.ring_board_image), object.path() + ".firmware"}, options);
   } else {
-    board.firmware = resolve_firmware(Node{json("elcano-node"), object.path() + ".firmware"}, options);
+    board.firmware = resolve_firmware(object.required("firmware"), options);
   }
   if (auto v = object.optional("eeprom")) {
     if (v->value.is_array()) {
@@ -201,32 +165,45 @@ RingBoardConfig parse_ring_board(const Node& node, std::size_t index, const Pars
         fail(v->path, "expected at most " + std::to_string(kEepromBytes) + " bytes, got " +
                           std::to_string(v->value.size()));
       }
-      std::vector<std::uint8_t> bytes;
       for_each_element(*v, [&](const Node& element, std::size_t) {
-        bytes.push_back(static_cast<std::uint8_t>(read_unsigned(element, 0, 255)));
+        board.eeprom.push_back(static_cast<std::uint8_t>(read_unsigned(element, 0, 255)));
       });
-      board.eeprom = std::move(bytes);
-    } else if (v->value.is_object()) {
-      board.eeprom = parse_node_settings(*v, false, static_cast<std::uint8_t>(index));
+    } else if (v->value.is_object() && row.ring_board_settings) {
+      pending.push_back(PendingBoardSettings{index, *v});
     } else {
-      v->expected("an array of bytes or an object of node settings");
+      v->expected(row.ring_board_settings ? "an array of bytes or an object of node settings" : "an array of bytes");
     }
   }
   return board;
 }
 
-VirtualRingTransport parse_virtual_ring(const Node& node, const ParseOptions& options) {
+VirtualRingTransport parse_virtual_ring(const Node& node, const CodecRow& row, const ParseOptions& options,
+                                        std::vector<PendingBoardSettings>& pending) {
   const Object object(node);
   object.allow_only({"boards", "pacing", "seed"});
   VirtualRingTransport ring;
   const Node boards = object.required("boards");
   if (!boards.value.is_array() || boards.value.empty()) boards.expected("a non-empty array of boards");
   for_each_element(boards, [&](const Node& board, std::size_t i) {
-    ring.boards.push_back(parse_ring_board(board, i, options));
+    ring.boards.push_back(parse_ring_board(board, i, row, options, pending));
   });
   if (auto v = object.optional("pacing")) ring.pacing = read_pacing(*v);
   if (auto v = object.optional("seed")) ring.seed = read_unsigned(*v);
   return ring;
+}
+
+// The settings objects of a ring's boards into their EEPROM, by the codec's row, with the device's options.
+void encode_board_settings(const std::vector<PendingBoardSettings>& pending, const CodecRow& row,
+                           DeviceConfig& device) {
+  auto& ring = std::get<VirtualRingTransport>(device.transport);
+  for (const PendingBoardSettings& each : pending) {
+    std::vector<std::uint8_t> bytes = row.ring_board_settings(RingBoardContext{each.settings, each.board, &device.options});
+    if (bytes.size() > kEepromBytes) {
+      fail(each.settings.path, "the settings make " + std::to_string(bytes.size()) + " bytes of EEPROM (at most " +
+                                   std::to_string(kEepromBytes) + ")");
+    }
+    ring.boards[each.board].eeprom = std::move(bytes);
+  }
 }
 
 const Names kTransports = {"serial", "tcp", "virtual", "virtual_ring"};
@@ -241,7 +218,7 @@ std::string ring_codecs() {
 }
 
 TransportConfig parse_transport(const Node& node, Codec codec, const std::string& device_name,
-                                const ParseOptions& options) {
+                                const ParseOptions& options, std::vector<PendingBoardSettings>& pending) {
   const Object object(node);
   const json& value = node.value;
   if (value.empty()) {
@@ -273,7 +250,7 @@ TransportConfig parse_transport(const Node& node, Codec codec, const std::string
   if (kind == "serial") return parse_serial(inner, codec);
   if (kind == "tcp") return parse_tcp(inner);
   if (kind == "virtual") return parse_virtual(inner, device_name, options);
-  return parse_virtual_ring(inner, options);
+  return parse_virtual_ring(inner, codec_row(codec), options, pending);
 }
 
 // --- codec options --------------------------------------------------------------------------------------
@@ -323,8 +300,10 @@ DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
   device.name = read_nonempty_string(object.required("name"));
   const std::vector<const CodecRow*> rows = codec_rows();
   device.codec = rows.at(read_choice(object.required("codec"), "codec", codec_names()))->codec;
-  device.transport = parse_transport(object.required("transport"), device.codec, device.name, options);
+  std::vector<PendingBoardSettings> pending;
+  device.transport = parse_transport(object.required("transport"), device.codec, device.name, options, pending);
   device.options = parse_options(object.optional("options"), object.path() + ".options", device.codec, device.transport);
+  if (!pending.empty()) encode_board_settings(pending, codec_row(device.codec), device);
   return device;
 }
 
@@ -526,6 +505,8 @@ class StructureCheck final : public nlohmann::json_sax<json> {
   std::optional<ConfigError> duplicate_;
 };
 
+}  // namespace
+
 // JSON text (comments allowed) into a document; ConfigError "invalid JSON: parse error at line L, column C: ...",
 // "configuration too large", nesting too deep, or a duplicate key with its path.
 json parse_json_text(std::string_view json_text) {
@@ -551,28 +532,8 @@ json parse_json_text(std::string_view json_text) {
   return document;
 }
 
-}  // namespace
-
 RoverConfig parse_config(std::string_view json_text, const ParseOptions& options) {
   return parse_document(parse_json_text(json_text), options);
-}
-
-NodeFile parse_node_file(std::string_view json_text) {
-  const json document = parse_json_text(json_text);
-  const Node root{document, ""};
-  if (!document.is_object()) root.expected("an object of node settings");
-  NodeFile file;
-  file.settings = parse_node_settings(root, true, 0);
-  const Object object(root);
-  if (auto v = object.optional("generation")) {
-    file.generation = read_choice(*v, "generation", {"B", "D"}) == 0 ? elcano::Generation::b : elcano::Generation::d;
-  }
-  // The node's own range: a baud it would refuse is an error at its key here, not a nameless one when the
-  // block is encoded (found by fuzzing).
-  if (auto v = object.optional("baud")) {
-    file.baud = static_cast<std::uint32_t>(read_unsigned(*v, elcano::node::kMinBaud, elcano::node::kMaxBaud));
-  }
-  return file;
 }
 
 RoverConfig load_config(const std::filesystem::path& file, ParseOptions options) {

@@ -15,7 +15,6 @@
 #include <utility>
 
 #include "builtin_codecs.hpp"
-#include "tether/elcano/node/config.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
 #include "tether/transports/transport_error.hpp"
@@ -273,31 +272,6 @@ Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executo
 
 OpenedTransport open_transport(const DeviceConfig& device, boost::asio::any_io_executor executor) {
   return detail::open_device_transport(device, "transport", executor);
-}
-
-std::uint32_t node_upload_address() { return elcano::node::kUploadedConfigAddress; }
-
-std::vector<std::uint8_t> encode_node_block(const RingNodeSettings& settings, elcano::Generation generation,
-                                            std::uint32_t baud, const std::string& path) {
-  elcano::node::NodeConfig config;
-  config.generation = generation;
-  config.baud = baud;
-  config.capture_bits = settings.capture.bits();
-  config.behaviour_bits = settings.behaviour_bits;
-  config.next_receiver_buffer = settings.next_receiver_buffer;
-  config.next_poll_interval = settings.next_poll_interval;
-  config.loop_period = settings.loop_period;
-  config.node_number = settings.node_number;
-  if (!elcano::node::config_is_valid(config)) {
-    throw ConfigError(path,
-                      "not a valid elcano-node configuration (baud " + std::to_string(config.baud) + " outside " +
-                          std::to_string(elcano::node::kMinBaud) + ".." + std::to_string(elcano::node::kMaxBaud) +
-                          ", unknown behaviour bits, or a next receiver buffer under 2)",
-                      make_error_code(DevicesError::invalid_config));
-  }
-  std::uint8_t block[elcano::node::kConfigBlockSize];
-  elcano::node::encode_config(config, block);
-  return std::vector<std::uint8_t>(std::begin(block), std::end(block));
 }
 
 }  // namespace tether::devices

@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
+#include "tether/elcano/node/config.hpp"
+#include "tether/elcano/node_settings.hpp"
 #include "tether/elcano/plugin.hpp"
 #include "tether/proxy/plugin.hpp"
 #include "tether/romi/plugin.hpp"
@@ -197,14 +200,21 @@ TEST(DevicesConfig, ElcanoOptionsAndVirtualRing) {
   EXPECT_EQ(ring.seed, 3u);
   ASSERT_EQ(ring.boards.size(), 3u);
   EXPECT_EQ(ring.boards[0].firmware, std::filesystem::path("/opt/fw/elcano-node.elf"));
-  const auto& settings = std::get<RingNodeSettings>(ring.boards[0].eeprom);
-  EXPECT_EQ(settings.capture, elcano::TypeSet::of(elcano::Type::goal));
+  // The settings object is the node's EEPROM block, on the device's generation (D) and line speed.
+  ASSERT_EQ(ring.boards[0].eeprom.size(), elcano::node::kConfigBlockSize);
+  std::uint8_t block[elcano::node::kConfigBlockSize];
+  std::copy(ring.boards[0].eeprom.begin(), ring.boards[0].eeprom.end(), block);
+  elcano::node::NodeConfig settings;
+  ASSERT_EQ(elcano::node::decode_config(block, settings), elcano::node::ConfigSource::eeprom);
+  EXPECT_EQ(settings.capture_bits, elcano::TypeSet::of(elcano::Type::goal).bits());
   EXPECT_EQ(settings.behaviour_bits, 0x01u);
   EXPECT_EQ(settings.loop_period, 20u);
   EXPECT_EQ(settings.node_number, 0u);
+  EXPECT_EQ(settings.generation, elcano::Generation::d);
+  EXPECT_EQ(settings.baud, 115200u);
   EXPECT_EQ(ring.boards[1].firmware, std::filesystem::path("/x/node.elf"));
-  EXPECT_EQ(std::get<std::vector<std::uint8_t>>(ring.boards[1].eeprom), (std::vector<std::uint8_t>{69, 78, 1}));
-  EXPECT_TRUE(std::get<std::vector<std::uint8_t>>(ring.boards[2].eeprom).empty());
+  EXPECT_EQ(ring.boards[1].eeprom, (std::vector<std::uint8_t>{69, 78, 1}));
+  EXPECT_TRUE(ring.boards[2].eeprom.empty());
   EXPECT_EQ(describe(config.devices[0].transport), "virtual ring of 3 boards (elcano-node.elf, node.elf; fast)");
   const auto& options = config.devices[0].options.get<elcano::DeviceOptions>();
   EXPECT_EQ(options.generation, elcano::Generation::d);
@@ -222,6 +232,66 @@ TEST(DevicesConfig, ElcanoOverSerialPacesAtThePortsBaud) {
   const RoverConfig config =
       parse_config(one_device("elcano", R"({"serial": {"path": "/dev/ttyUSB0", "baud": 9600}})"));
   EXPECT_EQ(config.devices[0].options.get<elcano::DeviceOptions>().pacing.baud, 9600u);
+}
+
+// A ring board's settings object is the Elcano row's to read: its errors name the key under the board, and
+// a board's node number defaults to its place in the ring.
+TEST(DevicesConfig, ElcanoRingBoardSettingsAreReadByTheCodecRow) {
+  const auto ring_with = [](const std::string& boards) {
+    return one_device("elcano", R"({"virtual_ring": {"boards": )" + boards + "}}");
+  };
+  const RoverConfig config =
+      parse_config(ring_with(R"([{}, {}, {"eeprom": {"capture": ["drive"]}}])"), with_firmware_dir());
+  const auto& ring = std::get<VirtualRingTransport>(config.devices[0].transport);
+  elcano::RingNodeSettings third;
+  third.capture = elcano::TypeSet::of(elcano::Type::drive);
+  third.node_number = 2;
+  EXPECT_EQ(ring.boards[2].eeprom, elcano::encode_node_block(third, elcano::Generation::b, 115200));
+
+  const std::string boards = "devices[0].transport.virtual_ring.boards";
+  EXPECT_EQ(error_of(ring_with(R"([{}, {"eeprom": {"behaviours": ["fly"]}}])")),
+            boards + "[1].eeprom.behaviours[0]: unknown behaviour \"fly\" (expected one of answer_goal_with_segment, "
+                     "answer_segment_with_drive, answer_sensor_with_drive, drive_servos, report_drive_as_sensor)");
+  EXPECT_EQ(error_of(ring_with(R"([{"eeprom": {"capture": ["goal"], "loop_period": 20}}])")),
+            boards + R"([0].eeprom: unknown key "loop_period" (did you mean "loop_period_ms"?))");
+  EXPECT_EQ(error_of(ring_with(R"([{"eeprom": {"behaviours": ["drive_servos", "drive_servos"]}}])")),
+            boards + R"([0].eeprom.behaviours[1]: behaviour "drive_servos" is listed twice)");
+  EXPECT_EQ(error_of(ring_with(R"([{"eeprom": "EN"}])")),
+            boards + R"([0].eeprom: expected an array of bytes or an object of node settings, got string "EN")");
+}
+
+// `tether flash --eeprom`'s node file, through the row's EEPROM-file hook: the block and the flash page the
+// node copies it from, or an error naming the key.
+TEST(DevicesConfig, ElcanoNodeFileThroughTheCodecRow) {
+  const EepromFileFormat& format = codec_row(elcano::kCodec).eeprom_file;
+  ASSERT_TRUE(format.parse);
+  EXPECT_EQ(format.image, "elcano-node");
+  const EepromUpload upload =
+      format.parse(R"({"capture": ["drive"], "generation": "D", "baud": 57600, /* label */ "node_number": 7})");
+  EXPECT_EQ(upload.flash_address, 0x7D80u);
+  const elcano::NodeFile file = elcano::parse_node_file(R"({"capture": ["drive"], "generation": "D", "baud": 57600,
+      "node_number": 7})");
+  EXPECT_EQ(file.settings.node_number, 7u);
+  EXPECT_EQ(file.generation, elcano::Generation::d);
+  EXPECT_EQ(upload.bytes, elcano::encode_node_block(file.settings, elcano::Generation::d, 57600));
+
+  const auto node_file_error = [&](const std::string& text) -> std::string {
+    try {
+      format.parse(text);
+    } catch (const ConfigError& error) {
+      return error.what();
+    }
+    ADD_FAILURE() << "parsed: " << text;
+    return {};
+  };
+  EXPECT_EQ(node_file_error(R"({"baud": 300})"), "baud: expected an unsigned integer in 1200..1000000, got 300");
+  EXPECT_EQ(node_file_error(R"({"generation": "C"})"), R"(generation: unknown generation "C" (expected one of B, D); did you mean "B"?)");
+  EXPECT_EQ(node_file_error(R"({"behaviours": ["fly"]})"), "behaviours[0]: unknown behaviour \"fly\" (expected one of answer_goal_with_segment, "
+            "answer_segment_with_drive, answer_sensor_with_drive, drive_servos, report_drive_as_sensor)");
+  EXPECT_EQ(node_file_error(R"([1, 2])"), "expected an object of node settings, got array");
+  EXPECT_EQ(node_file_error(R"({"baud": 9600, "baud": 4800})"), "baud: duplicate key (the object has it already)");
+  EXPECT_EQ(node_file_error("{"), "invalid JSON: parse error at line 1, column 2: syntax error while parsing object key - unexpected end "
+            "of input; expected string literal");
 }
 
 TEST(DevicesConfig, CommentsAreAllowed) {

@@ -35,6 +35,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "flash_image.hpp"
+#include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
 
 extern char** environ;
@@ -43,44 +44,58 @@ namespace tether::cli {
 
 namespace {
 
+// The codec whose boards take an EEPROM file (`--eeprom`): the first row with a parser, or null.
+const devices::CodecRow* eeprom_file_codec() {
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    if (row->eeprom_file.parse) return row;
+  }
+  return nullptr;
+}
+
+// The lines under `--eeprom` in the usage text: what the codec's file is.
+std::string eeprom_file_usage() {
+  const devices::CodecRow* codec = eeprom_file_codec();
+  return codec != nullptr ? std::string(codec->eeprom_file.usage)
+                          : "                  a board's EEPROM configuration (no codec of this build takes one)\n";
+}
+
+// The usage text around the lines of the codec's EEPROM file (`eeprom_file_usage`).
+constexpr const char* kUsageHead =
+    "usage: tether flash --port PATH IMAGE [--eeprom NODE.json] [--baud N] [--attempts N] [--reopen N]\n"
+    "                    [--avrdude PATH] [--timeout S] [--json]\n"
+    "\n"
+    "Uploads IMAGE to the board on PATH through its bootloader with avrdude (Debian's; `-c arduino -p\n"
+    "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
+    "or an image name looked up like `--virtual` (romi-test: its .hex in the firmware folder).\n"
+    "An Uno resets when the port opens (DTR) and optiboot waits about 1 s for avrdude; a board without\n"
+    "auto-reset needs its reset button pressed just before. avrdude's progress is shown on stderr. When the\n"
+    "bootloader stops answering (it gives up after 1 s of silence), avrdude runs again (--reopen).\n"
+    "\n"
+    "Checked before anything is sent: the image is for an ATmega328P (ELF: AVR machine, avr5; all bytes below\n"
+    "0x7E00, where optiboot lives), avrdude is on PATH, the port exists and no program holds it exclusively.\n"
+    "\n"
+    "  --port PATH     the board's serial port (/dev/ttyACM0) or a `tether sim --bootloader` pty\n"
+    "  --eeprom NODE.json\n";
+constexpr const char* kUsageTail =
+    "  --baud N        the bootloader's speed (default 115200: an Uno's optiboot; 57600 for older boards)\n"
+    "  --attempts N    how often avrdude tries to get in sync with the bootloader (default 10, avrdude's;\n"
+    "                  each failed try costs avrdude about 5 s)\n"
+    "  --reopen N      when the bootloader stops answering mid-upload, open the port again (which resets an\n"
+    "                  Uno into it) and run avrdude again, up to N times (default 1; 0..9)\n"
+    "  --avrdude PATH  the avrdude program (default: `avrdude` on PATH)\n"
+    "  --timeout S     give up when avrdude has not finished after S seconds (default 120)\n"
+    "  --json          print {\"port\",\"image\",\"bytes\",\"verified\"} on success\n"
+    "\n"
+    "Try it without a board:\n"
+    "  tether sim --bootloader optiboot      # prints PTY /dev/pts/N: a blank Uno with optiboot\n"
+    "  tether flash --port /dev/pts/N romi-test\n"
+    "  tether call --port /dev/pts/N --boot-wait 2000 e   # [0,1,2]\n"
+    "\n"
+    "Exit status: 0 written and verified; 2 usage errors, a bad image, no avrdude, a busy or missing port,\n"
+    "no bootloader answer, a verification error.\n";
+
 const CommandText& command_text() {
-  static const CommandText text(
-      "flash",
-      "usage: tether flash --port PATH IMAGE [--eeprom NODE.json] [--baud N] [--attempts N] [--reopen N]\n"
-      "                    [--avrdude PATH] [--timeout S] [--json]\n"
-      "\n"
-      "Uploads IMAGE to the board on PATH through its bootloader with avrdude (Debian's; `-c arduino -p\n"
-      "atmega328p`), then reads it back to verify. IMAGE is an .elf or .hex path (build/firmware/romi-test.hex),\n"
-      "or an image name looked up like `--virtual` (romi-test: its .hex in the firmware folder).\n"
-      "An Uno resets when the port opens (DTR) and optiboot waits about 1 s for avrdude; a board without\n"
-      "auto-reset needs its reset button pressed just before. avrdude's progress is shown on stderr. When the\n"
-      "bootloader stops answering (it gives up after 1 s of silence), avrdude runs again (--reopen).\n"
-      "\n"
-      "Checked before anything is sent: the image is for an ATmega328P (ELF: AVR machine, avr5; all bytes below\n"
-      "0x7E00, where optiboot lives), avrdude is on PATH, the port exists and no program holds it exclusively.\n"
-      "\n"
-      "  --port PATH     the board's serial port (/dev/ttyACM0) or a `tether sim --bootloader` pty\n"
-      "  --eeprom NODE.json\n"
-      "                  an elcano-node's configuration (capture, behaviours, pacing; the keys of a virtual\n"
-      "                  ring board's `eeprom` in a rover configuration, plus `generation` and `baud`), uploaded\n"
-      "                  with the image: optiboot cannot write EEPROM, so the block goes into the flash page at\n"
-      "                  0x7D80 and the node copies it into EEPROM at boot (firmware/elcano-node/README.md)\n"
-      "  --baud N        the bootloader's speed (default 115200: an Uno's optiboot; 57600 for older boards)\n"
-      "  --attempts N    how often avrdude tries to get in sync with the bootloader (default 10, avrdude's;\n"
-      "                  each failed try costs avrdude about 5 s)\n"
-      "  --reopen N      when the bootloader stops answering mid-upload, open the port again (which resets an\n"
-      "                  Uno into it) and run avrdude again, up to N times (default 1; 0..9)\n"
-      "  --avrdude PATH  the avrdude program (default: `avrdude` on PATH)\n"
-      "  --timeout S     give up when avrdude has not finished after S seconds (default 120)\n"
-      "  --json          print {\"port\",\"image\",\"bytes\",\"verified\"} on success\n"
-      "\n"
-      "Try it without a board:\n"
-      "  tether sim --bootloader optiboot      # prints PTY /dev/pts/N: a blank Uno with optiboot\n"
-      "  tether flash --port /dev/pts/N romi-test\n"
-      "  tether call --port /dev/pts/N --boot-wait 2000 e   # [0,1,2]\n"
-      "\n"
-      "Exit status: 0 written and verified; 2 usage errors, a bad image, no avrdude, a busy or missing port,\n"
-      "no bootloader answer, a verification error.\n");
+  static const CommandText text("flash", std::string(kUsageHead) + eeprom_file_usage() + kUsageTail);
   return text;
 }
 
@@ -92,7 +107,7 @@ struct Arguments {
   std::uint32_t timeout_ms = 120'000;
   std::uint32_t attempts = 10;
   std::uint32_t reopen = 1;  // avrdude runs after the first one when the bootloader stopped answering
-  std::optional<std::filesystem::path> eeprom;  // an elcano-node's configuration (JSON)
+  std::optional<std::filesystem::path> eeprom;  // a board's EEPROM configuration (its codec's file)
   bool json = false;
 };
 
@@ -279,32 +294,38 @@ std::optional<AvrdudeRun> run_avrdude(const std::vector<std::string>& arguments,
   return run;
 }
 
-// Puts an elcano-node configuration block (from the JSON file at `path`) into the flash page the node copies
-// into EEPROM at boot. False with `error` for a bad file or an image that reaches that page.
-bool add_node_configuration(transports::HexImage& image, const std::filesystem::path& path, std::string& error) {
+// Puts a board's EEPROM configuration (the file at `path`, in the format of the codec whose boards take one)
+// into the flash page its image copies into EEPROM at boot. False with `error` for a bad file or an image
+// that reaches that page.
+bool add_eeprom_configuration(transports::HexImage& image, const std::filesystem::path& path, std::string& error) {
+  const devices::CodecRow* codec = eeprom_file_codec();
+  if (codec == nullptr) {
+    error = path.string() + ": no codec of this build takes an EEPROM file";
+    return false;
+  }
   std::ifstream file(path, std::ios::binary);
   if (!file) {
     error = path.string() + ": " + std::strerror(errno);
     return false;
   }
-  const std::string json_text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  std::vector<std::uint8_t> block;
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  devices::EepromUpload upload;
   try {
-    const devices::NodeFile node = devices::parse_node_file(json_text);
-    block = devices::encode_node_block(node.settings, node.generation, node.baud);
+    upload = codec->eeprom_file.parse(text);
   } catch (const devices::ConfigError& failure) {
     error = path.string() + ": " + failure.what();
     return false;
   }
-  const std::uint32_t page = devices::node_upload_address();
+  const std::uint32_t page = upload.flash_address;
   if (image.end() > page) {
     char where[96];
     std::snprintf(where, sizeof where, "the image reaches the configuration page at 0x%04X (it ends at 0x%04X)",
                   static_cast<unsigned>(page), static_cast<unsigned>(image.end()));
-    error = std::string(where) + ": --eeprom needs an image below it, such as elcano-node";
+    error = std::string(where) + ": --eeprom needs an image below it, such as " +
+            std::string(codec->eeprom_file.image);
     return false;
   }
-  image.segments.push_back({page, std::move(block)});
+  image.segments.push_back({page, std::move(upload.bytes)});
   return true;
 }
 
@@ -364,7 +385,7 @@ int run_flash(int argc, char** argv) {
   std::string problem;
   auto image = read_flash_image(arguments.image, problem);
   if (!image) return text.fail(problem);
-  if (arguments.eeprom && !add_node_configuration(*image, *arguments.eeprom, problem)) return text.fail(problem);
+  if (arguments.eeprom && !add_eeprom_configuration(*image, *arguments.eeprom, problem)) return text.fail(problem);
   const auto avrdude = find_program(arguments.avrdude);
   if (!avrdude) {
     return text.fail(arguments.avrdude == "avrdude"

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/core/counters.hpp"
 #include "tether/core/time.hpp"
 #include "tether/devices/config.hpp"
 

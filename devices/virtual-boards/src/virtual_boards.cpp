@@ -13,8 +13,6 @@
 #include <variant>
 #include <vector>
 
-#include "tether/elcano/node/config.hpp"
-#include "tether/elcano/plugin.hpp"
 #include "tether/transports/fault_model.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/virtual_uno.hpp"
@@ -61,8 +59,8 @@ struct VirtualRing {
   }
 };
 
-std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const elcano::DeviceOptions& options,
-                                                          const std::string& device_name, const std::string& path,
+std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTransport& ring, const std::string& device_name,
+                                                          const std::string& path,
                                                           const boost::asio::any_io_executor& executor,
                                                           std::function<void()>& stop,
                                                           std::vector<std::shared_ptr<transports::VirtualUno>>& boards) {
@@ -82,19 +80,12 @@ std::shared_ptr<transports::ByteStream> open_virtual_ring(const VirtualRingTrans
       fail(board_path + ".firmware", board.firmware.string() + ": " + created.message(),
            transports::to_boost_error(created));
     }
-    if (const auto* bytes = std::get_if<std::vector<std::uint8_t>>(&board.eeprom)) {
-      if (bytes->size() > transports::atmega328p::kEepromSize) {
-        fail(board_path + ".eeprom", "expected at most " + std::to_string(transports::atmega328p::kEepromSize) +
-                                         " bytes, got " + std::to_string(bytes->size()),
-             make_error_code(DevicesError::invalid_config));
-      }
-      if (!bytes->empty()) uno->write_eeprom(0, *bytes);
-    } else {
-      const std::vector<std::uint8_t> block = encode_node_block(std::get<RingNodeSettings>(board.eeprom),
-                                                                options.generation, options.pacing.baud,
-                                                                board_path + ".eeprom");
-      uno->write_eeprom(elcano::node::kConfigAddress, block);
+    if (board.eeprom.size() > transports::atmega328p::kEepromSize) {
+      fail(board_path + ".eeprom", "expected at most " + std::to_string(transports::atmega328p::kEepromSize) +
+                                       " bytes, got " + std::to_string(board.eeprom.size()),
+           make_error_code(DevicesError::invalid_config));
     }
+    if (!board.eeprom.empty()) uno->write_eeprom(0, board.eeprom);
     owned->group->add(*uno);
     owned->boards.push_back(std::move(uno));
   }
@@ -136,9 +127,7 @@ OpenedTransport open_virtual_device(const DeviceConfig& device, const std::strin
     opened.clock = transports::VirtualUnoClock::create(board_stream);
     opened.stream = std::move(board_stream);
   } else {
-    const elcano::DeviceOptions* elcano = device.options.get_if<elcano::DeviceOptions>();
-    opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport),
-                                      elcano != nullptr ? *elcano : elcano::DeviceOptions(), device.name,
+    opened.stream = open_virtual_ring(std::get<VirtualRingTransport>(device.transport), device.name,
                                       transport_path + ".virtual_ring", executor, opened.stop, opened.boards);
     // The group keeps its boards in lockstep, so any board's time is the ring's: the first, which the host
     // writes to (as VirtualUnoClock::create(stream) picks). It keeps the ring alive, as the stream does.

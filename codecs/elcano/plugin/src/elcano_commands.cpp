@@ -21,6 +21,7 @@
 #include "elcano_text.hpp"
 #include "monitor_decoding.hpp"
 #include "shell_text.hpp"
+#include "tether/elcano/node_settings.hpp"
 #include "tether/elcano/plugin.hpp"
 
 namespace tether::cli {
@@ -209,14 +210,14 @@ CodecCommands elcano_commands() {
     devices::VirtualRingTransport ring;
     devices::RingBoardConfig node;
     node.firmware = firmware;
-    devices::RingNodeSettings settings;
+    elcano::RingNodeSettings settings;
     settings.capture = elcano::TypeSet::of(elcano::Type::drive);
     settings.behaviour_bits = kLoneVirtualNodeBehaviour;
-    node.eeprom = settings;
     // ... which the host captures (unless --capture says otherwise).
-    if (options.codec_flag("--capture") == nullptr) {
-      config.options.get<elcano::DeviceOptions>().capture = elcano::TypeSet::of(elcano::Type::sensor);
-    }
+    auto& host = config.options.get<elcano::DeviceOptions>();
+    if (options.codec_flag("--capture") == nullptr) host.capture = elcano::TypeSet::of(elcano::Type::sensor);
+    node.eeprom = elcano::encode_node_block(settings, host.generation, host.pacing.baud,
+                                            "transport.virtual_ring.boards[0].eeprom");
     ring.boards.push_back(node);
     ring.pacing = transports::Pacing::real_time;
     config.name = firmware.stem().string();

@@ -7,6 +7,8 @@
 #include <utility>
 #include <variant>
 
+#include "tether/elcano/node/config.hpp"
+#include "tether/elcano/node_settings.hpp"
 #include "tether/elcano/plugin.hpp"
 
 namespace tether::elcano {
@@ -81,6 +83,21 @@ devices::DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream
   return std::make_shared<RingClient>(std::move(stream), client_options);
 }
 
+// A virtual ring board's `"eeprom": {...}`: the node's block, on the device's generation and line speed.
+std::vector<std::uint8_t> encode_ring_board(const devices::RingBoardContext& board) {
+  static_assert(node::kConfigAddress == 0, "a ring board's EEPROM bytes start at address 0: the block's");
+  const RingNodeSettings settings = read_node_settings(board.settings, static_cast<std::uint8_t>(board.index));
+  const DeviceOptions* found = board.options != nullptr ? board.options->get_if<DeviceOptions>() : nullptr;
+  const DeviceOptions options = found != nullptr ? *found : DeviceOptions();
+  return encode_node_block(settings, options.generation, options.pacing.baud, board.settings.path);
+}
+
+// `tether flash --eeprom node.json`: the block goes into the flash page the node copies into EEPROM at boot.
+devices::EepromUpload read_node_file(std::string_view text) {
+  const NodeFile file = parse_node_file(text);
+  return devices::EepromUpload{encode_node_block(file.settings, file.generation, file.baud), node_upload_address()};
+}
+
 }  // namespace
 
 std::vector<devices::CodecRow> codec_rows() {
@@ -91,6 +108,15 @@ std::vector<devices::CodecRow> codec_rows() {
   row.client_type = &typeid(RingClient);
   row.option_keys = {"generation", "capture", "pacing", "attempt_timeout_ms", "call_budget_ms", "max_attempts"};
   row.virtual_boards = devices::VirtualBoards::ring;
+  row.ring_board_image = "elcano-node";
+  row.ring_board_settings = encode_ring_board;
+  row.eeprom_file.image = "elcano-node";
+  row.eeprom_file.usage =
+      "                  an elcano-node's configuration (capture, behaviours, pacing; the keys of a virtual\n"
+      "                  ring board's `eeprom` in a rover configuration, plus `generation` and `baud`), uploaded\n"
+      "                  with the image: optiboot cannot write EEPROM, so the block goes into the flash page at\n"
+      "                  0x7D80 and the node copies it into EEPROM at boot (firmware/elcano-node/README.md)\n";
+  row.eeprom_file.parse = read_node_file;
   row.parse_options = parse_elcano;
   row.validate = validate_elcano;
   row.open = open_elcano;

@@ -24,8 +24,14 @@
 ///
 /// Built-in and registered codecs are reached the same way: `device.options.get<LineEchoOptions>()`,
 /// `device.client.get<LineEchoClient>()` (`CodecOptions`, `DeviceClient`).
+///
+/// What a codec's boards are is the row's too, so the devices library names none: a codec on virtual rings
+/// gives the image a board runs by default (`ring_board_image`) and reads a board's `"eeprom": {...}`
+/// settings into its EEPROM bytes (`ring_board_settings`); one whose boards take a configuration file for
+/// `tether flash --eeprom` parses it (`eeprom_file`). Elcano's do all three (`tether/elcano/node_settings.hpp`).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -71,6 +77,36 @@ struct OptionsContext {
   }
 };
 
+/// What a row's ring-board parser gets: one board of a virtual ring whose `eeprom` is an object of settings
+/// rather than bytes.
+struct RingBoardContext {
+  /// The settings object, with its path (`devices[0].transport.virtual_ring.boards[1].eeprom`).
+  JsonNode settings;
+  /// The board's place in the ring (0: the one the host writes to).
+  std::size_t index = 0;
+  /// The device's options, already parsed (a ring's settings may depend on them: Elcano's generation).
+  const CodecOptions* options = nullptr;
+};
+
+/// An EEPROM configuration ready for `tether flash --eeprom`: a bootloader such as optiboot writes no
+/// EEPROM, so the bytes travel in the image's flash and the image copies them into EEPROM at boot.
+struct EepromUpload {
+  std::vector<std::uint8_t> bytes;  ///< What goes into flash.
+  std::uint32_t flash_address = 0;  ///< Where: the image's boot code looks for them there.
+};
+
+/// A file of one board's EEPROM configuration that a codec's boards take (`tether flash --eeprom FILE`).
+struct EepromFileFormat {
+  /// An image that reads it, for messages (`--eeprom needs an image below it, such as elcano-node`).
+  std::string_view image;
+  /// Its lines of `tether flash`'s usage text under `--eeprom FILE`, aligned like the others' and ending in
+  /// a newline.
+  std::string_view usage;
+  /// The file's text into the bytes and where they go; throws `ConfigError` naming the key (an empty path:
+  /// the file itself). Unset: the codec takes no such file.
+  std::function<EepromUpload(std::string_view text)> parse;
+};
+
 /// Reads the call-timing keys a codec with calls takes: `attempt_timeout_ms`, `call_budget_ms` (both >= 1)
 /// and `max_attempts` (1..255), into `timing` (what is absent keeps its value).
 void read_call_timing(const JsonObject& object, session::CallTiming& timing);
@@ -96,6 +132,14 @@ struct CodecRow {
   std::uint32_t default_baud = 115200;
   /// The virtual transport that carries it.
   VirtualBoards virtual_boards = VirtualBoards::single;
+  /// A ring's boards: the image of a board without `"firmware"` (`elcano-node`); empty: a board names its own.
+  std::string_view ring_board_image;
+  /// A ring board's `"eeprom": {...}` settings object into its initial EEPROM (from address 0, at most 1024
+  /// bytes), called once the device's options are parsed; throws `ConfigError` at the settings' keys. Unset:
+  /// a board's `eeprom` is bytes only.
+  std::function<std::vector<std::uint8_t>(const RingBoardContext& board)> ring_board_settings;
+  /// The EEPROM files its boards take (`tether flash --eeprom`: the first row that has one parses the file).
+  EepromFileFormat eeprom_file;
   /// The options of a configuration's device (`OptionsContext::options` null: the defaults).
   std::function<CodecOptions(const OptionsContext& context)> parse_options;
   /// Checks options built in code (what parsing guarantees); throws `ConfigError` at `options_path`'s keys.

@@ -49,8 +49,6 @@
 #include <variant>
 #include <vector>
 
-#include "tether/elcano/message.hpp"
-#include "tether/elcano/ring_node.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -134,51 +132,18 @@ struct VirtualTransport {
   transports::VirtualUnoOptions board;
 };
 
-/// Node settings of an `elcano-node` board given as structure instead of raw EEPROM bytes (the image's
-/// configuration block, firmware/elcano-node/README.md; generation and baud are the ring's: the device's
-/// `elcano::DeviceOptions`).
-struct RingNodeSettings {
-  elcano::TypeSet capture;                ///< Message types the node consumes.
-  std::uint8_t behaviour_bits = 0;        ///< What it does with them (`behaviours`: bit 0 answer_goal_with_segment,
-                                          ///< 1 answer_segment_with_drive, 2 answer_sensor_with_drive,
-                                          ///< 3 drive_servos, 4 report_drive_as_sensor).
-  std::uint16_t next_receiver_buffer = 64;  ///< Pacing of its output: the next node's receive buffer (>= 2).
-  std::uint16_t next_poll_interval = 0;   ///< Pacing: the next node's longest gap between reads (ms).
-  std::uint16_t loop_period = 0;          ///< It reads its RX every N ms (0: continuously).
-  std::uint8_t node_number = 0;           ///< Free label (diagnostics); default: its index in the ring.
-};
-
-/// One `elcano-node`'s configuration in a file of its own (`tether flash --eeprom node.json`): the keys of
-/// a virtual ring board's `eeprom` settings plus the ring's `generation` and `baud`, which a rover
-/// configuration takes from the device's options.
-struct NodeFile {
-  RingNodeSettings settings;                          ///< `node_number` defaults to 0.
-  elcano::Generation generation = elcano::Generation::b;  ///< `"generation"`: `"B"` (default) or `"D"`.
-  std::uint32_t baud = 115200;                        ///< `"baud"`: the ring's line speed.
-};
-
-/// Parses a node file's JSON text (comments allowed). Throws ConfigError naming the key.
-NodeFile parse_node_file(std::string_view json_text);
-
-/// The `elcano-node` configuration block (firmware/elcano-node/README.md) for `settings` on a ring of that
-/// generation and baud: the one encoder, for virtual rings (written into EEPROM) and `tether flash --eeprom`
-/// alike. Throws ConfigError at `path` when the values do not make a block the node accepts.
-std::vector<std::uint8_t> encode_node_block(const RingNodeSettings& settings, elcano::Generation generation,
-                                            std::uint32_t baud, const std::string& path = "");
-
-/// Flash address where an `elcano-node` image looks for a block uploaded with it (through a bootloader
-/// that cannot write EEPROM) and copies it into EEPROM at boot.
-std::uint32_t node_upload_address();
-
 /// One board of a virtual ring.
 struct RingBoardConfig {
-  /// Resolved image path (default image: `elcano-node`).
+  /// Resolved image path (default: the codec row's `ring_board_image`, codecs.hpp).
   std::filesystem::path firmware;
-  /// Initial EEPROM: raw bytes (at most 1024), or node settings the opener encodes.
-  std::variant<std::vector<std::uint8_t>, RingNodeSettings> eeprom;
+  /// Initial EEPROM from address 0 (at most 1024 bytes; empty: the simulator's blank EEPROM). A settings
+  /// object in a configuration (`"eeprom": {...}`) is the codec's to read: its row's `ring_board_settings`
+  /// encodes it here when the configuration is parsed.
+  std::vector<std::uint8_t> eeprom;
 };
 
-/// A ring of simulated Unos wired TX to RX in order (`{"virtual_ring": {...}}`, elcano only). The host
+/// A ring of simulated Unos wired TX to RX in order (`{"virtual_ring": {...}}`, for a codec whose row says
+/// `VirtualBoards::ring`: elcano). The host
 /// writes to the first board and reads from the last, as it would through one USB-serial adapter on a real
 /// ring. The rover owns the boards.
 struct VirtualRingTransport {

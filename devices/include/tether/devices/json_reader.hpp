@@ -96,6 +96,11 @@ double read_rate(const JsonNode& node);
 /// One of `names`, returned as its index; `what` names the kind of value in messages ("codec").
 std::size_t read_choice(const JsonNode& node, std::string_view what, const Names& names);
 
+/// JSON text as a configuration is read (comments allowed; a key given twice in one object, nesting deeper
+/// than `kMaxConfigDepth` or text over `kMaxConfigBytes` refused): for a file of a codec's own, such as a
+/// board's EEPROM file. Throws `ConfigError` (`invalid JSON: parse error at line L, column C: ...`).
+nlohmann::json parse_json_text(std::string_view json_text);
+
 /// Calls `visit(element_node, i)` for each element of an array node.
 template <typename Visit>
 void for_each_element(const JsonNode& node, Visit visit) {

@@ -38,7 +38,8 @@
 /// ## Elcano
 /// An elcano device is the host's node in a ring (`elcano::RingClient`): over a serial port or TCP the
 /// stream's TX goes to the first board and its RX comes from the last; a `virtual_ring` creates the boards
-/// (`elcano-node` images, each EEPROM written from the configuration before the first boot), wires them in
+/// (`elcano-node` images, each EEPROM written before the first boot with the bytes the configuration gives
+/// or the Elcano row encoded from a board's settings when it was parsed), wires them in
 /// a lockstep group (first -> ... -> last -> host), starts it and waits until every board's UART receiver
 /// is enabled. The rover owns the group; the ring stops when the device closes.
 ///

@@ -2,7 +2,8 @@
 /// The Elcano codec's plugin: what a rover configuration's `"codec": "elcano"` device is (the host's node
 /// in a ring: its options, parsed and checked here) and how it opens (`elcano::RingClient`). Its transport
 /// is a serial port or TCP link whose TX reaches the first board and RX comes from the last, or a
-/// `virtual_ring` of simulated boards (config.hpp). Registered with the devices library by
+/// `virtual_ring` of simulated boards (config.hpp), whose `elcano-node` boards' settings the row reads
+/// (node_settings.hpp: also the node file of `tether flash --eeprom`). Registered with the devices library by
 /// codecs/elcano/plugin/CMakeLists.txt (`tether_codec_plugin`); docs/codecs.md.
 ///
 /// @code
