@@ -3,25 +3,27 @@
 #   set(TETHER_COMPONENTS romi)         # Tether::romi: Boost and nlohmann-json, no protobuf, no simulator
 #   add_subdirectory(tether)
 # The names are find_package(Tether COMPONENTS ...)'s. A component brings the ones it is built on (romi,
-# proxy and elcano bring transports and core; devices brings every codec; virtual_uno brings devices and
-# simulator). simulator and virtual_uno are built only with TETHER_BUILD_SIMULATOR (libsimavr, libelf).
+# proxy and elcano bring client, transports and core; client brings transports; devices brings every codec;
+# virtual_uno brings devices and simulator). simulator and virtual_uno are built only with
+# TETHER_BUILD_SIMULATOR (libsimavr, libelf).
 # Sets TETHER_BUILT_COMPONENTS (the closed list) and TETHER_WITH_<COMPONENT> (ON/OFF) for each name.
 include_guard(GLOBAL)
 
-# The codecs: one folder each under codecs/ (docs/codecs.md), each a component built on the transports. A new
-# codec is its folder and its name here.
+# The codecs: one folder each under codecs/ (docs/codecs.md), each a component built on the client runtime.
+# A new codec is its folder and its name here.
 set(TETHER_CODECS romi proxy elcano)
-set(TETHER_ALL_COMPONENTS core transports ${TETHER_CODECS} devices simulator virtual_uno)
+set(TETHER_ALL_COMPONENTS core transports client ${TETHER_CODECS} devices simulator virtual_uno)
 set(TETHER_COMPONENTS "${TETHER_ALL_COMPONENTS}" CACHE STRING
   "Tether components to build (find_package names: ${TETHER_ALL_COMPONENTS}); what they are built on comes too")
 
 # What each component is built on.
 set(_tether_needs_transports core)
+set(_tether_needs_client transports core)
 foreach(_tether_codec IN LISTS TETHER_CODECS)
-  set(_tether_needs_${_tether_codec} transports)
+  set(_tether_needs_${_tether_codec} client)
 endforeach()
 set(_tether_needs_devices ${TETHER_CODECS})
-set(_tether_needs_simulator transports)
+set(_tether_needs_simulator client)  # a virtual board's clock is a link clock
 set(_tether_needs_virtual_uno devices simulator)
 
 set(_tether_pending "")

@@ -131,7 +131,7 @@ elseif(STEP STREQUAL "unpacked")
   foreach(file usr/bin/tether usr/share/man/man1/tether.1.gz usr/share/tether/firmware/romi-test.hex
       usr/share/tether/firmware/proxy.elf usr/share/doc/tether/copyright usr/share/doc/tether/changelog.gz
       usr/share/doc/libtether-dev/copyright usr/share/doc/tether-firmware/changelog.gz
-      usr/include/tether/romi/client.hpp
+      usr/include/tether/romi/client.hpp usr/include/tether/client/client_link.hpp
       usr/share/tether/examples/rover-service/CMakeLists.txt
       usr/lib/python3/dist-packages/tether/__init__.py usr/lib/python3/dist-packages/tether/py.typed
       usr/lib/python3/dist-packages/tether/__init__.pyi usr/lib/python3/dist-packages/tether/romi.pyi

@@ -10,7 +10,9 @@ set(expected
   ${LIBDIR}/libtether_elcano_client.a
   ${LIBDIR}/libtether_devices.a
   ${LIBDIR}/libtether_transports.a
+  ${LIBDIR}/libtether_client.a
   ${LIBDIR}/libtether_virtual_uno.a
+  ${LIBDIR}/pkgconfig/tether-client.pc
   ${LIBDIR}/pkgconfig/tether-romi.pc
   ${LIBDIR}/pkgconfig/tether-proxy.pc
   ${LIBDIR}/pkgconfig/tether-elcano.pc
@@ -24,6 +26,8 @@ set(expected
   include/tether/elcano/client.hpp
   include/tether/devices/rover.hpp
   include/tether/transports/serial_port_stream.hpp
+  include/tether/client/client_link.hpp
+  include/tether/client/link_clock.hpp
   include/tether/transports/virtual_uno.hpp
   share/tether/firmware/romi-test.elf
   share/tether/firmware/proxy.elf

@@ -29,7 +29,7 @@ CodecOptions parse_mark(const OptionsContext& context) {
 }
 
 DeviceClient no_client(std::shared_ptr<transports::ByteStream>, const DeviceConfig&,
-                       std::shared_ptr<transports::LinkClock>) {
+                       std::shared_ptr<client::LinkClock>) {
   return {};
 }
 

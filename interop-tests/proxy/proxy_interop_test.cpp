@@ -20,6 +20,7 @@
 
 #include "../stack_paint.hpp"
 #include "../wire_tap.hpp"
+#include "tether/client/testing/event_log.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
@@ -27,7 +28,6 @@
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
@@ -73,7 +73,7 @@ Options on_board_time(const std::shared_ptr<VirtualUnoStream>& stream, Options o
   return options;
 }
 
-using EventLog = transports::testing::EventLog<Event>;
+using EventLog = client::testing::EventLog<Event>;
 
 TEST(ProxyInterop, InitAndControlDriveTheServoPulseAndTheDigitalPin) {
   IoThread io;

@@ -16,8 +16,8 @@
 #include <tuple>
 #include <utility>
 
+#include "tether/client/client_skeleton.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_skeleton.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/transport_error.hpp"
 
@@ -136,10 +136,10 @@ void check_path(const std::string& path, const char* what);
 
 /// Runs an asynchronous operation for asyncio: returns a future of the running loop that `start` completes
 /// (from the io thread, through `loop.call_soon_threadsafe`). `start` gets a callable taking
-/// (exception or None, result) and the signal its handler is bound to (`transports::bind_cancellation`):
+/// (exception or None, result) and the signal its handler is bound to (`client::bind_cancellation`):
 /// cancelling the future (`task.cancel()`) emits it, so the wire operation is cancelled too (a queued call
 /// never starts, the one in flight stops waiting) instead of holding the device until its timeout.
-py::object asyncio_future(const std::function<void(PyCallback settle, transports::CancellationSignal cancel)>& start);
+py::object asyncio_future(const std::function<void(PyCallback settle, client::CancellationSignal cancel)>& start);
 
 /// True on a thread running `executor`'s io_context (false when that cannot be told).
 bool runs_in_this_thread(const boost::asio::any_io_executor& executor);
@@ -149,7 +149,7 @@ bool runs_in_this_thread(const boost::asio::any_io_executor& executor);
 /// Ctrl-C is acted on at once. Then the operation is cancelled (`cancel.emit()`: queued, it never starts;
 /// in flight, the client stops waiting for it) and the handler's exception (KeyboardInterrupt) raised; its
 /// completion, when it comes, lands in state this call no longer looks at. `start(cancel, handler)` starts
-/// the operation with `handler` bound to `cancel` (`transports::bind_cancellation`); returns the
+/// the operation with `handler` bound to `cancel` (`client::bind_cancellation`); returns the
 /// completion's arguments.
 /// Called on a thread that runs `executor` (an event handler calling a blocking method), it raises
 /// `TransportError::would_deadlock` instead: the completion could never run.
@@ -162,7 +162,7 @@ std::tuple<Results...> wait_interruptibly(const boost::asio::any_io_executor& ex
     std::optional<std::tuple<Results...>> results;
   };
   const auto slot = std::make_shared<Slot>();
-  transports::CancellationSignal cancel;
+  client::CancellationSignal cancel;
   {
     py::gil_scoped_release release;
     start(cancel, [slot](Results... results) {

@@ -69,7 +69,7 @@ ClosedError.)doc")
           // own thread, where the outcome also completes (the system executor), so a rover nobody waits
           // for any more is closed there, never on the I/O thread its clients need.
           auto [failure, rover] = wait_interruptibly<std::exception_ptr, devices::Rover>(
-              holder->io->executor(), [&](transports::CancellationSignal, auto handler) {
+              holder->io->executor(), [&](client::CancellationSignal, auto handler) {
                 devices::async_open_rover(config, holder->io->executor(), devices::OpenOptions(),
                                           boost::asio::bind_executor(boost::asio::system_executor(), std::move(handler)));
               });

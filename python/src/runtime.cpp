@@ -102,7 +102,7 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   transport.path = path;
   // Interruptible: Ctrl-C during the boot wait raises at once; the port, once opened, is closed again.
   auto [error, stream] = wait_interruptibly<boost::system::error_code, std::shared_ptr<transports::SerialPortStream>>(
-      transport.io->executor(), [&](transports::CancellationSignal, auto handler) {
+      transport.io->executor(), [&](client::CancellationSignal, auto handler) {
         transports::SerialPortStream::async_open(transport.io->executor(), path, options, std::move(handler));
       });
   if (error) raise_error(error, {}, path);
@@ -145,7 +145,7 @@ Transport take_stream(py::handle port_or_transport, const SerialArguments& seria
                        py::str(py::type::of(port_or_transport).attr("__name__")).cast<std::string>());
 }
 
-py::object asyncio_future(const std::function<void(PyCallback settle, transports::CancellationSignal cancel)>& start) {
+py::object asyncio_future(const std::function<void(PyCallback settle, client::CancellationSignal cancel)>& start) {
   py::object loop = py::module_::import("asyncio").attr("get_running_loop")();  // RuntimeError outside a loop
   py::object future = loop.attr("create_future")();
   py::object settle = py::module_::import("tether._asyncio").attr("settle");
@@ -158,7 +158,7 @@ py::object asyncio_future(const std::function<void(PyCallback settle, transports
       if (!loop.attr("is_closed")().cast<bool>()) throw;  // closed between the check and the call
     }
   });
-  transports::CancellationSignal cancel;
+  client::CancellationSignal cancel;
   start(PyCallback(deliver), cancel);
   // Only a cancelled future cancels: a completed one has nothing pending (emit would then do nothing anyway).
   future.attr("add_done_callback")(py::cpp_function([cancel](py::object done) {

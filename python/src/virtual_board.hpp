@@ -81,7 +81,7 @@ inline std::shared_ptr<VirtualBoard> deadline_board(std::shared_ptr<VirtualBoard
 }
 
 /// The LinkClock for a client's options: the board's, or null (the steady clock).
-inline std::shared_ptr<transports::LinkClock> link_clock(const std::shared_ptr<VirtualBoard>& board) {
+inline std::shared_ptr<client::LinkClock> link_clock(const std::shared_ptr<VirtualBoard>& board) {
   return board ? board->clock : nullptr;
 }
 

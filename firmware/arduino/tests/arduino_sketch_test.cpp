@@ -9,12 +9,12 @@
 #include <string>
 
 #include "ring_harness.hpp"
+#include "tether/client/testing/event_log.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/event_log.hpp"
 #include "tether/transports/virtual_uno_stream.hpp"
 
 namespace tether::arduino {
@@ -78,7 +78,7 @@ double servo_pulse_us(transports::VirtualUno& uno) {
   return std::chrono::duration<double, std::micro>(uno.pulse_timing(9).high_time).count();
 }
 
-using EventLog = transports::testing::EventLog<proxy::Event>;
+using EventLog = client::testing::EventLog<proxy::Event>;
 
 TEST(TetherProxyProxy, AcksMovesTheServoOnD9AndTheDigitalPin) {
   IoThread io;

@@ -20,12 +20,12 @@ Millis simulated_millis(const VirtualUno& board) {
   return static_cast<Millis>(static_cast<std::uint64_t>(ms));
 }
 
-void post_completion(const boost::asio::any_io_executor& executor, LinkTimer::Handler handler,
+void post_completion(const boost::asio::any_io_executor& executor, client::LinkTimer::Handler handler,
                      boost::system::error_code error) {
   boost::asio::post(executor, [handler = std::move(handler), error]() mutable { handler(error); });
 }
 
-class SimulatedTimer final : public LinkTimer {
+class SimulatedTimer final : public client::LinkTimer {
  public:
   SimulatedTimer(std::shared_ptr<const VirtualUno> board, VirtualUnoClockOptions options,
                  const boost::asio::any_io_executor& executor)
@@ -109,7 +109,7 @@ std::shared_ptr<VirtualUnoClock> VirtualUnoClock::create(const std::shared_ptr<V
 
 Millis VirtualUnoClock::now() const { return simulated_millis(*board_); }
 
-std::unique_ptr<LinkTimer> VirtualUnoClock::make_timer(const boost::asio::any_io_executor& executor) {
+std::unique_ptr<client::LinkTimer> VirtualUnoClock::make_timer(const boost::asio::any_io_executor& executor) {
   return std::make_unique<SimulatedTimer>(board_, options_, executor);
 }
 

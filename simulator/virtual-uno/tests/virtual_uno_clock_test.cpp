@@ -26,7 +26,7 @@ struct Completion {
   std::optional<boost::system::error_code> error;
   Millis clock_then = 0;  // the clock's reading when the handler ran
   int calls = 0;
-  LinkTimer::Handler handler(const LinkClock& clock) {
+  client::LinkTimer::Handler handler(const client::LinkClock& clock) {
     return [this, &clock](boost::system::error_code e) {
       error = e;
       clock_then = clock.now();
@@ -143,7 +143,7 @@ TEST(VirtualUnoClock, CancelReplaceAndDestroyAbortThePendingWaitOnce) {
 
 TEST(VirtualUnoClock, FollowsABoardRunningOnItsThreadAndKeepsItsStreamsBoardAlive) {
   boost::asio::io_context io;
-  std::shared_ptr<LinkClock> clock;
+  std::shared_ptr<client::LinkClock> clock;
   {
     auto stream = VirtualUnoStream::open(io.get_executor(), echo_options());
     clock = VirtualUnoClock::create(stream);

@@ -1,5 +1,5 @@
 // RingClient: the portable RingNode and the Elcano session engine (elcano::RequestTable) driven by the read
-// loop, the write queue and the timer of a transports::ClientLink, like romi::Client and
+// loop, the write queue and the timer of a client::ClientLink, like romi::Client and
 // proxy::Client (the link owns the strand, close and the lifetime rules).
 //
 // Everything below `RingClientImpl`'s public functions runs on the link's strand. All timed work goes
@@ -25,9 +25,9 @@
 #include <utility>
 #include <vector>
 
+#include "tether/client/client_link.hpp"
+#include "tether/client/pending_operations.hpp"
 #include "tether/core/wakeup.hpp"
-#include "tether/transports/client_link.hpp"
-#include "tether/transports/pending_operations.hpp"
 
 namespace tether::elcano {
 
@@ -65,7 +65,7 @@ std::string encode(const Message& message, Generation generation) {
 // ---------------------------------------------------------------------------------------------------------
 // The implementation
 
-class RingClientImpl final : public transports::ClientLink {
+class RingClientImpl final : public client::ClientLink {
  public:
   RingClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
       : ClientLink(std::move(stream), options.clock),
@@ -151,7 +151,7 @@ class RingClientImpl final : public transports::ClientLink {
 
   TypeSet capture() const { return published_capture_.get(); }
 
-  transports::EventHandlers<Event>& event_handlers() { return events_; }
+  client::EventHandlers<Event>& event_handlers() { return events_; }
 
   Counters counters() const { return published_.get(); }
 
@@ -172,7 +172,7 @@ class RingClientImpl final : public transports::ClientLink {
     std::string bytes;            // as written: recognises the request when it comes back
     bool resend_pending = false;  // the engine asked for a re-send that found no room yet
   };
-  using Operations = transports::PendingOperations<MessageSignature, RingOperation>;
+  using Operations = client::PendingOperations<MessageSignature, RingOperation>;
   using Entry = Operations::iterator;
 
   static bool waits_for_room(const RingOperation& operation) {
@@ -558,9 +558,9 @@ class RingClientImpl final : public transports::ClientLink {
   bool writing_ = false;
 
   // Any thread.
-  transports::Published<Counters> published_;
-  transports::Published<TypeSet> published_capture_;
-  transports::EventHandlers<Event> events_;
+  client::Published<Counters> published_;
+  client::Published<TypeSet> published_capture_;
+  client::EventHandlers<Event> events_;
 };
 
 void start_send(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, SendHandler handler,
@@ -586,7 +586,7 @@ void start_receive(const std::shared_ptr<RingClientImpl>& impl, OperationId oper
 namespace {
 
 std::shared_ptr<ByteStream> checked_stream(std::shared_ptr<ByteStream> stream, const Options& options) {
-  stream = transports::require_stream(std::move(stream), "elcano::RingClient");
+  stream = client::require_stream(std::move(stream), "elcano::RingClient");
   if (options.timing.max_attempts == 0 || options.timing.call_budget == 0) {
     throw std::invalid_argument("elcano::RingClient: timing.max_attempts and timing.call_budget must be > 0");
   }
@@ -605,7 +605,7 @@ RingClient::RingClient(std::shared_ptr<ByteStream> stream, const Options& option
 }
 
 void RingClient::send(const Message& message, error_code& error) {
-  (void)transports::wait_for_operation<bool>(
+  (void)client::wait_for_operation<bool>(
       link(),
       [&](detail::OperationId operation, transports::UniqueFunction<void(error_code, bool)> done) {
         impl()->submit_send(operation, message, [done = std::move(done)](error_code e) mutable { done(e, !e); });
@@ -614,11 +614,11 @@ void RingClient::send(const Message& message, error_code& error) {
 }
 
 void RingClient::send(const Message& message) {
-  transports::require([&](error_code& error) { send(message, error); }, "elcano send");
+  client::require([&](error_code& error) { send(message, error); }, "elcano send");
 }
 
 Message RingClient::request(const Message& message, Type reply_type, error_code& error) {
-  return transports::wait_for_operation<Message>(
+  return client::wait_for_operation<Message>(
       link(),
       [&](detail::OperationId operation, detail::MessageHandler done) {
         impl()->submit_request(operation, message, reply_type, std::move(done));
@@ -627,12 +627,12 @@ Message RingClient::request(const Message& message, Type reply_type, error_code&
 }
 
 Message RingClient::request(const Message& message, Type reply_type) {
-  return transports::require([&](error_code& error) { return request(message, reply_type, error); },
+  return client::require([&](error_code& error) { return request(message, reply_type, error); },
                              "elcano request");
 }
 
 Message RingClient::receive(Duration timeout, error_code& error) {
-  return transports::wait_for_operation<Message>(
+  return client::wait_for_operation<Message>(
       link(),
       [&](detail::OperationId operation, detail::MessageHandler done) {
         impl()->submit_receive(operation, timeout, std::move(done));
@@ -641,7 +641,7 @@ Message RingClient::receive(Duration timeout, error_code& error) {
 }
 
 Message RingClient::receive(Duration timeout) {
-  return transports::require([&](error_code& error) { return receive(timeout, error); }, "elcano receive");
+  return client::require([&](error_code& error) { return receive(timeout, error); }, "elcano receive");
 }
 
 void RingClient::set_capture(TypeSet capture) { impl()->set_capture(capture); }

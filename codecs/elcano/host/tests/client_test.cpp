@@ -727,10 +727,10 @@ TEST(RingClient, CancellingOneOperationLeavesTheOthersAlone) {
   options.node.capture = TypeSet::of(Type::sensor);
   Link link(io.executor(), options);  // nobody answers
   Completions completions;
-  transports::CancellationSignal cancel_request, cancel_receive;
+  client::CancellationSignal cancel_request, cancel_receive;
   link.client->async_request(goal(1), Type::segment,
-                             transports::bind_cancellation(cancel_request, completions.message_handler(0)));
-  link.client->async_receive(transports::bind_cancellation(cancel_receive, completions.message_handler(1)));
+                             client::bind_cancellation(cancel_request, completions.message_handler(0)));
+  link.client->async_receive(client::bind_cancellation(cancel_receive, completions.message_handler(1)));
   link.client->async_receive(completions.message_handler(2));
   ASSERT_TRUE(link.ring->wait_for_messages(1));
   cancel_request.emit();

@@ -58,7 +58,7 @@ Message goal(std::int32_t number) { return Message::goal(number, 90, 100, 200); 
 
 Message segment(std::int32_t number) { return Message::segment(number, 160, 80, 3200, -64000); }
 
-Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<transports::LinkClock> clock) {
+Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<client::LinkClock> clock) {
   Options options;
   options.clock = std::move(clock);
   options.timing.attempt_timeout = attempt_ms;
@@ -72,7 +72,7 @@ Options test_options(Duration attempt_ms, Duration budget_ms, std::shared_ptr<tr
 }
 
 Options on_steady_clock(Options options) {
-  options.clock = transports::steady_link_clock();
+  options.clock = client::steady_link_clock();
   return options;
 }
 

@@ -23,10 +23,10 @@
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/testing/eventually.hpp"
-#include "tether/transports/link_clock.hpp"
-#include "tether/transports/testing/event_log.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/link_clock.hpp"
+#include "tether/client/testing/event_log.hpp"
+#include "tether/client/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace tether::elcano::testing {
@@ -75,7 +75,7 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
   /// Every read of the ring's end so far, in order.
   std::vector<Arrival> arrivals() const;
   /// Stamps arrivals with `clock` (the client's manual clock; before the first byte arrives).
-  void use_clock(std::shared_ptr<transports::LinkClock> clock) {
+  void use_clock(std::shared_ptr<client::LinkClock> clock) {
     record([&] { clock_ = std::move(clock); });
   }
 
@@ -89,7 +89,7 @@ class FakeRing : public transports::testing::ScriptedDevice<FakeRing, RingRecord
 
   // Under the peer's lock.
   std::vector<Arrival> arrivals_;
-  std::shared_ptr<transports::LinkClock> clock_ = transports::steady_link_clock();
+  std::shared_ptr<client::LinkClock> clock_ = client::steady_link_clock();
 };
 
 /// The bytes of `message` in `generation` (what the host writes when it originates it).
@@ -105,7 +105,7 @@ Message segment(std::int32_t number);
 /// Options for tests: fast pacing (115200 baud, a 64-byte receiver that keeps up), the engine's shape
 /// scaled down (attempt `attempt_ms`, budget `budget_ms`, 3 sends), on `clock` (null: the steady clock).
 Options test_options(Duration attempt_ms = 200, Duration budget_ms = 1000,
-                     std::shared_ptr<transports::LinkClock> clock = nullptr);
+                     std::shared_ptr<client::LinkClock> clock = nullptr);
 
 /// `options` on the steady clock, for tests whose pacing must see time pass (on `Link`'s manual clock the
 /// pacer holds the second message back until the test advances it). Their attempt windows and budgets
@@ -117,9 +117,9 @@ Options on_steady_clock(Options options);
 session::LinkPacing trickle();
 
 /// Records every event; tests wait for the ones they expect.
-using EventLog = transports::testing::EventLog<Event>;
+using EventLog = client::testing::EventLog<Event>;
 using ::tether::testing::eventually;
-using transports::testing::ManualClock;
+using client::testing::ManualClock;
 
 /// The outcome of an asynchronous operation.
 struct Outcome {

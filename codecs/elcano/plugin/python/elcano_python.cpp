@@ -111,8 +111,8 @@ py::object ring_event(const elcano::Event& ring_event) {
 
 // `start` begins the operation with its handler bound to the future's cancellation.
 py::object message_future(
-    const std::function<void(transports::CancellationSignal, elcano::detail::MessageHandler)>& start) {
-  return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
+    const std::function<void(client::CancellationSignal, elcano::detail::MessageHandler)>& start) {
+  return asyncio_future([&](PyCallback settle, client::CancellationSignal cancel) {
     start(std::move(cancel), [settle](elcano::error_code error, elcano::Message reply) {
       if (interpreter_exiting()) return;
       py::gil_scoped_acquire gil;
@@ -243,8 +243,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
             const elcano::Type reply = type_from(reply_type);
             elcano::RingClient& client = self.get();
             auto [error, answer] = wait_interruptibly<elcano::error_code, elcano::Message>(
-                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
-                  client.async_request(request, reply, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                client.get_executor(), [&](client::CancellationSignal cancel, auto handler) {
+                  client.async_request(request, reply, client::bind_cancellation(std::move(cancel), std::move(handler)));
                 });
             if (error) raise_error(error);
             return answer;
@@ -257,8 +257,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
             const elcano::Type reply = type_from(reply_type);
             elcano::RingClient& client = self.get();
-            return message_future([&](transports::CancellationSignal cancel, elcano::detail::MessageHandler h) {
-              client.async_request(request, reply, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return message_future([&](client::CancellationSignal cancel, elcano::detail::MessageHandler h) {
+              client.async_request(request, reply, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("message"), py::kw_only(), py::arg("reply_type"), "``request`` for asyncio.")
@@ -266,8 +266,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
           "send",
           [](RingClient& self, const elcano::Message& message) {
             elcano::RingClient& client = self.get();
-            auto [error] = wait_interruptibly<elcano::error_code>(client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
-              client.async_send(message, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+            auto [error] = wait_interruptibly<elcano::error_code>(client.get_executor(), [&](client::CancellationSignal cancel, auto handler) {
+              client.async_send(message, client::bind_cancellation(std::move(cancel), std::move(handler)));
             });
             if (error) raise_error(error);
           },
@@ -278,8 +278,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
             const Duration limit = milliseconds(timeout, "timeout");
             elcano::RingClient& client = self.get();
             auto [error, message] = wait_interruptibly<elcano::error_code, elcano::Message>(
-                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
-                  client.async_receive(limit, transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                client.get_executor(), [&](client::CancellationSignal cancel, auto handler) {
+                  client.async_receive(limit, client::bind_cancellation(std::move(cancel), std::move(handler)));
                 });
             if (error) raise_error(error);
             return message;

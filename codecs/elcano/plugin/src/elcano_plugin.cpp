@@ -72,7 +72,7 @@ void validate_elcano(const devices::CodecOptions& codec_options, const std::stri
 }
 
 devices::DeviceClient open_elcano(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-                                  std::shared_ptr<transports::LinkClock> clock) {
+                                  std::shared_ptr<client::LinkClock> clock) {
   const auto& options = device.options.get<DeviceOptions>();
   Options client_options;
   client_options.node.generation = options.generation;

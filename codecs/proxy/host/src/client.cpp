@@ -202,22 +202,22 @@ void ClientImpl::on_closed() {
   publish();
 }
 
-void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_send(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 SendHandler handler, Request request) {
   impl->submit(operation, std::move(request), std::move(handler));
 }
 
 SendResult blocking_send(const ClientRef& client, Request request, error_code& error) {
-  return transports::wait_for_operation<SendResult>(
+  return client::wait_for_operation<SendResult>(
       *client.link(),
-      [&](transports::ClientLink::OperationId operation, SendHandler handler) {
+      [&](client::ClientLink::OperationId operation, SendHandler handler) {
         client.impl()->submit(operation, std::move(request), std::move(handler));
       },
       error);
 }
 
 SendResult blocking_send(const ClientRef& client, Request request) {
-  return transports::require([&](error_code& error) { return blocking_send(client, std::move(request), error); },
+  return client::require([&](error_code& error) { return blocking_send(client, std::move(request), error); },
                              "proxy send");
 }
 
@@ -232,7 +232,7 @@ std::optional<PinStatus> pin_state(const ClientRef& client, PinKind kind, std::u
 
 namespace {
 std::shared_ptr<ByteStream> checked_stream(std::shared_ptr<ByteStream> stream, const Options& options) {
-  stream = transports::require_stream(std::move(stream), "proxy::Client");
+  stream = client::require_stream(std::move(stream), "proxy::Client");
   const ProxyTiming& timing = options.timing;
   if (timing.baud == 0 || timing.bits_per_byte == 0 || timing.send_budget == 0 || timing.max_sends == 0) {
     throw std::invalid_argument("proxy::Client: baud, bits_per_byte, send_budget and max_sends must be > 0");

@@ -1,5 +1,5 @@
-// The part of the proxy client both protocols share: the link (a transports::ClientLink), the pending
-// sends (transports::PendingOperations), the registered inits, the pins, the counters and the events.
+// The part of the proxy client both protocols share: the link (a client::ClientLink), the pending
+// sends (client::PendingOperations), the registered inits, the pins, the counters and the events.
 // The protocols are its two implementations, each in its own file: the designed one (primary_client.cpp:
 // ids, acks, session monitor, heartbeat, init replay) and the deployed variant (compat_client.cpp: no CRC,
 // a send completes when written, the staleness rule). `Client` picks one by `Options::mode`.
@@ -18,10 +18,10 @@
 #include <variant>
 #include <vector>
 
+#include "tether/client/client_link.hpp"
+#include "tether/client/pending_operations.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether/proxy/decoder.hpp"
-#include "tether/transports/client_link.hpp"
-#include "tether/transports/pending_operations.hpp"
 
 namespace tether::proxy::detail {
 
@@ -90,9 +90,9 @@ struct Send {
   std::uint32_t anchor = 0;           // the oldest id in flight when it was first sent (its id if none)
   std::shared_ptr<const std::string> frame;
 };
-using Sends = transports::PendingOperations<SendSignature, Send>;
+using Sends = client::PendingOperations<SendSignature, Send>;
 
-class ClientImpl : public transports::ClientLink {
+class ClientImpl : public client::ClientLink {
  public:
   // Starts reading and what the protocol runs from the start (after construction: needs shared_from_this).
   void start();
@@ -102,7 +102,7 @@ class ClientImpl : public transports::ClientLink {
   // Any thread; returns at once.
   void restart_session();
 
-  transports::EventHandlers<Event>& event_handlers() { return events_; }
+  client::EventHandlers<Event>& event_handlers() { return events_; }
   Counters counters() const { return published_.get(); }
   SessionStatus session() const { return published_session_.get(); }
   std::optional<PinStatus> pin_state(PinKind kind, std::uint32_t pin) const;
@@ -182,9 +182,9 @@ class ClientImpl : public transports::ClientLink {
   InitKey next_init_key_ = 1;
 
   // Any thread.
-  transports::Published<Counters> published_;
-  transports::Published<SessionStatus> published_session_;
-  transports::EventHandlers<Event> events_;
+  client::Published<Counters> published_;
+  client::Published<SessionStatus> published_session_;
+  client::EventHandlers<Event> events_;
 };
 
 // The designed protocol (primary_client.cpp).

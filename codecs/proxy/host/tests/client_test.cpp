@@ -12,7 +12,7 @@
 #include <set>
 
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "test_support.hpp"
 
@@ -21,7 +21,7 @@ namespace {
 
 namespace asio = boost::asio;
 using IoThread = transports::IoThread;
-using transports::testing::ManualClock;
+using client::testing::ManualClock;
 
 bool is_servo_control(const DeviceFrame& frame) { return frame.decoded && frame.in.has_servocontrol(); }
 
@@ -914,9 +914,9 @@ TEST(ProxyClient, CancellingOneSendLeavesTheOthersAlone) {
   Link link(io.executor(), test_options(), standard_device(100, is_servo_control));  // controls are never acked
   ASSERT_TRUE(link.established());
   Completions done;
-  transports::CancellationSignal cancel_first, cancel_queued;
-  link.client->servo(1).async_set(10, transports::bind_cancellation(cancel_first, done.handler(0)));
-  link.client->servo(1).async_set(20, transports::bind_cancellation(cancel_queued, done.handler(1)));  // behind it
+  client::CancellationSignal cancel_first, cancel_queued;
+  link.client->servo(1).async_set(10, client::bind_cancellation(cancel_first, done.handler(0)));
+  link.client->servo(1).async_set(20, client::bind_cancellation(cancel_queued, done.handler(1)));  // behind it
   link.client->servo(2).async_set(30, done.handler(2));
   ASSERT_TRUE(link.device->wait_for(has(ArduinoIn::kServoControl, 2), kPrompt));
   cancel_queued.emit();  // queued: completes at once and never goes out

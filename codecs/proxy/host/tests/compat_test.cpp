@@ -8,7 +8,7 @@
 
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "test_support.hpp"
 
 namespace tether::proxy::testing {
@@ -136,7 +136,7 @@ TEST(ProxyCompat, StalenessRuleReportsSilentPins) {
   Options options = compat_test_options();
   options.timing.stale_after = 200;
   Link link(io.executor(), options, silent());
-  transports::testing::ManualClock& clock = *link.clock;
+  client::testing::ManualClock& clock = *link.clock;
   const Millis start = clock.now();
   link.client->digital(8).init(false);
   link.client->servo(3).init(0);  // never reports
@@ -248,7 +248,7 @@ TEST(ProxyCompat, SendsToADeviceThatStoppedReadingTimeOutAtTheirBudget) {
   IoThread io;
   Options options = compat_test_options();
   options.timing.send_budget = 300;
-  auto clock = transports::testing::ManualClock::create();
+  auto clock = client::testing::ManualClock::create();
   options.clock = clock;
   // Nobody reads the other end; it holds 4 bytes, less than one frame.
   auto [host_end, device_end] = transports::InMemoryStream::make_pair(io.executor(), 4);

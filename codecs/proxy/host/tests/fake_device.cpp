@@ -7,7 +7,7 @@
 namespace tether::proxy::testing {
 
 std::shared_ptr<FakeDevice> FakeDevice::start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-                                              Script script, std::shared_ptr<transports::LinkClock> clock) {
+                                              Script script, std::shared_ptr<client::LinkClock> clock) {
   auto device = std::make_shared<FakeDevice>(std::move(end), integrity, std::move(clock));
   device->on_frame(std::move(script));
   device->ScriptedPeer::start();
@@ -15,10 +15,10 @@ std::shared_ptr<FakeDevice> FakeDevice::start(std::shared_ptr<transports::ByteSt
 }
 
 FakeDevice::FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-                       std::shared_ptr<transports::LinkClock> clock)
+                       std::shared_ptr<client::LinkClock> clock)
     : ScriptedDevice(std::move(end)),
       integrity_(integrity),
-      clock_(clock ? std::move(clock) : transports::steady_link_clock()),
+      clock_(clock ? std::move(clock) : client::steady_link_clock()),
       decoder_(integrity, counters_) {}
 
 std::string FakeDevice::frame_bytes(const std::string& payload, Integrity integrity) {

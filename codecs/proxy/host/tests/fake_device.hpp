@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "rocketry.pb.h"
+#include "tether/client/link_clock.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/link_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 #include "tether_proxy.pb.h"
 
@@ -44,9 +44,9 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
   /// Device reading from `end` at once, decoding with `integrity` (crc16: primary, none: compat), stamping
   /// each frame's arrival with `clock` (null: the steady clock), the client's clock in a test.
   static std::shared_ptr<FakeDevice> start(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-                                           Script script = {}, std::shared_ptr<transports::LinkClock> clock = nullptr);
+                                           Script script = {}, std::shared_ptr<client::LinkClock> clock = nullptr);
   FakeDevice(std::shared_ptr<transports::ByteStream> end, Integrity integrity,
-             std::shared_ptr<transports::LinkClock> clock);  // for make_shared
+             std::shared_ptr<client::LinkClock> clock);  // for make_shared
 
   /// Sets the script (any thread, before the frames it should see).
   void on_frame(Script script) { set_script(std::move(script)); }
@@ -75,7 +75,7 @@ class FakeDevice : public transports::testing::ScriptedDevice<FakeDevice, Device
 
   // Strand only.
   Integrity integrity_;
-  std::shared_ptr<transports::LinkClock> clock_;
+  std::shared_ptr<client::LinkClock> clock_;
   LinkCounters counters_;
   Decoder<512> decoder_;
   std::string frame_;  // bytes of the frame in progress

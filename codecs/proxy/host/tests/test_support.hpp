@@ -17,9 +17,9 @@
 #include "fake_device.hpp"
 #include "tether/proxy/client.hpp"
 #include "tether/testing/eventually.hpp"
-#include "tether/transports/testing/event_log.hpp"
+#include "tether/client/testing/event_log.hpp"
 #include "tether/transports/in_memory_stream.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 
 namespace tether::proxy::testing {
 
@@ -55,7 +55,7 @@ inline Options compat_test_options() {
 }
 
 /// Records every event; tests wait for the ones they expect.
-using EventLog = transports::testing::EventLog<Event>;
+using EventLog = client::testing::EventLog<Event>;
 using ::tether::testing::eventually;
 
 /// A client and a fake device on the two ends of an in-memory pair, on a manual clock: no ack window, budget
@@ -64,7 +64,7 @@ using ::tether::testing::eventually;
 /// with it).
 struct Link {
   Link(boost::asio::any_io_executor executor, Options options, FakeDevice::Script script)
-      : clock(transports::testing::ManualClock::create()) {
+      : clock(client::testing::ManualClock::create()) {
     options.clock = clock;
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end, options.mode == Mode::primary ? Integrity::crc16 : Integrity::none,
@@ -96,7 +96,7 @@ struct Link {
     return true;
   }
 
-  std::shared_ptr<transports::testing::ManualClock> clock;
+  std::shared_ptr<client::testing::ManualClock> clock;
   EventLog log;
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;

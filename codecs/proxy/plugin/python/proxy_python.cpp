@@ -98,19 +98,19 @@ py::object event_to_python(const proxy::Event& event) {
       event);
 }
 
-// Starts the operation with its handler bound to the future's cancellation (transports::bind_cancellation).
-using AsyncSend = std::function<void(transports::CancellationSignal, proxy::detail::SendHandler)>;
+// Starts the operation with its handler bound to the future's cancellation (client::bind_cancellation).
+using AsyncSend = std::function<void(client::CancellationSignal, proxy::detail::SendHandler)>;
 
 // The blocking form of a send: interruptible (Ctrl-C cancels the send and raises KeyboardInterrupt).
 proxy::SendResult blocking(const proxy::Client& client, const AsyncSend& start) {
   auto [error, result] = wait_interruptibly<proxy::error_code, proxy::SendResult>(
-      client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) { start(std::move(cancel), std::move(handler)); });
+      client.get_executor(), [&](client::CancellationSignal cancel, auto handler) { start(std::move(cancel), std::move(handler)); });
   if (error) raise_error(error);
   return result;
 }
 
 py::object asynchronous(const AsyncSend& start) {
-  return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
+  return asyncio_future([&](PyCallback settle, client::CancellationSignal cancel) {
     start(std::move(cancel), [settle](proxy::error_code error, proxy::SendResult result) {
       if (interpreter_exiting()) return;
       py::gil_scoped_acquire gil;
@@ -182,8 +182,8 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle safe_position) {
             const auto value = checked_int<std::int32_t>(safe_position, "safe_position");
             auto handle = s.owner->get().servo(s.pin);
-            return blocking(s.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return blocking(s.owner->get(), [&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("safe_position"),
@@ -194,8 +194,8 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle position) {
             const auto value = checked_int<std::int32_t>(position, "position");
             auto handle = s.owner->get().servo(s.pin);
-            return blocking(s.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return blocking(s.owner->get(), [&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("position"), "Sends ServoControl{pin, position}; blocks until acked (compat: written).")
@@ -204,8 +204,8 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle safe_position) {
             const auto value = checked_int<std::int32_t>(safe_position, "safe_position");
             auto handle = s.owner->get().servo(s.pin);
-            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return asynchronous([&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("safe_position"), "``init`` for asyncio (a future of the running loop).")
@@ -214,8 +214,8 @@ void register_proxy(py::module_& parent) {
           [](const ServoPin& s, py::handle position) {
             const auto value = checked_int<std::int32_t>(position, "position");
             auto handle = s.owner->get().servo(s.pin);
-            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return asynchronous([&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("position"), "``set`` for asyncio (a future of the running loop).")
@@ -229,8 +229,8 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle safe_state) {
             const bool value = checked_bool(safe_state, "safe_state");
             auto handle = d.owner->get().digital(d.pin);
-            return blocking(d.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_init(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return blocking(d.owner->get(), [&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_init(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("safe_state"), "Registers DigitalInit{pin, safe_state} for replay and sends it; blocks.")
@@ -239,8 +239,8 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle state) {
             const bool value = checked_bool(state, "state");
             auto handle = d.owner->get().digital(d.pin);
-            return blocking(d.owner->get(), [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return blocking(d.owner->get(), [&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("state"), "Sends DigitalControl{pin, state}; blocks until acked (compat: written).")
@@ -249,8 +249,8 @@ void register_proxy(py::module_& parent) {
           [](const DigitalPin& d, py::handle state) {
             const bool value = checked_bool(state, "state");
             auto handle = d.owner->get().digital(d.pin);
-            return asynchronous([&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-              handle.async_set(value, transports::bind_cancellation(std::move(cancel), std::move(h)));
+            return asynchronous([&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+              handle.async_set(value, client::bind_cancellation(std::move(cancel), std::move(h)));
             });
           },
           py::arg("state"), "``set`` for asyncio (a future of the running loop).")
@@ -323,8 +323,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
       .def("reset_failsafe",
            [](ProxyClient& self) {
              proxy::Client& client = self.get();
-             return blocking(client, [&](transports::CancellationSignal cancel, proxy::detail::SendHandler h) {
-               client.async_reset_failsafe(transports::bind_cancellation(std::move(cancel), std::move(h)));
+             return blocking(client, [&](client::CancellationSignal cancel, proxy::detail::SendHandler h) {
+               client.async_reset_failsafe(client::bind_cancellation(std::move(cancel), std::move(h)));
              });
            },
            "Primary: sends PingFailsafeReset (clears the device's failsafe flag); blocks until acked.")

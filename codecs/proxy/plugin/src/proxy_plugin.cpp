@@ -144,7 +144,7 @@ void validate_proxy(const devices::CodecOptions& codec_options, const std::strin
 }
 
 devices::DeviceClient open_proxy(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-                                 std::shared_ptr<transports::LinkClock> clock) {
+                                 std::shared_ptr<client::LinkClock> clock) {
   Options client_options = device.options.get<DeviceOptions>().client;
   client_options.clock = std::move(clock);
   return std::make_shared<Client>(std::move(stream), std::move(client_options));

@@ -1,5 +1,5 @@
 // Client: the session engine (romi::RequestTable) driven by the read loop and the timer of a
-// transports::ClientLink (which owns the strand, the write queue, close and the lifetime rules).
+// client::ClientLink (which owns the strand, the write queue, close and the lifetime rules).
 //
 // Everything below `ClientImpl`'s public functions runs on the link's strand.
 #include "tether/romi/client.hpp"
@@ -20,8 +20,8 @@
 #include "tether/core/time.hpp"
 #include "tether/romi/encoder.hpp"
 #include "tether/romi/decoder.hpp"
-#include "tether/transports/client_link.hpp"
-#include "tether/transports/pending_operations.hpp"
+#include "tether/client/client_link.hpp"
+#include "tether/client/pending_operations.hpp"
 
 namespace tether::romi {
 
@@ -116,7 +116,7 @@ RomiResponse failed_response(const Command& command) {
 
 namespace detail {
 
-class ClientImpl final : public transports::ClientLink {
+class ClientImpl final : public client::ClientLink {
  public:
   ClientImpl(std::shared_ptr<ByteStream> stream, const Options& options)
       : ClientLink(std::move(stream), options.clock),
@@ -152,7 +152,7 @@ class ClientImpl final : public transports::ClientLink {
     });
   }
 
-  transports::EventHandlers<Event>& event_handlers() { return events_; }
+  client::EventHandlers<Event>& event_handlers() { return events_; }
 
   void set_timing(const session::CallTiming& timing) {
     post_to_strand([this, timing] { table_.set_timing(timing); });
@@ -178,7 +178,7 @@ class ClientImpl final : public transports::ClientLink {
     RomiResponse answer;  // the intact answer that completed the call
   };
   using Table = RequestTable;
-  using Calls = transports::PendingOperations<CallSignature, Call>;
+  using Calls = client::PendingOperations<CallSignature, Call>;
 
   // The call in flight (the oldest, once started), or null.
   Call* current() { return !calls_.empty() && calls_.begin()->state.started ? &calls_.begin()->state : nullptr; }
@@ -452,11 +452,11 @@ class ClientImpl final : public transports::ClientLink {
   bool skip_id_zero_ = false;
 
   // Any thread.
-  transports::Published<LinkCounters> published_;
-  transports::EventHandlers<Event> events_;
+  client::Published<LinkCounters> published_;
+  client::EventHandlers<Event> events_;
 };
 
-void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, Command command, bool manual) {
   impl->submit(operation, std::move(command), manual, std::move(handler));
 }
@@ -467,15 +467,15 @@ void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink:
 // Client
 
 Client::Client(std::shared_ptr<transports::ByteStream> stream, const Options& options, EventHandler handler)
-    : ClientFront(std::make_shared<detail::ClientImpl>(transports::require_stream(std::move(stream), "romi::Client"),
+    : ClientFront(std::make_shared<detail::ClientImpl>(client::require_stream(std::move(stream), "romi::Client"),
                                                        options)) {
   on_event(std::move(handler));
   impl()->start();
 }
 
 RomiResponse Client::blocking_call(const Command& command, bool manual, error_code& error) {
-  const RomiResponse response = transports::wait_for_operation<RomiResponse>(
-      link(), [&](transports::ClientLink::OperationId operation, detail::CallHandler handler) {
+  const RomiResponse response = client::wait_for_operation<RomiResponse>(
+      link(), [&](client::ClientLink::OperationId operation, detail::CallHandler handler) {
         detail::start_call(impl(), operation, std::move(handler), command, manual);
       }, error);
   if (error == transports::TransportError::would_deadlock) return failed_response(error, command.opcode());
@@ -489,12 +489,12 @@ RomiResponse Client::call_manual(const Command& command, error_code& error) {
 }
 
 RomiResponse Client::call(const Command& command) {
-  return transports::require([&](error_code& error) { return blocking_call(command, false, error); },
+  return client::require([&](error_code& error) { return blocking_call(command, false, error); },
                              "romi call " + command.payload());
 }
 
 RomiResponse Client::call_manual(const Command& command) {
-  return transports::require([&](error_code& error) { return blocking_call(command, true, error); },
+  return client::require([&](error_code& error) { return blocking_call(command, true, error); },
                              "romi manual call " + command.payload());
 }
 

@@ -16,7 +16,7 @@
 
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "test_support.hpp"
 
 namespace tether::romi::testing {
@@ -594,12 +594,12 @@ TEST(RomiClient, SilentDeviceTimesOutAfterTheAttemptWindow) {
 TEST(RomiClient, CancellingOneCallLeavesTheOthersAlone) {
   IoThread io;
   std::promise<Outcome> first, second, third;  // before the link: completions at its close find them
-  transports::CancellationSignal cancel_second, cancel_first;
+  client::CancellationSignal cancel_second, cancel_first;
   Link link(io.executor(), short_timing(250, 500));
-  link.client->async_call("a", transports::bind_cancellation(cancel_first, [&](error_code e, RomiResponse r) {
+  link.client->async_call("a", client::bind_cancellation(cancel_first, [&](error_code e, RomiResponse r) {
                             first.set_value({e, std::move(r)});
                           }));
-  link.client->async_call("b", transports::bind_cancellation(cancel_second, [&](error_code e, RomiResponse r) {
+  link.client->async_call("b", client::bind_cancellation(cancel_second, [&](error_code e, RomiResponse r) {
                             second.set_value({e, std::move(r)});
                           }));
   link.client->async_call("c", [&](error_code e, RomiResponse r) { third.set_value({e, std::move(r)}); });

@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "fake_device.hpp"
+#include "tether/client/link_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/romi/client.hpp"
 #include "tether/romi/encoder.hpp"
 #include "tether/transports/in_memory_stream.hpp"
-#include "tether/transports/link_clock.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
 
 namespace tether::romi::testing {
 
@@ -48,7 +48,7 @@ inline EventHandler on_link_failed(std::function<void(error_code)> handler) {
 /// loaded machine cannot time a call out; tests about timeouts advance `clock` and assert on its time.
 struct Link {
   explicit Link(boost::asio::any_io_executor executor, Options options = short_timing())
-      : clock(transports::testing::ManualClock::create()) {
+      : clock(client::testing::ManualClock::create()) {
     if (!options.clock) options.clock = clock;
     auto [host_end, device_end] = transports::InMemoryStream::make_pair(executor);
     device = FakeDevice::start(device_end);
@@ -61,7 +61,7 @@ struct Link {
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
 
-  std::shared_ptr<transports::testing::ManualClock> clock;
+  std::shared_ptr<client::testing::ManualClock> clock;
   std::shared_ptr<FakeDevice> device;
   std::optional<Client> client;
 };

@@ -314,8 +314,8 @@ board's clock the windows are the device's seconds, exact whatever the machine's
             romi::Command built = make_command(command, args);
             romi::Client& client = self.get();
             auto [error, response] = wait_interruptibly<romi::error_code, romi::RomiResponse>(
-                client.get_executor(), [&](transports::CancellationSignal cancel, auto handler) {
-                  client.async_call(std::move(built), transports::bind_cancellation(std::move(cancel), std::move(handler)));
+                client.get_executor(), [&](client::CancellationSignal cancel, auto handler) {
+                  client.async_call(std::move(built), client::bind_cancellation(std::move(cancel), std::move(handler)));
                 });
             py::object failure;
             py::object values = answer_or_error(error, response, check, failure);
@@ -336,8 +336,8 @@ board's clock the windows are the device's seconds, exact whatever the machine's
           [](RomiClient& self, const std::string& command, const py::args& args, bool check) {
             romi::Command built = make_command(command, args);
             romi::Client& client = self.get();
-            return asyncio_future([&](PyCallback settle, transports::CancellationSignal cancel) {
-              client.async_call(std::move(built), transports::bind_cancellation(
+            return asyncio_future([&](PyCallback settle, client::CancellationSignal cancel) {
+              client.async_call(std::move(built), client::bind_cancellation(
                   std::move(cancel), [settle, check](romi::error_code error, romi::RomiResponse response) {
                     if (interpreter_exiting()) return;
                     py::gil_scoped_acquire gil;

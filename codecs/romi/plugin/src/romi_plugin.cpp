@@ -29,7 +29,7 @@ void validate(const devices::CodecOptions& codec_options, const std::string& opt
 }
 
 devices::DeviceClient open(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-                           std::shared_ptr<transports::LinkClock> clock) {
+                           std::shared_ptr<client::LinkClock> clock) {
   const auto& options = device.options.get<DeviceOptions>();
   Options client_options;
   client_options.timing = options.timing;

@@ -16,7 +16,7 @@
 ///     return LineEchoOptions{...};                        // any copyable type
 ///   };
 ///   row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-///                 std::shared_ptr<transports::LinkClock> clock) -> devices::DeviceClient {
+///                 std::shared_ptr<client::LinkClock> clock) -> devices::DeviceClient {
 ///     return std::make_shared<LineEchoClient>(stream, device.options.get<LineEchoOptions>(), clock);
 ///   };
 ///   const devices::Codec line_echo = devices::register_codec(row);
@@ -149,7 +149,7 @@ struct CodecRow {
   /// `clock`: a virtual device's board time (rover.hpp, "Clocks of virtual devices"), null for hardware
   /// (the steady clock, every client's default).
   std::function<DeviceClient(std::shared_ptr<transports::ByteStream> stream, const DeviceConfig& device,
-                             std::shared_ptr<transports::LinkClock> clock)>
+                             std::shared_ptr<client::LinkClock> clock)>
       open;
   /// Waits until the new client is ready for the application (proxy: handshake and inits), within the
   /// device's limits; throws `ConfigError` under `device_path` (`devices[1]`). Unset: ready when created.

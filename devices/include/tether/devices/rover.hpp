@@ -65,9 +65,9 @@
 #include <typeinfo>
 #include <vector>
 
+#include "tether/client/link_clock.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -128,7 +128,7 @@ struct RoverDevice {
   /// What the client's deadlines run on: a virtual device's board time (`transports::VirtualUnoClock`,
   /// see "Clocks of virtual devices"); null for hardware (the steady clock). For a program's own
   /// deadlines that must agree with the client's.
-  std::shared_ptr<transports::LinkClock> clock;
+  std::shared_ptr<client::LinkClock> clock;
 };
 
 /// Hooks of `open_rover`.
@@ -206,7 +206,7 @@ struct OpenedTransport {
   std::function<void()> stop;
   /// The clock a client of this stream runs its deadlines on (see `RoverDevice::clock`): the board's
   /// simulated time for a virtual board or ring, null for hardware (the steady clock).
-  std::shared_ptr<transports::LinkClock> clock;
+  std::shared_ptr<client::LinkClock> clock;
 };
 
 /// Opens only `device`'s transport, as `open_rover` does (serial port with its boot wait, TCP, a virtual

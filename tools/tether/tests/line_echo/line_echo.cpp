@@ -171,7 +171,7 @@ devices::Codec register_line_echo() {
       return options;
     };
     row.open = [](std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
-                  std::shared_ptr<transports::LinkClock>) -> devices::DeviceClient {  // its timeout is steady
+                  std::shared_ptr<client::LinkClock>) -> devices::DeviceClient {  // its timeout is steady
       return std::make_shared<Client>(std::move(stream), options_of(device));
     };
 

@@ -1,5 +1,5 @@
 /// @file virtual_uno_clock.hpp
-/// A `LinkClock` on a virtual board's simulated time: host deadlines (a client's attempt window, its call
+/// A `client::LinkClock` on a virtual board's simulated time: host deadlines (a client's attempt window, its call
 /// budget, a ping period) measured on the same clock as the firmware's own timeouts.
 ///
 /// When to use it: tests and simulations where a host deadline must share the device's clock. A board
@@ -20,7 +20,7 @@
 #include <chrono>
 #include <memory>
 
-#include "tether/transports/link_clock.hpp"
+#include "tether/client/link_clock.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace tether::transports {
@@ -33,10 +33,10 @@ struct VirtualUnoClockOptions {
   std::chrono::microseconds poll_step{std::chrono::milliseconds(2)};
 };
 
-/// The simulated time of one board (or of the lockstep group it belongs to) as a `LinkClock`: `now()` is
+/// The simulated time of one board (or of the lockstep group it belongs to) as a `client::LinkClock`: `now()` is
 /// the board's simulated milliseconds since its creation, truncated to 32 bits (wrap-safe like every link
 /// clock). Thread-safe; give it to a client through its `Options::clock`.
-class VirtualUnoClock final : public LinkClock {
+class VirtualUnoClock final : public client::LinkClock {
  public:
   /// The clock of `board`, which the clock and its timers keep alive.
   static std::shared_ptr<VirtualUnoClock> create(std::shared_ptr<const VirtualUno> board,
@@ -51,7 +51,7 @@ class VirtualUnoClock final : public LinkClock {
   /// The board's simulated time in wrap-safe milliseconds (at most one quantum old off the simulation thread).
   Millis now() const override;
   /// A timer whose waits complete on `executor` once the board's simulated time reaches their instant.
-  std::unique_ptr<LinkTimer> make_timer(const boost::asio::any_io_executor& executor) override;
+  std::unique_ptr<client::LinkTimer> make_timer(const boost::asio::any_io_executor& executor) override;
 
   /// Public for std::make_shared; use `create`.
   VirtualUnoClock(std::shared_ptr<const VirtualUno> board, VirtualUnoClockOptions options);

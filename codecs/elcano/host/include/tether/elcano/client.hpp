@@ -68,7 +68,7 @@
 /// ## Threading and lifetime (as `romi::Client` and `proxy::Client`)
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The plumbing (read loop, write queue, one timer for every deadline, close) is the shared
-///     `transports::ClientLink`. The client reads continuously from construction on: forwarding never
+///     `client::ClientLink`. The client reads continuously from construction on: forwarding never
 ///     waits for the application.
 ///   - Completion handlers run on their associated executor (default: the stream's), never on the client's
 ///     strand and never inside the initiating call. The blocking forms need another thread running the
@@ -89,6 +89,8 @@
 #include <utility>
 #include <variant>
 
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/link_clock.hpp"
 #include "tether/core/counters.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/core/time.hpp"
@@ -97,8 +99,6 @@
 #include "tether/elcano/ring_node.hpp"
 #include "tether/elcano/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_skeleton.hpp"
-#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::elcano {
@@ -133,8 +133,8 @@ struct Options {
   /// Longest a send waits for room in the node's output queue and for the stream to take its bytes (then
   /// `RingError::send_timed_out`).
   Duration send_timeout = 2000;
-  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
-  std::shared_ptr<transports::LinkClock> clock;
+  /// The clock of every deadline (null: the steady clock); tests inject `client::testing::ManualClock`.
+  std::shared_ptr<client::LinkClock> clock;
 };
 
 /// Events to the application (what it should know that is not the completion of one of its
@@ -159,10 +159,10 @@ struct ReceiveOverflow {
   Message message;  ///< The message dropped.
 };
 /// The link failed: every pending operation failed with `error` first.
-using LinkFailed = transports::LinkFailed;
+using LinkFailed = client::LinkFailed;
 }  // namespace events
 
-/// Everything a handler can receive (`RingClient::on_event`). Contract (`transports::EventHandlers`, as
+/// Everything a handler can receive (`RingClient::on_event`). Contract (`client::EventHandlers`, as
 /// for every client): called on the client's strand, one event at a time, in the order the ring produced
 /// them; must not block for long (reading and forwarding wait) and must not call the blocking API of this
 /// client (it fails with `TransportError::would_deadlock`); exceptions are caught and dropped (they must
@@ -170,9 +170,9 @@ using LinkFailed = transports::LinkFailed;
 using Event = std::variant<events::Undeliverable, events::InputDropped, events::ForwardDropped,
                            events::ReceiveOverflow, events::LinkFailed>;
 /// An event handler (contract at `Event`).
-using EventHandler = transports::EventHandlers<Event>::Handler;
+using EventHandler = client::EventHandlers<Event>::Handler;
 /// Identifies a handler for `RingClient::remove_event_handler`.
-using EventHandlerId = transports::EventHandlers<Event>::Id;
+using EventHandlerId = client::EventHandlers<Event>::Id;
 
 /// The client's counters (a snapshot; they only grow).
 struct Counters {
@@ -199,7 +199,7 @@ using SendHandler = transports::UniqueFunction<SendSignature>;
 /// Type-erased completion handler of a request or a receive.
 using MessageHandler = transports::UniqueFunction<MessageSignature>;
 /// Names one operation (for its cancellation).
-using OperationId = transports::ClientLink::OperationId;
+using OperationId = client::ClientLink::OperationId;
 /// Queues a send on `impl` (any thread). Defined in client.cpp.
 void start_send(const std::shared_ptr<RingClientImpl>& impl, OperationId operation, SendHandler handler,
                 const Message& message);
@@ -212,16 +212,16 @@ void start_receive(const std::shared_ptr<RingClientImpl>& impl, OperationId oper
 }  // namespace detail
 
 /// The host's node in an Elcano ring. Movable, not copyable (`get_executor`, `close`, `is_open`,
-/// `on_event`, `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview.
+/// `on_event`, `remove_event_handler` and the moves: `client::ClientFront`); see the file overview.
 /// `close()` completes every pending operation with `operation_aborted` and stops reading, forwarding and
 /// timing; bytes still in the node's output queue are not written.
 ///
 /// Every asynchronous operation takes any completion token (callback, `use_future`, `use_awaitable`). A
-/// handler made by `transports::bind_cancellation` cancels that operation alone, with `operation_aborted`:
+/// handler made by `client::bind_cancellation` cancels that operation alone, with `operation_aborted`:
 /// a send or request still waiting for room never goes out; a request in flight stops being re-sent (its
 /// late reply goes to the receive queue); a send already handed to the node is written all the same; a
 /// receive stops waiting.
-class RingClient : public transports::ClientFront<detail::RingClientImpl, Event> {
+class RingClient : public client::ClientFront<detail::RingClientImpl, Event> {
  public:
   /// Client over `stream` (TX to the first board, RX from the last); starts reading and forwarding at
   /// once. `handler`, when given, is added (`on_event`) before anything starts, so it sees every event.

@@ -100,7 +100,7 @@
 ///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
 ///
 /// ## Events (`on_event`)
-/// Handlers receive an `Event` (a variant; see `events::`). Contract (`transports::EventHandlers`, as for
+/// Handlers receive an `Event` (a variant; see `events::`). Contract (`client::EventHandlers`, as for
 /// every client): called on the client's strand, one event at a time, in arrival order; must not block for
 /// long (decoding waits), must not call the blocking API of this client (it fails with
 /// `TransportError::would_deadlock`; the async API is fine); exceptions are caught and dropped. Events are
@@ -110,7 +110,7 @@
 ///   - All state lives on a strand of the stream's executor; any number of threads may run it and call the
 ///     client. The client reads continuously from construction on (one read loop, no read deadline; one
 ///     timer drives the session engine's deadlines, the heartbeat, the queue and the staleness rule; the
-///     plumbing is the shared `transports::ClientLink`).
+///     plumbing is the shared `client::ClientLink`).
 ///   - Completion handlers run on their associated executor (default: the stream's), never on the client's
 ///     strand and never inside the initiating call.
 ///   - The blocking forms need another thread running the executor.
@@ -142,8 +142,8 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/proxy/session_policy.hpp"  // SessionPolicy, kMaxInFlight, kAckFrameBytes, ack_timeout
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_skeleton.hpp"
-#include "tether/transports/link_clock.hpp"
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether_proxy.pb.h"
 
@@ -216,8 +216,8 @@ struct Options {
   std::optional<std::uint32_t> first_message_id;
   /// Compat mode: re-send every registered init when the device sends `EventMessage{RESET}`.
   bool compat_replay_on_reset = true;
-  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
-  std::shared_ptr<transports::LinkClock> clock;
+  /// The clock of every deadline (null: the steady clock); tests inject `client::testing::ManualClock`.
+  std::shared_ptr<client::LinkClock> clock;
 
   /// Primary mode with the protocol's timing.
   static Options primary() { return Options(); }
@@ -334,7 +334,7 @@ struct UndecodableMessage {
   bool malformed = true;
 };
 /// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done.
-using LinkFailed = transports::LinkFailed;
+using LinkFailed = client::LinkFailed;
 }  // namespace events
 
 /// Everything a handler can receive.
@@ -343,9 +343,9 @@ using Event = std::variant<events::DeviceError, events::DeviceInfo, events::Fail
                                 events::ResetDetected, events::CompatEvent, events::CompatError,
                                 events::CompatState, events::UndecodableMessage, events::LinkFailed>;
 /// An event handler (contract in the file overview).
-using EventHandler = transports::EventHandlers<Event>::Handler;
+using EventHandler = client::EventHandlers<Event>::Handler;
 /// Identifies a handler for `Client::remove_event_handler`.
-using EventHandlerId = transports::EventHandlers<Event>::Id;
+using EventHandlerId = client::EventHandlers<Event>::Id;
 
 /// The client's counters (a snapshot; they only grow).
 struct Counters {
@@ -385,9 +385,9 @@ struct Request {
 };
 
 /// A shared reference to the implementation (`Client` and its pin handles start sends with it).
-using ClientRef = transports::ClientRef<ClientImpl>;
+using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `request` on `impl` as operation `operation` (any thread). Defined in client.cpp.
-void start_send(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_send(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 SendHandler handler, Request request);
 /// Blocking send: failures in `error`.
 SendResult blocking_send(const ClientRef& client, Request request, error_code& error);
@@ -496,11 +496,11 @@ class DigitalHandle {
 };
 
 /// Proxy host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
-/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// `remove_event_handler` and the moves: `client::ClientFront`); see the file overview. `close()`
 /// completes every pending send (in flight, queued, or waiting for a replay) with `operation_aborted` and
 /// stops reading, pinging and timing (at most the stream's own 250 ms close fallback when no thread runs
 /// the executor).
-class Client : public transports::ClientFront<detail::ClientImpl, Event> {
+class Client : public client::ClientFront<detail::ClientImpl, Event> {
  public:
   /// Client over `stream`; starts reading at once and, in primary mode, the handshake and the heartbeat.
   /// `handler`, when given, is added (`on_event`) before anything starts, so it sees every event (the
@@ -515,7 +515,7 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
 
   /// Primary mode: sends `message` (its messageId is assigned) and completes with
   /// `void(error_code, SendResult)` when acked, out of budget, or closed. Any completion token. A handler
-  /// made by `transports::bind_cancellation` cancels this send alone: queued, it never goes out; in
+  /// made by `client::bind_cancellation` cancels this send alone: queued, it never goes out; in
   /// flight, it completes with `operation_aborted` at once (the device may still run it: its late ack is
   /// stale). A compat send already handed to the stream completes when written.
   template <typename SendToken>

@@ -72,7 +72,7 @@
 ///     `io_context` run by any number of threads.
 ///   - The client reads continuously from construction on (one read loop, no read deadline; one timer
 ///     drives the engine's deadlines). The plumbing (strand, read loop, write queue, timer, close) is the
-///     shared `transports::ClientLink`. Bytes that arrive between calls are decoded too: log lines go to
+///     shared `client::ClientLink`. Bytes that arrive between calls are decoded too: log lines go to
 ///     the handler, frames count as stale.
 ///   - Completion handlers run on their associated executor (default: the stream's executor), never on
 ///     the client's strand and never inside the initiating call.
@@ -99,6 +99,8 @@
 #include <variant>
 #include <vector>
 
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/link_clock.hpp"
 #include "tether/core/counters.hpp"
 #include "tether/core/session/request_table.hpp"
 #include "tether/romi/error_category.hpp"
@@ -106,8 +108,6 @@
 #include "tether/romi/response.hpp"
 #include "tether/romi/session_policy.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_skeleton.hpp"
-#include "tether/transports/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace tether::romi {
@@ -176,8 +176,8 @@ struct Options {
   session::CallTiming timing = default_call_timing();
   /// Ids start after this one (255: the first call uses id 0, like the reference host).
   std::uint8_t last_id = 255;
-  /// The clock of every deadline (null: the steady clock); tests inject `transports::testing::ManualClock`.
-  std::shared_ptr<transports::LinkClock> clock;
+  /// The clock of every deadline (null: the steady clock); tests inject `client::testing::ManualClock`.
+  std::shared_ptr<client::LinkClock> clock;
 
   /// Makes `id` the first call's id.
   Options& first_id(std::uint8_t id) {
@@ -201,17 +201,17 @@ struct Log {
 /// The link failed (the device went away, the port was unplugged): every call in flight and queued
 /// completed with `error` first, so an idle client (a shell waiting for input) learns of it too. Once;
 /// never for `close()`.
-using LinkFailed = transports::LinkFailed;
+using LinkFailed = client::LinkFailed;
 }  // namespace events
 
-/// Everything a handler can receive (`Client::on_event`; contract at `transports::EventHandlers`: called
+/// Everything a handler can receive (`Client::on_event`; contract at `client::EventHandlers`: called
 /// on the client's strand in arrival order, must not call the blocking forms of this client, exceptions
 /// are caught and dropped).
 using Event = std::variant<events::Log, events::LinkFailed>;
 /// An event handler (contract at `Event`).
-using EventHandler = transports::EventHandlers<Event>::Handler;
+using EventHandler = client::EventHandlers<Event>::Handler;
 /// Identifies a handler for `Client::remove_event_handler`.
-using EventHandlerId = transports::EventHandlers<Event>::Id;
+using EventHandlerId = client::EventHandlers<Event>::Id;
 
 /// Completion signature of every asynchronous call.
 using CallSignature = void(error_code, RomiResponse);
@@ -221,7 +221,7 @@ class ClientImpl;
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
 /// Queues `command` on `impl` as operation `operation` (any thread). Defined in client.cpp.
-void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, Command command, bool manual);
 }  // namespace detail
 
@@ -232,10 +232,10 @@ struct Counters {
 };
 
 /// Romi host client for one device. Movable, not copyable (`get_executor`, `close`, `is_open`, `on_event`,
-/// `remove_event_handler` and the moves: `transports::ClientFront`); see the file overview. `close()`
+/// `remove_event_handler` and the moves: `client::ClientFront`); see the file overview. `close()`
 /// completes the call in flight and every queued call with `operation_aborted` (at most the stream's own 250 ms close fallback when no
 /// thread runs the executor).
-class Client : public transports::ClientFront<detail::ClientImpl, Event> {
+class Client : public client::ClientFront<detail::ClientImpl, Event> {
  public:
   /// Client over `stream`; starts reading at once. The stream's executor runs everything. `handler`, when
   /// given, is added (`on_event`) before anything starts, so it sees every event. Throws

@@ -21,6 +21,7 @@
 
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/system/error_code.hpp>
 
 #include <cstddef>
 #include <cstdint>
@@ -33,7 +34,12 @@
 #include "tether/core/wakeup.hpp"
 #include "tether/transports/unique_function.hpp"
 
-namespace tether::transports {
+namespace tether::client {
+
+/// Spelled as in the transports, whose streams the client runtime drives.
+namespace asio = boost::asio;
+/// The error type of every completion (the streams' and the link's).
+using boost::system::error_code;
 
 template <typename Signature, typename State>
 class PendingOperations;
@@ -43,7 +49,7 @@ template <typename State, typename... Results>
 class PendingOperations<void(Results...), State> {
  public:
   /// The caller's completion handler (empty for the client's own work).
-  using Handler = UniqueFunction<void(Results...)>;
+  using Handler = transports::UniqueFunction<void(Results...)>;
   /// Names an operation for its cancellation (`ClientLink::OperationId`); 0 is the client's own work.
   using OperationId = std::uint64_t;
 
@@ -180,4 +186,4 @@ class PendingOperations<void(Results...), State> {
   std::list<Operation> operations_;
 };
 
-}  // namespace tether::transports
+}  // namespace tether::client

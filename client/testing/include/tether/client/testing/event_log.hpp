@@ -12,7 +12,7 @@
 #include <variant>
 #include <vector>
 
-namespace tether::transports::testing {
+namespace tether::client::testing {
 
 /// Every event a client delivered, in order; tests wait for the ones they expect. Handlers share its
 /// state, so an event arriving after the log is gone is harmless.
@@ -66,4 +66,4 @@ class EventLog {
   std::shared_ptr<State> state_ = std::make_shared<State>();
 };
 
-}  // namespace tether::transports::testing
+}  // namespace tether::client::testing

@@ -13,12 +13,12 @@
 #include <tuple>
 #include <vector>
 
-#include "tether/transports/client_skeleton.hpp"
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/pending_operations.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/transports/in_memory_stream.hpp"
-#include "tether/transports/pending_operations.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
 
-namespace tether::transports {
+namespace tether::client {
 namespace {
 
 using namespace std::chrono_literals;
@@ -199,7 +199,7 @@ TEST(PendingOperations, DestroyedWithEntriesLeftTheirHandlersAreReleasedNotCalle
 // their deadline on the link's clock, are cancelled through their cancellation slots and fail at close.
 class PendingOperationsLink final : public ClientLink {
  public:
-  PendingOperationsLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock)
+  PendingOperationsLink(std::shared_ptr<transports::ByteStream> stream, std::shared_ptr<LinkClock> clock)
       : ClientLink(std::move(stream), std::move(clock)), pending_(executor(), [this] { ++published; }) {}
 
   void start() {
@@ -266,7 +266,7 @@ bool run_pending_until(boost::asio::io_context& io, const std::function<bool()>&
 
 TEST(PendingOperations, InALinkACancellationSlotCancelsItsOperationAloneAndDeadlinesUseTheLinksClock) {
   boost::asio::io_context io;
-  auto [near, far] = InMemoryStream::make_pair(io.get_executor());
+  auto [near, far] = transports::InMemoryStream::make_pair(io.get_executor());
   auto clock = testing::ManualClock::create(0xFFFFFF00u);
   auto link = std::make_shared<PendingOperationsLink>(near, clock);
   link->start();
@@ -312,4 +312,4 @@ TEST(PendingOperations, InALinkACancellationSlotCancelsItsOperationAloneAndDeadl
 }
 
 }  // namespace
-}  // namespace tether::transports
+}  // namespace tether::client

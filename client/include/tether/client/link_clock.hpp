@@ -1,6 +1,6 @@
 /// @file link_clock.hpp
 /// The time source of a `ClientLink`: a clock in the session engines' wrap-safe milliseconds and one-shot
-/// timers on it. Injectable so that client tests run on a manual clock (`transports::testing::ManualClock`)
+/// timers on it. Injectable so that client tests run on a manual clock (`client::testing::ManualClock`)
 /// and assert on simulated time; programs use `steady_link_clock()`, the default of every client. Tests and
 /// simulations whose host deadlines must share a virtual board's clock use `VirtualUnoClock`
 /// (virtual_uno_clock.hpp, Tether::simulator).
@@ -14,7 +14,12 @@
 #include "tether/core/time.hpp"
 #include "tether/transports/unique_function.hpp"
 
-namespace tether::transports {
+namespace tether::client {
+
+/// Spelled as in the transports, whose streams the client runtime drives.
+namespace asio = boost::asio;
+/// The error type of every completion (the streams' and the link's).
+using boost::system::error_code;
 
 /// One timer of a link: at most one wait pending at a time.
 class LinkTimer {
@@ -24,7 +29,7 @@ class LinkTimer {
   ///      `cancel`.
   ///   2. With no error when the clock reached the instant; with `operation_aborted` when the wait was
   ///      cancelled, replaced by another `wait_until`, or the timer was destroyed first.
-  using Handler = UniqueFunction<void(boost::system::error_code)>;
+  using Handler = transports::UniqueFunction<void(boost::system::error_code)>;
 
   virtual ~LinkTimer() = default;
   /// Waits until the clock reads `at` (wrap-safe: an instant up to 2^31 ms in the past completes at once),
@@ -48,4 +53,4 @@ class LinkClock {
 /// steady_timers: what every client runs on unless its options name another clock. One shared instance.
 std::shared_ptr<LinkClock> steady_link_clock();
 
-}  // namespace tether::transports
+}  // namespace tether::client

@@ -20,13 +20,14 @@
 #include <utility>
 #include <vector>
 
+#include "tether/client/client_link.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_link.hpp"
 
-namespace tether::transports {
+namespace tether::client {
 
 /// The stream a client is built on; throws `std::invalid_argument` naming `client` when it is null.
-inline std::shared_ptr<ByteStream> require_stream(std::shared_ptr<ByteStream> stream, const char* client) {
+inline std::shared_ptr<transports::ByteStream> require_stream(std::shared_ptr<transports::ByteStream> stream,
+                                                              const char* client) {
   if (!stream) throw std::invalid_argument(std::string(client) + " needs a stream");
   return stream;
 }
@@ -50,7 +51,7 @@ auto require(Call&& call, const std::string& what) {
 ///   1. Called on the client's strand, one event at a time, in the order the events happened, with every
 ///      handler in the order they were added; a view valid only during the call.
 ///   2. Must not block for long (it delays decoding) and must not call the blocking forms of the same
-///      client (they fail with `TransportError::would_deadlock`); asynchronous calls are fine.
+///      client (they fail with `transports::TransportError::would_deadlock`); asynchronous calls are fine.
 ///   3. An exception escaping a handler is caught and dropped: the event still reaches the other handlers,
 ///      the client goes on, and the handler stays registered. (A handler is the application's code; an
 ///      exception leaving `io_context::run()` would stop every client on that context.)
@@ -201,7 +202,8 @@ class ClientRef {
         [impl = impl_, link = link_, start = std::move(start)](auto handler, auto&&... arguments) mutable {
           const ClientLink::OperationId operation = link->new_operation();
           connect_cancellation(handler, link, operation);
-          start(impl, operation, bind_to_associated_executor<Signature>(std::move(handler), link->executor()),
+          start(impl, operation,
+                transports::bind_to_associated_executor<Signature>(std::move(handler), link->executor()),
                 std::forward<decltype(arguments)>(arguments)...);
         },
         token, std::forward<Args>(args)...);
@@ -292,20 +294,23 @@ template <typename Result, typename Start>
 Result wait_for_operation(ClientLink& link, Start&& start, error_code& error) {
   Result result{};
   (void)wait_for_completion(
-      link, [&](UniqueFunction<void(error_code, Result)> handler) { start(link.new_operation(), std::move(handler)); },
+      link,
+      [&](transports::UniqueFunction<void(error_code, Result)> handler) {
+        start(link.new_operation(), std::move(handler));
+      },
       error, result);
   return result;
 }
 
-}  // namespace tether::transports
+}  // namespace tether::client
 
 /// A cancellable handler runs on its handler's associated executor.
 template <typename Handler, typename Executor>
-struct boost::asio::associated_executor<tether::transports::CancellableHandler<Handler>, Executor> {
+struct boost::asio::associated_executor<tether::client::CancellableHandler<Handler>, Executor> {
   /// The wrapped handler's.
   using type = typename boost::asio::associated_executor<Handler, Executor>::type;
   /// The wrapped handler's executor.
-  static type get(const tether::transports::CancellableHandler<Handler>& h, const Executor& e = Executor()) noexcept {
+  static type get(const tether::client::CancellableHandler<Handler>& h, const Executor& e = Executor()) noexcept {
     return boost::asio::associated_executor<Handler, Executor>::get(h.handler, e);
   }
 };

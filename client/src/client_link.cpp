@@ -1,14 +1,14 @@
 // ClientLink: the read loop, write queue, timer and close shared by the host codec clients.
-#include "tether/transports/client_link.hpp"
+#include "tether/client/client_link.hpp"
 
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/error.hpp>
 #include <boost/asio/write.hpp>
 
 
-namespace tether::transports {
+namespace tether::client {
 
-ClientLink::ClientLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock)
+ClientLink::ClientLink(std::shared_ptr<transports::ByteStream> stream, std::shared_ptr<LinkClock> clock)
     : stream_(std::move(stream)),
       executor_(stream_->get_executor()),
       strand_(asio::make_strand(executor_)),
@@ -134,4 +134,4 @@ void ClientLink::cancel_timer() {
   timer_armed_ = false;
 }
 
-}  // namespace tether::transports
+}  // namespace tether::client

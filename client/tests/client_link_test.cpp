@@ -13,12 +13,17 @@
 #include <thread>
 #include <vector>
 
-#include "tether/transports/client_link.hpp"
+#include "tether/client/client_link.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/transports/in_memory_stream.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
 
-namespace tether::transports {
+namespace tether::client {
 namespace {
+
+using transports::ByteStream;
+using transports::InMemoryStream;
+using transports::TransportError;
+using transports::UniqueFunction;
 
 using namespace std::chrono_literals;
 
@@ -392,4 +397,4 @@ TEST(Published, GetReturnsTheLastSetValue) {
 }
 
 }  // namespace
-}  // namespace tether::transports
+}  // namespace tether::client

@@ -11,9 +11,9 @@
 #include <mutex>
 #include <vector>
 
-#include "tether/transports/link_clock.hpp"
+#include "tether/client/link_clock.hpp"
 
-namespace tether::transports::testing {
+namespace tether::client::testing {
 
 /// Manual clock: `now()` changes only through `advance`/`set`. Thread-safe.
 class ManualClock final : public LinkClock, public std::enable_shared_from_this<ManualClock> {
@@ -62,4 +62,4 @@ class ManualClock final : public LinkClock, public std::enable_shared_from_this<
   std::vector<std::shared_ptr<Wait>> waits_;
 };
 
-}  // namespace tether::transports::testing
+}  // namespace tether::client::testing

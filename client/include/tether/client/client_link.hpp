@@ -1,7 +1,9 @@
 /// @file client_link.hpp
-/// The asio plumbing every host codec client shares: one `ByteStream`, one strand, one continuous read
-/// loop, a FIFO write queue, one timer armed at an absolute `Millis` deadline, link-failure detection and
-/// a close that never hangs. A client derives from `ClientLink` and keeps only its protocol logic
+/// The asio plumbing every host codec client shares: one `transports::ByteStream`, one strand, one
+/// continuous read loop, a FIFO write queue, one timer armed at an absolute `Millis` deadline, link-failure
+/// detection and a close that never hangs. It is the heart of the client runtime (`Tether::client`,
+/// `tether/client/`), which sits on the transports' byte streams and knows the calls, deadlines and events
+/// that a stream does not. A client derives from `ClientLink` and keeps only its protocol logic
 /// (decoding, session engine calls, queues of calls, events); `romi::Client`, `proxy::Client` and
 /// `elcano::RingClient` are built this way, with their public fronts from `client_skeleton.hpp`.
 ///
@@ -21,7 +23,7 @@
 ///
 /// Time: `now()` is the link's `LinkClock` in wrap-safe 32-bit milliseconds (`tether::Millis`), the clock
 /// of the session engines: the steady clock unless the client's options inject another (tests use
-/// `transports::testing::ManualClock` and assert on simulated time). `arm_timer(deadline)` waits on a timer
+/// `client::testing::ManualClock` and assert on simulated time). `arm_timer(deadline)` waits on a timer
 /// of that clock; a deadline in the past fires at once.
 #pragma once
 
@@ -41,13 +43,13 @@
 #include <tuple>
 #include <utility>
 
+#include "tether/client/link_clock.hpp"
 #include "tether/core/time.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/link_clock.hpp"
 #include "tether/transports/transport_error.hpp"
 #include "tether/transports/unique_function.hpp"
 
-namespace tether::transports {
+namespace tether::client {
 
 /// Base of a host codec client: owns the stream's read loop, write queue, timer and close; see the file
 /// overview. Not copyable; always owned by a `std::shared_ptr`.
@@ -62,7 +64,7 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   ///   2. With no error once all the bytes were written; with the stream's error when the write failed;
   ///      with `operation_aborted` when the write was dropped (closed, failed link, `abort_writes`).
   ///   3. Must not throw.
-  using WriteDone = UniqueFunction<void(error_code)>;
+  using WriteDone = transports::UniqueFunction<void(error_code)>;
   /// Size of the shared read buffer (bytes handed to `on_bytes` at most at once).
   static constexpr std::size_t kReadBufferSize = 1024;
 
@@ -111,7 +113,7 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
  protected:
   /// Link over `stream` (not null) with its deadlines on `clock` (null: `steady_link_clock()`); nothing
   /// starts before `start_reading`.
-  explicit ClientLink(std::shared_ptr<ByteStream> stream, std::shared_ptr<LinkClock> clock = nullptr);
+  explicit ClientLink(std::shared_ptr<transports::ByteStream> stream, std::shared_ptr<LinkClock> clock = nullptr);
 
   /// Starts the continuous read loop. Strand, once.
   void start_reading();
@@ -174,7 +176,7 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   void on_written(const error_code& error);
   void fail(const error_code& error);
 
-  std::shared_ptr<ByteStream> stream_;
+  std::shared_ptr<transports::ByteStream> stream_;
   asio::any_io_executor executor_;
   asio::strand<asio::any_io_executor> strand_;
   std::shared_ptr<LinkClock> clock_;
@@ -196,19 +198,19 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
 
 /// Starts an operation with `start(handler)` and waits for its `void(error_code, Result)` completion; the
 /// usual body of a client's blocking call. Returns false, with `error` set to
-/// `TransportError::would_deadlock` and `start` not called, on `link`'s strand (the completion could never
+/// `transports::TransportError::would_deadlock` and `start` not called, on `link`'s strand (the completion could never
 /// run); otherwise true with `error` and `result` from the completion. `start` receives a
-/// `UniqueFunction<void(error_code, Result)>` that must be called exactly once, from another thread or
+/// `transports::UniqueFunction<void(error_code, Result)>` that must be called exactly once, from another thread or
 /// from the executor.
 template <typename Result, typename Start>
 bool wait_for_completion(const ClientLink& link, Start&& start, error_code& error, Result& result) {
   if (link.on_strand()) {
-    error = make_error_code(TransportError::would_deadlock);
+    error = make_error_code(transports::TransportError::would_deadlock);
     return false;
   }
   std::promise<std::pair<error_code, Result>> done;
   auto future = done.get_future();
-  std::forward<Start>(start)(UniqueFunction<void(error_code, Result)>(
+  std::forward<Start>(start)(transports::UniqueFunction<void(error_code, Result)>(
       [&done](error_code e, Result r) { done.set_value({e, std::move(r)}); }));
   auto [completion_error, value] = future.get();
   error = completion_error;
@@ -237,4 +239,4 @@ class Published {
   T value_{};
 };
 
-}  // namespace tether::transports
+}  // namespace tether::client

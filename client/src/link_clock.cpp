@@ -1,12 +1,12 @@
 // The steady link clock: asio steady_timers driven by wrap-safe millisecond deadlines.
-#include "tether/transports/link_clock.hpp"
+#include "tether/client/link_clock.hpp"
 
 #include <boost/asio/steady_timer.hpp>
 
 #include <chrono>
 #include <cstdint>
 
-namespace tether::transports {
+namespace tether::client {
 
 namespace {
 
@@ -50,4 +50,4 @@ std::shared_ptr<LinkClock> steady_link_clock() {
   return clock;
 }
 
-}  // namespace tether::transports
+}  // namespace tether::client

@@ -1,5 +1,5 @@
 // ManualClock: timers whose waits complete when a test advances the clock.
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 
 #include <boost/asio/error.hpp>
 #include <boost/asio/post.hpp>
@@ -8,7 +8,7 @@
 #include <thread>
 #include <utility>
 
-namespace tether::transports::testing {
+namespace tether::client::testing {
 
 struct ManualClock::Wait {
   const Timer* owner = nullptr;
@@ -164,4 +164,4 @@ bool ManualClock::advance_until(const std::function<bool()>& done, std::chrono::
   return true;
 }
 
-}  // namespace tether::transports::testing
+}  // namespace tether::client::testing

@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/core/wakeup.hpp"
-#include "tether/transports/client_skeleton.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
 
-namespace tether::transports {
+namespace tether::client {
 namespace {
 
 TEST(EventHandlers, EveryHandlerSeesEveryEventInTheOrderTheyWereAdded) {
@@ -91,4 +91,4 @@ TEST(ManualClock, WaitsCompleteWhenTheClockReachesThemInTheirOrder) {
 }
 
 }  // namespace
-}  // namespace tether::transports
+}  // namespace tether::client
