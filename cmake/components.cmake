@@ -11,7 +11,7 @@ include_guard(GLOBAL)
 
 # The codecs: one folder each under codecs/ (docs/codecs.md), each a component built on the client runtime.
 # A new codec is its folder and its name here.
-set(TETHER_CODECS romi proxy elcano)
+set(TETHER_CODECS romi proxy elcano rpc)
 set(TETHER_ALL_COMPONENTS core transports client ${TETHER_CODECS} devices simulator virtual_uno)
 set(TETHER_COMPONENTS "${TETHER_ALL_COMPONENTS}" CACHE STRING
   "Tether components to build (find_package names: ${TETHER_ALL_COMPONENTS}); what they are built on comes too")
