@@ -80,10 +80,10 @@ struct HostView {
     const DecodeStatus status = decoder.feed(byte);
     TETHER_FUZZ_CHECK(status != DecodeStatus::error);
     if (status != DecodeStatus::frame) return;
-    tether_rpc_DeviceMessage out = tether_rpc_DeviceMessage_init_zero;
+    tether_rpc_wire_DeviceMessage out = tether_rpc_wire_DeviceMessage_init_zero;
     pb_istream_t stream = pb_istream_from_buffer(decoder.frame().data(), decoder.frame().size());
-    TETHER_FUZZ_CHECK(pb_decode(&stream, tether_rpc_DeviceMessage_fields, &out));
-    if (out.which_body == tether_rpc_DeviceMessage_ack_tag) ++acks;
+    TETHER_FUZZ_CHECK(pb_decode(&stream, tether_rpc_wire_DeviceMessage_fields, &out));
+    if (out.which_body == tether_rpc_wire_DeviceMessage_ack_tag) ++acks;
   }
 };
 

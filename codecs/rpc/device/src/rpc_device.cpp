@@ -16,8 +16,8 @@ namespace device {
 using proxy::device::FlashText;
 using proxy::device::TextBuilder;
 
-static_assert(tether_rpc_HostMessage_size <= DefaultLimits::kMaxPayload, "a HostMessage must fit the decoder");
-static_assert(tether_rpc_DeviceError_size + 2 <= DeviceCore::kMaxOutPayload, "a DeviceError must fit the answer");
+static_assert(tether_rpc_wire_HostMessage_size <= DefaultLimits::kMaxPayload, "a HostMessage must fit the decoder");
+static_assert(tether_rpc_wire_DeviceError_size + 2 <= DeviceCore::kMaxOutPayload, "a DeviceError must fit the answer");
 
 namespace {
 
@@ -61,8 +61,8 @@ bool encode_struct(pb_ostream_t* stream, const pb_field_t* field, void* const* a
   return pb_encode_tag_for_field(stream, field) && pb_encode_submessage(stream, payload.fields, payload.message);
 }
 
-tether_rpc_DeviceMessage out_message(pb_size_t which) {
-  tether_rpc_DeviceMessage out = tether_rpc_DeviceMessage_init_zero;
+tether_rpc_wire_DeviceMessage out_message(pb_size_t which) {
+  tether_rpc_wire_DeviceMessage out = tether_rpc_wire_DeviceMessage_init_zero;
   out.which_body = which;
   return out;
 }
@@ -73,7 +73,7 @@ void DeviceCore::start(uint32_t session_id, Millis now) {
   session_id_ = session_id;
   watchdog_.start(now);
   next_info_.arm(now, kInfoPeriodMs);
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_reset_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reset_tag);
   out.body.reset.session = session_id;
   send_message(&out, true, nullptr);
 }
@@ -100,35 +100,35 @@ void DeviceCore::poll_time(Millis now) {
 
 bool DeviceCore::decode(ByteView payload, void* host_message) {
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
-  if (pb_decode(&stream, tether_rpc_HostMessage_fields, host_message)) return true;
+  if (pb_decode(&stream, tether_rpc_wire_HostMessage_fields, host_message)) return true;
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true, nullptr);
   return false;
 }
 
 DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now, uint8_t* answer) {
-  const tether_rpc_HostMessage& in = *static_cast<const tether_rpc_HostMessage*>(host_message);
+  const tether_rpc_wire_HostMessage& in = *static_cast<const tether_rpc_wire_HostMessage*>(host_message);
   switch (in.which_body) {
-    case tether_rpc_HostMessage_hello_tag:
+    case tether_rpc_wire_HostMessage_hello_tag:
       send_hello();
       return Outcome{false, 0};
-    case tether_rpc_HostMessage_call_tag: {
-      const tether_rpc_Call& c = in.body.call;
+    case tether_rpc_wire_HostMessage_call_tag: {
+      const tether_rpc_wire_Call& c = in.body.call;
       return call(in.id, c.method, ByteView(c.request.bytes, c.request.size), answer);
     }
-    case tether_rpc_HostMessage_open_tag: {
-      const tether_rpc_OpenStream& o = in.body.open;
+    case tether_rpc_wire_HostMessage_open_tag: {
+      const tether_rpc_wire_OpenStream& o = in.body.open;
       return open(in.id, o.method, ByteView(o.request.bytes, o.request.size), o.period_ms, now, answer);
     }
-    case tether_rpc_HostMessage_close_tag:
+    case tether_rpc_wire_HostMessage_close_tag:
       for (uint8_t i = 0; i < slot_count_; ++i) {
         if (slots_[i].request_size != kFree && slots_[i].id == in.body.close.stream) slots_[i].request_size = kFree;
       }
       return Outcome{false, 0};
-    case tether_rpc_HostMessage_ping_tag:
+    case tether_rpc_wire_HostMessage_ping_tag:
       watchdog_.on_heartbeat(now);
       return Outcome{false, 0};
-    case tether_rpc_HostMessage_reset_tag:
+    case tether_rpc_wire_HostMessage_reset_tag:
       return Outcome{false, 0};  // finish() restarts, after the ack
     default:
       return refuse(in.id, DeviceErrorCode::unknown_message, answer);
@@ -152,7 +152,7 @@ DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView requ
     add_one(counters_.handler_errors);
     return Outcome{false, send_error(id, status.code(), status.text(), false, answer)};
   }
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_reply_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reply_tag);
   out.body.reply.call = id;
   StructField reply{m.reply, service_->reply};
   out.body.reply.reply.funcs.encode = &encode_struct;
@@ -211,7 +211,7 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
     send_error(slot.id, status.code(), status.text(), false, answer);
     return;
   }
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_stream_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_stream_tag);
   out.body.stream.stream = slot.id;
   out.body.stream.seq = slot.seq;
   StructField message{m.reply, service_->reply};
@@ -235,6 +235,14 @@ bool DeviceCore::slot_open(uint32_t id) const {
   return false;
 }
 
+uint8_t DeviceCore::open_streams() const {
+  uint8_t open = 0;
+  for (uint8_t i = 0; i < slot_count_; ++i) {
+    if (slots_[i].request_size != kFree) ++open;
+  }
+  return open;
+}
+
 void DeviceCore::close_streams() {
   for (uint8_t i = 0; i < slot_count_; ++i) slots_[i].request_size = kFree;
 }
@@ -245,7 +253,7 @@ DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code, uint8_
 }
 
 size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash, uint8_t* answer) {
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_error_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_error_tag);
   out.body.error.call = call;
   out.body.error.code = code;
   TextBuilder builder(out.body.error.text, sizeof(out.body.error.text));
@@ -258,14 +266,14 @@ size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bo
 }
 
 void DeviceCore::send_ack(uint32_t id, bool refused) {
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_ack_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_ack_tag);
   out.body.ack.id = id;
   out.body.ack.refused = refused;
   send_message(&out, false, nullptr);
 }
 
 void DeviceCore::send_hello() {
-  tether_rpc_DeviceMessage out = out_message(tether_rpc_DeviceMessage_hello_tag);
+  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_hello_tag);
   out.body.hello.schema_hash = service_->schema_hash;
   out.body.hello.session = session_id_;
   out.body.hello.max_payload = max_payload_;
@@ -277,7 +285,7 @@ size_t DeviceCore::send_message(const void* device_message, bool leading_delimit
   uint8_t local[kMaxOutPayload];
   uint8_t* payload = answer != nullptr ? answer : local;
   pb_ostream_t stream = pb_ostream_from_buffer(payload, kMaxOutPayload);
-  if (!pb_encode(&stream, tether_rpc_DeviceMessage_fields, device_message)) {
+  if (!pb_encode(&stream, tether_rpc_wire_DeviceMessage_fields, device_message)) {
     add_one(counters_.send_failures);
     return 0;
   }
@@ -297,8 +305,8 @@ void DeviceCore::send_payload(ByteView payload, bool leading_delimiter) {
 }
 
 void DeviceCore::finish(const void* host_message) {
-  const tether_rpc_HostMessage& in = *static_cast<const tether_rpc_HostMessage*>(host_message);
-  if (in.which_body == tether_rpc_HostMessage_reset_tag && restart_ != nullptr) restart_(restart_context_);
+  const tether_rpc_wire_HostMessage& in = *static_cast<const tether_rpc_wire_HostMessage*>(host_message);
+  if (in.which_body == tether_rpc_wire_HostMessage_reset_tag && restart_ != nullptr) restart_(restart_context_);
 }
 
 void DeviceCore::on_failsafe(void* self, Millis) { static_cast<DeviceCore*>(self)->close_streams(); }

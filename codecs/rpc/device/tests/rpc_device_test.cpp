@@ -87,7 +87,7 @@ struct TestLimits {
 
 // A device's answer, decoded; the Reply / StreamMessage payload kept as bytes.
 struct Answer {
-  tether_rpc_DeviceMessage message;
+  tether_rpc_wire_DeviceMessage message;
   Bytes payload;
 };
 
@@ -135,8 +135,8 @@ class RpcDevice : public ::testing::Test {
   }
 
   // Sends `message` as one frame (fed in one run, or byte by byte) and returns what the device answered.
-  std::vector<Answer> send(const tether_rpc_HostMessage& message, bool byte_by_byte = false) {
-    return send_payload(wire::encode(tether_rpc_HostMessage_fields, &message), byte_by_byte);
+  std::vector<Answer> send(const tether_rpc_wire_HostMessage& message, bool byte_by_byte = false) {
+    return send_payload(wire::encode(tether_rpc_wire_HostMessage_fields, &message), byte_by_byte);
   }
   std::vector<Answer> send_payload(const Bytes& payload, bool byte_by_byte = false) {
     recorder_.clear();
@@ -174,58 +174,58 @@ class RpcDevice : public ::testing::Test {
       EXPECT_EQ(used, frame.size());
       out.emplace_back();
       Answer& answer = out.back();
-      answer.message = tether_rpc_DeviceMessage_init_zero;
+      answer.message = tether_rpc_wire_DeviceMessage_init_zero;
       pb_istream_t stream = pb_istream_from_buffer(decoder.frame().data(), decoder.frame().size());
-      EXPECT_TRUE(pb_decode(&stream, tether_rpc_DeviceMessage_fields, &answer.message));
-      if (answer.message.which_body == tether_rpc_DeviceMessage_reply_tag) {
-        answer.payload = nested_bytes(decoder.frame(), tether_rpc_DeviceMessage_reply_tag, tether_rpc_Reply_reply_tag);
-      } else if (answer.message.which_body == tether_rpc_DeviceMessage_stream_tag) {
+      EXPECT_TRUE(pb_decode(&stream, tether_rpc_wire_DeviceMessage_fields, &answer.message));
+      if (answer.message.which_body == tether_rpc_wire_DeviceMessage_reply_tag) {
+        answer.payload = nested_bytes(decoder.frame(), tether_rpc_wire_DeviceMessage_reply_tag, tether_rpc_wire_Reply_reply_tag);
+      } else if (answer.message.which_body == tether_rpc_wire_DeviceMessage_stream_tag) {
         answer.payload =
-            nested_bytes(decoder.frame(), tether_rpc_DeviceMessage_stream_tag, tether_rpc_StreamMessage_message_tag);
+            nested_bytes(decoder.frame(), tether_rpc_wire_DeviceMessage_stream_tag, tether_rpc_wire_StreamMessage_message_tag);
       }
     }
     return out;
   }
 
-  static tether_rpc_HostMessage call(uint32_t id, uint32_t method, const Bytes& request) {
-    tether_rpc_HostMessage m = tether_rpc_HostMessage_init_zero;
+  static tether_rpc_wire_HostMessage call(uint32_t id, uint32_t method, const Bytes& request) {
+    tether_rpc_wire_HostMessage m = tether_rpc_wire_HostMessage_init_zero;
     m.id = id;
-    m.which_body = tether_rpc_HostMessage_call_tag;
+    m.which_body = tether_rpc_wire_HostMessage_call_tag;
     m.body.call.method = method;
     m.body.call.request.size = static_cast<pb_size_t>(request.size());
     if (!request.empty()) std::memcpy(m.body.call.request.bytes, request.data(), request.size());
     return m;
   }
-  static tether_rpc_HostMessage move(uint32_t id, uint32_t joint, int32_t angle) {
+  static tether_rpc_wire_HostMessage move(uint32_t id, uint32_t joint, int32_t angle) {
     arm_JointRequest request = arm_JointRequest_init_zero;
     request.joint = joint;
     request.angle_cdeg = angle;
     return call(id, 0, wire::encode(arm_JointRequest_fields, &request));
   }
-  static tether_rpc_HostMessage open(uint32_t id, uint32_t method, uint32_t period, const Bytes& request = {}) {
-    tether_rpc_HostMessage m = tether_rpc_HostMessage_init_zero;
+  static tether_rpc_wire_HostMessage open(uint32_t id, uint32_t method, uint32_t period, const Bytes& request = {}) {
+    tether_rpc_wire_HostMessage m = tether_rpc_wire_HostMessage_init_zero;
     m.id = id;
-    m.which_body = tether_rpc_HostMessage_open_tag;
+    m.which_body = tether_rpc_wire_HostMessage_open_tag;
     m.body.open.method = method;
     m.body.open.period_ms = period;
     m.body.open.request.size = static_cast<pb_size_t>(request.size());
     if (!request.empty()) std::memcpy(m.body.open.request.bytes, request.data(), request.size());
     return m;
   }
-  static tether_rpc_HostMessage bare(uint32_t id, pb_size_t which) {
-    tether_rpc_HostMessage m = tether_rpc_HostMessage_init_zero;
+  static tether_rpc_wire_HostMessage bare(uint32_t id, pb_size_t which) {
+    tether_rpc_wire_HostMessage m = tether_rpc_wire_HostMessage_init_zero;
     m.id = id;
     m.which_body = which;
     return m;
   }
 
   static void expect_ack(const Answer& answer, uint32_t id, bool refused) {
-    ASSERT_EQ(answer.message.which_body, tether_rpc_DeviceMessage_ack_tag);
+    ASSERT_EQ(answer.message.which_body, tether_rpc_wire_DeviceMessage_ack_tag);
     EXPECT_EQ(answer.message.body.ack.id, id);
     EXPECT_EQ(answer.message.body.ack.refused, refused);
   }
   static void expect_error(const Answer& answer, uint32_t call, uint32_t code, const std::string& text) {
-    ASSERT_EQ(answer.message.which_body, tether_rpc_DeviceMessage_error_tag);
+    ASSERT_EQ(answer.message.which_body, tether_rpc_wire_DeviceMessage_error_tag);
     EXPECT_EQ(answer.message.body.error.call, call);
     EXPECT_EQ(answer.message.body.error.code, code);
     EXPECT_EQ(std::string(answer.message.body.error.text), text);
@@ -255,15 +255,15 @@ TEST_F(RpcDevice, BeginSendsResetEventAfterADelimiter) {
   ASSERT_EQ(recorder_.frames.size(), 1u);
   EXPECT_EQ(recorder_.frames[0][0], 0x00);  // flushes a half frame the host may hold from before
   const auto answers = this->answers();
-  ASSERT_EQ(answers[0].message.which_body, tether_rpc_DeviceMessage_reset_tag);
+  ASSERT_EQ(answers[0].message.which_body, tether_rpc_wire_DeviceMessage_reset_tag);
   EXPECT_EQ(answers[0].message.body.reset.session, 0xC0FFEEu);
   EXPECT_EQ(device_.session_id(), 0xC0FFEEu);
 }
 
 TEST_F(RpcDevice, HelloAnswersTheSchemaHashSessionAndSizes) {
-  const auto answers = send(bare(7, tether_rpc_HostMessage_hello_tag));
+  const auto answers = send(bare(7, tether_rpc_wire_HostMessage_hello_tag));
   ASSERT_EQ(answers.size(), 2u);
-  ASSERT_EQ(answers[0].message.which_body, tether_rpc_DeviceMessage_hello_tag);
+  ASSERT_EQ(answers[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
   const auto& hello = answers[0].message.body.hello;
   EXPECT_EQ(hello.schema_hash, hash_);
   EXPECT_EQ(hello.session, 0xC0FFEEu);
@@ -277,7 +277,7 @@ TEST_F(RpcDevice, ACallRunsItsHandlerAndRepliesBeforeTheAck) {
     const uint32_t id = byte_by_byte ? 2 : 1;
     const auto answers = send(move(id, 2, -4500), byte_by_byte);
     ASSERT_EQ(answers.size(), 2u);
-    ASSERT_EQ(answers[0].message.which_body, tether_rpc_DeviceMessage_reply_tag);
+    ASSERT_EQ(answers[0].message.which_body, tether_rpc_wire_DeviceMessage_reply_tag);
     EXPECT_EQ(answers[0].message.body.reply.call, id);
     EXPECT_EQ(decode_payload<arm_JointReply>(answers[0], arm_JointReply_fields).reached_cdeg, -4501);
     expect_ack(answers[1], id, false);
@@ -348,11 +348,12 @@ TEST_F(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
   ASSERT_EQ(opened.size(), 1u);
   expect_ack(opened[0], 20, false);
   EXPECT_TRUE(device_.stream_open(20));
+  EXPECT_EQ(device_.open_streams(), 1);
   const Millis opened_at = now_;
   for (uint32_t seq = 0; seq < 3; ++seq) {
     const auto due = poll_at(opened_at + seq * 100);
     ASSERT_EQ(due.size(), 1u) << seq;
-    ASSERT_EQ(due[0].message.which_body, tether_rpc_DeviceMessage_stream_tag);
+    ASSERT_EQ(due[0].message.which_body, tether_rpc_wire_DeviceMessage_stream_tag);
     EXPECT_EQ(due[0].message.body.stream.stream, 20u);
     EXPECT_EQ(due[0].message.body.stream.seq, seq);
     const auto state = decode_payload<arm_State>(due[0], arm_State_fields);
@@ -361,14 +362,15 @@ TEST_F(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
     EXPECT_TRUE(poll_at(opened_at + seq * 100 + 99).empty());
   }
   // Closing a stream that is not open is acked, and changes nothing.
-  tether_rpc_HostMessage close = bare(21, tether_rpc_HostMessage_close_tag);
+  tether_rpc_wire_HostMessage close = bare(21, tether_rpc_wire_HostMessage_close_tag);
   close.body.close.stream = 99;
   expect_ack(send(close)[0], 21, false);
   EXPECT_TRUE(device_.stream_open(20));
-  close = bare(22, tether_rpc_HostMessage_close_tag);
+  close = bare(22, tether_rpc_wire_HostMessage_close_tag);
   close.body.close.stream = 20;
   expect_ack(send(close)[0], 22, false);
   EXPECT_FALSE(device_.stream_open(20));
+  EXPECT_EQ(device_.open_streams(), 0);
   EXPECT_TRUE(poll_at(now_ + 1000).empty());
   EXPECT_EQ(device_.counters().stream_messages, 3u);
 }
@@ -408,7 +410,7 @@ TEST_F(RpcDevice, AStreamHandlerErrorOrAnOversizeMessageEndsTheStream) {
 TEST_F(RpcDevice, PingSilenceClosesTheStreams) {
   send(open(50, 1, 1000));
   poll_at(now_ + 9000);
-  send(bare(51, tether_rpc_HostMessage_ping_tag));  // at 10000: 10 s from here on
+  send(bare(51, tether_rpc_wire_HostMessage_ping_tag));  // at 10000: 10 s from here on
   poll_at(now_ + 9999);
   EXPECT_TRUE(device_.stream_open(50));
   poll_at(now_ + 1);
@@ -421,12 +423,12 @@ TEST_F(RpcDevice, DeviceHelloEveryFiveSeconds) {
   EXPECT_TRUE(answers.empty());
   answers = poll_at(now_ + 1);
   ASSERT_EQ(answers.size(), 1u);
-  EXPECT_EQ(answers[0].message.which_body, tether_rpc_DeviceMessage_hello_tag);
+  EXPECT_EQ(answers[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
   EXPECT_EQ(answers[0].message.body.hello.schema_hash, hash_);
 }
 
 TEST_F(RpcDevice, ResetAcksThenRestarts) {
-  const auto answers = send(bare(60, tether_rpc_HostMessage_reset_tag));
+  const auto answers = send(bare(60, tether_rpc_wire_HostMessage_reset_tag));
   ASSERT_EQ(answers.size(), 1u);
   expect_ack(answers[0], 60, false);
   EXPECT_EQ(recorder_.restarts, 1);
@@ -434,8 +436,8 @@ TEST_F(RpcDevice, ResetAcksThenRestarts) {
 }
 
 TEST_F(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
-  const tether_rpc_HostMessage message = move(70, 1, 1);
-  const Bytes frame = wire::frame(wire::encode(tether_rpc_HostMessage_fields, &message), Integrity::crc16);
+  const tether_rpc_wire_HostMessage message = move(70, 1, 1);
+  const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
   device_.handle_bytes(tether::ByteView(frame.data(), 3), now_);
   poll_at(now_ + 100);
   EXPECT_EQ(device_.counters().link.partial_timeouts, 1u);

@@ -107,6 +107,8 @@ class DeviceCore {
   uint32_t session_id() const { return session_id_; }
   /// Diagnostics.
   const DeviceCounters& counters() const { return counters_; }
+  /// Streams running now.
+  uint8_t open_streams() const;
   /// Shortest stream period accepted (default 1 ms; the generated glue sets one frame time at its baud).
   void set_min_period_ms(uint16_t period) { min_period_ms_ = period; }
 

@@ -9,7 +9,7 @@ namespace device {
 
 template <class Limits>
 void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
-  tether_rpc_HostMessage in = tether_rpc_HostMessage_init_zero;
+  tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
   if (!decode(payload, &in)) return;
   const auto lookup = executed_.check(in.id, fingerprint);
   if (lookup.duplicate) {  // a re-send: its first answer again, then the ack; nothing runs
