@@ -17,7 +17,8 @@ using proxy::device::FlashText;
 using proxy::device::TextBuilder;
 
 static_assert(tether_rpc_wire_HostMessage_size <= DefaultLimits::kMaxPayload, "a HostMessage must fit the decoder");
-static_assert(tether_rpc_wire_DeviceError_size + 2 <= DeviceCore::kMaxOutPayload, "a DeviceError must fit the answer");
+static_assert(tether_rpc_wire_DeviceError_size + 2 <= 64 && tether_rpc_wire_DeviceHello_size + 2 <= 64,
+              "a DeviceError and a DeviceHello fit every device's answer buffer (kMaxOutPayload >= 64)");
 
 namespace {
 
@@ -75,7 +76,7 @@ void DeviceCore::start(uint32_t session_id, Millis now) {
   next_info_.arm(now, kInfoPeriodMs);
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reset_tag);
   out.body.reset.session = session_id;
-  send_message(&out, true, nullptr);
+  send_message(&out, true);
 }
 
 void DeviceCore::track_frame(bool was_in_frame, bool in_frame, Millis now) {
@@ -102,11 +103,11 @@ bool DeviceCore::decode(ByteView payload, void* host_message) {
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
   if (pb_decode(&stream, tether_rpc_wire_HostMessage_fields, host_message)) return true;
   add_one(counters_.decode_errors);
-  send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true, nullptr);
+  send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
   return false;
 }
 
-DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now, uint8_t* answer) {
+DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
   const tether_rpc_wire_HostMessage& in = *static_cast<const tether_rpc_wire_HostMessage*>(host_message);
   switch (in.which_body) {
     case tether_rpc_wire_HostMessage_hello_tag:
@@ -114,11 +115,11 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now, uint8_
       return Outcome{false, 0};
     case tether_rpc_wire_HostMessage_call_tag: {
       const tether_rpc_wire_Call& c = in.body.call;
-      return call(in.id, c.method, ByteView(c.request.bytes, c.request.size), answer);
+      return call(in.id, c.method, ByteView(c.request.bytes, c.request.size));
     }
     case tether_rpc_wire_HostMessage_open_tag: {
       const tether_rpc_wire_OpenStream& o = in.body.open;
-      return open(in.id, o.method, ByteView(o.request.bytes, o.request.size), o.period_ms, now, answer);
+      return open(in.id, o.method, ByteView(o.request.bytes, o.request.size), o.period_ms, now);
     }
     case tether_rpc_wire_HostMessage_close_tag:
       for (uint8_t i = 0; i < slot_count_; ++i) {
@@ -131,7 +132,7 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now, uint8_
     case tether_rpc_wire_HostMessage_reset_tag:
       return Outcome{false, 0};  // finish() restarts, after the ack
     default:
-      return refuse(in.id, DeviceErrorCode::unknown_message, answer);
+      return refuse(in.id, DeviceErrorCode::unknown_message);
   }
 }
 
@@ -140,38 +141,37 @@ bool DeviceCore::decode_request(const Method& method, ByteView request) {
   return pb_decode(&stream, method.request, service_->request);
 }
 
-DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView request, uint8_t* answer) {
-  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method, answer);
+DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView request) {
+  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method);
   const Method& m = service_->methods[method];
-  if (m.streaming) return refuse(id, DeviceErrorCode::not_unary, answer);
-  if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request, answer);
+  if (m.streaming) return refuse(id, DeviceErrorCode::not_unary);
+  if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request);
   memset(service_->reply, 0, service_->reply_size);
   add_one(counters_.calls);
   const Status status = m.handler(service_->request, service_->reply);
   if (!status.is_ok()) {
     add_one(counters_.handler_errors);
-    return Outcome{false, send_error(id, status.code(), status.text(), false, answer)};
+    return Outcome{false, send_error(id, status.code(), status.text(), false)};
   }
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reply_tag);
   out.body.reply.call = id;
   StructField reply{m.reply, service_->reply};
   out.body.reply.reply.funcs.encode = &encode_struct;
   out.body.reply.reply.arg = &reply;
-  size_t size = send_message(&out, false, answer);
+  size_t size = send_message(&out);
   if (size == 0) {  // it ran: the answer is the error, remembered like a reply
-    size = send_error(id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true, answer);
+    size = send_error(id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
   }
   return Outcome{false, size};
 }
 
-DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now,
-                                     uint8_t* answer) {
-  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method, answer);
+DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now) {
+  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method);
   const Method& m = service_->methods[method];
-  if (!m.streaming) return refuse(id, DeviceErrorCode::not_streaming, answer);
-  if (period < min_period_ms_ || period > 0xFFFFu) return refuse(id, DeviceErrorCode::period_too_short, answer);
-  if (request.size() > request_bytes_) return refuse(id, DeviceErrorCode::request_too_large, answer);
-  if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request, answer);
+  if (!m.streaming) return refuse(id, DeviceErrorCode::not_streaming);
+  if (period < min_period_ms_ || period > 0xFFFFu) return refuse(id, DeviceErrorCode::period_too_short);
+  if (request.size() > request_bytes_) return refuse(id, DeviceErrorCode::request_too_large);
+  if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request);
   // The method's own slot (a re-open replaces its stream), else a free one.
   uint8_t chosen = kFree;
   for (uint8_t i = 0; i < slot_count_; ++i) {
@@ -182,7 +182,7 @@ DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView requ
       break;
     }
   }
-  if (chosen == kFree) return refuse(id, DeviceErrorCode::streams_full, answer);
+  if (chosen == kFree) return refuse(id, DeviceErrorCode::streams_full);
   StreamSlot& slot = slots_[chosen];
   slot.id = id;
   slot.method = static_cast<uint8_t>(method);
@@ -197,10 +197,9 @@ DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView requ
 void DeviceCore::run_stream(uint8_t index, Millis now) {
   StreamSlot& slot = slots_[index];
   const Method& m = service_->methods[slot.method];
-  uint8_t answer[kMaxOutPayload];
   if (!decode_request(m, ByteView(requests_ + index * request_bytes_, slot.request_size))) {
     slot.request_size = kFree;  // it decoded when the stream opened: only a bug gets here
-    send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::bad_request), kBadRequest, true, answer);
+    send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::bad_request), kBadRequest, true);
     return;
   }
   memset(service_->reply, 0, service_->reply_size);
@@ -208,7 +207,7 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
   if (!status.is_ok()) {
     add_one(counters_.handler_errors);
     slot.request_size = kFree;
-    send_error(slot.id, status.code(), status.text(), false, answer);
+    send_error(slot.id, status.code(), status.text(), false);
     return;
   }
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_stream_tag);
@@ -217,9 +216,9 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
   StructField message{m.reply, service_->reply};
   out.body.stream.message.funcs.encode = &encode_struct;
   out.body.stream.message.arg = &message;
-  if (send_message(&out, false, answer) == 0) {
+  if (send_message(&out) == 0) {
     slot.request_size = kFree;
-    send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true, answer);
+    send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
     return;
   }
   add_one(counters_.stream_messages);
@@ -247,12 +246,12 @@ void DeviceCore::close_streams() {
   for (uint8_t i = 0; i < slot_count_; ++i) slots_[i].request_size = kFree;
 }
 
-DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code, uint8_t* answer) {
+DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code) {
   add_one(counters_.refused);
-  return Outcome{true, send_error(id, static_cast<uint16_t>(code), error_text(code), true, answer)};
+  return Outcome{true, send_error(id, static_cast<uint16_t>(code), error_text(code), true)};
 }
 
-size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash, uint8_t* answer) {
+size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash) {
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_error_tag);
   out.body.error.call = call;
   out.body.error.code = code;
@@ -262,14 +261,14 @@ size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bo
   } else if (text != nullptr) {
     builder.text(text);
   }
-  return send_message(&out, false, answer);
+  return send_message(&out);
 }
 
 void DeviceCore::send_ack(uint32_t id, bool refused) {
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_ack_tag);
   out.body.ack.id = id;
   out.body.ack.refused = refused;
-  send_message(&out, false, nullptr);
+  send_message(&out);
 }
 
 void DeviceCore::send_hello() {
@@ -278,13 +277,12 @@ void DeviceCore::send_hello() {
   out.body.hello.session = session_id_;
   out.body.hello.max_payload = max_payload_;
   out.body.hello.methods = service_->method_count;
-  send_message(&out, false, nullptr);
+  send_message(&out);
 }
 
-size_t DeviceCore::send_message(const void* device_message, bool leading_delimiter, uint8_t* answer) {
-  uint8_t local[kMaxOutPayload];
-  uint8_t* payload = answer != nullptr ? answer : local;
-  pb_ostream_t stream = pb_ostream_from_buffer(payload, kMaxOutPayload);
+size_t DeviceCore::send_message(const void* device_message, bool leading_delimiter) {
+  uint8_t* const payload = scratch_.out;
+  pb_ostream_t stream = pb_ostream_from_buffer(payload, max_out_);
   if (!pb_encode(&stream, tether_rpc_wire_DeviceMessage_fields, device_message)) {
     add_one(counters_.send_failures);
     return 0;
@@ -294,14 +292,13 @@ size_t DeviceCore::send_message(const void* device_message, bool leading_delimit
 }
 
 void DeviceCore::send_payload(ByteView payload, bool leading_delimiter) {
-  uint8_t frame[proxy::max_frame_size(kMaxOutPayload)];
   const Result<size_t> framed = proxy::encode_frame(payload, proxy::Integrity::crc16, leading_delimiter,
-                                                    MutableByteView(frame, sizeof frame));
+                                                    MutableByteView(scratch_.frame, proxy::max_frame_size(max_out_)));
   if (!framed.ok()) {
     add_one(counters_.send_failures);
     return;
   }
-  sink_.write(sink_.context, ByteView(frame, framed.value()));
+  sink_.write(sink_.context, ByteView(scratch_.frame, framed.value()));
 }
 
 void DeviceCore::finish(const void* host_message) {

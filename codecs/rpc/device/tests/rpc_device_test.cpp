@@ -83,6 +83,7 @@ struct TestLimits {
   static constexpr uint8_t kStreamRequestBytes = 4;
   static constexpr uint8_t kDuplicateDepth = 2;
   static constexpr uint16_t kReplyCacheBytes = 72;
+  static constexpr size_t kMaxOutPayload = 72;
 };
 
 // A device's answer, decoded; the Reply / StreamMessage payload kept as bytes.

@@ -42,7 +42,7 @@ namespace {
 namespace pb = google::protobuf;
 namespace asio = boost::asio;
 
-// The largest answer a device sends (a Reply or DeviceError of `device::DeviceCore::kMaxOutPayload` bytes,
+// The largest answer a device sends (a Reply or DeviceError of `device::DefaultLimits::kMaxOutPayload` bytes,
 // framed): the attempt window waits for it as well as for the ack.
 constexpr std::size_t kAnswerFrameBytes = proxy::max_frame_size(72);
 

@@ -75,6 +75,8 @@ struct DefaultLimits {
   static constexpr uint8_t kDuplicateDepth = 4;      ///< Calls remembered (>= the host's calls in flight).
   static constexpr uint16_t kReplyCacheBytes = 72;   ///< Largest answer remembered for a re-send
                                                      ///< (>= every Reply and DeviceError the device sends).
+  static constexpr size_t kMaxOutPayload = 72;       ///< Largest DeviceMessage payload sent (>= 64: a
+                                                     ///< DeviceError with its text, a DeviceHello).
 };
 
 /// Diagnostics of an rpc device. Counters only grow (wrap at 2^32). Plain data.
@@ -100,9 +102,6 @@ class DeviceCore {
   /// Time a frame may take from its first byte to its delimiter.
   static constexpr Duration kPartialFrameMs = 100;
 
-  /// The largest answer payload a device sends (a DeviceMessage).
-  static constexpr size_t kMaxOutPayload = 72;
-
   /// This boot's session.
   uint32_t session_id() const { return session_id_; }
   /// Diagnostics.
@@ -124,7 +123,8 @@ class DeviceCore {
 
   // `slots` and `requests` (slot_count rows of request_bytes) are the derived device's tables.
   DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
-             size_t max_payload, StreamSlot* slots, uint8_t slot_count, uint8_t* requests, uint8_t request_bytes)
+             size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
+             uint8_t request_bytes)
       : service_(&service),
         sink_(sink),
         restart_(restart),
@@ -132,6 +132,7 @@ class DeviceCore {
         partial_(kPartialFrameMs, counters_.link),
         watchdog_(kPingSilenceMs, counters_.link, &DeviceCore::on_failsafe, this),
         max_payload_(static_cast<uint16_t>(max_payload)),
+        max_out_(static_cast<uint16_t>(max_out)),
         slots_(slots),
         requests_(requests),
         slot_count_(slot_count),
@@ -145,14 +146,31 @@ class DeviceCore {
 
   static constexpr uint8_t kFree = 0xFF;  // a StreamSlot's request_size when it serves no stream
 
+  // The derived device's buffers on its entry point's stack (the sizes are its limits'): `out` for the
+  // payload being sent (max_out bytes; after `run`, the answer to remember), `frame` for its frame.
+  struct Scratch {
+    uint8_t* out;
+    uint8_t* frame;
+  };
+  class UseScratch {
+   public:
+    UseScratch(DeviceCore& core, uint8_t* out, uint8_t* frame) : core_(core) { core_.scratch_ = Scratch{out, frame}; }
+    ~UseScratch() { core_.scratch_ = Scratch{nullptr, nullptr}; }
+    UseScratch(const UseScratch&) = delete;
+    UseScratch& operator=(const UseScratch&) = delete;
+
+   private:
+    DeviceCore& core_;
+  };
+
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
   bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
   void poll_time(Millis now);
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
-  // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in `answer`.
-  Outcome run(const void* host_message, Millis now, uint8_t* answer);
+  // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
+  Outcome run(const void* host_message, Millis now);
   void send_ack(uint32_t id, bool refused);
   void send_payload(ByteView payload, bool leading_delimiter = false);
   void finish(const void* host_message);  // a Reset body's restart
@@ -163,13 +181,13 @@ class DeviceCore {
 
  private:
   static void on_failsafe(void* self, Millis now);
-  Outcome call(uint32_t id, uint32_t method, ByteView request, uint8_t* answer);
-  Outcome open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now, uint8_t* answer);
+  Outcome call(uint32_t id, uint32_t method, ByteView request);
+  Outcome open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now);
   void run_stream(uint8_t slot, Millis now);
   bool decode_request(const Method& method, ByteView request);
-  Outcome refuse(uint32_t id, DeviceErrorCode code, uint8_t* answer);
-  size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash, uint8_t* answer);
-  size_t send_message(const void* device_message, bool leading_delimiter, uint8_t* answer);
+  Outcome refuse(uint32_t id, DeviceErrorCode code);
+  size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
+  size_t send_message(const void* device_message, bool leading_delimiter = false);
   void send_hello();
 
   const Service* service_;
@@ -182,6 +200,8 @@ class DeviceCore {
   uint32_t session_id_ = 0;
   uint16_t min_period_ms_ = 1;
   uint16_t max_payload_;
+  uint16_t max_out_;
+  Scratch scratch_ = Scratch{nullptr, nullptr};
   StreamSlot* slots_;
   uint8_t* requests_;
   uint8_t slot_count_;
@@ -195,8 +215,8 @@ class Device : public DeviceCore {
   /// Device serving `service`, sending through `sink`, restarting through `restart(restart_context)`
   /// (null: Reset is acked and ignored, for tests). `service` must outlive it.
   Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr, void* restart_context = nullptr)
-      : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, slot_table_, Limits::kStreams,
-                   &request_table_[0][0], Limits::kStreamRequestBytes),
+      : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
+                   Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes),
         decoder_(proxy::Integrity::crc16, counters_.link),
         executed_(counters_.link) {
     close_streams();
@@ -205,7 +225,11 @@ class Device : public DeviceCore {
   Device& operator=(const Device&) = delete;
 
   /// End of setup: remembers `session_id`, starts the clocks at `now`, sends ResetEvent.
-  void begin(uint32_t session_id, Millis now) { start(session_id, now); }
+  void begin(uint32_t session_id, Millis now) {
+    Buffers buffers;
+    UseScratch use(*this, buffers.out, buffers.frame);
+    start(session_id, now);
+  }
 
   /// Handles one received byte at `now`; a completed frame is handled at once.
   void handle_byte(uint8_t byte, Millis now) {
@@ -229,6 +253,8 @@ class Device : public DeviceCore {
   /// loop pass.
   void poll(Millis now) {
     if (poll_frame_deadline(now)) decoder_.restart();
+    Buffers buffers;
+    UseScratch use(*this, buffers.out, buffers.frame);
     poll_time(now);
   }
 
@@ -236,6 +262,12 @@ class Device : public DeviceCore {
   bool stream_open(uint32_t id) const { return slot_open(id); }
 
  private:
+  static_assert(Limits::kMaxOutPayload >= 64, "a DeviceError with its text and a DeviceHello must fit");
+  static_assert(Limits::kReplyCacheBytes <= Limits::kMaxOutPayload, "no answer is longer than kMaxOutPayload");
+  struct Buffers {
+    uint8_t out[Limits::kMaxOutPayload];
+    uint8_t frame[proxy::max_frame_size(Limits::kMaxOutPayload)];
+  };
   void handle_payload(ByteView payload, uint16_t fingerprint, Millis now);
 
   proxy::Decoder<Limits::kMaxPayload> decoder_;

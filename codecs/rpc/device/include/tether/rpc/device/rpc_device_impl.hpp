@@ -9,6 +9,8 @@ namespace device {
 
 template <class Limits>
 void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
+  Buffers buffers;
+  UseScratch use(*this, buffers.out, buffers.frame);
   tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
   if (!decode(payload, &in)) return;
   const auto lookup = executed_.check(in.id, fingerprint);
@@ -17,10 +19,9 @@ void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Mill
     send_ack(in.id, false);
     return;
   }
-  uint8_t answer[kMaxOutPayload];
-  const Outcome outcome = run(&in, now, answer);
+  const Outcome outcome = run(&in, now);
   // Only what ran is remembered: a refused message is looked at again when re-sent.
-  if (!outcome.refused) executed_.remember(in.id, fingerprint, ByteView(answer, outcome.answer_size));
+  if (!outcome.refused) executed_.remember(in.id, fingerprint, ByteView(buffers.out, outcome.answer_size));
   send_ack(in.id, outcome.refused);
   finish(&in);
 }
