@@ -4,8 +4,7 @@
 #include <optional>
 #include <stdexcept>
 
-#include "arm.pb.h"
-#include "tether/rpc/device/rpc_device.hpp"
+#include "ArmRpc_service.h"
 
 namespace tether::rpc::testing {
 namespace {
@@ -20,47 +19,36 @@ struct Application {
 };
 Application* app = nullptr;  // the one device of a test (handlers are plain functions)
 
-Status move_joint(const void* request, void* reply) {
-  const auto& in = *static_cast<const arm_JointRequest*>(request);
-  ++app->moves;
-  app->last_angle = in.angle_cdeg;
-  if (app->fail_code != 0) return Status::error(app->fail_code, app->fail_text.c_str());
-  static_cast<arm_JointReply*>(reply)->reached_cdeg = in.angle_cdeg - 1;
-  return Status::ok();
-}
-
-Status watch(const void*, void* reply) {
-  auto& out = *static_cast<arm_State*>(reply);
-  ++app->watches;
-  out.angles_cdeg_count = 2;
-  out.angles_cdeg[0] = app->watches;
-  out.angles_cdeg[1] = -app->watches;
-  out.millis = app->now;
-  return Status::ok();
-}
-
-const device::Method kMethods[] = {
-    {arm_JointRequest_fields, arm_JointReply_fields, &move_joint, false},
-    {arm_StateRequest_fields, arm_State_fields, &watch, true},
-};
-union Requests {
-  arm_JointRequest move;
-  arm_StateRequest watch;
-};
-union Replies {
-  arm_JointReply move;
-  arm_State watch;
-};
-
 }  // namespace
+}  // namespace tether::rpc::testing
+
+// The handlers, as an application defines them for the generated service.
+tether::rpc::Status Arm_MoveJoint(const arm_JointRequest& request, arm_JointReply& reply) {
+  using tether::rpc::testing::app;
+  ++app->moves;
+  app->last_angle = request.angle_cdeg;
+  if (app->fail_code != 0) return tether::rpc::Status::error(app->fail_code, app->fail_text.c_str());
+  reply.reached_cdeg = request.angle_cdeg - 1;
+  return tether::rpc::Status::ok();
+}
+
+tether::rpc::Status Arm_Watch(const arm_StateRequest&, arm_State& next) {
+  using tether::rpc::testing::app;
+  ++app->watches;
+  next.angles_cdeg_count = 2;
+  next.angles_cdeg[0] = app->watches;
+  next.angles_cdeg[1] = -app->watches;
+  next.millis = app->now;
+  return tether::rpc::Status::ok();
+}
+
+namespace tether::rpc::testing {
 
 struct ArmDevice::State {
   Application application;
-  Requests requests;
-  Replies replies;
-  device::Service service{};
+  device::Service service{};  // the generated one, with the hash the test asks for
   std::function<void(std::string)> output;
-  std::optional<device::Device<>> runtime;
+  std::optional<ArmRpcService::Device> runtime;
 
   static void write(void* self, ByteView frame) {
     static_cast<State*>(self)->output(std::string(reinterpret_cast<const char*>(frame.data()), frame.size()));
@@ -71,8 +59,8 @@ ArmDevice::ArmDevice(std::uint64_t schema_hash, std::function<void(std::string)>
     : state_(std::make_unique<State>()) {
   if (app != nullptr) throw std::logic_error("one ArmDevice at a time");
   app = &state_->application;
-  state_->service = device::Service{schema_hash, kMethods, 2, &state_->requests, sizeof state_->requests,
-                                    &state_->replies, sizeof state_->replies};
+  state_->service = ArmRpcService::service();
+  state_->service.schema_hash = schema_hash;
   state_->output = std::move(output);
 }
 

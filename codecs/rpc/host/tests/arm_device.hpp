@@ -1,5 +1,5 @@
-// The arm schema's device (the real device runtime, codecs/rpc/device, with nanopb) on the host, for the
-// client tests: no nanopb type crosses this header, so a test includes it beside libprotobuf's classes of
+// The arm schema's device on the host, for the client tests: the service code `tether generate` writes
+// for arm.proto, the real device runtime (codecs/rpc/device) and nanopb. No nanopb type crosses this header, so a test includes it beside libprotobuf's classes of
 // the same schemas. Not thread-safe: its owner serialises the calls.
 #pragma once
 
