@@ -813,6 +813,7 @@ class ClientImpl final : public transports::ClientLink {
         emit(event);
       }
       established_ = false;
+      monitor_.start(now);  // Hello again until a device with this schema answers (a reflashed one)
       const error_code error = RpcError::schema_mismatch;
       ops_.fail_all([&](Ops::Operation& op) {
         if (op.state.stage == Op::Stage::in_flight) (void)table_.cancel(op.state.id);
