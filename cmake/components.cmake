@@ -22,7 +22,7 @@ set(_tether_needs_client transports core)
 foreach(_tether_codec IN LISTS TETHER_CODECS)
   set(_tether_needs_${_tether_codec} client)
 endforeach()
-set(_tether_needs_rpc transports proxy)  # the proxy's framing and its host client's message parsing
+set(_tether_needs_rpc client proxy)  # the proxy's framing and its host client's message parsing
 set(_tether_needs_devices ${TETHER_CODECS})
 set(_tether_needs_simulator client)  # a virtual board's clock is a link clock
 set(_tether_needs_virtual_uno devices simulator)

@@ -32,8 +32,8 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/proxy/session_policy.hpp"
 #include "tether/rpc/errors.hpp"
-#include "tether/transports/client_link.hpp"
-#include "tether/transports/pending_operations.hpp"
+#include "tether/client/client_link.hpp"
+#include "tether/client/pending_operations.hpp"
 #include "tether_rpc.pb.h"
 
 namespace tether::rpc {
@@ -127,7 +127,7 @@ struct Op {
   std::string reply;
   DeviceError error;
 };
-using Ops = transports::PendingOperations<CallSignature, Op>;
+using Ops = client::PendingOperations<CallSignature, Op>;
 
 // A stream the application opened.
 struct StreamEntry {
@@ -139,7 +139,7 @@ struct StreamEntry {
   bool opening = false;       // an OpenStream is queued or in flight
 };
 
-class ClientImpl final : public transports::ClientLink {
+class ClientImpl final : public client::ClientLink {
  public:
   ClientImpl(std::shared_ptr<transports::ByteStream> stream, Schema schema, const Options& options)
       : ClientLink(std::move(stream), options.clock),
@@ -166,7 +166,7 @@ class ClientImpl final : public transports::ClientLink {
   }
 
   const std::shared_ptr<Messages>& messages() const { return messages_; }
-  transports::EventHandlers<Event>& event_handlers() { return events_; }
+  client::EventHandlers<Event>& event_handlers() { return events_; }
   Counters counters() const { return published_.get(); }
   SessionStatus session() const { return published_session_.get(); }
 
@@ -289,7 +289,7 @@ class ClientImpl final : public transports::ClientLink {
 
  private:
   struct Empty {};
-  using ReadyWaiters = transports::PendingOperations<ReadySignature, Empty>;
+  using ReadyWaiters = client::PendingOperations<ReadySignature, Empty>;
   enum class Untracked : std::uint8_t { ping, hello };
   struct UntrackedId {
     std::uint32_t id = 0;
@@ -921,12 +921,12 @@ class ClientImpl final : public transports::ClientLink {
   mutable std::mutex stream_mutex_;
   std::set<std::uint64_t> pending_keys_;  // opened by the caller, not yet seen by the strand
   std::set<std::uint64_t> open_keys_;     // the strand's streams, as last published
-  transports::Published<Counters> published_;
-  transports::Published<SessionStatus> published_session_;
-  transports::EventHandlers<Event> events_;
+  client::Published<Counters> published_;
+  client::Published<SessionStatus> published_session_;
+  client::EventHandlers<Event> events_;
 };
 
-void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call) {
   impl->submit_call(operation, std::move(call), std::move(handler));
 }
@@ -966,7 +966,7 @@ bool Stream::is_open() const {
 namespace {
 std::shared_ptr<detail::ClientImpl> make_impl(std::shared_ptr<transports::ByteStream> stream, Schema schema,
                                               const Options& options) {
-  stream = transports::require_stream(std::move(stream), "rpc::Client");
+  stream = client::require_stream(std::move(stream), "rpc::Client");
   const RpcTiming& timing = options.timing;
   if (timing.baud == 0 || timing.bits_per_byte == 0 || timing.call_budget == 0 || timing.max_sends == 0 ||
       timing.hello_timeout == 0) {
@@ -986,15 +986,15 @@ Client::Client(std::shared_ptr<transports::ByteStream> stream, Schema schema, co
 const Schema& Client::schema() const { return impl()->messages()->schema(); }
 
 void Client::start_wait_ready(const std::shared_ptr<detail::ClientImpl>& impl,
-                              transports::ClientLink::OperationId operation,
+                              client::ClientLink::OperationId operation,
                               transports::UniqueFunction<ReadySignature> handler) {
   impl->submit_ready(operation, std::move(handler));
 }
 
 void Client::wait_ready(error_code& error) {
-  (void)transports::wait_for_operation<std::uint32_t>(
+  (void)client::wait_for_operation<std::uint32_t>(
       link(),
-      [&](transports::ClientLink::OperationId operation, transports::UniqueFunction<ReadySignature> handler) {
+      [&](client::ClientLink::OperationId operation, transports::UniqueFunction<ReadySignature> handler) {
         impl()->submit_ready(operation, std::move(handler));
       },
       error);
@@ -1021,9 +1021,9 @@ std::shared_ptr<google::protobuf::Message> Client::new_request(std::string_view 
 }
 
 CallResult Client::call(std::string_view method, const google::protobuf::Message& request, error_code& error) {
-  return transports::wait_for_operation<CallResult>(
+  return client::wait_for_operation<CallResult>(
       link(),
-      [&](transports::ClientLink::OperationId operation, detail::CallHandler handler) {
+      [&](client::ClientLink::OperationId operation, detail::CallHandler handler) {
         impl()->submit_call(operation, detail::CallRequest{std::string(method), detail::copy_request(request)},
                             std::move(handler));
       },

@@ -20,8 +20,8 @@
 #include "tether/testing/eventually.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
-#include "tether/transports/testing/event_log.hpp"
-#include "tether/transports/testing/manual_clock.hpp"
+#include "tether/client/testing/event_log.hpp"
+#include "tether/client/testing/manual_clock.hpp"
 #include "tether/transports/testing/scripted_peer.hpp"
 
 namespace {
@@ -43,11 +43,11 @@ const std::string kSchemas = TETHER_RPC_TEST_SCHEMAS;
 class ArmPeer : public tether::transports::testing::ScriptedPeer {
  public:
   ArmPeer(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-          std::shared_ptr<tether::transports::testing::ManualClock> clock)
+          std::shared_ptr<tether::client::testing::ManualClock> clock)
       : ScriptedPeer(std::move(end)), clock_(std::move(clock)), device_(hash, [this](std::string frame) { out(std::move(frame)); }) {}
 
   static std::shared_ptr<ArmPeer> start(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-                                        std::shared_ptr<tether::transports::testing::ManualClock> clock) {
+                                        std::shared_ptr<tether::client::testing::ManualClock> clock) {
     auto peer = std::make_shared<ArmPeer>(std::move(end), hash, std::move(clock));
     peer->ScriptedPeer::start();
     return peer;
@@ -99,14 +99,14 @@ class ArmPeer : public tether::transports::testing::ScriptedPeer {
     send(std::move(frame));
   }
 
-  std::shared_ptr<tether::transports::testing::ManualClock> clock_;
+  std::shared_ptr<tether::client::testing::ManualClock> clock_;
   ArmDevice device_;
   int drop_answers_ = 0;
   int drop_requests_ = 0;
   bool deaf_ = false;
 };
 
-tether::rpc::Options test_options(std::shared_ptr<tether::transports::LinkClock> clock) {
+tether::rpc::Options test_options(std::shared_ptr<tether::client::LinkClock> clock) {
   tether::rpc::Options options;
   options.clock = std::move(clock);
   options.first_message_id = 100;
@@ -120,7 +120,7 @@ tether::rpc::Options test_options(std::shared_ptr<tether::transports::LinkClock>
 
 struct Link {
   explicit Link(std::optional<std::uint64_t> device_hash = std::nullopt, std::uint32_t session = 0xC0FFEE)
-      : clock(tether::transports::testing::ManualClock::create()),
+      : clock(tether::client::testing::ManualClock::create()),
         schema_hash(Schema::load(kSchemas + "/arm.proto").hash()) {
     auto [host_end, device_end] = tether::transports::InMemoryStream::make_pair(io.executor());
     peer = ArmPeer::start(device_end, device_hash.value_or(schema_hash), clock);
@@ -175,9 +175,9 @@ struct Link {
   }
 
   tether::transports::IoThread io;
-  std::shared_ptr<tether::transports::testing::ManualClock> clock;
+  std::shared_ptr<tether::client::testing::ManualClock> clock;
   std::uint64_t schema_hash;
-  tether::transports::testing::EventLog<tether::rpc::Event> log;
+  tether::client::testing::EventLog<tether::rpc::Event> log;
   std::shared_ptr<ArmPeer> peer;
   std::optional<Client> client;
 };

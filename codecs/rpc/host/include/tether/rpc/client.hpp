@@ -75,8 +75,8 @@
 #include "tether/rpc/error_category.hpp"
 #include "tether/rpc/schema.hpp"
 #include "tether/transports/byte_stream.hpp"
-#include "tether/transports/client_skeleton.hpp"
-#include "tether/transports/link_clock.hpp"
+#include "tether/client/client_skeleton.hpp"
+#include "tether/client/link_clock.hpp"
 #include "tether/transports/unique_function.hpp"
 
 namespace google::protobuf {
@@ -125,7 +125,7 @@ struct RpcTiming {
 struct Options {
   RpcTiming timing;                                  ///< See RpcTiming.
   std::optional<std::uint32_t> first_message_id;    ///< Default: random. Tests fix it.
-  std::shared_ptr<transports::LinkClock> clock;      ///< Default: the steady clock (tests: ManualClock).
+  std::shared_ptr<client::LinkClock> clock;      ///< Default: the steady clock (tests: ManualClock).
 };
 
 /// A device's error answer: a handler's `Status::error(code, text)` or a refusal of the runtime.
@@ -257,7 +257,7 @@ struct DeviceErrorReport {
   DeviceError error;  ///< Its code and text.
 };
 /// The link failed.
-using LinkFailed = transports::LinkFailed;
+using LinkFailed = client::LinkFailed;
 }  // namespace events
 
 /// Everything `on_event` handlers receive.
@@ -272,16 +272,16 @@ struct CallRequest {
   std::string method;                                     ///< The method's name.
   std::shared_ptr<const google::protobuf::Message> request;  ///< Its request (copied at initiation).
 };
-using ClientRef = transports::ClientRef<ClientImpl>;
+using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `call` on `impl` as operation `operation` (any thread). Defined in client.cpp.
-void start_call(const std::shared_ptr<ClientImpl>& impl, transports::ClientLink::OperationId operation,
+void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call);
 /// A copy of `request` the initiation keeps.
 std::shared_ptr<const google::protobuf::Message> copy_request(const google::protobuf::Message& request);
 }  // namespace detail
 
 /// The client; see the file overview.
-class Client : public transports::ClientFront<detail::ClientImpl, Event> {
+class Client : public client::ClientFront<detail::ClientImpl, Event> {
  public:
   /// Client of the device behind `stream` (not null) serving `schema`; starts the session at once.
   /// Throws std::invalid_argument for bad timing.
@@ -333,7 +333,7 @@ class Client : public transports::ClientFront<detail::ClientImpl, Event> {
 
  private:
   static void start_wait_ready(const std::shared_ptr<detail::ClientImpl>& impl,
-                               transports::ClientLink::OperationId operation,
+                               client::ClientLink::OperationId operation,
                                transports::UniqueFunction<ReadySignature> handler);
 };
 
