@@ -11,7 +11,7 @@ include_guard(GLOBAL)
 
 # The codecs: one folder each under codecs/ (docs/codecs.md), each a component built on the client runtime.
 # A new codec is its folder and its name here.
-set(TETHER_CODECS romi proxy elcano)
+set(TETHER_CODECS romi proxy elcano rpc)
 set(TETHER_ALL_COMPONENTS core transports client ${TETHER_CODECS} devices simulator virtual_uno)
 set(TETHER_COMPONENTS "${TETHER_ALL_COMPONENTS}" CACHE STRING
   "Tether components to build (find_package names: ${TETHER_ALL_COMPONENTS}); what they are built on comes too")
@@ -22,6 +22,7 @@ set(_tether_needs_client transports core)
 foreach(_tether_codec IN LISTS TETHER_CODECS)
   set(_tether_needs_${_tether_codec} client)
 endforeach()
+set(_tether_needs_rpc client proxy)  # the proxy's framing and its host client's message parsing
 set(_tether_needs_devices ${TETHER_CODECS})
 set(_tether_needs_simulator client)  # a virtual board's clock is a link clock
 set(_tether_needs_virtual_uno devices simulator)

@@ -115,7 +115,7 @@ tether flash, tether sim and the virtual boards of a rover configuration.")
   # What the installed CMake package and .pc files ask for (cmake/TetherConfig.cmake.in); the simulator's
   # libraries only for Tether::virtual_uno, the images only for virtual boards.
   set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
-    "libboost-dev (>= 1.74), libprotobuf-dev, nlohmann-json3-dev, pkg-config")
+    "libboost-dev (>= 1.74), libprotobuf-dev, libprotoc-dev, nlohmann-json3-dev, pkg-config")
   set(CPACK_DEBIAN_DEV_PACKAGE_RECOMMENDS "libsimavr-dev, libelf-dev, tether-firmware (= ${PROJECT_VERSION})")
   set(CPACK_DEBIAN_DEV_DESCRIPTION "static libraries and headers of Tether (robot host to AVR messaging)
 Tether carries messages between a robot's host computer and its AVR

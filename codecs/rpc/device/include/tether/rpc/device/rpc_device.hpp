@@ -1,0 +1,283 @@
+/// @file rpc_device.hpp
+/// The device side of the rpc codec: a schema's service (service.hpp) served over the proxy's framing,
+/// `COBS(crc16 ‖ HostMessage) ‖ 00` in, `COBS(crc16 ‖ DeviceMessage) ‖ 00` out (tether_rpc.proto,
+/// nanopb, no heap). Sans-I/O like the other device engines: bytes in, time as `now`, frames out through
+/// a `FrameSink`.
+///
+/// ## Use (what `tether generate` writes around it)
+///
+///     Device<> device(service, FrameSink{write_to_uart, nullptr}, flush_and_reset, nullptr);
+///     device.begin(boot_session_id(), millis());         // end of setup: sends ResetEvent
+///     for (;;) { consume(device.handle_bytes(received, millis())); device.poll(millis()); }
+///
+/// ## Wire behaviour
+///   1. Boot: `begin` sends `ResetEvent{session}` after one 0x00; then `DeviceHello` every kInfoPeriodMs
+///      (5 s) and whenever a Hello asks (the host compares the schema hash and the session).
+///   2. Frames: as the proxy device's (empty ignored; bad COBS, CRC mismatches, payloads over
+///      Limits::kMaxPayload and frames not complete kPartialFrameMs after their first byte dropped and
+///      counted in `counters().link`).
+///   3. A payload that is not a HostMessage: `DeviceError{call 0, bad_envelope}`, no ack (no id to ack).
+///   4. Every HostMessage is acknowledged with `Ack{id, refused}`, AFTER what it causes (its Reply or
+///      DeviceError), so the ack closes the exchange. `refused`: the runtime did not run it (a DeviceError
+///      with one of Tether's codes says why); a handler's own error is not a refusal.
+///   5. A message whose id AND payload CRC match one of the last Limits::kDuplicateDepth run is a re-send:
+///      the device sends its first answer again from the cache (the same Reply or DeviceError bytes),
+///      then the Ack; it runs nothing. A refused message is not remembered.
+///   6. Bodies:
+///      - Call{method, request}: the request is decoded into the method's input struct, the reply struct
+///        zeroed, the handler called; `Status::ok()` sends `Reply{call = id, reply}`, an error
+///        `DeviceError{call = id, code, text}`. Refusals: unknown_method, not_unary, bad_request. A reply
+///        that does not fit a frame is answered `DeviceError{reply_too_large}`, not refused: the handler
+///        ran, and a re-send gets that answer again rather than a second run.
+///      - OpenStream{method, request, period_ms}: from then on the handler is called once per period
+///        (the first at the next `poll`) and each message it fills is sent as `StreamMessage{stream = id,
+///        seq, message}`, seq from 0. One stream per method: opening a method that streams already
+///        replaces its stream. A handler error ends the stream with `DeviceError{call = stream id, ...}`.
+///        Refusals: unknown_method, not_streaming, bad_request, period_too_short (below
+///        `set_min_period_ms`), request_too_large (over Limits::kStreamRequestBytes), streams_full
+///        (Limits::kStreams other methods stream already).
+///      - CloseStream{stream}: the stream opened by that id stops (nothing if none).
+///      - Ping: feeds the failsafe (any message would not do: a host that only calls would otherwise keep
+///        streams alive after it stopped listening).
+///      - Reset: the Ack is sent, then the restart hook.
+///      - Hello: `DeviceHello`.
+///      - none of those: `DeviceError{unknown_message}`, refused.
+///   7. Failsafe: kPingSilenceMs (10 s) without a Ping closes every stream (counted in `link.failsafes`);
+///      the host re-opens them when it is back.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/session/duplicate_filter.hpp"
+#include "tether/core/session/failsafe_watchdog.hpp"
+#include "tether/core/session/partial_frame_deadline.hpp"
+#include "tether/core/time.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device/io.hpp"
+#include "tether/rpc/device/service.hpp"
+#include "tether/rpc/errors.hpp"
+
+namespace tether {
+namespace rpc {
+namespace device {
+
+using proxy::device::FrameSink;
+using proxy::device::RestartFunction;
+
+/// Sizes of a device's tables; `tether generate` derives them from the schema.
+struct DefaultLimits {
+  static constexpr size_t kMaxPayload = 96;          ///< Largest HostMessage payload accepted.
+  static constexpr uint8_t kStreams = 2;             ///< Streams open at once.
+  static constexpr uint8_t kStreamRequestBytes = 16;  ///< Largest encoded request a stream keeps.
+  static constexpr uint8_t kDuplicateDepth = 4;      ///< Calls remembered (>= the host's calls in flight).
+  static constexpr uint16_t kReplyCacheBytes = 72;   ///< Largest answer remembered for a re-send
+                                                     ///< (>= every Reply and DeviceError the device sends).
+  static constexpr size_t kMaxOutPayload = 72;       ///< Largest DeviceMessage payload sent (>= 64: a
+                                                     ///< DeviceError with its text, a DeviceHello).
+};
+
+/// Diagnostics of an rpc device. Counters only grow (wrap at 2^32). Plain data.
+struct DeviceCounters {
+  /// Frame layer and session engine: frames_ok, crc_errors, framing_errors, oversize_frames, resyncs,
+  /// partial_timeouts, duplicates, failsafes.
+  LinkCounters link;
+  uint32_t decode_errors = 0;     ///< Checked frames whose payload was not a HostMessage.
+  uint32_t calls = 0;             ///< Handlers run for calls.
+  uint32_t stream_messages = 0;   ///< Stream messages sent.
+  uint32_t handler_errors = 0;    ///< Handlers that returned an error (calls and streams).
+  uint32_t refused = 0;           ///< Messages refused by the runtime (a DeviceError with Tether's code).
+  uint32_t send_failures = 0;     ///< Messages that did not encode (a reply too large is counted here too).
+};
+
+/// Shared, size-independent part of Device (one copy of the code whatever the limits).
+class DeviceCore {
+ public:
+  /// Silence (no Ping) that closes the streams.
+  static constexpr Duration kPingSilenceMs = 10000;
+  /// Period of DeviceHello.
+  static constexpr Duration kInfoPeriodMs = 5000;
+  /// Time a frame may take from its first byte to its delimiter.
+  static constexpr Duration kPartialFrameMs = 100;
+
+  /// This boot's session.
+  uint32_t session_id() const { return session_id_; }
+  /// Diagnostics.
+  const DeviceCounters& counters() const { return counters_; }
+  /// Streams running now.
+  uint8_t open_streams() const;
+  /// Shortest stream period accepted (default 1 ms; the generated glue sets one frame time at its baud).
+  void set_min_period_ms(uint16_t period) { min_period_ms_ = period; }
+
+ protected:
+  struct StreamSlot {
+    uint32_t id;
+    Deadline next;
+    uint32_t seq;
+    uint16_t period;
+    uint8_t method;
+    uint8_t request_size;  // 0xFF: the slot is free
+  };
+
+  // `slots` and `requests` (slot_count rows of request_bytes) are the derived device's tables.
+  DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
+             size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
+             uint8_t request_bytes)
+      : service_(&service),
+        sink_(sink),
+        restart_(restart),
+        restart_context_(restart_context),
+        partial_(kPartialFrameMs, counters_.link),
+        watchdog_(kPingSilenceMs, counters_.link, &DeviceCore::on_failsafe, this),
+        max_payload_(static_cast<uint16_t>(max_payload)),
+        max_out_(static_cast<uint16_t>(max_out)),
+        slots_(slots),
+        requests_(requests),
+        slot_count_(slot_count),
+        request_bytes_(request_bytes) {}
+
+  // What a body's handling produced, for the ack and the duplicate cache.
+  struct Outcome {
+    bool refused;
+    size_t answer_size;  // the Reply / DeviceError payload sent (0: none)
+  };
+
+  static constexpr uint8_t kFree = 0xFF;  // a StreamSlot's request_size when it serves no stream
+
+  // The derived device's buffers on its entry point's stack (the sizes are its limits'): `out` for the
+  // payload being sent (max_out bytes; after `run`, the answer to remember), `frame` for its frame.
+  struct Scratch {
+    uint8_t* out;
+    uint8_t* frame;
+  };
+  class UseScratch {
+   public:
+    UseScratch(DeviceCore& core, uint8_t* out, uint8_t* frame) : core_(core) { core_.scratch_ = Scratch{out, frame}; }
+    ~UseScratch() { core_.scratch_ = Scratch{nullptr, nullptr}; }
+    UseScratch(const UseScratch&) = delete;
+    UseScratch& operator=(const UseScratch&) = delete;
+
+   private:
+    DeviceCore& core_;
+  };
+
+  void start(uint32_t session_id, Millis now);
+  void track_frame(bool was_in_frame, bool in_frame, Millis now);
+  bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
+  void poll_time(Millis now);
+  // Decodes the envelope; false when it is not one (counted, answered).
+  bool decode(ByteView payload, void* host_message);
+  // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
+  Outcome run(const void* host_message, Millis now);
+  void send_ack(uint32_t id, bool refused);
+  void send_payload(ByteView payload, bool leading_delimiter = false);
+  void finish(const void* host_message);  // a Reset body's restart
+  bool slot_open(uint32_t id) const;
+  void close_streams();  // every slot free (the derived device's constructor, the failsafe)
+
+  DeviceCounters counters_;
+
+ private:
+  static void on_failsafe(void* self, Millis now);
+  Outcome call(uint32_t id, uint32_t method, ByteView request);
+  Outcome open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now);
+  void run_stream(uint8_t slot, Millis now);
+  bool decode_request(const Method& method, ByteView request);
+  Outcome refuse(uint32_t id, DeviceErrorCode code);
+  size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
+  size_t send_message(const void* device_message, bool leading_delimiter = false);
+  void send_hello();
+
+  const Service* service_;
+  FrameSink sink_;
+  RestartFunction restart_;
+  void* restart_context_;
+  session::PartialFrameDeadline partial_;
+  session::FailsafeWatchdog watchdog_;
+  Deadline next_info_;
+  uint32_t session_id_ = 0;
+  uint16_t min_period_ms_ = 1;
+  uint16_t max_payload_;
+  uint16_t max_out_;
+  Scratch scratch_ = Scratch{nullptr, nullptr};
+  StreamSlot* slots_;
+  uint8_t* requests_;
+  uint8_t slot_count_;
+  uint8_t request_bytes_;
+};
+
+/// An rpc device with `Limits`' table sizes. Not copyable; main loop only (never from an interrupt).
+template <class Limits = DefaultLimits>
+class Device : public DeviceCore {
+ public:
+  /// Device serving `service`, sending through `sink`, restarting through `restart(restart_context)`
+  /// (null: Reset is acked and ignored, for tests). `service` must outlive it.
+  Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr, void* restart_context = nullptr)
+      : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
+                   Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes),
+        decoder_(proxy::Integrity::crc16, counters_.link),
+        executed_(counters_.link) {
+    close_streams();
+  }
+  Device(const Device&) = delete;
+  Device& operator=(const Device&) = delete;
+
+  /// End of setup: remembers `session_id`, starts the clocks at `now`, sends ResetEvent.
+  void begin(uint32_t session_id, Millis now) {
+    Buffers buffers;
+    UseScratch use(*this, buffers.out, buffers.frame);
+    start(session_id, now);
+  }
+
+  /// Handles one received byte at `now`; a completed frame is handled at once.
+  void handle_byte(uint8_t byte, Millis now) {
+    const bool was_in_frame = decoder_.in_frame();
+    const DecodeStatus status = decoder_.feed(byte);
+    track_frame(was_in_frame, decoder_.in_frame(), now);
+    if (status == DecodeStatus::frame) handle_payload(decoder_.frame(), decoder_.checksum(), now);
+  }
+
+  /// Handles received bytes up to and including the first one that completes a frame (handled at once)
+  /// or drops one; returns how many it used: call again with the rest.
+  size_t handle_bytes(ByteView bytes, Millis now) {
+    const bool was_in_frame = decoder_.in_frame();
+    const FeedResult fed = decoder_.feed(bytes);
+    track_frame(was_in_frame, decoder_.in_frame(), now);
+    if (fed.status == DecodeStatus::frame) handle_payload(decoder_.frame(), decoder_.checksum(), now);
+    return fed.consumed;
+  }
+
+  /// Handles time: due stream messages, DeviceHello, the failsafe, the partial-frame deadline. Call every
+  /// loop pass.
+  void poll(Millis now) {
+    if (poll_frame_deadline(now)) decoder_.restart();
+    Buffers buffers;
+    UseScratch use(*this, buffers.out, buffers.frame);
+    poll_time(now);
+  }
+
+  /// True while the stream opened by message `id` runs.
+  bool stream_open(uint32_t id) const { return slot_open(id); }
+
+ private:
+  static_assert(Limits::kMaxOutPayload >= 64, "a DeviceError with its text and a DeviceHello must fit");
+  static_assert(Limits::kReplyCacheBytes <= Limits::kMaxOutPayload, "no answer is longer than kMaxOutPayload");
+  struct Buffers {
+    uint8_t out[Limits::kMaxOutPayload];
+    uint8_t frame[proxy::max_frame_size(Limits::kMaxOutPayload)];
+  };
+  void handle_payload(ByteView payload, uint16_t fingerprint, Millis now);
+
+  proxy::Decoder<Limits::kMaxPayload> decoder_;
+  session::DuplicateFilter<uint32_t, Limits::kDuplicateDepth, Limits::kReplyCacheBytes> executed_;
+  StreamSlot slot_table_[Limits::kStreams];
+  uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes];
+};
+
+}  // namespace device
+}  // namespace rpc
+}  // namespace tether
+
+#include "tether/rpc/device/rpc_device_impl.hpp"

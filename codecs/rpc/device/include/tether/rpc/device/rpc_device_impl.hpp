@@ -1,0 +1,31 @@
+// Implementation of rpc_device.hpp's template part (the sizes are the schema's).
+#pragma once
+
+#include "tether_rpc.pb.h"
+
+namespace tether {
+namespace rpc {
+namespace device {
+
+template <class Limits>
+void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
+  Buffers buffers;
+  UseScratch use(*this, buffers.out, buffers.frame);
+  tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
+  if (!decode(payload, &in)) return;
+  const auto lookup = executed_.check(in.id, fingerprint);
+  if (lookup.duplicate) {  // a re-send: its first answer again, then the ack; nothing runs
+    if (!lookup.cached_reply.empty()) send_payload(lookup.cached_reply);
+    send_ack(in.id, false);
+    return;
+  }
+  const Outcome outcome = run(&in, now);
+  // Only what ran is remembered: a refused message is looked at again when re-sent.
+  if (!outcome.refused) executed_.remember(in.id, fingerprint, ByteView(buffers.out, outcome.answer_size));
+  send_ack(in.id, outcome.refused);
+  finish(&in);
+}
+
+}  // namespace device
+}  // namespace rpc
+}  // namespace tether

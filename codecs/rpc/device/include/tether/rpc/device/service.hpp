@@ -1,0 +1,45 @@
+/// @file service.hpp
+/// A schema's service as the device runtime sees it: one entry per method, in the schema's order, each
+/// with its nanopb message descriptors and the application's handler. `tether generate` writes this table
+/// for a schema (with a thunk per method that calls the sketch's `<Service>_<Method>` with its typed
+/// structs, so that a missing handler is a link error naming it); tests write it by hand.
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <pb.h>
+
+#include "tether/rpc/device/status.hpp"
+
+namespace tether {
+namespace rpc {
+namespace device {
+
+/// A method's handler on untyped structs: `request` is the decoded request (the method's input type),
+/// `reply` a zeroed struct of its output type to fill in. For a streaming method it is called once per
+/// period with the stream's request and fills in the next message.
+using Handler = Status (*)(const void* request, void* reply);
+
+/// One method.
+struct Method {
+  const pb_msgdesc_t* request;  ///< nanopb descriptor of the input type.
+  const pb_msgdesc_t* reply;    ///< nanopb descriptor of the output type.
+  Handler handler;              ///< The application's handler.
+  bool streaming;               ///< Server streaming (`returns (stream T)`).
+};
+
+/// The service: its methods and the scratch structs the runtime decodes requests into and handlers fill.
+struct Service {
+  uint64_t schema_hash;  ///< `tether::rpc::schema_hash` of the schema (host side: schema.hpp).
+  const Method* methods;  ///< In the schema's order: the wire's method index.
+  uint8_t method_count;   ///< Entries of `methods`.
+  void* request;          ///< Room for the largest input type's struct.
+  size_t request_size;    ///< Its size.
+  void* reply;            ///< Room for the largest output type's struct.
+  size_t reply_size;      ///< Its size.
+};
+
+}  // namespace device
+}  // namespace rpc
+}  // namespace tether

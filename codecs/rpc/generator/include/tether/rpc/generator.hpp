@@ -1,0 +1,50 @@
+/// @file generator.hpp
+/// What `tether generate` writes for a schema: the device's service (C++ for the AVR, on nanopb's structs)
+/// and, around it, an Arduino library.
+///
+/// The service code is two files named after the library (`ArmRpc`): `ArmRpc_service.h` declares one
+/// handler per method, `<Service>_<Method>`, taking the request's and the reply's nanopb structs
+/// (`tether::rpc::Status Arm_MoveJoint(const arm_JointRequest& request, arm_JointReply& reply);`; for a
+/// stream, the next message), and `ArmRpcService`: the schema hash, the table sizes derived from nanopb's
+/// bounds (`Limits`) and `service()`. `ArmRpc_service.cpp` holds the table and the thunks that call the
+/// handlers, so a handler the application does not define is a link error that names it. The same two
+/// files go into the Arduino library, the project's bare-metal images and the host tests.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "tether/rpc/schema.hpp"
+
+namespace google::protobuf {
+class Descriptor;
+}
+
+namespace tether::rpc {
+
+/// The C name nanopb gives a message: its full name with `.` as `_` (`arm.Outer.Inner` -> `arm_Outer_Inner`).
+std::string nanopb_name(const google::protobuf::Descriptor& type);
+
+/// The default library name: the service's name and `Rpc` (`Arm` -> `ArmRpc`).
+std::string default_library_name(const Schema& schema);
+
+/// A handler's name: `<Service>_<Method>`.
+std::string handler_name(const Schema& schema, const Method& method);
+
+/// The service code of `schema` for a library called `name` (a C++ identifier); `nanopb_header` is the
+/// schema's nanopb header (`arm.pb.h`).
+struct ServiceCode {
+  std::string header;  ///< `<name>_service.h`
+  std::string source;  ///< `<name>_service.cpp`
+};
+ServiceCode service_code(const Schema& schema, std::string_view name, std::string_view nanopb_header);
+
+/// Writes `<name>_service.h` and `<name>_service.cpp` into `directory` (created); returns their paths.
+/// Throws SchemaError for a name that is not a C++ identifier, std::runtime_error for a directory that
+/// cannot be written.
+std::vector<std::filesystem::path> write_service_code(const Schema& schema, std::string_view name,
+                                                      const std::filesystem::path& directory);
+
+}  // namespace tether::rpc
