@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <ranges>
 #include <set>
 #include <string>
 #include <string_view>
@@ -23,6 +24,7 @@
 #include "client_impl.hpp"
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/client/message_ids.hpp"
 #include "tether/core/wakeup.hpp"
 #include "tether/proxy/device_message.hpp"
 
@@ -37,9 +39,8 @@ class PrimaryClient final : public ClientImpl {
       : ClientImpl(std::move(stream), options, Integrity::crc16),
         table_(session::CallTiming(), 0, counters_.link),
         heartbeat_(options.timing.ping_period),
-        monitor_(options.timing.session, counters_.link) {
-    const std::uint32_t first = options.first_message_id ? *options.first_message_id : std::random_device()();
-    last_id_ = first - 1;  // next_id() hands out `first` (0 is skipped)
+        monitor_(options.timing.session, counters_.link),
+        ids_(options.first_message_id ? *options.first_message_id : std::random_device()(), kIdWindow) {
   }
 
  private:
@@ -230,43 +231,14 @@ class PrimaryClient final : public ClientImpl {
   // --- sending -----------------------------------------------------------------------------------------
 
   std::uint32_t next_id() {
-    last_id_ = peek_next_id();
-    return last_id_;
+    return ids_.next([this](std::uint32_t id) { return table_.contains(id); });
   }
-  std::uint32_t peek_next_id() const {
-    std::uint32_t id = last_id_;
-    do {
-      ++id;
-    } while (id == 0 || table_.contains(id));
-    return id;
-  }
-  // The oldest id in flight (the one furthest back from the last id sent), or `fallback` when none.
-  std::uint32_t oldest_in_flight(std::uint32_t fallback) const {
-    std::uint32_t oldest = fallback;
-    std::uint32_t oldest_distance = 0;
-    for (const auto& entry : in_flight_) {
-      const auto distance = static_cast<std::uint32_t>(last_id_ - entry.first);
-      if (distance >= oldest_distance) {
-        oldest_distance = distance;
-        oldest = entry.first;
-      }
-    }
-    return oldest;
-  }
-  // True when the next id keeps every unacked message in the device's duplicate filter (kIdWindow). After
-  // a message X first runs, the device may still run for the first time an older id that was in flight
-  // when X was sent (its first copy lost, or still on the way), and the ids sent after X: so every new id
-  // stays within kIdWindow of the anchor of each message in flight (the oldest id in flight when it was
-  // sent), and at most kIdWindow - 1 other ids run between X and its re-send. Distances in sequence order
-  // (ids wrap at 2^32).
+  // The ids in flight and their anchors (message_ids.hpp: the device's duplicate filter keeps each unacked
+  // message while every new id stays within kIdWindow of its anchor).
+  auto in_flight_ids() const { return in_flight_ | std::views::keys; }
   bool id_window_open() const {
-    if (in_flight_.empty()) return true;
-    std::uint32_t anchor_distance = 0;
-    for (const auto& entry : in_flight_) {
-      anchor_distance = std::max(anchor_distance, static_cast<std::uint32_t>(last_id_ - entry.second->state.anchor));
-    }
-    const std::uint32_t next_distance = anchor_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_);
-    return next_distance < kIdWindow;
+    return ids_.window_open(in_flight_ | std::views::transform([](const auto& entry) { return entry.second->state.anchor; }),
+                            [this](std::uint32_t id) { return table_.contains(id); });
   }
 
   // Starts what can start of the session's replays (`replays`) or of the application's messages, in
@@ -292,7 +264,7 @@ class PrimaryClient final : public ClientImpl {
     send->state.stage = Stage::in_flight;
     send->deadline.disarm();  // the engine's budget from now on
     send->state.id = id;
-    send->state.anchor = oldest_in_flight(id);
+    send->state.anchor = ids_.anchor(id, in_flight_ids());
     send->state.frame = frame_of(message.SerializeAsString(), Integrity::crc16);
     refresh_table_timing(send->state.frame->size());
     (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight
@@ -558,7 +530,7 @@ class PrimaryClient final : public ClientImpl {
   Table table_;
   session::HeartbeatSchedule heartbeat_;
   Monitor monitor_;
-  std::uint32_t last_id_ = 0;
+  client::MessageIds ids_;
   std::array<UntrackedId, 8> untracked_{};
   std::size_t untracked_next_ = 0;
   std::map<std::uint32_t, Sends::iterator> in_flight_;  // by messageId

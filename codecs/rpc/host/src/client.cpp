@@ -20,12 +20,14 @@
 #include <mutex>
 #include <set>
 #include <random>
+#include <ranges>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
 
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/client/message_ids.hpp"
 #include "tether/core/wakeup.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/device_message.hpp"
@@ -150,10 +152,8 @@ class ClientImpl final : public client::ClientLink {
         decoder_(proxy::Integrity::crc16, counters_.link),
         table_(session::CallTiming(), 0, counters_.link),
         heartbeat_(options.timing.ping_period),
-        monitor_(hello_timing(options.timing), counters_.link) {
-    const std::uint32_t first = options.first_message_id ? *options.first_message_id : std::random_device()();
-    last_id_ = first - 1;
-  }
+        monitor_(hello_timing(options.timing), counters_.link),
+        ids_(options.first_message_id ? *options.first_message_id : std::random_device()(), kIdWindow) {}
 
   void start() {
     post_to_strand([this] {
@@ -450,37 +450,14 @@ class ClientImpl final : public client::ClientLink {
   // --- sending -----------------------------------------------------------------------------------------
 
   std::uint32_t next_id() {
-    last_id_ = peek_next_id();
-    return last_id_;
+    return ids_.next([this](std::uint32_t id) { return table_.contains(id); });
   }
-  std::uint32_t peek_next_id() const {
-    std::uint32_t id = last_id_;
-    do {
-      ++id;
-    } while (id == 0 || table_.contains(id));
-    return id;
-  }
-  std::uint32_t oldest_in_flight(std::uint32_t fallback) const {
-    std::uint32_t oldest = fallback;
-    std::uint32_t oldest_distance = 0;
-    for (const auto& entry : in_flight_) {
-      const auto distance = static_cast<std::uint32_t>(last_id_ - entry.first);
-      if (distance >= oldest_distance) {
-        oldest_distance = distance;
-        oldest = entry.first;
-      }
-    }
-    return oldest;
-  }
-  // As the proxy client's: every new id stays within kIdWindow of the anchor of each message in flight,
-  // so the device's duplicate filter still holds each of them when it is re-sent.
+  // The ids in flight and their anchors (message_ids.hpp: the device's duplicate filter keeps each unacked
+  // message while every new id stays within kIdWindow of its anchor).
+  auto in_flight_ids() const { return in_flight_ | std::views::keys; }
   bool id_window_open() const {
-    if (in_flight_.empty()) return true;
-    std::uint32_t anchor_distance = 0;
-    for (const auto& entry : in_flight_) {
-      anchor_distance = std::max(anchor_distance, static_cast<std::uint32_t>(last_id_ - entry.second->state.anchor));
-    }
-    return anchor_distance + static_cast<std::uint32_t>(peek_next_id() - last_id_) < kIdWindow;
+    return ids_.window_open(in_flight_ | std::views::transform([](const auto& entry) { return entry.second->state.anchor; }),
+                            [this](std::uint32_t id) { return table_.contains(id); });
   }
 
   void start_queued(Millis now) {
@@ -512,7 +489,7 @@ class ClientImpl final : public client::ClientLink {
     op->state.stage = Op::Stage::in_flight;
     op->deadline.disarm();  // the engine's budget from now on
     op->state.id = id;
-    op->state.anchor = oldest_in_flight(id);
+    op->state.anchor = ids_.anchor(id, in_flight_ids());
     op->state.frame = frame_of(message.SerializeAsString());
     refresh_table_timing(op->state.frame->size());
     (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight
@@ -905,7 +882,7 @@ class ClientImpl final : public client::ClientLink {
   Table table_;
   session::HeartbeatSchedule heartbeat_;
   Monitor monitor_;
-  std::uint32_t last_id_ = 0;
+  client::MessageIds ids_;
   std::array<UntrackedId, 8> untracked_{};
   std::size_t untracked_next_ = 0;
   std::map<std::uint32_t, Ops::iterator> in_flight_;  // by message id
