@@ -58,20 +58,6 @@ proxy::AckTiming ack_timing(const RpcTiming& timing) {
   return ack;
 }
 
-// What an Ack tells the request table.
-struct Policy {
-  using Id = std::uint32_t;
-  using Code = std::uint8_t;
-  static constexpr Code kAnswered = 0;            // a call's answer came before its ack
-  static constexpr Code kAcked = 1;               // an open or close: the ack is all
-  static constexpr Code kAckedWithoutAnswer = 2;  // a call's answer was lost: re-send, the device answers again
-  static constexpr Code kRefused = 3;
-  static bool is_success(Code code) { return code == kAnswered || code == kAcked; }
-  static bool is_retryable(Code code) { return code == kAckedWithoutAnswer; }
-};
-using Table = session::RequestTable<Policy, kMaxInFlight>;
-using Monitor = session::SessionMonitor<std::uint32_t, 1>;
-
 std::string hex(std::uint64_t hash) { return format_hash(hash); }
 
 }  // namespace
@@ -87,6 +73,20 @@ CallError::CallError(error_code code, const std::string& method, DeviceError dev
             std::to_string(device_error_.code) + ": " + device_error_.text) {}
 
 namespace detail {
+
+// What an Ack tells the request table.
+struct Policy {
+  using Id = std::uint32_t;
+  using Code = std::uint8_t;
+  static constexpr Code kAnswered = 0;            // a call's answer came before its ack
+  static constexpr Code kAcked = 1;               // an open or close: the ack is all
+  static constexpr Code kAckedWithoutAnswer = 2;  // a call's answer was lost: re-send, the device answers again
+  static constexpr Code kRefused = 3;
+  static bool is_success(Code code) { return code == kAnswered || code == kAcked; }
+  static bool is_retryable(Code code) { return code == kAckedWithoutAnswer; }
+};
+using Table = session::RequestTable<Policy, kMaxInFlight>;
+using Monitor = session::SessionMonitor<std::uint32_t, 1>;
 
 // The schema and the factory of its dynamic messages, shared by every message the client hands out (a
 // reply outlives the client safely).

@@ -20,18 +20,6 @@ constexpr std::size_t kMaxMethods = 255;
 // Option-definition files: they shape the generated code, not the wire.
 bool shapes_wire(const std::string& file) { return file != "nanopb.proto" && file != "google/protobuf/descriptor.proto"; }
 
-// protoc's format, with 1-based positions (the collector's are 0-based; -1 when the error has none).
-class CollectErrors : public pb::compiler::MultiFileErrorCollector {
- public:
-  void AddError(const std::string& filename, int line, int column, const std::string& message) override {
-    if (!text.empty()) text += '\n';
-    text += filename;
-    if (line >= 0) text += ':' + std::to_string(line + 1) + ':' + std::to_string(column + 1);
-    text += ": " + message;
-  }
-  std::string text;
-};
-
 constexpr std::uint64_t kFnvOffset = 0xcbf29ce484222325u;
 constexpr std::uint64_t kFnvPrime = 0x100000001b3u;
 
@@ -90,10 +78,26 @@ void hash_file(std::uint64_t& hash, const pb::FileDescriptor& file, std::set<con
 
 }  // namespace
 
+namespace detail {
+
+// protoc's format, with 1-based positions (the collector's are 0-based; -1 when the error has none).
+class CollectSchemaErrors : public pb::compiler::MultiFileErrorCollector {
+ public:
+  void AddError(const std::string& filename, int line, int column, const std::string& message) override {
+    if (!text.empty()) text += '\n';
+    text += filename;
+    if (line >= 0) text += ':' + std::to_string(line + 1) + ':' + std::to_string(column + 1);
+    text += ": " + message;
+  }
+  std::string text;
+};
+
+}  // namespace detail
+
 struct Schema::Impl {
   std::filesystem::path file;
   pb::compiler::DiskSourceTree tree;
-  CollectErrors errors;
+  detail::CollectSchemaErrors errors;
   pb::compiler::Importer importer{&tree, &errors};
   const pb::ServiceDescriptor* service = nullptr;
   std::vector<Method> methods;
