@@ -11,7 +11,8 @@
 //   0x40..0x7F  the next (command - 0x40) bytes are a payload the target frames as the device would;
 //   0x80..0xFF  let the client catch up.
 // Invariants: no crash, sanitizer finding or exception; every call completes exactly once (the rest at
-// close()); a call without error has a reply; a closed stream's handler is never called again.
+// close()); a call without error has a reply; a closed stream's handler is not called once its close returned
+// and a delivery then running has ended.
 #include <google/protobuf/message.h>
 #include <google/protobuf/reflection.h>
 
@@ -109,15 +110,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         ++completed;
       });
     } else if (command == 0x10) {
-      const std::uint64_t generation = ++stream_generation;
       stream.reset();
+      testing::catch_up(client.get_executor());  // a delivery running during the close has ended
+      const std::uint64_t generation = ++stream_generation;
       stream = client.open_stream("Watch", *client.new_request("Watch"), std::chrono::milliseconds(10),
                                   [&, generation](const error_code&, const StreamMessage&) {
                                     TETHER_FUZZ_CHECK(generation == stream_generation.load());
                                   });
     } else if (command == 0x11) {
-      ++stream_generation;
       stream.reset();
+      testing::catch_up(client.get_executor());
+      ++stream_generation;
     } else if (command == 0x20 || command == 0x21) {
       wire::DeviceMessage out;
       out.mutable_hello()->set_schema_hash(command == 0x20 ? hash : hash ^ 1u);
@@ -161,7 +164,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     return 0;
   });
-  ++stream_generation;
   stream.reset();
   client.close();
   TETHER_FUZZ_CHECK(testing::wait_for_fuzz([&] {

@@ -18,6 +18,7 @@
 #include <atomic>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <random>
 #include <ranges>
@@ -226,7 +227,7 @@ class ClientImpl final : public client::ClientLink {
     const std::uint64_t key = ++stream_keys_;
     {
       const std::lock_guard<std::mutex> lock(stream_mutex_);
-      pending_keys_.insert(key);  // open for the caller from now on, until the strand decides
+      pending_keys_.emplace(key, false);  // open for the caller from now on, until the strand takes it
     }
     StreamEntry entry;
     entry.method = op.method;
@@ -235,8 +236,15 @@ class ClientImpl final : public client::ClientLink {
     entry.handler = std::move(handler);
     post_to_strand([this, key, entry = std::move(entry)]() mutable {
       {
+        // Taken in one step: a close() before it finds the key pending and marks it (it never starts), a
+        // close() after it finds it open and posts its close here.
         const std::lock_guard<std::mutex> lock(stream_mutex_);
-        if (pending_keys_.erase(key) == 0) return;  // closed before it got here
+        const auto pending = pending_keys_.find(key);
+        if (pending == pending_keys_.end()) return;
+        const bool closed = pending->second;
+        pending_keys_.erase(pending);
+        if (closed) return;
+        open_keys_.insert(key);
       }
       if (!is_open() || link_error()) {
         publish_streams();
@@ -248,6 +256,7 @@ class ClientImpl final : public client::ClientLink {
         it = it->second.method == entry.method ? streams_.erase(it) : std::next(it);
       }
       streams_.emplace(key, std::move(entry));
+      publish_streams();
       if (mismatch_) {
         end_stream(key, make_error_code(RpcError::schema_mismatch), DeviceError());
         return;
@@ -261,13 +270,19 @@ class ClientImpl final : public client::ClientLink {
   void close_stream(std::uint64_t key) {
     {
       const std::lock_guard<std::mutex> lock(stream_mutex_);
-      if (pending_keys_.erase(key) != 0) {  // the strand has not seen it yet: it never starts
-        open_keys_.erase(key);
+      const auto pending = pending_keys_.find(key);
+      if (pending != pending_keys_.end()) {  // the strand has not taken it: it never starts
+        pending->second = true;
         return;
       }
       open_keys_.erase(key);
+      closing_keys_.insert(key);  // no delivery from now on, until the strand has removed it
     }
     post_to_strand([this, key] {
+      {
+        const std::lock_guard<std::mutex> lock(stream_mutex_);
+        closing_keys_.erase(key);
+      }
       const auto found = streams_.find(key);
       if (found == streams_.end()) return;
       const std::uint32_t wire_id = found->second.wire_id;
@@ -284,7 +299,8 @@ class ClientImpl final : public client::ClientLink {
 
   bool stream_open(std::uint64_t key) const {
     const std::lock_guard<std::mutex> lock(stream_mutex_);
-    return pending_keys_.count(key) != 0 || open_keys_.count(key) != 0;
+    const auto pending = pending_keys_.find(key);
+    return (pending != pending_keys_.end() && !pending->second) || open_keys_.count(key) != 0;
   }
 
  private:
@@ -614,7 +630,7 @@ class ClientImpl final : public client::ClientLink {
     publish_streams();
     StreamMessage end;
     end.device_error = device_error;
-    call_stream_handler(handler, error, end);
+    if (delivering(key)) call_stream_handler(handler, error, end);
   }
 
   void call_stream_handler(const StreamHandler& handler, const error_code& error, const StreamMessage& message) {
@@ -643,7 +659,9 @@ class ClientImpl final : public client::ClientLink {
     std::map<std::uint64_t, StreamEntry> streams = std::move(streams_);
     streams_.clear();
     publish_streams();
-    for (auto& [key, entry] : streams) call_stream_handler(entry.handler, error, StreamMessage());
+    for (auto& [key, entry] : streams) {
+      if (delivering(key)) call_stream_handler(entry.handler, error, StreamMessage());
+    }
   }
 
   void on_cancel(OperationId operation) override {
@@ -771,6 +789,7 @@ class ClientImpl final : public client::ClientLink {
       delivered.message = std::move(decoded);
       delivered.seq = message.seq();
       ++counters_.stream_messages;
+      if (!delivering(key)) return;
       const StreamHandler handler = entry.handler;  // the handler may close its own stream
       call_stream_handler(handler, error_code(), delivered);
       return;
@@ -801,7 +820,9 @@ class ClientImpl final : public client::ClientLink {
       std::map<std::uint64_t, StreamEntry> streams = std::move(streams_);
       streams_.clear();
       publish_streams();
-      for (auto& [key, entry] : streams) call_stream_handler(entry.handler, error, StreamMessage());
+      for (auto& [key, entry] : streams) {
+      if (delivering(key)) call_stream_handler(entry.handler, error, StreamMessage());
+    }
       return;
     }
     mismatch_ = false;
@@ -865,10 +886,18 @@ class ClientImpl final : public client::ClientLink {
     published_session_.set(session);
   }
 
+  // What `stream_open` reads (streams being closed excluded).
   void publish_streams() {
     const std::lock_guard<std::mutex> lock(stream_mutex_);
     open_keys_.clear();
-    for (const auto& [key, entry] : streams_) open_keys_.insert(key);
+    for (const auto& [key, entry] : streams_) {
+      if (closing_keys_.count(key) == 0) open_keys_.insert(key);
+    }
+  }
+  // False once the application closed stream `key` (its close on its way here): no more deliveries.
+  bool delivering(std::uint64_t key) const {
+    const std::lock_guard<std::mutex> lock(stream_mutex_);
+    return closing_keys_.count(key) == 0;
   }
 
   const Options options_;
@@ -896,8 +925,9 @@ class ClientImpl final : public client::ClientLink {
   // Any thread.
   std::atomic<std::uint64_t> stream_keys_{0};
   mutable std::mutex stream_mutex_;
-  std::set<std::uint64_t> pending_keys_;  // opened by the caller, not yet seen by the strand
-  std::set<std::uint64_t> open_keys_;     // the strand's streams, as last published
+  std::map<std::uint64_t, bool> pending_keys_;  // opened by the caller, not yet taken by the strand (true: closed)
+  std::set<std::uint64_t> open_keys_;           // the strand's streams, as last published
+  std::set<std::uint64_t> closing_keys_;        // closed by the caller, not yet removed by the strand
   client::Published<Counters> published_;
   client::Published<SessionStatus> published_session_;
   client::EventHandlers<Event> events_;

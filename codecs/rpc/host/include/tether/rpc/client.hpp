@@ -180,7 +180,8 @@ struct StreamMessage {
 /// A stream's handler. Contract:
 ///   1. Called on the client's strand, in arrival order, with no error for each message.
 ///   2. Called once more, with the error, when the stream ends by itself (a device error or refusal, the
-///      link failed, the client closed, the schema does not match); never after `Stream::close()`.
+///      link failed, the client closed, the schema does not match); never once `Stream::close()` returned,
+///      except a call already running on another thread then (as event handlers, client_skeleton.hpp).
 ///   3. Must not block for long and must not call the blocking forms of the client; exceptions are caught
 ///      and dropped.
 using StreamHandler = std::function<void(const error_code& error, const StreamMessage& message)>;
