@@ -59,7 +59,11 @@ proxy::AckTiming ack_timing(const RpcTiming& timing) {
   return ack;
 }
 
-std::string hex(std::uint64_t hash) { return format_hash(hash); }
+// What a schema mismatch says: the event's text and the blocking wait's error.
+std::string mismatch_text(const Schema& schema, std::uint64_t device_hash) {
+  return schema.file().string() + ": the device was built from another schema (its hash " + format_hash(device_hash) +
+         ", this schema's " + format_hash(schema.hash()) + ")";
+}
 
 }  // namespace
 
@@ -210,7 +214,7 @@ class ClientImpl final : public client::ClientLink {
       }
       const Millis now = this->now();
       ready_.add(operation, std::move(handler), Empty(), deadline_after(now, options_.timing.queue_timeout));
-      arm_timer_now();
+      pump(now);
     });
   }
 
@@ -361,8 +365,6 @@ class ClientImpl final : public client::ClientLink {
   }
 
   // --- the pump ----------------------------------------------------------------------------------------
-
-  void arm_timer_now() { pump(now()); }
 
   void pump(Millis now) {
     if (!is_open() || link_error()) return;
@@ -805,7 +807,7 @@ class ClientImpl final : public client::ClientLink {
         events::SchemaMismatch event;
         event.device_hash = hello.schema_hash();
         event.schema_hash = messages_->schema().hash();
-        event.text = mismatch_text();
+        event.text = mismatch_text(messages_->schema(), hello.schema_hash());
         emit(event);
       }
       established_ = false;
@@ -834,10 +836,6 @@ class ClientImpl final : public client::ClientLink {
     run_monitor(now);
   }
 
-  std::string mismatch_text() const {
-    return messages_->schema().file().string() + ": the device was built from another schema (its hash " +
-           hex(device_hash_) + ", this schema's " + hex(messages_->schema().hash()) + ")";
-  }
 
   template <typename Tell>
   void tell_monitor(std::uint32_t reported, Tell&& tell) {
@@ -1012,11 +1010,8 @@ void Client::wait_ready() {
   wait_ready(error);
   if (!error) return;
   if (error == RpcError::schema_mismatch) {
-    const SessionStatus status = session();
-    throw boost::system::system_error(
-        error, schema().file().string() + ": the device was built from another schema (its hash " +
-                   (status.device_hash ? format_hash(*status.device_hash) : std::string("unknown")) +
-                   ", this schema's " + format_hash(schema().hash()) + ")");
+    // A mismatch is only known from a DeviceHello, whose hash the session holds.
+    throw boost::system::system_error(error, mismatch_text(schema(), session().device_hash.value_or(0)));
   }
   throw boost::system::system_error(error, "rpc wait_ready");
 }
