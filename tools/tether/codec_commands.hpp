@@ -86,7 +86,8 @@ struct CodecCommands {
   std::vector<CodecFlag> flags;
   /// Printed after them: what else a person should know of its devices on the command line.
   std::string_view usage_note;
-  /// The options of a device named by `--port` or `--virtual` (`baud`: the line speed).
+  /// The options of a device named by `--port` or `--virtual` (`baud`: the line speed). May throw
+  /// `devices::ConfigError` (a codec flag's file that does not read): the command's usage error.
   std::function<devices::CodecOptions(std::uint32_t baud, const DeviceOptions& options)> default_options;
   /// `--virtual`: the transport of a lone board running `firmware` (and what it changes in the options).
   /// Unset: one virtual board.

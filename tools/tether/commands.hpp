@@ -1,10 +1,14 @@
 // The subcommands of the `tether` program: one file each, listed in commands.cpp, plus those the codec
-// plugins add (`tether_codec_plugin(... SUBCOMMANDS ...)`: `call` is the Romi plugin's, `send` the proxy's).
+// plugins add (`tether_codec_plugin(... SUBCOMMANDS ...)`: `send` is the proxy's; `call` is one command
+// whose part for each codec's devices is that codec's plugin's: Romi's and rpc's).
 #pragma once
 
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
+
+#include "tether/devices/config.hpp"
 
 namespace tether::cli {
 
@@ -15,6 +19,11 @@ struct Command {
   std::string_view name;
   int (*run)(int argc, char** argv);
   std::string_view summary;  ///< one line for `tether --help`
+  /// Set for a subcommand several codecs have (`call`): the codec whose devices this `run` serves. The
+  /// command lists such rows as one subcommand of that name, which runs the row of the codec its device
+  /// options name (`codec_of_arguments`), else the default codec's row (which refuses the device in its
+  /// own words), else the first. Unset: a subcommand of its own.
+  std::optional<devices::Codec> codec = std::nullopt;
 };
 
 /// Every subcommand, in the order `tether --help` lists them: `sim`, the codec plugins' (in plugin order), then

@@ -164,6 +164,20 @@ std::optional<int> parse_device_arguments(int argc, char** argv, const CommandTe
   });
 }
 
+devices::Codec codec_of_arguments(int argc, char** argv, devices::Codec default_codec) {
+  DeviceOptions options;
+  for (int index = 1; index < argc; ++index) {
+    if (std::string_view(argv[index]) == "--") break;  // what follows is the subcommand's, whatever it looks like
+    std::string error;
+    if (parse_device_option(argc, argv, index, options, error) == OptionParse::error) return default_codec;
+  }
+  options.codec_flags.clear();  // the codec's own subcommand checks them
+  std::string error;
+  const std::optional<DeviceTarget> target = resolve_device(options, default_codec, error);
+  if (target) return target->config.codec;
+  return options.codec.value_or(default_codec);  // `--codec rpc --help`: that codec's usage
+}
+
 std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices::Codec default_codec,
                                            std::string& error) {
   const bool port = !options.port.empty();
@@ -275,7 +289,12 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   }
   const std::uint32_t baud = options.baud.value_or(devices::codec_row(codec).default_baud);
   target.config.codec = codec;
-  target.config.options = commands.default_options(baud, options);
+  try {
+    target.config.options = commands.default_options(baud, options);
+  } catch (const devices::ConfigError& failure) {  // a codec flag's file that does not read
+    error = failure.what();
+    return std::nullopt;
+  }
   if (port) {
     devices::SerialTransport serial;
     serial.path = options.port;

@@ -73,6 +73,11 @@ struct DeviceTarget {
 std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices::Codec default_codec,
                                            std::string& error);
 
+/// The codec of the device that `argv[1..]`'s device options name (before a `--`), without a word of
+/// output: `default_codec` when they name none or do not resolve (the subcommand's own parsing then says
+/// why). `tether call` picks the codec's call with it before any argument is parsed.
+devices::Codec codec_of_arguments(int argc, char** argv, devices::Codec default_codec);
+
 /// Callbacks installed when the client is created, so they see every event from the first byte on.
 struct ClientHooks {
   /// Called with the new client, before it gets ready (proxy handshake and inits): attach event handlers.

@@ -52,7 +52,7 @@ const CommandText& command_text() {
           "Try it: `tether call --virtual romi-test e`.\n"
           "\n") +
           device_usage() +
-          "  (a device of another codec than romi is refused)\n"
+          "  (another codec's device: its own calls, `tether call --codec CODEC --help`, if it has them)\n"
           "\n"
           "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
           "                   budget; with --config, the configuration's); each attempt waits at most\n"
@@ -203,11 +203,12 @@ static int run_call(int argc, char** argv) {
 namespace tether::romi {
 
 /// The subcommands this codec adds to `tether` (collected by tools/tether/CMakeLists.txt:
-/// plugin_subcommands.cpp.in).
+/// plugin_subcommands.cpp.in): its part of `tether call`, for its devices.
 std::vector<cli::Command> subcommands();
 
 std::vector<cli::Command> subcommands() {
-  return {{"call", cli::run_call, "send one Romi command to a device (serial port or pty) and print its answer as JSON"}};
+  return {{"call", cli::run_call, "send one Romi command to a device (serial port or pty) and print its answer as JSON",
+           kCodec}};
 }
 
 }  // namespace tether::romi
