@@ -41,7 +41,7 @@ const char* const kDeviceUsageRest =
     "  --virtual FIRMWARE  starts a virtual Arduino Uno running FIRMWARE: a path to an .elf, or an image name\n"
     "                      (romi-test, proxy, proxy-compat, elcano-node) in the firmware folder\n"
     "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
-    "                      The codec follows the name (proxy-compat*, proxy*, elcano*, else romi)\n"
+    "                      The codec follows the name (proxy-compat*, proxy*, elcano*, rpc*, else romi)\n"
     "                      unless --codec says\n";
 
 // The first codec row that takes the flag `name`, or null.

@@ -38,14 +38,16 @@ const CommandText& command_text() {
           "  proxy         the client's session: Reset handshake at the start, a Ping every second, acks\n"
           "  proxy-compat  nothing is sent (the deployed protocol has no heartbeat); the device's reports count\n"
           "  elcano        the host's ring node: messages it does not capture are forwarded\n"
+          "  rpc           the client's session: Hello handshake, a Ping every second; with --probe\n"
+          "                'METHOD FIELD=VALUE ...' that call every --interval ms (default: no call)\n"
           "The same report is `:stats` in `tether shell`.\n"
           "\n") +
       device_usage() +
       "\n"
       "  --duration S   how long to run (default 5; 0: open, probe once, print)\n"
-      "  --probe CMD    romi: the command sent every interval (default '?')\n"
-      "  --passive      romi: send nothing\n"
-      "  --interval MS  romi: time between probes (default 1000)\n"
+      "  --probe CMD    romi: the command sent every interval (default '?'); rpc: a call, 'METHOD FIELD=VALUE'\n"
+      "  --passive      romi, rpc: send no probe\n"
+      "  --interval MS  romi, rpc: time between probes (default 1000)\n"
       "  --json         print one JSON object instead of the table\n"
       "\n"
       "SIGINT/SIGTERM stop early and print what was counted so far. Exit status: 0 counters printed;\n"
@@ -108,7 +110,12 @@ int run_stats(int argc, char** argv) {
   const CodecCommands& commands = *codec_commands(target->config.codec);
   const bool probes = static_cast<bool>(commands.send_probe);
   if (!probes && (arguments.probe_given || arguments.passive)) {
-    return command_text().usage_error("--probe and --passive apply to the romi codec only");
+    std::string probing;  // the codecs that take a probe
+    for (const devices::CodecRow* row : devices::codec_rows()) {
+      const CodecCommands* other = codec_commands(row->codec);
+      if (other != nullptr && other->send_probe) probing += (probing.empty() ? "" : " or ") + std::string(row->name);
+    }
+    return command_text().usage_error("--probe and --passive apply to the " + probing + " codec only");
   }
   const std::string probe = arguments.probe_given ? arguments.probe : std::string(commands.default_probe);
   if (probes && !arguments.passive) {

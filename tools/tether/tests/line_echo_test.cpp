@@ -107,7 +107,7 @@ TEST(LineEchoCodec, ARegisteredCodecIsParsedCheckedAndOpenedLikeTheBuiltInOnes) 
     devices::parse_config(config_text(device.path(), R"({"ping_period_ms": 5})"));
     ADD_FAILURE() << "a proxy option was accepted";
   } catch (const devices::ConfigError& error) {
-    EXPECT_EQ(error.detail(), R"(key "ping_period_ms" does not apply to codec line-echo (it is an option of proxy))");
+    EXPECT_EQ(error.detail(), R"(key "ping_period_ms" does not apply to codec line-echo (it is an option of proxy, rpc))");
   }
   try {
     devices::parse_config(R"({"devices": [{"name": "a", "codec": "romi", "transport": {"tcp": {"host": "h",
@@ -191,7 +191,7 @@ TEST(LineEchoCodec, DrivenThroughTetherDemoAndBenchByItsOwnWorkload) {
 TEST(LineEchoCodec, TheShippedCommandDoesNotKnowIt) {
   const Outcome run = run_tether({"shell", "--port", "/dev/null", "--codec", "line-echo"});
   EXPECT_EQ(run.status, 2);
-  EXPECT_NE(run.err.find("--codec needs romi, proxy, proxy-compat or elcano, got 'line-echo'"), std::string::npos)
+  EXPECT_NE(run.err.find("--codec needs romi, proxy, proxy-compat, elcano or rpc, got 'line-echo'"), std::string::npos)
       << run.err;
 }
 

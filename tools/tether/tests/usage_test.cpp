@@ -216,7 +216,7 @@ TEST(TetherUsage, SubcommandOptionErrors) {
   expect_usage_error({"monitor", "--port", "/dev/null", "--duration", "soon"}, "--duration needs seconds");
   expect_usage_error({"monitor", "--port", "/dev/null", "--keepalive"}, "--keepalive applies to the proxy codec");
   expect_usage_error({"stats", "--port", "/dev/null", "--codec", "proxy", "--probe", "?"},
-                     "--probe and --passive apply to the romi codec only");
+                     "--probe and --passive apply to the romi or rpc codec only");
   expect_usage_error({"stats", "--port", "/dev/null", "--probe", "a[99999]"}, "--probe 'a[99999]'");
   expect_usage_error({"shell", "--port", "/dev/null", "L[1]"}, "unexpected argument 'L[1]'");
   expect_usage_error({"shell", "--port", "/dev/null", "--verbose"}, "unknown option --verbose");

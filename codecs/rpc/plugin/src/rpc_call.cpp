@@ -1,0 +1,269 @@
+// `tether call DEVICE [options] METHOD [FIELD=VALUE ...]` on an rpc device: one call of a method of the
+// device's schema, its reply printed as JSON; or a stream method's messages, one JSON object each.
+//
+// Output contract (scripts rely on it):
+//   - stdout: the reply as one JSON object on one line (protobuf's JSON names, every field); a stream: one
+//     object per message. With --json: `{"method": ..., "reply": {...}, "message_id": N, "attempts": N}`,
+//     `{"method": ..., "seq": N, "message": {...}}` per stream message, `{"method": ..., "error":
+//     "device_error" | "refused", "code": N, "text": ...}` for the device's error answer.
+//   - stderr: `tether call: METHOD: device error CODE: TEXT` (or `refused CODE: TEXT`), or what failed.
+//   - exit status: 0 answered; 1 the device's handler answered an error; 2 usage errors (unknown method or
+//     field, bad value, a schema that does not read), a refusal by the device's runtime, a device that
+//     cannot be opened (no session, another schema: both hashes named), timeouts and transport errors.
+#include <google/protobuf/dynamic_message.h>
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cli_support.hpp"
+#include "commands.hpp"
+#include "device_options.hpp"
+#include "rpc_text.hpp"
+#include "tether/rpc/plugin.hpp"
+#include "tether/transports/io_thread.hpp"
+
+namespace tether::cli {
+
+namespace {
+
+const CommandText& rpc_call_text() {
+  static const CommandText text(
+      "call",
+      std::string(
+          "usage: tether call --port PATH --codec rpc --schema FILE [options] METHOD [FIELD=VALUE ...]\n"
+          "       tether call --config FILE --device NAME [options] METHOD [FIELD=VALUE ...]\n"
+          "       tether call --virtual FIRMWARE [--schema FILE] [options] METHOD [FIELD=VALUE ...]\n"
+          "options: [--timeout MS] [--period MS] [--count N] [--json]\n"
+          "\n"
+          "Calls one method of an rpc device's schema and prints the reply as one JSON object (protobuf's JSON\n"
+          "names, every field). The request is FIELD=VALUE words (the field's name as declared or its JSON\n"
+          "name; integers, numbers, true/false, strings, enum values by name or number), or a single argument\n"
+          "starting with `{`: the whole request as JSON, for repeated and nested fields:\n"
+          "  tether call --port /dev/ttyACM0 --codec rpc --schema arm.proto MoveJoint joint=2 angle_cdeg=-4500\n"
+          "  tether call --config rover.json --device arm MoveJoint '{\"joint\": 2, \"angleCdeg\": -4500}'\n"
+          "A stream method prints one JSON object per message: `Watch --period 100 --count 5`.\n"
+          "\n") +
+          device_usage() +
+          "\n"
+          "  --timeout MS     a call: its whole budget, re-sends included (default 2000, or the configuration's\n"
+          "                   call_budget_ms); a stream: the longest wait for its next message (default 2000 +\n"
+          "                   3 periods)\n"
+          "  --period MS      a stream method's period, 1..65535 (required for one)\n"
+          "  --count N        a stream: stop after N messages (default: until Ctrl-C)\n"
+          "  --json           one JSON object per outcome: {\"method\":\"MoveJoint\",\"reply\":{...},\"message_id\":N,\n"
+          "                   \"attempts\":N}; a stream's {\"method\":\"Watch\",\"seq\":N,\"message\":{...}}; the\n"
+          "                   device's error {\"method\":...,\"error\":\"device_error\",\"code\":42,\"text\":\"...\"}\n"
+          "\n"
+          "The method and request are checked against the schema before the device is opened. Opening waits for\n"
+          "the device's hello: a device built from another schema is refused, both hashes named.\n"
+          "\n"
+          "Exit status: 0 answered; 1 the device answered an error (code and text on stderr and in --json);\n"
+          "2 an unknown method or field, a bad value, a schema that does not read or that the device refuses, a\n"
+          "refusal by the device's runtime (codes from 0xFF00), a timeout, a transport error, usage errors.\n",
+      CommandText::OnUsageError::synopsis);
+  return text;
+}
+
+struct RpcCallArguments {
+  DeviceOptions device;
+  std::optional<std::uint32_t> timeout_ms;
+  std::optional<std::uint32_t> period_ms;
+  std::optional<std::uint32_t> count;
+  bool json = false;
+  std::vector<std::string> words;  // METHOD and its request
+};
+
+std::optional<int> parse_rpc_call(int argc, char** argv, RpcCallArguments& arguments) {
+  const CommandText& text = rpc_call_text();
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
+    if (argument == "--") {  // the rest is the method and its request, whatever it looks like
+      while (i + 1 < argc) arguments.words.emplace_back(argv[++i]);
+      return std::nullopt;
+    }
+    if (argument == "--json") {
+      arguments.json = true;
+    } else if (argument == "--timeout" || argument == "--period" || argument == "--count") {
+      if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
+      const std::string_view value = argv[++i];
+      const std::uint32_t max = argument == "--timeout" ? 3600000u : argument == "--period" ? 65535u : 0xFFFFFFFFu;
+      const auto number = parse_number(value, 1, max);
+      if (!number) {
+        return text.usage_error(std::string(argument) + " needs a number 1.." + std::to_string(max) + ", got '" +
+                                std::string(value) + "'");
+      }
+      (argument == "--timeout" ? arguments.timeout_ms : argument == "--period" ? arguments.period_ms : arguments.count) =
+          *number;
+    } else if (argument.size() > 1 && argument.starts_with("-") && arguments.words.empty()) {
+      return text.usage_error("unknown option " + std::string(argument));
+    } else {
+      arguments.words.emplace_back(argument);
+    }
+    return std::nullopt;
+  };
+  if (const auto status = parse_device_arguments(argc, argv, text, arguments.device, own)) return status;
+  if (arguments.words.empty()) return text.usage_error("no method given");
+  return std::nullopt;
+}
+
+void print_device_error(bool json, const std::string& method, const rpc::error_code& error,
+                        const rpc::DeviceError& answer) {
+  const ShellLine line = rpc_device_error_line(method, error, answer);
+  if (json) std::printf("%s\n", dump(line.json).c_str());
+  cli::out().flush();
+  std::fprintf(stderr, "tether call: %s\n", line.text.c_str());
+}
+
+// A stream's messages until `count`, its end or a stop signal.
+int run_rpc_stream(rpc::Client& client, const rpc::Method& method, const google::protobuf::Message& request,
+                   const RpcCallArguments& arguments) {
+  struct State {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::uint32_t received = 0;
+    std::optional<rpc::error_code> ended;
+    rpc::DeviceError answer;
+    std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
+  };
+  auto state = std::make_shared<State>();
+  const bool json = arguments.json;
+  const std::uint32_t count = arguments.count.value_or(0);
+  const std::string name = method.name;
+  rpc::Stream stream;
+  try {
+    stream = client.open_stream(
+        name, request, std::chrono::milliseconds(*arguments.period_ms),
+        [state, json, count, name](const rpc::error_code& error, const rpc::StreamMessage& message) {
+          std::lock_guard lock(state->mutex);
+          if (state->ended || (count != 0 && state->received >= count)) return;
+          if (error) {
+            state->ended = error;
+            state->answer = message.device_error;
+          } else {
+            const std::string text = rpc_message_json(*message.message);
+            out().line(json ? dump({{"method", name}, {"seq", message.seq}, {"message", rpc_message_value(*message.message)}})
+                            : text);
+            ++state->received;
+            state->last = std::chrono::steady_clock::now();
+          }
+          state->changed.notify_all();
+        });
+  } catch (const boost::system::system_error& error) {
+    return rpc_call_text().fail(name + ": " + error.what());
+  }
+  const std::atomic<bool>& stop = catch_stop_signals();
+  const auto gap = std::chrono::milliseconds(arguments.timeout_ms.value_or(2000 + 3 * *arguments.period_ms));
+  std::unique_lock lock(state->mutex);
+  while (!state->ended && (count == 0 || state->received < count) && !stop) {
+    state->changed.wait_for(lock, std::chrono::milliseconds(50));
+    if (std::chrono::steady_clock::now() - state->last > gap && !state->ended) {
+      lock.unlock();
+      stream.close();
+      return rpc_call_text().fail(name + ": no stream message within " + std::to_string(gap.count()) + " ms");
+    }
+  }
+  const std::optional<rpc::error_code> ended = state->ended;
+  const rpc::DeviceError answer = state->answer;
+  lock.unlock();
+  stream.close();
+  if (!ended) return 0;
+  if (*ended == rpc::RpcError::device_error || *ended == rpc::RpcError::refused) {
+    print_device_error(json, name, *ended, answer);
+    return *ended == rpc::RpcError::device_error ? 1 : 2;
+  }
+  return rpc_call_text().fail(name + ": " + ended->message());
+}
+
+}  // namespace
+
+// Internal: reached through this plugin's subcommands() only.
+static int run_rpc_call(int argc, char** argv) {
+  RpcCallArguments arguments;
+  if (const auto status = parse_rpc_call(argc, argv, arguments)) return *status;
+  const CommandText& text = rpc_call_text();
+  std::string error_text;
+  auto target = resolve_device(arguments.device, rpc::kCodec, error_text);
+  if (!target) return text.usage_error(error_text);
+  auto& options = target->config.options.get<rpc::DeviceOptions>();
+  if (options.schema.empty()) return text.usage_error("no schema: give --schema FILE (the device's .proto)");
+  if (arguments.timeout_ms) options.client.timing.call_budget = *arguments.timeout_ms;
+
+  // The method and request, checked against the schema before anything opens.
+  std::optional<rpc::Schema> schema;
+  try {
+    schema.emplace(rpc::load_schema(options, "schema"));
+  } catch (const devices::ConfigError& error) {
+    return text.fail(error.detail());
+  }
+  const std::string& name = arguments.words.front();
+  const rpc::Method* method = schema->find(name);
+  if (method == nullptr) return text.fail(rpc_unknown_method(*schema, name));
+  if (method->streaming && !arguments.period_ms) {
+    return text.usage_error(name + " is a stream: give --period MS (and --count N to stop after N messages)");
+  }
+  if (!method->streaming && (arguments.period_ms || arguments.count)) {
+    return text.usage_error("--period and --count apply to stream methods (" + name + " is a call)");
+  }
+  google::protobuf::DynamicMessageFactory factory(&schema->pool());
+  std::unique_ptr<google::protobuf::Message> request(factory.GetPrototype(method->input)->New());
+  const std::vector<std::string> request_words(arguments.words.begin() + 1, arguments.words.end());
+  if (const auto error = fill_rpc_request(*request, request_words)) return text.fail(name + ": " + *error);
+
+  transports::IoThread io;
+  Progress progress("call");
+  auto device = open_device(*target, io.executor(), ClientHooks(), progress, error_text);
+  if (!device) return text.fail("cannot open " + error_text + " (" + target->label + ")");
+  const auto client = device->client_as<rpc::Client>();
+  // The client's own request type (its pool): the same fields, so the bytes carry over.
+  const auto typed = client->new_request(method->name);
+  typed->ParseFromString(request->SerializeAsString());
+  int status = 0;
+  if (method->streaming) {
+    status = run_rpc_stream(*client, *method, *typed, arguments);
+  } else {
+    rpc::error_code error;
+    const rpc::CallResult result = client->call(method->name, *typed, error);
+    if (!error) {
+      const std::string reply = rpc_message_json(*result.reply);
+      std::printf("%s\n", arguments.json ? dump({{"method", method->name},
+                                                  {"reply", rpc_message_value(*result.reply)},
+                                                  {"message_id", result.message_id},
+                                                  {"attempts", result.attempts}})
+                                                .c_str()
+                                          : reply.c_str());
+    } else if (error == rpc::RpcError::device_error || error == rpc::RpcError::refused) {
+      print_device_error(arguments.json, method->name, error, result.device_error);
+      status = error == rpc::RpcError::device_error ? 1 : 2;
+    } else {
+      if (arguments.json) std::printf("%s\n", dump({{"method", method->name}, {"error", error.message()}}).c_str());
+      status = text.fail(method->name + ": " + error.message());
+    }
+  }
+  device->close();
+  cli::out().flush();
+  return status;
+}
+
+}  // namespace tether::cli
+
+namespace tether::rpc {
+
+/// The subcommands this codec adds to `tether` (collected by tools/tether/CMakeLists.txt:
+/// plugin_subcommands.cpp.in): its part of `tether call`, for its devices.
+std::vector<cli::Command> subcommands();
+
+std::vector<cli::Command> subcommands() {
+  return {{"call", cli::run_rpc_call, "rpc: call a method of the device's schema and print the reply as JSON", kCodec}};
+}
+
+}  // namespace tether::rpc

@@ -1,0 +1,61 @@
+// The rpc codec as the `tether` command shows it: requests typed as `FIELD=VALUE` words (or one JSON
+// object), replies and stream messages as JSON objects in protobuf's JSON mapping, the client's events as
+// shell lines, and the monitor's decoder of the envelope (methods and fields by name when it has the
+// schema). All by protobuf reflection over the schema read at run time, so any schema needs no change
+// here; the fuzz target (fuzz/rpc_text_fuzz.cpp) runs these very paths.
+#pragma once
+
+#include <google/protobuf/message.h>
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "monitor_decoding.hpp"
+#include "shell_text.hpp"
+#include "tether/devices/config.hpp"
+#include "tether/rpc/client.hpp"
+#include "tether/rpc/schema.hpp"
+
+namespace tether::cli {
+
+/// Fills `request` from `words`: one word starting with `{` is the whole request as JSON (protobuf's
+/// mapping: repeated and nested fields); else each word is `FIELD=VALUE` (the field's name as declared or
+/// its JSON name), a scalar field at most once. Values: integers in the field's range, numbers,
+/// true/false (1/0), strings and bytes as typed, enums by name or number. Nothing on success, else what is
+/// wrong, naming the field or value (`MoveJoint has no field "jiont" (fields: joint, angle_cdeg)`).
+std::optional<std::string> fill_rpc_request(google::protobuf::Message& request, std::span<const std::string> words);
+
+/// `message` as one JSON object on one line: protobuf's JSON names, every field (defaults included).
+std::string rpc_message_json(const google::protobuf::Message& message);
+
+/// `message` as a JSON value (what `rpc_message_json` prints), for the `--json` objects.
+nlohmann::ordered_json rpc_message_value(const google::protobuf::Message& message);
+
+/// `no method "X" in arm.proto (methods: MoveJoint, Watch)`.
+std::string rpc_unknown_method(const rpc::Schema& schema, std::string_view name);
+
+/// One line per method: `MoveJoint joint=uint32 angle_cdeg=int32`, `Watch (stream)`.
+std::string rpc_method_list(const rpc::Schema& schema, std::string_view indent);
+
+/// A client event as a shell line (`session 0x5e55 established`, `schema mismatch: ...`).
+ShellLine rpc_event_line(const rpc::Event& event);
+
+/// A device's error answer (`RpcError::device_error`, `refused`) as a shell line / the `--json` fields.
+ShellLine rpc_device_error_line(std::string_view method, const rpc::error_code& error, const rpc::DeviceError& answer);
+
+/// `tether monitor`'s decoder of rpc frames for the role's direction: the envelope, and with `schema` (not
+/// null) each call's request, reply and stream message by method and field names. A reply or stream
+/// message names its method when the schema leaves no doubt (one unary or one streaming method) or when
+/// the host's side of the same monitor (`--tap`) saw the call; else its payload in hex.
+std::unique_ptr<MonitorDecoder> make_rpc_monitor_decoder(std::shared_ptr<const rpc::Schema> schema,
+                                                         const DecoderRole& role);
+
+/// The schema of an rpc device's configuration (null when it names none or it does not read).
+std::shared_ptr<const rpc::Schema> rpc_config_schema(const devices::DeviceConfig& config);
+
+}  // namespace tether::cli

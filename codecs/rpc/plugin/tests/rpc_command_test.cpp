@@ -1,0 +1,208 @@
+// The `tether` command on rpc devices: `call` (replies, JSON requests, device errors, refusals before
+// anything opens, another schema, streams, --config/--device), `shell`, `monitor` and `stats`, against the
+// arm device of the host tests served on a pty (arm_on_pty.hpp: the generated arm service on the real device
+// runtime; the bare-metal rpc image is not used here).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "arm_on_pty.hpp"
+#include "tether/rpc/schema.hpp"
+#include "tether_process.hpp"
+
+namespace tether::rpc {
+namespace {
+
+namespace fs = std::filesystem;
+using cli::testing::Outcome;
+using cli::testing::run_tether;
+using cli::testing::Terminal;
+using nlohmann::json;
+
+const std::string kArm = (fs::path(TETHER_RPC_TEST_SCHEMAS) / "arm.proto").lexically_normal().string();
+
+std::uint64_t arm_hash() {
+  static const std::uint64_t hash = Schema::load(kArm).hash();
+  return hash;
+}
+
+std::vector<std::string> call_on(const testing::ArmOnPty& device, std::vector<std::string> words) {
+  std::vector<std::string> arguments = {"call", "--port", device.path(), "--codec", "rpc", "--schema", kArm};
+  arguments.insert(arguments.end(), words.begin(), words.end());
+  return arguments;
+}
+
+TEST(TetherRpcCall, PrintsTheReplyAsJson) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether(call_on(device, {"MoveJoint", "joint=2", "angle_cdeg=-4500"}));
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":-4501}\n");
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.last_angle(); }), -4500);
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.moves(); }), 1);
+}
+
+TEST(TetherRpcCall, JsonRequestAndJsonOutput) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether(call_on(device, {"--json", "MoveJoint", R"({"joint": 2, "angleCdeg": 7})"}));
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json object = json::parse(run.out);
+  EXPECT_EQ(object["method"], "MoveJoint");
+  EXPECT_EQ(object["reply"], json::parse(R"({"reachedCdeg": 6})"));
+  EXPECT_GE(object["attempts"].get<int>(), 1);
+  EXPECT_TRUE(object.contains("message_id"));
+}
+
+TEST(TetherRpcCall, DeviceErrorExitsOneWithCodeAndText) {
+  testing::ArmOnPty device(arm_hash());
+  device.with_device([](testing::ArmDevice& arm) {
+    arm.fail_moves(42, "joint 3 is locked");
+    return 0;
+  });
+  const Outcome run = run_tether(call_on(device, {"MoveJoint", "joint=3"}));
+  EXPECT_EQ(run.status, 1) << run.err;
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find("tether call: MoveJoint: device error 42: joint 3 is locked"), std::string::npos) << run.err;
+
+  const Outcome json_run = run_tether(call_on(device, {"--json", "MoveJoint", "joint=3"}));
+  EXPECT_EQ(json_run.status, 1) << json_run.err;
+  const json object = json::parse(json_run.out);
+  EXPECT_EQ(object["error"], "device_error");
+  EXPECT_EQ(object["code"], 42);
+  EXPECT_EQ(object["text"], "joint 3 is locked");
+}
+
+// Refused before the device is opened: nothing reaches it.
+TEST(TetherRpcCall, UnknownMethodFieldOrBadValueExitTwoNamingIt) {
+  testing::ArmOnPty device(arm_hash());
+  struct Case {
+    std::vector<std::string> words;
+    std::string message;
+  };
+  for (const Case& c : {Case{{"Jump"}, "no method \"Jump\" in " + kArm + " (methods: MoveJoint, Watch)"},
+                        Case{{"MoveJoint", "jiont=2"}, "JointRequest has no field \"jiont\" (fields: joint, angle_cdeg)"},
+                        Case{{"MoveJoint", "joint=-1"}, "joint=\"-1\": expected an integer in 0..4294967295"},
+                        Case{{"MoveJoint", "joint"}, "expected FIELD=VALUE, got \"joint\""},
+                        Case{{"MoveJoint", "{\"joint\": \"x\"}"}, "the request as JSON (JointRequest)"},
+                        Case{{"Watch"}, "Watch is a stream: give --period MS"}}) {
+    SCOPED_TRACE(::testing::PrintToString(c.words));
+    const Outcome run = run_tether(call_on(device, c.words));
+    EXPECT_EQ(run.status, 2);
+    EXPECT_EQ(run.out, "");
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
+  }
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.moves(); }), 0);
+}
+
+TEST(TetherRpcCall, SchemaTheDeviceRefusesExitsTwoNamingBothHashesAndTheFile) {
+  testing::ArmOnPty device(arm_hash() ^ 0xF00D);
+  const Outcome run = run_tether(call_on(device, {"MoveJoint", "joint=2"}));
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find(format_hash(arm_hash())), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find(format_hash(arm_hash() ^ 0xF00D)), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find(kArm), std::string::npos) << run.err;
+}
+
+TEST(TetherRpcCall, SchemaThatDoesNotReadOrIsMissing) {
+  const fs::path bad = fs::path(TETHER_RPC_TEST_SCHEMAS) / "bad_type.proto";
+  Outcome run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "--schema", bad.string(), "MoveJoint"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("bad_type.proto:3:42: \"int33\" is not defined."), std::string::npos) << run.err;
+  run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "MoveJoint"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("no schema: give --schema FILE"), std::string::npos) << run.err;
+}
+
+TEST(TetherRpcCall, StreamPrintsOneObjectPerMessage) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether(call_on(device, {"Watch", "--period", "20", "--count", "3"}));
+  EXPECT_EQ(run.status, 0) << run.err;
+  const std::vector<std::string> lines = run.lines();
+  ASSERT_EQ(lines.size(), 3u) << run.out;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const json message = json::parse(lines[i]);
+    ASSERT_EQ(message["anglesCdeg"].size(), 2u) << lines[i];
+    EXPECT_EQ(message["anglesCdeg"][0].get<int>(), -message["anglesCdeg"][1].get<int>()) << lines[i];
+  }
+}
+
+TEST(TetherRpcCall, DeviceOfAConfigurationWithTheSchemaBesideIt) {
+  testing::ArmOnPty device(arm_hash());
+  const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-call-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  fs::copy_file(kArm, dir / "arm.proto", fs::copy_options::overwrite_existing);
+  std::ofstream(dir / "rover.json") << json{{"devices",
+                                            {{{"name", "arm"},
+                                              {"codec", "rpc"},
+                                              {"transport", {{"serial", {{"path", device.path()}, {"boot_wait_ms", 0}}}}},
+                                              {"options", {{"schema", "arm.proto"}}}}}}}
+                                           .dump();
+  const Outcome run =
+      run_tether({"call", "--config", (dir / "rover.json").string(), "--device", "arm", "MoveJoint", "angle_cdeg=10"});
+  fs::remove_all(dir);
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":9}\n");
+}
+
+TEST(TetherRpcCall, HelpOfTheCodec) {
+  const Outcome run = run_tether({"call", "--codec", "rpc", "--help"});
+  EXPECT_EQ(run.status, 0);
+  EXPECT_EQ(run.out.rfind("usage: tether call --port PATH --codec rpc --schema FILE", 0), 0u) << run.out;
+  // Without a device: the default codec's (Romi's), which points at the others'.
+  EXPECT_NE(run_tether({"call", "--help"}).out.find("tether call --codec CODEC --help"), std::string::npos);
+}
+
+TEST(TetherRpcShell, CallsStreamsAndHelp) {
+  testing::ArmOnPty device(arm_hash());
+  Terminal terminal({"shell", "--port", device.path(), "--codec", "rpc", "--schema", kArm});
+  ASSERT_TRUE(terminal.expect("rpc> ")) << terminal.screen();
+  terminal.type("MoveJoint joint=2 angle_cdeg=100\n");
+  EXPECT_TRUE(terminal.expect("MoveJoint -> {\"reachedCdeg\":99}")) << terminal.screen();
+  terminal.type("MoveJoint joint=x\n");
+  EXPECT_TRUE(terminal.expect("joint=\"x\": expected an integer")) << terminal.screen();
+  terminal.type("Watch period=30\n");
+  EXPECT_TRUE(terminal.expect("Watch streaming every 30 ms")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("Watch #2 {\"anglesCdeg\":[")) << terminal.screen();
+  terminal.type("Watch stop\n");
+  EXPECT_TRUE(terminal.expect("Watch stopped")) << terminal.screen();
+  terminal.type(":help\n");
+  EXPECT_TRUE(terminal.expect("MoveJoint joint=uint32 angle_cdeg=int32 -> JointReply")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("Watch stop")) << terminal.screen();
+  terminal.type(":stats\n");
+  EXPECT_TRUE(terminal.expect("replies")) << terminal.screen();
+  terminal.type(":quit\n");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+TEST(TetherRpcStats, ReportsTheRpcCountersAndTheProbe) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether({"stats", "--port", device.path(), "--codec", "rpc", "--schema", kArm, "--duration",
+                                  "0", "--probe", "MoveJoint joint=1 angle_cdeg=5", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json report = json::parse(run.out);
+  EXPECT_EQ(report["codec"], "rpc");
+  EXPECT_EQ(report["rpc"]["replies"], 1);
+  EXPECT_GE(report["rpc"]["hellos_sent"].get<int>(), 1);
+  EXPECT_EQ(report["session"]["established"], true);
+  EXPECT_EQ(report["session"]["schema_hash"], format_hash(arm_hash()));
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.last_angle(); }), 5);
+}
+
+// Passive: what the device says at boot (its ResetEvent, waiting in the pty) decoded from the envelope.
+TEST(TetherRpcMonitor, DecodesTheEnvelope) {
+  testing::ArmOnPty device(arm_hash(), 0x5E55);
+  const Outcome run =
+      run_tether({"monitor", "--port", device.path(), "--codec", "rpc", "--schema", kArm, "--count", "1", "--json"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  const json record = json::parse(run.lines().at(0));
+  EXPECT_EQ(record["kind"], "message");
+  EXPECT_EQ(record["message"], "reset-event");
+  EXPECT_EQ(record["session"], 0x5E55);
+}
+
+}  // namespace
+}  // namespace tether::rpc
