@@ -102,6 +102,7 @@ struct ErrorFamily {
   ExceptionClass timeout;   ///< `base` and a builtin `TimeoutError`: errors equal to `errc::timed_out`
   ExceptionClass rejected;  ///< optional, `base` and a `ValueError`: the codes in `rejected_codes`
   std::vector<int> rejected_codes;  ///< what was refused before anything was written
+  std::vector<ExceptionClass> more;  ///< further subclasses of `base`, which the codec's binding raises itself
 };
 
 /// Makes a codec's exception classes in its submodule (`tether.romi.RomiError`, ...; the package exports them

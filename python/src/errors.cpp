@@ -46,9 +46,11 @@ void register_errors(py::module_& submodule, const ErrorFamily& family) {
     if (c.name == nullptr) return py::none();
     return py::make_tuple(c.name, c.doc);
   };
+  py::list more;
+  for (const ExceptionClass& c : family.more) more.append(spec(c));
   py::module_::import("tether._errors")
       .attr("define_family")(submodule, family.category, spec(family.base), spec(family.timeout),
-                             spec(family.rejected), py::cast(family.rejected_codes));
+                             spec(family.rejected), py::cast(family.rejected_codes), more);
 }
 
 void raise_error(const boost::system::error_code& error, const std::string& message, const std::string& path) {

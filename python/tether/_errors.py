@@ -68,12 +68,13 @@ _LIBRARY_FAMILIES = {
 _CODEC_CLASSES = []
 
 
-def define_family(module, category, base, timeout, rejected=None, rejected_codes=()):
+def define_family(module, category, base, timeout, rejected=None, rejected_codes=(), more=()):
     """Makes a codec's exception classes in ``module`` (its submodule) and raises them for errors of the error
     category ``category`` (and of ``<category>.<sub>``). ``base``, ``timeout`` and ``rejected`` are
     ``(name, docstring)``: ``base`` derives from TetherError, ``timeout`` from ``base`` and TimeoutError,
     ``rejected`` (optional: the codes ``rejected_codes``, refused before anything was written) from ``base``
-    and ValueError. Returns the classes made. Called by the binding, once per codec."""
+    and ValueError; ``more`` are further subclasses of ``base`` that the codec's binding raises itself.
+    Returns the classes made. Called by the binding, once per codec."""
     if category in _FAMILIES:
         raise ValueError(f"the error category {category!r} has its exceptions already")
 
@@ -91,8 +92,9 @@ def define_family(module, category, base, timeout, rejected=None, rejected_codes
     base_class = make(base, (TetherError,))
     timeout_class = make(timeout, (base_class, TimeoutError))
     rejected_class = make(rejected, (base_class, ValueError)) if rejected else None
+    others = [make(spec, (base_class,)) for spec in more]
     _FAMILIES[category] = _Family(base_class, timeout_class, rejected_class, rejected_codes)
-    return tuple(c for c in (base_class, timeout_class, rejected_class) if c is not None)
+    return tuple(c for c in (base_class, timeout_class, rejected_class, *others) if c is not None)
 
 
 def codec_classes():

@@ -145,7 +145,8 @@ void register_elcano(py::module_& parent) {
                                            "8 invalid_reply_type)."},
                            {"ElcanoTimeoutError", "No reply, room or message in time."},
                            {"ElcanoMessageError", "The message or reply type was rejected before anything was written."},
-                           {7, 8}});
+                           {7, 8},
+                           {}});
 
   py::class_<elcano::Message> message_class(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
 

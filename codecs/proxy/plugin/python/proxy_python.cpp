@@ -159,7 +159,8 @@ void register_proxy(py::module_& parent) {
                                           "6 reserved_message, 7 message_too_large, 8 too_many_inits)."},
                            {"ProxyTimeoutError", "No ack within the send budget, or not sent within the queue timeout."},
                            {"ProxyMessageError", "The message was rejected before anything was written."},
-                           {4, 5, 6, 7, 8}});
+                           {4, 5, 6, 7, 8},
+                           {}});
 
   py::class_<proxy::SendResult>(module, "SendResult", "What a send produced.")
       .def_readonly("message_id", &proxy::SendResult::message_id, "Primary: the messageId on the wire (0 in compat).")

@@ -257,7 +257,8 @@ void register_romi(py::module_& parent) {
                            {"RomiTimeoutError", "No answer within the attempt window or the call budget (code -25)."},
                            {"RomiCommandError", "The command was rejected before anything was written (bad opcode, "
                                                 "value out of int16, ...)."},
-                           {-24, -14, -8, -9, -10, -11, -12, -13, -22, -32}});
+                           {-24, -14, -8, -9, -10, -11, -12, -13, -22, -32},
+                           {}});
 
   py::class_<romi::Counters>(module, "Counters", "What a Romi client counted: the link's decoder and engine.")
       .def_readonly("link", &romi::Counters::link, "Decoder and engine counters.");
