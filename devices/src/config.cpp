@@ -274,12 +274,13 @@ std::map<std::string, std::string> foreign_keys(const CodecRow& codec) {
 }
 
 CodecOptions parse_options(const std::optional<Node>& node, const std::string& path, Codec codec,
-                           const TransportConfig& transport) {
+                           const TransportConfig& transport, const std::filesystem::path& base_dir) {
   const CodecRow& row = codec_row(codec);
   OptionsContext context;
   context.path = path;
   context.codec = codec;
   context.transport = &transport;
+  context.base_dir = base_dir;
   if (node) {
     Object(*node).allow_only(row.option_keys, foreign_keys(row));
     context.options = &node->value;
@@ -302,7 +303,8 @@ DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
   device.codec = rows.at(read_choice(object.required("codec"), "codec", codec_names()))->codec;
   std::vector<PendingBoardSettings> pending;
   device.transport = parse_transport(object.required("transport"), device.codec, device.name, options, pending);
-  device.options = parse_options(object.optional("options"), object.path() + ".options", device.codec, device.transport);
+  device.options = parse_options(object.optional("options"), object.path() + ".options", device.codec, device.transport,
+                                 options.base_dir);
   if (!pending.empty()) encode_board_settings(pending, codec_row(device.codec), device);
   return device;
 }

@@ -366,9 +366,9 @@ TEST(DevicesConfigErrors, OutOfRangeValues) {
 
 TEST(DevicesConfigErrors, UnknownCodecListsTheCodecsAndSuggests) {
   EXPECT_EQ(error_of(one_device("mavlink", kSerial)),
-            R"(devices[0].codec: unknown codec "mavlink" (expected one of romi, proxy, proxy-compat, elcano))");
+            R"(devices[0].codec: unknown codec "mavlink" (expected one of romi, proxy, proxy-compat, elcano, rpc))");
   EXPECT_EQ(error_of(one_device("proxy_compat", kSerial)),
-            R"(devices[0].codec: unknown codec "proxy_compat" (expected one of romi, proxy, proxy-compat, elcano); )"
+            R"(devices[0].codec: unknown codec "proxy_compat" (expected one of romi, proxy, proxy-compat, elcano, rpc); )"
             R"(did you mean "proxy-compat"?)");
   EXPECT_EQ(error_of(one_device("romi", R"({"virtual": {"firmware": "x", "pacing": "realtime"}})")),
             R"(devices[0].transport.virtual.pacing: unknown pacing "realtime" (expected one of real_time, fast); )"
@@ -382,7 +382,7 @@ TEST(DevicesCodecTable, BuiltInRowsInOrderAndRegistrationErrors) {
     EXPECT_EQ(&codec_row(row->codec), row);
     EXPECT_EQ(find_codec(row->name), row);
   }
-  EXPECT_EQ(names, "romi proxy proxy-compat elcano");
+  EXPECT_EQ(names, "romi proxy proxy-compat elcano rpc");
   EXPECT_EQ(codec_row(proxy::kCompatCodec).default_baud, 57600u);
   EXPECT_EQ(codec_row(elcano::kCodec).virtual_boards, VirtualBoards::ring);
   EXPECT_EQ(find_codec("mavlink"), nullptr);
@@ -395,7 +395,7 @@ TEST(DevicesCodecTable, BuiltInRowsInOrderAndRegistrationErrors) {
   CodecRow incomplete;
   incomplete.name = "incomplete";
   EXPECT_THROW(register_codec(incomplete), std::invalid_argument);
-  EXPECT_EQ(codec_rows().size(), 4u);
+  EXPECT_EQ(codec_rows().size(), 5u);
 
   // A configuration built in code with a value no row has is a ConfigError, not a crash.
   RoverConfig config;
@@ -446,7 +446,7 @@ TEST(DevicesConfigErrors, UnknownKeysAreErrorsWithDidYouMean) {
 
 TEST(DevicesConfigErrors, KeysOfAnotherCodecSayWhereTheyBelong) {
   EXPECT_EQ(error_of(one_device("proxy-compat", kSerial, R"({"ping_period_ms": 1000})")),
-            R"(devices[0].options: key "ping_period_ms" does not apply to codec proxy-compat (it is an option of proxy))");
+            R"(devices[0].options: key "ping_period_ms" does not apply to codec proxy-compat (it is an option of proxy, rpc))");
   EXPECT_EQ(error_of(one_device("romi", kSerial, R"({"inits": []})")),
             R"(devices[0].options: key "inits" does not apply to codec romi (it is an option of proxy, proxy-compat))");
   EXPECT_EQ(error_of(one_device("proxy", kSerial, R"({"inits": [{"kind": "servo", "pin": 9, "safe_state": true}]})")),

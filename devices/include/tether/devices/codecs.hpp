@@ -4,7 +4,7 @@
 /// add their own columns: tools/tether/codec_commands.hpp). A new protocol is a folder (codecs/<name>/) and
 /// one row; how to add one: docs/codecs.md, "Adding a codec".
 ///
-/// The built-in rows are `romi`, `proxy`, `proxy-compat` and `elcano`. A program registers more at start-up
+/// The built-in rows are `romi`, `proxy`, `proxy-compat`, `elcano` and `rpc`. A program registers more at start-up
 /// (`register_codec`, before any configuration is parsed): its configurations then name the codec like the
 /// built-in ones, options checked against the row's keys, the device opened through the row's `open`:
 ///
@@ -33,6 +33,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -69,6 +70,15 @@ struct OptionsContext {
   Codec codec{};
   /// The device's transport, already parsed (a serial transport's baud is the default of a codec's own).
   const TransportConfig* transport = nullptr;
+  /// The folder relative file names in the options resolve against (`ParseOptions::base_dir`: the
+  /// configuration file's folder for `load_config`); empty: the working directory.
+  std::filesystem::path base_dir;
+
+  /// A file named in the options (`"schema": "arm.proto"`): as given when absolute or when `base_dir` is
+  /// empty, else relative to `base_dir`.
+  std::filesystem::path resolve_path(const std::filesystem::path& file) const {
+    return file.is_relative() && !base_dir.empty() ? (base_dir / file).lexically_normal() : file;
+  }
 
   /// The options object to read (json_reader.hpp), or nothing when the device has none.
   std::optional<JsonObject> object() const {

@@ -1,7 +1,7 @@
 /// @file config.hpp
 /// A rover's devices as an application configures them: a JSON document (schema in docs/config.md) parsed
 /// into typed structs, one `DeviceConfig` per device: its name, its transport (serial port, ser2net over
-/// TCP, a virtual Uno, a virtual ring of Unos), its codec (`romi`, `proxy`, `proxy-compat`, `elcano`) and
+/// TCP, a virtual Uno, a virtual ring of Unos), its codec (`romi`, `proxy`, `proxy-compat`, `elcano`, `rpc`) and
 /// the codec's options.
 ///
 /// @code
@@ -16,14 +16,15 @@
 /// `load_config`) and opening (`open_rover`, see rover.hpp) alike. Its `path()` is the JSON path of the
 /// offending value (`devices[1].transport.serial.baud`) and `what()` says what was expected:
 ///   - `devices[1].transport.serial.baud: expected an unsigned integer, got string "fast"`
-///   - `devices[0].codec: unknown codec "mavlink" (expected one of romi, proxy, proxy-compat, elcano)`
+///   - `devices[0].codec: unknown codec "mavlink" (expected one of romi, proxy, proxy-compat, elcano, rpc)`
 ///   - `devices[2].transport.serial: missing key "path"`
 ///   - `devices[0].options: unknown key "atempt_timeout_ms" (did you mean "attempt_timeout_ms"?)`
 ///   - `devices[3].name: duplicate device name "arm" (also devices[0])`
 ///   - at open time: `devices[1].transport.serial.path: /dev/ttyUSB9: No such file or directory`
 /// Unknown keys are errors everywhere (a misspelt option silently ignored is a field bug); a close match
-/// is suggested. Parsing never touches a device or the file system (except `load_config` reading its file):
-/// ports and firmware images are checked when the rover opens.
+/// is suggested. Parsing never touches a device, and the file system only to read `load_config`'s file and
+/// what a codec's options name as read at parse time (an rpc device's `schema`, relative to
+/// `ParseOptions::base_dir`): ports and firmware images are checked when the rover opens.
 ///
 /// ## Firmware images
 /// A virtual board's `firmware` is either a path (absolute, or relative to `ParseOptions::base_dir`: the
@@ -226,7 +227,8 @@ struct ParseOptions {
   /// Folder of the firmware images, for bare names (`romi-test` -> `<dir>/romi-test.elf`). Empty: bare
   /// names are an error.
   std::filesystem::path firmware_dir;
-  /// Folder relative firmware paths (`images/x.elf`) are relative to. Empty: the current directory.
+  /// Folder relative firmware paths (`images/x.elf`) and files named in codec options (an rpc device's
+  /// `schema`) are relative to. Empty: the current directory.
   std::filesystem::path base_dir;
 };
 

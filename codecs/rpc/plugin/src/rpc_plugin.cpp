@@ -1,0 +1,164 @@
+// The rpc codec's plugin (plugin.hpp): `rpc` devices in a configuration, their schema read at parse time,
+// their clients, and opening's wait for the device's Hello with the same schema.
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <utility>
+#include <variant>
+
+#include "tether/devices/json_reader.hpp"
+#include "tether/rpc/plugin.hpp"
+
+namespace tether::rpc {
+
+namespace {
+
+DeviceOptions parse_rpc_options(const devices::OptionsContext& context) {
+  const std::optional<devices::JsonObject> object = context.object();
+  if (!object) devices::fail_config(context.path, "missing key \"schema\" (an rpc device needs its schema file)");
+  DeviceOptions options;
+  if (const auto* serial = std::get_if<devices::SerialTransport>(context.transport))
+    options.client.timing.baud = serial->options.baud;
+  options.schema = context.resolve_path(devices::read_nonempty_string(object->required("schema")));
+  if (auto v = object->optional("service")) options.schema_options.service = devices::read_nonempty_string(*v);
+  if (auto v = object->optional("import_paths")) {
+    if (!v->value.is_array()) v->expected("an array of folders");
+    devices::for_each_element(*v, [&](const devices::JsonNode& element, std::size_t) {
+      options.schema_options.import_paths.push_back(context.resolve_path(devices::read_nonempty_string(element)));
+    });
+  }
+  RpcTiming& timing = options.client.timing;
+  if (auto v = object->optional("baud"))
+    timing.baud = static_cast<std::uint32_t>(devices::read_unsigned(*v, 1, 0xFFFFFFFFu));
+  if (auto v = object->optional("bits_per_byte"))
+    timing.bits_per_byte = static_cast<std::uint32_t>(devices::read_unsigned(*v, 1, 64));
+  if (auto v = object->optional("processing_margin_ms")) timing.processing_margin = devices::read_ms(*v);
+  if (auto v = object->optional("call_budget_ms")) timing.call_budget = devices::read_ms(*v, 1);
+  if (auto v = object->optional("max_sends"))
+    timing.max_sends = static_cast<std::uint8_t>(devices::read_unsigned(*v, 1, 255));
+  if (auto v = object->optional("queue_timeout_ms")) timing.queue_timeout = devices::read_ms(*v, 1);
+  if (auto v = object->optional("ping_period_ms")) timing.ping_period = devices::read_ms(*v);
+  if (auto v = object->optional("hello_timeout_ms")) timing.hello_timeout = devices::read_ms(*v, 1);
+  if (auto v = object->optional("first_message_id"))
+    options.client.first_message_id = static_cast<std::uint32_t>(devices::read_unsigned(*v, 0, 0xFFFFFFFFu));
+  if (auto v = object->optional("open_timeout_ms"))
+    options.open_timeout = std::chrono::milliseconds(devices::read_ms(*v, 1));
+  (void)load_schema(options, context.path);  // a broken schema is the configuration's error, found now
+  return options;
+}
+
+void validate_rpc(const devices::CodecOptions& codec_options, const std::string& options_path) {
+  const auto* options = codec_options.get_if<DeviceOptions>();
+  if (options == nullptr) devices::fail_config(options_path, "codec rpc needs rpc::DeviceOptions");
+  if (options->schema.empty()) devices::fail_config(options_path + ".schema", "must name the schema file");
+  const RpcTiming& timing = options->client.timing;
+  if (timing.baud == 0) devices::fail_config(options_path + ".baud", "must be at least 1");
+  if (timing.bits_per_byte == 0) devices::fail_config(options_path + ".bits_per_byte", "must be at least 1");
+  if (timing.call_budget == 0) devices::fail_config(options_path + ".call_budget_ms", "must be at least 1");
+  if (timing.max_sends == 0) devices::fail_config(options_path + ".max_sends", "must be at least 1");
+  if (timing.queue_timeout == 0) devices::fail_config(options_path + ".queue_timeout_ms", "must be at least 1");
+  if (timing.hello_timeout == 0) devices::fail_config(options_path + ".hello_timeout_ms", "must be at least 1");
+  if (options->open_timeout.count() <= 0) devices::fail_config(options_path + ".open_timeout_ms", "must be at least 1");
+}
+
+devices::DeviceClient open_rpc(std::shared_ptr<transports::ByteStream> stream, const devices::DeviceConfig& device,
+                               std::shared_ptr<client::LinkClock> clock) {
+  const auto& options = device.options.get<DeviceOptions>();
+  // Read again: the client owns its schema (the file was read once at parse time, for its errors; a
+  // SchemaError now, the file changed since, is the opening's error at the device's options).
+  Schema schema = Schema::load(options.schema, options.schema_options);
+  Options client_options = options.client;
+  client_options.clock = std::move(clock);
+  return std::make_shared<Client>(std::move(stream), std::move(schema), client_options);
+}
+
+// What opening an rpc device waits for: the ready completion, or the first mismatch's text.
+struct RpcReadiness {
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool done = false;
+  error_code error;
+  std::string mismatch;
+};
+
+void await_rpc(const devices::DeviceClient& device_client, const devices::DeviceConfig& device,
+               const std::string& path) {
+  Client& client = *device_client.get<Client>();
+  const auto& options = device.options.get<DeviceOptions>();
+  auto state = std::make_shared<RpcReadiness>();
+  const auto handler = client.on_event([state](const Event& event) {
+    if (const auto* mismatch = std::get_if<events::SchemaMismatch>(&event)) {
+      std::lock_guard lock(state->mutex);
+      if (state->mismatch.empty()) state->mismatch = mismatch->text;
+      state->changed.notify_all();
+    }
+  });
+  client.async_wait_ready([state](error_code error, std::uint32_t) {
+    std::lock_guard lock(state->mutex);
+    state->done = true;
+    state->error = error;
+    state->changed.notify_all();
+  });
+  std::unique_lock lock(state->mutex);
+  const bool finished = state->changed.wait_for(lock, options.open_timeout, [&] {
+    return state->done || !state->mismatch.empty();
+  });
+  const error_code error = state->error;
+  const std::string mismatch = state->mismatch;
+  const bool done = state->done;
+  lock.unlock();
+  client.remove_event_handler(handler);
+
+  if (!mismatch.empty()) {
+    throw devices::ConfigError(path + ".options.schema", mismatch,
+                               make_error_code(RpcError::schema_mismatch));
+  }
+  if (done && error) {
+    if (error == RpcError::queue_timeout) {
+      throw devices::ConfigError(path, "no rpc session: " + error.message(),
+                                 devices::make_error_code(devices::DevicesError::device_not_ready));
+    }
+    throw devices::ConfigError(path + ".transport", "the link failed: " + error.message(), error);
+  }
+  if (!finished) {
+    throw devices::ConfigError(
+        path,
+        "no rpc session within " + std::to_string(options.open_timeout.count()) +
+            " ms (no DeviceHello answered our Hello: is the device running an rpc image, at the right baud rate?)",
+        devices::make_error_code(devices::DevicesError::device_not_ready));
+  }
+}
+
+}  // namespace
+
+Schema load_schema(const DeviceOptions& options, const std::string& options_path) {
+  try {
+    return Schema::load(options.schema, options.schema_options);
+  } catch (const SchemaError& error) {
+    devices::fail_config(options_path + ".schema", error.what());
+  }
+}
+
+std::vector<devices::CodecRow> codec_rows() {
+  devices::CodecRow row;
+  row.codec = kCodec;
+  row.name = "rpc";
+  row.client_name = "rpc::Client";
+  row.client_type = &typeid(Client);
+  row.option_keys = {"schema",           "service",         "import_paths",   "baud",
+                     "bits_per_byte",    "processing_margin_ms", "call_budget_ms", "max_sends",
+                     "queue_timeout_ms", "ping_period_ms",  "hello_timeout_ms", "first_message_id",
+                     "open_timeout_ms"};
+  row.parse_options = [](const devices::OptionsContext& context) -> devices::CodecOptions {
+    return parse_rpc_options(context);
+  };
+  row.validate = validate_rpc;
+  row.open = open_rpc;
+  row.await_ready = await_rpc;
+  return {row};
+}
+
+}  // namespace tether::rpc
