@@ -1,6 +1,7 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
 #                     [SUBCOMMANDS sources...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]
-#                     [PYTHON_STUB file] [PYTHON_ROVER_CLIENT class] [PYTHON_FIXTURES file] [PYTHON_TESTS files...]):
+#                     [PYTHON_STUB file] [PYTHON_ROVER_CLIENT class] [PYTHON_MODULES files...]
+#                     [PYTHON_REQUIRES debian-packages...] [PYTHON_FIXTURES file] [PYTHON_TESTS files...]):
 #                     a codec's plugin, declared in its own folder
 # (codecs/<codec>/plugin/CMakeLists.txt). This call is the codec's whole registration:
 #  - SOURCES define the plugin's parts, their public declarations in HEADER (relative to INCLUDE, default
@@ -27,7 +28,12 @@
 #    binding's headers (python/src) when the module is built;
 #  - PYTHON_STUB is the type stub of that submodule, shipped as `tether/<NAME>.pyi` (python/tests/test_stubs.py
 #    checks it names exactly what the submodule has); PYTHON_ROVER_CLIENT is the class of the stub that the
-#    `Rover.<NAME>(name)` getter returns, declared in the package's stub (tether/__init__.pyi, generated);
+#    `Rover.<NAME>(name)` getter returns, declared in the package's stub (tether/__init__.pyi, generated); the
+#    stub's classes deriving from TetherError are the codec's exceptions (made by `register_errors`,
+#    python/src/binding.hpp), re-exported by the package and its stub;
+#  - PYTHON_MODULES are pure-Python modules the codec ships in the package (`compat.py` -> `tether.compat`,
+#    imported by `import tether`), each with its stub beside it (`compat.pyi`); PYTHON_REQUIRES are the
+#    Debian packages of the Python modules its part imports (`python3-protobuf`): python3-tether depends on them;
 #  - PYTHON_TESTS are pytest files, run together as the ctest test `python.<NAME>` (label `python`);
 #    PYTHON_FIXTURES is a pytest plugin module of the codec's fixtures (its boards, its clients), loaded with
 #    `-p <module>` by every Python test (the binding's own tests use them too), as the generic fixtures are
@@ -65,7 +71,7 @@ endfunction()
 
 function(tether_codec_plugin name)
   cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE;TEXT_FUZZ;PYTHON_STUB;PYTHON_ROVER_CLIENT;PYTHON_FIXTURES"
-    "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON;PYTHON_TESTS" ${ARGN})
+    "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON;PYTHON_TESTS;PYTHON_MODULES;PYTHON_REQUIRES" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -122,10 +128,19 @@ function(tether_codec_plugin name)
       endif()
     endforeach()
     list(TRANSFORM PLUGIN_PYTHON_TESTS PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
-    foreach(_part IN ITEMS PYTHON_STUB PYTHON_ROVER_CLIENT PYTHON_FIXTURES PYTHON_TESTS)
+    list(TRANSFORM PLUGIN_PYTHON_MODULES PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
+    foreach(_module IN LISTS PLUGIN_PYTHON_MODULES)
+      string(REGEX REPLACE "\\.py$" ".pyi" _module_stub ${_module})
+      if(NOT _module MATCHES "\\.py$" OR NOT EXISTS ${_module_stub})
+        message(FATAL_ERROR "tether_codec_plugin(${name}): PYTHON_MODULES ${_module}: a .py file with its .pyi beside it")
+      endif()
+    endforeach()
+    set_property(GLOBAL APPEND PROPERTY TETHER_PYTHON_DEBIAN_DEPENDS ${PLUGIN_PYTHON_REQUIRES})
+    foreach(_part IN ITEMS PYTHON_STUB PYTHON_ROVER_CLIENT PYTHON_FIXTURES PYTHON_TESTS PYTHON_MODULES)
       set_property(GLOBAL PROPERTY TETHER_CODEC_PLUGIN_${name}_${_part} "${PLUGIN_${_part}}")
     endforeach()
-  elseif(PLUGIN_PYTHON_STUB OR PLUGIN_PYTHON_ROVER_CLIENT OR PLUGIN_PYTHON_FIXTURES OR PLUGIN_PYTHON_TESTS)
+  elseif(PLUGIN_PYTHON_STUB OR PLUGIN_PYTHON_ROVER_CLIENT OR PLUGIN_PYTHON_FIXTURES OR PLUGIN_PYTHON_TESTS OR
+         PLUGIN_PYTHON_MODULES OR PLUGIN_PYTHON_REQUIRES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): PYTHON_... parts need the PYTHON sources")
   endif()
 endfunction()

@@ -135,8 +135,11 @@ libelf-dev and the images of tether-firmware.")
     # ${python3:Depends} says for a module of Debian's default python3).
     string(REGEX MATCH "^([0-9]+)\\.([0-9]+)$" _python_version "${TETHER_PYTHON_VERSION}")
     math(EXPR _next_minor "${CMAKE_MATCH_2} + 1")
-    set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
-      "python3 (>= ${TETHER_PYTHON_VERSION}~), python3 (<< ${CMAKE_MATCH_1}.${_next_minor})")
+    # ... and the Python modules the codecs' parts import (tether_codec_plugin's PYTHON_REQUIRES).
+    get_property(_python_requires GLOBAL PROPERTY TETHER_PYTHON_DEBIAN_DEPENDS)
+    list(REMOVE_DUPLICATES _python_requires)
+    list(PREPEND _python_requires "python3 (>= ${TETHER_PYTHON_VERSION}~)" "python3 (<< ${CMAKE_MATCH_1}.${_next_minor})")
+    list(JOIN _python_requires ", " CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS)
     # Virtual boards (tether.VirtualUno, virtual devices of a rover file) run the images; real boards do not.
     set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "tether-firmware (= ${PROJECT_VERSION})")
     set(CPACK_DEBIAN_PYTHON_DESCRIPTION "Python package of Tether (robot host to AVR messaging)

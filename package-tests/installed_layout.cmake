@@ -45,7 +45,7 @@ endforeach()
 # codec's (from its plugin's folder).
 file(GLOB python_package LIST_DIRECTORIES true ${PREFIX}/lib/python3*/*-packages/tether)
 if(python_package)
-  foreach(file __init__.py __init__.pyi romi.pyi proxy.pyi elcano.pyi transports.pyi compat.pyi py.typed)
+  foreach(file __init__.py __init__.pyi romi.pyi proxy.pyi elcano.pyi transports.pyi compat.py compat.pyi py.typed)
     if(NOT EXISTS ${python_package}/${file})
       message(SEND_ERROR "not installed: ${python_package}/${file}")
     endif()

@@ -1,6 +1,6 @@
 """Builds the module _tether with the project's CMake (the repository is this folder's parent) and packages
-it with the pure-Python files of tether/ and the type stubs the CMake build gathers (the codecs' are in their
-plugins' folders). Offline: only Debian's setuptools, cmake, g++, pybind11-dev and python3-dev are used.
+it with the pure-Python files of tether/ and the modules and type stubs the CMake build gathers (the codecs'
+are in their plugins' folders). Offline: only Debian's setuptools, cmake, g++, pybind11-dev and python3-dev are used.
 CMAKE_ARGS (environment) is passed to the configure step, e.g. -DTETHER_NANOPB_SOURCE_DIR=...; the AVR
 images are not built here (set TETHER_FIRMWARE_DIR, or install the project with its images, for virtual
 boards)."""
@@ -34,9 +34,9 @@ class CMakeBuild(build_ext):
         os.makedirs(os.path.dirname(target), exist_ok=True)
         shutil.copyfile(built, target)
         # The stubs CMake gathered there: the codecs' (each in its plugin's folder) and the package's, made
-        # from tether/__init__.pyi.in.
-        for stub in glob.glob(os.path.join(build, "python", "tether", "*.pyi")):
-            shutil.copyfile(stub, os.path.join(os.path.dirname(target), os.path.basename(stub)))
+        # from tether/__init__.pyi.in; and the modules the codecs ship (their PYTHON_MODULES: tether.compat).
+        for part in glob.glob(os.path.join(build, "python", "tether", "*.py*")):
+            shutil.copyfile(part, os.path.join(os.path.dirname(target), os.path.basename(part)))
 
 
 setup(

@@ -15,6 +15,7 @@
 #include <string>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "tether/client/client_skeleton.hpp"
 #include "tether/transports/byte_stream.hpp"
@@ -87,9 +88,32 @@ class PyCallback {
   std::shared_ptr<py::object> holder_;
 };
 
-/// Raises the Python exception for a failed operation: `tether.RomiError`, `ProxyError`, `ElcanoError`,
-/// `TransportError`, `ConfigError` with the codec's code and message (their `...TimeoutError` subclass,
-/// also a builtin `TimeoutError`, for timeouts); `ClosedError` for an aborted operation (closed client);
+/// One exception class a codec defines: its name and docstring.
+struct ExceptionClass {
+  const char* name = nullptr;  ///< e.g. "RomiError"; null: no such class
+  const char* doc = "";        ///< its docstring: what `code` means
+};
+
+/// The exception classes of a codec's errors (`register_errors`).
+struct ErrorFamily {
+  /// The codec's `error_category::name()`: errors of it (and of `<category>.<sub>`) raise these classes.
+  const char* category = nullptr;
+  ExceptionClass base;      ///< a `tether.TetherError` (`code`, `message`): every other error of the category
+  ExceptionClass timeout;   ///< `base` and a builtin `TimeoutError`: errors equal to `errc::timed_out`
+  ExceptionClass rejected;  ///< optional, `base` and a `ValueError`: the codes in `rejected_codes`
+  std::vector<int> rejected_codes;  ///< what was refused before anything was written
+  std::vector<ExceptionClass> more;  ///< further subclasses of `base`, which the codec's binding raises itself
+};
+
+/// Makes a codec's exception classes in its submodule (`tether.romi.RomiError`, ...; the package exports them
+/// too) and has `raise_error` raise them for its error category. A codec plugin's `register_python` calls
+/// it once, after making its submodule.
+void register_errors(py::module_& submodule, const ErrorFamily& family);
+
+/// Raises the Python exception for a failed operation: a codec's classes for its error category
+/// (`register_errors`: `tether.RomiError`, ...), `TransportError`, `ConfigError` with the code and message
+/// (their `...TimeoutError` subclass, also a builtin `TimeoutError`, for timeouts); `ClosedError` for an
+/// aborted operation (closed client);
 /// OS errors as `OSError` subclasses (`FileNotFoundError` for a missing port). `message` overrides the
 /// error_code's text (a Romi response's message); `path` names the file of an OS error.
 [[noreturn]] void raise_error(const boost::system::error_code& error, const std::string& message = {},

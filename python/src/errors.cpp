@@ -1,26 +1,13 @@
-// error_code -> Python exception: the classes live in tether/_errors.py (plain Python, with `code` and
-// `message`); this file picks one from the error's category and condition.
+// error_code -> Python exception: tether/_errors.py picks the class from the error's category (the codecs'
+// classes, defined by their plugins through `register_errors`, or the library's own) and condition.
 #include <boost/asio/error.hpp>
 #include <boost/system/error_code.hpp>
 
-#include <cstring>
+#include <pybind11/stl.h>
 
 #include "binding.hpp"
 
 namespace tether::python {
-
-namespace {
-// The codec (or library) an error category belongs to: the exception family in tether._errors.
-const char* family_of(const boost::system::error_category& category) {
-  const char* name = category.name();
-  if (std::strncmp(name, "tether.romi", 11) == 0) return "romi";
-  if (std::strncmp(name, "tether.proxy", 12) == 0) return "proxy";
-  if (std::strncmp(name, "tether.elcano", 13) == 0) return "elcano";
-  if (std::strncmp(name, "tether.devices", 14) == 0) return "config";
-  if (std::strncmp(name, "tether.", 7) == 0) return "transport";
-  return nullptr;
-}
-}  // namespace
 
 py::object error_object(const boost::system::error_code& error, const std::string& message,
                         const std::string& path) {
@@ -29,9 +16,9 @@ py::object error_object(const boost::system::error_code& error, const std::strin
   if (error == boost::asio::error::operation_aborted) {
     return errors.attr("ClosedError")("the client was closed before the operation completed");
   }
-  const char* family = family_of(error.category());
   const bool timeout = error == boost::system::errc::timed_out;
-  if (family == nullptr) {
+  py::object tether_error = errors.attr("make_error")(error.category().name(), error.value(), text, timeout);
+  if (tether_error.is_none()) {
     // OS errors (and asio's, which are errno values): OSError picks the subclass from errno.
     if (error == boost::asio::error::eof) {
       return py::module_::import("builtins").attr("ConnectionError")("the link closed (end of file)");
@@ -51,7 +38,19 @@ py::object error_object(const boost::system::error_code& error, const std::strin
     if (path.empty()) return builtins.attr("OSError")(error.value(), text);
     return builtins.attr("OSError")(error.value(), text, path);
   }
-  return errors.attr("make_error")(family, error.value(), text, timeout);
+  return tether_error;
+}
+
+void register_errors(py::module_& submodule, const ErrorFamily& family) {
+  const auto spec = [](const ExceptionClass& c) -> py::object {
+    if (c.name == nullptr) return py::none();
+    return py::make_tuple(c.name, c.doc);
+  };
+  py::list more;
+  for (const ExceptionClass& c : family.more) more.append(spec(c));
+  py::module_::import("tether._errors")
+      .attr("define_family")(submodule, family.category, spec(family.base), spec(family.timeout),
+                             spec(family.rejected), py::cast(family.rejected_codes), more);
 }
 
 void raise_error(const boost::system::error_code& error, const std::string& message, const std::string& path) {

@@ -7,7 +7,6 @@ import os
 import pytest
 
 import tether
-import tether.compat
 
 PACKAGE = os.path.dirname(tether.__file__)
 
@@ -28,8 +27,10 @@ def stub_names(path):
             elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
                 names.add(prefix + node.target.id)
             elif isinstance(node, ast.ImportFrom) and not prefix:
+                # Names taken from a private module, and explicit re-exports (`from .romi import RomiError as
+                # RomiError`): the module has them.
                 for alias in node.names:
-                    if node.module and node.module.startswith("_"):
+                    if node.module and (node.module.startswith("_") or alias.asname == alias.name):
                         names.add(alias.asname or alias.name)
     visit(tree.body, "")
     return names
@@ -68,7 +69,17 @@ def test_every_codec_plugin_is_a_submodule():
     assert set(CODECS) <= set(tether.__all__)
 
 
-@pytest.mark.parametrize("submodule", [*CODECS, "transports", "compat"])
+# The pure-Python modules the codec plugins ship (PYTHON_MODULES: tether.compat, ...), each with its stub.
+PLUGIN_MODULES = list(tether._tether._plugin_modules)
+
+
+def test_plugin_modules_are_exported():
+    assert set(PLUGIN_MODULES) <= set(tether.__all__)
+    for name in PLUGIN_MODULES:
+        assert inspect.ismodule(getattr(tether, name))
+
+
+@pytest.mark.parametrize("submodule", [*CODECS, "transports", *PLUGIN_MODULES])
 def test_submodule_stub_matches(submodule):
     assert stub_names(os.path.join(PACKAGE, f"{submodule}.pyi")) == runtime_names(getattr(tether, submodule))
 

@@ -5,21 +5,22 @@
         with tether.romi.Client(board) as client:   # deadlines on the board's simulated time
             print(client.call('e'))          # [0, 1, 2]
 
-Submodules: ``tether.romi`` (Client), ``tether.proxy`` (Client), ``tether.elcano`` (RingClient, Message),
-``tether.transports`` (serial, tcp, pty), ``tether.compat`` (ControlSerial, RomiSerial's Python host).
-Errors: ``RomiError``, ``ProxyError``, ``ElcanoError``, ``TransportError``, ``ConfigError`` (``code``,
-``message``), their ``...TimeoutError`` (also ``TimeoutError``), ``ClosedError``.
+Submodules: one per codec (``tether.romi``, ``tether.proxy``, ``tether.elcano``, ...: its clients and its
+exceptions) and the modules codecs ship beside it (``tether.compat``, RomiSerial's Python host);
+``tether.transports`` (serial, tcp, pty). Errors (``code``, ``message``): each codec's (``RomiError``,
+``ProxyError``, ..., also exported here), ``TransportError``, ``ConfigError``, their ``...TimeoutError`` (also
+``TimeoutError``), ``ClosedError``; all are ``TetherError``s.
 """
 
 import atexit as _atexit
+import importlib as _importlib
 import os as _os
 import sys as _sys
 import types as _types
 
+from . import _errors
 from . import _tether
-from ._errors import (ClosedError, ConfigError, ElcanoError, ElcanoMessageError, ElcanoTimeoutError,
-                      ProxyError, ProxyMessageError, ProxyTimeoutError, RomiCommandError, RomiError,
-                      RomiTimeoutError, TetherError, TransportError, TransportTimeoutError)
+from ._errors import ClosedError, ConfigError, TetherError, TransportError, TransportTimeoutError
 
 VirtualUno = _tether.VirtualUno
 VirtualUnoClock = _tether.VirtualUnoClock
@@ -33,6 +34,16 @@ _SUBMODULES = [_name for _name, _value in vars(_tether).items() if isinstance(_v
 for _name in _SUBMODULES:
     globals()[_name] = getattr(_tether, _name)
     _sys.modules[f"{__name__}.{_name}"] = getattr(_tether, _name)
+
+# The codecs' exceptions (made in their submodules by the binding), exported here too: `tether.RomiError`.
+_CODEC_ERRORS = [_class.__name__ for _class in _errors.codec_classes()]
+for _class in _errors.codec_classes():
+    globals()[_class.__name__] = _class
+
+# Python modules the codec plugins ship in the package (PYTHON_MODULES: `tether.compat`, ...).
+_PLUGIN_MODULES = list(_tether._plugin_modules)
+for _name in _PLUGIN_MODULES:
+    globals()[_name] = _importlib.import_module(f".{_name}", __name__)
 
 # Installed packages find the images installed with them (share/tether/firmware beside lib/); the build
 # tree's module finds the build's.
@@ -68,8 +79,6 @@ def open_rover(path, *, firmware_dir=None):
 
 _atexit.register(_tether._interpreter_exiting)
 
-__all__ = [*_SUBMODULES, "compat", "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
-           "open_rover", "firmware_dir", "TetherError", "RomiError", "ProxyError", "ElcanoError",
-           "TransportError", "ConfigError", "ClosedError", "RomiTimeoutError", "ProxyTimeoutError",
-           "ElcanoTimeoutError", "TransportTimeoutError", "RomiCommandError", "ProxyMessageError",
-           "ElcanoMessageError", "__version__"]
+__all__ = [*_SUBMODULES, *_PLUGIN_MODULES, "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
+           "open_rover", "firmware_dir", "TetherError", "TransportError", "ConfigError", "ClosedError",
+           "TransportTimeoutError", *_CODEC_ERRORS, "__version__"]

@@ -1,8 +1,10 @@
 """Exceptions of the tether package: every failure carries the codec's ``code`` and ``message``.
 
-The C++ clients report failures as error codes of a category (``tether.romi``, ``tether.proxy``, ...);
-the binding raises the class of that category here. Timeouts are also builtin ``TimeoutError``s, and
-commands or messages rejected before anything was written are also ``ValueError``s.
+The C++ clients report failures as error codes of a category (``tether.romi``, ``tether.proxy``, ...). Each
+codec plugin defines its exception classes in its submodule (``define_family``, called by the binding:
+``tether.romi.RomiError``, ...) and the package exports them too (``tether.RomiError``); errors of another
+Tether category are ``TransportError``s (``ConfigError`` for a configuration's). Timeouts are also builtin
+``TimeoutError``s, and commands or messages rejected before anything was written are also ``ValueError``s.
 """
 
 
@@ -23,23 +25,6 @@ class TetherError(Exception):
         return f"{type(self).__name__}(code={self.code!r}, message={self.message!r})"
 
 
-class RomiError(TetherError):
-    """A Romi call failed: the device's error code (-16 unknown opcode, > 0 application errors) or the
-    client's (-25 timeout, -1..-6 damaged answers, -24/-14/-8..-13/-22/-32 rejected commands)."""
-
-
-class ProxyError(TetherError):
-    """A proxy send failed (``code`` is the ``ProxyError`` value: 1 timed_out, 2 queue_timeout,
-    3 device_reset, 4 wrong_mode, 5 invalid_message, 6 reserved_message, 7 message_too_large,
-    8 too_many_inits)."""
-
-
-class ElcanoError(TetherError):
-    """An Elcano ring operation failed (``code`` is the ``RingError`` value: 1 timed_out, 2 undeliverable,
-    3 reply_type_busy, 4 send_queue_full, 5 send_timed_out, 6 receive_timed_out, 7 invalid_message,
-    8 invalid_reply_type)."""
-
-
 class TransportError(TetherError):
     """The byte stream failed for a reason of its own (``code``: 1 timed_out, ... boot_timeout)."""
 
@@ -58,53 +43,83 @@ class ClosedError(TetherError):
         return self.message
 
 
-class RomiTimeoutError(RomiError, TimeoutError):
-    """No answer within the attempt window or the call budget (code -25)."""
-
-
-class ProxyTimeoutError(ProxyError, TimeoutError):
-    """No ack within the send budget, or not sent within the queue timeout."""
-
-
-class ElcanoTimeoutError(ElcanoError, TimeoutError):
-    """No reply, room or message in time."""
-
-
 class TransportTimeoutError(TransportError, TimeoutError):
     """A transport deadline passed (connect, boot banner)."""
 
 
-class RomiCommandError(RomiError, ValueError):
-    """The command was rejected before anything was written (bad opcode, value out of int16, ...)."""
+class _Family:
+    """The classes errors of one category become: ``base``, ``timeout`` for timeouts, ``rejected`` for the
+    codes in ``rejected_codes``."""
+
+    def __init__(self, base, timeout, rejected=None, rejected_codes=()):
+        self.base = base
+        self.timeout = timeout
+        self.rejected = rejected
+        self.rejected_codes = frozenset(rejected_codes)
 
 
-class ProxyMessageError(ProxyError, ValueError):
-    """The message was rejected before anything was written."""
-
-
-class ElcanoMessageError(ElcanoError, ValueError):
-    """The message or reply type was rejected before anything was written."""
-
-
-_ROMI_REJECTED = {-24, -14, -8, -9, -10, -11, -12, -13, -22, -32}
-_PROXY_REJECTED = {4, 5, 6, 7, 8}
-_ELCANO_REJECTED = {7, 8}
-
-_FAMILIES = {
-    # family: (base, timeout class, rejected class, rejected codes)
-    "romi": (RomiError, RomiTimeoutError, RomiCommandError, _ROMI_REJECTED),
-    "proxy": (ProxyError, ProxyTimeoutError, ProxyMessageError, _PROXY_REJECTED),
-    "elcano": (ElcanoError, ElcanoTimeoutError, ElcanoMessageError, _ELCANO_REJECTED),
-    "transport": (TransportError, TransportTimeoutError, None, set()),
-    "config": (ConfigError, ConfigError, None, set()),
+# Error category name -> family: the codecs' (define_family), then the library's own.
+_FAMILIES = {}
+_LIBRARY_FAMILIES = {
+    "tether.devices": _Family(ConfigError, ConfigError),
+    "tether": _Family(TransportError, TransportTimeoutError),
 }
+# The codecs' classes in the order they were defined: what the package exports beside its own.
+_CODEC_CLASSES = []
 
 
-def make_error(family, code, message, timeout, response=None):
-    """The exception for an error of ``family`` (called by the binding)."""
-    base, timeout_class, rejected_class, rejected = _FAMILIES[family]
+def define_family(module, category, base, timeout, rejected=None, rejected_codes=(), more=()):
+    """Makes a codec's exception classes in ``module`` (its submodule) and raises them for errors of the error
+    category ``category`` (and of ``<category>.<sub>``). ``base``, ``timeout`` and ``rejected`` are
+    ``(name, docstring)``: ``base`` derives from TetherError, ``timeout`` from ``base`` and TimeoutError,
+    ``rejected`` (optional: the codes ``rejected_codes``, refused before anything was written) from ``base``
+    and ValueError; ``more`` are further subclasses of ``base`` that the codec's binding raises itself.
+    Returns the classes made. Called by the binding, once per codec."""
+    if category in _FAMILIES:
+        raise ValueError(f"the error category {category!r} has its exceptions already")
+
+    # The submodule as users import it (`tether.romi`, an alias of the native `tether._tether.romi`): where
+    # reprs and pickle look the classes up.
+    public_module = module.__name__.replace("tether._tether.", "tether.", 1)
+
+    def make(spec, bases):
+        name, doc = spec
+        made = type(name, bases, {"__doc__": doc, "__module__": public_module})
+        setattr(module, name, made)
+        _CODEC_CLASSES.append(made)
+        return made
+
+    base_class = make(base, (TetherError,))
+    timeout_class = make(timeout, (base_class, TimeoutError))
+    rejected_class = make(rejected, (base_class, ValueError)) if rejected else None
+    others = [make(spec, (base_class,)) for spec in more]
+    _FAMILIES[category] = _Family(base_class, timeout_class, rejected_class, rejected_codes)
+    return tuple(c for c in (base_class, timeout_class, rejected_class, *others) if c is not None)
+
+
+def codec_classes():
+    """Every codec's exception classes, in the order the codecs defined them."""
+    return list(_CODEC_CLASSES)
+
+
+def _family_of(category):
+    for families in (_FAMILIES, _LIBRARY_FAMILIES):
+        name = category
+        while name:
+            if name in families:
+                return families[name]
+            name = name.rpartition(".")[0]
+    return None
+
+
+def make_error(category, code, message, timeout, response=None):
+    """The exception for an error of the error category named ``category`` (called by the binding); None for
+    a category that is not Tether's."""
+    family = _family_of(category)
+    if family is None:
+        return None
     if timeout:
-        return timeout_class(code, message, response)
-    if rejected_class is not None and code in rejected:
-        return rejected_class(code, message, response)
-    return base(code, message, response)
+        return family.timeout(code, message, response)
+    if family.rejected is not None and code in family.rejected_codes:
+        return family.rejected(code, message, response)
+    return family.base(code, message, response)

@@ -3,6 +3,19 @@ from typing import Awaitable, Callable, Optional, Sequence, Union
 
 from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
+from tether._errors import TetherError
+
+class ElcanoError(TetherError):
+    """An Elcano ring operation failed (``code`` is the ``RingError`` value: 1 timed_out, 2 undeliverable,
+    3 reply_type_busy, 4 send_queue_full, 5 send_timed_out, 6 receive_timed_out, 7 invalid_message,
+    8 invalid_reply_type)."""
+
+class ElcanoTimeoutError(ElcanoError, TimeoutError):
+    """No reply, room or message in time."""
+
+class ElcanoMessageError(ElcanoError, ValueError):
+    """The message or reply type was rejected before anything was written."""
+
 
 class Message:
     """One Elcano message: ``Message(type='drive', speed=50, angle=25)``; unset fields are None."""

@@ -138,6 +138,15 @@ void register_elcano(py::module_& parent) {
       py::arg("name"), "The ring client of the elcano device ``name``.");
 
   py::module_ module = parent.def_submodule("elcano", "The Elcano ring: the host as one node of a ring of boards.");
+  register_errors(module, {"tether.elcano",
+                           {"ElcanoError", "An Elcano ring operation failed (``code`` is the ``RingError`` value: "
+                                           "1 timed_out, 2 undeliverable, 3 reply_type_busy, 4 send_queue_full, "
+                                           "5 send_timed_out, 6 receive_timed_out, 7 invalid_message, "
+                                           "8 invalid_reply_type)."},
+                           {"ElcanoTimeoutError", "No reply, room or message in time."},
+                           {"ElcanoMessageError", "The message or reply type was rejected before anything was written."},
+                           {7, 8},
+                           {}});
 
   py::class_<elcano::Message> message_class(module, "Message", R"doc(One Elcano message: ``Message(type='drive', speed=50, angle=25)``.
 

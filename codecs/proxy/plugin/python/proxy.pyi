@@ -3,6 +3,18 @@ from typing import Awaitable, Callable, Optional, Union
 
 from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
+from tether._errors import TetherError
+
+class ProxyError(TetherError):
+    """A proxy send failed (``code`` is the ``ProxyError`` value: 1 timed_out, 2 queue_timeout,
+    3 device_reset, 4 wrong_mode, 5 invalid_message, 6 reserved_message, 7 message_too_large, 8 too_many_inits)."""
+
+class ProxyTimeoutError(ProxyError, TimeoutError):
+    """No ack within the send budget, or not sent within the queue timeout."""
+
+class ProxyMessageError(ProxyError, ValueError):
+    """The message was rejected before anything was written."""
+
 
 class SendResult:
     """What a send produced."""

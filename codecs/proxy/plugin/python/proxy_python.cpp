@@ -153,6 +153,14 @@ void register_proxy(py::module_& parent) {
 
   py::module_ module = parent.def_submodule(
       "proxy", "The COBS + CRC-16 protobuf protocol (primary) and the deployed variant (compat).");
+  register_errors(module, {"tether.proxy",
+                           {"ProxyError", "A proxy send failed (``code`` is the ``ProxyError`` value: 1 timed_out, "
+                                          "2 queue_timeout, 3 device_reset, 4 wrong_mode, 5 invalid_message, "
+                                          "6 reserved_message, 7 message_too_large, 8 too_many_inits)."},
+                           {"ProxyTimeoutError", "No ack within the send budget, or not sent within the queue timeout."},
+                           {"ProxyMessageError", "The message was rejected before anything was written."},
+                           {4, 5, 6, 7, 8},
+                           {}});
 
   py::class_<proxy::SendResult>(module, "SendResult", "What a send produced.")
       .def_readonly("message_id", &proxy::SendResult::message_id, "Primary: the messageId on the wire (0 in compat).")

@@ -2,6 +2,18 @@ from typing import Awaitable, Callable, Iterator, Optional, Union
 
 from . import LinkCounters, VirtualUno, VirtualUnoClock
 from .transports import Transport
+from tether._errors import TetherError
+
+class RomiError(TetherError):
+    """A Romi call failed: the device's error code (-16 unknown opcode, > 0 application errors) or the
+    client's (-25 timeout, -1..-6 damaged answers, -24/-14/-8..-13/-22/-32 rejected commands)."""
+
+class RomiTimeoutError(RomiError, TimeoutError):
+    """No answer within the attempt window or the call budget (code -25)."""
+
+class RomiCommandError(RomiError, ValueError):
+    """The command was rejected before anything was written (bad opcode, value out of int16, ...)."""
+
 
 class Counters:
     """What a Romi client counted: the link's decoder and engine."""

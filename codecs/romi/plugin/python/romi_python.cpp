@@ -89,11 +89,8 @@ romi::Command make_command(const std::string& command, const py::args& args) {
       const long long value = PyLong_AsLongLongAndOverflow(arg.ptr(), &overflow);
       if (overflow != 0 || value < std::numeric_limits<std::int32_t>::min() ||
           value > std::numeric_limits<std::int32_t>::max()) {
-        py::object error = py::module_::import("tether._errors").attr("make_error")(
-            "romi", static_cast<int>(romi::Error::value_out_of_range),
-            "argument " + py::str(arg).cast<std::string>() + " is outside int16 (-32768..32767)", false);
-        PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(error.ptr())), error.ptr());
-        throw py::error_already_set();
+        raise_error(romi::make_error_code(romi::Error::value_out_of_range),
+                    "argument " + py::str(arg).cast<std::string>() + " is outside int16 (-32768..32767)");
       }
       ints.push_back(static_cast<std::int32_t>(value));
     } else {
@@ -113,7 +110,7 @@ py::object answer_or_error(const romi::error_code& error, const romi::RomiRespon
   }
   py::object values = json_to_python(response.values);
   if (check && response.code != 0) {
-    failure = py::module_::import("tether._errors").attr("RomiError")(response.code, response.message, values);
+    failure = py::module_::import("tether.romi").attr("RomiError")(response.code, response.message, values);
     return py::none();
   }
   return values;
@@ -253,6 +250,15 @@ void register_romi(py::module_& parent) {
       py::arg("name"), "The client of the romi device ``name``.");
 
   py::module_ module = parent.def_submodule("romi", "The Romi text protocol: request/response with a Tether client.");
+  register_errors(module, {"tether.romi",
+                           {"RomiError", "A Romi call failed: the device's error code (-16 unknown opcode, > 0 application "
+                                         "errors) or the client's (-25 timeout, -1..-6 damaged answers, "
+                                         "-24/-14/-8..-13/-22/-32 rejected commands)."},
+                           {"RomiTimeoutError", "No answer within the attempt window or the call budget (code -25)."},
+                           {"RomiCommandError", "The command was rejected before anything was written (bad opcode, "
+                                                "value out of int16, ...)."},
+                           {-24, -14, -8, -9, -10, -11, -12, -13, -22, -32},
+                           {}});
 
   py::class_<romi::Counters>(module, "Counters", "What a Romi client counted: the link's decoder and engine.")
       .def_readonly("link", &romi::Counters::link, "Decoder and engine counters.");

@@ -59,13 +59,12 @@ proxy::AckTiming ack_timing(const RpcTiming& timing) {
   return ack;
 }
 
-// What a schema mismatch says: the event's text and the blocking wait's error.
+}  // namespace
+
 std::string mismatch_text(const Schema& schema, std::uint64_t device_hash) {
   return schema.file().string() + ": the device was built from another schema (its hash " + format_hash(device_hash) +
          ", this schema's " + format_hash(schema.hash()) + ")";
 }
-
-}  // namespace
 
 Duration RpcTiming::attempt_window(std::size_t frame_bytes) const {
   return proxy::ack_timeout(ack_timing(*this), frame_bytes + kAnswerFrameBytes);

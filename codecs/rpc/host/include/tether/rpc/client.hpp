@@ -281,6 +281,10 @@ void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::Ope
 std::shared_ptr<const google::protobuf::Message> copy_request(const google::protobuf::Message& request);
 }  // namespace detail
 
+/// What a schema mismatch says (the event's text, the blocking wait's error, the bindings'): the schema
+/// file and both hashes.
+std::string mismatch_text(const Schema& schema, std::uint64_t device_hash);
+
 /// The client; see the file overview.
 class Client : public client::ClientFront<detail::ClientImpl, Event> {
  public:

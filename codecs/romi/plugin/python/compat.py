@@ -6,7 +6,7 @@ wrong request, bounded waits.
 """
 
 from . import _tether
-from ._errors import RomiError
+from .romi import RomiError
 
 
 class ControlSerial:

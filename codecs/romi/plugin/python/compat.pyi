@@ -1,6 +1,6 @@
 from typing import Any, Union
 
-from ._errors import RomiError as RomiError
+from .romi import RomiError as RomiError
 from . import VirtualUno
 from .transports import Transport
 
