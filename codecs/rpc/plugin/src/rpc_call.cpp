@@ -195,7 +195,10 @@ static int run_rpc_call(int argc, char** argv) {
   auto target = resolve_device(arguments.device, rpc::kCodec, error_text);
   if (!target) return text.usage_error(error_text);
   auto& options = target->config.options.get<rpc::DeviceOptions>();
-  if (options.schema.empty()) return text.usage_error("no schema: give --schema FILE (the device's .proto)");
+  if (options.schema.empty()) {
+    return text.usage_error("no schema: give --schema FILE (the device's .proto" +
+                            std::string(arguments.device.firmware.empty() ? ")" : "; none beside the image)"));
+  }
   if (arguments.timeout_ms) options.client.timing.call_budget = *arguments.timeout_ms;
 
   // The method and request, checked against the schema before anything opens.

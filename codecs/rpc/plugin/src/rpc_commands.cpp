@@ -167,7 +167,8 @@ CodecCommands rpc_commands() {
     if (!options.schema.empty()) (void)rpc::load_schema(options, "--schema");  // its error is a usage error
     return options;
   };
-  // A lone board: the schema beside its image (`rpc-example.elf`, `rpc-example.proto`) unless --schema names one.
+  // A lone board: the schema beside its image (`rpc-example.elf`, `rpc-example.proto`), if there is one,
+  // unless --schema names one.
   row.lone_virtual_board = [](const std::filesystem::path& firmware, const DeviceOptions&, devices::DeviceConfig& config) {
     devices::VirtualTransport board;
     board.board.firmware = firmware;
@@ -176,7 +177,9 @@ CodecCommands rpc_commands() {
     config.name = board.board.name;
     config.transport = board;
     auto& options = config.options.get<rpc::DeviceOptions>();
-    if (options.schema.empty()) options.schema = std::filesystem::path(firmware).replace_extension(".proto");
+    const std::filesystem::path beside = std::filesystem::path(firmware).replace_extension(".proto");
+    std::error_code error;
+    if (options.schema.empty() && std::filesystem::is_regular_file(beside, error)) options.schema = beside;
   };
   row.readying = "waiting for the device's hello with this schema...";
   row.counters = [](const devices::DeviceClient& device_client) {

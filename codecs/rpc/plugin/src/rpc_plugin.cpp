@@ -115,10 +115,7 @@ void await_rpc(const devices::DeviceClient& device_client, const devices::Device
   if (!mismatch.empty() || (done && error == RpcError::schema_mismatch)) {
     // The wait may complete before the event reached its handler: then the same text from the session.
     const std::string text =
-        !mismatch.empty() ? mismatch
-                          : client.schema().file().string() + ": the device was built from another schema (its hash " +
-                                format_hash(client.session().device_hash.value_or(0)) + ", this schema's " +
-                                format_hash(client.schema().hash()) + ")";
+        !mismatch.empty() ? mismatch : mismatch_text(client.schema(), client.session().device_hash.value_or(0));
     throw devices::ConfigError(path + ".options.schema", text, make_error_code(RpcError::schema_mismatch));
   }
   if (done && error) {

@@ -204,5 +204,19 @@ TEST(TetherRpcMonitor, DecodesTheEnvelope) {
   EXPECT_EQ(record["session"], 0x5E55);
 }
 
+// The example's bare-metal image (examples/rpc/arm.proto) on a virtual Uno: an rpc-* image speaks rpc, its
+// boot's ResetEvent decoded; without --schema (and no IMAGE.proto beside it) a call says what is missing.
+TEST(TetherRpcVirtual, TheExampleImageSpeaksRpc) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const Outcome monitor = run_tether({"monitor", "--virtual", "rpc-example", "--count", "1", "--json"});
+  EXPECT_EQ(monitor.status, 0) << monitor.err;
+  ASSERT_FALSE(monitor.lines().empty()) << monitor.err;
+  EXPECT_EQ(json::parse(monitor.lines().at(0))["message"], "reset-event");
+  const Outcome call = run_tether({"call", "--virtual", "rpc-example", "MoveJoint", "joint=1"});
+  EXPECT_EQ(call.status, 2);
+  EXPECT_NE(call.err.find("no schema: give --schema FILE (the device's .proto; none beside the image)"), std::string::npos)
+      << call.err;
+}
+
 }  // namespace
 }  // namespace tether::rpc
