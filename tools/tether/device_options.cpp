@@ -39,7 +39,7 @@ const char* const kDeviceUsageRest =
     "                      device NAME of a rover configuration (JSON, docs/examples/); its transport, codec\n"
     "                      and options come from the file (bare firmware names resolve in the firmware folder)\n"
     "  --virtual FIRMWARE  starts a virtual Arduino Uno running FIRMWARE: a path to an .elf, or an image name\n"
-    "                      (romi-test, proxy, proxy-compat, elcano-node) in the firmware folder\n"
+    "                      (romi-test, proxy, proxy-compat, elcano-node, rpc-example) in the firmware folder\n"
     "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
     "                      The codec follows the name (proxy-compat*, proxy*, elcano*, rpc*, else romi)\n"
     "                      unless --codec says\n";

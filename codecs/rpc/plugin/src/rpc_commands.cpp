@@ -57,8 +57,9 @@ class RpcShell final : public ShellSession {
       return;
     }
     std::vector<std::string> arguments(words.begin() + 1, words.end());
-    const std::size_t brace = line.find('{');
-    if (brace != std::string::npos) arguments = {line.substr(brace)};  // JSON keeps its spaces
+    if (!arguments.empty() && arguments.front().starts_with("{")) {
+      arguments = {line.substr(line.find('{'))};  // the request as JSON, its spaces kept
+    }
     if (method->streaming) {
       stream(*method, arguments);
     } else {

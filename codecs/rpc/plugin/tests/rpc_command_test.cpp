@@ -162,6 +162,8 @@ TEST(TetherRpcShell, CallsStreamsAndHelp) {
   ASSERT_TRUE(terminal.expect("rpc> ")) << terminal.screen();
   terminal.type("MoveJoint joint=2 angle_cdeg=100\n");
   EXPECT_TRUE(terminal.expect("MoveJoint -> {\"reachedCdeg\":99}")) << terminal.screen();
+  terminal.type("MoveJoint {\"joint\": 1, \"angleCdeg\": 5}\n");
+  EXPECT_TRUE(terminal.expect("MoveJoint -> {\"reachedCdeg\":4}")) << terminal.screen();
   terminal.type("MoveJoint joint=x\n");
   EXPECT_TRUE(terminal.expect("joint=\"x\": expected an integer")) << terminal.screen();
   terminal.type("Watch period=30\n");
