@@ -266,7 +266,7 @@ namespace tether::rpc {
 std::vector<cli::Command> subcommands();
 
 std::vector<cli::Command> subcommands() {
-  return {{"call", cli::run_rpc_call, "rpc: call a method of the device's schema and print the reply as JSON", kCodec}};
+  return {{"call", cli::run_rpc_call, "rpc: call a method of its schema, the reply as JSON", kCodec}};
 }
 
 }  // namespace tether::rpc
