@@ -15,6 +15,12 @@
 //      GPIOR1, and the sketch makes one library call between two GPIOR0 writes with interrupts held
 //      (cycles between the writes, the writes' own cycle removed). The closed loop of (2) on the
 //      TetherRomi Blink example itself, unchanged (`L[1]` / `L[0]` alternately).
+//   5. Whole exchanges on the deployed images (rpc-example, proxy), same method for both: the CPU's awake
+//      cycles (`VirtualUnoStats::awake_cycles`: not asleep in the loop's idle) from a request frame's
+//      arrival to its answers on the wire, minus what the same time costs the image at rest (its 1 ms clock
+//      tick and loop pass); UART interrupts, the loop, decoding, the handler, encoding and queueing
+//      included. Median of 20 exchanges. And an rpc stream at 100 Hz: awake cycles per StreamMessage, and
+//      the share of the CPU left asleep (idle) over 1 s of streaming, at rest for comparison.
 //   build/benchmarks/tether_avr_cycle_report [--json FILE]
 // tools/avr-cycle-table FILE [--write] prints the markdown tables from the JSON (or rewrites them in
 // benchmarks/README.md).
@@ -437,6 +443,193 @@ std::optional<ImageSize> image_size(const std::string& image) {
   return size;
 }
 
+// --- 5. Whole exchanges on the deployed images ------------------------------------------------------------
+
+// Protobuf encoding by hand (the images' schemas are nanopb's; the report has no libprotobuf classes of them).
+void put_varint(std::string& out, std::uint64_t value) {
+  do {
+    auto byte = static_cast<std::uint8_t>(value & 0x7F);
+    value >>= 7;
+    if (value != 0) byte |= 0x80;
+    out += static_cast<char>(byte);
+  } while (value != 0);
+}
+void put_uint(std::string& out, unsigned field, std::uint64_t value) {
+  put_varint(out, field << 3);
+  put_varint(out, value);
+}
+void put_int32(std::string& out, unsigned field, std::int32_t value) {  // int32: negative as 10 bytes
+  put_uint(out, field, static_cast<std::uint64_t>(static_cast<std::int64_t>(value)));
+}
+void put_bytes(std::string& out, unsigned field, const std::string& bytes) {
+  put_varint(out, (field << 3) | 2);
+  put_varint(out, bytes.size());
+  out += bytes;
+}
+std::string frame_of(const std::string& payload) {
+  std::uint8_t frame[300];
+  const auto size = tether::proxy::encode_frame(
+                        tether::ByteView(reinterpret_cast<const std::uint8_t*>(payload.data()), payload.size()),
+                        tether::proxy::Integrity::crc16, true, tether::MutableByteView(frame, sizeof frame))
+                        .value();
+  return std::string(reinterpret_cast<const char*>(frame), size);
+}
+
+// rpc: HostMessage{id, call{method, request}} / {id, open{method, request, period_ms}}; arm.proto's
+// method indices: MoveJoint 0, Watch 1.
+std::string rpc_move_joint(std::uint32_t id, std::uint32_t joint, std::int32_t angle) {
+  std::string request, call, message;
+  put_uint(request, 1, joint);
+  put_int32(request, 2, angle);
+  put_uint(call, 1, 0);
+  put_bytes(call, 2, request);
+  put_uint(message, 1, id);
+  put_bytes(message, 3, call);
+  return frame_of(message);
+}
+std::string rpc_open_watch(std::uint32_t id, std::uint32_t period_ms) {
+  std::string open, message;
+  put_uint(open, 1, 1);
+  put_uint(open, 3, period_ms);
+  put_uint(message, 1, id);
+  put_bytes(message, 4, open);
+  return frame_of(message);
+}
+// proxy: ArduinoIn{messageId, servoInit{pin, safePosition}} / {messageId, servoControl{pin, position}}.
+std::string proxy_servo(std::uint32_t id, bool init, std::int32_t position) {
+  std::string body, message;
+  put_uint(body, 1, 9);
+  put_int32(body, 2, position);
+  put_uint(message, 1, id);
+  put_bytes(message, init ? 3 : 4, body);
+  return frame_of(message);
+}
+
+struct ExchangeResult {
+  std::string key;
+  std::string what;
+  unsigned bytes = 0;  // request + answers on the wire
+  double cycles = 0;   // awake cycles of one exchange (median)
+};
+
+// An image on the virtual Uno with its output counted in frames (0x00 delimiters).
+class ImageBench {
+ public:
+  explicit ImageBench(const std::string& image) : uno_(options(image)) {
+    uno_.set_output_handler([this](const std::uint8_t* data, std::size_t size) {
+      for (std::size_t i = 0; i < size; ++i) {
+        ++bytes_;
+        if (data[i] == 0) ++delimiters_;
+      }
+    });
+    uno_.run_for(std::chrono::milliseconds(50));  // boot, ResetEvent / banner
+  }
+  ~ImageBench() { uno_.set_output_handler({}); }
+  // Awake cycles per millisecond at rest.
+  double rest_per_ms(int ms) {
+    const std::uint64_t before = uno_.stats().awake_cycles;
+    uno_.run_for(std::chrono::milliseconds(ms));
+    return static_cast<double>(uno_.stats().awake_cycles - before) / ms;
+  }
+  // Sends `frame` and runs `ms`; the awake cycles over that time minus `rest` per ms, the bytes that came
+  // out and the frames (a leading and a closing delimiter each: frames are counted by pairs elsewhere).
+  double exchange(const std::string& frame, int ms, double rest, unsigned& out_bytes, unsigned& out_delimiters) {
+    const std::uint64_t before = uno_.stats().awake_cycles;
+    const unsigned bytes = bytes_, delimiters = delimiters_;
+    uno_.write(frame);
+    uno_.run_for(std::chrono::milliseconds(ms));
+    out_bytes = bytes_ - bytes;
+    out_delimiters = delimiters_ - delimiters;
+    return static_cast<double>(uno_.stats().awake_cycles - before) - rest * ms;
+  }
+  VirtualUno& uno() { return uno_; }
+
+ private:
+  static VirtualUnoOptions options(const std::string& image) {
+    VirtualUnoOptions options;
+    options.firmware = std::string(TETHER_FIRMWARE_DIR "/") + image + ".elf";
+    options.quantum = std::chrono::microseconds(100);
+    return options;
+  }
+  VirtualUno uno_;
+  unsigned bytes_ = 0;
+  unsigned delimiters_ = 0;
+};
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+int measure_exchanges(std::vector<ExchangeResult>& rows, double& stream_idle, double& rest_idle) {
+  int status = 0;
+  constexpr int kExchangeMs = 12;  // request in (<= 3 ms), answers out (<= 4 ms) at 115200, and margin
+  {
+    ImageBench bench("rpc-example");
+    std::vector<double> cycles;
+    unsigned bytes = 0;
+    for (int i = 0; i < 21; ++i) {
+      const double rest = bench.rest_per_ms(20);
+      const std::string frame = rpc_move_joint(static_cast<std::uint32_t>(1000 + i), 2, -4500 + i);
+      unsigned out = 0, delimiters = 0;
+      const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
+      if (delimiters < 2) {  // Reply and Ack (each frame ends with 0x00; the device writes no leading one)
+        std::fprintf(stderr, "rpc-example did not answer MoveJoint (%u bytes out)\n", out);
+        status = 1;
+        break;
+      }
+      if (i > 0) cycles.push_back(spent);  // the first after boot includes one-off work
+      bytes = static_cast<unsigned>(frame.size()) + out;
+    }
+    if (!cycles.empty()) {
+      rows.push_back({"image.rpc.move_joint",
+                      "rpc-example: MoveJoint{2, -4500} in -> Reply + Ack out (whole loop, UART interrupts)", bytes,
+                      median(cycles)});
+    }
+    // The stream: Watch at 10 ms for 1 s, against 1 s at rest.
+    const double rest = bench.rest_per_ms(1000);
+    rest_idle = 1.0 - rest * 1000.0 / bench.uno().frequency_hz();
+    unsigned out = 0, delimiters = 0;
+    bench.exchange(rpc_open_watch(5000, 10), 100, rest, out, delimiters);  // opened, streaming
+    const std::uint64_t before = bench.uno().stats().awake_cycles;
+    const double spent = bench.exchange("", 1000, rest, out, delimiters);
+    const double awake = static_cast<double>(bench.uno().stats().awake_cycles - before);
+    stream_idle = 1.0 - awake / bench.uno().frequency_hz();
+    if (delimiters < 95) {
+      std::fprintf(stderr, "rpc-example streamed %u frames in 1 s at 10 ms\n", delimiters);
+      status = 1;
+    } else {
+      rows.push_back({"image.rpc.stream_message", "rpc-example: Watch at 100 Hz, per StreamMessage (State, 4 angles)",
+                      out / delimiters, spent / delimiters});
+    }
+  }
+  {
+    ImageBench bench("proxy");
+    unsigned out = 0, delimiters = 0;
+    bench.exchange(proxy_servo(1, true, 90), kExchangeMs, 0, out, delimiters);  // ServoInit{9, 90}
+    std::vector<double> cycles;
+    unsigned bytes = 0;
+    for (int i = 0; i < 21; ++i) {
+      const double rest = bench.rest_per_ms(20);
+      const std::string frame = proxy_servo(static_cast<std::uint32_t>(2 + i), false, 100 + i);
+      const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
+      if (delimiters < 2) {  // PinState and Ack
+        std::fprintf(stderr, "proxy did not answer ServoControl (%u bytes out)\n", out);
+        status = 1;
+        break;
+      }
+      if (i > 0) cycles.push_back(spent);
+      bytes = static_cast<unsigned>(frame.size()) + out;
+    }
+    if (!cycles.empty()) {
+      rows.push_back({"image.proxy.servo_control",
+                      "proxy: ServoControl{9, 100} in -> PinState + Ack out (whole loop, UART interrupts)", bytes,
+                      median(cycles)});
+    }
+  }
+  return status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -475,9 +668,21 @@ int main(int argc, char** argv) {
                 loop.wire_bound, 100.0 * loop.calls_per_second / loop.wire_bound);
   }
 
+  std::vector<ExchangeResult> exchanges;
+  double stream_idle = 0, rest_idle = 0;
+  status |= measure_exchanges(exchanges, stream_idle, rest_idle);
+  std::printf("\nWhole exchanges on the images (awake cycles, the image at rest removed; median of 20)\n");
+  std::printf("%-84s %6s %8s %12s\n", "exchange", "bytes", "cycles", "cycles/byte");
+  for (const ExchangeResult& r : exchanges) {
+    std::printf("%-84s %6u %8.0f %12.1f\n", r.what.c_str(), r.bytes, r.cycles, r.cycles / r.bytes);
+  }
+  std::printf("rpc-example CPU asleep (idle): %.2f %% at rest, %.2f %% streaming at 100 Hz (%.2f %% of the idle time "
+              "left)\n",
+              100.0 * rest_idle, 100.0 * stream_idle, 100.0 * stream_idle / rest_idle);
+
   std::vector<ImageSize> sizes;
   std::printf("\n%-16s %8s %8s\n", "image", "flash B", "RAM B");
-  for (const char* image : {"romi-bench", "romi-blink", "romi-test", "proxy", "proxy-compat", "elcano-node"}) {
+  for (const char* image : {"romi-bench", "romi-blink", "romi-test", "proxy", "proxy-compat", "elcano-node", "rpc-example"}) {
     if (const auto size = image_size(image)) {
       sizes.push_back(*size);
       std::printf("%-16s %8u %8u\n", image, size->flash, size->ram);
@@ -543,6 +748,15 @@ int main(int argc, char** argv) {
            << ", \"turnaround_min\": " << blink.turnaround_min << ", \"turnaround_median\": " << blink.turnaround_median
            << ", \"turnaround_max\": " << blink.turnaround_max << "}";
     }
+    json << ",\n  \"image_exchanges\": [\n";
+    for (std::size_t i = 0; i < exchanges.size(); ++i) {
+      const ExchangeResult& r = exchanges[i];
+      json << "    {\"key\": " << json_string(r.key) << ", \"what\": " << json_string(r.what)
+           << ", \"bytes\": " << r.bytes << ", \"cycles\": " << r.cycles << "}"
+           << (i + 1 < exchanges.size() ? "," : "") << "\n";
+    }
+    json << "  ],\n  \"rpc_stream_100hz\": {\"idle_at_rest\": " << rest_idle << ", \"idle_streaming\": " << stream_idle
+         << "}";
     json << ",\n  \"images\": [\n";
     for (std::size_t i = 0; i < sizes.size(); ++i) {
       json << "    {\"image\": " << json_string(sizes[i].image) << ", \"flash\": " << sizes[i].flash

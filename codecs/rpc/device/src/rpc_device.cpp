@@ -17,6 +17,9 @@ using proxy::device::FlashText;
 using proxy::device::TextBuilder;
 
 static_assert(tether_rpc_wire_HostMessage_size <= DefaultLimits::kMaxPayload, "a HostMessage must fit the decoder");
+#if defined(__AVR__) && !defined(TETHER_PB_DESCRIPTORS_IN_FLASH)
+#error "tether_rpc.pb.h without nanopb_descriptors_in_flash.h: the device reads the envelope's descriptors from flash"
+#endif
 static_assert(tether_rpc_wire_DeviceError_size + 2 <= 64 && tether_rpc_wire_DeviceHello_size + 2 <= 64,
               "a DeviceError and a DeviceHello fit every device's answer buffer (kMaxOutPayload >= 64)");
 
@@ -100,8 +103,14 @@ void DeviceCore::poll_time(Millis now) {
 }
 
 bool DeviceCore::decode(ByteView payload, void* host_message) {
+  static_assert(TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_HostMessage) <= kEnvelopeSubmessages &&
+                    TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_DeviceMessage) <= kEnvelopeSubmessages,
+                "the envelope's descriptor copy has room for every body");
+  const pb_msgdesc_t* const fields =
+      proxy::device::copy_descriptors(proxy::device::FlashDescriptor{tether_rpc_wire_HostMessage_fields},
+                                      envelope_descriptors_, envelope_list_, kEnvelopeSubmessages);
   pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
-  if (pb_decode(&stream, tether_rpc_wire_HostMessage_fields, host_message)) return true;
+  if (pb_decode(&stream, fields, host_message)) return true;
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
   return false;
@@ -282,8 +291,11 @@ void DeviceCore::send_hello() {
 
 size_t DeviceCore::send_message(const void* device_message, bool leading_delimiter) {
   uint8_t* const payload = scratch_.out;
+  const pb_msgdesc_t* const fields =
+      proxy::device::copy_descriptors(proxy::device::FlashDescriptor{tether_rpc_wire_DeviceMessage_fields},
+                                      envelope_descriptors_, envelope_list_, kEnvelopeSubmessages);
   pb_ostream_t stream = pb_ostream_from_buffer(payload, max_out_);
-  if (!pb_encode(&stream, tether_rpc_wire_DeviceMessage_fields, device_message)) {
+  if (!pb_encode(&stream, fields, device_message)) {
     add_one(counters_.send_failures);
     return 0;
   }

@@ -7,9 +7,11 @@
 // answer follows from the calls before it. Each MoveJoint that runs is recorded by the execution witness
 // (tether/core/execution_witness.hpp) with the key witness_key(joint, uint16_t(angle_cdeg)).
 //
-// Buffers: RX ring 128 bytes (the host keeps at most 4 messages of <= 45 bytes in flight, and the loop
-// reads faster than the line delivers except while it waits for TX room); TX ring 64 bytes (a reply and
-// its ack, or a stream message, are <= 2 frames of <= 78 bytes: `write` waits for room for the rest).
+// RAM: the device runtime's static tables (~1.2 KB with nanopb's descriptors in RAM) and its stack at the
+// deepest point (a reply or a stream message through three levels of nanopb encoding, ~0.8 KB) leave
+// little of the 2 KB: the UART rings are small (RX 32 bytes: the loop takes bytes as they come and decodes
+// them in place; TX 16 bytes: `write` waits for room, ~1.5 ms for a 16-byte frame), the handlers' error
+// texts short (they live in RAM) and the device's entry points out of line (below).
 #include <avr/pgmspace.h>
 
 #include "ArmRpc_service.h"
@@ -20,12 +22,15 @@
 
 namespace {
 
-using Serial = tether::firmware::Uart0<128, 64>;
+using Serial = tether::firmware::Uart0<32, 16>;
 constexpr uint32_t kBaud = 115200;
 // The shortest stream period: one frame of the largest stream message at the baud (10 bits a byte),
 // rounded up, so that a stream never sends faster than the line carries it.
 constexpr uint16_t kMinPeriodMs = static_cast<uint16_t>(
-    (tether::proxy::max_frame_size(ArmRpcService::Limits::kMaxOutPayload) * 10u * 1000u + kBaud - 1u) / kBaud);
+    (static_cast<uint32_t>(tether::proxy::max_frame_size(ArmRpcService::Limits::kMaxOutPayload)) * 10u * 1000u + kBaud -
+     1u) /
+    kBaud);
+static_assert(kMinPeriodMs == 7, "a 76-byte frame takes 6.6 ms at 115200 baud");
 
 constexpr uint8_t kJoints = 4;
 constexpr int32_t kMinCdeg = -18000;
@@ -34,10 +39,12 @@ constexpr int32_t kMaxCdeg = 18000;
 // The simulated arm.
 struct Arm {
   int32_t angles[kJoints];
+  int32_t min_cdeg;
+  int32_t max_cdeg;
   arm_Mode mode;
   uint32_t moves;
 };
-Arm arm;
+Arm arm = {{0, 0, 0, 0}, kMinCdeg, kMaxCdeg, arm_Mode_MODE_IDLE, 0};
 
 void write_frame(void*, tether::ByteView frame) { Serial::write(frame); }
 
@@ -51,11 +58,11 @@ ArmRpcService::Device device(ArmRpcService::service(), tether::rpc::device::Fram
 }  // namespace
 
 tether::rpc::Status Arm_MoveJoint(const arm_JointRequest& request, arm_JointReply& reply) {
-  if (request.joint >= kJoints) return tether::rpc::Status::error(1, "no such joint");
-  if (request.angle_cdeg < kMinCdeg || request.angle_cdeg > kMaxCdeg) {
-    return tether::rpc::Status::error(2, "angle out of range");
+  if (request.joint >= kJoints) return tether::rpc::Status::error(1, "no joint");
+  if (request.angle_cdeg < arm.min_cdeg || request.angle_cdeg > arm.max_cdeg) {
+    return tether::rpc::Status::error(2, "out of range");
   }
-  if (arm.mode == arm_Mode_MODE_HOLD) return tether::rpc::Status::error(3, "arm on hold");
+  if (arm.mode == arm_Mode_MODE_HOLD) return tether::rpc::Status::error(3, "on hold");
   arm.angles[request.joint] = request.angle_cdeg;
   ++arm.moves;
   tether::witness_executed(tether::witness_key(static_cast<uint16_t>(request.joint),
@@ -73,6 +80,14 @@ tether::rpc::Status Arm_Watch(const arm_StateRequest&, arm_State& next) {
 }
 
 tether::rpc::Status Arm_SetMode(const arm_ModeRequest& request, arm_ModeReply& reply) {
+  if (request.has_range) {
+    const arm_ModeRequest_Range& range = request.range;
+    if (range.min_cdeg > range.max_cdeg || range.min_cdeg < kMinCdeg || range.max_cdeg > kMaxCdeg) {
+      return tether::rpc::Status::error(2, "out of range");
+    }
+    arm.min_cdeg = range.min_cdeg;
+    arm.max_cdeg = range.max_cdeg;
+  }
   reply.previous = arm.mode;
   arm.mode = request.mode;
   return tether::rpc::Status::ok();
@@ -81,12 +96,27 @@ tether::rpc::Status Arm_SetMode(const arm_ModeRequest& request, arm_ModeReply& r
 tether::rpc::Status Arm_Describe(const arm_DescribeRequest&, arm_Description& reply) {
   strncpy_P(reply.name, PSTR("tether-arm"), sizeof reply.name - 1);
   reply.joints = kJoints;
-  reply.has_range = true;
-  reply.range.min_cdeg = kMinCdeg;
-  reply.range.max_cdeg = kMaxCdeg;
+  reply.min_cdeg = arm.min_cdeg;
+  reply.max_cdeg = arm.max_cdeg;
   reply.moves = arm.moves;
   return tether::rpc::Status::ok();
 }
+
+namespace {
+
+// The device's entry points out of line: each puts its answer buffers on the stack for its own run
+// (rpc_device.hpp's Buffers); inlined into main, the compiler keeps their room in main's frame for good,
+// ~150 bytes each under the deepest point (a call's reply).
+__attribute__((noinline)) void start(uint32_t session_id) {
+  device.set_min_period_ms(kMinPeriodMs);
+  device.begin(session_id, tether::firmware::millis());  // end of setup: ResetEvent
+}
+__attribute__((noinline)) size_t handle(tether::ByteView received) {
+  return device.handle_bytes(received, tether::firmware::millis());
+}
+__attribute__((noinline)) void poll() { device.poll(tether::firmware::millis()); }
+
+}  // namespace
 
 TETHER_UART0_ISRS(Serial);
 
@@ -94,15 +124,14 @@ int main() {
   // First, before interrupts and before the stack grows: it reads the untouched SRAM (session_id.hpp).
   const uint32_t session_id = tether::proxy::device::boot_session_id();
   tether::firmware::runtime_init<Serial>(kBaud);
-  device.set_min_period_ms(kMinPeriodMs);
-  device.begin(session_id, tether::firmware::millis());  // end of setup: ResetEvent
+  start(session_id);
   for (;;) {
     // What the RX ring holds, read in place: a frame's bytes go through the decoder's run loop.
     const tether::ByteView received = Serial::peek();
     if (!received.empty()) {
-      Serial::consume(static_cast<uint8_t>(device.handle_bytes(received, tether::firmware::millis())));
+      Serial::consume(static_cast<uint8_t>(handle(received)));
     }
-    device.poll(tether::firmware::millis());
+    poll();
     if (received.empty()) tether::firmware::idle<Serial>();
   }
 }

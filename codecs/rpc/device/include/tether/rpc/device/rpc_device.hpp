@@ -56,6 +56,7 @@
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device/flash_descriptors.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/rpc/device/service.hpp"
 #include "tether/rpc/errors.hpp"
@@ -169,6 +170,10 @@ class DeviceCore {
   void poll_time(Millis now);
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
+  // The envelope's descriptors are in flash on the AVR (tether_rpc.options): the tree of the message being
+  // decoded or sent is copied here for nanopb, one at a time (decoding and sending never overlap). Room
+  // for a message with this many submessage fields.
+  static constexpr uint8_t kEnvelopeSubmessages = 6;
   // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
   Outcome run(const void* host_message, Millis now);
   void send_ack(uint32_t id, bool refused);
@@ -206,6 +211,8 @@ class DeviceCore {
   uint8_t* requests_;
   uint8_t slot_count_;
   uint8_t request_bytes_;
+  pb_msgdesc_t envelope_descriptors_[kEnvelopeSubmessages + 1];
+  const pb_msgdesc_t* envelope_list_[kEnvelopeSubmessages + 1];
 };
 
 /// An rpc device with `Limits`' table sizes. Not copyable; main loop only (never from an interrupt).
