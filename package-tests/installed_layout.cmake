@@ -32,6 +32,8 @@ set(expected
   share/tether/firmware/romi-test.elf
   share/tether/firmware/proxy.elf
   share/tether/firmware/elcano-node.elf
+  share/tether/firmware/rpc-example.elf
+  share/tether/firmware/rpc-example.proto
   share/tether/examples/rover-virtual.json
   share/man/man1/tether.1.gz
   share/doc/tether/README.md
@@ -45,7 +47,7 @@ endforeach()
 # codec's (from its plugin's folder).
 file(GLOB python_package LIST_DIRECTORIES true ${PREFIX}/lib/python3*/*-packages/tether)
 if(python_package)
-  foreach(file __init__.py __init__.pyi romi.pyi proxy.pyi elcano.pyi transports.pyi compat.py compat.pyi py.typed)
+  foreach(file __init__.py __init__.pyi romi.pyi proxy.pyi elcano.pyi rpc.pyi transports.pyi compat.py compat.pyi py.typed)
     if(NOT EXISTS ${python_package}/${file})
       message(SEND_ERROR "not installed: ${python_package}/${file}")
     endif()

@@ -32,14 +32,20 @@ def test_calls_return_the_schemas_messages(arm):
     assert arm.call("MoveJoint", {"joint": 1, "angle_cdeg": 1200}).reached_cdeg == 1200
     request = arm.request_type("MoveJoint")(joint=0, angle_cdeg=300)
     assert arm.call("MoveJoint", request).reached_cdeg == 300
-    # Nested messages, strings.
+    # Strings; a nested message in a request, as a dict.
     description = arm.call("Describe")
     assert description.name and description.joints >= 3
-    assert description.range.min_cdeg < description.range.max_cdeg
+    assert description.min_cdeg < description.max_cdeg
     assert description.moves == 3
     assert json_format.MessageToDict(description)["moves"] == 3
+    arm.call("SetMode", mode="MODE_ACTIVE", range={"min_cdeg": -100, "max_cdeg": 100})
+    assert (arm.call("Describe").min_cdeg, arm.call("Describe").max_cdeg) == (-100, 100)
+    with pytest.raises(tether.rpc.RpcDeviceError) as outside:
+        arm.call("MoveJoint", joint=1, angle_cdeg=200)
+    assert outside.value.code == 2
     counters = arm.counters()
-    assert counters.replies == 4 and counters.messages_sent == 4 and counters.link.frames_ok >= 4
+    assert counters.replies == 7 and counters.device_errors == 1 and counters.messages_sent == 8
+    assert counters.link.frames_ok >= 8
 
 
 def test_enums_by_name_or_number_and_device_errors(arm):
@@ -104,8 +110,12 @@ def test_call_async():
     with tether.VirtualUno("rpc-example", seed=6) as board:
         with tether.rpc.Client(board, SCHEMA) as client:
             assert asyncio.run(main(client)) == [0, 100, 200]
+
+            async def no_such_joint():
+                return await client.call_async("MoveJoint", joint=99)
+
             with pytest.raises(tether.rpc.RpcDeviceError):
-                asyncio.run(client.call_async("MoveJoint", joint=99))
+                asyncio.run(no_such_joint())
 
 
 def test_a_device_of_another_schema_is_refused(tmp_path):

@@ -207,17 +207,31 @@ TEST(TetherRpcMonitor, DecodesTheEnvelope) {
 }
 
 // The example's bare-metal image (examples/rpc/arm.proto) on a virtual Uno: an rpc-* image speaks rpc, its
-// boot's ResetEvent decoded; without --schema (and no IMAGE.proto beside it) a call says what is missing.
+// boot's ResetEvent decoded; its schema ships beside it (rpc-example.proto), so a call needs no --schema;
+// an image without one says what is missing.
 TEST(TetherRpcVirtual, TheExampleImageSpeaksRpc) {
   TETHER_REQUIRE_FIRMWARE("rpc-example");
   const Outcome monitor = run_tether({"monitor", "--virtual", "rpc-example", "--count", "1", "--json"});
   EXPECT_EQ(monitor.status, 0) << monitor.err;
   ASSERT_FALSE(monitor.lines().empty()) << monitor.err;
   EXPECT_EQ(json::parse(monitor.lines().at(0))["message"], "reset-event");
-  const Outcome call = run_tether({"call", "--virtual", "rpc-example", "MoveJoint", "joint=1"});
-  EXPECT_EQ(call.status, 2);
-  EXPECT_NE(call.err.find("no schema: give --schema FILE (the device's .proto; none beside the image)"), std::string::npos)
-      << call.err;
+
+  const Outcome call = run_tether({"call", "--virtual", "rpc-example", "MoveJoint", "joint=1", "angle_cdeg=-4500"});
+  EXPECT_EQ(call.status, 0) << call.err;
+  EXPECT_EQ(call.out, "{\"reachedCdeg\":-4500}\n");
+  const Outcome error = run_tether({"call", "--virtual", "rpc-example", "MoveJoint", "joint=9"});
+  EXPECT_EQ(error.status, 1) << error.err;
+  EXPECT_NE(error.err.find("MoveJoint: device error 1: no joint"), std::string::npos) << error.err;
+
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-lone-image-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  fs::copy_file(cli::testing::firmware("rpc-example"), dir / "rpc-example.elf", fs::copy_options::overwrite_existing);
+  const Outcome lone = run_tether({"call", "--virtual", (dir / "rpc-example.elf").string(), "MoveJoint", "joint=1"});
+  EXPECT_EQ(lone.status, 2);
+  EXPECT_NE(lone.err.find("no schema: give --schema FILE (the device's .proto; none beside the image)"), std::string::npos)
+      << lone.err;
+  fs::remove_all(dir);
 }
 
 }  // namespace
