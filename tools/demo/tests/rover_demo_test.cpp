@@ -58,7 +58,7 @@ void expect_exactly_once_adds_up(const DeviceReport& d) {
     EXPECT_EQ(e.confirmed_not_executed, 0u);
     EXPECT_GT(e.executed, 0u);
   }
-  if (d.codec == "romi" || d.codec == "proxy") {
+  if (d.codec == "romi" || d.codec == "proxy" || d.codec == "rpc") {
     EXPECT_EQ(e.executed_twice, 0u);
   }
 }
@@ -66,7 +66,7 @@ void expect_exactly_once_adds_up(const DeviceReport& d) {
 TEST(RoverDemo, EveryCodecRunsTheWorkloadThroughNoiseAndAReset) {
   const DemoReport report = run_demo(short_run());
   std::printf("%s", format_table(report).c_str());
-  ASSERT_EQ(report.devices.size(), 5u);
+  ASSERT_EQ(report.devices.size(), 6u);
   for (const DeviceReport& d : report.devices) {
     SCOPED_TRACE(d.device);
     EXPECT_EQ(d.operations, 40u);
@@ -98,7 +98,7 @@ TEST(RoverDemo, WithoutFaultsEveryOperationSucceedsAndTheJsonCarriesTheFigures) 
   options.reset_halfway = false;
   const DemoReport report = run_demo(options);
   const nlohmann::json json = to_json(report);
-  ASSERT_EQ(json["devices"].size(), 5u);
+  ASSERT_EQ(json["devices"].size(), 6u);
   for (const auto& d : json["devices"]) {
     SCOPED_TRACE(d["device"].get<std::string>());
     EXPECT_EQ(d["successes"], 20);

@@ -109,8 +109,8 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
   EXPECT_EQ(report["parameters"]["iterations"], kShortRun);
   EXPECT_EQ(report["parameters"]["rates_hz"], json::parse(R"([100.0, "max"])"));
   EXPECT_EQ(report["tether_version"], TETHER_VERSION);
-  ASSERT_EQ(report["devices"].size(), 5u);
-  ASSERT_EQ(report["points"].size(), 5u * 2 * 2);
+  ASSERT_EQ(report["devices"].size(), 6u);
+  ASSERT_EQ(report["points"].size(), 6u * 2 * 2);
   for (const json& device : report["devices"]) {
     SCOPED_TRACE(device["device"].get<std::string>());
     ASSERT_FALSE(device["firmware"].empty());

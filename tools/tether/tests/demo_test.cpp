@@ -18,7 +18,7 @@ TEST(TetherDemo, ShortRunPrintsOneColumnPerDeviceWithMeasuredFigures) {
   TETHER_REQUIRE_FIRMWARE("elcano-node");
   const Outcome run = run_tether({"demo", "--iterations", "30", "--period", "10"});
   EXPECT_EQ(run.status, 0) << run.err;
-  for (const char* expected : {"arm (romi)", "servos (proxy)", "legacy (proxy-compat)", "ring (elcano)",
+  for (const char* expected : {"arm (romi)", "servos (proxy)", "legacy (proxy-compat)", "joints (rpc)", "ring (elcano)",
                                "ring-d (elcano)", "wire bytes / op", "latency p99 (ms)", "resets detected",
                                "recovered after (ms)", "servo pins (D9, D10)"}) {
     EXPECT_NE(run.out.find(expected), std::string::npos) << expected << "\n" << run.out;
@@ -32,7 +32,7 @@ TEST(TetherDemo, JsonReportAddsUpAndSeesTheProxyReset) {
   ASSERT_EQ(run.status, 0) << run.err;
   const json report = json::parse(run.out);
   EXPECT_EQ(report["iterations"], 30);
-  ASSERT_EQ(report["devices"].size(), 5u);
+  ASSERT_EQ(report["devices"].size(), 6u);
   for (const json& device : report["devices"]) {
     SCOPED_TRACE(device["device"].get<std::string>());
     EXPECT_EQ(device["operations"], 30);
@@ -42,6 +42,7 @@ TEST(TetherDemo, JsonReportAddsUpAndSeesTheProxyReset) {
     EXPECT_EQ(device["pins_match"], true) << device["pins_detail"];
   }
   EXPECT_EQ(report["devices"][1]["resets_detected"], 1);   // proxy: the session id changed
+  EXPECT_EQ(report["devices"][3]["resets_detected"], 1);   // rpc: likewise
   EXPECT_TRUE(report["devices"][0]["resets_detected"].is_null());  // romi cannot tell
 }
 

@@ -1,6 +1,7 @@
 // The rpc codec's plugin (plugin.hpp): `rpc` devices in a configuration, their schema read at parse time,
 // their clients, and opening's wait for the device's Hello with the same schema.
 #include <condition_variable>
+#include <filesystem>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -16,13 +17,35 @@ namespace tether::rpc {
 
 namespace {
 
+// A virtual board's image may ship its schema beside it (`rpc-example.elf` and `rpc-example.proto`): the
+// schema of a virtual device that names none.
+std::filesystem::path schema_beside_image(const devices::OptionsContext& context) {
+  const auto* board = std::get_if<devices::VirtualTransport>(context.transport);
+  if (board == nullptr || board->board.firmware.empty()) return {};
+  std::filesystem::path schema = board->board.firmware;
+  schema.replace_extension(".proto");
+  std::error_code error;
+  return std::filesystem::is_regular_file(schema, error) ? schema : std::filesystem::path();
+}
+
 DeviceOptions parse_rpc_options(const devices::OptionsContext& context) {
   const std::optional<devices::JsonObject> object = context.object();
-  if (!object) devices::fail_config(context.path, "missing key \"schema\" (an rpc device needs its schema file)");
   DeviceOptions options;
   if (const auto* serial = std::get_if<devices::SerialTransport>(context.transport))
     options.client.timing.baud = serial->options.baud;
-  options.schema = context.resolve_path(devices::read_nonempty_string(object->required("schema")));
+  if (object && object->optional("schema")) {
+    options.schema = context.resolve_path(devices::read_nonempty_string(object->required("schema")));
+  } else {
+    options.schema = schema_beside_image(context);
+    if (options.schema.empty()) {
+      devices::fail_config(context.path, "missing key \"schema\" (an rpc device needs its schema file; a virtual "
+                                         "board's image may have it beside it, IMAGE.proto)");
+    }
+  }
+  if (!object) {
+    (void)load_schema(options, context.path);
+    return options;
+  }
   if (auto v = object->optional("service")) options.schema_options.service = devices::read_nonempty_string(*v);
   if (auto v = object->optional("import_paths")) {
     if (!v->value.is_array()) v->expected("an array of folders");

@@ -77,6 +77,24 @@ TEST(RpcPlugin, ConfigurationFileResolvesTheSchemaBesideIt) {
   fs::remove_all(dir);
 }
 
+// A virtual device's image may ship its schema beside it (IMAGE.proto): no "schema" needed then.
+TEST(RpcPlugin, AVirtualBoardsSchemaBesideItsImage) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("rpc-plugin-image-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "arm-image.elf") << "not read while parsing";
+  const std::string device = R"({"devices": [{"name": "arm", "codec": "rpc",
+      "transport": {"virtual": {"firmware": "arm-image"}}}]})";
+  devices::ParseOptions where;
+  where.firmware_dir = dir;
+  EXPECT_EQ(parse_error(device, where),
+            R"(devices[0].options: missing key "schema" (an rpc device needs its schema file; a virtual board's )"
+            R"(image may have it beside it, IMAGE.proto))");
+  fs::copy_file(kSchemas / "arm.proto", dir / "arm-image.proto");
+  const devices::RoverConfig config = devices::parse_config(device, where);
+  EXPECT_EQ(config.devices[0].options.get<DeviceOptions>().schema, dir / "arm-image.proto");
+  fs::remove_all(dir);
+}
+
 TEST(RpcPlugin, AbsoluteSchemaAsGiven) {
   devices::ParseOptions elsewhere;
   elsewhere.base_dir = "/nonexistent";
@@ -102,8 +120,10 @@ TEST(RpcPlugin, SchemaErrorsNameTheKeyAndProtocsPosition) {
 }
 
 TEST(RpcPlugin, OptionErrors) {
-  EXPECT_EQ(parse_error(one_device("")), R"(devices[0].options: missing key "schema" (an rpc device needs its schema file))");
-  EXPECT_EQ(parse_error(one_device("{}")), R"(devices[0].options: missing key "schema")");
+  const std::string missing = R"(devices[0].options: missing key "schema" (an rpc device needs its schema file; )"
+                              R"(a virtual board's image may have it beside it, IMAGE.proto))";
+  EXPECT_EQ(parse_error(one_device("")), missing);
+  EXPECT_EQ(parse_error(one_device("{}")), missing);
   EXPECT_EQ(parse_error(one_device(R"({"schema": ""})")), R"(devices[0].options.schema: expected a non-empty string, got string "")");
   EXPECT_EQ(parse_error(one_device(R"({"schema": "arm.proto", "call_budget": 5})")),
             R"(devices[0].options: unknown key "call_budget" (did you mean "call_budget_ms"?))");
