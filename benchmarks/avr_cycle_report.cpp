@@ -19,7 +19,9 @@
 //      cycles (`VirtualUnoStats::awake_cycles`: not asleep in the loop's idle) from a request frame's
 //      arrival to its answers on the wire, minus what the same time costs the image at rest (its 1 ms clock
 //      tick and loop pass); UART interrupts, the loop, decoding, the handler, encoding and queueing
-//      included. Median of 20 exchanges. And an rpc stream at 100 Hz: awake cycles per StreamMessage, and
+//      included. Median of 20 exchanges. Their turnaround too: from the firmware's UDR0 read of the
+//      request's closing 0x00 to its next UDR0 write (the answer's first byte): decode, dispatch, the
+//      answer's encoding and framing, awake all along. And an rpc stream at 100 Hz: awake cycles per StreamMessage, and
 //      the share of the CPU left asleep (idle) over 1 s of streaming, at rest for comparison.
 //   build/benchmarks/tether_avr_cycle_report [--json FILE]
 // tools/avr-cycle-table FILE [--write] prints the markdown tables from the JSON (or rewrites them in
@@ -523,6 +525,7 @@ class ImageBench {
       }
     });
     uno_.run_for(std::chrono::milliseconds(50));  // boot, ResetEvent / banner
+    uno_.watch_io(reg::UDR0);
   }
   ~ImageBench() { uno_.set_output_handler({}); }
   // Awake cycles per millisecond at rest.
@@ -536,12 +539,26 @@ class ImageBench {
   double exchange(const std::string& frame, int ms, double rest, unsigned& out_bytes, unsigned& out_delimiters) {
     const std::uint64_t before = uno_.stats().awake_cycles;
     const unsigned bytes = bytes_, delimiters = delimiters_;
+    const std::size_t accesses = uno_.io_accesses(reg::UDR0).size();
     uno_.write(frame);
     uno_.run_for(std::chrono::milliseconds(ms));
     out_bytes = bytes_ - bytes;
     out_delimiters = delimiters_ - delimiters;
+    // Turnaround: from the UDR0 read of the request's closing 0x00 to the next UDR0 write.
+    const std::vector<IoAccess> io = uno_.io_accesses(reg::UDR0);
+    turnaround_ = 0;
+    std::optional<std::uint64_t> delimiter_read;
+    for (std::size_t i = accesses; i < io.size(); ++i) {
+      if (!io[i].write && io[i].value == 0) delimiter_read = io[i].cycle;
+      if (io[i].write && delimiter_read) {
+        turnaround_ = io[i].cycle - *delimiter_read;
+        break;
+      }
+    }
     return static_cast<double>(uno_.stats().awake_cycles - before) - rest * ms;
   }
+  // Cycles from the last exchange's request delimiter read to its first answer byte written (0: none).
+  std::uint64_t turnaround() const { return turnaround_; }
   VirtualUno& uno() { return uno_; }
 
  private:
@@ -554,6 +571,7 @@ class ImageBench {
   VirtualUno uno_;
   unsigned bytes_ = 0;
   unsigned delimiters_ = 0;
+  std::uint64_t turnaround_ = 0;
 };
 
 double median(std::vector<double> values) {
@@ -566,11 +584,13 @@ int measure_exchanges(std::vector<ExchangeResult>& rows, double& stream_idle, do
   constexpr int kExchangeMs = 12;  // request in (<= 3 ms), answers out (<= 4 ms) at 115200, and margin
   {
     ImageBench bench("rpc-example");
-    std::vector<double> cycles;
+    std::vector<double> cycles, turnarounds;
     unsigned bytes = 0;
+    std::size_t frame_size = 0;
     for (int i = 0; i < 21; ++i) {
       const double rest = bench.rest_per_ms(20);
       const std::string frame = rpc_move_joint(static_cast<std::uint32_t>(1000 + i), 2, -4500 + i);
+      frame_size = frame.size();
       unsigned out = 0, delimiters = 0;
       const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
       if (delimiters < 2) {  // Reply and Ack (each frame ends with 0x00; the device writes no leading one)
@@ -578,13 +598,19 @@ int measure_exchanges(std::vector<ExchangeResult>& rows, double& stream_idle, do
         status = 1;
         break;
       }
-      if (i > 0) cycles.push_back(spent);  // the first after boot includes one-off work
+      if (i > 0) {  // the first after boot includes one-off work
+        cycles.push_back(spent);
+        turnarounds.push_back(static_cast<double>(bench.turnaround()));
+      }
       bytes = static_cast<unsigned>(frame.size()) + out;
     }
     if (!cycles.empty()) {
       rows.push_back({"image.rpc.move_joint",
                       "rpc-example: MoveJoint{2, -4500} in -> Reply + Ack out (whole loop, UART interrupts)", bytes,
                       median(cycles)});
+      rows.push_back({"image.rpc.move_joint.turnaround",
+                      "rpc-example: MoveJoint turnaround, request's 0x00 read -> Reply's first byte written",
+                      static_cast<unsigned>(frame_size), median(turnarounds)});
     }
     // The stream: Watch at 10 ms for 1 s, against 1 s at rest.
     const double rest = bench.rest_per_ms(1000);
@@ -607,24 +633,32 @@ int measure_exchanges(std::vector<ExchangeResult>& rows, double& stream_idle, do
     ImageBench bench("proxy");
     unsigned out = 0, delimiters = 0;
     bench.exchange(proxy_servo(1, true, 90), kExchangeMs, 0, out, delimiters);  // ServoInit{9, 90}
-    std::vector<double> cycles;
+    std::vector<double> cycles, turnarounds;
     unsigned bytes = 0;
+    std::size_t frame_size = 0;
     for (int i = 0; i < 21; ++i) {
       const double rest = bench.rest_per_ms(20);
       const std::string frame = proxy_servo(static_cast<std::uint32_t>(2 + i), false, 100 + i);
+      frame_size = frame.size();
       const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
       if (delimiters < 2) {  // PinState and Ack
         std::fprintf(stderr, "proxy did not answer ServoControl (%u bytes out)\n", out);
         status = 1;
         break;
       }
-      if (i > 0) cycles.push_back(spent);
+      if (i > 0) {
+        cycles.push_back(spent);
+        turnarounds.push_back(static_cast<double>(bench.turnaround()));
+      }
       bytes = static_cast<unsigned>(frame.size()) + out;
     }
     if (!cycles.empty()) {
       rows.push_back({"image.proxy.servo_control",
                       "proxy: ServoControl{9, 100} in -> PinState + Ack out (whole loop, UART interrupts)", bytes,
                       median(cycles)});
+      rows.push_back({"image.proxy.servo_control.turnaround",
+                      "proxy: ServoControl turnaround, request's 0x00 read -> PinState's first byte written",
+                      static_cast<unsigned>(frame_size), median(turnarounds)});
     }
   }
   return status;

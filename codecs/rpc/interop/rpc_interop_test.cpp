@@ -322,6 +322,32 @@ TEST(RpcInterop, AStreamSendsAtItsPeriodWithIncreasingSeqUntilClosed) {
   client.close();
 }
 
+// The image's shortest period is one frame of its largest stream message at 115200 baud (76 bytes: 7 ms):
+// 6 ms is refused, 7 ms streams.
+TEST(RpcInterop, AStreamPeriodShorterThanOneFrameTimeIsRefused) {
+  IoThread io;
+  auto stream = VirtualUnoStream::open(io.executor(), board());
+  Client client(stream, Schema::load(kArmSchema), on_board_time(stream));
+  client.wait_ready();
+  Received refused;
+  Stream too_fast = client.open_stream("Watch", arm::StateRequest(), 6ms, refused.handler());
+  ASSERT_TRUE(wait_for([&] {
+    std::lock_guard lock(refused.mutex);
+    return !refused.ends.empty();
+  }));
+  {
+    std::lock_guard lock(refused.mutex);
+    EXPECT_EQ(refused.ends[0], RpcError::refused) << refused.ends[0].message();
+    EXPECT_EQ(refused.end_texts[0], "period too short");
+    EXPECT_TRUE(refused.seqs.empty());
+  }
+  Received received;
+  Stream fastest = client.open_stream("Watch", arm::StateRequest(), 7ms, received.handler());
+  ASSERT_TRUE(wait_for([&] { return received.count() >= 5; }));
+  fastest.close();
+  client.close();
+}
+
 TEST(RpcInterop, AWatchdogResetMidStreamIsDetectedAndTheStreamResumesWithoutTheApplication) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board());

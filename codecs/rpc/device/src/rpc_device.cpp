@@ -54,15 +54,34 @@ const char* error_text(DeviceErrorCode code) {
 }
 
 // A handler's struct, encoded as a bytes field (a Reply's reply, a StreamMessage's message): the same
-// bytes as the struct's own encoding, length-delimited, with no second buffer.
+// bytes as the struct's own encoding, length-delimited, with no second buffer. Its size is computed once:
+// nanopb sizes the enclosing body before writing it, and pb_encode_submessage would encode the struct
+// twice at each of those two passes (four encodings of it per message instead of two).
 struct StructField {
   const pb_msgdesc_t* fields;
   const void* message;
+  size_t size;
+  bool sized;
 };
 
+bool is_sizing(const pb_ostream_t* stream) {
+#ifdef PB_BUFFER_ONLY
+  return stream->state == NULL;
+#else
+  return stream->callback == NULL;
+#endif
+}
+
 bool encode_struct(pb_ostream_t* stream, const pb_field_t* field, void* const* arg) {
-  const StructField& payload = *static_cast<const StructField*>(*arg);
-  return pb_encode_tag_for_field(stream, field) && pb_encode_submessage(stream, payload.fields, payload.message);
+  StructField& payload = *static_cast<StructField*>(*arg);
+  if (!payload.sized) {
+    if (!pb_get_encoded_size(&payload.size, payload.fields, payload.message)) return false;
+    payload.sized = true;
+  }
+  if (!pb_encode_tag_for_field(stream, field) || !pb_encode_varint(stream, payload.size)) return false;
+  if (is_sizing(stream)) return pb_write(stream, NULL, payload.size);
+  const size_t before = stream->bytes_written;
+  return pb_encode(stream, payload.fields, payload.message) && stream->bytes_written - before == payload.size;
 }
 
 tether_rpc_wire_DeviceMessage out_message(pb_size_t which) {
@@ -164,7 +183,7 @@ DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView requ
   }
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reply_tag);
   out.body.reply.call = id;
-  StructField reply{m.reply, service_->reply};
+  StructField reply{m.reply, service_->reply, 0, false};
   out.body.reply.reply.funcs.encode = &encode_struct;
   out.body.reply.reply.arg = &reply;
   size_t size = send_message(&out);
@@ -222,7 +241,7 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
   tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_stream_tag);
   out.body.stream.stream = slot.id;
   out.body.stream.seq = slot.seq;
-  StructField message{m.reply, service_->reply};
+  StructField message{m.reply, service_->reply, 0, false};
   out.body.stream.message.funcs.encode = &encode_struct;
   out.body.stream.message.arg = &message;
   if (send_message(&out) == 0) {
