@@ -705,7 +705,7 @@ TEST(DevicesExamples, TheEmbeddedVirtualConfigIsTheExampleFile) {
   EXPECT_EQ(nlohmann::json::parse(default_virtual_rover_config()), nlohmann::json::parse(file));
   ParseOptions options;
   options.firmware_dir = TETHER_FIRMWARE_DIR;
-  EXPECT_EQ(parse_config(default_virtual_rover_config(), options).devices.size(), 5u);
+  EXPECT_EQ(parse_config(default_virtual_rover_config(), options).devices.size(), 6u);
 }
 
 }  // namespace

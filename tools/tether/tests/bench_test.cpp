@@ -202,7 +202,7 @@ TEST(TetherBench, ShortRunAddsUpWritesCsvPlotsAndReportAndComparesEqualToItself)
   const std::string path = (out / "bench.json").string();
   const Outcome same = run_tether({"bench", "--compare", path, path});
   EXPECT_EQ(same.status, 0) << same.err << same.out;
-  EXPECT_NE(same.out.find("no differences beyond run-to-run noise; 20 point(s) in common"), std::string::npos)
+  EXPECT_NE(same.out.find("no differences beyond run-to-run noise; 24 point(s) in common"), std::string::npos)
       << same.out;
   EXPECT_EQ(same.out.find(" *"), std::string::npos) << same.out;
 
