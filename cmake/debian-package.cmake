@@ -114,9 +114,13 @@ tether flash, tether sim and the virtual boards of a rover configuration.")
   set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
   # What the installed CMake package and .pc files ask for (cmake/TetherConfig.cmake.in); the simulator's
   # libraries only for Tether::virtual_uno, the images only for virtual boards.
+  # tether_generate_rpc runs protoc and the rpc codec's generator (libexec/tether/tether-rpc-cpp, whose
+  # libraries dpkg-shlibdeps finds); nanopb.proto for schemas with nanopb's options.
   set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
-    "libboost-dev (>= 1.74), libprotobuf-dev, libprotoc-dev, nlohmann-json3-dev, pkg-config")
-  set(CPACK_DEBIAN_DEV_PACKAGE_RECOMMENDS "libsimavr-dev, libelf-dev, tether-firmware (= ${PROJECT_VERSION})")
+    "libboost-dev (>= 1.74), libprotobuf-dev, libprotoc-dev, protobuf-compiler, nlohmann-json3-dev, pkg-config")
+  set(CPACK_DEBIAN_DEV_PACKAGE_SHLIBDEPS ON)
+  set(CPACK_DEBIAN_DEV_PACKAGE_RECOMMENDS
+    "libsimavr-dev, libelf-dev, tether-firmware (= ${PROJECT_VERSION}), nanopb")
   set(CPACK_DEBIAN_DEV_DESCRIPTION "static libraries and headers of Tether (robot host to AVR messaging)
 Tether carries messages between a robot's host computer and its AVR
 Arduinos over serial links, in three protocols: the Romi text protocol,

@@ -1,9 +1,11 @@
-# cmake -DPREFIX=... -DVERSION=... -DLIBDIR=... -DSCRATCH=... -P installed_layout.cmake
+# cmake -DPREFIX=... -DVERSION=... -DLIBDIR=... -DLIBEXECDIR=... -DSCRATCH=... -P installed_layout.cmake
 set(expected
   bin/tether
   ${LIBDIR}/cmake/Tether/TetherConfig.cmake
   ${LIBDIR}/cmake/Tether/TetherConfigVersion.cmake
   ${LIBDIR}/cmake/Tether/TetherTargets.cmake
+  ${LIBDIR}/cmake/Tether/TetherGenerateRpc.cmake
+  ${LIBEXECDIR}/tether/tether-rpc-cpp
   ${LIBDIR}/libtether_core.a
   ${LIBDIR}/libtether_romi_client.a
   ${LIBDIR}/libtether_proxy_client.a

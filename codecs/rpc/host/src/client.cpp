@@ -25,6 +25,7 @@
 #include <stdexcept>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "tether/core/session/heartbeat.hpp"
 #include "tether/core/session/request_table.hpp"
@@ -92,26 +93,47 @@ struct Policy {
 using Table = session::RequestTable<Policy, kMaxInFlight>;
 using Monitor = session::SessionMonitor<std::uint32_t, 1>;
 
-// The schema and the factory of its dynamic messages, shared by every message the client hands out (a
-// reply outlives the client safely).
+// The schema and the factory of its messages, shared by every message the client hands out (a reply
+// outlives the client safely). A compiled-in schema's messages are the program's generated classes (a
+// typed client takes its reply by a downcast); a schema read from a file makes dynamic messages.
 class Messages : public std::enable_shared_from_this<Messages> {
  public:
-  explicit Messages(Schema schema) : schema_(std::move(schema)), factory_(&schema_.pool()) {}
+  explicit Messages(Schema schema)
+      : schema_(std::move(schema)),
+        dynamic_(&schema_.pool()),
+        factory_(schema_.compiled_in() ? pb::MessageFactory::generated_factory() : &dynamic_) {
+    // The methods' prototypes, looked up once: a factory's lookup takes a lock and a hash map.
+    for (const Method& method : schema_.methods()) {
+      for (const pb::Descriptor* type : {method.input, method.output}) {
+        const bool known = std::ranges::any_of(prototypes_, [&](const auto& entry) { return entry.first == type; });
+        if (!known) prototypes_.emplace_back(type, factory_->GetPrototype(type));
+      }
+    }
+  }
   const Schema& schema() const { return schema_; }
   std::shared_ptr<pb::Message> make(const pb::Descriptor* type) {
-    pb::Message* message = factory_.GetPrototype(type)->New();
-    return std::shared_ptr<pb::Message>(message, [keep = shared_from_this()](pb::Message* m) { delete m; });
+    const auto found = std::ranges::find_if(prototypes_, [&](const auto& entry) { return entry.first == type; });
+    const pb::Message* prototype = found != prototypes_.end() ? found->second : factory_->GetPrototype(type);
+    return std::shared_ptr<pb::Message>(prototype->New(), [keep = shared_from_this()](pb::Message* m) { delete m; });
   }
 
  private:
   Schema schema_;
-  pb::DynamicMessageFactory factory_;
+  pb::DynamicMessageFactory dynamic_;
+  pb::MessageFactory* factory_;
+  std::vector<std::pair<const pb::Descriptor*, const pb::Message*>> prototypes_;
 };
 
 std::shared_ptr<const pb::Message> copy_request(const pb::Message& request) {
   std::shared_ptr<pb::Message> copy(request.New());
   copy->CopyFrom(request);
   return copy;
+}
+
+void copy_through_bytes(const pb::Message& from, pb::Message& to) {
+  std::string bytes;
+  (void)from.SerializeToString(&bytes);  // messages of the client: every field set is valid proto3
+  (void)to.ParseFromString(bytes);
 }
 
 // One message of the client on its way, as the pending-operation queue holds it.
@@ -492,11 +514,11 @@ class ClientImpl final : public client::ClientLink {
     switch (op->state.kind) {
       case Op::Kind::call:
         message.mutable_call()->set_method(op->state.method->index);
-        message.mutable_call()->set_request(op->state.request);
+        message.mutable_call()->set_request(std::move(op->state.request));  // sent once: re-sends are the frame's
         break;
       case Op::Kind::open:
         message.mutable_open()->set_method(op->state.method->index);
-        message.mutable_open()->set_request(op->state.request);
+        message.mutable_open()->set_request(std::move(op->state.request));
         message.mutable_open()->set_period_ms(op->state.period);
         break;
       case Op::Kind::close:
@@ -707,7 +729,7 @@ class ClientImpl final : public client::ClientLink {
         on_ack(out.ack().id(), out.ack().refused(), now);
         return;
       case wire::DeviceMessage::kReply:
-        on_answer(out.reply().call(), false, out.reply().reply(), DeviceError());
+        on_answer(out.reply().call(), false, std::move(*out.mutable_reply()->mutable_reply()), DeviceError());
         return;
       case wire::DeviceMessage::kError:
         on_answer(out.error().call(), true, std::string(),

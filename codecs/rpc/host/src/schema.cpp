@@ -30,14 +30,20 @@ void hash_bytes(std::uint64_t& hash, const std::string& bytes) {
   }
 }
 
-// Custom options (nanopb's `(nanopb).max_size`, anybody's own) are unknown fields of the descriptor's
-// option messages: they shape generated code, not the wire. Removed everywhere, recursively.
+// Custom options (nanopb's `(nanopb).max_size`, anybody's own) shape generated code, not the wire. They
+// are unknown fields of the descriptor's option messages, or extensions when the program links the
+// options' own generated classes (a typed client of a schema that imports nanopb.proto). Removed
+// everywhere, recursively.
 void strip_custom_options(pb::Message& message) {
   const pb::Reflection& reflection = *message.GetReflection();
   reflection.MutableUnknownFields(&message)->Clear();
   std::vector<const pb::FieldDescriptor*> fields;
   reflection.ListFields(message, &fields);
   for (const pb::FieldDescriptor* field : fields) {
+    if (field->is_extension()) {
+      reflection.ClearField(&message, field);
+      continue;
+    }
     if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
     if (field->is_repeated()) {
       for (int i = 0; i < reflection.FieldSize(message, field); ++i) {
@@ -99,50 +105,28 @@ struct Schema::Impl {
   pb::compiler::DiskSourceTree tree;
   detail::CollectSchemaErrors errors;
   pb::compiler::Importer importer{&tree, &errors};
+  const pb::DescriptorPool* pool = nullptr;  // the importer's, or the generated pool
   const pb::ServiceDescriptor* service = nullptr;
   std::vector<Method> methods;
   std::uint64_t hash = 0;
 };
 
-Schema Schema::load(const std::filesystem::path& file, const SchemaOptions& options) {
-  auto impl = std::make_unique<Impl>();
-  impl->file = file;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) {
-    throw SchemaError(file.string() + ": " + (std::filesystem::exists(file, ec) ? "not a file" : "no such file"));
-  }
-  const std::filesystem::path directory = std::filesystem::absolute(file, ec).parent_path();
-  impl->tree.MapPath("", directory.string());
-  for (const auto& path : options.import_paths) impl->tree.MapPath("", path.string());
-#ifdef TETHER_PROTOBUF_INCLUDE_DIR
-  impl->tree.MapPath("", TETHER_PROTOBUF_INCLUDE_DIR);
-#endif
-#ifdef TETHER_NANOPB_PROTO_DIR
-  impl->tree.MapPath("", TETHER_NANOPB_PROTO_DIR);
-#endif
-  const pb::FileDescriptor* descriptor = impl->importer.Import(file.filename().string());
-  if (descriptor == nullptr) {
-    throw SchemaError(impl->errors.text.empty() ? file.string() + ": cannot be read" : impl->errors.text);
-  }
-  const std::string where = file.string() + ": ";
-  if (descriptor->syntax() != pb::FileDescriptor::SYNTAX_PROTO3) {
+namespace {
+
+// A service's methods in wire order and its hash.
+struct ServiceTable {
+  const pb::ServiceDescriptor* service = nullptr;
+  std::vector<Method> methods;
+  std::uint64_t hash = 0;
+};
+
+// What both ways of making a schema check (proto3, methods the codec carries), then the table. `where`
+// prefixes the errors (`arm.proto: `).
+ServiceTable check_service(const pb::ServiceDescriptor& service, const std::string& where) {
+  ServiceTable table;
+  if (service.file()->syntax() != pb::FileDescriptor::SYNTAX_PROTO3) {
     throw SchemaError(where + "a schema is proto3 (`syntax = \"proto3\";`)");
   }
-  if (options.service.empty()) {
-    if (descriptor->service_count() == 0) throw SchemaError(where + "no service: the methods are a service's rpcs");
-    if (descriptor->service_count() > 1) {
-      std::string names;
-      for (int i = 0; i < descriptor->service_count(); ++i) {
-        names += (i == 0 ? "" : ", ") + descriptor->service(i)->name();
-      }
-      throw SchemaError(where + "more than one service (" + names + "): name the one to serve");
-    }
-    impl->service = descriptor->service(0);
-  } else {
-    impl->service = descriptor->FindServiceByName(options.service);
-    if (impl->service == nullptr) throw SchemaError(where + "no service " + options.service);
-  }
-  const pb::ServiceDescriptor& service = *impl->service;
   if (service.method_count() == 0) throw SchemaError(where + "service " + service.name() + " has no rpc");
   if (static_cast<std::size_t>(service.method_count()) > kMaxMethods) {
     throw SchemaError(where + "service " + service.name() + " has " + std::to_string(service.method_count()) +
@@ -154,11 +138,100 @@ Schema Schema::load(const std::filesystem::path& file, const SchemaOptions& opti
       throw SchemaError(where + service.name() + "." + m.name() +
                         ": client streaming is not carried (a method is a call or a server stream)");
     }
-    impl->methods.push_back(Method{m.name(), static_cast<std::uint16_t>(i), m.input_type(), m.output_type(),
+    table.methods.push_back(Method{m.name(), static_cast<std::uint16_t>(i), m.input_type(), m.output_type(),
                                    m.server_streaming()});
   }
-  impl->hash = schema_hash(service);
+  table.service = &service;
+  table.hash = schema_hash(service);
+  return table;
+}
+
+}  // namespace
+
+namespace {
+
+// Reads `file` and its imports into `importer` (whose source tree is `tree`); throws SchemaError.
+const pb::FileDescriptor* import_schema(const std::filesystem::path& file, const SchemaOptions& options,
+                                        pb::compiler::DiskSourceTree& tree, pb::compiler::Importer& importer,
+                                        const detail::CollectSchemaErrors& errors) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    throw SchemaError(file.string() + ": " + (std::filesystem::exists(file, ec) ? "not a file" : "no such file"));
+  }
+  const std::filesystem::path directory = std::filesystem::absolute(file, ec).parent_path();
+  tree.MapPath("", directory.string());
+  for (const auto& path : options.import_paths) tree.MapPath("", path.string());
+#ifdef TETHER_PROTOBUF_INCLUDE_DIR
+  tree.MapPath("", TETHER_PROTOBUF_INCLUDE_DIR);
+#endif
+#ifdef TETHER_NANOPB_PROTO_DIR
+  tree.MapPath("", TETHER_NANOPB_PROTO_DIR);
+#endif
+  const pb::FileDescriptor* descriptor = importer.Import(file.filename().string());
+  if (descriptor == nullptr) {
+    throw SchemaError(errors.text.empty() ? file.string() + ": cannot be read" : errors.text);
+  }
+  return descriptor;
+}
+
+}  // namespace
+
+std::vector<Schema> Schema::load_all(const std::filesystem::path& file, const SchemaOptions& options) {
+  std::vector<std::string> names;
+  {
+    pb::compiler::DiskSourceTree tree;
+    detail::CollectSchemaErrors errors;
+    pb::compiler::Importer importer(&tree, &errors);
+    const pb::FileDescriptor* descriptor = import_schema(file, options, tree, importer, errors);
+    for (int i = 0; i < descriptor->service_count(); ++i) names.push_back(descriptor->service(i)->name());
+  }
+  std::vector<Schema> schemas;
+  for (const std::string& name : names) {  // each with a pool of its own, as load() makes
+    SchemaOptions one = options;
+    one.service = name;
+    schemas.push_back(load(file, one));
+  }
+  return schemas;
+}
+
+Schema Schema::load(const std::filesystem::path& file, const SchemaOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->file = file;
+  const pb::FileDescriptor* descriptor = import_schema(file, options, impl->tree, impl->importer, impl->errors);
+  const std::string where = file.string() + ": ";
+  if (descriptor->syntax() != pb::FileDescriptor::SYNTAX_PROTO3) {
+    throw SchemaError(where + "a schema is proto3 (`syntax = \"proto3\";`)");
+  }
+  const pb::ServiceDescriptor* service = nullptr;
+  if (options.service.empty()) {
+    if (descriptor->service_count() == 0) throw SchemaError(where + "no service: the methods are a service's rpcs");
+    if (descriptor->service_count() > 1) {
+      std::string names;
+      for (int i = 0; i < descriptor->service_count(); ++i) {
+        names += (i == 0 ? "" : ", ") + descriptor->service(i)->name();
+      }
+      throw SchemaError(where + "more than one service (" + names + "): name the one to serve");
+    }
+    service = descriptor->service(0);
+  } else {
+    service = descriptor->FindServiceByName(options.service);
+    if (service == nullptr) throw SchemaError(where + "no service " + options.service);
+  }
+  impl->pool = impl->importer.pool();
+  ServiceTable table = check_service(*service, where);
+  impl->service = table.service;
+  impl->methods = std::move(table.methods);
+  impl->hash = table.hash;
   return Schema(std::move(impl));
+}
+
+Schema::Schema(const pb::ServiceDescriptor& service) : impl_(std::make_unique<Impl>()) {
+  impl_->file = service.file()->name();
+  impl_->pool = service.file()->pool();
+  ServiceTable table = check_service(service, service.file()->name() + ": ");
+  impl_->service = table.service;
+  impl_->methods = std::move(table.methods);
+  impl_->hash = table.hash;
 }
 
 Schema::Schema(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -176,7 +249,8 @@ const Method* Schema::find(std::string_view name) const {
   return nullptr;
 }
 std::uint64_t Schema::hash() const { return impl_->hash; }
-const pb::DescriptorPool& Schema::pool() const { return *impl_->importer.pool(); }
+const pb::DescriptorPool& Schema::pool() const { return *impl_->pool; }
+bool Schema::compiled_in() const { return impl_->pool == pb::DescriptorPool::generated_pool(); }
 
 std::uint64_t schema_hash(const pb::ServiceDescriptor& service) {
   std::uint64_t hash = kFnvOffset;

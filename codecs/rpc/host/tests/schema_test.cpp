@@ -164,3 +164,20 @@ TEST(RpcSchema, OneOfSeveralServicesIsChosenByName) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(RpcSchema, LoadAllGivesEachServiceItsSchemaAndAFileOfMessagesNone) {
+  const std::vector<Schema> both = Schema::load_all(kSchemas / "two_services.proto");
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_EQ(both[0].service().full_name(), "pair.Left");
+  EXPECT_EQ(both[1].service().full_name(), "pair.Right");
+  SchemaOptions right;
+  right.service = "Right";
+  EXPECT_EQ(both[1].hash(), Schema::load(kSchemas / "two_services.proto", right).hash());
+  EXPECT_NE(both[0].hash(), both[1].hash());
+  EXPECT_TRUE(Schema::load_all(kSchemas / "common" / "geometry.proto").empty());
+  EXPECT_THROW(Schema::load_all(kSchemas / "bad_type.proto"), SchemaError);
+}
+
+}  // namespace

@@ -9,6 +9,9 @@
 /// bounds (`Limits`) and `service()`. `ArmRpc_service.cpp` holds the table and the thunks that call the
 /// handlers, so a handler the application does not define is a link error that names it. The same two
 /// files go into the Arduino library, the project's bare-metal images and the host tests.
+///
+/// For the host it writes typed C++ clients (`client_code`: `arm::ArmClient` in `arm.tether.hpp`), which
+/// `tether_generate_rpc` builds with protoc's classes of the same file.
 #pragma once
 
 #include <filesystem>
@@ -46,5 +49,27 @@ ServiceCode service_code(const Schema& schema, std::string_view name, std::strin
 /// cannot be written.
 std::vector<std::filesystem::path> write_service_code(const Schema& schema, std::string_view name,
                                                       const std::filesystem::path& directory);
+
+/// The C++ class protoc makes for `type`, fully qualified (`arm.Description.Range` ->
+/// `::arm::Description_Range`).
+std::string cpp_class_name(const google::protobuf::Descriptor& type);
+
+/// The host's typed clients of a .proto file (what `tether_generate_rpc` builds beside protoc's classes):
+/// `<stem>.tether.hpp` declares one `<Service>Client` per service of the file, in its package's namespace
+/// (`arm::ArmClient`), on a `tether::rpc::Client` of the compiled-in schema; `<stem>.tether.cpp` holds
+/// what is not inline. `schemas` are the file's services (`Schema::load_all`; none: the two files only
+/// include protoc's header), `stem` the file's name without `.proto`.
+struct ClientCode {
+  std::string header;  ///< `<stem>.tether.hpp`
+  std::string source;  ///< `<stem>.tether.cpp`
+};
+/// Throws SchemaError for a method whose name is one of the client's own members (`close`, `wait_ready`,
+/// ...) or whose `async_` form is another method's name.
+ClientCode client_code(const std::vector<Schema>& schemas, std::string_view stem);
+
+/// Writes `<stem>.tether.hpp` and `<stem>.tether.cpp` of `proto` (its services read with `options`) into
+/// `directory` (created); returns their paths. Throws SchemaError, std::runtime_error as `write_service_code`.
+std::vector<std::filesystem::path> write_client_code(const std::filesystem::path& proto, const SchemaOptions& options,
+                                                     const std::filesystem::path& directory);
 
 }  // namespace tether::rpc

@@ -14,6 +14,10 @@
 ///       [](const rpc::error_code& e, const rpc::StreamMessage& m) { ... });   // closed when destroyed
 /// @endcode
 ///
+/// A program with protoc's classes of the schema uses them directly (`call_as`, `async_call_as`,
+/// `open_stream_as`); `tether_generate_rpc` writes a typed client on these (`arm::ArmClient`), whose schema
+/// is compiled in (`rpc::Schema(service)`): no .proto is read at run time.
+///
 /// ## Protocol (tether_rpc.proto; the device side is device/rpc_device.hpp)
 ///   1. **Session.** From construction the client sends `Hello` (again every `hello_timeout` until
 ///      answered) and waits for `DeviceHello`. A schema hash other than this schema's is refused:
@@ -67,6 +71,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 
 #include "tether/core/counters.hpp"
@@ -279,6 +284,22 @@ void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::Ope
                 CallHandler handler, CallRequest call);
 /// A copy of `request` the initiation keeps.
 std::shared_ptr<const google::protobuf::Message> copy_request(const google::protobuf::Message& request);
+/// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
+void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
+
+/// `message` as the program's class `Typed`: moved out when it is one (a compiled-in schema's), copied
+/// through its bytes otherwise (a schema read from a file); empty when null.
+template <typename Typed>
+Typed take_as(const std::shared_ptr<google::protobuf::Message>& message) {
+  Typed out;
+  if (!message) return out;
+  if (Typed* typed = dynamic_cast<Typed*>(message.get())) {
+    out = std::move(*typed);
+  } else {
+    copy_through_bytes(*message, out);
+  }
+  return out;
+}
 }  // namespace detail
 
 /// What a schema mismatch says (the event's text, the blocking wait's error, the bindings'): the schema
@@ -331,6 +352,46 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   Stream open_stream(std::string_view method, const google::protobuf::Message& request,
                      std::chrono::milliseconds period, StreamHandler handler);
 
+  // The typed forms: requests and replies of the program's own protoc classes (what the clients that
+  // `tether_generate_rpc` writes call). With a compiled-in schema (`Schema(service)`) the client makes its
+  // replies as those classes and hands them over by a move; with a schema read from a file they are
+  // copied through their bytes.
+
+  /// Blocking `call` whose reply is a `Reply` (protoc's class of the method's output). Throws as `call`.
+  template <typename Reply>
+  Reply call_as(std::string_view method, const google::protobuf::Message& request) {
+    return detail::take_as<Reply>(call(method, request).reply);
+  }
+  /// Blocking `call` whose reply is a `Reply`; failures in `error` (the reply is then empty).
+  template <typename Reply>
+  Reply call_as(std::string_view method, const google::protobuf::Message& request, error_code& error) {
+    return detail::take_as<Reply>(call(method, request, error).reply);
+  }
+  /// `async_call` completing `void(error_code, Reply)` (an empty `Reply` on failure; a device's code and
+  /// text are `async_call`'s `CallResult::device_error`).
+  template <typename Reply, typename Token>
+  auto async_call_as(std::string_view method, const google::protobuf::Message& request, Token&& token) {
+    return initiate<void(error_code, Reply)>(std::forward<Token>(token), &start_call_as<Reply>,
+                                             detail::CallRequest{std::string(method), detail::copy_request(request)});
+  }
+  /// `open_stream` whose handler takes each message as a `Typed` (protoc's class of the method's output):
+  /// `handler(error, message)` as `StreamHandler`'s contract, with an empty message when the stream ends.
+  template <typename Typed>
+  Stream open_stream_as(std::string_view method, const google::protobuf::Message& request,
+                        std::chrono::milliseconds period,
+                        std::function<void(const error_code& error, const Typed& message)> handler) {
+    return open_stream(method, request, period,
+                       [handler = std::move(handler)](const error_code& error, const StreamMessage& message) {
+                         if (!message.message) return handler(error, Typed::default_instance());
+                         if (const auto* typed = dynamic_cast<const Typed*>(message.message.get())) {
+                           return handler(error, *typed);
+                         }
+                         Typed copy;
+                         detail::copy_through_bytes(*message.message, copy);
+                         handler(error, copy);
+                       });
+  }
+
   /// Diagnostics. Any thread.
   Counters counters() const;
   /// The session as the client knows it. Any thread.
@@ -340,6 +401,16 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   static void start_wait_ready(const std::shared_ptr<detail::ClientImpl>& impl,
                                client::ClientLink::OperationId operation,
                                transports::UniqueFunction<ReadySignature> handler);
+  template <typename Reply>
+  static void start_call_as(const std::shared_ptr<detail::ClientImpl>& impl,
+                            client::ClientLink::OperationId operation,
+                            transports::UniqueFunction<void(error_code, Reply)> handler, detail::CallRequest call) {
+    detail::start_call(impl, operation,
+                       detail::CallHandler([handler = std::move(handler)](error_code error, CallResult result) mutable {
+                         handler(error, detail::take_as<Reply>(result.reply));
+                       }),
+                       std::move(call));
+  }
 };
 
 }  // namespace tether::rpc
