@@ -79,6 +79,9 @@ struct CodecCommands {
   /// `--virtual IMAGE`: images whose file name starts with one of these speak it (the longest prefix wins;
   /// no match: the default codec).
   std::vector<std::string_view> image_prefixes;
+  /// An image of its firmware in the firmware folder, named in the `--virtual` usage (`romi-test`; empty:
+  /// none).
+  std::string_view example_image;
   /// The codec of a `--port` without `--codec` and of a `--virtual` image no prefix matches (one row has it:
   /// romi's).
   bool is_default = false;
@@ -110,8 +113,14 @@ struct CodecCommands {
       monitor_decoder;
   /// `monitor --keepalive` applies (proxy primary mode).
   bool monitor_keepalive = false;
+  /// `tether stats`' usage: what runs on the link meanwhile (after the codec's name; lines after the first
+  /// indented by 16 spaces, each ending in a newline).
+  std::string_view stats_activity;
   /// `tether stats`: the probe sent every interval unless `--passive` (unset: the codec takes no probe).
   std::string_view default_probe;
+  /// `tether stats --probe`'s usage for the codec (`the command sent every interval (default '?')`); set
+  /// with `check_probe`.
+  std::string_view probe_usage;
   /// Why `probe` cannot be sent (nothing: it can).
   std::function<std::optional<std::string>(const std::string& probe)> check_probe;
   /// Sends `probe` once; true when the device answered.

@@ -30,19 +30,37 @@ namespace tether::cli {
 
 namespace {
 
-// The device options after `--codec` (its line lists the codecs the command has rows for).
-const char* const kDeviceUsageRest =
-    "    --baud N          line speed (default 115200; 57600 for proxy-compat)\n"
-    "    --boot-wait MS    wait after opening and drop what the board printed meanwhile (default 0; 2000 for\n"
-    "                      an Arduino Uno, which resets when the port opens)\n"
-    "  --config FILE --device NAME\n"
-    "                      device NAME of a rover configuration (JSON, docs/examples/); its transport, codec\n"
-    "                      and options come from the file (bare firmware names resolve in the firmware folder)\n"
-    "  --virtual FIRMWARE  starts a virtual Arduino Uno running FIRMWARE: a path to an .elf, or an image name\n"
-    "                      (romi-test, proxy, proxy-compat, elcano-node, rpc-example) in the firmware folder\n"
-    "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
-    "                      The codec follows the name (proxy-compat*, proxy*, elcano*, rpc*, else romi)\n"
-    "                      unless --codec says\n";
+// The codecs' texts in the device usage, from their rows: the line speeds other than 115200
+// (`; 57600 for proxy-compat`), the example images (`romi-test, proxy, ...`) and the image prefixes, longest
+// first as they are matched (`proxy-compat*, elcano*, ...`).
+struct RowTexts {
+  std::string bauds;
+  std::string images;
+  std::string prefixes;
+};
+
+RowTexts row_texts() {
+  RowTexts texts;
+  std::vector<std::string_view> prefixes;
+  const devices::Codec fallback = default_codec();
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    if (row->default_baud != 115200) {
+      texts.bauds += "; " + std::to_string(row->default_baud) + " for " + std::string(row->name);
+    }
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands == nullptr) continue;
+    if (!commands->example_image.empty()) {
+      texts.images += (texts.images.empty() ? "" : ", ") + std::string(commands->example_image);
+    }
+    if (row->codec == fallback) continue;
+    for (const std::string_view prefix : commands->image_prefixes) prefixes.push_back(prefix);
+  }
+  std::stable_sort(prefixes.begin(), prefixes.end(),
+                   [](std::string_view a, std::string_view b) { return a.size() > b.size(); });
+  for (const std::string_view prefix : prefixes) texts.prefixes += std::string(prefix) + "*, ";
+  texts.prefixes += "else " + std::string(devices::to_string(fallback));
+  return texts;
+}
 
 // The first codec row that takes the flag `name`, or null.
 const CodecFlag* find_codec_flag(std::string_view name) {
@@ -59,10 +77,23 @@ const CodecFlag* find_codec_flag(std::string_view name) {
 }  // namespace
 
 std::string device_usage() {
-  std::string usage = "device (exactly one of):\n"
-                      "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
-                      "    --codec C         " + codec_choices() + " (default: romi; proxy for send)\n" +
-                      kDeviceUsageRest;
+  const RowTexts texts = row_texts();
+  std::string usage =
+      "device (exactly one of):\n"
+      "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
+      "    --codec C         " + codec_choices() + " (default: " + std::string(devices::to_string(default_codec())) +
+      ")\n"
+      "    --baud N          line speed (default 115200" + texts.bauds + ")\n"
+      "    --boot-wait MS    wait after opening and drop what the board printed meanwhile (default 0; 2000 for\n"
+      "                      an Arduino Uno, which resets when the port opens)\n"
+      "  --config FILE --device NAME\n"
+      "                      device NAME of a rover configuration (JSON, docs/examples/); its transport, codec\n"
+      "                      and options come from the file (bare firmware names resolve in the firmware folder)\n"
+      "  --virtual FIRMWARE  starts a virtual Arduino Uno running FIRMWARE: a path to an .elf, or an image name\n"
+      "                      (" + texts.images + ") in the firmware folder\n"
+      "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
+      "                      The codec follows the name (" + texts.prefixes + ")\n"
+      "                      unless --codec says\n";
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);
     if (commands == nullptr || (commands->flags.empty() && commands->usage_note.empty())) continue;

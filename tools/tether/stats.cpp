@@ -23,7 +23,34 @@ namespace tether::cli {
 
 namespace {
 
+// The codecs' lines of the usage, from their rows: what runs meanwhile, and what --probe takes.
+struct CodecTexts {
+  std::string activity;  // `  romi          the probe command ...`
+  std::string probes;    // `romi: the command sent ...; rpc: ...`
+  std::string probing;   // `romi, rpc`
+};
+
+CodecTexts codec_texts() {
+  CodecTexts texts;
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands == nullptr) continue;
+    if (!commands->stats_activity.empty()) {
+      std::string name(row->name);
+      name.resize(std::max<std::size_t>(name.size() + 1, 14), ' ');
+      texts.activity += "  " + name + std::string(commands->stats_activity);
+    }
+    if (!commands->probe_usage.empty()) {
+      texts.probes += (texts.probes.empty() ? "" : "; ") + std::string(row->name) + ": " +
+                      std::string(commands->probe_usage);
+      texts.probing += (texts.probing.empty() ? "" : ", ") + std::string(row->name);
+    }
+  }
+  return texts;
+}
+
 const CommandText& command_text() {
+  static const CodecTexts texts = codec_texts();
   static const CommandText text(
       "stats",
       std::string(
@@ -32,22 +59,16 @@ const CommandText& command_text() {
           "Opens a session with the device, runs it for --duration seconds doing what keeps it alive, and\n"
           "prints the session's counters: the link counters every codec keeps (frames_ok, crc_errors,\n"
           "framing_errors, oversize_frames, resyncs, stale, retries, timeouts, resets, ...) and the codec's own.\n"
-          "What runs meanwhile:\n"
-          "  romi          the probe command every --interval ms (default '?', every 1000 ms; the first at once);\n"
-          "                its answers, errors included, count as traffic; --passive sends nothing\n"
-          "  proxy         the client's session: Reset handshake at the start, a Ping every second, acks\n"
-          "  proxy-compat  nothing is sent (the deployed protocol has no heartbeat); the device's reports count\n"
-          "  elcano        the host's ring node: messages it does not capture are forwarded\n"
-          "  rpc           the client's session: Hello handshake, a Ping every second; with --probe\n"
-          "                'METHOD FIELD=VALUE ...' that call every --interval ms (default: no call)\n"
+          "What runs meanwhile:\n") +
+          texts.activity +
           "The same report is `:stats` in `tether shell`.\n"
-          "\n") +
+          "\n" +
       device_usage() +
       "\n"
       "  --duration S   how long to run (default 5; 0: open, probe once, print)\n"
-      "  --probe CMD    romi: the command sent every interval (default '?'); rpc: a call, 'METHOD FIELD=VALUE'\n"
-      "  --passive      romi, rpc: send no probe\n"
-      "  --interval MS  romi, rpc: time between probes (default 1000)\n"
+      "  --probe CMD    " + texts.probes + "\n"
+      "  --passive      " + texts.probing + ": send no probe\n"
+      "  --interval MS  " + texts.probing + ": time between probes (default 1000)\n"
       "  --json         print one JSON object instead of the table\n"
       "\n"
       "SIGINT/SIGTERM stop early and print what was counted so far. Exit status: 0 counters printed;\n"

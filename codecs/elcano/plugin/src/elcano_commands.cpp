@@ -174,6 +174,8 @@ CodecCommands elcano_commands() {
   CodecCommands row;
   row.name = "elcano";
   row.image_prefixes = {"elcano"};
+  row.example_image = "elcano-node";
+  row.stats_activity = "the host's ring node: messages it does not capture are forwarded\n";
   row.flags = {
       {"--generation", "    --generation B|D  the ring's wire generation (default B)\n",
        [](std::string_view value) -> std::optional<std::string> {

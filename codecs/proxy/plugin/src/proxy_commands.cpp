@@ -87,6 +87,11 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
   CodecCommands row;
   row.name = name;
   row.image_prefixes = {name};
+  row.example_image = name;  // the images proxy and proxy-compat
+  row.stats_activity =
+      mode == proxy::Mode::primary
+          ? "the client's session: Reset handshake at the start, a Ping every second, acks\n"
+          : "nothing is sent (the deployed protocol has no heartbeat); the device's reports count\n";
   row.default_options = [mode](std::uint32_t baud, const DeviceOptions&) -> devices::CodecOptions {
     proxy::DeviceOptions options;
     options.client = mode == proxy::Mode::primary ? proxy::Options::primary() : proxy::Options::compat();

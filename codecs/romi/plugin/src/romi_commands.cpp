@@ -55,7 +55,11 @@ CodecCommands romi_commands() {
   CodecCommands row;
   row.name = "romi";
   row.image_prefixes = {"romi"};
+  row.example_image = "romi-test";
   row.is_default = true;
+  row.stats_activity =
+      "the probe command every --interval ms (default '?', every 1000 ms; the first at once);\n"
+      "                its answers, errors included, count as traffic; --passive sends nothing\n";
   row.default_options = [](std::uint32_t, const DeviceOptions&) -> devices::CodecOptions {
     return romi::DeviceOptions();
   };
@@ -74,6 +78,7 @@ CodecCommands romi_commands() {
   };
   row.monitor_decoder = make_romi_monitor_decoder;
   row.default_probe = "?";
+  row.probe_usage = "the command sent every interval (default '?')";
   row.check_probe = [](const std::string& probe) -> std::optional<std::string> {
     const romi::Command command(probe);
     if (command.valid()) return std::nullopt;

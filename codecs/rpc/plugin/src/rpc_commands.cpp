@@ -154,6 +154,10 @@ CodecCommands rpc_commands() {
   CodecCommands row;
   row.name = "rpc";
   row.image_prefixes = {"rpc"};
+  row.example_image = "rpc-example";
+  row.stats_activity =
+      "the client's session: Hello handshake, a Ping every second; with --probe\n"
+      "                'METHOD FIELD=VALUE ...' that call every --interval ms (default: no call)\n";
   row.flags = {{"--schema",
                 "    --schema FILE    the device's .proto (its service; the device's Hello must carry its hash);\n"
                 "                     with --virtual IMAGE, IMAGE.proto beside the image when not given\n",
@@ -220,6 +224,7 @@ CodecCommands rpc_commands() {
   };
   // The probe: one call `METHOD FIELD=VALUE ...` every interval; none by default (the session's pings).
   row.default_probe = "";
+  row.probe_usage = "a call, 'METHOD FIELD=VALUE'";
   row.check_probe = [](const std::string& probe) -> std::optional<std::string> {
     if (!probe.empty() && (probe.front() == ' ' || probe.find('=') == 0)) return std::string("expected METHOD FIELD=VALUE ...");
     return std::nullopt;
