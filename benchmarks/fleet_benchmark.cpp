@@ -42,6 +42,7 @@
 #include "tether/romi/client.hpp"
 #include "tether/romi/decoder.hpp"
 #include "tether/romi/encoder.hpp"
+#include "fleet.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether_proxy.pb.h"
 
@@ -49,78 +50,11 @@ namespace {
 
 namespace asio = boost::asio;
 using namespace tether;
-using Clock = std::chrono::steady_clock;
-using error_code = boost::system::error_code;
+using namespace tether::fleet;
 using transports::ByteStream;
 using transports::InMemoryStream;
 
-// CPU time of the calling thread.
-std::chrono::nanoseconds thread_cpu() {
-  timespec now{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-  return std::chrono::seconds(now.tv_sec) + std::chrono::nanoseconds(now.tv_nsec);
-}
-
-// The calling thread's user and system CPU and its context switches (getrusage).
-struct ThreadUsage {
-  double user_us = 0;
-  double system_us = 0;
-  long voluntary_switches = 0;
-  long involuntary_switches = 0;
-
-  static ThreadUsage now() {
-    rusage usage{};
-    getrusage(RUSAGE_THREAD, &usage);
-    const auto us = [](const timeval& t) { return static_cast<double>(t.tv_sec) * 1e6 + static_cast<double>(t.tv_usec); };
-    return {us(usage.ru_utime), us(usage.ru_stime), usage.ru_nvcsw, usage.ru_nivcsw};
-  }
-  ThreadUsage operator-(const ThreadUsage& start) const {
-    return {user_us - start.user_us, system_us - start.system_us, voluntary_switches - start.voluntary_switches,
-            involuntary_switches - start.involuntary_switches};
-  }
-};
-
 // --- fake devices (device thread) ----------------------------------------------------------------------
-
-// A device end: reads continuously, hands bytes to `on_bytes`, writes answers in order.
-class FakeDevice : public std::enable_shared_from_this<FakeDevice> {
- public:
-  explicit FakeDevice(std::shared_ptr<ByteStream> end) : end_(std::move(end)) {}
-  virtual ~FakeDevice() = default;
-
-  void start() { read(); }
-  void close() {
-    asio::post(end_->get_executor(), [self = shared_from_this()] { self->end_->close(); });
-  }
-
- protected:
-  virtual void on_bytes(const std::uint8_t* data, std::size_t size) = 0;
-
-  void send(const std::uint8_t* data, std::size_t size) {
-    outbox_.emplace_back(reinterpret_cast<const char*>(data), size);
-    if (outbox_.size() == 1) write_front();
-  }
-
- private:
-  void read() {
-    end_->async_read_some(asio::buffer(input_), [self = shared_from_this()](error_code error, std::size_t size) {
-      if (error) return;
-      self->on_bytes(self->input_.data(), size);
-      self->read();
-    });
-  }
-  void write_front() {
-    asio::async_write(*end_, asio::buffer(outbox_.front()), [self = shared_from_this()](error_code error, std::size_t) {
-      if (error) return;
-      self->outbox_.pop_front();
-      if (!self->outbox_.empty()) self->write_front();
-    });
-  }
-
-  std::shared_ptr<ByteStream> end_;
-  std::array<std::uint8_t, 512> input_{};
-  std::deque<std::string> outbox_;
-};
 
 class RomiDevice final : public FakeDevice {
  public:
@@ -193,76 +127,6 @@ class ElcanoRing final : public FakeDevice {
   LinkCounters counters_;
   elcano::Decoder<96> decoder_{elcano::Generation::b, counters_};
 };
-
-// --- host side (host thread) ----------------------------------------------------------------------------
-
-struct Tally {
-  std::vector<double> latencies_us;
-  std::uint64_t calls = 0;
-  std::uint64_t errors = 0;
-  std::uint64_t skipped = 0;
-};
-
-// One device's caller: a tick every period starts a call unless the previous one is still in flight.
-class Caller {
- public:
-  using Start = std::function<void(std::function<void(bool ok)>)>;
-
-  Caller(asio::io_context& io, Clock::duration period, Start start, Tally& tally)
-      : timer_(io), period_(period), start_(std::move(start)), tally_(tally) {}
-
-  void run(Clock::time_point first, Clock::time_point end) {
-    next_ = first;
-    end_ = end;
-    tick();
-  }
-
- private:
-  void tick() {
-    if (next_ >= end_) return;
-    timer_.expires_at(next_);
-    timer_.async_wait([this](error_code error) {
-      if (error) return;
-      next_ += period_;
-      if (busy_) {
-        ++tally_.skipped;
-      } else {
-        busy_ = true;
-        const Clock::time_point started = Clock::now();
-        start_([this, started](bool ok) {
-          busy_ = false;
-          tally_.latencies_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - started).count());
-          ++tally_.calls;
-          if (!ok) ++tally_.errors;
-        });
-      }
-      tick();
-    });
-  }
-
-  asio::steady_timer timer_;
-  Clock::duration period_;
-  Start start_;
-  Tally& tally_;
-  Clock::time_point next_;
-  Clock::time_point end_;
-  bool busy_ = false;
-};
-
-double percentile(std::vector<double> sorted, double fraction) {
-  if (sorted.empty()) return 0;
-  const auto index = static_cast<std::size_t>(fraction * static_cast<double>(sorted.size() - 1) + 0.5);
-  return sorted[std::min(index, sorted.size() - 1)];
-}
-
-void print(const char* name, const Tally& tally) {
-  std::vector<double> sorted = tally.latencies_us;
-  std::sort(sorted.begin(), sorted.end());
-  std::printf("  %-8s calls %7llu  errors %llu  skipped %llu  latency us: p50 %7.1f  p90 %7.1f  p99 %7.1f  max %8.1f\n",
-              name, static_cast<unsigned long long>(tally.calls), static_cast<unsigned long long>(tally.errors),
-              static_cast<unsigned long long>(tally.skipped), percentile(sorted, 0.50), percentile(sorted, 0.90),
-              percentile(sorted, 0.99), sorted.empty() ? 0.0 : sorted.back());
-}
 
 }  // namespace
 

@@ -74,10 +74,21 @@ function(tether_package_dependency component)
     "if(\"${component}\" IN_LIST _tether_built_components)\n  find_dependency(${_arguments})\nendif()\n")
 endfunction()
 
+# tether_package_module(component file): a CMake module of the component's folder (functions for the
+# package's users, such as a codec's code generators) installed beside TetherConfig.cmake and included by
+# find_package(Tether) when the package holds the component and the caller asked for it (or for nothing).
+function(tether_package_module component file)
+  cmake_path(GET file FILENAME _name)
+  install(FILES ${file} DESTINATION ${TETHER_INSTALL_CMAKEDIR})
+  set_property(GLOBAL APPEND_STRING PROPERTY TETHER_PACKAGE_MODULES
+    "if(\"${component}\" IN_LIST _tether_built_components AND (NOT _tether_components OR \"${component}\" IN_LIST _tether_components))\n  include(\${CMAKE_CURRENT_LIST_DIR}/${_name})\nendif()\n")
+endfunction()
+
 # The export set, TetherConfig.cmake and TetherConfigVersion.cmake. Called once every library is defined.
 function(tether_install_package)
   install(EXPORT TetherTargets NAMESPACE Tether:: DESTINATION ${TETHER_INSTALL_CMAKEDIR})
   get_property(TETHER_PACKAGE_DEPENDENCIES GLOBAL PROPERTY TETHER_PACKAGE_DEPENDENCIES)
+  get_property(TETHER_PACKAGE_MODULES GLOBAL PROPERTY TETHER_PACKAGE_MODULES)
   configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/TetherConfig.cmake.in
     ${PROJECT_BINARY_DIR}/TetherConfig.cmake INSTALL_DESTINATION ${TETHER_INSTALL_CMAKEDIR}
     PATH_VARS TETHER_INSTALL_FIRMWAREDIR)

@@ -146,3 +146,21 @@ def test_bad_schemas_and_closed_clients(tmp_path):
         client.close()
         with pytest.raises(tether.ClosedError):
             client.call("Describe")
+
+
+def test_the_examples_python_script(monkeypatch, capsys):
+    # examples/rpc/arm_client.py as a user runs it (`python3 arm_client.py --virtual rpc-example`), in this
+    # process: its virtual board, the schema beside the script.
+    import runpy
+    import sys
+    script = str(pathlib.Path(SCHEMA).with_name("arm_client.py"))
+    monkeypatch.setattr(sys, "argv", [script, "--virtual", "rpc-example"])
+    with pytest.raises(SystemExit) as exited:
+        runpy.run_path(script, run_name="__main__")
+    assert exited.value.code == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "MoveJoint(2, -4500): reached -4500"
+    assert lines[1].startswith("MoveJoint(9, 0): device error 1: ")
+    assert lines[2] == "SetMode(MODE_ACTIVE, -9000..9000): was MODE_IDLE"
+    assert lines[3].startswith("Describe: ") and lines[3].endswith(" joints, -9000..9000, 1 moves")
+    assert lines[4] == "Watch: 3 states, joint 2 at -4500"

@@ -1,0 +1,180 @@
+// Host cost of one rpc call through the typed client (the example's arm.proto, protoc's classes and the
+// compiled-in schema that tether_generate_rpc builds): encode + decode of one MoveJoint call, as the
+// client's strand does it (codecs/rpc/host/src/client.cpp):
+//   encode: the request copied (the call's initiation keeps it), serialized, the HostMessage envelope (id, method index, request bytes)
+//           serialized, the frame (COBS + CRC-16, leading delimiter) into a shared buffer;
+//   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope parsed,
+//           the reply made from the generated prototype (an arm::JointReply) and parsed, then moved out as
+//           the typed client hands it over (`Client::call_as`).
+// BM_RpcTypedMoveJointWithAck also decodes the device's Ack frame, the other frame of the round trip.
+// BM_RpcDynamicJsonMoveJoint is the dynamic client's `call_json` (the CLI's and Python's path): the schema
+// read from arm.proto at run time, the request parsed from JSON into a dynamic message, the reply printed as
+// JSON (protobuf's mapping, every field), the rest as above.
+// No I/O, no strand, no timers: those are the fleet benchmark's.
+#include <benchmark/benchmark.h>
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/dynamic_message.h>
+#include <google/protobuf/message.h>
+#include <google/protobuf/util/json_util.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "arm.tether.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device_message.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/rpc/client.hpp"
+#include "tether/rpc/schema.hpp"
+#include "tether_rpc.pb.h"
+
+namespace {
+
+namespace pb = google::protobuf;
+using namespace tether;
+
+std::string frame_of(const std::string& payload) {
+  std::string out(proxy::max_frame_size(payload.size()), '\0');
+  const Result<size_t> size =
+      proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
+                          MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
+  out.resize(size.ok() ? size.value() : 0);
+  return out;
+}
+
+// What the device sends for call `id`: its Reply (reached_cdeg = -4500) and its Ack.
+struct DeviceFrames {
+  std::string reply;
+  std::string ack;
+};
+DeviceFrames device_frames(std::uint32_t id) {
+  arm::JointReply joint;
+  joint.set_reached_cdeg(-4500);
+  rpc::wire::DeviceMessage reply;
+  reply.mutable_reply()->set_call(id);
+  reply.mutable_reply()->set_reply(joint.SerializeAsString());
+  rpc::wire::DeviceMessage ack;
+  ack.mutable_ack()->set_id(id);
+  return DeviceFrames{frame_of(reply.SerializeAsString()), frame_of(ack.SerializeAsString())};
+}
+
+// Encode: the call's HostMessage frame of `request` (already the call's copy), as the strand makes it.
+std::shared_ptr<const std::string> call_frame(const pb::Message& request, const rpc::Method& method, std::uint32_t id) {
+  std::string bytes;
+  request.SerializeToString(&bytes);
+  rpc::wire::HostMessage message;
+  message.set_id(id);
+  message.mutable_call()->set_method(method.index);
+  message.mutable_call()->set_request(std::move(bytes));
+  return std::make_shared<const std::string>(frame_of(message.SerializeAsString()));
+}
+
+// Decode: the device's frames through the incremental decoder; the Reply's payload bytes.
+template <std::size_t Capacity>
+std::string reply_payload(proxy::Decoder<Capacity>& decoder, const DeviceFrames& answer, bool with_ack,
+                          benchmark::State& state) {
+  std::string reply_bytes;
+  for (const std::string* incoming : {&answer.reply, &answer.ack}) {
+    if (incoming == &answer.ack && !with_ack) break;
+    ByteView input = ByteView::from_chars(incoming->data(), incoming->size());
+    while (!input.empty()) {
+      const FeedResult fed = decoder.feed(input);
+      input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
+      if (fed.status != DecodeStatus::frame) continue;
+      rpc::wire::DeviceMessage out;
+      if (!proxy::parse_device_message(out, decoder.frame())) state.SkipWithError("undecodable");
+      if (out.body_case() == rpc::wire::DeviceMessage::kReply) reply_bytes = std::move(*out.mutable_reply()->mutable_reply());
+      benchmark::DoNotOptimize(out.body_case());
+    }
+  }
+  return reply_bytes;
+}
+
+void set_counters(benchmark::State& state, std::size_t call_bytes, const DeviceFrames& answer) {
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()));
+  state.counters["call_bytes"] = static_cast<double>(call_bytes);
+  state.counters["reply_bytes"] = static_cast<double>(answer.reply.size());
+  state.counters["ack_bytes"] = static_cast<double>(answer.ack.size());
+}
+
+void typed_move_joint(benchmark::State& state, bool with_ack) {
+  const rpc::Schema schema(arm::ArmClient::descriptor());
+  const rpc::Method& method = *schema.find("MoveJoint");
+  constexpr std::uint32_t kId = 0x12345678;
+  const DeviceFrames answer = device_frames(kId);
+  // The client looks each method's prototype up once (its Messages table).
+  const pb::Message* reply_prototype = pb::MessageFactory::generated_factory()->GetPrototype(method.output);
+  LinkCounters counters;
+  proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
+  arm::JointRequest request;
+  request.set_joint(2);
+  request.set_angle_cdeg(-4500);
+  std::size_t call_bytes = 0;
+  std::int64_t reached = 0;
+  for (auto _ : state) {
+    // Encode: the initiation's copy of the request, then what the strand does with it.
+    const std::shared_ptr<const pb::Message> kept = rpc::detail::copy_request(request);
+    if (kept->GetDescriptor() != method.input) state.SkipWithError("not the compiled-in type");
+    const auto frame = call_frame(*kept, method, kId);
+    call_bytes = frame->size();
+    benchmark::DoNotOptimize(frame->data());
+
+    const std::string reply_bytes = reply_payload(decoder, answer, with_ack, state);
+    std::shared_ptr<pb::Message> decoded(reply_prototype->New());
+    if (!proxy::parse_device_message(*decoded, ByteView::from_chars(reply_bytes.data(), reply_bytes.size()))) {
+      state.SkipWithError("bad reply");
+    }
+    const arm::JointReply reply = rpc::detail::take_as<arm::JointReply>(decoded);
+    reached = reply.reached_cdeg();
+    benchmark::DoNotOptimize(reached);
+  }
+  if (reached != -4500) state.SkipWithError("wrong reply");
+  set_counters(state, call_bytes, answer);
+}
+
+void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
+  const rpc::Schema schema = rpc::Schema::load(TETHER_RPC_EXAMPLE_SCHEMA);
+  const rpc::Method& method = *schema.find("MoveJoint");
+  constexpr std::uint32_t kId = 0x12345678;
+  const DeviceFrames answer = device_frames(kId);
+  pb::DynamicMessageFactory factory;
+  const pb::Message* request_prototype = factory.GetPrototype(method.input);
+  const pb::Message* reply_prototype = factory.GetPrototype(method.output);
+  LinkCounters counters;
+  proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
+  const std::string json_request = R"({"joint": 2, "angleCdeg": -4500})";
+  pb::util::JsonPrintOptions print;
+  print.always_print_primitive_fields = true;
+  std::size_t call_bytes = 0;
+  std::string json_reply;
+  for (auto _ : state) {
+    std::shared_ptr<pb::Message> request(request_prototype->New());
+    if (!pb::util::JsonStringToMessage(json_request, request.get()).ok()) state.SkipWithError("bad JSON");
+    const std::shared_ptr<const pb::Message> kept = rpc::detail::copy_request(*request);
+    const auto frame = call_frame(*kept, method, kId);
+    call_bytes = frame->size();
+    benchmark::DoNotOptimize(frame->data());
+
+    const std::string reply_bytes = reply_payload(decoder, answer, false, state);
+    std::shared_ptr<pb::Message> decoded(reply_prototype->New());
+    if (!proxy::parse_device_message(*decoded, ByteView::from_chars(reply_bytes.data(), reply_bytes.size()))) {
+      state.SkipWithError("bad reply");
+    }
+    json_reply.clear();
+    (void)pb::util::MessageToJsonString(*decoded, &json_reply, print);
+    benchmark::DoNotOptimize(json_reply.data());
+  }
+  if (json_reply != R"({"reachedCdeg":-4500})") state.SkipWithError(("wrong reply " + json_reply).c_str());
+  set_counters(state, call_bytes, answer);
+}
+BENCHMARK(BM_RpcDynamicJsonMoveJoint);
+
+void BM_RpcTypedMoveJoint(benchmark::State& state) { typed_move_joint(state, false); }
+BENCHMARK(BM_RpcTypedMoveJoint);
+
+void BM_RpcTypedMoveJointWithAck(benchmark::State& state) { typed_move_joint(state, true); }
+BENCHMARK(BM_RpcTypedMoveJointWithAck);
+
+}  // namespace
