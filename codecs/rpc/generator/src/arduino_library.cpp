@@ -207,7 +207,7 @@ std::string arduino_library_header(const Schema& schema, std::string_view name_v
     << "/// " << full << " served on a Stream (`Serial`: the fast path); begin() after Serial.begin(), poll() from loop().\n"
     << "class " << name << " : public tether::arduino::RpcDevice<" << service << "> {\n"
     << " public:\n"
-    << "  /// The device on `port` (any Stream, or the core's HardwareSerial).\n"
+    << "  /// The device on a Stream, or on the core's HardwareSerial (`Serial`: the fast path).\n"
     << "  using tether::arduino::RpcDevice<" << service << ">::RpcDevice;\n"
     << "};\n";
   return h.str();

@@ -63,7 +63,7 @@ TEST(TetherRpcGenerate, WritesTheArduinoLibraryOfTheSchema) {
   EXPECT_TRUE(contains(read(library / "src" / "ArmRpc_service.h"),
                        "tether::rpc::Status Arm_MoveJoint(const arm_JointRequest& request, arm_JointReply& reply);"));
   EXPECT_TRUE(fs::exists(library / "src" / "ArmRpc_service.cpp"));
-  EXPECT_TRUE(contains(read(library / "src" / "arm.pb.h"), "int32_t angles_cdeg[4];"));
+  EXPECT_TRUE(contains(read(library / "src" / "arm.pb.h"), "int32_t angles_cdeg[8]"));  // arm.options: max_count:8
   EXPECT_TRUE(fs::exists(library / "src" / "arm.pb.c"));
   // The kit: the glue, the envelope's code and the nanopb runtime with 64-bit fields (the hello's hash).
   EXPECT_TRUE(fs::exists(library / "src" / "TetherRpcArduino.h"));
