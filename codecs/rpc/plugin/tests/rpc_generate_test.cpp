@@ -92,6 +92,17 @@ TEST(TetherRpcGenerate, NameAndImportsGoWhereNanopbsIncludesExpectThem) {
   EXPECT_TRUE(fs::exists(src / "google" / "protobuf" / "empty.pb.c"));
 }
 
+// Bounds given as nanopb's field options in the schema itself (`import "nanopb.proto"`): nanopb.proto
+// carries no code of its own.
+TEST(TetherRpcGenerate, NanopbFieldOptionsInTheSchemaGiveTheBounds) {
+  const fs::path out = scratch("field-options");
+  const Outcome run = run_tether({"generate", (kSchemas / "arm_nanopb.proto").string(), "--out", out.string()});
+  ASSERT_EQ(run.status, 0) << run.err;
+  const fs::path src = out / "ArmRpc" / "src";
+  EXPECT_TRUE(contains(read(src / "arm_nanopb.pb.h"), "int32_t angles_cdeg[8]"));
+  EXPECT_FALSE(fs::exists(src / "nanopb.pb.h"));
+}
+
 TEST(TetherRpcGenerate, UsageErrorsExitTwoWithTheReason) {
   const fs::path out = scratch("usage");
   expect_refused(run_tether({"generate", "--out", out.string()}), "no schema");
