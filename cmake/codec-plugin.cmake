@@ -1,5 +1,5 @@
 # tether_codec_plugin(NAME HEADER header SOURCES... [INCLUDE dir] [LIBRARIES...] [COMMANDS sources...]
-#                     [SUBCOMMANDS sources...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]
+#                     [SUBCOMMANDS sources...] [SUBCOMMAND_LIBRARIES libraries...] [TEXT_FUZZ source] [WORKLOADS sources...] [PYTHON sources...]
 #                     [PYTHON_STUB file] [PYTHON_ROVER_CLIENT class] [PYTHON_MODULES files...]
 #                     [PYTHON_REQUIRES debian-packages...] [PYTHON_FIXTURES file] [PYTHON_TESTS files...]):
 #                     a codec's plugin, declared in its own folder
@@ -16,7 +16,8 @@
 #    codec's devices (shell lines, monitor decoders);
 #  - SUBCOMMANDS define `std::vector<tether::cli::Command> tether::<NAME>::subcommands()`, subcommands of
 #    `tether` that only this codec has (tools/tether/commands.hpp: `tether call` is the Romi plugin's),
-#    compiled against the same headers into the command's subcommand library;
+#    compiled against the same headers into the command's subcommand library; SUBCOMMAND_LIBRARIES are
+#    libraries only they use (rpc's generator for `tether generate`), which the command then links;
 #  - TEXT_FUZZ is the fuzz target `<NAME>_text` of what the command rows print (tools/tether/text_fuzzing.hpp),
 #    its corpus `corpus-<NAME>_text.tar.xz` beside it, built with the tests (the plugin's `src` on its
 #    include path, for the rows' own headers);
@@ -71,7 +72,7 @@ endfunction()
 
 function(tether_codec_plugin name)
   cmake_parse_arguments(PLUGIN "" "HEADER;INCLUDE;TEXT_FUZZ;PYTHON_STUB;PYTHON_ROVER_CLIENT;PYTHON_FIXTURES"
-    "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;WORKLOADS;PYTHON;PYTHON_TESTS;PYTHON_MODULES;PYTHON_REQUIRES" ${ARGN})
+    "SOURCES;LIBRARIES;COMMANDS;SUBCOMMANDS;SUBCOMMAND_LIBRARIES;WORKLOADS;PYTHON;PYTHON_TESTS;PYTHON_MODULES;PYTHON_REQUIRES" ${ARGN})
   if(NOT PLUGIN_HEADER OR NOT PLUGIN_SOURCES)
     message(FATAL_ERROR "tether_codec_plugin(${name}): HEADER and SOURCES are required")
   endif()
@@ -102,6 +103,10 @@ function(tether_codec_plugin name)
   endif()
   if(PLUGIN_SUBCOMMANDS)
     _tether_codec_plugin_part(${name} subcommands tether_cli_api ${PLUGIN_SUBCOMMANDS})
+    if(PLUGIN_SUBCOMMAND_LIBRARIES)
+      target_link_libraries(tether_${name}_subcommands PRIVATE ${PLUGIN_SUBCOMMAND_LIBRARIES})
+      set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_SUBCOMMAND_LIBRARIES ${PLUGIN_SUBCOMMAND_LIBRARIES})
+    endif()
   endif()
   if(PLUGIN_TEXT_FUZZ AND PLUGIN_COMMANDS AND TETHER_BUILD_TESTS)
     include(fuzz)

@@ -36,6 +36,7 @@ set(expected
   share/tether/firmware/elcano-node.elf
   share/tether/firmware/rpc-example.elf
   share/tether/firmware/rpc-example.proto
+  share/tether/rpc-arduino/src/TetherRpcArduino.h
   share/tether/examples/rover-virtual.json
   share/man/man1/tether.1.gz
   share/doc/tether/README.md

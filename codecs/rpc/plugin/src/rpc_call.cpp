@@ -186,6 +186,9 @@ int run_rpc_stream(rpc::Client& client, const rpc::Method& method, const google:
 
 }  // namespace
 
+/// `tether generate` (rpc_generate.cpp).
+int run_rpc_generate(int argc, char** argv);
+
 // Internal: reached through this plugin's subcommands() only.
 static int run_rpc_call(int argc, char** argv) {
   RpcCallArguments arguments;
@@ -266,7 +269,9 @@ namespace tether::rpc {
 std::vector<cli::Command> subcommands();
 
 std::vector<cli::Command> subcommands() {
-  return {{"call", cli::run_rpc_call, "rpc: call a method of its schema, the reply as JSON", kCodec}};
+  return {{"call", cli::run_rpc_call, "rpc: call a method of its schema, the reply as JSON", kCodec},
+          {"generate", cli::run_rpc_generate,
+           "write an Arduino library from a .proto service: the sketch defines its handlers (rpc codec)"}};
 }
 
 }  // namespace tether::rpc

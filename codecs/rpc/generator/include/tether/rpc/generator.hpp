@@ -10,11 +10,18 @@
 /// handlers, so a handler the application does not define is a link error that names it. The same two
 /// files go into the Arduino library, the project's bare-metal images and the host tests.
 ///
+/// The Arduino library (`write_arduino_library`, what `tether generate` runs) is a folder `<name>/` in
+/// the Arduino 1.5 format: library.properties, `src/<name>.h` (the sketch's include: the class `<name>`
+/// on the Arduino glue, TetherRpcArduino.h), the service code, nanopb's code of the schema (and of its
+/// imports) made by nanopb's generator, and the kit's portable sources (the device runtime, Tether's core,
+/// the envelope's nanopb code, the nanopb runtime) copied as they are.
+///
 /// For the host it writes typed C++ clients (`client_code`: `arm::ArmClient` in `arm.tether.hpp`), which
 /// `tether_generate_rpc` builds with protoc's classes of the same file.
 #pragma once
 
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -49,6 +56,34 @@ ServiceCode service_code(const Schema& schema, std::string_view name, std::strin
 /// cannot be written.
 std::vector<std::filesystem::path> write_service_code(const Schema& schema, std::string_view name,
                                                       const std::filesystem::path& directory);
+
+/// What `write_arduino_library` needs besides the schema.
+struct ArduinoLibraryOptions {
+  std::string name;                        ///< the library's name (empty: `default_library_name`)
+  std::filesystem::path kit;               ///< the kit folder (share/tether/rpc-arduino: its src/ is copied)
+  std::filesystem::path nanopb_generator;  ///< nanopb's generator program (nanopb_generator.py)
+  std::vector<std::filesystem::path> import_paths;  ///< where the schema's imports are found (as SchemaOptions')
+  bool force = false;  ///< replace an existing library folder this function wrote before
+};
+
+/// A library that cannot be written: a folder in the way, a kit missing, nanopb's generator failing. The
+/// message says why and what to do.
+class GenerateError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The library's `src/<name>.h`: the class `<name>` serving the schema's service on the Arduino glue.
+std::string arduino_library_header(const Schema& schema, std::string_view name);
+
+/// Writes the Arduino library of `schema` as `out/<name>/` and returns its path. The folder is built
+/// beside its final place and moved there once complete, so a failure leaves nothing half written. An
+/// existing non-empty `out/<name>/` is refused unless `options.force` and it holds `GENERATED.txt` (the
+/// marker this function writes): then it is replaced as a whole (the library is generated output; the
+/// sketch lives elsewhere). Throws SchemaError for a name that is not a C++ identifier, GenerateError
+/// otherwise.
+std::filesystem::path write_arduino_library(const Schema& schema, const std::filesystem::path& out,
+                                            const ArduinoLibraryOptions& options);
 
 /// The C++ class protoc makes for `type`, fully qualified (`arm.Description.Range` ->
 /// `::arm::Description_Range`).
