@@ -357,14 +357,24 @@ int measure_sketches(std::vector<SketchRow>& rows) {
     } else {
       rows.push_back({"arduino.proxy.decode.32", decode, static_cast<unsigned>(size), *cycles});
     }
-    {  // the same frame through the path of any other Stream (Serial passed as a Stream&)
+    {  // the same frame with Serial passed as a Stream& (recognised as the core's port)
       BenchSketch stream_sketch("bench.ProxyStreamBench");
-      const char* what = "TetherProxy (Arduino core) over a plain Stream: decode frame, 32 B payload (dropped)";
+      const char* what = "TetherProxy (Arduino core), Serial as a plain Stream&: decode frame, 32 B payload (dropped)";
       const auto stream_cycles = stream_sketch.call(bad_crc, 1, out);
       if (!stream_cycles || !out.empty()) {
         fail(what);
       } else {
         rows.push_back({"arduino.proxy.decode.32.stream", what, static_cast<unsigned>(size), *stream_cycles});
+      }
+    }
+    {  // through the path of any other Stream: a sketch's own Stream relaying Serial
+      BenchSketch relay_sketch("bench.ProxyOwnStreamBench");
+      const char* what = "TetherProxy (Arduino core) over a sketch's own Stream: decode frame, 32 B payload (dropped)";
+      const auto relay_cycles = relay_sketch.call(bad_crc, 1, out);
+      if (!relay_cycles || !out.empty()) {
+        fail(what);
+      } else {
+        rows.push_back({"arduino.proxy.decode.32.own_stream", what, static_cast<unsigned>(size), *relay_cycles});
       }
     }
     {  // the deployed variant (no CRC): a 32-byte block announced as 47, so the frame is decoded to its
