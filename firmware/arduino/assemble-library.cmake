@@ -7,8 +7,9 @@
 # SPEC sets:
 #   NAME           library name (folder and zip)
 #   ASSETS_DIR     firmware/arduino/<NAME>: library.properties, examples/, src/ (Arduino glue), copied as is
-#   SHARED_DIR     firmware/arduino/shared: glue headers every library's glue may include (the Arduino
-#                  macros set aside around Tether's headers), copied into each library's src/
+#   SHARED_DIR     firmware/arduino/shared: glue every library's glue may use (the Arduino macros set
+#                  aside around Tether's headers, the runs on the core's ports and which port a Stream is),
+#                  copied into each library's src/
 #   HEADER_DIRS    include roots (core/include, codecs/x/include, ...): their contents go to src/, so the
 #                  project's include paths (tether/...) work unchanged from the src/ root the builder puts on
 #                  the include path

@@ -15,6 +15,8 @@
 ///     the UART0 bit names) gets the core's own functions called without virtual dispatch instead;
 ///   - any other `Stream` (SoftwareSerial, a USB CDC port, a sketch's own class): one virtual available()
 ///     per run, then a virtual read() per byte (all a `Stream` offers).
+/// A core port passed as a plain `Stream&` (`Stream& port = Serial;`) is recognised (`core_serial`) and
+/// takes the first path.
 #pragma once
 
 #include <Arduino.h>
@@ -32,6 +34,12 @@
 
 namespace tether {
 namespace arduino {
+
+/// The core's hardware port (`Serial`, `Serial1`..) that `stream` is, or null (any other `Stream`, or
+/// null): what a library's constructor taking a `Stream&` asks, so a port passed as a plain `Stream&`
+/// still gets the rings. Compares addresses with the ports, which TetherArduinoPorts.cpp references
+/// weakly: a sketch that uses no hardware port links none of them for this.
+HardwareSerial* core_serial(Stream* stream);
 
 // Small helpers on the hot paths are forced inline: -Os (what the Arduino IDE compiles with) would call
 // them, and a call's register saves cost more than their bodies.

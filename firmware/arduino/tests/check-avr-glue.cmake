@@ -13,9 +13,9 @@ set(flags -std=gnu++11 -mmcu=atmega328p -DF_CPU=16000000L -DARDUINO=10807 -DARDU
     -Os -fsyntax-only -Wall -Wextra -Werror -Wconversion -Wsign-conversion
     # -I, not -isystem: avr-gcc wraps system headers in extern "C", which the core's C++ headers break
     -I${CORE}/cores/arduino -I${CORE}/variants/standard)
-set(TetherRomi_sources "")
-set(TetherProxy_sources tether_arduino_proxy.cpp)
-set(TetherElcano_sources elcano_serial.cpp)
+set(TetherRomi_sources TetherArduinoPorts.cpp)
+set(TetherProxy_sources tether_arduino_proxy.cpp TetherArduinoPorts.cpp)
+set(TetherElcano_sources elcano_serial.cpp TetherArduinoPorts.cpp)
 set(failed "")
 foreach(library TetherRomi TetherProxy TetherElcano)
   set(files ${SOURCE_DIR}/avr-glue/${library}.cpp)

@@ -89,10 +89,10 @@ class InputPort {
   InputPort() = default;
   InputPort(const InputPort&) = delete;
   InputPort& operator=(const InputPort&) = delete;
-  /// Reads `stream` from now on.
+  /// Reads `stream` from now on (one of the core's hardware ports as a `Stream*`: the fast path below).
   InputPort& operator=(Stream* stream) {
     stream_ = stream;
-    hardware_ = nullptr;
+    hardware_ = tether::arduino::core_serial(stream);
     return *this;
   }
   /// Reads the core's hardware port `serial` from now on (the fast path).

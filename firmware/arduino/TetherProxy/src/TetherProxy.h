@@ -80,10 +80,13 @@ void restart(void* stream);
 /// Primary mode of the proxy protocol on a `Stream` (115200 8N1 recommended).
 class TetherProxy {
  public:
-  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
+  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`. When `stream` is one of the
+  /// core's hardware ports (`Serial` passed as a `Stream&`), its receive ring is read in place as below;
+  /// frames still go out through the `Stream` (choosing the ring's writer here would link it into every
+  /// sketch on another port: ~500 bytes of flash).
   explicit TetherProxy(Stream& stream)
       : stream_(stream),
-        hardware_(nullptr),
+        hardware_(tether::arduino::core_serial(&stream)),
         device_(outputs_, tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream},
                 tether::arduino::restart, &stream) {}
   /// Device talking through the core's hardware port `serial` (`Serial`): the fast path, its bytes read
@@ -120,7 +123,7 @@ class TetherProxy {
     tether::arduino::drain_copy(hardware_, stream_, [this, now](tether::ByteView run) { return device_.handle_bytes(run, now); });
   }
   Stream& stream_;
-  HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
+  HardwareSerial* hardware_;  // stream_ when it is one of the core's HardwareSerial ports, else null
   tether::proxy::device::OutputTable outputs_;
   tether::proxy::device::ProxyDevice device_;
 };
@@ -128,10 +131,11 @@ class TetherProxy {
 /// The deployed uORocketry variant on a `Stream` (its hosts expect 57600 8N1).
 class TetherProxyCompat {
  public:
-  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`.
+  /// Device talking through `stream`; `begin()` it after `stream.begin(...)`. One of the core's hardware
+  /// ports is read in place (as `TetherProxy`'s).
   explicit TetherProxyCompat(Stream& stream)
       : stream_(stream),
-        hardware_(nullptr),
+        hardware_(tether::arduino::core_serial(&stream)),
         device_(tether::proxy::device::FrameSink{tether::arduino::write_frame, &stream}, tether::arduino::restart,
                 &stream) {}
   /// Device talking through the core's hardware port `serial` (`Serial`): the fast path.
@@ -162,6 +166,6 @@ class TetherProxyCompat {
     tether::arduino::drain_copy(hardware_, stream_, [this](tether::ByteView run) { return device_.handle_bytes(run); });
   }
   Stream& stream_;
-  HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
+  HardwareSerial* hardware_;  // stream_ when it is one of the core's HardwareSerial ports, else null
   tether::proxy::device::CompatDevice device_;
 };

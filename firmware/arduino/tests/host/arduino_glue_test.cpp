@@ -211,6 +211,29 @@ TEST(ArduinoSerialOnStream, ReadsRunsWithOneAvailableEachAndWritesThroughPrint) 
   EXPECT_EQ(stream.output, response('a', "[0]", 9));
 }
 
+TEST(CoreSerial, TheCoresPortsAreRecognisedAsStreamsAndNothingElse) {
+  Port port;  // a HardwareSerial, but none of the core's ports
+  CountingStream stream("");
+  EXPECT_EQ(tether::arduino::core_serial(static_cast<Stream*>(&Serial)), &Serial);
+  EXPECT_EQ(tether::arduino::core_serial(static_cast<Stream*>(&port.serial)), nullptr);
+  EXPECT_EQ(tether::arduino::core_serial(&stream), nullptr);
+  EXPECT_EQ(tether::arduino::core_serial(nullptr), nullptr);
+}
+
+TEST(ArduinoSerialOnStream, SerialPassedAsAStreamIsReadAndWrittenThroughItsRings) {
+  fake_core::wire.clear();
+  Serial.reset_rings(0, 0);
+  romiserial::ArduinoSerial serial(static_cast<Stream&>(Serial));
+  romiserial::RomiSerial romi(serial, serial, kHandlers, 1);
+  for (const char c : request("a", 11)) Serial._rx_complete_irq(static_cast<uint8_t>(c));
+  fake_core::serial_uart.ucsra = static_cast<uint8_t>(fake_core::serial_uart.ucsra & ~(_BV(UDRE0) | _BV(TXC0)));
+  romi.handle_input();
+  EXPECT_EQ(Serial.available(), 0);
+  EXPECT_EQ(Serial.tx_queued(), response('a', "[0]", 11).size());
+  fake_core::transmit(Serial, fake_core::serial_uart);
+  EXPECT_EQ(std::string(fake_core::wire.begin(), fake_core::wire.end()), response('a', "[0]", 11));
+}
+
 // A user's stream with only per-byte read(): IInputStream's default read_some.
 class PerByteStream : public romiserial::IInputStream, public romiserial::IOutputStream {
  public:
@@ -283,6 +306,21 @@ TEST(ElcanoOnHardwareSerial, AMessageArrivingByteByByteIsCapturedOnce) {
   }
   EXPECT_EQ(captured, 1);
   EXPECT_EQ(dt.speed_cmPs, 12);
+}
+
+TEST(ElcanoOnStream, SerialPassedAsAStreamIsReadInPlace) {
+  Serial.reset_rings(0, 0);
+  elcano::ParseState ps;
+  elcano::SerialData dt;
+  ps.dt = &dt;
+  ps.input = static_cast<Stream*>(&Serial);
+  ps.capture = elcano::MsgType::drive;
+  EXPECT_EQ(ps.input.ring(), &Serial);
+  for (const char c : std::string("D{s 50}{a 25}\nD{s 1}{a 2}\n")) Serial._rx_complete_irq(static_cast<uint8_t>(c));
+  EXPECT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(Serial.available(), 12);  // the second message stays in the ring: read in place, not copied
+  EXPECT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(dt.speed_cmPs, 1);
 }
 
 TEST(ElcanoOnStream, AStreamIsReadInRunsWithOneAvailableEach) {

@@ -1,9 +1,9 @@
-// TetherProxy's Proxy example over a plain Stream: Serial passed as a `Stream&`, so the library takes the
-// path every non-HardwareSerial port gets (SoftwareSerial, a USB port, a sketch's own Stream): one virtual
-// available() per run, the stream's read() per byte (its target looked up once per run), frames through
-// Print::write. Measured as ProxyBench (bench/README.md): the host puts a whole frame into Serial's receive
-// ring, then writes a row id to GPIOR1; the next loop pass runs one poll() between two GPIOR0 writes with
-// interrupts held.
+// TetherProxy's Proxy example with Serial passed as a plain `Stream&` (`TetherProxy proxy(port)` where a
+// sketch holds its port as a `Stream&`): the library recognises the core's port behind the reference and
+// reads its receive ring in place, as with `TetherProxy proxy(Serial)` (frames still go out through the
+// Stream). Measured as ProxyBench (bench/README.md): the host puts a whole frame into Serial's receive ring,
+// then writes a row id to GPIOR1; the next loop pass runs one poll() between two GPIOR0 writes with
+// interrupts held. ProxyOwnStreamBench measures the path of every other Stream.
 #include <TetherProxy.h>
 
 TetherProxy proxy(static_cast<Stream&>(Serial));

@@ -130,3 +130,7 @@ class HardwareSerial : public Stream {
     _tx_buffer_tail = tx_index;
   }
 };
+
+/// The core's first port, as the AVR core declares it (HardwareSerial.h): its UART is `fake_core::serial_uart`.
+extern HardwareSerial Serial;
+#define HAVE_HWSERIAL0

@@ -5,7 +5,10 @@ uint32_t fake_millis = 0;
 
 namespace fake_core {
 std::vector<uint8_t> wire;
-}
+FakeUart serial_uart;
+}  // namespace fake_core
+
+HardwareSerial Serial(fake_core::serial_uart);
 
 void HardwareSerial::fake_shift() {
   if ((*_ucsra & _BV(UDRE0)) != 0) return;

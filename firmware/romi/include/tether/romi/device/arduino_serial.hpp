@@ -5,8 +5,8 @@
 ///
 /// Bytes go in runs, as over Tether's own UART (`UartStream`): `read_some` takes what the port holds with
 /// one look at the port and `write_all` a reply's bytes in one loop. On the core's `HardwareSerial`
-/// (`Serial`, which is what the constructor below sees for `ArduinoSerial serial(Serial)`) both work on the
-/// core's rings directly; on any other `Stream` they make the `Stream`'s virtual calls, one available()
+/// (`Serial`, which is what the constructor below sees for `ArduinoSerial serial(Serial)`, and a port
+/// passed as a plain `Stream&`) both work on the core's rings directly; on any other `Stream` they make the `Stream`'s virtual calls, one available()
 /// per run (TetherArduinoStream.h).
 ///
 ///     ArduinoSerial serial(Serial);            // at global scope: only stores the reference
@@ -30,8 +30,9 @@ namespace device {
 /// Input and output stream over an Arduino `Stream`.
 class ArduinoSerial final : public IInputStream, public IOutputStream {
  public:
-  /// Wraps `serial`, which must outlive this object. Safe before `serial.begin()`.
-  explicit ArduinoSerial(Stream& serial) : serial_(&serial), hardware_(nullptr) {}
+  /// Wraps `serial`, which must outlive this object. Safe before `serial.begin()`. One of the core's
+  /// hardware ports passed as a `Stream&` takes the fast path below (`core_serial`).
+  explicit ArduinoSerial(Stream& serial) : serial_(&serial), hardware_(tether::arduino::core_serial(&serial)) {}
   /// Wraps the core's hardware port `serial` (the fast path). Safe before `serial.begin()`.
   explicit ArduinoSerial(HardwareSerial& serial) : serial_(&serial), hardware_(&serial) {}
   /// True when the port has a received byte.
