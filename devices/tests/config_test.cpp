@@ -15,6 +15,7 @@
 #include "tether/elcano/plugin.hpp"
 #include "tether/proxy/plugin.hpp"
 #include "tether/romi/plugin.hpp"
+#include "tether/rpc/plugin.hpp"
 
 namespace tether::devices {
 namespace {
@@ -672,16 +673,26 @@ TEST(DevicesExamples, RoverVirtualJsonIsTheSameRoverOnVirtualUnos) {
   options.firmware_dir = TETHER_FIRMWARE_DIR;
   const RoverConfig config = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / "rover-virtual.json", options);
   const RoverConfig real = load_config(std::filesystem::path(TETHER_EXAMPLES_DIR) / "rover.json");
-  ASSERT_EQ(config.devices.size(), real.devices.size());
+  // The virtual rover is the real one plus `joints`, the rpc example's image (its schema beside it): on
+  // hardware an rpc device runs the user's own sketch and schema (examples/rpc), which rover.json leaves out.
+  ASSERT_EQ(config.devices.size(), real.devices.size() + 1);
+  std::size_t r = 0;
   for (std::size_t i = 0; i < config.devices.size(); ++i) {
-    EXPECT_EQ(config.devices[i].name, real.devices[i].name);
-    EXPECT_EQ(config.devices[i].codec, real.devices[i].codec);
+    if (config.devices[i].name == "joints") {
+      EXPECT_EQ(config.devices[i].codec, rpc::kCodec);
+      continue;
+    }
+    ASSERT_LT(r, real.devices.size());
+    EXPECT_EQ(config.devices[i].name, real.devices[r].name);
+    EXPECT_EQ(config.devices[i].codec, real.devices[r].codec);
+    ++r;
   }
   const std::filesystem::path dir(TETHER_FIRMWARE_DIR);
   EXPECT_EQ(std::get<VirtualTransport>(config.devices[0].transport).board.firmware, dir / "romi-rover.elf");
   EXPECT_EQ(std::get<VirtualTransport>(config.devices[1].transport).board.firmware, dir / "proxy.elf");
   EXPECT_EQ(std::get<VirtualTransport>(config.devices[2].transport).board.firmware, dir / "proxy-compat.elf");
-  const auto& ring = std::get<VirtualRingTransport>(config.devices[3].transport);
+  EXPECT_EQ(std::get<VirtualTransport>(config.devices[3].transport).board.firmware, dir / "rpc-example.elf");
+  const auto& ring = std::get<VirtualRingTransport>(config.devices[4].transport);
   ASSERT_GE(ring.boards.size(), 2u);
   for (const auto& board : ring.boards) EXPECT_EQ(board.firmware, dir / "elcano-node.elf");
 }

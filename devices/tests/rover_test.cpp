@@ -20,6 +20,8 @@
 #include "tether/elcano/plugin.hpp"
 #include "tether/proxy/plugin.hpp"
 #include "tether/romi/plugin.hpp"
+#include "tether/rpc/client.hpp"
+#include "tether/rpc/plugin.hpp"
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/virtual_uno_clock.hpp"
@@ -250,15 +252,19 @@ TEST(DevicesRover, TheDefaultVirtualRoverOpensEveryCodecIncludingTheElcanoRing) 
   IoThread io;
   const RoverConfig config = parse_config(default_virtual_rover_config(), firmware());
   Rover rover = open_rover(config, io.executor());
-  ASSERT_EQ(rover.devices().size(), 5u);
-  EXPECT_EQ(rover.devices()[3].codec, elcano::kCodec);
-  EXPECT_EQ(rover.devices()[3].transport, "virtual ring of 3 boards (elcano-node.elf; real_time)");
+  ASSERT_EQ(rover.devices().size(), 6u);
+  EXPECT_EQ(rover.devices()[3].codec, rpc::kCodec);
+  EXPECT_EQ(rover.devices()[4].codec, elcano::kCodec);
+  EXPECT_EQ(rover.devices()[4].transport, "virtual ring of 3 boards (elcano-node.elf; real_time)");
 
   EXPECT_EQ(rover.client<romi::Client>("arm")->call("S[1200,1800]").code, 0);  // the romi-rover image
   EXPECT_TRUE(rover.client<proxy::Client>("servos")->servo(10).set(45).acked);
   boost::system::error_code error;
   rover.client<proxy::Client>("legacy")->digital(7).set(true, error);
   EXPECT_FALSE(error) << error.message();
+  // The rpc example's image, its schema read from beside the image (README's call).
+  EXPECT_EQ(rover.client<rpc::Client>("joints")->call_json("MoveJoint", R"({"joint": 2, "angleCdeg": -4500})"),
+            R"({"reachedCdeg":-4500})");
 
   // The reference ring: goal -> board 1 -> segment -> board 2 -> drive -> board 3 (servos) -> sensor -> host.
   const auto ring = rover.client<elcano::RingClient>("ring");

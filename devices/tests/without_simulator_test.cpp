@@ -35,9 +35,11 @@ TEST(DevicesWithoutSimulator, VirtualBoardNamesTheLibrary) {
   expect_simulator_missing(config, 0, "transport.virtual");
 }
 
+// The default virtual rover, parsed against the build's images (its rpc device reads the schema beside its
+// image at parse time).
 TEST(DevicesWithoutSimulator, VirtualRingNamesTheLibrary) {
   ParseOptions options;
-  options.firmware_dir = "/opt/fw";
+  options.firmware_dir = TETHER_FIRMWARE_DIR;
   const RoverConfig config = parse_config(default_virtual_rover_config(), options);
   std::size_t ring = config.devices.size();
   for (std::size_t i = 0; i < config.devices.size(); ++i) {
@@ -49,7 +51,7 @@ TEST(DevicesWithoutSimulator, VirtualRingNamesTheLibrary) {
 
 TEST(DevicesWithoutSimulator, OpenRoverNamesTheDevice) {
   ParseOptions options;
-  options.firmware_dir = "/opt/fw";
+  options.firmware_dir = TETHER_FIRMWARE_DIR;
   const RoverConfig config = parse_config(default_virtual_rover_config(), options);
   boost::asio::io_context io;
   error_code error;

@@ -148,8 +148,12 @@ fs::path staging_folder(const fs::path& target) {
   std::random_device seed;
   std::mt19937 random(seed());
   for (int attempt = 0; attempt < 100; ++attempt) {
-    const fs::path candidate =
-        target.parent_path() / ("." + target.filename().string() + ".partial-" + std::to_string(random() % 1000000));
+    // Appended piece by piece: g++ 12's -Wrestrict misfires on `"." + string` at -O2.
+    std::string name = ".";
+    name += target.filename().string();
+    name += ".partial-";
+    name += std::to_string(random() % 1000000);
+    const fs::path candidate = target.parent_path() / name;
     std::error_code error;
     if (!fs::exists(candidate, error) && !error) return candidate;
   }
