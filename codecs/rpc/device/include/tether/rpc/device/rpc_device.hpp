@@ -167,6 +167,16 @@ class DeviceCore {
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
   bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
+  // False when `poll` ran at `now` already and no frame was handled since: nothing can have come due (the
+  // loop polls after every byte in or out, dozens of times a millisecond while a frame moves).
+  bool poll_due(Millis now) {
+    if (polled_ && now == polled_at_) return false;
+    polled_ = true;
+    polled_at_ = now;
+    return true;
+  }
+  // A frame was handled: the next `poll` runs whatever the time (an opened stream's first message).
+  void frame_handled() { polled_ = false; }
   void poll_time(Millis now);
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
@@ -205,6 +215,8 @@ class DeviceCore {
   Deadline next_info_;
   uint32_t session_id_ = 0;
   uint16_t min_period_ms_ = 1;
+  Millis polled_at_ = 0;
+  bool polled_ = false;
   uint16_t max_payload_;
   uint16_t max_out_;
   Scratch scratch_ = Scratch{nullptr, nullptr};
@@ -258,6 +270,7 @@ class Device : public DeviceCore {
   /// Handles time: due stream messages, DeviceHello, the failsafe, the partial-frame deadline. Call every
   /// loop pass.
   void poll(Millis now) {
+    if (!poll_due(now)) return;
     if (poll_frame_deadline(now)) decoder_.restart();
     Buffers buffers;
     UseScratch use(*this, buffers.out, buffers.frame);
