@@ -53,52 +53,145 @@ const char* error_text(DeviceErrorCode code) {
   return kUnknownMessage;
 }
 
-// A handler's struct, encoded as a bytes field (a Reply's reply, a StreamMessage's message): the same
-// bytes as the struct's own encoding, length-delimited, with no second buffer. Its size is computed once:
-// nanopb sizes the enclosing body before writing it, and pb_encode_submessage would encode the struct
-// twice at each of those two passes (four encodings of it per message instead of two).
-struct StructField {
-  const pb_msgdesc_t* fields;
-  const void* message;
-  size_t size;
-  bool sized;
+// The DeviceMessage envelope is written here by hand, not by nanopb: its bodies are a few small
+// integers around at most one bytes field, and nanopb's generic encoder (a sizing pass per submessage, its
+// descriptors read from flash field by field, 64-bit varints) cost a stream message ~54,000 cycles on the
+// ATmega328P. The bytes are nanopb's (tether_rpc.proto, proto3): fields in number order, zero integers,
+// false and empty strings left out, the oneof's body always written, a handler's struct as a bytes field
+// even when it encodes to nothing.
+enum DeviceField : uint8_t {  // DeviceMessage.body
+  kAckField = 1,
+  kReplyField = 2,
+  kErrorField = 3,
+  kStreamField = 4,
+  kHelloField = 5,
+  kResetField = 6,
 };
-
-bool is_sizing(const pb_ostream_t* stream) {
-#ifdef PB_BUFFER_ONLY
-  return stream->state == NULL;
-#else
-  return stream->callback == NULL;
-#endif
-}
-
-bool encode_struct(pb_ostream_t* stream, const pb_field_t* field, void* const* arg) {
-  StructField& payload = *static_cast<StructField*>(*arg);
-  if (!payload.sized) {
-    if (!pb_get_encoded_size(&payload.size, payload.fields, payload.message)) return false;
-    payload.sized = true;
-  }
-  if (!pb_encode_tag_for_field(stream, field) || !pb_encode_varint(stream, payload.size)) return false;
-  if (is_sizing(stream)) return pb_write(stream, NULL, payload.size);
-  const size_t before = stream->bytes_written;
-  return pb_encode(stream, payload.fields, payload.message) && stream->bytes_written - before == payload.size;
-}
-
-tether_rpc_wire_DeviceMessage out_message(pb_size_t which) {
-  tether_rpc_wire_DeviceMessage out = tether_rpc_wire_DeviceMessage_init_zero;
-  out.which_body = which;
-  return out;
-}
+constexpr uint8_t kVarint = 0;
+constexpr uint8_t kFixed64 = 1;
+constexpr uint8_t kDelimited = 2;
+// DeviceError.text's bound (tether_rpc.options: max_size 48, the NUL included).
+constexpr size_t kErrorTextRoom = sizeof(tether_rpc_wire_DeviceError{}.text);
 
 }  // namespace
+
+// Each call of the writer's fields is a call, not a copy of its code (flash: the device has ~12 places
+// that write fields).
+#define TETHER_RPC_OUT_OF_LINE __attribute__((noinline))
+
+// A protobuf writer on a bounded buffer; once something does not fit, nothing more is written and
+// `size()` is 0.
+class DeviceCore::Writer {
+ public:
+  Writer(uint8_t* buffer, size_t capacity) : begin_(buffer), at_(buffer), end_(buffer + capacity) {}
+
+  void byte(uint8_t value) {
+    if (at_ == end_) {
+      fail();
+      return;
+    }
+    *at_++ = value;
+  }
+  TETHER_RPC_OUT_OF_LINE void varint(uint32_t value) {
+    while (value >= 0x80) {
+      byte(static_cast<uint8_t>(value | 0x80));
+      value >>= 7;
+    }
+    byte(static_cast<uint8_t>(value));
+  }
+  void tag(uint8_t field, uint8_t wire_type) { byte(static_cast<uint8_t>(field << 3 | wire_type)); }
+  // A uint32 / bool field (proto3: left out when zero).
+  TETHER_RPC_OUT_OF_LINE void number(uint8_t field, uint32_t value) {
+    if (value == 0) return;
+    tag(field, kVarint);
+    varint(value);
+  }
+  // Opens a length-delimited field; `close` writes its length once its contents are written.
+  TETHER_RPC_OUT_OF_LINE uint8_t* open(uint8_t field) {
+    tag(field, kDelimited);
+    uint8_t* const mark = at_;
+    byte(0);
+    return mark;
+  }
+  TETHER_RPC_OUT_OF_LINE void close(uint8_t* mark) {
+    if (at_ == nullptr) return;
+    const size_t length = static_cast<size_t>(at_ - mark - 1);
+    if (length < 0x80) {  // the one byte `open` kept (every body of a device with 64-byte messages)
+      *mark = static_cast<uint8_t>(length);
+      return;
+    }
+    uint8_t extra = 0;  // the length's varint bytes beyond the first
+    for (size_t rest = length >> 7; rest != 0; rest >>= 7) ++extra;
+    if (static_cast<size_t>(end_ - at_) < extra) {
+      fail();
+      return;
+    }
+    memmove(mark + 1 + extra, mark + 1, length);
+    at_ = mark;
+    varint(static_cast<uint32_t>(length));
+    at_ += length;
+  }
+  // A handler's struct as a bytes field, encoded once, in place.
+  TETHER_RPC_OUT_OF_LINE void message(uint8_t field, const pb_msgdesc_t* fields, const void* message) {
+    uint8_t* const mark = open(field);
+    if (at_ == nullptr) return;
+    pb_ostream_t stream = pb_ostream_from_buffer(at_, static_cast<size_t>(end_ - at_));
+    if (!pb_encode(&stream, fields, message)) {
+      fail();
+      return;
+    }
+    at_ += stream.bytes_written;
+    close(mark);
+  }
+  // A string field of at most kErrorTextRoom - 1 characters, from RAM or flash (left out when empty).
+  TETHER_RPC_OUT_OF_LINE void text(uint8_t field, const char* text, bool in_flash) {
+    if (text == nullptr || at_ == nullptr) return;
+    uint8_t* const mark = open(field);
+    if (at_ == nullptr || static_cast<size_t>(end_ - at_) < kErrorTextRoom) {
+      fail();
+      return;
+    }
+    TextBuilder builder(reinterpret_cast<char*>(at_), kErrorTextRoom);
+    if (in_flash) {
+      builder.text(FlashText{text});
+    } else {
+      builder.text(text);
+    }
+    if (builder.size() == 0) {
+      at_ = mark - 1;  // an empty string is left out
+      return;
+    }
+    at_ += builder.size();
+    close(mark);
+  }
+  TETHER_RPC_OUT_OF_LINE void fixed64(uint8_t field, uint64_t value) {
+    if (value == 0) return;
+    tag(field, kFixed64);
+    for (uint8_t i = 0; i < 8; ++i) {
+      byte(static_cast<uint8_t>(value));
+      value >>= 8;
+    }
+  }
+  // Bytes written; 0 when something did not fit.
+  size_t size() const { return at_ == nullptr ? 0 : static_cast<size_t>(at_ - begin_); }
+
+ private:
+  void fail() { at_ = end_ = nullptr; }
+
+  uint8_t* begin_;
+  uint8_t* at_;
+  uint8_t* end_;
+};
 
 void DeviceCore::start(uint32_t session_id, Millis now) {
   session_id_ = session_id;
   watchdog_.start(now);
   next_info_.arm(now, kInfoPeriodMs);
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reset_tag);
-  out.body.reset.session = session_id;
-  send_message(&out, true);
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kResetField);
+  out.number(1, session_id);  // ResetEvent.session
+  out.close(body);
+  send_message(out, true);
 }
 
 void DeviceCore::track_frame(bool was_in_frame, bool in_frame, Millis now) {
@@ -122,14 +215,12 @@ void DeviceCore::poll_time(Millis now) {
 }
 
 bool DeviceCore::decode(ByteView payload, void* host_message) {
-  static_assert(TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_HostMessage) <= kEnvelopeSubmessages &&
-                    TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_DeviceMessage) <= kEnvelopeSubmessages,
+  static_assert(TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_HostMessage) <= kEnvelopeSubmessages,
                 "the envelope's descriptor copy has room for every body");
-  const pb_msgdesc_t* const fields =
-      proxy::device::copy_descriptors(proxy::device::FlashDescriptor{tether_rpc_wire_HostMessage_fields},
-                                      envelope_descriptors_, envelope_list_, kEnvelopeSubmessages);
-  pb_istream_t stream = pb_istream_from_buffer(payload.data(), payload.size());
-  if (pb_decode(&stream, fields, host_message)) return true;
+  // On the stack for the decode only (the answers are written by hand: no descriptors).
+  const proxy::device::DescriptorCopy<kEnvelopeSubmessages> fields(
+      proxy::device::FlashDescriptor{tether_rpc_wire_HostMessage_fields});
+  if (proxy::device::decode_message(fields.get(), payload, host_message)) return true;
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
   return false;
@@ -181,12 +272,12 @@ DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView requ
     add_one(counters_.handler_errors);
     return Outcome{false, send_error(id, status.code(), status.text(), false)};
   }
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_reply_tag);
-  out.body.reply.call = id;
-  StructField reply{m.reply, service_->reply, 0, false};
-  out.body.reply.reply.funcs.encode = &encode_struct;
-  out.body.reply.reply.arg = &reply;
-  size_t size = send_message(&out);
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kReplyField);
+  out.number(1, id);                              // Reply.call
+  out.message(2, m.reply, service_->reply);       // Reply.reply
+  out.close(body);
+  size_t size = send_message(out);
   if (size == 0) {  // it ran: the answer is the error, remembered like a reply
     size = send_error(id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
   }
@@ -238,13 +329,13 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
     send_error(slot.id, status.code(), status.text(), false);
     return;
   }
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_stream_tag);
-  out.body.stream.stream = slot.id;
-  out.body.stream.seq = slot.seq;
-  StructField message{m.reply, service_->reply, 0, false};
-  out.body.stream.message.funcs.encode = &encode_struct;
-  out.body.stream.message.arg = &message;
-  if (send_message(&out) == 0) {
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kStreamField);
+  out.number(1, slot.id);                          // StreamMessage.stream
+  out.number(2, slot.seq);                         // StreamMessage.seq
+  out.message(3, m.reply, service_->reply);        // StreamMessage.message
+  out.close(body);
+  if (send_message(out) == 0) {
     slot.request_size = kFree;
     send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
     return;
@@ -280,46 +371,43 @@ DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code) {
 }
 
 size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash) {
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_error_tag);
-  out.body.error.call = call;
-  out.body.error.code = code;
-  TextBuilder builder(out.body.error.text, sizeof(out.body.error.text));
-  if (text_in_flash) {
-    builder.text(FlashText{text});
-  } else if (text != nullptr) {
-    builder.text(text);
-  }
-  return send_message(&out);
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kErrorField);
+  out.number(1, call);                   // DeviceError.call
+  out.number(2, code);                   // DeviceError.code
+  out.text(3, text, text_in_flash);      // DeviceError.text
+  out.close(body);
+  return send_message(out);
 }
 
 void DeviceCore::send_ack(uint32_t id, bool refused) {
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_ack_tag);
-  out.body.ack.id = id;
-  out.body.ack.refused = refused;
-  send_message(&out);
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kAckField);
+  out.number(1, id);                     // Ack.id
+  out.number(2, refused ? 1 : 0);        // Ack.refused
+  out.close(body);
+  send_message(out);
 }
 
 void DeviceCore::send_hello() {
-  tether_rpc_wire_DeviceMessage out = out_message(tether_rpc_wire_DeviceMessage_hello_tag);
-  out.body.hello.schema_hash = service_->schema_hash;
-  out.body.hello.session = session_id_;
-  out.body.hello.max_payload = max_payload_;
-  out.body.hello.methods = service_->method_count;
-  send_message(&out);
+  Writer out(scratch_.out, max_out_);
+  uint8_t* const body = out.open(kHelloField);
+  out.fixed64(1, service_->schema_hash);   // DeviceHello.schema_hash
+  out.number(2, session_id_);              // DeviceHello.session
+  out.number(3, max_payload_);             // DeviceHello.max_payload
+  out.number(4, service_->method_count);   // DeviceHello.methods
+  out.close(body);
+  send_message(out);
 }
 
-size_t DeviceCore::send_message(const void* device_message, bool leading_delimiter) {
-  uint8_t* const payload = scratch_.out;
-  const pb_msgdesc_t* const fields =
-      proxy::device::copy_descriptors(proxy::device::FlashDescriptor{tether_rpc_wire_DeviceMessage_fields},
-                                      envelope_descriptors_, envelope_list_, kEnvelopeSubmessages);
-  pb_ostream_t stream = pb_ostream_from_buffer(payload, max_out_);
-  if (!pb_encode(&stream, fields, device_message)) {
+size_t DeviceCore::send_message(const Writer& message, bool leading_delimiter) {
+  const size_t size = message.size();
+  if (size == 0) {
     add_one(counters_.send_failures);
     return 0;
   }
-  send_payload(ByteView(payload, stream.bytes_written), leading_delimiter);
-  return stream.bytes_written;
+  send_payload(ByteView(scratch_.out, size), leading_delimiter);
+  return size;
 }
 
 void DeviceCore::send_payload(ByteView payload, bool leading_delimiter) {

@@ -92,6 +92,24 @@ struct Answer {
   Bytes payload;
 };
 
+// A Reply's or StreamMessage's bytes field for nanopb's encoder: `arg` is the Bytes.
+bool encode_bytes(pb_ostream_t* stream, const pb_field_t* field, void* const* arg) {
+  const Bytes& bytes = *static_cast<const Bytes*>(*arg);
+  return pb_encode_tag_for_field(stream, field) && pb_encode_string(stream, bytes.data(), bytes.size());
+}
+
+// nanopb's encoding of `answer` (the device writes its answers by hand: they must be these bytes).
+Bytes nanopb_encoding(Answer answer) {
+  if (answer.message.which_body == tether_rpc_wire_DeviceMessage_reply_tag) {
+    answer.message.body.reply.reply.funcs.encode = &encode_bytes;
+    answer.message.body.reply.reply.arg = &answer.payload;
+  } else if (answer.message.which_body == tether_rpc_wire_DeviceMessage_stream_tag) {
+    answer.message.body.stream.message.funcs.encode = &encode_bytes;
+    answer.message.body.stream.message.arg = &answer.payload;
+  }
+  return wire::encode(tether_rpc_wire_DeviceMessage_fields, &answer.message);
+}
+
 // The bytes of field `inner` inside length-delimited field `outer` of `payload` (a Reply's reply, a
 // StreamMessage's message); nanopb skips callback fields it has no callback for.
 Bytes nested_bytes(const tether::ByteView payload, uint32_t outer, uint32_t inner) {
@@ -184,6 +202,8 @@ class RpcDevice : public ::testing::Test {
         answer.payload =
             nested_bytes(decoder.frame(), tether_rpc_wire_DeviceMessage_stream_tag, tether_rpc_wire_StreamMessage_message_tag);
       }
+      EXPECT_EQ(Bytes(decoder.frame().begin(), decoder.frame().end()), nanopb_encoding(answer))
+          << "an answer's bytes differ from nanopb's";
     }
     return out;
   }
@@ -374,6 +394,20 @@ TEST_F(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
   EXPECT_EQ(device_.open_streams(), 0);
   EXPECT_TRUE(poll_at(now_ + 1000).empty());
   EXPECT_EQ(device_.counters().stream_messages, 3u);
+}
+
+// The loop polls after every byte in or out; a poll at the same millisecond as the last one does nothing,
+// unless a frame was handled since (a stream opened then sends its first message at once).
+TEST_F(RpcDevice, AStreamOpenedAfterAPollAtTheSameMillisecondStartsAtTheNextPoll) {
+  EXPECT_TRUE(poll_at(now_).empty());
+  const auto opened = send(open(20, 1, 100));
+  ASSERT_EQ(opened.size(), 1u);
+  expect_ack(opened[0], 20, false);
+  const auto due = poll_at(now_);
+  ASSERT_EQ(due.size(), 1u);
+  EXPECT_EQ(due[0].message.which_body, tether_rpc_wire_DeviceMessage_stream_tag);
+  EXPECT_TRUE(poll_at(now_).empty());
+  EXPECT_EQ(poll_at(now_ + 100).size(), 1u);
 }
 
 TEST_F(RpcDevice, ReopeningAMethodReplacesItsStreamAndAFullTableRefuses) {

@@ -167,12 +167,21 @@ class DeviceCore {
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
   bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
+  // False when `poll` ran at `now` already and no frame was handled since: nothing can have come due (the
+  // loop polls after every byte in or out, dozens of times a millisecond while a frame moves).
+  bool poll_due(Millis now) {
+    if (polled_ && now == polled_at_) return false;
+    polled_ = true;
+    polled_at_ = now;
+    return true;
+  }
+  // A frame was handled: the next `poll` runs whatever the time (an opened stream's first message).
+  void frame_handled() { polled_ = false; }
   void poll_time(Millis now);
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
-  // The envelope's descriptors are in flash on the AVR (tether_rpc.options): the tree of the message being
-  // decoded or sent is copied here for nanopb, one at a time (decoding and sending never overlap). Room
-  // for a message with this many submessage fields.
+  // The envelope's descriptors are in flash on the AVR (tether_rpc.options): `decode` copies
+  // HostMessage's tree onto its stack for nanopb. Room for a message with this many submessage fields.
   static constexpr uint8_t kEnvelopeSubmessages = 6;
   // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
   Outcome run(const void* host_message, Millis now);
@@ -192,7 +201,9 @@ class DeviceCore {
   bool decode_request(const Method& method, ByteView request);
   Outcome refuse(uint32_t id, DeviceErrorCode code);
   size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
-  size_t send_message(const void* device_message, bool leading_delimiter = false);
+  class Writer;  // the DeviceMessage envelope, written by hand (rpc_device.cpp)
+  // Sends the DeviceMessage written in the scratch `out`; its size, 0 when it did not fit (counted).
+  size_t send_message(const Writer& message, bool leading_delimiter = false);
   void send_hello();
 
   const Service* service_;
@@ -204,6 +215,8 @@ class DeviceCore {
   Deadline next_info_;
   uint32_t session_id_ = 0;
   uint16_t min_period_ms_ = 1;
+  Millis polled_at_ = 0;
+  bool polled_ = false;
   uint16_t max_payload_;
   uint16_t max_out_;
   Scratch scratch_ = Scratch{nullptr, nullptr};
@@ -211,8 +224,6 @@ class DeviceCore {
   uint8_t* requests_;
   uint8_t slot_count_;
   uint8_t request_bytes_;
-  pb_msgdesc_t envelope_descriptors_[kEnvelopeSubmessages + 1];
-  const pb_msgdesc_t* envelope_list_[kEnvelopeSubmessages + 1];
 };
 
 /// An rpc device with `Limits`' table sizes. Not copyable; main loop only (never from an interrupt).
@@ -259,6 +270,7 @@ class Device : public DeviceCore {
   /// Handles time: due stream messages, DeviceHello, the failsafe, the partial-frame deadline. Call every
   /// loop pass.
   void poll(Millis now) {
+    if (!poll_due(now)) return;
     if (poll_frame_deadline(now)) decoder_.restart();
     Buffers buffers;
     UseScratch use(*this, buffers.out, buffers.frame);

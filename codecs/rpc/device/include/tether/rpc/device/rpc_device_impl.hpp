@@ -9,6 +9,7 @@ namespace device {
 
 template <class Limits>
 void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
+  frame_handled();
   Buffers buffers;
   UseScratch use(*this, buffers.out, buffers.frame);
   tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
