@@ -7,9 +7,6 @@
 # SPEC sets:
 #   NAME           library name (folder and zip)
 #   ASSETS_DIR     firmware/arduino/<NAME>: library.properties, examples/, src/ (Arduino glue), copied as is
-#   SHARED_DIR     firmware/arduino/shared: glue every library's glue may use (the Arduino macros set
-#                  aside around Tether's headers, the runs on the core's ports and which port a Stream is),
-#                  copied into each library's src/
 #   HEADER_DIRS    include roots (core/include, codecs/x/include, ...): their contents go to src/, so the
 #                  project's include paths (tether/...) work unchanged from the src/ root the builder puts on
 #                  the include path
@@ -28,7 +25,6 @@ set(library ${OUT_DIR}/${NAME})
 file(REMOVE_RECURSE ${library} ${OUT_DIR}/${NAME}.zip)
 file(MAKE_DIRECTORY ${library}/src)
 file(COPY ${ASSETS_DIR}/ DESTINATION ${library})
-file(COPY ${SHARED_DIR}/ DESTINATION ${library}/src)
 
 foreach(dir IN LISTS HEADER_DIRS)
   file(COPY ${dir}/ DESTINATION ${library}/src FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")

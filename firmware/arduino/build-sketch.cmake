@@ -1,6 +1,7 @@
 # Builds one example sketch of a generated Arduino library with Debian's arduino-builder, as the Arduino IDE
 # does, for the Uno (run with cmake -P by the arduino.build.* tests):
-#   ARDUINO_BUILDER, SKETCH (.ino), LIBRARIES (build/arduino: the generated libraries), BUILD_PATH (kept
+#   ARDUINO_BUILDER, SKETCH (.ino), LIBRARIES (build/arduino: the generated libraries), OTHER_LIBRARIES
+#   (optional: a second libraries folder, the installed Tether libraries beside a generated one), BUILD_PATH (kept
 #   between runs: incremental), CORE_CACHE (core.a shared by every sketch: the core is compiled once),
 #   OUTPUT (<dir>/<Library>.<Example>: .elf and .hex are copied there, beside the bare-metal images' report)
 #
@@ -18,10 +19,14 @@ if(NOT EXISTS ${SKETCH})
   message(FATAL_ERROR "no sketch ${SKETCH}: build the arduino-libraries target first")
 endif()
 file(MAKE_DIRECTORY ${BUILD_PATH} ${CORE_CACHE})
+set(library_folders -libraries ${LIBRARIES})
+if(OTHER_LIBRARIES)
+  list(APPEND library_folders -libraries ${OTHER_LIBRARIES})
+endif()
 execute_process(
   COMMAND ${ARDUINO_BUILDER} -compile -hardware /usr/share/arduino-builder -hardware /usr/share/arduino/hardware
           -tools /usr/bin -fqbn arduino:avr:uno
-          -libraries ${LIBRARIES} -build-path ${BUILD_PATH} -build-cache ${CORE_CACHE}
+          ${library_folders} -build-path ${BUILD_PATH} -build-cache ${CORE_CACHE}
           -prefs=compiler.cpp.extra_flags=-DDECIMAL_DIG=9 -warnings default ${SKETCH}
   RESULT_VARIABLE failed)
 if(failed)

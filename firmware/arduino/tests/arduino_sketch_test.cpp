@@ -72,6 +72,23 @@ TEST(TetherRomiAnalogReadSerial, AAnswersTheConversionOfA0) {
   EXPECT_EQ(client.call("A").values, json::parse("[0,1023]"));
 }
 
+// --- Two libraries in one sketch (tests/together/) -------------------------------------------------------
+
+// TetherRomi on Serial and TetherElcano's node on a SoftwareSerial: the sketch links (each library once
+// bundled Tether's core, and the link failed on its functions defined twice) and both run: the Romi side
+// answers, the node polls its idle port.
+TEST(TetherTogether, RomiAndElcanoInOneSketchBothRun) {
+  IoThread io;
+  auto stream = VirtualUnoStream::open(io.executor(), board("together.RomiAndElcano", Pacing::fast));
+  romi::Client client(stream);
+  EXPECT_EQ(client.call("L[1]").values, json::parse("[0]"));
+  EXPECT_TRUE(stream->board().digital_level(13));
+  // No drive captured; the node's last outcome is `unavailable` (6): it ran and found nothing on its port.
+  EXPECT_EQ(client.call("R").values, json::parse("[0,0,6]"));
+  EXPECT_EQ(client.call("L[0]").values, json::parse("[0]"));
+  EXPECT_FALSE(stream->board().digital_level(13));
+}
+
 // --- TetherProxy: the proxy / proxy-compat images as sketches ----------------------------------------------
 
 double servo_pulse_us(transports::VirtualUno& uno) {

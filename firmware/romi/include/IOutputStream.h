@@ -3,6 +3,11 @@
 /// (tether/romi/device/streams.hpp).
 #pragma once
 
+#ifdef ARDUINO
+// First, so that the Arduino builder finds the TetherCore library (tether/core/) by this name.
+#include <TetherCore.h>
+#endif
+
 #include "tether/romi/device/streams.hpp"
 
 namespace romiserial {

@@ -3,6 +3,11 @@
 /// implemented by Tether (tether/romi/device/handler.hpp, where the handler contract is written down).
 #pragma once
 
+#ifdef ARDUINO
+// First, so that the Arduino builder finds the TetherCore library (tether/core/) by this name.
+#include <TetherCore.h>
+#endif
+
 #include "tether/romi/device/handler.hpp"
 
 namespace romiserial {

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <Arduino.h>
+#include <TetherCore.h>  // first: the Arduino builder finds the TetherCore library by this name
 
 #include "TetherArduinoStream.h"
 #include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names

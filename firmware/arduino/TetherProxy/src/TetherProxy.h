@@ -19,6 +19,15 @@
 #pragma once
 
 #include <Arduino.h>
+#include <TetherCore.h>  // first: the Arduino builder finds the TetherCore library by this name
+
+// TetherProxy and a library of `tether generate` each carry the proxy's framing and the nanopb runtime (each
+// configured its own way: 64-bit fields on in the generated one): one sketch cannot have both.
+#ifdef TETHER_ARDUINO_RPC_LIBRARY
+#error "TetherProxy and a library written by tether generate cannot share a sketch: both carry the proxy framing and the nanopb runtime (docs/arduino.md)"
+#endif
+/// Defined by TetherProxy.h: a `tether generate` library's header refuses to join it (see above).
+#define TETHER_ARDUINO_PROXY_LIBRARY 1
 
 #include "TetherArduinoStream.h"
 #include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names

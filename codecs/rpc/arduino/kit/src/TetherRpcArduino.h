@@ -16,6 +16,15 @@
 #pragma once
 
 #include <Arduino.h>
+#include <TetherCore.h>  // first: the Arduino builder finds the TetherCore library by this name
+
+// TetherProxy and this library each carry the proxy's framing and the nanopb runtime (each configured its
+// own way: 64-bit fields on here): one sketch cannot have both.
+#ifdef TETHER_ARDUINO_PROXY_LIBRARY
+#error "TetherProxy and a library written by tether generate cannot share a sketch: both carry the proxy framing and the nanopb runtime (docs/arduino.md)"
+#endif
+/// Defined by TetherRpcArduino.h: TetherProxy.h refuses to join it (see above).
+#define TETHER_ARDUINO_RPC_LIBRARY 1
 
 #include "TetherArduinoStream.h"
 #include "TetherSetArduinoMacrosAside.h"  // Arduino.h's bit, min, max, ... would rewrite Tether's names

@@ -1,8 +1,7 @@
 /// @file TetherArduinoStream.h
 /// Runs of bytes from and to an Arduino `Stream`, for the libraries' glue: the device code takes its input
 /// in runs (a decoder's tight loop over a span) and writes a frame at a time, as the bare-metal images do
-/// with Tether's UART. The library assembly copies this file into each library's src/
-/// (firmware/arduino/assemble-library.cmake).
+/// with Tether's UART. Part of TetherCore, the one library every other Tether library uses.
 ///
 /// Two kinds of port:
 ///   - the core's `HardwareSerial` (`Serial`, `Serial1`..): its receive and transmit rings are reached the

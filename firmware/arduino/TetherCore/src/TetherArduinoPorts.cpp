@@ -1,12 +1,11 @@
-// Which of the Arduino core's hardware ports a `Stream` is (TetherArduinoStream.h, `core_serial`). The
-// library assembly copies this file into each library's src/ (firmware/arduino/assemble-library.cmake).
+// Which of the Arduino core's hardware ports a `Stream` is (TetherArduinoStream.h, `core_serial`): TetherCore's,
+// so once in a sketch whatever the Tether libraries it uses.
 //
 // The ports are referenced weakly, and only here: a weak reference does not pull a port's object file
 // (HardwareSerial0.cpp: the object, its 157 bytes of RAM and its interrupts) out of the core's archive, so a
 // sketch that never uses `Serial` does not link it, and its address is then 0. Not in a header: a weak
 // declaration in the sketch's own file would make the sketch's own uses weak too, and `Serial` would then
-// not be linked at all. The function is weak itself: every Tether library has this file, and a sketch may
-// use several.
+// not be linked at all.
 #include "TetherArduinoStream.h"
 
 #if defined(HAVE_HWSERIAL0)
@@ -25,7 +24,7 @@ extern HardwareSerial Serial3 __attribute__((weak));
 namespace tether {
 namespace arduino {
 
-__attribute__((weak)) HardwareSerial* core_serial(Stream* stream) {
+HardwareSerial* core_serial(Stream* stream) {
   if (stream == nullptr) return nullptr;
   // Compared as addresses: a port that is not linked has address 0, which no stream has.
 #if defined(HAVE_HWSERIAL0)
