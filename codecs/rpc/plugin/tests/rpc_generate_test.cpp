@@ -54,6 +54,7 @@ TEST(TetherRpcGenerate, WritesTheArduinoLibraryOfTheSchema) {
   const std::string properties = read(library / "library.properties");
   EXPECT_TRUE(contains(properties, "name=ArmRpc\n")) << properties;
   EXPECT_TRUE(contains(properties, "includes=ArmRpc.h\n")) << properties;
+  EXPECT_TRUE(contains(properties, "depends=TetherCore\n")) << properties;
   EXPECT_TRUE(contains(properties, "architectures=avr\n")) << properties;
   const std::string header = read(library / "src" / "ArmRpc.h");
   EXPECT_TRUE(contains(header, "class ArmRpc : public tether::arduino::RpcDevice<ArmRpcService> {")) << header;
