@@ -19,8 +19,10 @@
 #include <cstdio>
 #include <deque>
 #include <functional>
+#include <future>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "tether/transports/byte_stream.hpp"
@@ -167,6 +169,72 @@ inline void print(const char* name, const Tally& tally) {
               name, static_cast<unsigned long long>(tally.calls), static_cast<unsigned long long>(tally.errors),
               static_cast<unsigned long long>(tally.skipped), percentile(sorted, 0.50), percentile(sorted, 0.90),
               percentile(sorted, 0.99), sorted.empty() ? 0.0 : sorted.back());
+}
+
+
+/// What a fleet run measured: the host thread's CPU and usage over the measured part (its `seconds` and the
+/// 3 s after them in which the last calls complete), and the device thread's CPU over the whole run.
+struct FleetRun {
+  std::chrono::nanoseconds host_cpu{0};
+  ThreadUsage host_usage;
+  std::chrono::nanoseconds device_cpu{0};
+};
+
+/// Runs a fleet: `device_io` on a thread of its own, `host_io` on another; after a warm-up second (sessions
+/// open, first allocations) the callers start, spread over one `period`, and tick for `seconds`; 3 s later
+/// `close` runs on the host thread (close the clients and the devices' ends), and both io_contexts finish.
+inline FleetRun run_fleet(asio::io_context& host_io, asio::io_context& device_io,
+                          std::vector<std::unique_ptr<Caller>>& callers, Clock::duration period, double seconds,
+                          const std::function<void()>& at_start, const std::function<void()>& close) {
+  auto host_work = asio::make_work_guard(host_io);
+  auto device_work = asio::make_work_guard(device_io);
+  FleetRun result;
+  std::thread device_thread([&] { device_io.run(); });
+  std::promise<void> measured;
+  ThreadUsage usage_at_start;
+  std::chrono::nanoseconds cpu_at_start{0};
+  const Clock::time_point start = Clock::now() + std::chrono::seconds(1);
+  const auto duration = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  asio::steady_timer begin(host_io);
+  begin.expires_at(start);
+  begin.async_wait([&](error_code) {
+    if (at_start) at_start();
+    cpu_at_start = thread_cpu();
+    usage_at_start = ThreadUsage::now();
+    for (std::size_t i = 0; i < callers.size(); ++i) {
+      callers[i]->run(start + period * static_cast<int>(i) / static_cast<int>(callers.size()), start + duration);
+    }
+  });
+  asio::steady_timer finish(host_io);
+  finish.expires_at(start + duration + std::chrono::seconds(3));  // the last calls complete
+  finish.async_wait([&](error_code) {
+    result.host_usage = ThreadUsage::now() - usage_at_start;
+    result.host_cpu = thread_cpu() - cpu_at_start;
+    measured.set_value();
+    close();
+    asio::post(device_io, [&] { result.device_cpu = thread_cpu(); });
+    host_work.reset();
+    device_work.reset();
+  });
+  std::thread host_thread([&] { host_io.run(); });
+  measured.get_future().wait();
+  host_thread.join();
+  device_thread.join();
+  return result;
+}
+
+/// Prints the host thread's CPU per call and its getrusage split, and the device thread's CPU.
+inline void print_cpu(const FleetRun& run, std::uint64_t calls, double seconds) {
+  const double host = static_cast<double>(run.host_cpu.count());
+  std::printf("  host thread CPU: %.1f ms for %llu calls = %.2f us per call (%.1f %% of one core)\n", host / 1e6,
+              static_cast<unsigned long long>(calls), calls ? host / 1e3 / static_cast<double>(calls) : 0.0,
+              100.0 * host / 1e9 / (seconds + 3));
+  const double per_call = calls ? 1.0 / static_cast<double>(calls) : 0.0;
+  std::printf("  per call (getrusage): user %.2f us, system %.2f us, %.2f voluntary + %.2f involuntary context switches\n",
+              run.host_usage.user_us * per_call, run.host_usage.system_us * per_call,
+              static_cast<double>(run.host_usage.voluntary_switches) * per_call,
+              static_cast<double>(run.host_usage.involuntary_switches) * per_call);
+  std::printf("  device thread CPU (fake devices, whole run): %.1f ms\n", static_cast<double>(run.device_cpu.count()) / 1e6);
 }
 
 }  // namespace tether::fleet

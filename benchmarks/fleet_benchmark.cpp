@@ -144,8 +144,6 @@ int main(int argc, char** argv) {
 
   asio::io_context host_io(1);
   asio::io_context device_io(1);
-  auto host_work = asio::make_work_guard(host_io);
-  auto device_work = asio::make_work_guard(device_io);
 
   std::vector<std::shared_ptr<FakeDevice>> devices;
   std::vector<std::shared_ptr<ByteStream>> host_ends;
@@ -203,42 +201,12 @@ int main(int argc, char** argv) {
     }, elcano_tally));
   }
 
-  std::thread device_thread([&] { device_io.run(); });
-  std::chrono::nanoseconds device_cpu{0};
-  std::promise<std::chrono::nanoseconds> host_cpu;
-  ThreadUsage usage_at_start;
-  ThreadUsage host_usage;
-
-  // A warm-up second (sessions open, the proxy handshake, first allocations), then the measured run.
-  const Clock::time_point start = Clock::now() + std::chrono::seconds(1);
-  const auto duration = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  std::chrono::nanoseconds cpu_at_start{0};
-  asio::steady_timer begin(host_io);
-  begin.expires_at(start);
-  begin.async_wait([&](error_code) {
-    cpu_at_start = thread_cpu();
-    usage_at_start = ThreadUsage::now();
-    for (std::size_t i = 0; i < callers.size(); ++i) {
-      callers[i]->run(start + period * static_cast<int>(i) / static_cast<int>(callers.size()), start + duration);
-    }
-  });
-  asio::steady_timer finish(host_io);
-  finish.expires_at(start + duration + std::chrono::seconds(3));  // the last calls complete
-  finish.async_wait([&](error_code) {
-    host_usage = ThreadUsage::now() - usage_at_start;
-    host_cpu.set_value(thread_cpu() - cpu_at_start);
+  const FleetRun run = run_fleet(host_io, device_io, callers, period, seconds, nullptr, [&] {
     for (auto& c : romi_clients) c->close();
     for (auto& c : proxy_clients) c->close();
     for (auto& c : elcano_clients) c->close();
     for (auto& d : devices) d->close();
-    asio::post(device_io, [&] { device_cpu = thread_cpu(); });
-    host_work.reset();
-    device_work.reset();
   });
-  std::thread host_thread([&] { host_io.run(); });
-  const std::chrono::nanoseconds host = host_cpu.get_future().get();
-  host_thread.join();
-  device_thread.join();
 
   const std::uint64_t calls = romi_tally.calls + proxy_tally.calls + elcano_tally.calls;
   Tally all;
@@ -250,16 +218,7 @@ int main(int argc, char** argv) {
   }
   std::printf("fleet: 16 devices (8 romi, 4 proxy, 4 elcano) at %.0f requests/s each for %.1f s, one host thread\n",
               rate, seconds);
-  std::printf("  host thread CPU: %.1f ms for %llu calls = %.2f us per call (%.1f %% of one core)\n",
-              static_cast<double>(host.count()) / 1e6, static_cast<unsigned long long>(calls),
-              calls ? static_cast<double>(host.count()) / 1e3 / static_cast<double>(calls) : 0.0,
-              100.0 * static_cast<double>(host.count()) / 1e9 / (seconds + 3));
-  const double per_call = calls ? 1.0 / static_cast<double>(calls) : 0.0;
-  std::printf("  per call (getrusage): user %.2f us, system %.2f us, %.2f voluntary + %.2f involuntary context switches\n",
-              host_usage.user_us * per_call, host_usage.system_us * per_call,
-              static_cast<double>(host_usage.voluntary_switches) * per_call,
-              static_cast<double>(host_usage.involuntary_switches) * per_call);
-  std::printf("  device thread CPU (fake devices, whole run): %.1f ms\n", static_cast<double>(device_cpu.count()) / 1e6);
+  print_cpu(run, calls, seconds);
   print("romi", romi_tally);
   print("proxy", proxy_tally);
   print("elcano", elcano_tally);

@@ -45,8 +45,11 @@ if(STEP STREQUAL "build")
     execute_process(COMMAND dpkg-buildflags --get ${kind} OUTPUT_VARIABLE flags_${kind}
       OUTPUT_STRIP_TRAILING_WHITESPACE WORKING_DIRECTORY ${SOURCE})
   endforeach()
+  # Unity batches (TETHER_UNITY_BUILD, as tools/setup test's build): the same code compiled in about a
+  # third less CPU time; this build is the suite's longest test.
   set(configure ${CMAKE_COMMAND} -S ${SOURCE} -B ${BINARY} -G "Unix Makefiles" -DCMAKE_BUILD_TYPE=Release
     -DCMAKE_INSTALL_PREFIX=/usr -DTETHER_BUILD_TESTS=OFF -DTETHER_BUILD_BENCHMARKS=OFF -DTETHER_SANITIZE=OFF
+    -DTETHER_UNITY_BUILD=ON
     -DCMAKE_CXX_COMPILER=${CXX} -DTETHER_NANOPB_SOURCE_DIR=${NANOPB}
     "-DCMAKE_C_FLAGS=${flags_CFLAGS} ${flags_CPPFLAGS}" "-DCMAKE_CXX_FLAGS=${flags_CXXFLAGS} ${flags_CPPFLAGS}"
     "-DCMAKE_EXE_LINKER_FLAGS=${flags_LDFLAGS}" "-DCMAKE_MODULE_LINKER_FLAGS=${flags_LDFLAGS}"

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "../../../interop-tests/stack_paint.hpp"
+#include "arm_board.hpp"
 #include "arm.pb.h"
 #include "tether/client/testing/event_log.hpp"
 #include "tether/core/execution_witness.hpp"
@@ -36,44 +37,16 @@ using transports::Pacing;
 using transports::VirtualUnoOptions;
 using transports::VirtualUnoStream;
 using EventLog = client::testing::EventLog<Event>;
+using uno_testing::as;
+using uno_testing::joint_request;
+using uno_testing::let_board_run;
+using uno_testing::on_board_time;
+using uno_testing::wait_for;
 
 const std::string kArmSchema = TETHER_RPC_EXAMPLE_SCHEMA;
 const std::string kOtherSchema = TETHER_RPC_INTEROP_DIR "/other_arm.proto";
 
-VirtualUnoOptions board() {
-  VirtualUnoOptions options;
-  options.firmware = std::string(TETHER_FIRMWARE_DIR) + "/rpc-example.elf";
-  options.pacing = Pacing::real_time;
-  options.seed = tether::testing::random_seed();
-  return options;
-}
-
-// Deadlines (acks, hellos, pings) on the board's simulated time, the clock of the firmware's own rules.
-Options on_board_time(const std::shared_ptr<VirtualUnoStream>& stream) {
-  Options options;
-  options.clock = transports::VirtualUnoClock::create(stream);
-  return options;
-}
-
-// Waits (wall time) until `predicate` holds; the limit only stops a hang.
-template <typename Predicate>
-bool wait_for(Predicate predicate, std::chrono::milliseconds limit = 120s) {
-  return tether::testing::eventually(predicate, limit);
-}
-
-// Waits until the board's simulated time has moved `span` on.
-void let_board_run(transports::VirtualUno& uno, std::chrono::milliseconds span) {
-  const auto from = uno.simulated_time();
-  ASSERT_TRUE(wait_for([&] { return uno.simulated_time() - from >= span; }));
-}
-
-// A dynamic message (the client's schema pool) as the generated class of the same type.
-template <typename Typed>
-Typed as(const google::protobuf::Message& message) {
-  Typed typed;
-  EXPECT_TRUE(typed.ParseFromString(message.SerializeAsString())) << message.GetTypeName();
-  return typed;
-}
+VirtualUnoOptions board() { return uno_testing::arm_board(std::string(TETHER_FIRMWARE_DIR) + "/rpc-example.elf"); }
 
 template <typename Typed>
 Typed from_json(const std::string& json) {
@@ -81,13 +54,6 @@ Typed from_json(const std::string& json) {
   const auto status = google::protobuf::util::JsonStringToMessage(json, &typed);
   EXPECT_TRUE(status.ok()) << json << ": " << status.ToString();
   return typed;
-}
-
-arm::JointRequest joint_request(std::uint32_t joint, std::int32_t angle) {
-  arm::JointRequest request;
-  request.set_joint(joint);
-  request.set_angle_cdeg(angle);
-  return request;
 }
 
 // The image's execution witness (tether/core/execution_witness.hpp): the MoveJoint calls that ran, by key

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "../../../interop-tests/stack_paint.hpp"
+#include "../../interop/arm_board.hpp"
 #include "arm.pb.h"
 #include "tether/rpc/client.hpp"
 #include "tether/testing/eventually.hpp"
@@ -29,46 +30,15 @@ using transports::IoThread;
 using transports::Pacing;
 using transports::VirtualUnoOptions;
 using transports::VirtualUnoStream;
+using uno_testing::as;
+using uno_testing::joint_request;
+using uno_testing::let_board_run;
+using uno_testing::on_board_time;
+using uno_testing::wait_for;
 
 const std::string kArmSchema = TETHER_RPC_EXAMPLE_SCHEMA;
 
-VirtualUnoOptions board() {
-  VirtualUnoOptions options;
-  options.firmware = TETHER_RPC_SKETCH_ELF;
-  options.pacing = Pacing::real_time;
-  options.seed = tether::testing::random_seed();
-  return options;
-}
-
-Options on_board_time(const std::shared_ptr<VirtualUnoStream>& stream) {
-  Options options;
-  options.clock = transports::VirtualUnoClock::create(stream);
-  return options;
-}
-
-template <typename Predicate>
-bool wait_for(Predicate predicate, std::chrono::milliseconds limit = 120s) {
-  return tether::testing::eventually(predicate, limit);
-}
-
-void let_board_run(transports::VirtualUno& uno, std::chrono::milliseconds span) {
-  const auto from = uno.simulated_time();
-  ASSERT_TRUE(wait_for([&] { return uno.simulated_time() - from >= span; }));
-}
-
-template <typename Typed>
-Typed as(const google::protobuf::Message& message) {
-  Typed typed;
-  EXPECT_TRUE(typed.ParseFromString(message.SerializeAsString())) << message.GetTypeName();
-  return typed;
-}
-
-arm::JointRequest joint_request(std::uint32_t joint, std::int32_t angle) {
-  arm::JointRequest request;
-  request.set_joint(joint);
-  request.set_angle_cdeg(angle);
-  return request;
-}
+VirtualUnoOptions board() { return uno_testing::arm_board(TETHER_RPC_SKETCH_ELF); }
 
 struct Received {
   std::mutex mutex;

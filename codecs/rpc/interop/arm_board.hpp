@@ -1,0 +1,67 @@
+// What the tests of an rpc device on the virtual Uno share (the example's image: interop/; the Arduino
+// sketch: arduino/tests/): the board, the client's clock on its simulated time, waits, and the example
+// schema's messages.
+#pragma once
+
+#include <google/protobuf/message.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "arm.pb.h"
+#include "tether/rpc/client.hpp"
+#include "tether/testing/eventually.hpp"
+#include "tether/testing/random_seed.hpp"
+#include "tether/transports/virtual_uno_clock.hpp"
+#include "tether/transports/virtual_uno_stream.hpp"
+
+namespace tether::rpc::uno_testing {
+
+/// A board running `firmware` in real time (the test's random seed).
+inline transports::VirtualUnoOptions arm_board(const std::string& firmware) {
+  transports::VirtualUnoOptions options;
+  options.firmware = firmware;
+  options.pacing = transports::Pacing::real_time;
+  options.seed = tether::testing::random_seed();
+  return options;
+}
+
+/// Deadlines (acks, hellos, pings) on the board's simulated time, the clock of the firmware's own rules.
+inline Options on_board_time(const std::shared_ptr<transports::VirtualUnoStream>& stream) {
+  Options options;
+  options.clock = transports::VirtualUnoClock::create(stream);
+  return options;
+}
+
+/// Waits (wall time) until `predicate` holds; the limit only stops a hang.
+template <typename Predicate>
+bool wait_for(Predicate predicate, std::chrono::milliseconds limit = std::chrono::seconds(120)) {
+  return tether::testing::eventually(predicate, limit);
+}
+
+/// Waits until the board's simulated time has moved `span` on.
+inline void let_board_run(transports::VirtualUno& uno, std::chrono::milliseconds span) {
+  const auto from = uno.simulated_time();
+  ASSERT_TRUE(wait_for([&] { return uno.simulated_time() - from >= span; }));
+}
+
+/// A dynamic message (the client's schema pool) as the generated class of the same type.
+template <typename Typed>
+Typed as(const google::protobuf::Message& message) {
+  Typed typed;
+  EXPECT_TRUE(typed.ParseFromString(message.SerializeAsString())) << message.GetTypeName();
+  return typed;
+}
+
+/// MoveJoint's request.
+inline arm::JointRequest joint_request(std::uint32_t joint, std::int32_t angle) {
+  arm::JointRequest request;
+  request.set_joint(joint);
+  request.set_angle_cdeg(angle);
+  return request;
+}
+
+}  // namespace tether::rpc::uno_testing
