@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "arm_device.hpp"
+#include "arm_peer.hpp"
 #include "tether/testing/eventually.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
@@ -38,73 +39,7 @@ namespace events = tether::rpc::events;
 namespace pb = google::protobuf;
 
 const std::string kSchemas = TETHER_RPC_TEST_SCHEMAS;
-
-// The device end of the link: host bytes into the arm device, its frames back; faults on request.
-class ArmPeer : public tether::transports::testing::ScriptedPeer {
- public:
-  ArmPeer(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-          std::shared_ptr<tether::client::testing::ManualClock> clock)
-      : ScriptedPeer(std::move(end)), clock_(std::move(clock)), device_(hash, [this](std::string frame) { out(std::move(frame)); }) {}
-
-  static std::shared_ptr<ArmPeer> start(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-                                        std::shared_ptr<tether::client::testing::ManualClock> clock) {
-    auto peer = std::make_shared<ArmPeer>(std::move(end), hash, std::move(clock));
-    peer->ScriptedPeer::start();
-    return peer;
-  }
-
-  // Everything below: any thread, under the peer's lock.
-  void boot(std::uint32_t session) {
-    record([&] { device_.boot(session, clock_->now()); });
-  }
-  void poll() {
-    record([&] { device_.poll(clock_->now()); });
-  }
-  void drop_answers(int count) {
-    record([&] { drop_answers_ = count; });
-  }
-  void drop_requests(int count) {
-    record([&] { drop_requests_ = count; });
-  }
-  void deaf(bool deaf) {
-    record([&] { deaf_ = deaf; });
-  }
-  template <typename Read>
-  auto read(Read&& read_device) const {
-    std::invoke_result_t<Read, const ArmDevice&> value{};
-    inspect([&] { value = read_device(device_); });
-    return value;
-  }
-  void with_device(const std::function<void(ArmDevice&)>& change) {
-    record([&] { change(device_); });
-  }
-
- private:
-  void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    record([&] {
-      if (deaf_) return;
-      // Whole frames only are dropped: the client writes each frame (leading 0x00 included) at once.
-      if (drop_requests_ > 0 && size > 0 && data[size - 1] == 0) {
-        --drop_requests_;
-        return;
-      }
-      device_.feed(data, size, clock_->now());
-    });
-  }
-  void out(std::string frame) {  // under the lock (called from the device)
-    if (drop_answers_ > 0) {
-      --drop_answers_;
-      return;
-    }
-    send(std::move(frame));
-  }
-
-  std::shared_ptr<tether::client::testing::ManualClock> clock_;
-  ArmDevice device_;
-  int drop_answers_ = 0;
-  int drop_requests_ = 0;
-  bool deaf_ = false;
-};
+using tether::rpc::testing::ArmPeer;
 
 tether::rpc::Options test_options(std::shared_ptr<tether::client::LinkClock> clock) {
   tether::rpc::Options options;

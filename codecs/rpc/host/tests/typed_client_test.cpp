@@ -18,6 +18,7 @@
 
 #include "arm.tether.hpp"
 #include "arm_device.hpp"
+#include "arm_peer.hpp"
 #include "tether/transports/in_memory_stream.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/client/testing/manual_clock.hpp"
@@ -29,50 +30,9 @@ using namespace std::chrono_literals;
 using tether::rpc::RpcError;
 using tether::rpc::Schema;
 using tether::rpc::testing::ArmDevice;
+using tether::rpc::testing::ArmPeer;
 
 const std::string kSchemas = TETHER_RPC_TEST_SCHEMAS;
-
-// The device end: host bytes into the arm device, its frames back.
-class TypedArmPeer : public tether::transports::testing::ScriptedPeer {
- public:
-  TypedArmPeer(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-               std::shared_ptr<tether::client::testing::ManualClock> clock)
-      : ScriptedPeer(std::move(end)), clock_(std::move(clock)), device_(hash, [this](std::string frame) { send(std::move(frame)); }) {}
-
-  static std::shared_ptr<TypedArmPeer> start(std::shared_ptr<tether::transports::ByteStream> end, std::uint64_t hash,
-                                             std::shared_ptr<tether::client::testing::ManualClock> clock) {
-    auto peer = std::make_shared<TypedArmPeer>(std::move(end), hash, std::move(clock));
-    peer->ScriptedPeer::start();
-    return peer;
-  }
-  void boot(std::uint32_t session) {
-    record([&] { device_.boot(session, clock_->now()); });
-  }
-  void poll() {
-    record([&] { device_.poll(clock_->now()); });
-  }
-  void fail_moves(std::uint16_t code, const std::string& text) {
-    record([&] { device_.fail_moves(code, text); });
-  }
-  int moves() const {
-    int value = 0;
-    inspect([&] { value = device_.moves(); });
-    return value;
-  }
-  int open_streams() const {
-    int value = 0;
-    inspect([&] { value = device_.open_streams(); });
-    return value;
-  }
-
- private:
-  void on_bytes(const std::uint8_t* data, std::size_t size) override {
-    record([&] { device_.feed(data, size, clock_->now()); });
-  }
-
-  std::shared_ptr<tether::client::testing::ManualClock> clock_;
-  ArmDevice device_;
-};
 
 tether::rpc::Options typed_test_options(std::shared_ptr<tether::client::LinkClock> clock) {
   tether::rpc::Options options;
@@ -89,7 +49,7 @@ struct TypedLink {
   explicit TypedLink(std::optional<std::uint64_t> device_hash = std::nullopt)
       : clock(tether::client::testing::ManualClock::create()) {
     auto [host_end, device_end] = tether::transports::InMemoryStream::make_pair(io.executor());
-    peer = TypedArmPeer::start(device_end, device_hash.value_or(arm::ArmClient::kSchemaHash), clock);
+    peer = ArmPeer::start(device_end, device_hash.value_or(arm::ArmClient::kSchemaHash), clock);
     peer->boot(0xC0FFEE);
     arm.emplace(host_end, typed_test_options(clock));
   }
@@ -117,7 +77,7 @@ struct TypedLink {
 
   tether::transports::IoThread io;
   std::shared_ptr<tether::client::testing::ManualClock> clock;
-  std::shared_ptr<TypedArmPeer> peer;
+  std::shared_ptr<ArmPeer> peer;
   std::optional<arm::ArmClient> arm;
 };
 
@@ -222,7 +182,7 @@ TEST(RpcTypedClient, TypedFormsOfAClientWhoseSchemaIsReadFromTheFileCopyThroughB
   tether::transports::IoThread io;
   auto clock = tether::client::testing::ManualClock::create();
   auto [host_end, device_end] = tether::transports::InMemoryStream::make_pair(io.executor());
-  auto peer = TypedArmPeer::start(device_end, arm::ArmClient::kSchemaHash, clock);
+  auto peer = ArmPeer::start(device_end, arm::ArmClient::kSchemaHash, clock);
   peer->boot(7);
   tether::rpc::Client client(host_end, Schema::load(kSchemas + "/arm.proto"), typed_test_options(clock));
   std::future<arm::JointReply> reply = client.async_call_as<arm::JointReply>("MoveJoint", joint_request(1, 50),
