@@ -76,13 +76,14 @@ const CodecFlag* find_codec_flag(std::string_view name) {
 
 }  // namespace
 
-std::string device_usage() {
+std::string device_usage(std::string_view port_codec) {
   const RowTexts texts = row_texts();
+  const std::string port_default =
+      port_codec.empty() ? std::string(devices::to_string(default_codec())) : std::string(port_codec);
   std::string usage =
       "device (exactly one of):\n"
       "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
-      "    --codec C         " + codec_choices() + " (default: " + std::string(devices::to_string(default_codec())) +
-      ")\n"
+      "    --codec C         " + codec_choices() + " (default: " + port_default + ")\n"
       "    --baud N          line speed (default 115200" + texts.bauds + ")\n"
       "    --boot-wait MS    wait after opening and drop what the board printed meanwhile (default 0; 2000 for\n"
       "                      an Arduino Uno, which resets when the port opens)\n"

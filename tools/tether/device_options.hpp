@@ -53,7 +53,9 @@ struct DeviceOptions {
 };
 
 /// The usage text of the device options (for the subcommands' usage); `--codec` lists every codec with rows.
-std::string device_usage();
+/// `port_codec`: the codec of a `--port` without `--codec` when the command has its own (send: proxy);
+/// empty: the default codec's.
+std::string device_usage(std::string_view port_codec = {});
 
 /// `parse_arguments` for a subcommand that names a device: `--help`, then the device options (stored in
 /// `options`; a bad value is a usage error), then `handle` for the subcommand's own arguments.

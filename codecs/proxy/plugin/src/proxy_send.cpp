@@ -51,8 +51,8 @@ const CommandText& command_text() {
       "Servo positions are degrees 0..180 in both modes (others are usage errors). A compat device ignores\n"
       "an init of a pin it already has, silently, as the deployed firmware does: no answer comes.\n"
       "\n" +
-      device_usage() +
-      "  (send speaks the proxy protocol: --port defaults to --codec proxy)\n"
+      device_usage("proxy") +
+      "  (send speaks the proxy protocol: proxy or proxy-compat devices)\n"
       "\n"
       "  --timeout MS   primary mode: time from a message's first send to its ack, re-sends included\n"
       "                 (default 1000)\n"
