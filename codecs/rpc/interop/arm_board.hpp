@@ -64,4 +64,24 @@ inline arm::JointRequest joint_request(std::uint32_t joint, std::int32_t angle) 
   return request;
 }
 
+/// Every unary method of the example, three times, with a device error each time (the peak-stack tests'
+/// exercise before their stream).
+inline void call_every_method(Client& client) {
+  error_code error;
+  for (int i = 0; i < 3; ++i) {
+    client.call("MoveJoint", joint_request(1, -17999 + i), error);
+    EXPECT_FALSE(error) << error.message();
+    client.call("MoveJoint", joint_request(9, 0), error);
+    EXPECT_EQ(error, RpcError::device_error);
+    arm::ModeRequest mode;
+    mode.set_mode(arm::MODE_ACTIVE);
+    mode.mutable_range()->set_min_cdeg(-18000);
+    mode.mutable_range()->set_max_cdeg(18000);
+    client.call("SetMode", mode, error);
+    EXPECT_FALSE(error) << error.message();
+    const CallResult described = client.call("Describe", arm::DescribeRequest(), error);
+    EXPECT_FALSE(error) << error.message() << " " << described.device_error.text;
+  }
+}
+
 }  // namespace tether::rpc::uno_testing
