@@ -9,7 +9,9 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
 #include "arm.pb.h"
 #include "tether/rpc/client.hpp"
@@ -63,6 +65,31 @@ inline arm::JointRequest joint_request(std::uint32_t joint, std::int32_t angle) 
   request.set_angle_cdeg(angle);
   return request;
 }
+
+/// What a stream handler received, for the test's thread.
+struct Received {
+  std::mutex mutex;
+  std::vector<std::uint32_t> seqs;
+  std::vector<arm::State> states;
+  std::vector<error_code> ends;
+  std::vector<std::string> end_texts;  // the device's text of each end
+  StreamHandler handler() {
+    return [this](const error_code& error, const StreamMessage& message) {
+      std::lock_guard lock(mutex);
+      if (error) {
+        ends.push_back(error);
+        end_texts.push_back(message.device_error.text);
+        return;
+      }
+      seqs.push_back(message.seq);
+      states.push_back(as<arm::State>(*message.message));
+    };
+  }
+  std::size_t count() {
+    std::lock_guard lock(mutex);
+    return seqs.size();
+  }
+};
 
 /// Every unary method of the example, three times, with a device error each time (the peak-stack tests'
 /// exercise before their stream).

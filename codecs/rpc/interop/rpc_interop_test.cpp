@@ -38,6 +38,7 @@ using transports::VirtualUnoOptions;
 using transports::VirtualUnoStream;
 using EventLog = client::testing::EventLog<Event>;
 using uno_testing::as;
+using uno_testing::Received;
 using uno_testing::joint_request;
 using uno_testing::let_board_run;
 using uno_testing::on_board_time;
@@ -96,31 +97,6 @@ class MoveWitness {
 std::uint32_t move_key(std::uint32_t joint, std::int32_t angle) {
   return witness_key(static_cast<std::uint16_t>(joint), static_cast<std::uint16_t>(angle));
 }
-
-// What a stream handler received, for the test's thread.
-struct Received {
-  std::mutex mutex;
-  std::vector<std::uint32_t> seqs;
-  std::vector<arm::State> states;
-  std::vector<error_code> ends;
-  std::vector<std::string> end_texts;  // the device's text of each end
-  StreamHandler handler() {
-    return [this](const error_code& error, const StreamMessage& message) {
-      std::lock_guard lock(mutex);
-      if (error) {
-        ends.push_back(error);
-        end_texts.push_back(message.device_error.text);
-        return;
-      }
-      seqs.push_back(message.seq);
-      states.push_back(as<arm::State>(*message.message));
-    };
-  }
-  std::size_t count() {
-    std::lock_guard lock(mutex);
-    return seqs.size();
-  }
-};
 
 TEST(RpcInterop, TheDeviceHelloCarriesTheSchemaHash) {
   IoThread io;

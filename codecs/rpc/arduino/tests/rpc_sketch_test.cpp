@@ -31,6 +31,7 @@ using transports::Pacing;
 using transports::VirtualUnoOptions;
 using transports::VirtualUnoStream;
 using uno_testing::as;
+using uno_testing::Received;
 using uno_testing::joint_request;
 using uno_testing::let_board_run;
 using uno_testing::on_board_time;
@@ -39,28 +40,6 @@ using uno_testing::wait_for;
 const std::string kArmSchema = TETHER_RPC_EXAMPLE_SCHEMA;
 
 VirtualUnoOptions board() { return uno_testing::arm_board(TETHER_RPC_SKETCH_ELF); }
-
-struct Received {
-  std::mutex mutex;
-  std::vector<std::uint32_t> seqs;
-  std::vector<arm::State> states;
-  std::vector<std::string> ends;
-  StreamHandler handler() {
-    return [this](const error_code& error, const StreamMessage& message) {
-      std::lock_guard lock(mutex);
-      if (error) {
-        ends.push_back(error.message() + ": " + message.device_error.text);
-        return;
-      }
-      seqs.push_back(message.seq);
-      states.push_back(as<arm::State>(*message.message));
-    };
-  }
-  std::size_t count() {
-    std::lock_guard lock(mutex);
-    return seqs.size();
-  }
-};
 
 TEST(RpcArduinoSketch, TheHelloCarriesTheSchemasHash) {
   IoThread io;
