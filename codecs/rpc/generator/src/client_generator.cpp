@@ -10,6 +10,8 @@
 
 #include "tether/rpc/generator.hpp"
 
+#include "generated_files.hpp"
+
 namespace tether::rpc {
 namespace {
 
@@ -252,18 +254,8 @@ std::vector<std::filesystem::path> write_client_code(const std::filesystem::path
                                                      const std::filesystem::path& directory) {
   const std::string stem = proto.stem().string();
   const ClientCode code = client_code(Schema::load_all(proto, options), stem);
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error) throw std::runtime_error(directory.string() + ": " + error.message());
-  std::vector<std::filesystem::path> written;
-  for (const auto& [file, text] : {std::pair{stem + ".tether.hpp", &code.header}, std::pair{stem + ".tether.cpp", &code.source}}) {
-    const std::filesystem::path path = directory / file;
-    std::ofstream out(path, std::ios::binary);
-    out << *text;
-    if (!out) throw std::runtime_error(path.string() + ": cannot be written");
-    written.push_back(path);
-  }
-  return written;
+  return write_generated_files(
+      directory, {{stem + ".tether.hpp", &code.header}, {stem + ".tether.cpp", &code.source}});
 }
 
 }  // namespace tether::rpc

@@ -1,5 +1,7 @@
 #include "tether/rpc/generator.hpp"
 
+#include "generated_files.hpp"
+
 #include <google/protobuf/descriptor.h>
 
 #include <fstream>
@@ -172,11 +174,17 @@ std::vector<std::filesystem::path> write_service_code(const Schema& schema, std:
   const std::string base(name);
   const std::string header = schema.file().stem().string() + ".pb.h";
   const ServiceCode code = service_code(schema, base, header);
+  return write_generated_files(
+      directory, {{base + "_service.h", &code.header}, {base + "_service.cpp", &code.source}});
+}
+
+std::vector<std::filesystem::path> write_generated_files(
+    const std::filesystem::path& directory, const std::vector<std::pair<std::string, const std::string*>>& files) {
   std::error_code error;
   std::filesystem::create_directories(directory, error);
   if (error) throw std::runtime_error(directory.string() + ": " + error.message());
   std::vector<std::filesystem::path> written;
-  for (const auto& [file, text] : {std::pair{base + "_service.h", &code.header}, std::pair{base + "_service.cpp", &code.source}}) {
+  for (const auto& [file, text] : files) {
     const std::filesystem::path path = directory / file;
     std::ofstream out(path, std::ios::binary);
     out << *text;
