@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "tether/core/counters.hpp"
+#include "tether/core/decode_status.hpp"
 #include "tether/core/time.hpp"
 #include "tether/devices/config.hpp"
 
@@ -39,6 +40,22 @@ std::string record_text(const MonitorRecord& record);
 nlohmann::ordered_json record_json(const MonitorRecord& record);
 /// `resync   skipped bytes to the next frame start`: what a decoder adds when its resync counter moved.
 MonitorRecord resync_record();
+
+/// Feeds `byte` to a frame decoder (`feed(byte)` -> DecodeStatus, `error()`) whose counters are `counters`:
+/// appends a resync record when its resync counter moved and an `error` record (`describe(error())`) for a
+/// frame it refused; true when a frame is complete (`decoder.frame()`).
+template <typename Decoder, typename Describe>
+bool feed_frame(Decoder& decoder, const LinkCounters& counters, std::uint8_t byte, Describe describe,
+                std::vector<MonitorRecord>& records) {
+  const std::uint32_t resyncs = counters.resyncs;
+  const DecodeStatus status = decoder.feed(byte);
+  if (counters.resyncs != resyncs) records.push_back(resync_record());
+  if (status == DecodeStatus::error) {
+    const char* cause = describe(decoder.error());
+    records.push_back({"error", cause, {{"status", cause}}, false});
+  }
+  return status == DecodeStatus::frame;
+}
 
 /// A codec's receiving side, fed with one direction's bytes.
 class MonitorDecoder {

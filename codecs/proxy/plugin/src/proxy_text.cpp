@@ -226,15 +226,9 @@ class ProxyDecoder final : public MonitorDecoder {
         next_ping_(now) {}
 
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
-    const std::uint32_t resyncs = counters_.resyncs;
-    const DecodeStatus status = decoder_.feed(byte);
-    if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (status == DecodeStatus::error) {
-      const char* cause = proxy::describe(decoder_.error());
-      records.push_back({"error", cause, {{"status", cause}}, false});
+    if (!feed_frame(decoder_, counters_, byte, [](proxy::FrameError error) { return proxy::describe(error); }, records)) {
       return;
     }
-    if (status != DecodeStatus::frame) return;
     const ByteView payload = decoder_.frame();
     const std::unique_ptr<google::protobuf::Message> message = schema_message();
     if (!proxy::parse_device_message(*message, payload)) {

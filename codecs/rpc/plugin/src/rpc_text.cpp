@@ -187,15 +187,9 @@ class RpcMonitorDecoder final : public MonitorDecoder {
   }
 
   void feed(std::uint8_t byte, Millis, std::vector<MonitorRecord>& records) override {
-    const std::uint32_t resyncs = counters_.resyncs;
-    const DecodeStatus status = decoder_.feed(byte);
-    if (counters_.resyncs != resyncs) records.push_back(resync_record());
-    if (status == DecodeStatus::error) {
-      const char* cause = proxy::describe(decoder_.error());
-      records.push_back({"error", cause, {{"status", cause}}, false});
+    if (!feed_frame(decoder_, counters_, byte, [](proxy::FrameError error) { return proxy::describe(error); }, records)) {
       return;
     }
-    if (status != DecodeStatus::frame) return;
     const ByteView payload = decoder_.frame();
     const std::string bytes(reinterpret_cast<const char*>(payload.data()), payload.size());
     const bool decoded = direction_ == Direction::host_to_device ? host_record(bytes, records) : device_record(bytes, records);
