@@ -6,9 +6,9 @@
 # sources of one target instantiate mostly the same ones: 60 % of the code in tether_command_tests' objects
 # was emitted more than once. A batch compiles each once.
 #
-# Off by default: an edit recompiles the whole batch, and a per-source build is what checks that each source
-# includes what it uses (the packaging tests' builds, which do not turn it on, compile the libraries that
-# way). `tools/setup test` (CI) turns it on. A target listed here must be unity-safe: no two of its sources
+# Off by default in Tether's own build: an edit recompiles the whole batch, and a per-source build is what
+# checks that each source includes what it uses (a developer's build). On by default when Tether is a
+# parent's subdirectory (FetchContent): compiled once, never edited there. `tools/setup test` (CI) turns it on. A target listed here must be unity-safe: no two of its sources
 # define the same name inside an unnamed namespace or at file scope, and no source names `testing::...`
 # relying on which `testing` namespaces happen to be visible (qualify: `::tether::testing::...`).
 include_guard(GLOBAL)
