@@ -85,6 +85,7 @@
 #include "tether/transports/unique_function.hpp"
 
 namespace google::protobuf {
+class Descriptor;
 class Message;
 }
 
@@ -273,17 +274,20 @@ using Event = std::variant<events::SessionEstablished, events::ResetDetected, ev
 namespace detail {
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
-/// A call as the public API hands it over.
+/// A call as the public API hands it over: the request is encoded at initiation (its copy: the caller's
+/// message may change or go once the initiating function returned), and checked against the schema later.
 struct CallRequest {
-  std::string method;                                     ///< The method's name.
-  std::shared_ptr<const google::protobuf::Message> request;  ///< Its request (copied at initiation).
+  std::string method;                                    ///< The method's name.
+  std::string request;                                   ///< The request's bytes.
+  const google::protobuf::Descriptor* type = nullptr;    ///< The request's type.
+  bool encoded = false;                                  ///< False when the request did not serialize.
 };
 using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `call` on `impl` as operation `operation` (any thread). Defined in client.cpp.
 void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call);
-/// A copy of `request` the initiation keeps.
-std::shared_ptr<const google::protobuf::Message> copy_request(const google::protobuf::Message& request);
+/// The call of `method` with `request` as the initiation keeps it.
+CallRequest make_call_request(std::string_view method, const google::protobuf::Message& request);
 /// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
 void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
 
@@ -336,7 +340,7 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   template <typename Token>
   auto async_call(std::string_view method, const google::protobuf::Message& request, Token&& token) {
     return initiate<CallSignature>(std::forward<Token>(token), &detail::start_call,
-                                   detail::CallRequest{std::string(method), detail::copy_request(request)});
+                                   detail::make_call_request(method, request));
   }
   /// Blocking call; failures in `error` (a device's answer in `result.device_error`).
   CallResult call(std::string_view method, const google::protobuf::Message& request, error_code& error);
@@ -372,7 +376,7 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   template <typename Reply, typename Token>
   auto async_call_as(std::string_view method, const google::protobuf::Message& request, Token&& token) {
     return initiate<void(error_code, Reply)>(std::forward<Token>(token), &start_call_as<Reply>,
-                                             detail::CallRequest{std::string(method), detail::copy_request(request)});
+                                             detail::make_call_request(method, request));
   }
   /// `open_stream` whose handler takes each message as a `Typed` (protoc's class of the method's output):
   /// `handler(error, message)` as `StreamHandler`'s contract, with an empty message when the stream ends.
