@@ -6,12 +6,13 @@
 //           leading delimiter) into a frame string it recycles (`envelope::write_frame`);
 //   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope read
 //           (`envelope::decode`), the reply bytes kept in the call's state until the Ack, the reply made
-//           from the generated prototype (an arm::JointReply) and parsed (a type without strings: libprotobuf's
-//           parser alone), then moved out as the typed client hands it over (`Client::call_as`).
+//           as the typed call's class (an arm::JointReply, `detail::typed_reply`) and parsed (a type without
+//           strings: libprotobuf's parser alone), then moved out as the typed client hands it over
+//           (`Client::call_as`).
 // BM_RpcTypedMoveJointWithAck also decodes the device's Ack frame, the other frame of the round trip.
 // BM_RpcDynamicJsonMoveJoint is the dynamic client's `call_json` (the CLI's and Python's path): the schema
 // read from arm.proto at run time, the request parsed from JSON into a dynamic message, the reply printed as
-// JSON (protobuf's mapping, every field), the rest as above.
+// JSON (protobuf's mapping, every field), both through the client's JsonMapping; the rest as above.
 // No I/O, no strand, no timers: those are the fleet benchmark's.
 #include <benchmark/benchmark.h>
 
@@ -29,6 +30,7 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/rpc/client.hpp"
 #include "tether/rpc/envelope.hpp"
+#include "tether/rpc/json_mapping.hpp"
 #include "tether/rpc/schema.hpp"
 #include "tether_rpc.pb.h"
 
@@ -109,8 +111,6 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   const rpc::Method& method = *schema.find("MoveJoint");
   constexpr std::uint32_t kId = 0x12345678;
   const DeviceFrames answer = device_frames(kId);
-  // The client looks each method's prototype up once (its Messages table).
-  const pb::Message* reply_prototype = pb::MessageFactory::generated_factory()->GetPrototype(method.output);
   LinkCounters counters;
   proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
   arm::JointRequest request;
@@ -121,14 +121,17 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   std::string frame;  // the client's recycled frame string
   for (auto _ : state) {
     // Encode: the initiation's encoding of the request, then what the strand does with it.
-    rpc::detail::CallRequest call = rpc::detail::make_call_request("MoveJoint", request);
+    rpc::detail::CallRequest call =
+        rpc::detail::make_call_request("MoveJoint", request, rpc::detail::typed_reply<arm::JointReply>());
     if (call.type != method.input || schema.find(call.method) != &method) state.SkipWithError("not the compiled-in type");
     call_frame(call, method, kId, frame);
     call_bytes = frame.size();
     benchmark::DoNotOptimize(frame.data());
 
     const std::string reply_bytes = reply_payload(decoder, answer, with_ack, state);
-    std::shared_ptr<pb::Message> decoded(reply_prototype->New(), [](pb::Message* m) { delete m; });
+    // The typed call's reply class is the method's output: made as one (client.cpp on_completion).
+    if (call.reply.type != method.output) state.SkipWithError("not the typed reply");
+    std::shared_ptr<pb::Message> decoded = call.reply.make();
     if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) {
       state.SkipWithError("bad reply");
     }
@@ -151,6 +154,7 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
   LinkCounters counters;
   proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
   const std::string json_request = R"({"joint": 2, "angleCdeg": -4500})";
+  const rpc::JsonMapping json(schema.pool());  // the client's, made once with its schema
   pb::util::JsonPrintOptions print;
   print.always_print_primitive_fields = true;
   std::size_t call_bytes = 0;
@@ -158,7 +162,7 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
   std::string frame;
   for (auto _ : state) {
     std::shared_ptr<pb::Message> request(request_prototype->New());
-    if (!pb::util::JsonStringToMessage(json_request, request.get()).ok()) state.SkipWithError("bad JSON");
+    if (!json.from_json(json_request, *request).ok()) state.SkipWithError("bad JSON");
     rpc::detail::CallRequest call = rpc::detail::make_call_request("MoveJoint", *request);
     if (schema.find(call.method) != &method) state.SkipWithError("no method");
     call_frame(call, method, kId, frame);
@@ -171,7 +175,7 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
       state.SkipWithError("bad reply");
     }
     json_reply.clear();
-    (void)pb::util::MessageToJsonString(*decoded, &json_reply, print);
+    (void)json.to_json(*decoded, json_reply, print);
     benchmark::DoNotOptimize(json_reply.data());
   }
   if (json_reply != R"({"reachedCdeg":-4500})") state.SkipWithError(("wrong reply " + json_reply).c_str());

@@ -37,6 +37,7 @@
 #include "tether/proxy/session_policy.hpp"
 #include "tether/rpc/envelope.hpp"
 #include "tether/rpc/errors.hpp"
+#include "tether/rpc/json_mapping.hpp"
 #include "tether/client/client_link.hpp"
 #include "tether/client/pending_operations.hpp"
 
@@ -111,6 +112,7 @@ class Messages : public std::enable_shared_from_this<Messages> {
     }
   }
   const Schema& schema() const { return schema_; }
+  const JsonMapping& json() const { return json_; }
   std::shared_ptr<pb::Message> make(const pb::Descriptor* type) {
     const Prototype* found = find(type);
     const pb::Message* prototype = found != nullptr ? found->prototype : factory_->GetPrototype(type);
@@ -153,10 +155,12 @@ class Messages : public std::enable_shared_from_this<Messages> {
   pb::DynamicMessageFactory dynamic_;
   pb::MessageFactory* factory_;
   std::vector<Prototype> prototypes_;
+  JsonMapping json_{schema_.pool()};
 };
 
-CallRequest make_call_request(std::string_view method, const pb::Message& request) {
+CallRequest make_call_request(std::string_view method, const pb::Message& request, TypedReply reply) {
   CallRequest call;
+  call.reply = reply;
   call.method = std::string(method);
   call.type = request.GetDescriptor();
   call.encoded = request.SerializeToString(&call.request);
@@ -177,6 +181,7 @@ struct Op {
   Stage stage = Stage::queued;
   const Method* method = nullptr;
   std::string request;  // the encoded request (call, open)
+  TypedReply typed;     // a call: the class its caller takes the reply as
   std::uint32_t period = 0;
   std::uint64_t stream = 0;        // open: the stream's key
   std::uint32_t close_target = 0;  // close: the device's stream id
@@ -401,6 +406,7 @@ class ClientImpl final : public client::ClientLink {
     op.kind = stream ? Op::Kind::open : Op::Kind::call;
     op.method = method;
     op.request = std::move(call.request);
+    op.typed = call.reply;
     return error_code();
   }
 
@@ -656,7 +662,9 @@ class ClientImpl final : public client::ClientLink {
       ++(error == RpcError::refused ? counters_.refusals : counters_.device_errors);
     }
     if (!error) {
-      result.reply = messages_->make(op->state.method->output);
+      const TypedReply& typed = op->state.typed;
+      result.reply = typed.make != nullptr && typed.type == op->state.method->output ? typed.make()
+                                                                                     : messages_->make(op->state.method->output);
       if (!messages_->parse(*result.reply, ByteView::from_chars(op->state.reply.data(), op->state.reply.size()))) {
         result.reply.reset();
         error = RpcError::bad_reply;
@@ -1092,22 +1100,30 @@ std::shared_ptr<google::protobuf::Message> Client::new_request(std::string_view 
 }
 
 CallResult Client::call(std::string_view method, const google::protobuf::Message& request, error_code& error) {
+  return call(detail::make_call_request(method, request), error);
+}
+
+CallResult Client::call(std::string_view method, const google::protobuf::Message& request) {
+  return call(detail::make_call_request(method, request));
+}
+
+CallResult Client::call(detail::CallRequest call, error_code& error) {
   return client::wait_for_operation<CallResult>(
       link(),
       [&](client::ClientLink::OperationId operation, detail::CallHandler handler) {
-        impl()->submit_call(operation, detail::make_call_request(method, request),
-                            std::move(handler));
+        impl()->submit_call(operation, std::move(call), std::move(handler));
       },
       error);
 }
 
-CallResult Client::call(std::string_view method, const google::protobuf::Message& request) {
+CallResult Client::call(detail::CallRequest call) {
+  const std::string method = call.method;
   error_code error;
-  CallResult result = call(method, request, error);
+  CallResult result = this->call(std::move(call), error);
   if (error == RpcError::device_error || error == RpcError::refused) {
-    throw CallError(error, std::string(method), result.device_error);
+    throw CallError(error, method, result.device_error);
   }
-  if (error) throw boost::system::system_error(error, "rpc call " + std::string(method));
+  if (error) throw boost::system::system_error(error, "rpc call " + method);
   return result;
 }
 
@@ -1119,8 +1135,7 @@ std::string Client::call_json(std::string_view method, std::string_view json_req
     throw boost::system::system_error(make_error_code(RpcError::unknown_method),
                                       "no method " + std::string(method) + " in " + schema().file().string());
   }
-  const auto parsed = google::protobuf::util::JsonStringToMessage(
-      google::protobuf::StringPiece(json_request.data(), json_request.size()), request.get());
+  const auto parsed = impl()->messages()->json().from_json(json_request, *request);
   if (!parsed.ok()) {
     throw boost::system::system_error(make_error_code(RpcError::invalid_request),
                                       std::string(method) + ": " + std::string(parsed.message()));
@@ -1129,7 +1144,7 @@ std::string Client::call_json(std::string_view method, std::string_view json_req
   std::string json;
   google::protobuf::util::JsonPrintOptions options;
   options.always_print_primitive_fields = true;
-  (void)google::protobuf::util::MessageToJsonString(*result.reply, &json, options);
+  (void)impl()->messages()->json().to_json(*result.reply, json, options);
   return json;
 }
 

@@ -274,6 +274,17 @@ using Event = std::variant<events::SessionEstablished, events::ResetDetected, ev
 namespace detail {
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
+/// The program's class a typed call wants its reply as: the client makes the reply as one when the
+/// method's output is that class's type (a compiled-in schema), in one allocation.
+struct TypedReply {
+  const google::protobuf::Descriptor* type = nullptr;       ///< The class's type (null: none).
+  std::shared_ptr<google::protobuf::Message> (*make)() = nullptr;  ///< A new, empty one.
+};
+/// `TypedReply` of protoc's class `Reply`.
+template <typename Reply>
+TypedReply typed_reply() {
+  return TypedReply{Reply::descriptor(), [] { return std::shared_ptr<google::protobuf::Message>(std::make_shared<Reply>()); }};
+}
 /// A call as the public API hands it over: the request is encoded at initiation (its copy: the caller's
 /// message may change or go once the initiating function returned), and checked against the schema later.
 struct CallRequest {
@@ -281,13 +292,15 @@ struct CallRequest {
   std::string request;                                   ///< The request's bytes.
   const google::protobuf::Descriptor* type = nullptr;    ///< The request's type.
   bool encoded = false;                                  ///< False when the request did not serialize.
+  TypedReply reply;                                      ///< What the caller takes the reply as.
 };
 using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `call` on `impl` as operation `operation` (any thread). Defined in client.cpp.
 void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call);
 /// The call of `method` with `request` as the initiation keeps it.
-CallRequest make_call_request(std::string_view method, const google::protobuf::Message& request);
+CallRequest make_call_request(std::string_view method, const google::protobuf::Message& request,
+                              TypedReply reply = TypedReply());
 /// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
 void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
 
@@ -364,19 +377,20 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   /// Blocking `call` whose reply is a `Reply` (protoc's class of the method's output). Throws as `call`.
   template <typename Reply>
   Reply call_as(std::string_view method, const google::protobuf::Message& request) {
-    return detail::take_as<Reply>(call(method, request).reply);
+    return detail::take_as<Reply>(call(detail::make_call_request(method, request, detail::typed_reply<Reply>())).reply);
   }
   /// Blocking `call` whose reply is a `Reply`; failures in `error` (the reply is then empty).
   template <typename Reply>
   Reply call_as(std::string_view method, const google::protobuf::Message& request, error_code& error) {
-    return detail::take_as<Reply>(call(method, request, error).reply);
+    return detail::take_as<Reply>(
+        call(detail::make_call_request(method, request, detail::typed_reply<Reply>()), error).reply);
   }
   /// `async_call` completing `void(error_code, Reply)` (an empty `Reply` on failure; a device's code and
   /// text are `async_call`'s `CallResult::device_error`).
   template <typename Reply, typename Token>
   auto async_call_as(std::string_view method, const google::protobuf::Message& request, Token&& token) {
     return initiate<void(error_code, Reply)>(std::forward<Token>(token), &start_call_as<Reply>,
-                                             detail::make_call_request(method, request));
+                                             detail::make_call_request(method, request, detail::typed_reply<Reply>()));
   }
   /// `open_stream` whose handler takes each message as a `Typed` (protoc's class of the method's output):
   /// `handler(error, message)` as `StreamHandler`'s contract, with an empty message when the stream ends.
@@ -402,6 +416,9 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   SessionStatus session() const;
 
  private:
+  // The blocking forms of a call as the initiation keeps it.
+  CallResult call(detail::CallRequest call, error_code& error);
+  CallResult call(detail::CallRequest call);
   static void start_wait_ready(const std::shared_ptr<detail::ClientImpl>& impl,
                                client::ClientLink::OperationId operation,
                                transports::UniqueFunction<ReadySignature> handler);
