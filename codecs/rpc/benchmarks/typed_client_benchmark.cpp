@@ -1,15 +1,18 @@
 // Host cost of one rpc call through the typed client (the example's arm.proto, protoc's classes and the
-// compiled-in schema that tether_generate_rpc builds): encode + decode of one MoveJoint call, as the
-// client's strand does it (codecs/rpc/host/src/client.cpp):
-//   encode: the request copied (the call's initiation keeps it), serialized, the HostMessage envelope (id, method index, request bytes)
-//           serialized, the frame (COBS + CRC-16, leading delimiter) into a shared buffer;
-//   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope parsed,
-//           the reply made from the generated prototype (an arm::JointReply) and parsed, then moved out as
-//           the typed client hands it over (`Client::call_as`).
+// compiled-in schema that tether_generate_rpc builds): encode + decode of one MoveJoint call, with the
+// functions the client runs (codecs/rpc/host/src/client.cpp), in its order:
+//   encode: the initiation encodes the request (`detail::make_typed_call_request`: the call's copy), the strand
+//           writes the HostMessage envelope (id, method index, request bytes) and its frame (COBS + CRC-16,
+//           leading delimiter) into a frame string it recycles (`envelope::write_frame`);
+//   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope read
+//           (`envelope::decode`), the reply bytes kept in the call's state until the Ack, the reply made
+//           as the typed call's class (an arm::JointReply, `detail::typed_reply`) and parsed (a type without
+//           strings: libprotobuf's parser alone), then moved out as the typed client hands it over
+//           (`Client::call_as`).
 // BM_RpcTypedMoveJointWithAck also decodes the device's Ack frame, the other frame of the round trip.
 // BM_RpcDynamicJsonMoveJoint is the dynamic client's `call_json` (the CLI's and Python's path): the schema
 // read from arm.proto at run time, the request parsed from JSON into a dynamic message, the reply printed as
-// JSON (protobuf's mapping, every field), the rest as above.
+// JSON (protobuf's mapping, every field), both through the client's JsonMapping; the rest as above.
 // No I/O, no strand, no timers: those are the fleet benchmark's.
 #include <benchmark/benchmark.h>
 
@@ -24,9 +27,10 @@
 
 #include "arm.tether.hpp"
 #include "tether/proxy/decoder.hpp"
-#include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/rpc/client.hpp"
+#include "tether/rpc/envelope.hpp"
+#include "tether/rpc/json_mapping.hpp"
 #include "tether/rpc/schema.hpp"
 #include "tether_rpc.pb.h"
 
@@ -60,15 +64,14 @@ DeviceFrames device_frames(std::uint32_t id) {
   return DeviceFrames{frame_of(reply.SerializeAsString()), frame_of(ack.SerializeAsString())};
 }
 
-// Encode: the call's HostMessage frame of `request` (already the call's copy), as the strand makes it.
-std::shared_ptr<const std::string> call_frame(const pb::Message& request, const rpc::Method& method, std::uint32_t id) {
-  std::string bytes;
-  request.SerializeToString(&bytes);
-  rpc::wire::HostMessage message;
-  message.set_id(id);
-  message.mutable_call()->set_method(method.index);
-  message.mutable_call()->set_request(std::move(bytes));
-  return std::make_shared<const std::string>(frame_of(message.SerializeAsString()));
+// Encode: the call's HostMessage frame of `call` (the initiation's encoding), as the strand makes it.
+void call_frame(const rpc::detail::CallRequest& call, const rpc::Method& method, std::uint32_t id, std::string& frame) {
+  rpc::envelope::HostMessage message;
+  message.id = id;
+  message.body = rpc::envelope::HostBody::call;
+  message.method = method.index;
+  message.request = ByteView::from_chars(call.request.data(), call.request.size());
+  rpc::envelope::write_frame(message, frame);
 }
 
 // Decode: the device's frames through the incremental decoder; the Reply's payload bytes.
@@ -83,10 +86,14 @@ std::string reply_payload(proxy::Decoder<Capacity>& decoder, const DeviceFrames&
       const FeedResult fed = decoder.feed(input);
       input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
       if (fed.status != DecodeStatus::frame) continue;
-      rpc::wire::DeviceMessage out;
-      if (!proxy::parse_device_message(out, decoder.frame())) state.SkipWithError("undecodable");
-      if (out.body_case() == rpc::wire::DeviceMessage::kReply) reply_bytes = std::move(*out.mutable_reply()->mutable_reply());
-      benchmark::DoNotOptimize(out.body_case());
+      rpc::envelope::DeviceMessage out;
+      if (rpc::envelope::decode(decoder.frame(), out) != rpc::envelope::DecodeError::none) {
+        state.SkipWithError("undecodable");
+      }
+      if (out.body == rpc::envelope::DeviceBody::reply) {
+        reply_bytes.assign(reinterpret_cast<const char*>(out.reply.reply.data()), out.reply.reply.size());
+      }
+      benchmark::DoNotOptimize(out.body);
     }
   }
   return reply_bytes;
@@ -104,8 +111,6 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   const rpc::Method& method = *schema.find("MoveJoint");
   constexpr std::uint32_t kId = 0x12345678;
   const DeviceFrames answer = device_frames(kId);
-  // The client looks each method's prototype up once (its Messages table).
-  const pb::Message* reply_prototype = pb::MessageFactory::generated_factory()->GetPrototype(method.output);
   LinkCounters counters;
   proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
   arm::JointRequest request;
@@ -113,17 +118,20 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   request.set_angle_cdeg(-4500);
   std::size_t call_bytes = 0;
   std::int64_t reached = 0;
+  std::string frame;  // the client's recycled frame string
   for (auto _ : state) {
-    // Encode: the initiation's copy of the request, then what the strand does with it.
-    const std::shared_ptr<const pb::Message> kept = rpc::detail::copy_request(request);
-    if (kept->GetDescriptor() != method.input) state.SkipWithError("not the compiled-in type");
-    const auto frame = call_frame(*kept, method, kId);
-    call_bytes = frame->size();
-    benchmark::DoNotOptimize(frame->data());
+    // Encode: the initiation's encoding of the request, then what the strand does with it.
+    rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request);
+    if (call.type != method.input || schema.find(call.method) != &method) state.SkipWithError("not the compiled-in type");
+    call_frame(call, method, kId, frame);
+    call_bytes = frame.size();
+    benchmark::DoNotOptimize(frame.data());
 
     const std::string reply_bytes = reply_payload(decoder, answer, with_ack, state);
-    std::shared_ptr<pb::Message> decoded(reply_prototype->New());
-    if (!proxy::parse_device_message(*decoded, ByteView::from_chars(reply_bytes.data(), reply_bytes.size()))) {
+    // The typed call's reply class is the method's output: made as one (client.cpp on_completion).
+    if (call.reply.type != method.output) state.SkipWithError("not the typed reply");
+    std::shared_ptr<pb::Message> decoded = call.reply.make();
+    if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) {
       state.SkipWithError("bad reply");
     }
     const arm::JointReply reply = rpc::detail::take_as<arm::JointReply>(decoded);
@@ -145,25 +153,28 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
   LinkCounters counters;
   proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
   const std::string json_request = R"({"joint": 2, "angleCdeg": -4500})";
+  const rpc::JsonMapping json(schema.pool());  // the client's, made once with its schema
   pb::util::JsonPrintOptions print;
   print.always_print_primitive_fields = true;
   std::size_t call_bytes = 0;
   std::string json_reply;
+  std::string frame;
   for (auto _ : state) {
     std::shared_ptr<pb::Message> request(request_prototype->New());
-    if (!pb::util::JsonStringToMessage(json_request, request.get()).ok()) state.SkipWithError("bad JSON");
-    const std::shared_ptr<const pb::Message> kept = rpc::detail::copy_request(*request);
-    const auto frame = call_frame(*kept, method, kId);
-    call_bytes = frame->size();
-    benchmark::DoNotOptimize(frame->data());
+    if (!json.from_json(json_request, *request).ok()) state.SkipWithError("bad JSON");
+    rpc::detail::CallRequest call = rpc::detail::make_call_request("MoveJoint", *request);
+    if (schema.find(call.method) != &method) state.SkipWithError("no method");
+    call_frame(call, method, kId, frame);
+    call_bytes = frame.size();
+    benchmark::DoNotOptimize(frame.data());
 
     const std::string reply_bytes = reply_payload(decoder, answer, false, state);
-    std::shared_ptr<pb::Message> decoded(reply_prototype->New());
-    if (!proxy::parse_device_message(*decoded, ByteView::from_chars(reply_bytes.data(), reply_bytes.size()))) {
+    std::shared_ptr<pb::Message> decoded(reply_prototype->New(), [](pb::Message* m) { delete m; });
+    if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) {
       state.SkipWithError("bad reply");
     }
     json_reply.clear();
-    (void)pb::util::MessageToJsonString(*decoded, &json_reply, print);
+    (void)json.to_json(*decoded, json_reply, print);
     benchmark::DoNotOptimize(json_reply.data());
   }
   if (json_reply != R"({"reachedCdeg":-4500})") state.SkipWithError(("wrong reply " + json_reply).c_str());

@@ -12,7 +12,9 @@
 //   0x80..0xFF  let the client catch up.
 // Invariants: no crash, sanitizer finding or exception; every call completes exactly once (the rest at
 // close()); a call without error has a reply; a closed stream's handler is not called once its close returned
-// and a delivery then running has ended.
+// and a delivery then running has ended. The hand-written envelope (envelope.hpp) equals libprotobuf's: each
+// raw payload (0x40..0x7F) is read the same by both (accepted or refused alike, the same fields), and each
+// HostMessage the client writes is libprotobuf's serialization of what libprotobuf reads from it.
 #include <google/protobuf/message.h>
 #include <google/protobuf/reflection.h>
 
@@ -24,6 +26,7 @@
 #include <optional>
 #include <vector>
 
+#include "envelope_reference.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/rpc/client.hpp"
@@ -55,6 +58,8 @@ struct DeviceSide {
       if (status != DecodeStatus::frame) continue;
       wire::HostMessage in;
       TETHER_FUZZ_CHECK(in.ParseFromArray(decoder.frame().data(), static_cast<int>(decoder.frame().size())));
+      const std::string written(reinterpret_cast<const char*>(decoder.frame().data()), decoder.frame().size());
+      TETHER_FUZZ_CHECK(in.SerializeAsString() == written);
       last_id = in.id();
     }
   }
@@ -153,6 +158,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       deliver(out);
     } else if (command < 0x80) {
       const size_t length = std::min<size_t>(command - 0x40u, size - i - 1);
+      TETHER_FUZZ_CHECK(rpc::envelope_reference::compare_decoders(std::string(reinterpret_cast<const char*>(data + i + 1), length)).empty());
       std::vector<uint8_t> frame(length + 16);
       const auto encoded = proxy::encode_frame(ByteView(data + i + 1, length), proxy::Integrity::crc16, false,
                                                MutableByteView(frame.data(), frame.size()));

@@ -35,10 +35,11 @@
 #include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/proxy/session_policy.hpp"
+#include "tether/rpc/envelope.hpp"
 #include "tether/rpc/errors.hpp"
+#include "tether/rpc/json_mapping.hpp"
 #include "tether/client/client_link.hpp"
 #include "tether/client/pending_operations.hpp"
-#include "tether_rpc.pb.h"
 
 namespace tether::rpc {
 
@@ -105,29 +106,66 @@ class Messages : public std::enable_shared_from_this<Messages> {
     // The methods' prototypes, looked up once: a factory's lookup takes a lock and a hash map.
     for (const Method& method : schema_.methods()) {
       for (const pb::Descriptor* type : {method.input, method.output}) {
-        const bool known = std::ranges::any_of(prototypes_, [&](const auto& entry) { return entry.first == type; });
-        if (!known) prototypes_.emplace_back(type, factory_->GetPrototype(type));
+        const bool known = std::ranges::any_of(prototypes_, [&](const auto& entry) { return entry.type == type; });
+        if (!known) prototypes_.push_back(Prototype{type, factory_->GetPrototype(type), plain(type)});
       }
     }
   }
   const Schema& schema() const { return schema_; }
+  const JsonMapping& json() const { return json_; }
   std::shared_ptr<pb::Message> make(const pb::Descriptor* type) {
-    const auto found = std::ranges::find_if(prototypes_, [&](const auto& entry) { return entry.first == type; });
-    const pb::Message* prototype = found != prototypes_.end() ? found->second : factory_->GetPrototype(type);
+    const Prototype* found = find(type);
+    const pb::Message* prototype = found != nullptr ? found->prototype : factory_->GetPrototype(type);
     return std::shared_ptr<pb::Message>(prototype->New(), [keep = shared_from_this()](pb::Message* m) { delete m; });
+  }
+  // Parses what the device sent into `message` (cleared first), as proxy::parse_device_message; a type
+  // without strings cannot fail for its text, so libprotobuf's parser alone (no log silencer: it locks).
+  bool parse(pb::Message& message, ByteView bytes) const {
+    const Prototype* found = find(message.GetDescriptor());
+    if (found != nullptr && found->plain) return message.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()));
+    return proxy::parse_device_message(message, bytes);
   }
 
  private:
+  struct Prototype {
+    const pb::Descriptor* type;
+    const pb::Message* prototype;
+    bool plain;  // no string and no required field at any depth: a failed parse logs nothing
+  };
+  const Prototype* find(const pb::Descriptor* type) const {
+    const auto found = std::ranges::find_if(prototypes_, [&](const Prototype& entry) { return entry.type == type; });
+    return found != prototypes_.end() ? &*found : nullptr;
+  }
+  static bool plain(const pb::Descriptor* type) {
+    std::vector<const pb::Descriptor*> seen;
+    return plain(type, seen);
+  }
+  static bool plain(const pb::Descriptor* type, std::vector<const pb::Descriptor*>& seen) {
+    if (std::ranges::find(seen, type) != seen.end()) return true;
+    seen.push_back(type);
+    for (int i = 0; i < type->field_count(); ++i) {
+      const pb::FieldDescriptor* field = type->field(i);
+      if (field->type() == pb::FieldDescriptor::TYPE_STRING || field->is_required()) return false;
+      if (field->message_type() != nullptr && !plain(field->message_type(), seen)) return false;
+    }
+    return type->extension_range_count() == 0;
+  }
+
   Schema schema_;
   pb::DynamicMessageFactory dynamic_;
   pb::MessageFactory* factory_;
-  std::vector<std::pair<const pb::Descriptor*, const pb::Message*>> prototypes_;
+  std::vector<Prototype> prototypes_;
+  JsonMapping json_{schema_.pool()};
 };
 
-std::shared_ptr<const pb::Message> copy_request(const pb::Message& request) {
-  std::shared_ptr<pb::Message> copy(request.New());
-  copy->CopyFrom(request);
-  return copy;
+CallRequest make_call_request(std::string_view method, const pb::Message& request, TypedReply reply,
+                              const pb::Descriptor* type) {
+  CallRequest call;
+  call.reply = reply;
+  call.method = std::string(method);
+  call.type = type != nullptr ? type : request.GetDescriptor();
+  call.encoded = request.SerializeToString(&call.request);
+  return call;
 }
 
 void copy_through_bytes(const pb::Message& from, pb::Message& to) {
@@ -144,6 +182,7 @@ struct Op {
   Stage stage = Stage::queued;
   const Method* method = nullptr;
   std::string request;  // the encoded request (call, open)
+  TypedReply typed;     // a call: the class its caller takes the reply as
   std::uint32_t period = 0;
   std::uint64_t stream = 0;        // open: the stream's key
   std::uint32_t close_target = 0;  // close: the device's stream id
@@ -199,7 +238,7 @@ class ClientImpl final : public client::ClientLink {
   // Any thread.
   void submit_call(OperationId operation, CallRequest call, CallHandler handler) {
     Op op;
-    const error_code error = build(call.method, *call.request, false, op);
+    const error_code error = build(call, false, op);
     if (error) {
       post_completion(std::move(handler), error, CallResult());
       return;
@@ -243,7 +282,8 @@ class ClientImpl final : public client::ClientLink {
   std::uint64_t open_stream(std::string_view method, const pb::Message& request, std::chrono::milliseconds period,
                             StreamHandler handler) {
     Op op;
-    const error_code error = build(method, request, true, op);
+    CallRequest call = make_call_request(method, request);
+    const error_code error = build(call, true, op);
     if (error) throw boost::system::system_error(error, "open_stream " + std::string(method));
     if (period.count() < 1 || period.count() > 0xFFFF) {
       throw boost::system::system_error(make_error_code(RpcError::invalid_request),
@@ -351,25 +391,23 @@ class ClientImpl final : public client::ClientLink {
   error_code closed_error() const { return link_error() ? link_error() : error_code(asio::error::operation_aborted); }
 
   // The request checked against the schema and encoded (any thread: the schema does not change).
-  error_code build(std::string_view name, const pb::Message& request, bool stream, Op& op) const {
-    const Method* method = messages_->schema().find(name);
+  error_code build(CallRequest& call, bool stream, Op& op) const {
+    const Method* method = messages_->schema().find(call.method);
     if (method == nullptr) return RpcError::unknown_method;
     if (method->streaming != stream) return RpcError::wrong_kind;
-    if (request.GetDescriptor() != method->input &&
-        request.GetDescriptor()->full_name() != method->input->full_name()) {
+    if (call.type != method->input && call.type->full_name() != method->input->full_name()) {
       return RpcError::invalid_request;
     }
-    std::string bytes;
-    if (request.GetDescriptor() == method->input) {
-      if (!request.SerializeToString(&bytes)) return RpcError::invalid_request;
-    } else {  // the same type from another pool (a generated class): through its bytes
+    if (!call.encoded) return RpcError::invalid_request;
+    if (call.type != method->input) {  // the same type from another pool (a generated class): its bytes checked
       std::shared_ptr<pb::Message> own = messages_->make(method->input);
-      if (!request.SerializeToString(&bytes) || !own->ParseFromString(bytes)) return RpcError::invalid_request;
+      if (!own->ParseFromString(call.request)) return RpcError::invalid_request;
     }
-    if (bytes.size() > kMaxRequestBytes) return RpcError::request_too_large;
+    if (call.request.size() > kMaxRequestBytes) return RpcError::request_too_large;
     op.kind = stream ? Op::Kind::open : Op::Kind::call;
     op.method = method;
-    op.request = std::move(bytes);
+    op.request = std::move(call.request);
+    op.typed = call.reply;
     return error_code();
   }
 
@@ -509,27 +547,31 @@ class ClientImpl final : public client::ClientLink {
 
   void begin_send(Ops::iterator op, Millis now) {
     const std::uint32_t id = next_id();
-    wire::HostMessage message;
-    message.set_id(id);
+    envelope::HostMessage message;
+    message.id = id;
     switch (op->state.kind) {
       case Op::Kind::call:
-        message.mutable_call()->set_method(op->state.method->index);
-        message.mutable_call()->set_request(std::move(op->state.request));  // sent once: re-sends are the frame's
+        message.body = envelope::HostBody::call;
+        message.method = op->state.method->index;
+        message.request = ByteView::from_chars(op->state.request.data(), op->state.request.size());
         break;
       case Op::Kind::open:
-        message.mutable_open()->set_method(op->state.method->index);
-        message.mutable_open()->set_request(std::move(op->state.request));
-        message.mutable_open()->set_period_ms(op->state.period);
+        message.body = envelope::HostBody::open;
+        message.method = op->state.method->index;
+        message.request = ByteView::from_chars(op->state.request.data(), op->state.request.size());
+        message.period_ms = op->state.period;
         break;
       case Op::Kind::close:
-        message.mutable_close()->set_stream(op->state.close_target);
+        message.body = envelope::HostBody::close;
+        message.stream = op->state.close_target;
         break;
     }
     op->state.stage = Op::Stage::in_flight;
     op->deadline.disarm();  // the engine's budget from now on
     op->state.id = id;
     op->state.anchor = ids_.anchor(id, in_flight_ids());
-    op->state.frame = frame_of(message.SerializeAsString());
+    op->state.frame = frame_of(message);
+    op->state.request = std::string();  // sent once: re-sends are the frame's
     refresh_table_timing(op->state.frame->size());
     (void)table_.begin_with(id, now);  // a slot is free and the id is not in flight
     ++counters_.messages_sent;
@@ -537,13 +579,25 @@ class ClientImpl final : public client::ClientLink {
     write(op->state.frame);
   }
 
-  static std::shared_ptr<const std::string> frame_of(const std::string& payload) {
-    std::string out(proxy::max_frame_size(payload.size()), '\0');
-    const Result<size_t> size =
-        proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
-                            MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
-    out.resize(size.ok() ? size.value() : 0);  // sized for the worst case: always ok
-    return std::make_shared<const std::string>(std::move(out));
+  // The frame of `message`, in a string of an earlier frame nobody holds any more (its message ended and
+  // its write completed) when there is one: no allocation per message once the client runs.
+  std::shared_ptr<const std::string> frame_of(const envelope::HostMessage& message) {
+    std::shared_ptr<std::string>* free = nullptr;
+    for (std::shared_ptr<std::string>& spare : spare_frames_) {
+      if (!spare || spare.use_count() == 1) {
+        free = &spare;
+        break;
+      }
+    }
+    std::shared_ptr<std::string> frame;
+    if (free == nullptr) {
+      frame = std::make_shared<std::string>();
+    } else {
+      if (!*free) *free = std::make_shared<std::string>();
+      frame = *free;
+    }
+    envelope::write_frame(message, *frame);
+    return frame;
   }
 
   void refresh_table_timing(std::size_t starting_frame = 0) {
@@ -553,19 +607,19 @@ class ClientImpl final : public client::ClientLink {
   }
 
   void send_untracked(Untracked kind) {
-    wire::HostMessage message;
+    envelope::HostMessage message;
     const std::uint32_t id = next_id();
-    message.set_id(id);
+    message.id = id;
     if (kind == Untracked::ping) {
-      message.mutable_ping();
+      message.body = envelope::HostBody::ping;
       ++counters_.pings_sent;
     } else {
-      message.mutable_hello();
+      message.body = envelope::HostBody::hello;
       ++counters_.hellos_sent;
     }
     UntrackedId& slot = untracked_[untracked_next_++ % untracked_.size()];
     slot = UntrackedId{id, kind, true};
-    write(frame_of(message.SerializeAsString()));
+    write(frame_of(message));
   }
 
   // --- completions -------------------------------------------------------------------------------------
@@ -609,8 +663,10 @@ class ClientImpl final : public client::ClientLink {
       ++(error == RpcError::refused ? counters_.refusals : counters_.device_errors);
     }
     if (!error) {
-      result.reply = messages_->make(op->state.method->output);
-      if (!proxy::parse_device_message(*result.reply, ByteView::from_chars(op->state.reply.data(), op->state.reply.size()))) {
+      const TypedReply& typed = op->state.typed;
+      result.reply = typed.make != nullptr && typed.type == op->state.method->output ? typed.make()
+                                                                                     : messages_->make(op->state.method->output);
+      if (!messages_->parse(*result.reply, ByteView::from_chars(op->state.reply.data(), op->state.reply.size()))) {
         result.reply.reset();
         error = RpcError::bad_reply;
       } else {
@@ -719,47 +775,47 @@ class ClientImpl final : public client::ClientLink {
   }
 
   void on_payload(ByteView payload, Millis now) {
-    wire::DeviceMessage out;
-    if (!proxy::parse_device_message(out, payload)) {
+    envelope::DeviceMessage out;
+    if (envelope::decode(payload, out) != envelope::DecodeError::none) {
       ++counters_.undecodable;
       return;
     }
-    switch (out.body_case()) {
-      case wire::DeviceMessage::kAck:
-        on_ack(out.ack().id(), out.ack().refused(), now);
+    switch (out.body) {
+      case envelope::DeviceBody::ack:
+        on_ack(out.ack.id, out.ack.refused, now);
         return;
-      case wire::DeviceMessage::kReply:
-        on_answer(out.reply().call(), false, std::move(*out.mutable_reply()->mutable_reply()), DeviceError());
+      case envelope::DeviceBody::reply:
+        on_answer(out.reply.call, false, out.reply.reply, DeviceError());
         return;
-      case wire::DeviceMessage::kError:
-        on_answer(out.error().call(), true, std::string(),
-                  DeviceError{static_cast<std::uint16_t>(std::min<std::uint32_t>(out.error().code(), 0xFFFF)),
-                              out.error().text()});
+      case envelope::DeviceBody::error:
+        on_answer(out.error.call, true, ByteView(),
+                  DeviceError{static_cast<std::uint16_t>(std::min<std::uint32_t>(out.error.code, 0xFFFF)),
+                              envelope::device_text(out.error.text)});
         return;
-      case wire::DeviceMessage::kStream:
-        on_stream_message(out.stream());
+      case envelope::DeviceBody::stream:
+        on_stream_message(out.stream);
         return;
-      case wire::DeviceMessage::kHello:
-        on_hello(out.hello(), now);
+      case envelope::DeviceBody::hello:
+        on_hello(out.hello, now);
         return;
-      case wire::DeviceMessage::kReset:
+      case envelope::DeviceBody::reset:
         // A boot announcement: adopted only through the Hello that follows (it carries the schema).
-        tell_monitor(out.reset().session(), [&] { monitor_.on_session_report(out.reset().session(), now); });
+        tell_monitor(out.reset.session, [&] { monitor_.on_session_report(out.reset.session, now); });
         run_monitor(now);
         return;
-      case wire::DeviceMessage::BODY_NOT_SET:
+      case envelope::DeviceBody::none:
         ++counters_.undecodable;
         return;
     }
   }
 
-  void on_answer(std::uint32_t call, bool failed, std::string reply, DeviceError error) {
+  void on_answer(std::uint32_t call, bool failed, ByteView reply, DeviceError error) {
     const auto found = in_flight_.find(call);
     if (found != in_flight_.end()) {
       Op& op = found->second->state;
       op.answered = true;
       op.failed = failed;
-      op.reply = std::move(reply);
+      op.reply.assign(reinterpret_cast<const char*>(reply.data()), reply.size());
       op.error = std::move(error);
       return;
     }
@@ -800,17 +856,17 @@ class ClientImpl final : public client::ClientLink {
     (void)table_.on_reply(id, 0, now);  // not in flight: the table counts it stale
   }
 
-  void on_stream_message(const wire::StreamMessage& message) {
+  void on_stream_message(const envelope::DeviceMessage::Stream& message) {
     for (auto& [key, entry] : streams_) {
-      if (entry.wire_id != message.stream() || message.stream() == 0) continue;
+      if (entry.wire_id != message.stream || message.stream == 0) continue;
       StreamMessage delivered;
       std::shared_ptr<pb::Message> decoded = messages_->make(entry.method->output);
-      if (!proxy::parse_device_message(*decoded, ByteView::from_chars(message.message().data(), message.message().size()))) {
+      if (!messages_->parse(*decoded, message.message)) {
         ++counters_.undecodable;
         return;
       }
       delivered.message = std::move(decoded);
-      delivered.seq = message.seq();
+      delivered.seq = message.seq;
       ++counters_.stream_messages;
       if (!delivering(key)) return;
       const StreamHandler handler = entry.handler;  // the handler may close its own stream
@@ -820,15 +876,15 @@ class ClientImpl final : public client::ClientLink {
     ++counters_.stale_stream_messages;
   }
 
-  void on_hello(const wire::DeviceHello& hello, Millis now) {
-    device_hash_ = hello.schema_hash();
-    if (hello.schema_hash() != messages_->schema().hash()) {
+  void on_hello(const envelope::DeviceMessage::Hello& hello, Millis now) {
+    device_hash_ = hello.schema_hash;
+    if (hello.schema_hash != messages_->schema().hash()) {
       if (!mismatch_) {
         mismatch_ = true;
         events::SchemaMismatch event;
-        event.device_hash = hello.schema_hash();
+        event.device_hash = hello.schema_hash;
         event.schema_hash = messages_->schema().hash();
-        event.text = mismatch_text(messages_->schema(), hello.schema_hash());
+        event.text = mismatch_text(messages_->schema(), hello.schema_hash);
         emit(event);
       }
       established_ = false;
@@ -850,9 +906,9 @@ class ClientImpl final : public client::ClientLink {
     }
     mismatch_ = false;
     if (monitor_.state() == session::SessionState::awaiting_reset_event) {
-      monitor_.on_reset_event(hello.session(), now);
+      monitor_.on_reset_event(hello.session, now);
     } else {
-      tell_monitor(hello.session(), [&] { monitor_.on_session_report(hello.session(), now); });
+      tell_monitor(hello.session, [&] { monitor_.on_session_report(hello.session, now); });
     }
     run_monitor(now);
   }
@@ -932,6 +988,7 @@ class ClientImpl final : public client::ClientLink {
   Monitor monitor_;
   client::MessageIds ids_;
   std::array<UntrackedId, 8> untracked_{};
+  std::array<std::shared_ptr<std::string>, kMaxInFlight + 4> spare_frames_;  // frame_of's strings
   std::size_t untracked_next_ = 0;
   std::map<std::uint32_t, Ops::iterator> in_flight_;  // by message id
   std::map<std::uint64_t, StreamEntry> streams_;     // by key
@@ -1044,22 +1101,30 @@ std::shared_ptr<google::protobuf::Message> Client::new_request(std::string_view 
 }
 
 CallResult Client::call(std::string_view method, const google::protobuf::Message& request, error_code& error) {
+  return call(detail::make_call_request(method, request), error);
+}
+
+CallResult Client::call(std::string_view method, const google::protobuf::Message& request) {
+  return call(detail::make_call_request(method, request));
+}
+
+CallResult Client::call(detail::CallRequest call, error_code& error) {
   return client::wait_for_operation<CallResult>(
       link(),
       [&](client::ClientLink::OperationId operation, detail::CallHandler handler) {
-        impl()->submit_call(operation, detail::CallRequest{std::string(method), detail::copy_request(request)},
-                            std::move(handler));
+        impl()->submit_call(operation, std::move(call), std::move(handler));
       },
       error);
 }
 
-CallResult Client::call(std::string_view method, const google::protobuf::Message& request) {
+CallResult Client::call(detail::CallRequest call) {
+  const std::string method = call.method;
   error_code error;
-  CallResult result = call(method, request, error);
+  CallResult result = this->call(std::move(call), error);
   if (error == RpcError::device_error || error == RpcError::refused) {
-    throw CallError(error, std::string(method), result.device_error);
+    throw CallError(error, method, result.device_error);
   }
-  if (error) throw boost::system::system_error(error, "rpc call " + std::string(method));
+  if (error) throw boost::system::system_error(error, "rpc call " + method);
   return result;
 }
 
@@ -1071,8 +1136,7 @@ std::string Client::call_json(std::string_view method, std::string_view json_req
     throw boost::system::system_error(make_error_code(RpcError::unknown_method),
                                       "no method " + std::string(method) + " in " + schema().file().string());
   }
-  const auto parsed = google::protobuf::util::JsonStringToMessage(
-      google::protobuf::StringPiece(json_request.data(), json_request.size()), request.get());
+  const auto parsed = impl()->messages()->json().from_json(json_request, *request);
   if (!parsed.ok()) {
     throw boost::system::system_error(make_error_code(RpcError::invalid_request),
                                       std::string(method) + ": " + std::string(parsed.message()));
@@ -1081,7 +1145,7 @@ std::string Client::call_json(std::string_view method, std::string_view json_req
   std::string json;
   google::protobuf::util::JsonPrintOptions options;
   options.always_print_primitive_fields = true;
-  (void)google::protobuf::util::MessageToJsonString(*result.reply, &json, options);
+  (void)impl()->messages()->json().to_json(*result.reply, json, options);
   return json;
 }
 

@@ -71,6 +71,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -85,6 +86,7 @@
 #include "tether/transports/unique_function.hpp"
 
 namespace google::protobuf {
+class Descriptor;
 class Message;
 }
 
@@ -273,17 +275,47 @@ using Event = std::variant<events::SessionEstablished, events::ResetDetected, ev
 namespace detail {
 /// Type-erased completion handler of a call.
 using CallHandler = transports::UniqueFunction<CallSignature>;
-/// A call as the public API hands it over.
+/// The program's class a typed call wants its reply as: the client makes the reply as one when the
+/// method's output is that class's type (a compiled-in schema), in one allocation.
+struct TypedReply {
+  const google::protobuf::Descriptor* type = nullptr;       ///< The class's type (null: none).
+  std::shared_ptr<google::protobuf::Message> (*make)() = nullptr;  ///< A new, empty one.
+};
+/// `TypedReply` of protoc's class `Reply` (its descriptor looked up once: protoc's accessor runs a
+/// `std::call_once` each time).
+template <typename Reply>
+TypedReply typed_reply() {
+  static const google::protobuf::Descriptor* const type = Reply::descriptor();
+  return TypedReply{type, [] { return std::shared_ptr<google::protobuf::Message>(std::make_shared<Reply>()); }};
+}
+/// A call as the public API hands it over: the request is encoded at initiation (its copy: the caller's
+/// message may change or go once the initiating function returned), and checked against the schema later.
 struct CallRequest {
-  std::string method;                                     ///< The method's name.
-  std::shared_ptr<const google::protobuf::Message> request;  ///< Its request (copied at initiation).
+  std::string method;                                    ///< The method's name.
+  std::string request;                                   ///< The request's bytes.
+  const google::protobuf::Descriptor* type = nullptr;    ///< The request's type.
+  bool encoded = false;                                  ///< False when the request did not serialize.
+  TypedReply reply;                                      ///< What the caller takes the reply as.
 };
 using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `call` on `impl` as operation `operation` (any thread). Defined in client.cpp.
 void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call);
-/// A copy of `request` the initiation keeps.
-std::shared_ptr<const google::protobuf::Message> copy_request(const google::protobuf::Message& request);
+/// The call of `method` with `request` as the initiation keeps it; `type` is the request's descriptor when
+/// the caller knows it (null: asked from the request).
+CallRequest make_call_request(std::string_view method, const google::protobuf::Message& request,
+                              TypedReply reply = TypedReply(), const google::protobuf::Descriptor* type = nullptr);
+/// `make_call_request` of a typed call: its reply as `Reply`, its request's descriptor from the static type
+/// `Request` when that is one of protoc's classes (final: the request is one), looked up once.
+template <typename Reply, typename Request>
+CallRequest make_typed_call_request(std::string_view method, const Request& request) {
+  if constexpr (requires { Request::descriptor(); }) {
+    static const google::protobuf::Descriptor* const type = Request::descriptor();
+    return make_call_request(method, request, typed_reply<Reply>(), type);
+  } else {
+    return make_call_request(method, request, typed_reply<Reply>());
+  }
+}
 /// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
 void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
 
@@ -336,7 +368,7 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   template <typename Token>
   auto async_call(std::string_view method, const google::protobuf::Message& request, Token&& token) {
     return initiate<CallSignature>(std::forward<Token>(token), &detail::start_call,
-                                   detail::CallRequest{std::string(method), detail::copy_request(request)});
+                                   detail::make_call_request(method, request));
   }
   /// Blocking call; failures in `error` (a device's answer in `result.device_error`).
   CallResult call(std::string_view method, const google::protobuf::Message& request, error_code& error);
@@ -358,21 +390,24 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   // copied through their bytes.
 
   /// Blocking `call` whose reply is a `Reply` (protoc's class of the method's output). Throws as `call`.
-  template <typename Reply>
-  Reply call_as(std::string_view method, const google::protobuf::Message& request) {
-    return detail::take_as<Reply>(call(method, request).reply);
+  template <typename Reply, typename Request>
+  Reply call_as(std::string_view method, const Request& request) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
+    return detail::take_as<Reply>(call(detail::make_typed_call_request<Reply>(method, request)).reply);
   }
   /// Blocking `call` whose reply is a `Reply`; failures in `error` (the reply is then empty).
-  template <typename Reply>
-  Reply call_as(std::string_view method, const google::protobuf::Message& request, error_code& error) {
-    return detail::take_as<Reply>(call(method, request, error).reply);
+  template <typename Reply, typename Request>
+  Reply call_as(std::string_view method, const Request& request, error_code& error) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
+    return detail::take_as<Reply>(call(detail::make_typed_call_request<Reply>(method, request), error).reply);
   }
   /// `async_call` completing `void(error_code, Reply)` (an empty `Reply` on failure; a device's code and
   /// text are `async_call`'s `CallResult::device_error`).
-  template <typename Reply, typename Token>
-  auto async_call_as(std::string_view method, const google::protobuf::Message& request, Token&& token) {
+  template <typename Reply, typename Request, typename Token>
+  auto async_call_as(std::string_view method, const Request& request, Token&& token) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
     return initiate<void(error_code, Reply)>(std::forward<Token>(token), &start_call_as<Reply>,
-                                             detail::CallRequest{std::string(method), detail::copy_request(request)});
+                                             detail::make_typed_call_request<Reply>(method, request));
   }
   /// `open_stream` whose handler takes each message as a `Typed` (protoc's class of the method's output):
   /// `handler(error, message)` as `StreamHandler`'s contract, with an empty message when the stream ends.
@@ -398,6 +433,9 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   SessionStatus session() const;
 
  private:
+  // The blocking forms of a call as the initiation keeps it.
+  CallResult call(detail::CallRequest call, error_code& error);
+  CallResult call(detail::CallRequest call);
   static void start_wait_ready(const std::shared_ptr<detail::ClientImpl>& impl,
                                client::ClientLink::OperationId operation,
                                transports::UniqueFunction<ReadySignature> handler);
