@@ -3,11 +3,24 @@
 
 #include <string.h>
 
-#include <pb_decode.h>
-#include <pb_encode.h>
-
 #include "tether/proxy/device/text.hpp"
 #include "tether_rpc.pb.h"
+
+// The envelope's decoder (message_codec.hpp), nanopb's rules without its generic code.
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Hello)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Call)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_OpenStream)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_CloseStream)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Ping)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Reset)
+TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_HostMessage)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Hello)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Call)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_OpenStream)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_CloseStream)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Ping)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Reset)
+TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_HostMessage)
 
 namespace tether {
 namespace rpc {
@@ -17,9 +30,6 @@ using proxy::device::FlashText;
 using proxy::device::TextBuilder;
 
 static_assert(tether_rpc_wire_HostMessage_size <= DefaultLimits::kMaxPayload, "a HostMessage must fit the decoder");
-#if defined(__AVR__) && !defined(TETHER_PB_DESCRIPTORS_IN_FLASH)
-#error "tether_rpc.pb.h without nanopb_descriptors_in_flash.h: the device reads the envelope's descriptors from flash"
-#endif
 static_assert(tether_rpc_wire_DeviceError_size + 2 <= 64 && tether_rpc_wire_DeviceHello_size + 2 <= 64,
               "a DeviceError and a DeviceHello fit every device's answer buffer (kMaxOutPayload >= 64)");
 
@@ -73,123 +83,63 @@ constexpr uint8_t kDelimited = 2;
 // DeviceError.text's bound (tether_rpc.options: max_size 48, the NUL included).
 constexpr size_t kErrorTextRoom = sizeof(tether_rpc_wire_DeviceError{}.text);
 
-}  // namespace
+using wire::Writer;
 
-// Each call of the writer's fields is a call, not a copy of its code (flash: the device has ~12 places
-// that write fields).
+// The envelope's fields, each out of line (the device has ~12 places that write them).
 #define TETHER_RPC_OUT_OF_LINE __attribute__((noinline))
 
-// A protobuf writer on a bounded buffer; once something does not fit, nothing more is written and
-// `size()` is 0.
-class DeviceCore::Writer {
- public:
-  Writer(uint8_t* buffer, size_t capacity) : begin_(buffer), at_(buffer), end_(buffer + capacity) {}
+uint8_t* open_field(Writer& out, uint8_t field) {
+  out.byte(static_cast<uint8_t>(field << 3 | kDelimited));
+  return out.open();
+}
+// A uint32 / bool field (proto3: left out when zero).
+TETHER_RPC_OUT_OF_LINE void put_number(Writer& out, uint8_t field, uint32_t value) {
+  if (value != 0) out.field_u32(static_cast<uint8_t>(field << 3 | kVarint), value);
+}
+// A string field of at most kErrorTextRoom - 1 characters, from RAM or flash (left out when empty).
+TETHER_RPC_OUT_OF_LINE void put_text(Writer& out, uint8_t field, const char* text, bool in_flash) {
+  if (text == nullptr || !out.ok()) return;
+  uint8_t* const start = out.position();
+  uint8_t* const mark = open_field(out, field);
+  uint8_t* const room = out.room(kErrorTextRoom);
+  if (room == nullptr) return;
+  TextBuilder builder(reinterpret_cast<char*>(room), kErrorTextRoom);
+  if (in_flash) {
+    builder.text(FlashText{text});
+  } else {
+    builder.text(text);
+  }
+  if (builder.size() == 0) {
+    out.rewind(start);  // an empty string is left out
+    return;
+  }
+  out.advance(builder.size());
+  out.close(mark);
+}
+TETHER_RPC_OUT_OF_LINE void put_fixed64(Writer& out, uint8_t field, uint64_t value) {
+  if (value == 0) return;
+  out.byte(static_cast<uint8_t>(field << 3 | kFixed64));
+  out.raw(&value, 8);
+}
+// A handler's struct as a bytes field, encoded once, in place.
+TETHER_RPC_OUT_OF_LINE void put_message(Writer& out, uint8_t field, EncodeFunction encode, const void* message) {
+  uint8_t* const mark = open_field(out, field);
+  if (!encode(out, message)) {
+    out.fail();
+    return;
+  }
+  out.close(mark);
+}
 
-  void byte(uint8_t value) {
-    if (at_ == end_) {
-      fail();
-      return;
-    }
-    *at_++ = value;
-  }
-  TETHER_RPC_OUT_OF_LINE void varint(uint32_t value) {
-    while (value >= 0x80) {
-      byte(static_cast<uint8_t>(value | 0x80));
-      value >>= 7;
-    }
-    byte(static_cast<uint8_t>(value));
-  }
-  void tag(uint8_t field, uint8_t wire_type) { byte(static_cast<uint8_t>(field << 3 | wire_type)); }
-  // A uint32 / bool field (proto3: left out when zero).
-  TETHER_RPC_OUT_OF_LINE void number(uint8_t field, uint32_t value) {
-    if (value == 0) return;
-    tag(field, kVarint);
-    varint(value);
-  }
-  // Opens a length-delimited field; `close` writes its length once its contents are written.
-  TETHER_RPC_OUT_OF_LINE uint8_t* open(uint8_t field) {
-    tag(field, kDelimited);
-    uint8_t* const mark = at_;
-    byte(0);
-    return mark;
-  }
-  TETHER_RPC_OUT_OF_LINE void close(uint8_t* mark) {
-    if (at_ == nullptr) return;
-    const size_t length = static_cast<size_t>(at_ - mark - 1);
-    if (length < 0x80) {  // the one byte `open` kept (every body of a device with 64-byte messages)
-      *mark = static_cast<uint8_t>(length);
-      return;
-    }
-    uint8_t extra = 0;  // the length's varint bytes beyond the first
-    for (size_t rest = length >> 7; rest != 0; rest >>= 7) ++extra;
-    if (static_cast<size_t>(end_ - at_) < extra) {
-      fail();
-      return;
-    }
-    memmove(mark + 1 + extra, mark + 1, length);
-    at_ = mark;
-    varint(static_cast<uint32_t>(length));
-    at_ += length;
-  }
-  // A handler's struct as a bytes field, encoded once, in place.
-  TETHER_RPC_OUT_OF_LINE void message(uint8_t field, const pb_msgdesc_t* fields, const void* message) {
-    uint8_t* const mark = open(field);
-    if (at_ == nullptr) return;
-    pb_ostream_t stream = pb_ostream_from_buffer(at_, static_cast<size_t>(end_ - at_));
-    if (!pb_encode(&stream, fields, message)) {
-      fail();
-      return;
-    }
-    at_ += stream.bytes_written;
-    close(mark);
-  }
-  // A string field of at most kErrorTextRoom - 1 characters, from RAM or flash (left out when empty).
-  TETHER_RPC_OUT_OF_LINE void text(uint8_t field, const char* text, bool in_flash) {
-    if (text == nullptr || at_ == nullptr) return;
-    uint8_t* const mark = open(field);
-    if (at_ == nullptr || static_cast<size_t>(end_ - at_) < kErrorTextRoom) {
-      fail();
-      return;
-    }
-    TextBuilder builder(reinterpret_cast<char*>(at_), kErrorTextRoom);
-    if (in_flash) {
-      builder.text(FlashText{text});
-    } else {
-      builder.text(text);
-    }
-    if (builder.size() == 0) {
-      at_ = mark - 1;  // an empty string is left out
-      return;
-    }
-    at_ += builder.size();
-    close(mark);
-  }
-  TETHER_RPC_OUT_OF_LINE void fixed64(uint8_t field, uint64_t value) {
-    if (value == 0) return;
-    tag(field, kFixed64);
-    for (uint8_t i = 0; i < 8; ++i) {
-      byte(static_cast<uint8_t>(value));
-      value >>= 8;
-    }
-  }
-  // Bytes written; 0 when something did not fit.
-  size_t size() const { return at_ == nullptr ? 0 : static_cast<size_t>(at_ - begin_); }
-
- private:
-  void fail() { at_ = end_ = nullptr; }
-
-  uint8_t* begin_;
-  uint8_t* at_;
-  uint8_t* end_;
-};
+}  // namespace
 
 void DeviceCore::start(uint32_t session_id, Millis now) {
   session_id_ = session_id;
   watchdog_.start(now);
   next_info_.arm(now, kInfoPeriodMs);
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kResetField);
-  out.number(1, session_id);  // ResetEvent.session
+  uint8_t* const body = open_field(out, kResetField);
+  put_number(out, 1, session_id);  // ResetEvent.session
   out.close(body);
   send_message(out, true);
 }
@@ -215,12 +165,7 @@ void DeviceCore::poll_time(Millis now) {
 }
 
 bool DeviceCore::decode(ByteView payload, void* host_message) {
-  static_assert(TETHER_PB_SUBMESSAGE_FIELDS(tether_rpc_wire_HostMessage) <= kEnvelopeSubmessages,
-                "the envelope's descriptor copy has room for every body");
-  // On the stack for the decode only (the answers are written by hand: no descriptors).
-  const proxy::device::DescriptorCopy<kEnvelopeSubmessages> fields(
-      proxy::device::FlashDescriptor{tether_rpc_wire_HostMessage_fields});
-  if (proxy::device::decode_message(fields.get(), payload, host_message)) return true;
+  if (tether_rpc_decode_tether_rpc_wire_HostMessage(payload.data(), payload.size(), host_message)) return true;
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
   return false;
@@ -256,8 +201,7 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
 }
 
 bool DeviceCore::decode_request(const Method& method, ByteView request) {
-  pb_istream_t stream = pb_istream_from_buffer(request.data(), request.size());
-  return pb_decode(&stream, method.request, service_->request);
+  return method.decode_request(request.data(), request.size(), service_->request);
 }
 
 DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView request) {
@@ -273,9 +217,9 @@ DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView requ
     return Outcome{false, send_error(id, status.code(), status.text(), false)};
   }
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kReplyField);
-  out.number(1, id);                              // Reply.call
-  out.message(2, m.reply, service_->reply);       // Reply.reply
+  uint8_t* const body = open_field(out, kReplyField);
+  put_number(out, 1, id);                              // Reply.call
+  put_message(out, 2, m.encode_reply, service_->reply);       // Reply.reply
   out.close(body);
   size_t size = send_message(out);
   if (size == 0) {  // it ran: the answer is the error, remembered like a reply
@@ -330,10 +274,10 @@ void DeviceCore::run_stream(uint8_t index, Millis now) {
     return;
   }
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kStreamField);
-  out.number(1, slot.id);                          // StreamMessage.stream
-  out.number(2, slot.seq);                         // StreamMessage.seq
-  out.message(3, m.reply, service_->reply);        // StreamMessage.message
+  uint8_t* const body = open_field(out, kStreamField);
+  put_number(out, 1, slot.id);                          // StreamMessage.stream
+  put_number(out, 2, slot.seq);                         // StreamMessage.seq
+  put_message(out, 3, m.encode_reply, service_->reply);        // StreamMessage.message
   out.close(body);
   if (send_message(out) == 0) {
     slot.request_size = kFree;
@@ -372,30 +316,30 @@ DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code) {
 
 size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash) {
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kErrorField);
-  out.number(1, call);                   // DeviceError.call
-  out.number(2, code);                   // DeviceError.code
-  out.text(3, text, text_in_flash);      // DeviceError.text
+  uint8_t* const body = open_field(out, kErrorField);
+  put_number(out, 1, call);                   // DeviceError.call
+  put_number(out, 2, code);                   // DeviceError.code
+  put_text(out, 3, text, text_in_flash);      // DeviceError.text
   out.close(body);
   return send_message(out);
 }
 
 void DeviceCore::send_ack(uint32_t id, bool refused) {
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kAckField);
-  out.number(1, id);                     // Ack.id
-  out.number(2, refused ? 1 : 0);        // Ack.refused
+  uint8_t* const body = open_field(out, kAckField);
+  put_number(out, 1, id);                     // Ack.id
+  put_number(out, 2, refused ? 1 : 0);        // Ack.refused
   out.close(body);
   send_message(out);
 }
 
 void DeviceCore::send_hello() {
   Writer out(scratch_.out, max_out_);
-  uint8_t* const body = out.open(kHelloField);
-  out.fixed64(1, service_->schema_hash);   // DeviceHello.schema_hash
-  out.number(2, session_id_);              // DeviceHello.session
-  out.number(3, max_payload_);             // DeviceHello.max_payload
-  out.number(4, service_->method_count);   // DeviceHello.methods
+  uint8_t* const body = open_field(out, kHelloField);
+  put_fixed64(out, 1, service_->schema_hash);   // DeviceHello.schema_hash
+  put_number(out, 2, session_id_);              // DeviceHello.session
+  put_number(out, 3, max_payload_);             // DeviceHello.max_payload
+  put_number(out, 4, service_->method_count);   // DeviceHello.methods
   out.close(body);
   send_message(out);
 }

@@ -13,6 +13,16 @@
 #include "tether_rpc.pb.h"
 #include "wire.hpp"
 
+// The arm schema's encoders and decoders, as the generated service code has them.
+TETHER_RPC_MESSAGE_DECLARE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_JointReply)
+TETHER_RPC_MESSAGE_DECLARE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_State)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointReply)
+TETHER_RPC_MESSAGE_DEFINE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_State)
+
 namespace {
 
 using tether::Millis;
@@ -56,9 +66,9 @@ Status arm_Watch(const void*, void* reply) {
 // The arm schema's two methods, and a third entry streaming the same handler, so that two methods compete
 // for TestLimits' one stream slot.
 const tether::rpc::device::Method kMethods[] = {
-    {arm_JointRequest_fields, arm_JointReply_fields, &arm_MoveJoint, false},
-    {arm_StateRequest_fields, arm_State_fields, &arm_Watch, true},
-    {arm_StateRequest_fields, arm_State_fields, &arm_Watch, true},
+    {&tether_rpc_decode_arm_JointRequest, &tether_rpc_encode_arm_JointReply, &arm_MoveJoint, false},
+    {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &arm_Watch, true},
+    {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &arm_Watch, true},
 };
 
 union Requests {

@@ -134,10 +134,27 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
       << ": a request is at most 64 bytes (the envelope's bound)\");\n";
   }
 
+  // Every message type the methods reach through their fields: each gets its encoder and decoder
+  // (tether/rpc/device/message_codec.hpp, from nanopb's field lists).
+  std::vector<const pb::Descriptor*> reached;
+  const auto reach = [&](const auto& self, const pb::Descriptor* type) -> void {
+    for (const pb::Descriptor* known : reached) {
+      if (known == type) return;
+    }
+    reached.push_back(type);
+    for (int i = 0; i < type->field_count(); ++i) {
+      if (type->field(i)->message_type() != nullptr) self(self, type->field(i)->message_type());
+    }
+  };
+  for (const pb::Descriptor* type : types) reach(reach, type);
+
   std::ostringstream cpp;
   cpp << "// " << origin << "\n"
       << "#include \"" << name << "_service.h\"\n\n"
-      << "namespace {\n\n";
+      << "// The messages' encoders and decoders (nanopb's structs and rules, without its generic code).\n";
+  for (const pb::Descriptor* type : reached) cpp << "TETHER_RPC_MESSAGE_DECLARE(" << nanopb_name(*type) << ")\n";
+  for (const pb::Descriptor* type : reached) cpp << "TETHER_RPC_MESSAGE_DEFINE(" << nanopb_name(*type) << ")\n";
+  cpp << "\nnamespace {\n\n";
   for (const Method& method : schema.methods()) {
     cpp << "tether::rpc::Status call_" << method.name << "(const void* request, void* reply) {\n"
         << "  return " << handler_name(schema, method) << "(*static_cast<const " << nanopb_name(*method.input)
@@ -146,7 +163,7 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
   }
   cpp << "const tether::rpc::device::Method kMethods[] = {\n";
   for (const Method& method : schema.methods()) {
-    cpp << "    {" << nanopb_name(*method.input) << "_fields, " << nanopb_name(*method.output) << "_fields, &call_"
+    cpp << "    {&tether_rpc_decode_" << nanopb_name(*method.input) << ", &tether_rpc_encode_" << nanopb_name(*method.output) << ", &call_"
         << method.name << ", " << (method.streaming ? "true" : "false") << "},\n";
   }
   cpp << "};\n\n"

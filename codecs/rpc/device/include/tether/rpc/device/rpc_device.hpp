@@ -56,7 +56,6 @@
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/proxy/decoder.hpp"
-#include "tether/proxy/device/flash_descriptors.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/rpc/device/service.hpp"
 #include "tether/rpc/errors.hpp"
@@ -180,9 +179,6 @@ class DeviceCore {
   void poll_time(Millis now);
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
-  // The envelope's descriptors are in flash on the AVR (tether_rpc.options): `decode` copies
-  // HostMessage's tree onto its stack for nanopb. Room for a message with this many submessage fields.
-  static constexpr uint8_t kEnvelopeSubmessages = 6;
   // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
   Outcome run(const void* host_message, Millis now);
   void send_ack(uint32_t id, bool refused);
@@ -201,9 +197,8 @@ class DeviceCore {
   bool decode_request(const Method& method, ByteView request);
   Outcome refuse(uint32_t id, DeviceErrorCode code);
   size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
-  class Writer;  // the DeviceMessage envelope, written by hand (rpc_device.cpp)
   // Sends the DeviceMessage written in the scratch `out`; its size, 0 when it did not fit (counted).
-  size_t send_message(const Writer& message, bool leading_delimiter = false);
+  size_t send_message(const wire::Writer& message, bool leading_delimiter = false);
   void send_hello();
 
   const Service* service_;

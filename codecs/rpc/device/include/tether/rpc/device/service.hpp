@@ -1,6 +1,7 @@
 /// @file service.hpp
 /// A schema's service as the device runtime sees it: one entry per method, in the schema's order, each
-/// with its nanopb message descriptors and the application's handler. `tether generate` writes this table
+/// with its request's decoder, its reply's encoder (message_codec.hpp: `tether_rpc_decode_<T>`,
+/// `tether_rpc_encode_<T>`) and the application's handler. `tether generate` writes this table
 /// for a schema (with a thunk per method that calls the sketch's `<Service>_<Method>` with its typed
 /// structs, so that a missing handler is a link error naming it); tests write it by hand.
 #pragma once
@@ -8,8 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include <pb.h>
-
+#include "tether/rpc/device/message_codec.hpp"
 #include "tether/rpc/device/status.hpp"
 
 namespace tether {
@@ -21,10 +21,15 @@ namespace device {
 /// period with the stream's request and fills in the next message.
 using Handler = Status (*)(const void* request, void* reply);
 
+/// Decodes `size` bytes into a zeroed struct of a message type; false when they are refused.
+using DecodeFunction = bool (*)(const uint8_t* data, size_t size, void* message);
+/// Encodes a struct of a message type; false when it did not fit or a field is over its bound.
+using EncodeFunction = bool (*)(wire::Writer& out, const void* message);
+
 /// One method.
 struct Method {
-  const pb_msgdesc_t* request;  ///< nanopb descriptor of the input type.
-  const pb_msgdesc_t* reply;    ///< nanopb descriptor of the output type.
+  DecodeFunction decode_request;  ///< The input type's decoder.
+  EncodeFunction encode_reply;    ///< The output type's encoder.
   Handler handler;              ///< The application's handler.
   bool streaming;               ///< Server streaming (`returns (stream T)`).
 };
