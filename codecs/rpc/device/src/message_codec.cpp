@@ -85,6 +85,7 @@ void Writer::varint64(uint64_t value) {
 }
 
 void Writer::raw(const void* data, size_t size) {
+  if (size == 0) return;  // (an empty bytes value; at_ may be null once failed)
   if (static_cast<size_t>(end_ - at_) < size) {
     fail();
     return;
@@ -208,6 +209,7 @@ bool Reader::varint64(uint64_t& value) {
 }
 
 bool Reader::take(void* out, size_t size) {
+  if (size == 0) return true;
   if (static_cast<size_t>(end_ - at_) < size) return false;
   memcpy(out, at_, size);
   at_ += size;
