@@ -7,9 +7,9 @@
 // answer follows from the calls before it. Each MoveJoint that runs is recorded by the execution witness
 // (tether/core/execution_witness.hpp) with the key witness_key(joint, uint16_t(angle_cdeg)).
 //
-// RAM: the device runtime's static tables (~1.2 KB with nanopb's descriptors in RAM) and its stack at the
-// deepest point (a reply or a stream message through three levels of nanopb encoding, ~0.8 KB) leave
-// little of the 2 KB: the UART rings are small (RX 32 bytes: the loop takes bytes as they come and decodes
+// RAM: the device runtime's static tables (~0.55 KB: the receive buffer, the exactly-once cache, the
+// counters) and its stack at the deepest point (a reply or a stream message being encoded and framed)
+// leave little of the 2 KB: the UART rings are small (RX 32 bytes: the loop takes bytes as they come and decodes
 // them in place; TX 16 bytes: `write` waits for room, ~1.5 ms for a 16-byte frame), the handlers' error
 // texts short (they live in RAM) and the device's entry points out of line (below).
 #include <avr/pgmspace.h>
