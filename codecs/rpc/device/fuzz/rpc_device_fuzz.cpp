@@ -62,15 +62,7 @@ const rpc::device::Method kMethods[] = {
     {&tether_rpc_decode_arm_JointRequest, &tether_rpc_encode_arm_JointReply, &move_joint, false},
     {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &watch, true},
 };
-union Requests {
-  arm_JointRequest move;
-  arm_StateRequest watch;
-} requests;
-union Replies {
-  arm_JointReply move;
-  arm_State watch;
-} replies;
-const rpc::device::Service kService{0x1234, kMethods, 2, &requests, sizeof requests, &replies, sizeof replies};
+const rpc::device::Service kService{0x1234, kMethods, 2};
 
 // What the device sent, read as a host reads it.
 struct HostView {

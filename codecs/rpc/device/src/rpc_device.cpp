@@ -47,20 +47,21 @@ const char kReplyTooLarge[] TETHER_IN_FLASH = "reply too large";
 const char kUnknownMessage[] TETHER_IN_FLASH = "unknown message";
 const char kStreamsFull[] TETHER_IN_FLASH = "too many streams";
 
+// Their table in flash too (a switch's table would be in RAM), by code from unknown_method.
+const char* const kErrorTexts[] TETHER_IN_FLASH = {
+    kUnknownMethod, kBadRequest,   kNotUnary,         kNotStreaming,  kPeriodTooShort,
+    kRequestTooLarge, kReplyTooLarge, kNotAHostMessage, kUnknownMessage, kStreamsFull,
+};
+static_assert(sizeof kErrorTexts / sizeof kErrorTexts[0] ==
+                  static_cast<uint16_t>(DeviceErrorCode::streams_full) -
+                      static_cast<uint16_t>(DeviceErrorCode::unknown_method) + 1,
+              "one text per DeviceErrorCode");
+
 const char* error_text(DeviceErrorCode code) {
-  switch (code) {
-    case DeviceErrorCode::unknown_method: return kUnknownMethod;
-    case DeviceErrorCode::bad_request: return kBadRequest;
-    case DeviceErrorCode::not_unary: return kNotUnary;
-    case DeviceErrorCode::not_streaming: return kNotStreaming;
-    case DeviceErrorCode::period_too_short: return kPeriodTooShort;
-    case DeviceErrorCode::request_too_large: return kRequestTooLarge;
-    case DeviceErrorCode::reply_too_large: return kReplyTooLarge;
-    case DeviceErrorCode::bad_envelope: return kNotAHostMessage;
-    case DeviceErrorCode::unknown_message: return kUnknownMessage;
-    case DeviceErrorCode::streams_full: return kStreamsFull;
-  }
-  return kUnknownMessage;
+  const char* text;
+  copy_from_flash(&text, &kErrorTexts[static_cast<uint16_t>(code) - static_cast<uint16_t>(DeviceErrorCode::unknown_method)],
+                  sizeof text);
+  return text;
 }
 
 // The DeviceMessage envelope is written here by hand, not by nanopb: its bodies are a few small
@@ -137,7 +138,7 @@ void DeviceCore::start(uint32_t session_id, Millis now) {
   session_id_ = session_id;
   watchdog_.start(now);
   next_info_.arm(now, kInfoPeriodMs);
-  Writer out(scratch_.out, max_out_);
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kResetField);
   put_number(out, 1, session_id);  // ResetEvent.session
   out.close(body);
@@ -164,7 +165,7 @@ void DeviceCore::poll_time(Millis now) {
   }
 }
 
-bool DeviceCore::decode(ByteView payload, void* host_message) {
+TETHER_RPC_OUT_OF_LINE bool DeviceCore::decode(ByteView payload, void* host_message) {
   if (tether_rpc_decode_tether_rpc_wire_HostMessage(payload.data(), payload.size(), host_message)) return true;
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
@@ -176,7 +177,7 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
   switch (in.which_body) {
     case tether_rpc_wire_HostMessage_hello_tag:
       send_hello();
-      return Outcome{false, 0};
+      return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_call_tag: {
       const tether_rpc_wire_Call& c = in.body.call;
       return call(in.id, c.method, ByteView(c.request.bytes, c.request.size));
@@ -189,48 +190,62 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
       for (uint8_t i = 0; i < slot_count_; ++i) {
         if (slots_[i].request_size != kFree && slots_[i].id == in.body.close.stream) slots_[i].request_size = kFree;
       }
-      return Outcome{false, 0};
+      return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_ping_tag:
       watchdog_.on_heartbeat(now);
-      return Outcome{false, 0};
+      return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_reset_tag:
-      return Outcome{false, 0};  // finish() restarts, after the ack
+      return Outcome{false, ByteView()};  // finish() restarts, after the ack
     default:
       return refuse(in.id, DeviceErrorCode::unknown_message);
   }
 }
 
 bool DeviceCore::decode_request(const Method& method, ByteView request) {
-  return method.decode_request(request.data(), request.size(), service_->request);
+  return method.decode_request(request.data(), request.size(), scratch_->request);
 }
 
-DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView request) {
-  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method);
-  const Method& m = service_->methods[method];
+TETHER_RPC_OUT_OF_LINE Service DeviceCore::service() const {
+  Service service;
+  copy_from_flash(&service, service_, sizeof service);
+  return service;
+}
+
+TETHER_RPC_OUT_OF_LINE Method DeviceCore::method(const Service& service, uint8_t index) {
+  Method method;
+  copy_from_flash(&method, &service.methods[index], sizeof method);
+  return method;
+}
+
+TETHER_RPC_OUT_OF_LINE DeviceCore::Outcome DeviceCore::call(uint32_t id, uint32_t method, ByteView request) {
+  const Service s = service();
+  if (method >= s.method_count) return refuse(id, DeviceErrorCode::unknown_method);
+  const Method m = this->method(s, static_cast<uint8_t>(method));
   if (m.streaming) return refuse(id, DeviceErrorCode::not_unary);
   if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request);
-  memset(service_->reply, 0, service_->reply_size);
+  memset(scratch_->reply, 0, scratch_->reply_size);
   add_one(counters_.calls);
-  const Status status = m.handler(service_->request, service_->reply);
+  const Status status = m.handler(scratch_->request, scratch_->reply);
   if (!status.is_ok()) {
     add_one(counters_.handler_errors);
-    return Outcome{false, send_error(id, status.code(), status.text(), false)};
+    return Outcome{false, send_error(id, status.code(), status.text(), status.text_in_flash())};
   }
-  Writer out(scratch_.out, max_out_);
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kReplyField);
   put_number(out, 1, id);                              // Reply.call
-  put_message(out, 2, m.encode_reply, service_->reply);       // Reply.reply
+  uint8_t* const kept = out.position();
+  put_message(out, 2, m.encode_reply, scratch_->reply);        // Reply.reply
   out.close(body);
-  size_t size = send_message(out);
-  if (size == 0) {  // it ran: the answer is the error, remembered like a reply
-    size = send_error(id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
+  if (send_message(out) == 0) {  // it ran: the answer is the error, remembered like a reply
+    return Outcome{false, send_error(id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true)};
   }
-  return Outcome{false, size};
+  return Outcome{false, ByteView(kept, static_cast<size_t>(out.position() - kept))};
 }
 
-DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now) {
-  if (method >= service_->method_count) return refuse(id, DeviceErrorCode::unknown_method);
-  const Method& m = service_->methods[method];
+TETHER_RPC_OUT_OF_LINE DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now) {
+  const Service s = service();
+  if (method >= s.method_count) return refuse(id, DeviceErrorCode::unknown_method);
+  const Method m = this->method(s, static_cast<uint8_t>(method));
   if (!m.streaming) return refuse(id, DeviceErrorCode::not_streaming);
   if (period < min_period_ms_ || period > 0xFFFFu) return refuse(id, DeviceErrorCode::period_too_short);
   if (request.size() > request_bytes_) return refuse(id, DeviceErrorCode::request_too_large);
@@ -254,30 +269,31 @@ DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_t method, ByteView requ
   slot.request_size = static_cast<uint8_t>(request.size());
   memcpy(requests_ + chosen * request_bytes_, request.data(), request.size());
   slot.next.arm_at(now);  // the first message at the next poll
-  return Outcome{false, 0};
+  return Outcome{false, ByteView()};
 }
 
-void DeviceCore::run_stream(uint8_t index, Millis now) {
+TETHER_RPC_OUT_OF_LINE void DeviceCore::run_stream(uint8_t index, Millis now) {
   StreamSlot& slot = slots_[index];
-  const Method& m = service_->methods[slot.method];
+  const Service s = service();
+  const Method m = method(s, slot.method);
   if (!decode_request(m, ByteView(requests_ + index * request_bytes_, slot.request_size))) {
     slot.request_size = kFree;  // it decoded when the stream opened: only a bug gets here
     send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::bad_request), kBadRequest, true);
     return;
   }
-  memset(service_->reply, 0, service_->reply_size);
-  const Status status = m.handler(service_->request, service_->reply);
+  memset(scratch_->reply, 0, scratch_->reply_size);
+  const Status status = m.handler(scratch_->request, scratch_->reply);
   if (!status.is_ok()) {
     add_one(counters_.handler_errors);
     slot.request_size = kFree;
-    send_error(slot.id, status.code(), status.text(), false);
+    send_error(slot.id, status.code(), status.text(), status.text_in_flash());
     return;
   }
-  Writer out(scratch_.out, max_out_);
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kStreamField);
   put_number(out, 1, slot.id);                          // StreamMessage.stream
   put_number(out, 2, slot.seq);                         // StreamMessage.seq
-  put_message(out, 3, m.encode_reply, service_->reply);        // StreamMessage.message
+  put_message(out, 3, m.encode_reply, scratch_->reply);        // StreamMessage.message
   out.close(body);
   if (send_message(out) == 0) {
     slot.request_size = kFree;
@@ -314,18 +330,31 @@ DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code) {
   return Outcome{true, send_error(id, static_cast<uint16_t>(code), error_text(code), true)};
 }
 
-size_t DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash) {
-  Writer out(scratch_.out, max_out_);
+ByteView DeviceCore::send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash) {
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kErrorField);
   put_number(out, 1, call);                   // DeviceError.call
+  uint8_t* const kept = out.position();
   put_number(out, 2, code);                   // DeviceError.code
   put_text(out, 3, text, text_in_flash);      // DeviceError.text
   out.close(body);
-  return send_message(out);
+  if (send_message(out) == 0) return ByteView();
+  return ByteView(kept, static_cast<size_t>(out.position() - kept));
+}
+
+void DeviceCore::send_again(uint32_t id, ByteView kept) {
+  Writer out(scratch_->out, max_out_);
+  // What follows the call field tells the body: Reply.reply (field 2, length-delimited) or
+  // DeviceError.code (field 2, a varint: never zero in an error).
+  uint8_t* const body = open_field(out, kept[0] == (2 << 3 | kDelimited) ? kReplyField : kErrorField);
+  put_number(out, 1, id);                     // Reply.call / DeviceError.call
+  out.raw(kept.data(), kept.size());
+  out.close(body);
+  send_message(out);
 }
 
 void DeviceCore::send_ack(uint32_t id, bool refused) {
-  Writer out(scratch_.out, max_out_);
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kAckField);
   put_number(out, 1, id);                     // Ack.id
   put_number(out, 2, refused ? 1 : 0);        // Ack.refused
@@ -334,12 +363,13 @@ void DeviceCore::send_ack(uint32_t id, bool refused) {
 }
 
 void DeviceCore::send_hello() {
-  Writer out(scratch_.out, max_out_);
+  Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kHelloField);
-  put_fixed64(out, 1, service_->schema_hash);   // DeviceHello.schema_hash
+  const Service s = service();
+  put_fixed64(out, 1, s.schema_hash);           // DeviceHello.schema_hash
   put_number(out, 2, session_id_);              // DeviceHello.session
   put_number(out, 3, max_payload_);             // DeviceHello.max_payload
-  put_number(out, 4, service_->method_count);   // DeviceHello.methods
+  put_number(out, 4, s.method_count);           // DeviceHello.methods
   out.close(body);
   send_message(out);
 }
@@ -350,18 +380,18 @@ size_t DeviceCore::send_message(const Writer& message, bool leading_delimiter) {
     add_one(counters_.send_failures);
     return 0;
   }
-  send_payload(ByteView(scratch_.out, size), leading_delimiter);
+  send_payload(ByteView(scratch_->out, size), leading_delimiter);
   return size;
 }
 
 void DeviceCore::send_payload(ByteView payload, bool leading_delimiter) {
   const Result<size_t> framed = proxy::encode_frame(payload, proxy::Integrity::crc16, leading_delimiter,
-                                                    MutableByteView(scratch_.frame, proxy::max_frame_size(max_out_)));
+                                                    MutableByteView(scratch_->frame, proxy::max_frame_size(max_out_)));
   if (!framed.ok()) {
     add_one(counters_.send_failures);
     return;
   }
-  sink_.write(sink_.context, ByteView(scratch_.frame, framed.value()));
+  sink_.write(sink_.context, ByteView(scratch_->frame, framed.value()));
 }
 
 void DeviceCore::finish(const void* host_message) {

@@ -79,8 +79,6 @@ union Replies {
   arm_JointReply move;
   arm_State watch;
 };
-Requests request_scratch;
-Replies reply_scratch;
 
 std::uint64_t arm_hash() {
   return tether::rpc::Schema::load(std::string(TETHER_RPC_TEST_SCHEMAS) + "/arm.proto").hash();
@@ -94,6 +92,8 @@ struct TestLimits {
   static constexpr uint8_t kDuplicateDepth = 2;
   static constexpr uint16_t kReplyCacheBytes = 72;
   static constexpr size_t kMaxOutPayload = 72;
+  static constexpr size_t kRequestStructBytes = sizeof(Requests);
+  static constexpr size_t kReplyStructBytes = sizeof(Replies);
 };
 
 // A device's answer, decoded; the Reply / StreamMessage payload kept as bytes.
@@ -159,8 +159,7 @@ class RpcDevice : public ::testing::Test {
   }
 
   static tether::rpc::device::Service make_service() {
-    return tether::rpc::device::Service{0, kMethods, 3, &request_scratch, sizeof request_scratch, &reply_scratch,
-                                        sizeof reply_scratch};
+    return tether::rpc::device::Service{0, kMethods, 3};
   }
 
   // Sends `message` as one frame (fed in one run, or byte by byte) and returns what the device answered.
