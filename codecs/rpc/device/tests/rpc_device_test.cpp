@@ -350,6 +350,29 @@ TEST_F(RpcDevice, AHandlerErrorIsTheCallsAnswerAndIsRememberedLikeAReply) {
   expect_error(send(move(4, 3, 0))[0], 4, 0xFEFF, "pretends to be Tether");
 }
 
+// The cache keeps an answer's fields after its call id and rebuilds the rest: a re-send gets the first
+// answer's bytes, whatever the answer (a reply, an error with the longest text, a text in flash, id 0).
+TEST_F(RpcDevice, ReSentAnswersAreTheFirstOnesByteForByte) {
+  static const char kInFlash[] TETHER_IN_FLASH = "kept in flash";
+  const std::string longest(60, 'x');  // sent as its first 47 characters
+  const Status statuses[] = {Status::ok(), Status::error(0xFEFF, longest.c_str()), Status::error_P(7, kInFlash)};
+  uint32_t id = 0;  // 0 first: a call id proto3 leaves out
+  for (const Status& status : statuses) {
+    app.move_status = status;
+    const auto first = send(move(id, 1, -2000000000));
+    ASSERT_EQ(first.size(), 2u);
+    app.move_status = Status::error(9, "must not run");
+    const auto again = send(move(id, 1, -2000000000));
+    ASSERT_EQ(again.size(), 2u);
+    EXPECT_EQ(again[0].payload, first[0].payload) << "id " << id;
+    expect_ack(again[1], id, false);
+    ++id;
+  }
+  expect_error(send(move(2, 1, -2000000000))[0], 2, 7, "kept in flash");  // id 2's answer, from the cache
+  EXPECT_EQ(app.moves, 3);  // each call ran once
+  EXPECT_EQ(device_.counters().link.duplicates, 4u);
+}
+
 TEST_F(RpcDevice, RefusalsNameTheirCauseAndAreLookedAtAgainWhenReSent) {
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");

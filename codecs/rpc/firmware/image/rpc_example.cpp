@@ -122,6 +122,15 @@ __attribute__((noinline)) size_t handle(tether::ByteView received) {
 }
 __attribute__((noinline)) void poll() { device.poll(tether::firmware::millis()); }
 
+// Sleeps until a byte arrives or the clock ticks: a wake by the transmitter alone (one per byte sent,
+// ~30 a stream message) goes back to sleep without a loop pass, as nothing can have come due.
+void sleep_until_work() {
+  const uint32_t at = tether::firmware::millis();
+  do {
+    tether::firmware::idle<Serial>();
+  } while (Serial::available() == 0 && tether::firmware::millis() == at);
+}
+
 }  // namespace
 
 TETHER_UART0_ISRS(Serial);
@@ -138,6 +147,6 @@ int main() {
       Serial::consume(static_cast<uint8_t>(handle(received)));
     }
     poll();
-    if (received.empty()) tether::firmware::idle<Serial>();
+    if (received.empty()) sleep_until_work();
   }
 }
