@@ -148,6 +148,7 @@ void DeviceCore::start(uint32_t session_id, Millis now) {
 void DeviceCore::track_frame(bool was_in_frame, bool in_frame, Millis now) {
   if (!was_in_frame && in_frame) {
     partial_.on_frame_start(now);
+    frame_handled();  // a new deadline: the next poll computes the earliest again
   } else if (was_in_frame && !in_frame) {
     partial_.on_frame_end();
   }
@@ -161,8 +162,22 @@ void DeviceCore::poll_time(Millis now) {
     if (next_info_.expired(now)) next_info_.arm(now, kInfoPeriodMs);  // fell behind: no burst
   }
   for (uint8_t i = 0; i < slot_count_; ++i) {
-    if (slots_[i].request_size != kFree && slots_[i].next.expired(now)) run_stream(i, now);
+    if (slots_[i].next.expired(now)) run_stream(i, now);
   }
+  plan();
+}
+
+// The earliest deadline left (DeviceHello's is always armed): `poll` does nothing before it.
+TETHER_RPC_OUT_OF_LINE void DeviceCore::plan() {
+  Millis due = next_info_.at();
+  if (!watchdog_.in_failsafe()) due = earlier(due, watchdog_.deadline());
+  due = earlier(due, partial_.deadline());
+  for (uint8_t i = 0; i < slot_count_; ++i) due = earlier(due, slots_[i].next);
+  next_due_ = due;
+}
+
+TETHER_RPC_OUT_OF_LINE Millis DeviceCore::earlier(Millis due, Deadline deadline) {
+  return deadline.armed() && tick_difference(deadline.at(), due) < 0 ? deadline.at() : due;
 }
 
 TETHER_RPC_OUT_OF_LINE bool DeviceCore::decode(ByteView payload, void* host_message) {
@@ -188,7 +203,7 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
     }
     case tether_rpc_wire_HostMessage_close_tag:
       for (uint8_t i = 0; i < slot_count_; ++i) {
-        if (slots_[i].request_size != kFree && slots_[i].id == in.body.close.stream) slots_[i].request_size = kFree;
+        if (slots_[i].next.armed() && slots_[i].id == in.body.close.stream) slots_[i].next.disarm();
       }
       return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_ping_tag:
@@ -251,16 +266,16 @@ TETHER_RPC_OUT_OF_LINE DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_
   if (request.size() > request_bytes_) return refuse(id, DeviceErrorCode::request_too_large);
   if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request);
   // The method's own slot (a re-open replaces its stream), else a free one.
-  uint8_t chosen = kFree;
+  uint8_t chosen = kNone;
   for (uint8_t i = 0; i < slot_count_; ++i) {
-    if (slots_[i].request_size == kFree) {
-      if (chosen == kFree) chosen = i;
+    if (!slots_[i].next.armed()) {
+      if (chosen == kNone) chosen = i;
     } else if (slots_[i].method == method) {
       chosen = i;
       break;
     }
   }
-  if (chosen == kFree) return refuse(id, DeviceErrorCode::streams_full);
+  if (chosen == kNone) return refuse(id, DeviceErrorCode::streams_full);
   StreamSlot& slot = slots_[chosen];
   slot.id = id;
   slot.method = static_cast<uint8_t>(method);
@@ -277,7 +292,7 @@ TETHER_RPC_OUT_OF_LINE void DeviceCore::run_stream(uint8_t index, Millis now) {
   const Service s = service();
   const Method m = method(s, slot.method);
   if (!decode_request(m, ByteView(requests_ + index * request_bytes_, slot.request_size))) {
-    slot.request_size = kFree;  // it decoded when the stream opened: only a bug gets here
+    slot.next.disarm();  // it decoded when the stream opened: only a bug gets here
     send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::bad_request), kBadRequest, true);
     return;
   }
@@ -285,7 +300,7 @@ TETHER_RPC_OUT_OF_LINE void DeviceCore::run_stream(uint8_t index, Millis now) {
   const Status status = m.handler(scratch_->request, scratch_->reply);
   if (!status.is_ok()) {
     add_one(counters_.handler_errors);
-    slot.request_size = kFree;
+    slot.next.disarm();
     send_error(slot.id, status.code(), status.text(), status.text_in_flash());
     return;
   }
@@ -296,7 +311,7 @@ TETHER_RPC_OUT_OF_LINE void DeviceCore::run_stream(uint8_t index, Millis now) {
   put_message(out, 3, m.encode_reply, scratch_->reply);        // StreamMessage.message
   out.close(body);
   if (send_message(out) == 0) {
-    slot.request_size = kFree;
+    slot.next.disarm();
     send_error(slot.id, static_cast<uint16_t>(DeviceErrorCode::reply_too_large), kReplyTooLarge, true);
     return;
   }
@@ -308,7 +323,7 @@ TETHER_RPC_OUT_OF_LINE void DeviceCore::run_stream(uint8_t index, Millis now) {
 
 bool DeviceCore::slot_open(uint32_t id) const {
   for (uint8_t i = 0; i < slot_count_; ++i) {
-    if (slots_[i].request_size != kFree && slots_[i].id == id) return true;
+    if (slots_[i].next.armed() && slots_[i].id == id) return true;
   }
   return false;
 }
@@ -316,13 +331,13 @@ bool DeviceCore::slot_open(uint32_t id) const {
 uint8_t DeviceCore::open_streams() const {
   uint8_t open = 0;
   for (uint8_t i = 0; i < slot_count_; ++i) {
-    if (slots_[i].request_size != kFree) ++open;
+    if (slots_[i].next.armed()) ++open;
   }
   return open;
 }
 
 void DeviceCore::close_streams() {
-  for (uint8_t i = 0; i < slot_count_; ++i) slots_[i].request_size = kFree;
+  for (uint8_t i = 0; i < slot_count_; ++i) slots_[i].next.disarm();
 }
 
 DeviceCore::Outcome DeviceCore::refuse(uint32_t id, DeviceErrorCode code) {
@@ -400,6 +415,16 @@ void DeviceCore::finish(const void* host_message) {
 }
 
 void DeviceCore::on_failsafe(void* self, Millis) { static_cast<DeviceCore*>(self)->close_streams(); }
+
+#if defined(__AVR__)
+namespace {
+// The images keep their device in a global with no start-up code (constant-initialised): this does not
+// compile when a constructor on the way stops being constant. AVR only: the host's CRC is not a literal type.
+const Method kConstantMethods[] TETHER_IN_FLASH = {{nullptr, nullptr, nullptr, false}};
+const Service kConstantService TETHER_IN_FLASH = {0, kConstantMethods, 1};
+constexpr Device<> kConstantInitialisedDevice(kConstantService, FrameSink{nullptr, nullptr});
+}  // namespace
+#endif
 
 }  // namespace device
 }  // namespace rpc

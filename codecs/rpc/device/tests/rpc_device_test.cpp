@@ -515,4 +515,22 @@ TEST_F(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
   EXPECT_EQ(app.moves, 1);
 }
 
+// A poll between deadlines returns at once (the earliest deadline is kept); every deadline still comes on
+// its millisecond: a stalled frame's (armed mid-way, after polls), DeviceHello's, a stream's.
+TEST_F(RpcDevice, PollsBetweenDeadlinesRunNothingAndEveryDeadlineComesOnTime) {
+  const tether_rpc_wire_HostMessage message = move(71, 1, 1);
+  const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
+  const Millis start = now_;
+  for (Millis t = start; t < start + 10; ++t) EXPECT_TRUE(poll_at(t).empty());
+  device_.handle_bytes(tether::ByteView(frame.data(), 3), now_);  // a frame starts at start + 9
+  for (Millis t = start + 10; t < start + 109; ++t) poll_at(t);
+  EXPECT_EQ(device_.counters().link.partial_timeouts, 0u);
+  poll_at(start + 109);
+  EXPECT_EQ(device_.counters().link.partial_timeouts, 1u);
+  for (Millis t = start + 110; t < start + 5000; ++t) ASSERT_TRUE(poll_at(t).empty()) << t;
+  const auto hello = poll_at(start + 5000);
+  ASSERT_EQ(hello.size(), 1u);
+  EXPECT_EQ(hello[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
+}
+
 }  // namespace

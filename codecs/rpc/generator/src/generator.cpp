@@ -144,7 +144,9 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
     << "  /// The runtime for this service.\n"
     << "  using Device = tether::rpc::device::Device<Limits>;\n"
     << "  /// The method table (in flash on the AVR).\n"
-    << "  static const tether::rpc::device::Service& service();\n"
+    << "  static const tether::rpc::device::Service kService;\n"
+    << "  /// The method table, as a constant: a global device is constant-initialised (no start-up code).\n"
+    << "  static constexpr const tether::rpc::device::Service& service() { return kService; }\n"
     << "};\n\n";
   for (const std::string& request : requests) {
     h << "static_assert(" << request << " <= 64, \"" << request
@@ -184,10 +186,9 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
         << method.name << ", " << (method.streaming ? "true" : "false") << "},\n";
   }
   cpp << "};\n\n"
-      << "const tether::rpc::device::Service kService TETHER_IN_FLASH = {" << service << "::kSchemaHash, kMethods, "
-      << schema.methods().size() << "};\n\n"
       << "}  // namespace\n\n"
-      << "const tether::rpc::device::Service& " << service << "::service() { return kService; }\n";
+      << "const tether::rpc::device::Service " << service << "::kService TETHER_IN_FLASH = {" << service
+      << "::kSchemaHash, kMethods, " << schema.methods().size() << "};\n";
   return ServiceCode{h.str(), cpp.str()};
 }
 

@@ -120,17 +120,19 @@ class DeviceCore {
   void set_min_period_ms(uint16_t period) { min_period_ms_ = period; }
 
  protected:
+  // A stream's slot; all zeros (its deadline disarmed) when it serves no stream, so that a device needs no
+  // code to start (constant-initialised: .bss).
   struct StreamSlot {
     uint32_t id;
-    Deadline next;
+    Deadline next;  // armed exactly while the slot serves a stream
     uint32_t seq;
     uint16_t period;
     uint8_t method;
-    uint8_t request_size;  // 0xFF: the slot is free
+    uint8_t request_size;
   };
 
   // `slots` and `requests` (slot_count rows of request_bytes) are the derived device's tables.
-  DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
+  constexpr DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
              size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
              uint8_t request_bytes)
       : service_(&service),
@@ -152,7 +154,7 @@ class DeviceCore {
     ByteView answer;  // the Reply / DeviceError sent, its fields after the call id (empty: none)
   };
 
-  static constexpr uint8_t kFree = 0xFF;  // a StreamSlot's request_size when it serves no stream
+  static constexpr uint8_t kNone = 0xFF;  // no slot
 
   // The derived device's buffers on its entry point's stack (the sizes are its limits'): `out` for the
   // payload being sent (max_out bytes; after `run`, the answer to remember), `frame` for its frame, the
@@ -179,17 +181,20 @@ class DeviceCore {
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
   bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
-  // False when `poll` ran at `now` already and no frame was handled since: nothing can have come due (the
-  // loop polls after every byte in or out, dozens of times a millisecond while a frame moves).
+  // False while nothing can be due: no frame started or was handled since the last `poll` and `now` is
+  // before the earliest deadline it left (the loop polls after every byte in or out and at every clock
+  // tick; most of those passes end here, with one comparison).
   bool poll_due(Millis now) {
-    if (polled_ && now == polled_at_) return false;
+    if (polled_ && !tick_reached(now, next_due_)) return false;
     polled_ = true;
-    polled_at_ = now;
     return true;
   }
-  // A frame was handled: the next `poll` runs whatever the time (an opened stream's first message).
+  // A frame was handled or started: the next `poll` runs whatever the time (an opened stream's first
+  // message, a ping's new failsafe deadline, a frame's partial-frame deadline).
   void frame_handled() { polled_ = false; }
   void poll_time(Millis now);
+  void plan();  // next_due_ from the deadlines
+  static Millis earlier(Millis due, Deadline deadline);  // `deadline` when armed and before `due`
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
   // Runs a decoded HostMessage; its answer (if any) is left in the scratch `out`.
@@ -200,7 +205,7 @@ class DeviceCore {
   void send_payload(ByteView payload, bool leading_delimiter = false);
   void finish(const void* host_message);  // a Reset body's restart
   bool slot_open(uint32_t id) const;
-  void close_streams();  // every slot free (the derived device's constructor, the failsafe)
+  void close_streams();  // every slot free (the failsafe)
 
   DeviceCounters counters_;
 
@@ -229,7 +234,7 @@ class DeviceCore {
   Deadline next_info_;
   uint32_t session_id_ = 0;
   uint16_t min_period_ms_ = 1;
-  Millis polled_at_ = 0;
+  Millis next_due_ = 0;  // the earliest deadline the last `poll` left
   bool polled_ = false;
   uint16_t max_payload_;
   uint16_t max_out_;
@@ -245,14 +250,14 @@ template <class Limits = DefaultLimits>
 class Device : public DeviceCore {
  public:
   /// Device serving `service` (declared `TETHER_IN_FLASH`), sending through `sink`, restarting through `restart(restart_context)`
-  /// (null: Reset is acked and ignored, for tests). `service` must outlive it.
-  Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr, void* restart_context = nullptr)
+  /// (null: Reset is acked and ignored, for tests). `service` must outlive it. Constant: a global device is
+  /// all zeros and constants (.bss/.data), no start-up code.
+  constexpr Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr,
+                   void* restart_context = nullptr)
       : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
                    Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes),
         decoder_(proxy::Integrity::crc16, counters_.link),
-        executed_(counters_.link) {
-    close_streams();
-  }
+        executed_(counters_.link) {}
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
 
@@ -314,8 +319,8 @@ class Device : public DeviceCore {
 
   proxy::Decoder<Limits::kMaxPayload> decoder_;
   session::DuplicateFilter<uint32_t, Limits::kDuplicateDepth, Limits::kReplyCacheBytes> executed_;
-  StreamSlot slot_table_[Limits::kStreams];
-  uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes];
+  StreamSlot slot_table_[Limits::kStreams] = {};
+  uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes] = {};
 };
 
 }  // namespace device
