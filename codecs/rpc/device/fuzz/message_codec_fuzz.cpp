@@ -1,7 +1,8 @@
 // Fuzz target of the device's message codec (message_codec.hpp): the input decoded as each message of the
 // codec test schema (codecs/rpc/device/tests/schemas/codec.proto: every field kind) by the codec and by
-// nanopb 0.4. Invariants: the same outcome; when accepted, the same struct, and the same bytes (or the
-// same refusal) when encoded back with room and with too little room (the first byte's worth).
+// nanopb 0.4, and as the envelope (envelope.hpp's hand-written HostMessage decoder). Invariants: the same
+// outcome; when accepted, the same struct, and the same bytes (or the same refusal) when encoded back with
+// room and with too little room (the first byte's worth).
 #include <cstddef>
 #include <cstdint>
 

@@ -4,23 +4,8 @@
 #include <string.h>
 
 #include "tether/proxy/device/text.hpp"
+#include "tether/rpc/device/envelope.hpp"
 #include "tether_rpc.pb.h"
-
-// The envelope's decoder (message_codec.hpp), nanopb's rules without its generic code.
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Hello)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Call)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_OpenStream)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_CloseStream)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Ping)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_Reset)
-TETHER_RPC_MESSAGE_DECLARE(tether_rpc_wire_HostMessage)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Hello)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Call)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_OpenStream)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_CloseStream)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Ping)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_Reset)
-TETHER_RPC_MESSAGE_DEFINE(tether_rpc_wire_HostMessage)
 
 namespace tether {
 namespace rpc {
@@ -180,7 +165,9 @@ TETHER_RPC_OUT_OF_LINE Millis DeviceCore::earlier(Millis due, Deadline deadline)
 }
 
 TETHER_RPC_OUT_OF_LINE bool DeviceCore::decode(ByteView payload, void* host_message) {
-  if (tether_rpc_decode_tether_rpc_wire_HostMessage(payload.data(), payload.size(), host_message)) return true;
+  if (decode_host_message(payload.data(), payload.size(), *static_cast<tether_rpc_wire_HostMessage*>(host_message))) {
+    return true;
+  }
   add_one(counters_.decode_errors);
   send_error(0, static_cast<uint16_t>(DeviceErrorCode::bad_envelope), kNotAHostMessage, true);
   return false;

@@ -10,7 +10,9 @@
 #include <string>
 
 #include "codec.pb.h"
+#include "tether/rpc/device/envelope.hpp"
 #include "tether/rpc/device/message_codec.hpp"
+#include "tether_rpc.pb.h"
 
 TETHER_RPC_MESSAGE_DECLARE(codec_Inner)
 TETHER_RPC_MESSAGE_DECLARE(codec_Deep)
@@ -70,7 +72,25 @@ Difference compare(const pb_msgdesc_t* fields, bool (*decode)(const std::uint8_t
   return compare_encode(fields, encode, theirs, short_capacity);
 }
 
-/// Every message type of the schema on one input.
+/// The envelope's hand-written decoder (envelope.hpp) against nanopb's on one input: the same outcome and,
+/// when accepted, the same struct.
+inline Difference compare_envelope(const std::uint8_t* data, std::size_t size) {
+  tether_rpc_wire_HostMessage theirs;
+  tether_rpc_wire_HostMessage ours;
+  std::memset(&theirs, 0, sizeof theirs);
+  std::memset(&ours, 0xA5, sizeof ours);  // the decoder starts from zero itself
+  pb_istream_t stream = pb_istream_from_buffer(data, size);
+  const bool theirs_ok = pb_decode(&stream, tether_rpc_wire_HostMessage_fields, &theirs);
+  const bool ours_ok = tether::rpc::device::decode_host_message(data, size, ours);
+  if (theirs_ok != ours_ok) {
+    return {std::string("HostMessage: nanopb ") + (theirs_ok ? "accepts" : "refuses") + ", the decoder " +
+            (ours_ok ? "accepts" : "refuses")};
+  }
+  if (theirs_ok && std::memcmp(&theirs, &ours, sizeof theirs) != 0) return {"HostMessage: different structs"};
+  return {};
+}
+
+/// Every message type of the schema, and the envelope, on one input.
 inline Difference compare_all(const std::uint8_t* data, std::size_t size, std::size_t short_capacity) {
   if (Difference d = compare<codec_All>(codec_All_fields, &tether_rpc_decode_codec_All, &tether_rpc_encode_codec_All,
                                         data, size, short_capacity)) {
@@ -84,7 +104,7 @@ inline Difference compare_all(const std::uint8_t* data, std::size_t size, std::s
                                          &tether_rpc_encode_codec_Deep, data, size, short_capacity)) {
     return {"Deep: " + d.what};
   }
-  return {};
+  return compare_envelope(data, size);
 }
 
 }  // namespace codec_check

@@ -40,11 +40,12 @@ std::uint64_t random_number(std::mt19937_64& rng) {
 
 // A protobuf-like message: fields of the schema's numbers (and others), mostly of a fitting wire type,
 // values at the edges of every integer type, nested messages, packed runs and text.
-std::string random_message(std::mt19937_64& rng, int depth) {
+// `numbers`: the field numbers mostly drawn (1..numbers).
+std::string random_message(std::mt19937_64& rng, int depth, std::uint32_t numbers = 38) {
   std::string out;
   const int fields = static_cast<int>(rng() % 9);
   for (int f = 0; f < fields; ++f) {
-    const auto number = static_cast<std::uint32_t>(rng() % 16 == 0 ? rng() % 3000 : 1 + rng() % 38);
+    const auto number = static_cast<std::uint32_t>(rng() % 16 == 0 ? rng() % 3000 : 1 + rng() % numbers);
     const auto pick = static_cast<unsigned>(rng() % 100);
     const std::uint8_t wire = pick < 40 ? 2 : pick < 75 ? 0 : pick < 85 ? 5 : pick < 95 ? 1 : static_cast<std::uint8_t>(3 + rng() % 5);
     put_varint(out, static_cast<std::uint64_t>(number) << 3 | wire);
@@ -65,7 +66,7 @@ std::string random_message(std::mt19937_64& rng, int depth) {
         std::string content;
         const auto kind = static_cast<unsigned>(rng() % 10);
         if (kind < 4 && depth < 3) {
-          content = random_message(rng, depth + 1);
+          content = random_message(rng, depth + 1, numbers);
         } else if (kind < 7) {
           const int values = static_cast<int>(rng() % 6);
           for (int i = 0; i < values; ++i) put_varint(content, random_number(rng));
@@ -111,6 +112,47 @@ TEST(RpcMessageCodec, RandomInputsDecodeAndEncodeAsNanopb) {
     if (pb_decode(&stream, codec_All_fields, &all)) ++accepted;
   }
   std::printf("%d of 30000 random inputs were All messages nanopb accepts\n", accepted);
+}
+
+// The envelope's hand-written decoder (envelope.hpp) on HostMessage-like inputs (its field numbers and its
+// bodies'), as nanopb decodes them.
+TEST(RpcMessageCodec, RandomEnvelopesDecodeAsNanopb) {
+  std::mt19937_64 rng = tether::testing::seeded_generator();
+  int accepted = 0;
+  for (int i = 0; i < 30000; ++i) {
+    const std::string input = random_message(rng, 0, 8);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(input.data());
+    const codec_check::Difference d = codec_check::compare_envelope(data, input.size());
+    ASSERT_FALSE(d) << d.what << " on input " << i << " (" << input.size() << " bytes)";
+    pb_istream_t stream = pb_istream_from_buffer(data, input.size());
+    tether_rpc_wire_HostMessage message = tether_rpc_wire_HostMessage_init_zero;
+    if (pb_decode(&stream, tether_rpc_wire_HostMessage_fields, &message)) ++accepted;
+  }
+  std::printf("%d of 30000 random inputs were HostMessages nanopb accepts\n", accepted);
+  EXPECT_GT(accepted, 3000);  // the comparison saw many accepted ones, not only refusals
+}
+
+// A Call's or OpenStream's request at its bound (64 bytes) is accepted, one byte more refused, as by nanopb.
+TEST(RpcMessageCodec, EnvelopeRequestsOverTheirBoundAreRefusedAsByNanopb) {
+  for (const std::uint32_t body : {3u, 4u}) {  // HostMessage.call, HostMessage.open
+    for (const std::size_t length : {std::size_t{63}, std::size_t{64}, std::size_t{65}}) {
+      std::string inner;
+      put_varint(inner, 2 << 3 | 2);  // request
+      put_varint(inner, length);
+      inner.append(length, 'r');
+      std::string input;
+      put_varint(input, 1 << 3);  // id 9
+      put_varint(input, 9);
+      put_varint(input, body << 3 | 2);
+      put_varint(input, inner.size());
+      input += inner;
+      const auto* data = reinterpret_cast<const std::uint8_t*>(input.data());
+      const codec_check::Difference d = codec_check::compare_envelope(data, input.size());
+      EXPECT_FALSE(d) << d.what << " (body " << body << ", " << length << " bytes)";
+      tether_rpc_wire_HostMessage message;
+      EXPECT_EQ(tether::rpc::device::decode_host_message(data, input.size(), message), length <= 64);
+    }
+  }
 }
 
 TEST(RpcMessageCodec, AMessageWithEveryFieldSetEncodesAsNanopb) {
