@@ -12,7 +12,7 @@ void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Mill
   frame_handled();
   Buffers buffers;
   UseScratch use(*this, buffers);
-  tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
+  tether_rpc_wire_HostMessage in;  // zeroed by the decoder
   if (!decode(payload, &in)) return;
   const auto lookup = executed_.check(in.id, fingerprint);
   if (lookup.duplicate) {  // a re-send: its first answer again, then the ack; nothing runs
