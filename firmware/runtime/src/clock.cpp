@@ -44,6 +44,8 @@ tether::Millis millis() {
   return now;
 }
 
+uint8_t millis_low_byte() { return static_cast<uint8_t>(g_millis); }
+
 uint32_t micros() {
   tether::Millis ms;
   uint8_t ticks;

@@ -23,6 +23,16 @@
 #include "tether/testing/fuzz_target.hpp"
 #include "tether_rpc.pb.h"
 
+// The arm schema's encoders and decoders, as the generated service code has them.
+TETHER_RPC_MESSAGE_DECLARE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_JointReply)
+TETHER_RPC_MESSAGE_DECLARE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_State)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointReply)
+TETHER_RPC_MESSAGE_DEFINE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_State)
+
 namespace {
 
 using namespace tether;
@@ -49,18 +59,10 @@ Status watch(const void* request, void* reply) {
 }
 
 const rpc::device::Method kMethods[] = {
-    {arm_JointRequest_fields, arm_JointReply_fields, &move_joint, false},
-    {arm_StateRequest_fields, arm_State_fields, &watch, true},
+    {&tether_rpc_decode_arm_JointRequest, &tether_rpc_encode_arm_JointReply, &move_joint, false},
+    {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &watch, true},
 };
-union Requests {
-  arm_JointRequest move;
-  arm_StateRequest watch;
-} requests;
-union Replies {
-  arm_JointReply move;
-  arm_State watch;
-} replies;
-const rpc::device::Service kService{0x1234, kMethods, 2, &requests, sizeof requests, &replies, sizeof replies};
+const rpc::device::Service kService{0x1234, kMethods, 2};
 
 // What the device sent, read as a host reads it.
 struct HostView {

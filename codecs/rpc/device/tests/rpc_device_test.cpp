@@ -13,6 +13,16 @@
 #include "tether_rpc.pb.h"
 #include "wire.hpp"
 
+// The arm schema's encoders and decoders, as the generated service code has them.
+TETHER_RPC_MESSAGE_DECLARE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_JointReply)
+TETHER_RPC_MESSAGE_DECLARE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DECLARE(arm_State)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_JointReply)
+TETHER_RPC_MESSAGE_DEFINE(arm_StateRequest)
+TETHER_RPC_MESSAGE_DEFINE(arm_State)
+
 namespace {
 
 using tether::Millis;
@@ -56,9 +66,9 @@ Status arm_Watch(const void*, void* reply) {
 // The arm schema's two methods, and a third entry streaming the same handler, so that two methods compete
 // for TestLimits' one stream slot.
 const tether::rpc::device::Method kMethods[] = {
-    {arm_JointRequest_fields, arm_JointReply_fields, &arm_MoveJoint, false},
-    {arm_StateRequest_fields, arm_State_fields, &arm_Watch, true},
-    {arm_StateRequest_fields, arm_State_fields, &arm_Watch, true},
+    {&tether_rpc_decode_arm_JointRequest, &tether_rpc_encode_arm_JointReply, &arm_MoveJoint, false},
+    {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &arm_Watch, true},
+    {&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &arm_Watch, true},
 };
 
 union Requests {
@@ -69,8 +79,6 @@ union Replies {
   arm_JointReply move;
   arm_State watch;
 };
-Requests request_scratch;
-Replies reply_scratch;
 
 std::uint64_t arm_hash() {
   return tether::rpc::Schema::load(std::string(TETHER_RPC_TEST_SCHEMAS) + "/arm.proto").hash();
@@ -84,6 +92,8 @@ struct TestLimits {
   static constexpr uint8_t kDuplicateDepth = 2;
   static constexpr uint16_t kReplyCacheBytes = 72;
   static constexpr size_t kMaxOutPayload = 72;
+  static constexpr size_t kRequestStructBytes = sizeof(Requests);
+  static constexpr size_t kReplyStructBytes = sizeof(Replies);
 };
 
 // A device's answer, decoded; the Reply / StreamMessage payload kept as bytes.
@@ -149,8 +159,7 @@ class RpcDevice : public ::testing::Test {
   }
 
   static tether::rpc::device::Service make_service() {
-    return tether::rpc::device::Service{0, kMethods, 3, &request_scratch, sizeof request_scratch, &reply_scratch,
-                                        sizeof reply_scratch};
+    return tether::rpc::device::Service{0, kMethods, 3};
   }
 
   // Sends `message` as one frame (fed in one run, or byte by byte) and returns what the device answered.
@@ -341,6 +350,29 @@ TEST_F(RpcDevice, AHandlerErrorIsTheCallsAnswerAndIsRememberedLikeAReply) {
   expect_error(send(move(4, 3, 0))[0], 4, 0xFEFF, "pretends to be Tether");
 }
 
+// The cache keeps an answer's fields after its call id and rebuilds the rest: a re-send gets the first
+// answer's bytes, whatever the answer (a reply, an error with the longest text, a text in flash, id 0).
+TEST_F(RpcDevice, ReSentAnswersAreTheFirstOnesByteForByte) {
+  static const char kInFlash[] TETHER_IN_FLASH = "kept in flash";
+  const std::string longest(60, 'x');  // sent as its first 47 characters
+  const Status statuses[] = {Status::ok(), Status::error(0xFEFF, longest.c_str()), Status::error_P(7, kInFlash)};
+  uint32_t id = 0;  // 0 first: a call id proto3 leaves out
+  for (const Status& status : statuses) {
+    app.move_status = status;
+    const auto first = send(move(id, 1, -2000000000));
+    ASSERT_EQ(first.size(), 2u);
+    app.move_status = Status::error(9, "must not run");
+    const auto again = send(move(id, 1, -2000000000));
+    ASSERT_EQ(again.size(), 2u);
+    EXPECT_EQ(again[0].payload, first[0].payload) << "id " << id;
+    expect_ack(again[1], id, false);
+    ++id;
+  }
+  expect_error(send(move(2, 1, -2000000000))[0], 2, 7, "kept in flash");  // id 2's answer, from the cache
+  EXPECT_EQ(app.moves, 3);  // each call ran once
+  EXPECT_EQ(device_.counters().link.duplicates, 4u);
+}
+
 TEST_F(RpcDevice, RefusalsNameTheirCauseAndAreLookedAtAgainWhenReSent) {
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");
@@ -481,6 +513,24 @@ TEST_F(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
   while (used < frame.size()) used += device_.handle_bytes(tether::ByteView(frame.data() + used, frame.size() - used), now_);
   EXPECT_EQ(answers().size(), 2u);  // the next frame whole: handled
   EXPECT_EQ(app.moves, 1);
+}
+
+// A poll between deadlines returns at once (the earliest deadline is kept); every deadline still comes on
+// its millisecond: a stalled frame's (armed mid-way, after polls), DeviceHello's, a stream's.
+TEST_F(RpcDevice, PollsBetweenDeadlinesRunNothingAndEveryDeadlineComesOnTime) {
+  const tether_rpc_wire_HostMessage message = move(71, 1, 1);
+  const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
+  const Millis start = now_;
+  for (Millis t = start; t < start + 10; ++t) EXPECT_TRUE(poll_at(t).empty());
+  device_.handle_bytes(tether::ByteView(frame.data(), 3), now_);  // a frame starts at start + 9
+  for (Millis t = start + 10; t < start + 109; ++t) poll_at(t);
+  EXPECT_EQ(device_.counters().link.partial_timeouts, 0u);
+  poll_at(start + 109);
+  EXPECT_EQ(device_.counters().link.partial_timeouts, 1u);
+  for (Millis t = start + 110; t < start + 5000; ++t) ASSERT_TRUE(poll_at(t).empty()) << t;
+  const auto hello = poll_at(start + 5000);
+  ASSERT_EQ(hello.size(), 1u);
+  EXPECT_EQ(hello[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
 }
 
 }  // namespace

@@ -7,11 +7,12 @@
 // answer follows from the calls before it. Each MoveJoint that runs is recorded by the execution witness
 // (tether/core/execution_witness.hpp) with the key witness_key(joint, uint16_t(angle_cdeg)).
 //
-// RAM: the device runtime's static tables (~1.2 KB with nanopb's descriptors in RAM) and its stack at the
-// deepest point (a reply or a stream message through three levels of nanopb encoding, ~0.8 KB) leave
-// little of the 2 KB: the UART rings are small (RX 32 bytes: the loop takes bytes as they come and decodes
-// them in place; TX 16 bytes: `write` waits for room, ~1.5 ms for a 16-byte frame), the handlers' error
-// texts short (they live in RAM) and the device's entry points out of line (below).
+// RAM: the device runtime's static tables (~0.45 KB: the receive buffer, the exactly-once cache, the
+// counters; the method table is in flash) and its stack at the deepest point (a call's request and reply
+// structs, its answer being encoded and framed) leave little of the 2 KB: the UART rings are small (RX 32
+// bytes: the loop takes bytes as they come and decodes them in place; TX 16 bytes: `write` waits for room,
+// ~1.5 ms for a 16-byte frame), the handlers' error texts in flash (Status::error_P) and the device's entry
+// points out of line (below).
 #include <avr/pgmspace.h>
 
 #include "ArmRpc_service.h"
@@ -46,6 +47,11 @@ struct Arm {
 };
 Arm arm = {{0, 0, 0, 0}, kMinCdeg, kMaxCdeg, arm_Mode_MODE_IDLE, 0};
 
+// The handlers' error texts, in flash (Status::error_P).
+const char kNoJoint[] PROGMEM = "no joint";
+const char kOutOfRange[] PROGMEM = "out of range";
+const char kOnHold[] PROGMEM = "on hold";
+
 void write_frame(void*, tether::ByteView frame) { Serial::write(frame); }
 
 void restart(void*) {
@@ -58,11 +64,11 @@ ArmRpcService::Device device(ArmRpcService::service(), tether::rpc::device::Fram
 }  // namespace
 
 tether::rpc::Status Arm_MoveJoint(const arm_JointRequest& request, arm_JointReply& reply) {
-  if (request.joint >= kJoints) return tether::rpc::Status::error(1, "no joint");
+  if (request.joint >= kJoints) return tether::rpc::Status::error_P(1, kNoJoint);
   if (request.angle_cdeg < arm.min_cdeg || request.angle_cdeg > arm.max_cdeg) {
-    return tether::rpc::Status::error(2, "out of range");
+    return tether::rpc::Status::error_P(2, kOutOfRange);
   }
-  if (arm.mode == arm_Mode_MODE_HOLD) return tether::rpc::Status::error(3, "on hold");
+  if (arm.mode == arm_Mode_MODE_HOLD) return tether::rpc::Status::error_P(3, kOnHold);
   arm.angles[request.joint] = request.angle_cdeg;
   ++arm.moves;
   tether::witness_executed(tether::witness_key(static_cast<uint16_t>(request.joint),
@@ -83,7 +89,7 @@ tether::rpc::Status Arm_SetMode(const arm_ModeRequest& request, arm_ModeReply& r
   if (request.has_range) {
     const arm_ModeRequest_Range& range = request.range;
     if (range.min_cdeg > range.max_cdeg || range.min_cdeg < kMinCdeg || range.max_cdeg > kMaxCdeg) {
-      return tether::rpc::Status::error(2, "out of range");
+      return tether::rpc::Status::error_P(2, kOutOfRange);
     }
     arm.min_cdeg = range.min_cdeg;
     arm.max_cdeg = range.max_cdeg;
@@ -116,6 +122,16 @@ __attribute__((noinline)) size_t handle(tether::ByteView received) {
 }
 __attribute__((noinline)) void poll() { device.poll(tether::firmware::millis()); }
 
+// Sleeps until a byte arrives or the clock ticks: a wake by the transmitter alone (one per byte sent,
+// ~30 a stream message) goes back to sleep without a loop pass, as nothing can have come due. The tick
+// is seen in the clock's low byte (one load, no interrupt lock: each of those wakes is cheaper).
+void sleep_until_work() {
+  const uint8_t at = tether::firmware::millis_low_byte();
+  do {
+    tether::firmware::idle<Serial>();
+  } while (Serial::available() == 0 && tether::firmware::millis_low_byte() == at);
+}
+
 }  // namespace
 
 TETHER_UART0_ISRS(Serial);
@@ -132,6 +148,6 @@ int main() {
       Serial::consume(static_cast<uint8_t>(handle(received)));
     }
     poll();
-    if (received.empty()) tether::firmware::idle<Serial>();
+    if (received.empty()) sleep_until_work();
   }
 }

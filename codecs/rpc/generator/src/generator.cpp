@@ -106,9 +106,23 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
     h << "tether::rpc::Status " << handler_name(schema, method) << "(const " << nanopb_name(*method.input)
       << "& request, " << nanopb_name(*method.output) << (method.streaming ? "& next);\n" : "& reply);\n");
   }
-  h << "\n#define TETHER_RPC_MAX(a, b) ((a) > (b) ? (a) : (b))\n\n"
+  // The methods' structs, for the room the runtime keeps for a request and a reply (on its stack).
+  std::ostringstream structs;
+  structs << "  /// Any method's request struct (the runtime's room for one).\n  union Requests {\n";
+  for (std::size_t i = 0; i < schema.methods().size(); ++i) {
+    structs << "    " << nanopb_name(*schema.methods()[i].input) << " m" << i << ";\n";
+  }
+  structs << "  };\n  /// Any method's reply struct.\n  union Replies {\n";
+  for (std::size_t i = 0; i < schema.methods().size(); ++i) {
+    structs << "    " << nanopb_name(*schema.methods()[i].output) << " m" << i << ";\n";
+  }
+  structs << "  };\n";
+  h << "\n#define TETHER_RPC_MAX(a, b) ((a) > (b) ? (a) : (b))\n"
+    << "// A length-delimited field of at most n bytes: its key, its length, the bytes.\n"
+    << "#define TETHER_RPC_DELIMITED(n) (2 + (n) + ((n) > 127) + ((n) > 16383))\n\n"
     << "/// " << schema.service().full_name() << " as the device runtime serves it.\n"
     << "struct " << service << " {\n"
+    << structs.str()
     << "  /// The hash the device's hello carries (tether::rpc::Schema::hash of " << schema.file().filename().string()
     << ").\n"
     << "  static constexpr uint64_t kSchemaHash = " << format_hash(schema.hash()) << "ull;\n"
@@ -121,51 +135,60 @@ ServiceCode service_code(const Schema& schema, std::string_view name_view, std::
     << "    static constexpr uint8_t kDuplicateDepth = 4;  // the host's id window (tether::rpc::kIdWindow)\n"
     << "    static constexpr size_t kMaxOutPayload = TETHER_RPC_MAX(64, " << kAnswerOverhead << " + "
     << max_of(replies, "0") << ");\n"
-    << "    static constexpr uint16_t kReplyCacheBytes = TETHER_RPC_MAX(64, " << kAnswerOverhead << " + "
-    << max_of(unary_replies, "0") << ");\n"
+    << "    static constexpr uint16_t kReplyCacheBytes = TETHER_RPC_MAX(tether::rpc::device::kErrorAnswerBytes, "
+       "TETHER_RPC_DELIMITED("
+    << max_of(unary_replies, "0") << "));\n"
+    << "    static constexpr size_t kRequestStructBytes = sizeof(Requests);\n"
+    << "    static constexpr size_t kReplyStructBytes = sizeof(Replies);\n"
     << "  };\n"
     << "  /// The runtime for this service.\n"
     << "  using Device = tether::rpc::device::Device<Limits>;\n"
-    << "  /// The method table and the scratch structs.\n"
-    << "  static const tether::rpc::device::Service& service();\n"
+    << "  /// The method table (in flash on the AVR).\n"
+    << "  static const tether::rpc::device::Service kService;\n"
+    << "  /// The method table, as a constant: a global device is constant-initialised (no start-up code).\n"
+    << "  static constexpr const tether::rpc::device::Service& service() { return kService; }\n"
     << "};\n\n";
   for (const std::string& request : requests) {
     h << "static_assert(" << request << " <= 64, \"" << request
       << ": a request is at most 64 bytes (the envelope's bound)\");\n";
   }
 
+  // Every message type the methods reach through their fields: each gets its encoder and decoder
+  // (tether/rpc/device/message_codec.hpp, from nanopb's field lists).
+  std::vector<const pb::Descriptor*> reached;
+  const auto reach = [&](const auto& self, const pb::Descriptor* type) -> void {
+    for (const pb::Descriptor* known : reached) {
+      if (known == type) return;
+    }
+    reached.push_back(type);
+    for (int i = 0; i < type->field_count(); ++i) {
+      if (type->field(i)->message_type() != nullptr) self(self, type->field(i)->message_type());
+    }
+  };
+  for (const pb::Descriptor* type : types) reach(reach, type);
+
   std::ostringstream cpp;
   cpp << "// " << origin << "\n"
       << "#include \"" << name << "_service.h\"\n\n"
-      << "namespace {\n\n";
+      << "// The messages' encoders and decoders (nanopb's structs and rules, without its generic code).\n";
+  for (const pb::Descriptor* type : reached) cpp << "TETHER_RPC_MESSAGE_DECLARE(" << nanopb_name(*type) << ")\n";
+  for (const pb::Descriptor* type : reached) cpp << "TETHER_RPC_MESSAGE_DEFINE(" << nanopb_name(*type) << ")\n";
+  cpp << "\nnamespace {\n\n";
   for (const Method& method : schema.methods()) {
     cpp << "tether::rpc::Status call_" << method.name << "(const void* request, void* reply) {\n"
         << "  return " << handler_name(schema, method) << "(*static_cast<const " << nanopb_name(*method.input)
         << "*>(request), *static_cast<" << nanopb_name(*method.output) << "*>(reply));\n"
         << "}\n\n";
   }
-  cpp << "const tether::rpc::device::Method kMethods[] = {\n";
+  cpp << "const tether::rpc::device::Method kMethods[] TETHER_IN_FLASH = {\n";
   for (const Method& method : schema.methods()) {
-    cpp << "    {" << nanopb_name(*method.input) << "_fields, " << nanopb_name(*method.output) << "_fields, &call_"
+    cpp << "    {&tether_rpc_decode_" << nanopb_name(*method.input) << ", &tether_rpc_encode_" << nanopb_name(*method.output) << ", &call_"
         << method.name << ", " << (method.streaming ? "true" : "false") << "},\n";
   }
   cpp << "};\n\n"
-      << "union Requests {\n";
-  for (std::size_t i = 0; i < schema.methods().size(); ++i) {
-    cpp << "  " << nanopb_name(*schema.methods()[i].input) << " m" << i << ";\n";
-  }
-  cpp << "};\n"
-      << "union Replies {\n";
-  for (std::size_t i = 0; i < schema.methods().size(); ++i) {
-    cpp << "  " << nanopb_name(*schema.methods()[i].output) << " m" << i << ";\n";
-  }
-  cpp << "};\n"
-      << "Requests requests;\n"
-      << "Replies replies;\n\n"
-      << "const tether::rpc::device::Service kService = {" << service << "::kSchemaHash, kMethods, "
-      << schema.methods().size() << ", &requests, sizeof requests, &replies, sizeof replies};\n\n"
       << "}  // namespace\n\n"
-      << "const tether::rpc::device::Service& " << service << "::service() { return kService; }\n";
+      << "const tether::rpc::device::Service " << service << "::kService TETHER_IN_FLASH = {" << service
+      << "::kSchemaHash, kMethods, " << schema.methods().size() << "};\n";
   return ServiceCode{h.str(), cpp.str()};
 }
 

@@ -34,8 +34,8 @@ TEST(RpcGenerator, TheHeaderDeclaresOneTypedHandlerPerMethodAndTheSchemaHash) {
   EXPECT_TRUE(contains(code.header, "#ifndef arm_State_size\n#error \"arm.State has no size bound"));
   EXPECT_TRUE(contains(code.header, "static constexpr uint8_t kStreams = 1;"));
   // The table in the schema's order (the wire's method index), with each method's kind.
-  const auto move = code.source.find("{arm_JointRequest_fields, arm_JointReply_fields, &call_MoveJoint, false},");
-  const auto watch = code.source.find("{arm_StateRequest_fields, arm_State_fields, &call_Watch, true},");
+  const auto move = code.source.find("{&tether_rpc_decode_arm_JointRequest, &tether_rpc_encode_arm_JointReply, &call_MoveJoint, false},");
+  const auto watch = code.source.find("{&tether_rpc_decode_arm_StateRequest, &tether_rpc_encode_arm_State, &call_Watch, true},");
   ASSERT_NE(move, std::string::npos);
   ASSERT_NE(watch, std::string::npos);
   EXPECT_LT(move, watch);

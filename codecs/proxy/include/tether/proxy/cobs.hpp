@@ -265,20 +265,18 @@ class CobsDecoder {
         uint8_t taken;
         if (at >= checked_from) {  // the hot path: a checked decoder past the frame's CRC field
           taken = static_cast<uint8_t>(count - checked_run(in, out, count, crc));
-        } else if (checked_from == kUncheckedIndex) {
-          taken = static_cast<uint8_t>(count - copy_run(in, out, count));
         } else {
-          // A frame's first bytes, before the checked offset (its CRC field): copied only.
+          // A decoder without checksum, or a frame's first bytes before the checked offset (its CRC
+          // field): copied only, up to that offset; the next turn takes the rest through the CRC (one
+          // copy of each run loop in the code).
           const Index before = static_cast<Index>(checked_from - at);
-          const uint8_t unchecked = before < count ? static_cast<uint8_t>(before) : count;
-          const uint8_t rest = copy_run(in, out, unchecked);
-          taken = static_cast<uint8_t>(unchecked - rest);
-          const uint8_t more = static_cast<uint8_t>(count - unchecked);
-          if (rest == 0 && more != 0) taken = static_cast<uint8_t>(taken + more - checked_run(in, out, more, crc));
+          if (before < count) count = static_cast<uint8_t>(before);
+          taken = static_cast<uint8_t>(count - copy_run(in, out, count));
         }
         avail = static_cast<uint8_t>(avail - taken);
         at = static_cast<Index>(at + taken);
         left = static_cast<uint8_t>(left - taken);
+        if (taken == count && at == checked_from) continue;  // reached the checked offset: the rest checked
       }
       if (left != 0 || avail == 0) break;  // a zero inside the block, a full buffer, or all used
       const uint8_t code = *in;

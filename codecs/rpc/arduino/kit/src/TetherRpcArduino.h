@@ -56,12 +56,13 @@ template <class ServiceCode>
 class RpcDevice {
  public:
   /// Device talking through `stream` (SoftwareSerial, a USB port, ...); `begin()` it after `stream.begin`.
-  explicit RpcDevice(Stream& stream)
+  /// Both constructors are constant: a global device needs no start-up code (zeros in .bss).
+  constexpr explicit RpcDevice(Stream& stream)
       : stream_(stream),
         hardware_(nullptr),
         device_(ServiceCode::service(), rpc::device::FrameSink{rpc_write_frame, &stream}, rpc_restart, &stream) {}
   /// Device talking through the core's hardware port `serial` (`Serial`): the fast path.
-  explicit RpcDevice(HardwareSerial& serial)
+  constexpr explicit RpcDevice(HardwareSerial& serial)
       : stream_(serial),
         hardware_(&serial),
         device_(ServiceCode::service(), rpc::device::FrameSink{rpc_write_frame_hardware, &serial}, rpc_restart,

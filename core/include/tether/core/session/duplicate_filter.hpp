@@ -76,15 +76,25 @@ class DuplicateFilter {
  private:
   // A remembered request's reply bytes; none at all (not even a size) without a reply capacity: the
   // proxy device's 8 entries are then 6 bytes each instead of 9.
+  // Its size in one byte when the capacity allows (a byte less per entry; no <type_traits> on the AVR).
+  template <bool kSmall, int kUnused = 0>
+  struct ReplySize {
+    using type = uint8_t;
+  };
+  template <int kUnused>
+  struct ReplySize<false, kUnused> {
+    using type = uint16_t;
+  };
   template <uint16_t Capacity, bool kKept = (Capacity > 0)>
   struct Reply {
-    uint16_t size = 0;
+    using Size = typename ReplySize<(Capacity < 256)>::type;
+    Size size = 0;
     uint8_t bytes[Capacity] = {};
     ByteView reply() const { return ByteView(bytes, size); }
     // Keeps `reply` when it fits (else an empty one); false when it did not fit.
     bool keep(ByteView reply) {
       const bool fits = reply.size() <= Capacity;
-      size = fits ? static_cast<uint16_t>(reply.size()) : 0;
+      size = static_cast<Size>(fits ? reply.size() : 0);
       for (uint16_t i = 0; i < size; ++i) bytes[i] = reply[i];
       return fits;
     }

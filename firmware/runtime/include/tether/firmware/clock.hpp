@@ -21,6 +21,10 @@ void clock_init();
 /// Milliseconds since `clock_init()` (wraps after 49.7 days; compare with tick_reached & co.).
 tether::Millis millis();
 
+/// The low byte of `millis()`: one load, no interrupt lock (a loop that only asks whether the clock
+/// ticked, e.g. after each wake by the UART).
+uint8_t millis_low_byte();
+
 /// Microseconds since `clock_init()`, 4 us resolution (one Timer2 count); wraps after 71.6 minutes.
 uint32_t micros();
 

@@ -56,7 +56,6 @@
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/proxy/decoder.hpp"
-#include "tether/proxy/device/flash_descriptors.hpp"
 #include "tether/proxy/device/io.hpp"
 #include "tether/rpc/device/service.hpp"
 #include "tether/rpc/errors.hpp"
@@ -68,16 +67,24 @@ namespace device {
 using proxy::device::FrameSink;
 using proxy::device::RestartFunction;
 
+/// What the exactly-once cache keeps of a DeviceError: its code (a key and up to 3 bytes) and its text (a
+/// key, a length and at most 47 characters); a Reply's is its reply field (a key, a length, the bytes).
+constexpr uint16_t kErrorAnswerBytes = 4 + 2 + 47;
+
 /// Sizes of a device's tables; `tether generate` derives them from the schema.
 struct DefaultLimits {
   static constexpr size_t kMaxPayload = 96;          ///< Largest HostMessage payload accepted.
   static constexpr uint8_t kStreams = 2;             ///< Streams open at once.
   static constexpr uint8_t kStreamRequestBytes = 16;  ///< Largest encoded request a stream keeps.
   static constexpr uint8_t kDuplicateDepth = 4;      ///< Calls remembered (>= the host's calls in flight).
-  static constexpr uint16_t kReplyCacheBytes = 72;   ///< Largest answer remembered for a re-send
-                                                     ///< (>= every Reply and DeviceError the device sends).
+  static constexpr uint16_t kReplyCacheBytes = 64;   ///< Room of an answer remembered for a re-send: the
+                                                     ///< Reply's or DeviceError's fields after its call id
+                                                     ///< (>= kErrorAnswerBytes and every unary reply's).
+
   static constexpr size_t kMaxOutPayload = 72;       ///< Largest DeviceMessage payload sent (>= 64: a
                                                      ///< DeviceError with its text, a DeviceHello).
+  static constexpr size_t kRequestStructBytes = 64;  ///< Largest request struct (sizeof, the input types').
+  static constexpr size_t kReplyStructBytes = 64;    ///< Largest reply struct (sizeof, the output types').
 };
 
 /// Diagnostics of an rpc device. Counters only grow (wrap at 2^32). Plain data.
@@ -113,17 +120,19 @@ class DeviceCore {
   void set_min_period_ms(uint16_t period) { min_period_ms_ = period; }
 
  protected:
+  // A stream's slot; all zeros (its deadline disarmed) when it serves no stream, so that a device needs no
+  // code to start (constant-initialised: .bss).
   struct StreamSlot {
     uint32_t id;
-    Deadline next;
+    Deadline next;  // armed exactly while the slot serves a stream
     uint32_t seq;
     uint16_t period;
     uint8_t method;
-    uint8_t request_size;  // 0xFF: the slot is free
+    uint8_t request_size;
   };
 
   // `slots` and `requests` (slot_count rows of request_bytes) are the derived device's tables.
-  DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
+  constexpr DeviceCore(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
              size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
              uint8_t request_bytes)
       : service_(&service),
@@ -142,21 +151,26 @@ class DeviceCore {
   // What a body's handling produced, for the ack and the duplicate cache.
   struct Outcome {
     bool refused;
-    size_t answer_size;  // the Reply / DeviceError payload sent (0: none)
+    ByteView answer;  // the Reply / DeviceError sent, its fields after the call id (empty: none)
   };
 
-  static constexpr uint8_t kFree = 0xFF;  // a StreamSlot's request_size when it serves no stream
+  static constexpr uint8_t kNone = 0xFF;  // no slot
 
   // The derived device's buffers on its entry point's stack (the sizes are its limits'): `out` for the
-  // payload being sent (max_out bytes; after `run`, the answer to remember), `frame` for its frame.
+  // payload being sent (max_out bytes; after `run`, the answer to remember), `frame` for its frame, the
+  // structs a request is decoded into and a handler fills (only a call or a stream message needs them:
+  // no static RAM for them).
   struct Scratch {
     uint8_t* out;
     uint8_t* frame;
+    void* request;
+    void* reply;
+    uint16_t reply_size;
   };
   class UseScratch {
    public:
-    UseScratch(DeviceCore& core, uint8_t* out, uint8_t* frame) : core_(core) { core_.scratch_ = Scratch{out, frame}; }
-    ~UseScratch() { core_.scratch_ = Scratch{nullptr, nullptr}; }
+    UseScratch(DeviceCore& core, Scratch& scratch) : core_(core) { core_.scratch_ = &scratch; }
+    ~UseScratch() { core_.scratch_ = nullptr; }
     UseScratch(const UseScratch&) = delete;
     UseScratch& operator=(const UseScratch&) = delete;
 
@@ -167,29 +181,31 @@ class DeviceCore {
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
   bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
-  // False when `poll` ran at `now` already and no frame was handled since: nothing can have come due (the
-  // loop polls after every byte in or out, dozens of times a millisecond while a frame moves).
+  // False while nothing can be due: no frame started or was handled since the last `poll` and `now` is
+  // before the earliest deadline it left (the loop polls after every byte in or out and at every clock
+  // tick; most of those passes end here, with one comparison).
   bool poll_due(Millis now) {
-    if (polled_ && now == polled_at_) return false;
+    if (polled_ && !tick_reached(now, next_due_)) return false;
     polled_ = true;
-    polled_at_ = now;
     return true;
   }
-  // A frame was handled: the next `poll` runs whatever the time (an opened stream's first message).
+  // A frame was handled or started: the next `poll` runs whatever the time (an opened stream's first
+  // message, a ping's new failsafe deadline, a frame's partial-frame deadline).
   void frame_handled() { polled_ = false; }
   void poll_time(Millis now);
+  void plan();  // next_due_ from the deadlines
+  static Millis earlier(Millis due, Deadline deadline);  // `deadline` when armed and before `due`
   // Decodes the envelope; false when it is not one (counted, answered).
   bool decode(ByteView payload, void* host_message);
-  // The envelope's descriptors are in flash on the AVR (tether_rpc.options): `decode` copies
-  // HostMessage's tree onto its stack for nanopb. Room for a message with this many submessage fields.
-  static constexpr uint8_t kEnvelopeSubmessages = 6;
-  // Runs a decoded HostMessage; its Reply or DeviceError payload (if any) is left in the scratch `out`.
+  // Runs a decoded HostMessage; its answer (if any) is left in the scratch `out`.
   Outcome run(const void* host_message, Millis now);
+  // Sends an answer again to the message `id`: `kept` is an Outcome's answer, as the cache kept it.
+  void send_again(uint32_t id, ByteView kept);
   void send_ack(uint32_t id, bool refused);
   void send_payload(ByteView payload, bool leading_delimiter = false);
   void finish(const void* host_message);  // a Reset body's restart
   bool slot_open(uint32_t id) const;
-  void close_streams();  // every slot free (the derived device's constructor, the failsafe)
+  void close_streams();  // every slot free (the failsafe)
 
   DeviceCounters counters_;
 
@@ -200,10 +216,13 @@ class DeviceCore {
   void run_stream(uint8_t slot, Millis now);
   bool decode_request(const Method& method, ByteView request);
   Outcome refuse(uint32_t id, DeviceErrorCode code);
-  size_t send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
-  class Writer;  // the DeviceMessage envelope, written by hand (rpc_device.cpp)
+  // Sends a DeviceError; returns its fields after the call id (empty when it did not fit).
+  ByteView send_error(uint32_t call, uint16_t code, const char* text, bool text_in_flash);
+  // The service and its methods, read from flash.
+  Service service() const;
+  static Method method(const Service& service, uint8_t index);
   // Sends the DeviceMessage written in the scratch `out`; its size, 0 when it did not fit (counted).
-  size_t send_message(const Writer& message, bool leading_delimiter = false);
+  size_t send_message(const wire::Writer& message, bool leading_delimiter = false);
   void send_hello();
 
   const Service* service_;
@@ -215,11 +234,11 @@ class DeviceCore {
   Deadline next_info_;
   uint32_t session_id_ = 0;
   uint16_t min_period_ms_ = 1;
-  Millis polled_at_ = 0;
+  Millis next_due_ = 0;  // the earliest deadline the last `poll` left
   bool polled_ = false;
   uint16_t max_payload_;
   uint16_t max_out_;
-  Scratch scratch_ = Scratch{nullptr, nullptr};
+  Scratch* scratch_ = nullptr;
   StreamSlot* slots_;
   uint8_t* requests_;
   uint8_t slot_count_;
@@ -230,22 +249,22 @@ class DeviceCore {
 template <class Limits = DefaultLimits>
 class Device : public DeviceCore {
  public:
-  /// Device serving `service`, sending through `sink`, restarting through `restart(restart_context)`
-  /// (null: Reset is acked and ignored, for tests). `service` must outlive it.
-  Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr, void* restart_context = nullptr)
+  /// Device serving `service` (declared `TETHER_IN_FLASH`), sending through `sink`, restarting through `restart(restart_context)`
+  /// (null: Reset is acked and ignored, for tests). `service` must outlive it. Constant: a global device is
+  /// all zeros and constants (.bss/.data), no start-up code.
+  constexpr Device(const Service& service, FrameSink sink, RestartFunction restart = nullptr,
+                   void* restart_context = nullptr)
       : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
                    Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes),
         decoder_(proxy::Integrity::crc16, counters_.link),
-        executed_(counters_.link) {
-    close_streams();
-  }
+        executed_(counters_.link) {}
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
 
   /// End of setup: remembers `session_id`, starts the clocks at `now`, sends ResetEvent.
   void begin(uint32_t session_id, Millis now) {
     Buffers buffers;
-    UseScratch use(*this, buffers.out, buffers.frame);
+    UseScratch use(*this, buffers);
     start(session_id, now);
   }
 
@@ -273,7 +292,7 @@ class Device : public DeviceCore {
     if (!poll_due(now)) return;
     if (poll_frame_deadline(now)) decoder_.restart();
     Buffers buffers;
-    UseScratch use(*this, buffers.out, buffers.frame);
+    UseScratch use(*this, buffers);
     poll_time(now);
   }
 
@@ -282,17 +301,26 @@ class Device : public DeviceCore {
 
  private:
   static_assert(Limits::kMaxOutPayload >= 64, "a DeviceError with its text and a DeviceHello must fit");
-  static_assert(Limits::kReplyCacheBytes <= Limits::kMaxOutPayload, "no answer is longer than kMaxOutPayload");
-  struct Buffers {
+  static_assert(Limits::kReplyCacheBytes >= kErrorAnswerBytes, "a DeviceError with its text must be remembered");
+  // Room for a struct, aligned for any field a nanopb struct has.
+  template <size_t kSize>
+  union StructRoom {
+    uint64_t align;
+    uint8_t bytes[kSize];
+  };
+  struct Buffers : Scratch {
+    Buffers() : Scratch{out, frame, request.bytes, reply.bytes, static_cast<uint16_t>(sizeof reply.bytes)} {}
     uint8_t out[Limits::kMaxOutPayload];
     uint8_t frame[proxy::max_frame_size(Limits::kMaxOutPayload)];
+    StructRoom<Limits::kRequestStructBytes> request;
+    StructRoom<Limits::kReplyStructBytes> reply;
   };
   void handle_payload(ByteView payload, uint16_t fingerprint, Millis now);
 
   proxy::Decoder<Limits::kMaxPayload> decoder_;
   session::DuplicateFilter<uint32_t, Limits::kDuplicateDepth, Limits::kReplyCacheBytes> executed_;
-  StreamSlot slot_table_[Limits::kStreams];
-  uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes];
+  StreamSlot slot_table_[Limits::kStreams] = {};
+  uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes] = {};
 };
 
 }  // namespace device

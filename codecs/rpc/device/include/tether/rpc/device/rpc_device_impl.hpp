@@ -11,18 +11,18 @@ template <class Limits>
 void Device<Limits>::handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
   frame_handled();
   Buffers buffers;
-  UseScratch use(*this, buffers.out, buffers.frame);
-  tether_rpc_wire_HostMessage in = tether_rpc_wire_HostMessage_init_zero;
+  UseScratch use(*this, buffers);
+  tether_rpc_wire_HostMessage in;  // zeroed by the decoder
   if (!decode(payload, &in)) return;
   const auto lookup = executed_.check(in.id, fingerprint);
   if (lookup.duplicate) {  // a re-send: its first answer again, then the ack; nothing runs
-    if (!lookup.cached_reply.empty()) send_payload(lookup.cached_reply);
+    if (!lookup.cached_reply.empty()) send_again(in.id, lookup.cached_reply);
     send_ack(in.id, false);
     return;
   }
   const Outcome outcome = run(&in, now);
   // Only what ran is remembered: a refused message is looked at again when re-sent.
-  if (!outcome.refused) executed_.remember(in.id, fingerprint, ByteView(buffers.out, outcome.answer_size));
+  if (!outcome.refused) executed_.remember(in.id, fingerprint, outcome.answer);
   send_ack(in.id, outcome.refused);
   finish(&in);
 }

@@ -20,17 +20,25 @@ class Status {
   static constexpr Status error(uint16_t code, const char* text) {
     return Status(code == 0 || code > 0xFEFF ? 0xFEFF : code, text);
   }
+  /// As `error`, with a text kept in flash on the AVR (a `const char[]` declared `PROGMEM`): no RAM for it.
+  static constexpr Status error_P(uint16_t code, const char* text_in_flash) {
+    return Status(code == 0 || code > 0xFEFF ? 0xFEFF : code, text_in_flash, true);
+  }
   /// True for `ok()`.
   constexpr bool is_ok() const { return code_ == 0; }
   /// 0 for `ok()`.
   constexpr uint16_t code() const { return code_; }
   /// The error's text (null for `ok()`).
   constexpr const char* text() const { return text_; }
+  /// True when `text()` is in flash (`error_P`).
+  constexpr bool text_in_flash() const { return in_flash_; }
 
  private:
-  constexpr Status(uint16_t code, const char* text) : code_(code), text_(text) {}
+  constexpr Status(uint16_t code, const char* text, bool in_flash = false)
+      : code_(code), text_(text), in_flash_(in_flash) {}
   uint16_t code_;
   const char* text_;
+  bool in_flash_;
 };
 
 }  // namespace rpc
