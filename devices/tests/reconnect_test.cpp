@@ -18,6 +18,8 @@
 #include <filesystem>
 #include <mutex>
 #include <set>
+#include <stdexcept>
+#include <system_error>
 #include <span>
 #include <string>
 #include <vector>
@@ -43,11 +45,14 @@ constexpr const char* kById = "usb-Tether_Virtual_Uno_4242-if00";
 // Runs the board and bridges its UART to whichever pty is "plugged in"; can hold back what the host sends.
 class UnpluggableBoard {
  public:
-  UnpluggableBoard(transports::IoThread& io, const transports::testing::FakePortTree& tree) : io_(io), tree_(tree) {
+  UnpluggableBoard(transports::IoThread& io, transports::testing::FakePortTree& tree) : io_(io), tree_(tree) {
     transports::VirtualUnoOptions options;
     options.firmware = std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-rover.elf";
     options.pacing = transports::Pacing::real_time;
-    board_ = transports::VirtualUno::create(options);
+    std::error_code error;
+    std::string message;
+    board_ = transports::VirtualUno::create(options, error, &message);
+    if (!board_) throw std::runtime_error("virtual Uno: " + message);
     board_->set_output_handler([this](const std::uint8_t* data, std::size_t size) {
       std::lock_guard lock(mutex_);
       if (pty_) (void)!::write(pty_->object().native_handle(), data, size);  // unplugged: lost, as on a wire
@@ -57,17 +62,17 @@ class UnpluggableBoard {
   }
   ~UnpluggableBoard() {
     board_->stop();
-    unplug();
+    unplug(/*for_good=*/true);
+    if (spare_) spare_->close();
   }
 
   transports::VirtualUno& board() { return *board_; }
 
   // A new pty behind the by-id name; returns its slave path.
   std::string plug() {
-    auto pty = transports::PtyStream::open(io_.executor());
+    auto pty = spare_ ? std::move(spare_) : transports::PtyStream::open(io_.executor());
     {
       std::lock_guard lock(mutex_);
-      // The old one (if any) is still open here, so the new one gets another number.
       if (pty_) ADD_FAILURE() << "plugged twice";
       pty_ = pty;
       ++generation_;
@@ -76,8 +81,10 @@ class UnpluggableBoard {
     tree_.add_by_id(kById, pty->slave_path());
     return pty->slave_path();
   }
-  // Removes the by-id name and closes the pty's master: the host side reads EOF/EIO.
-  void unplug() {
+  // Removes the by-id name and closes the pty's master: the host side reads EOF/EIO. The next plug's pty
+  // is opened first, while this one's number is taken, so it comes back under another /dev/pts/N.
+  void unplug(bool for_good = false) {
+    if (!for_good) spare_ = transports::PtyStream::open(io_.executor());
     std::shared_ptr<transports::PtyStream> pty;
     {
       std::lock_guard lock(mutex_);
@@ -119,11 +126,12 @@ class UnpluggableBoard {
   }
 
   transports::IoThread& io_;
-  const transports::testing::FakePortTree& tree_;
-  std::shared_ptr<transports::VirtualUno> board_;
+  transports::testing::FakePortTree& tree_;
+  std::unique_ptr<transports::VirtualUno> board_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::shared_ptr<transports::PtyStream> pty_;
+  std::shared_ptr<transports::PtyStream> spare_;
   std::uint64_t generation_ = 0;
   bool held_ = false;
   std::string held_bytes_;

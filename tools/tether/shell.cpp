@@ -320,7 +320,7 @@ int run_shell(int argc, char** argv) {
   // The supervised serial port, once open: a link failure during its outage is the outage, not the end.
   struct PortHolder {
     std::mutex mutex;
-    std::shared_ptr<transports::SerialPortStream> port;
+    std::weak_ptr<transports::SerialPortStream> port;  // weak: the port's own handler reaches this holder
   };
   auto port_holder = std::make_shared<PortHolder>();
   ShellContext context;
@@ -329,7 +329,7 @@ int run_shell(int argc, char** argv) {
   context.link_failed = [link_failed, wake_target, port_holder] {
     {
       const std::lock_guard lock(port_holder->mutex);
-      const auto& port = port_holder->port;
+      const auto port = port_holder->port.lock();
       if (port && port->options().reconnect.enabled && !port->link_counters().gave_up) return;
     }
     *link_failed = true;
