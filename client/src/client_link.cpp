@@ -33,8 +33,10 @@ void ClientLink::close() {
 
 void ClientLink::start_reading() { read(); }
 
+bool ClientLink::link_down() const { return link_error_ == transports::TransportError::disconnected; }
+
 void ClientLink::read() {
-  if (closed_.load() || link_error_) return;
+  if (closed_.load() || (link_error_ && !link_down())) return;
   std::shared_ptr<ReadBuffer> buffer = read_buffer_;
   stream_->async_read_some(
       asio::buffer(*buffer),
@@ -44,8 +46,18 @@ void ClientLink::read() {
 }
 
 void ClientLink::on_read(const error_code& error, std::size_t size) {
+  if (error == transports::TransportError::reconnected) {
+    if (link_down() && !closed_.load()) {
+      link_error_.clear();
+      on_link_restored();
+      if (!writing_) write_next();
+    }
+    read();
+    return;
+  }
   if (error) {
     fail(error);
+    if (link_down()) read();  // the supervised stream says when the port is back
     return;
   }
   on_bytes(read_buffer_->data(), size);
@@ -100,7 +112,8 @@ void ClientLink::on_written(const error_code& error) {
 // --- failure ---------------------------------------------------------------------------------------------
 
 void ClientLink::fail(const error_code& error) {
-  if (closed_.load() || link_error_) return;
+  // A port that vanished is down until its stream reports it back; only a final error follows that.
+  if (closed_.load() || (link_error_ && !link_down()) || (link_down() && error == link_error_)) return;
   link_error_ = error;
   cancel_timer();
   on_link_failed(error);

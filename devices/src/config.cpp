@@ -75,12 +75,64 @@ transports::Pacing read_pacing(const Node& node) {
                                                                   : transports::Pacing::fast;
 }
 
+std::string read_usb_id(const Node& node) {
+  const std::string text = read_string(node);
+  if (const auto problem = transports::usb_id_problem(text)) fail(node.path, *problem + ", got " + show_json(node.value));
+  return text;
+}
+
+// `"port": {"usb": {"vid": "2341", "pid": "0043", "serial": "..."}, "by_id": "usb-..."}`: at least one way.
+void parse_port(const Node& node, SerialTransport& serial) {
+  const Object object(node);
+  object.allow_only({"usb", "by_id"});
+  if (!object.has("usb") && !object.has("by_id")) node.expected("an object with \"usb\" or \"by_id\"");
+  if (auto v = object.optional("usb")) {
+    const Object usb(*v);
+    usb.allow_only({"vid", "pid", "serial"});
+    if (v->value.empty()) v->expected("an object with at least one of \"vid\", \"pid\", \"serial\"");
+    if (auto id = usb.optional("vid")) serial.usb.vid = read_usb_id(*id);
+    if (auto id = usb.optional("pid")) serial.usb.pid = read_usb_id(*id);
+    if (auto text = usb.optional("serial")) {
+      serial.usb.serial = read_nonempty_string(*text);
+      if (std::any_of(serial.usb.serial.begin(), serial.usb.serial.end(),
+                      [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+        fail(text->path, "must not contain control characters, got " + quote_json(serial.usb.serial));
+      }
+    }
+  }
+  if (auto v = object.optional("by_id")) {
+    serial.by_id = read_string(*v);
+    if (const auto problem = transports::by_id_problem(serial.by_id)) {
+      fail(v->path, *problem + ", got " + show_json(v->value));
+    }
+  }
+}
+
+// `"reconnect": false`, `true`, or `{"max_attempts": N, "max_delay_ms": M}` (on, with limits).
+void parse_reconnect(const Node& node, transports::ReconnectOptions& reconnect) {
+  if (node.value.is_boolean()) {
+    reconnect.enabled = read_bool(node);
+    return;
+  }
+  if (!node.value.is_object()) node.expected("a boolean or an object");
+  const Object object(node);
+  object.allow_only({"max_attempts", "max_delay_ms"});
+  reconnect.enabled = true;
+  if (auto v = object.optional("max_attempts")) reconnect.max_attempts = static_cast<unsigned>(read_unsigned(*v, 0, 1000000));
+  if (auto v = object.optional("max_delay_ms")) {
+    reconnect.max_delay = std::chrono::milliseconds(read_unsigned(*v, 50, 60000));
+  }
+}
+
 SerialTransport parse_serial(const Node& node, Codec codec) {
   const Object object(node);
-  object.allow_only({"path", "baud", "boot_wait_ms", "ready_banner", "boot_timeout_ms", "discard_boot_noise",
-                     "low_latency", "exclusive", "hang_up_on_close"});
+  object.allow_only({"path", "port", "baud", "boot_wait_ms", "ready_banner", "boot_timeout_ms", "discard_boot_noise",
+                     "low_latency", "exclusive", "hang_up_on_close", "reconnect"});
   SerialTransport serial;
-  serial.path = read_nonempty_string(object.required("path"));
+  if (auto v = object.optional("port")) parse_port(*v, serial);
+  if (auto v = object.optional("path"); v || (serial.usb.empty() && serial.by_id.empty())) {
+    serial.path = read_nonempty_string(v ? *v : object.required("path"));
+  }
   serial.options.baud = default_baud(codec);
   if (auto v = object.optional("baud")) serial.options.baud = read_baud(*v);
   if (auto v = object.optional("boot_wait_ms")) serial.options.boot_wait = std::chrono::milliseconds(read_ms(*v));
@@ -92,6 +144,7 @@ SerialTransport parse_serial(const Node& node, Codec codec) {
   if (auto v = object.optional("low_latency")) serial.options.low_latency = read_bool(*v);
   if (auto v = object.optional("exclusive")) serial.options.exclusive = read_bool(*v);
   if (auto v = object.optional("hang_up_on_close")) serial.options.hang_up_on_close = read_bool(*v);
+  if (auto v = object.optional("reconnect")) parse_reconnect(*v, serial.options.reconnect);
   return serial;
 }
 
@@ -336,8 +389,20 @@ void validate_device(const DeviceConfig& device, std::size_t i) {
     fail(transport_path, "a virtual ring carries codec " + ring_codecs() + " only, not " + std::string(row.name));
   }
   if (single_board && on_ring) fail(transport_path, "codec " + std::string(row.name) + " runs on a ring");
-  if (const auto* serial = std::get_if<SerialTransport>(&device.transport); serial && serial->path.empty()) {
-    fail(transport_path + ".path", "must not be empty");
+  if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
+    const bool identity = serial->port().has_identity();
+    if (serial->path.empty() && !identity) fail(transport_path + ".path", "must not be empty (or name the board by \"port\")");
+    for (const auto& [id, key] : {std::pair{&serial->usb.vid, "vid"}, std::pair{&serial->usb.pid, "pid"}}) {
+      if (id->empty()) continue;
+      if (const auto problem = transports::usb_id_problem(*id)) {
+        fail(transport_path + ".port.usb." + key, *problem + ", got " + quote_json(*id));
+      }
+    }
+    if (!serial->by_id.empty()) {
+      if (const auto problem = transports::by_id_problem(serial->by_id)) {
+        fail(transport_path + ".port.by_id", *problem + ", got " + quote_json(serial->by_id));
+      }
+    }
   }
   if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
     if (tcp->host.empty()) fail(transport_path + ".host", "must not be empty");
@@ -582,7 +647,7 @@ const char* pacing_name(transports::Pacing pacing) {
 
 std::string describe(const TransportConfig& transport) {
   if (const auto* serial = std::get_if<SerialTransport>(&transport)) {
-    return "serial " + serial->path + " " + std::to_string(serial->options.baud);
+    return "serial " + serial->port().describe() + " " + std::to_string(serial->options.baud);
   }
   if (const auto* tcp = std::get_if<TcpTransport>(&transport)) {
     return "tcp " + tcp->host + ":" + std::to_string(tcp->port);

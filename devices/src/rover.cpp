@@ -3,6 +3,8 @@
 
 #include <cxxabi.h>
 
+#include <cerrno>
+
 #include <cstdlib>
 #include <atomic>
 #include <chrono>
@@ -38,19 +40,32 @@ std::string device_path(std::size_t index) { return "devices[" + std::to_string(
 
 // --- transports ---------------------------------------------------------------------------------------------
 
-std::shared_ptr<transports::ByteStream> open_serial(const SerialTransport& serial, const std::string& path,
+std::shared_ptr<transports::SerialPortStream> open_serial(const SerialTransport& serial, const std::string& path,
                                                     const boost::asio::any_io_executor& executor) {
   error_code error;
-  auto stream = transports::SerialPortStream::open(executor, serial.path, serial.options, error);
+  std::string message;
+  const std::string port = transports::resolve_port(serial.port(), error, &message);
+  if (error) fail(path + ".port", message, error);
+  // Opened by its spec, not the path found: after an outage the board is looked up again by identity.
+  auto opened = transports::SerialPortStream::async_open(executor, serial.port(), serial.options, boost::asio::use_future);
+  std::shared_ptr<transports::SerialPortStream> stream = transports::get_or_error(opened, error);
   if (!error) return stream;
   if (error == transports::TransportError::boot_timeout) {
     fail(path + ".ready_banner",
-         serial.path + ": no " + nlohmann::json(serial.options.ready_banner).dump() + " banner within " +
+         port + ": no " + nlohmann::json(serial.options.ready_banner).dump() + " banner within " +
              std::to_string(serial.options.boot_timeout.count()) + " ms",
          error);
   }
-  if (error == transports::TransportError::invalid_option) fail(path + ".baud", serial.path + ": " + error.message(), error);
-  fail(path + ".path", serial.path + ": " + error.message(), error);
+  if (error == transports::TransportError::invalid_option) fail(path + ".baud", port + ": " + error.message(), error);
+  // The two a user can act on get named: the wrong file, and a port some other program holds (TIOCEXCL).
+  std::string reason = error.message();
+  const bool os = error.category() == boost::system::system_category();
+  if (os && error.value() == ENOTTY) {
+    reason = "not a serial port (" + reason + ")";
+  } else if (os && error.value() == EBUSY) {
+    reason = "held by another process (" + reason + ")";
+  }
+  fail(path + (serial.path.empty() ? ".port" : ".path"), port + ": " + reason, error);
 }
 
 std::shared_ptr<transports::ByteStream> open_tcp(const TcpTransport& tcp, const std::string& path,
@@ -69,7 +84,8 @@ OpenedTransport open_device_transport(const DeviceConfig& device, const std::str
   OpenedTransport opened;
   try {
     if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
-      opened.stream = open_serial(*serial, transport_path + ".serial", executor);
+      opened.port = open_serial(*serial, transport_path + ".serial", executor);
+      opened.stream = opened.port;
     } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
       opened.stream = open_tcp(*tcp, transport_path + ".tcp", executor);
     } else if (const VirtualBoardOpener opener = virtual_board_opener.load(std::memory_order_acquire)) {
@@ -137,6 +153,7 @@ class RoverOpener {
     opened.transport = describe(device.transport);
     opened.boards = std::move(boards);
     opened.clock = transport.clock;
+    opened.port = transport.port;
     try {
       const CodecRow& codec = codec_row(device.codec);
       opened.client = codec.open(stream, device, std::move(transport.clock));

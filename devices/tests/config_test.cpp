@@ -99,6 +99,25 @@ TEST(DevicesConfig, EverySerialAndRomiKeyIsRead) {
   EXPECT_TRUE(timing.retry_on_timeout);
 }
 
+TEST(DevicesConfig, SerialPortByUsbIdentityOrById) {
+  RoverConfig config = parse_config(one_device(
+      "romi", R"({"serial": {"port": {"usb": {"vid": "2341", "pid": "0043", "serial": "75833353035351E0E1A1"}}}})"));
+  auto serial = std::get<SerialTransport>(config.devices[0].transport);
+  EXPECT_EQ(serial.path, "");
+  EXPECT_EQ(serial.usb.vid, "2341");
+  EXPECT_EQ(serial.usb.pid, "0043");
+  EXPECT_EQ(serial.usb.serial, "75833353035351E0E1A1");
+  EXPECT_EQ(describe(config.devices[0].transport), "serial usb 2341:0043 serial 75833353035351E0E1A1 115200");
+  config = parse_config(one_device("romi", R"({"serial": {"port": {"usb": {"pid": "7523"}}, "path": "/dev/ttyUSB0"}})"));
+  serial = std::get<SerialTransport>(config.devices[0].transport);
+  EXPECT_EQ(serial.path, "/dev/ttyUSB0");
+  EXPECT_EQ(serial.port().describe(), "usb *:7523 at /dev/ttyUSB0");
+  config = parse_config(one_device("romi", R"({"serial": {"port": {"by_id": "usb-Arduino_Uno-if00"}}})"));
+  serial = std::get<SerialTransport>(config.devices[0].transport);
+  EXPECT_EQ(serial.by_id, "usb-Arduino_Uno-if00");
+  EXPECT_EQ(describe(config.devices[0].transport), "serial by-id usb-Arduino_Uno-if00 115200");
+}
+
 TEST(DevicesConfig, ProxyOptionsAndInits) {
   const RoverConfig config = parse_config(one_device(
       "proxy", R"({"serial": {"path": "/dev/ttyACM1", "baud": 230400}})",
@@ -427,6 +446,45 @@ TEST(DevicesConfigErrors, MissingKeys) {
   EXPECT_EQ(error_of(R"({"name": "x"})"), R"(missing key "devices")");
   EXPECT_EQ(error_of(one_device("proxy", kSerial, R"({"inits": [{"kind": "servo", "pin": 9}]})")),
             R"(devices[0].options.inits[0]: missing key "safe_position")");
+}
+
+TEST(DevicesConfigErrors, MalformedPortIdentityNamesTheJsonPath) {
+  const auto serial = [](const std::string& port) { return one_device("romi", R"({"serial": {"port": )" + port + "}}"); };
+  EXPECT_EQ(error_of(serial(R"({"usb": {"vid": "23G1"}})")),
+            R"(devices[0].transport.serial.port.usb.vid: expected 4 hex digits ("2341"), got string "23G1")");
+  EXPECT_EQ(error_of(serial(R"({"usb": {"vid": "2341", "pid": "43"}})")),
+            R"(devices[0].transport.serial.port.usb.pid: expected 4 hex digits ("2341"), got string "43")");
+  EXPECT_EQ(error_of(serial(R"({"usb": {"pid": 67}})")),
+            R"(devices[0].transport.serial.port.usb.pid: expected a string, got number 67)");
+  EXPECT_EQ(error_of(serial(R"({"usb": {"serial": ""}})")),
+            R"(devices[0].transport.serial.port.usb.serial: expected a non-empty string, got string "")");
+  EXPECT_EQ(error_of(serial(R"({"usb": {}})")),
+            R"(devices[0].transport.serial.port.usb: expected an object with at least one of "vid", "pid", "serial", got an empty object)");
+  EXPECT_EQ(error_of(serial(R"({"usb": {"vendor": "2341"}})")),
+            R"(devices[0].transport.serial.port.usb: unknown key "vendor" (allowed: vid, pid, serial))");
+  EXPECT_EQ(error_of(serial(R"({})")),
+            R"(devices[0].transport.serial.port: expected an object with "usb" or "by_id", got an empty object)");
+  EXPECT_EQ(error_of(serial(R"("/dev/ttyACM0")")),
+            R"(devices[0].transport.serial.port: expected an object, got string "/dev/ttyACM0")");
+  EXPECT_EQ(error_of(serial(R"({"by_id": "/dev/ttyACM0"})")),
+            R"(devices[0].transport.serial.port.by_id: expected a name in /dev/serial/by-id (the file name, or its )"
+            R"(full path), got string "/dev/ttyACM0")");
+  // Built in code: validate() checks the same.
+  RoverConfig config = parse_config(one_device("romi", kSerial));
+  std::get<SerialTransport>(config.devices[0].transport).usb.vid = "x";
+  try {
+    validate(config);
+    ADD_FAILURE() << "validated";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()), R"(devices[0].transport.serial.port.usb.vid: expected 4 hex digits ("2341"), got "x")");
+  }
+  std::get<SerialTransport>(config.devices[0].transport) = SerialTransport();
+  try {
+    validate(config);
+    ADD_FAILURE() << "validated";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()), R"(devices[0].transport.serial.path: must not be empty (or name the board by "port"))");
+  }
 }
 
 TEST(DevicesConfigErrors, UnknownKeysAreErrorsWithDidYouMean) {

@@ -20,6 +20,7 @@
 #include "tether/client/client_skeleton.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/transport_error.hpp"
 
 namespace tether::python {
@@ -134,14 +135,24 @@ struct Transport {
   std::shared_ptr<void> keep_alive;  ///< A virtual board the stream belongs to.
   /// The virtual board a client was opened on (`Client(board)`): its clock is the client's by default.
   std::shared_ptr<VirtualBoard> board;
+  /// A serial port's stream (kept after a client took it): its link events and outage counters.
+  std::shared_ptr<transports::SerialPortStream> port;
 };
 
-/// Serial port options from keyword arguments (`baud`, `boot_wait` seconds, `ready_banner`).
+/// Serial port options from keyword arguments (`baud`, `boot_wait` seconds, `ready_banner`, `reconnect`,
+/// `max_attempts`).
 struct SerialArguments {
   unsigned baud = 115200;
   double boot_wait = 2.0;
   std::string ready_banner;
+  bool reconnect = true;
+  unsigned max_attempts = 0;
 };
+
+/// A link event as a Python dict: `{"kind": "down"|"up"|"gave_up", "reason", "path", "down_ms", "attempts"}`.
+py::dict link_event_dict(const transports::LinkEvent& event);
+/// Link counters as a Python dict: `{"disconnects", "reconnects", "time_down_ms", "up", "gave_up"}`.
+py::dict link_counters_dict(const transports::LinkCounters& counters);
 /// The stream a client opens on: a `Transport` (taken: one client per stream), a port path (opened as a
 /// serial port with `serial`; `Transport::board` set when it is an in-process board's pty, `board_at_port`)
 /// or a `tether.VirtualUno` (its pty without a boot wait, or, for a board made with `start=False`, its UART

@@ -41,6 +41,33 @@ ClosedError.)doc")
              }
              return names;
            }, "Every device (name, codec, transport), in the configuration's order.")
+      .def(
+          "link_counters",
+          [](RoverHolder& h, const std::string& name) -> py::object {
+            const devices::RoverDevice* device = h.get().find(name);
+            if (device == nullptr) throw py::key_error("no device " + name);
+            if (!device->port) return py::none();
+            return link_counters_dict(device->port->link_counters());
+          },
+          py::arg("name"),
+          "Device ``name``'s serial port outage counters: {'disconnects', 'reconnects', 'time_down_ms', 'up', "
+          "'gave_up'}; None for a device that is not on a serial port. KeyError for an unknown name.")
+      .def(
+          "on_link_event",
+          [](RoverHolder& h, const std::string& name, py::object callback) {
+            const devices::RoverDevice* device = h.get().find(name);
+            if (device == nullptr) throw py::key_error("no device " + name);
+            if (!device->port) throw py::value_error("device " + name + " is not on a serial port");
+            PyCallback call(std::move(callback));
+            device->port->add_link_handler([call](const transports::LinkEvent& event) {
+              if (!call || interpreter_exiting()) return;
+              py::gil_scoped_acquire gil;
+              call(link_event_dict(event));
+            });
+          },
+          py::arg("name"), py::arg("callback"),
+          "Calls ``callback(event)`` on the I/O thread for each change of device ``name``'s serial link "
+          "(see tether.transports.Transport.on_link_event). ValueError for a device not on a serial port.")
       .def("close", [](RoverHolder& h) {
         if (!h.rover || h.generation.inherited()) return;
         py::gil_scoped_release release;

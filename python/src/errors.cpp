@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "binding.hpp"
+#include "tether/transports/transport_error.hpp"
 
 namespace tether::python {
 
@@ -15,6 +16,9 @@ py::object error_object(const boost::system::error_code& error, const std::strin
   const std::string text = message.empty() ? error.message() : message;
   if (error == boost::asio::error::operation_aborted) {
     return errors.attr("ClosedError")("the client was closed before the operation completed");
+  }
+  if (error == transports::TransportError::disconnected) {
+    return errors.attr("DisconnectedError")(error.value(), text);
   }
   const bool timeout = error == boost::system::errc::timed_out;
   py::object tether_error = errors.attr("make_error")(error.category().name(), error.value(), text, timeout);

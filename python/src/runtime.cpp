@@ -97,6 +97,8 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   options.baud = serial.baud;
   options.boot_wait = std::chrono::milliseconds(static_cast<long>(serial.boot_wait * 1000.0));
   options.ready_banner = serial.ready_banner;
+  options.reconnect.enabled = serial.reconnect;
+  options.reconnect.max_attempts = serial.max_attempts;
   Transport transport;
   transport.io = io_thread();
   transport.path = path;
@@ -106,8 +108,22 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
         transports::SerialPortStream::async_open(transport.io->executor(), path, options, std::move(handler));
       });
   if (error) raise_error(error, {}, path);
+  transport.port = stream;
   transport.stream = std::move(stream);
   return transport;
+}
+
+py::dict link_event_dict(const transports::LinkEvent& event) {
+  const char* kind = event.kind == transports::LinkEvent::Kind::down ? "down"
+                     : event.kind == transports::LinkEvent::Kind::up ? "up"
+                                                                      : "gave_up";
+  return py::dict("kind"_a = kind, "reason"_a = event.reason, "path"_a = event.path,
+                  "down_ms"_a = event.down_for.count(), "attempts"_a = event.attempts);
+}
+
+py::dict link_counters_dict(const transports::LinkCounters& counters) {
+  return py::dict("disconnects"_a = counters.disconnects, "reconnects"_a = counters.reconnects,
+                  "time_down_ms"_a = counters.time_down.count(), "up"_a = counters.up, "gave_up"_a = counters.gave_up);
 }
 
 namespace {

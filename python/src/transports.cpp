@@ -187,19 +187,44 @@ void register_transports(py::module_& parent) {
       .def_property_readonly("description",
                              [](const Transport& t) { return t.stream ? t.stream->description() : std::string("(taken)"); },
                              "What the stream is, for messages.")
-      .def_property_readonly("taken", [](const Transport& t) { return !t.stream; }, "True once a client uses it.");
+      .def_property_readonly("taken", [](const Transport& t) { return !t.stream; }, "True once a client uses it.")
+      .def(
+          "link_counters",
+          [](const Transport& t) -> py::object {
+            if (!t.port) return py::none();
+            return link_counters_dict(t.port->link_counters());
+          },
+          "A serial port's outage counters: {'disconnects', 'reconnects', 'time_down_ms', 'up', 'gave_up'}; "
+          "None for other transports.")
+      .def(
+          "on_link_event",
+          [](const Transport& t, py::object callback) {
+            if (!t.port) throw py::value_error("link events are a serial port's (this transport is not one)");
+            PyCallback call(std::move(callback));
+            t.port->add_link_handler([call](const transports::LinkEvent& event) {
+              if (!call || interpreter_exiting()) return;
+              py::gil_scoped_acquire gil;
+              call(link_event_dict(event));
+            });
+          },
+          py::arg("callback"),
+          "Calls ``callback(event)`` on the I/O thread for each change of a serial port's link: a dict "
+          "{'kind': 'down'|'up'|'gave_up', 'reason', 'path', 'down_ms', 'attempts'}. It must not block.");
 
   module.def(
       "serial",
-      [](const std::string& path, unsigned baud, double boot_wait, const std::string& ready_banner) {
-        return open_serial(path, SerialArguments{baud, boot_wait, ready_banner});
+      [](const std::string& path, unsigned baud, double boot_wait, const std::string& ready_banner, bool reconnect,
+         unsigned max_attempts) {
+        return open_serial(path, SerialArguments{baud, boot_wait, ready_banner, reconnect, max_attempts});
       },
       py::arg("path"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
-      py::arg("ready_banner") = "",
+      py::arg("ready_banner") = "", py::arg("reconnect") = true, py::arg("max_attempts") = 0u,
       "Opens a serial port (raw 8N1, exclusive). An Uno resets when its port opens: ``boot_wait`` seconds are "
       "waited and what it printed meanwhile is dropped, or, with ``ready_banner``, the port is ready once the "
-      "firmware printed it. Raises FileNotFoundError/PermissionError/OSError, TransportError (bad baud, banner "
-      "not seen: TransportTimeoutError).");
+      "firmware printed it. A port that vanishes (unplugged) is re-opened when it is back (``reconnect``, "
+      "at most ``max_attempts`` attempts per outage, 0: forever); meanwhile calls raise DisconnectedError. "
+      "Raises FileNotFoundError/PermissionError/OSError, TransportError (bad baud, banner not seen: "
+      "TransportTimeoutError).");
   module.def(
       "tcp",
       [](const std::string& host, int port, double timeout) {

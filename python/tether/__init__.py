@@ -20,7 +20,7 @@ import types as _types
 
 from . import _errors
 from . import _tether
-from ._errors import ClosedError, ConfigError, TetherError, TransportError, TransportTimeoutError
+from ._errors import ClosedError, ConfigError, DisconnectedError, TetherError, TransportError, TransportTimeoutError
 
 VirtualUno = _tether.VirtualUno
 VirtualUnoClock = _tether.VirtualUnoClock
@@ -80,5 +80,5 @@ def open_rover(path, *, firmware_dir=None):
 _atexit.register(_tether._interpreter_exiting)
 
 __all__ = [*_SUBMODULES, *_PLUGIN_MODULES, "VirtualUno", "VirtualUnoClock", "Rover", "LinkCounters",
-           "open_rover", "firmware_dir", "TetherError", "TransportError", "ConfigError", "ClosedError",
+           "open_rover", "firmware_dir", "TetherError", "TransportError", "ConfigError", "ClosedError", "DisconnectedError",
            "TransportTimeoutError", *_CODEC_ERRORS, "__version__"]

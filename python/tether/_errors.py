@@ -47,6 +47,11 @@ class TransportTimeoutError(TransportError, TimeoutError):
     """A transport deadline passed (connect, boot banner)."""
 
 
+class DisconnectedError(TransportError, ConnectionError):
+    """The serial port vanished (unplugged): the call failed at once, and calls keep failing so until the port
+    is back (it is re-opened on its own, unless ``reconnect=False``)."""
+
+
 class _Family:
     """The classes errors of one category become: ``base``, ``timeout`` for timeouts, ``rejected`` for the
     codes in ``rejected_codes``."""

@@ -23,6 +23,7 @@ constexpr Command kRest[] = {
     {"bench", run_bench, "benchmark the protocols over noise and rates: latency, bytes, CPU, saturation; JSON, CSV, plots, report.html"},
     {"flash", run_flash, "upload a firmware image through the board's bootloader (avrdude, optiboot), verified"},
     {"stats", run_stats, "run a session with a device for a while and print its link and codec counters"},
+    {"ports", run_ports, "list the serial ports (path, by-id, VID:PID, serial, product) and which configured device each is"},
 };
 
 // The plugins' subcommands, each codec's part of a shared one (`call`) among them.

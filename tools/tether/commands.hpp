@@ -43,5 +43,6 @@ int run_stats(int argc, char** argv);
 int run_demo(int argc, char** argv);
 int run_bench(int argc, char** argv);
 int run_flash(int argc, char** argv);
+int run_ports(int argc, char** argv);
 
 }  // namespace tether::cli

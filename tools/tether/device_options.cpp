@@ -94,7 +94,9 @@ std::string device_usage(std::string_view port_codec) {
       "                      (" + texts.images + ") in the firmware folder\n"
       "                      ($TETHER_FIRMWARE_DIR, default: the installed images, else the build's).\n"
       "                      The codec follows the name (" + texts.prefixes + ")\n"
-      "                      unless --codec says\n";
+      "                      unless --codec says\n"
+      "  --no-reconnect      a serial port that vanishes (unplugged) ends the link; by default the command\n"
+      "                      waits for it to come back (its calls fail `disconnected` meanwhile) and goes on\n";
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);
     if (commands == nullptr || (commands->flags.empty() && commands->usage_note.empty())) continue;
@@ -134,6 +136,10 @@ enum class OptionParse { not_mine, consumed, error };
 // `error` gets the message of a bad value.
 OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions& options, std::string& error) {
   const std::string_view argument = argv[index];
+  if (argument == "--no-reconnect") {
+    options.reconnect = false;
+    return OptionParse::consumed;
+  }
   static constexpr std::string_view kWithValue[] = {"--port",   "--baud",   "--codec",  "--boot-wait",
                                                     "--config", "--device", "--virtual"};
   const CodecFlag* const flag = find_codec_flag(argument);
@@ -260,6 +266,9 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
           return std::nullopt;
         }
         target.config = device;
+        if (auto* serial = std::get_if<devices::SerialTransport>(&target.config.transport); serial && !options.reconnect) {
+          serial->options.reconnect.enabled = false;
+        }
         target.label = device.name + " in " + options.config_file + " (devices[" + std::to_string(i) + "], " +
                        devices::describe(device.transport) + ", " + std::string(devices::to_string(device.codec)) + ")";
         return target;
@@ -333,6 +342,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     serial.options = transports::SerialOptions();
     serial.options.baud = baud;
     serial.options.boot_wait = std::chrono::milliseconds(options.boot_wait_ms.value_or(0));
+    serial.options.reconnect.enabled = options.reconnect;
     target.config.name = options.port;
     target.config.transport = serial;
   } else if (commands.lone_virtual_board) {
@@ -349,7 +359,16 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   return target;
 }
 
-nlohmann::ordered_json OpenDevice::counters() const { return codec_commands(codec())->counters(client()); }
+nlohmann::ordered_json OpenDevice::counters() const {
+  nlohmann::ordered_json counters = codec_commands(codec())->counters(client());
+  if (port_ && port_->options().reconnect.enabled) {
+    const transports::LinkCounters link = port_->link_counters();
+    counters["port"] = {{"disconnects", link.disconnects},
+                        {"reconnects", link.reconnects},
+                        {"time_down_ms", link.time_down.count()}};
+  }
+  return counters;
+}
 
 nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds, const nlohmann::ordered_json& extra) {
   nlohmann::ordered_json report = {{"device", device.description()},
@@ -445,6 +464,7 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     opened.rover_ = std::make_shared<devices::Rover>(devices::open_rover(rover_config, executor, open_options));
     opened.codec_ = opened.rover_->devices().front().codec;
     opened.client_ = opened.rover_->devices().front().client;
+    opened.port_ = opened.rover_->devices().front().port;
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
     return std::nullopt;

@@ -24,6 +24,7 @@
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 
 namespace tether::cli {
 
@@ -39,6 +40,7 @@ struct DeviceOptions {
   std::string config_file;                       ///< --config
   std::string device;                            ///< --device
   std::string firmware;                          ///< --virtual
+  bool reconnect = true;                         ///< false: --no-reconnect (a serial port that vanishes ends the link)
   /// The flags only some codecs take (their rows' `CodecCommands::flags`, `--generation D`), as given and
   /// in that order; each value already passed its flag's check.
   std::vector<std::pair<std::string, std::string>> codec_flags;
@@ -104,7 +106,10 @@ class OpenDevice {
   std::shared_ptr<Client> client_as() const {
     return client_.get<Client>();
   }
-  /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`).
+  /// The serial port of a serial device (its link events and outage counters), else null.
+  const std::shared_ptr<transports::SerialPortStream>& port() const { return port_; }
+  /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`), and
+  /// for a supervised serial port `"port": {"disconnects", "reconnects", "time_down_ms"}`.
   nlohmann::ordered_json counters() const;
   /// Closes the client (and the device); idempotent, and safe from a stop-signal action while another
   /// thread still reads the client or its counters (they stay readable after the close).
@@ -117,6 +122,7 @@ class OpenDevice {
   devices::Codec codec_{};
   devices::DeviceClient client_;
   std::string description_;
+  std::shared_ptr<transports::SerialPortStream> port_;
   std::shared_ptr<devices::Rover> rover_;
   std::shared_ptr<std::once_flag> close_once_ = std::make_shared<std::once_flag>();
 };

@@ -35,6 +35,7 @@
 #include "monitor_decoding.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/pty_stream.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/transport_error.hpp"
 
 namespace tether::cli {
@@ -213,6 +214,10 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
     while (!is_done() && !stop) {
       boost::system::error_code read_error;
       const std::size_t size = from.read_some(asio::buffer(buffer), std::chrono::milliseconds(100), read_error);
+      if (read_error == transports::TransportError::disconnected ||
+          read_error == transports::TransportError::reconnected) {
+        continue;  // a supervised port's outage, reported by its link handler
+      }
       if (read_error && read_error != transports::TransportError::timed_out) {
         if (stop || is_done()) return;  // closed by Ctrl-C or by the other pump's end
         std::fprintf(stderr, "tether monitor: the link to %s failed: %s\n",
@@ -288,6 +293,17 @@ int run_monitor(int argc, char** argv) {
   Progress progress("monitor");
   auto stream = open_stream(*target, io.executor(), progress, error);
   if (!stream) return command_text().fail(target->label + ": " + error);
+  if (const auto port = std::dynamic_pointer_cast<transports::SerialPortStream>(stream);
+      port && port->options().reconnect.enabled) {
+    port->add_link_handler([](const transports::LinkEvent& event) {
+      if (event.kind == transports::LinkEvent::Kind::up) {
+        std::fprintf(stderr, "tether monitor: link up after %lld ms (%s)\n",
+                     static_cast<long long>(event.down_for.count()), event.path.c_str());
+      } else {
+        std::fprintf(stderr, "tether monitor: link %s: %s\n", transports::to_string(event.kind), event.reason.c_str());
+      }
+    });
+  }
   if (arguments.tap) return run_tap(arguments, *target, *stream, io);
 
   const std::atomic<bool>& stop = catch_stop_signals();
@@ -340,6 +356,11 @@ int run_monitor(int argc, char** argv) {
     if (!done) {
       boost::system::error_code read_error;
       size = stream->read_some(asio::buffer(buffer), std::chrono::milliseconds(wait), read_error);
+      if (read_error == transports::TransportError::disconnected ||
+          read_error == transports::TransportError::reconnected) {
+        // A supervised port's outage (its link handler below says why and for how long): read on.
+        read_error.clear();
+      }
       if (read_error && read_error != transports::TransportError::timed_out) {
         if (stop) break;  // closed by Ctrl-C
         std::fprintf(stderr, "tether monitor: the link failed: %s\n", read_error.message().c_str());

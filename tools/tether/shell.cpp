@@ -317,10 +317,21 @@ int run_shell(int argc, char** argv) {
     LineReader* reader = nullptr;
   };
   auto wake_target = std::make_shared<WakeTarget>();
+  // The supervised serial port, once open: a link failure during its outage is the outage, not the end.
+  struct PortHolder {
+    std::mutex mutex;
+    std::weak_ptr<transports::SerialPortStream> port;  // weak: the port's own handler reaches this holder
+  };
+  auto port_holder = std::make_shared<PortHolder>();
   ShellContext context;
   context.printer = printer;
   context.options = &arguments.device;
-  context.link_failed = [link_failed, wake_target] {
+  context.link_failed = [link_failed, wake_target, port_holder] {
+    {
+      const std::lock_guard lock(port_holder->mutex);
+      const auto port = port_holder->port.lock();
+      if (port && port->options().reconnect.enabled && !port->link_counters().gave_up) return;
+    }
     *link_failed = true;
     const std::lock_guard lock(wake_target->mutex);
     if (wake_target->reader != nullptr) wake_target->reader->wake();
@@ -347,6 +358,29 @@ int run_shell(int argc, char** argv) {
   if (g_stop_signalled) {
     device->close();
     return 0;
+  }
+
+  if (const auto& port = device->port(); port && port->options().reconnect.enabled) {
+    // The outage as it happens; giving up ends the shell like a failed link.
+    port->add_link_handler([printer, context_failed = context.link_failed](const transports::LinkEvent& event) {
+      switch (event.kind) {
+        case transports::LinkEvent::Kind::down:
+          printer.info("link_down", "link down: " + event.reason, {{"reason", event.reason}});
+          break;
+        case transports::LinkEvent::Kind::up:
+          printer.info("link_up", "link up after " + std::to_string(event.down_for.count()) + " ms (" + event.path + ")",
+                       {{"down_ms", event.down_for.count()}, {"path", event.path}});
+          break;
+        case transports::LinkEvent::Kind::gave_up:
+          printer.info("link_lost",
+                       "link lost: " + event.reason + " (gave up after " + std::to_string(event.attempts) + " attempts)",
+                       {{"reason", event.reason}, {"attempts", event.attempts}});
+          context_failed();
+          break;
+      }
+    });
+    const std::lock_guard lock(port_holder->mutex);
+    port_holder->port = port;
   }
 
   const bool interactive = ::isatty(STDIN_FILENO) == 1 && ::isatty(STDOUT_FILENO) == 1;

@@ -42,7 +42,8 @@ void ByteStream::start_user_read(std::vector<asio::mutable_buffer> buffers, Stea
     std::size_t wanted = 0;
     for (const auto& buffer : buffers) wanted += buffer.size();
     // Completions never run inside the initiating call: post even when the answer is known now.
-    if (wanted == 0 || ahead_begin_ != ahead_end_ || !open_ || (device_error_ && !device_read_in_flight_)) {
+    if (wanted == 0 || ahead_begin_ != ahead_end_ || !open_ || !notices_.empty() ||
+        (device_error_ && !device_read_in_flight_)) {
       error_code error;
       std::size_t size = 0;
       if (wanted == 0) {
@@ -50,6 +51,8 @@ void ByteStream::start_user_read(std::vector<asio::mutable_buffer> buffers, Stea
         size = take_buffered(buffers);
       } else if (!open_) {
         error = asio::error::operation_aborted;
+      } else if (!notices_.empty()) {
+        error = take_notice();
       } else {
         error = device_error_;
       }
@@ -73,7 +76,8 @@ void ByteStream::start_user_read(std::vector<asio::mutable_buffer> buffers, Stea
 }
 
 void ByteStream::fill_read_ahead() {
-  if (device_read_in_flight_ || !open_ || device_error_) return;
+  // A notice waits for its reader: bytes read now would come after it, though they belong after it.
+  if (device_read_in_flight_ || !open_ || device_error_ || !notices_.empty()) return;
   if (ahead_begin_ == ahead_end_) ahead_begin_ = ahead_end_ = 0;
   if (ahead_end_ == read_ahead_.size()) return;  // full: bounded, the reader must consume first
   device_read_in_flight_ = true;
@@ -87,12 +91,18 @@ void ByteStream::fill_read_ahead() {
 void ByteStream::on_device_read(error_code error, std::size_t size) {
   device_read_in_flight_ = false;
   ahead_end_ += size;
-  if (error && error != asio::error::operation_aborted) device_error_ = error;
+  if (error == TransportError::disconnected || error == TransportError::reconnected) {
+    add_notice(error);
+  } else if (error && error != asio::error::operation_aborted) {
+    device_error_ = error;
+  }
   if (!pending_read_) return;
   if (ahead_begin_ != ahead_end_) {
     complete_pending_read(error_code());
   } else if (!open_) {
     complete_pending_read(asio::error::operation_aborted);
+  } else if (!notices_.empty()) {
+    complete_pending_read(take_notice());
   } else if (device_error_) {
     complete_pending_read(device_error_);
   } else {
@@ -105,6 +115,22 @@ void ByteStream::complete_pending_read(error_code error) {
   deadline_timer_.cancel();
   const std::size_t size = error ? 0 : take_buffered(read->buffers);
   read->handler(error, size);
+}
+
+void ByteStream::add_notice(const error_code& notice) {
+  // Outages alternate down, up, down...: an up still unread followed by a down cancels out (the reader
+  // never saw the link back), so at most [down, up] waits.
+  if (notice == TransportError::disconnected && !notices_.empty() && notices_.back() == TransportError::reconnected) {
+    notices_.pop_back();
+    return;
+  }
+  if (notices_.size() < 2) notices_.push_back(notice);
+}
+
+error_code ByteStream::take_notice() {
+  const error_code notice = notices_.front();
+  notices_.erase(notices_.begin());
+  return notice;
 }
 
 std::size_t ByteStream::take_buffered(const std::vector<asio::mutable_buffer>& buffers) {

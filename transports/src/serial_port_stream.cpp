@@ -6,16 +6,29 @@
 
 #include <boost/asio/error.hpp>
 
+#include <algorithm>
+
 
 namespace tether::transports {
 
 SerialPortStream::SerialPortStream(executor_type executor, std::string path, const SerialOptions& options)
-    : AsioObjectStream(std::move(executor)), path_(std::move(path)), options_(options) {}
+    : AsioObjectStream(std::move(executor)), options_(options), spec_{path, {}, {}}, path_(std::move(path)) {}
 
 void SerialPortStream::start_open(executor_type executor, const std::string& path, const SerialOptions& options,
                                   OpenHandler handler) {
-  auto stream = std::make_shared<SerialPortStream>(std::move(executor), path, options);
+  start_open(std::move(executor), PortSpec{path, {}, {}}, options, std::move(handler));
+}
+
+void SerialPortStream::start_open(executor_type executor, const PortSpec& port, const SerialOptions& options,
+                                  OpenHandler handler) {
   error_code error;
+  const std::string path = resolve_port(port, error);
+  auto stream = std::make_shared<SerialPortStream>(std::move(executor), path, options);
+  stream->spec_ = port;
+  if (error) {
+    asio::post(stream->strand(), [handler = std::move(handler), error]() mutable { handler(error, nullptr); });
+    return;
+  }
   stream->object_.open(path, error);  // open and configure are quick: no need to be asynchronous
   if (!error) stream->configure(error);
   if (error) {
@@ -123,7 +136,238 @@ void SerialPortStream::configure(error_code& error) {
 }
 
 std::string SerialPortStream::description() const {
-  return "serial " + path_ + " " + std::to_string(options_.baud) + " 8N1";
+  return "serial " + path() + " " + std::to_string(options_.baud) + " 8N1";
+}
+
+std::string SerialPortStream::path() const {
+  std::lock_guard lock(mutex_);
+  return path_;
+}
+
+// --- supervision ------------------------------------------------------------------------------------------
+
+const char* to_string(LinkEvent::Kind kind) {
+  switch (kind) {
+    case LinkEvent::Kind::down: return "down";
+    case LinkEvent::Kind::up: return "up";
+    case LinkEvent::Kind::gave_up: return "gave up";
+  }
+  return "unknown";
+}
+
+void SerialPortStream::add_link_handler(std::function<void(const LinkEvent&)> handler) {
+  std::lock_guard lock(mutex_);
+  handlers_.push_back(std::move(handler));
+}
+
+LinkCounters SerialPortStream::link_counters() const {
+  std::lock_guard lock(mutex_);
+  LinkCounters counters = counters_;
+  if (outage_running_) {
+    counters.time_down += std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now() - down_since_);
+  }
+  return counters;
+}
+
+void SerialPortStream::do_read(asio::mutable_buffer buffer, IoHandler handler) {
+  if (!owed_.empty()) {
+    const error_code notice = owed_.front();
+    owed_.pop_front();
+    asio::post(strand(), [handler = std::move(handler), notice]() mutable { handler(notice, 0); });
+    return;
+  }
+  if (gave_up_) {
+    asio::post(strand(), [handler = std::move(handler), error = gave_up_]() mutable { handler(error, 0); });
+    return;
+  }
+  if (down_) {
+    parked_ = std::make_unique<ParkedRead>(ParkedRead{std::move(handler)});
+    return;
+  }
+  read_in_flight_ = true;
+  object_.async_read_some(
+      buffer, asio::bind_executor(strand(), [this, weak = weak_from_this(), connection = connection_,
+                                             handler = std::move(handler)](error_code error, std::size_t size) mutable {
+        const auto alive = weak.lock();
+        if (!alive) return handler(error, size);
+        if (error && supervised() && !closing_) {
+          on_io_error(connection, error);  // while still in flight: this completion carries the notice
+          error = make_error_code(TransportError::disconnected);
+        }
+        read_in_flight_ = false;
+        handler(error, size);
+      }));
+}
+
+void SerialPortStream::do_write(asio::const_buffer buffer, IoHandler handler) {
+  if (gave_up_ || down_) {
+    const error_code error = gave_up_ ? gave_up_ : make_error_code(TransportError::disconnected);
+    asio::post(strand(), [handler = std::move(handler), error]() mutable { handler(error, 0); });
+    return;
+  }
+  object_.async_write_some(
+      buffer, asio::bind_executor(strand(), [this, weak = weak_from_this(), connection = connection_,
+                                             handler = std::move(handler)](error_code error, std::size_t size) mutable {
+        const auto alive = weak.lock();
+        if (!alive || !error || !supervised() || closing_) return handler(error, size);
+        on_io_error(connection, error);
+        handler(make_error_code(TransportError::disconnected), size);
+      }));
+}
+
+void SerialPortStream::do_close(error_code& error) {
+  closing_ = true;
+  retry_timer_.cancel();
+  boot_timer_.cancel();
+  if (parked_) {
+    asio::post(strand(), [handler = std::move(parked_->handler)]() mutable { handler(asio::error::operation_aborted, 0); });
+    parked_.reset();
+  }
+  AsioObjectStream::do_close(error);
+}
+
+// A read or write of connection `connection` failed: the port is gone (unless an older connection's
+// operation reports what is known already).
+void SerialPortStream::on_io_error(std::uint64_t connection, const error_code& error) {
+  if (connection != connection_ || down_) return;
+  lose(error);
+}
+
+void SerialPortStream::lose(const error_code& error) {
+  down_ = true;
+  ++connection_;
+  error_code ignored;
+  object_.close(ignored);  // a read in flight completes (aborted) and carries the notice
+  if (!read_in_flight_) owe(make_error_code(TransportError::disconnected));
+  attempts_ = 0;
+  delay_ = options_.reconnect.first_delay;
+  LinkEvent event;
+  event.kind = LinkEvent::Kind::down;
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.disconnects;
+    counters_.up = false;
+    outage_running_ = true;
+    down_since_ = SteadyClock::now();
+    event.path = path_;
+  }
+  event.reason = event.path + ": " + (error == asio::error::eof ? std::string("end of file (the port vanished)") : error.message());
+  last_failure_ = event.reason;
+  emit(event);
+  schedule_attempt();
+}
+
+void SerialPortStream::owe(const error_code& notice) {
+  // As in the base stream: an owed up followed by a down cancels out; at most [down, up].
+  if (notice == TransportError::disconnected && !owed_.empty() && owed_.back() == TransportError::reconnected) {
+    owed_.pop_back();
+    return;
+  }
+  if (owed_.size() < 2) owed_.push_back(notice);
+}
+
+void SerialPortStream::schedule_attempt() {
+  retry_timer_.expires_after(delay_);
+  retry_timer_.async_wait([this, weak = weak_from_this()](error_code error) {
+    const auto alive = weak.lock();
+    if (!alive || error || closing_) return;
+    attempt();
+  });
+}
+
+void SerialPortStream::attempt() {
+  ++attempts_;
+  error_code error;
+  std::string message;
+  const std::string path = resolve_port(spec_, error, &message);
+  if (error) return retry_later(message);
+  object_.open(path, error);
+  if (!error) configure(error);
+  if (error) {
+    error_code ignored;
+    object_.close(ignored);
+    return retry_later(path + ": " + error.message());
+  }
+  {
+    std::lock_guard lock(mutex_);
+    path_ = path;
+  }
+  if (options_.boot_wait.count() == 0) return become_up();
+  boot_timer_.expires_after(options_.boot_wait);
+  boot_timer_.async_wait([this, weak = weak_from_this()](error_code wait_error) {
+    const auto alive = weak.lock();
+    if (!alive || wait_error || closing_) return;
+    if (options_.discard_boot_noise) ::tcflush(object_.native_handle(), TCIFLUSH);
+    become_up();
+  });
+}
+
+void SerialPortStream::retry_later(std::string reason) {
+  last_failure_ = std::move(reason);
+  const ReconnectOptions& reconnect = options_.reconnect;
+  if (reconnect.max_attempts != 0 && attempts_ >= reconnect.max_attempts) {
+    gave_up_ = make_error_code(TransportError::reconnect_limit);
+    LinkEvent event;
+    event.kind = LinkEvent::Kind::gave_up;
+    event.reason = last_failure_;
+    event.attempts = attempts_;
+    {
+      std::lock_guard lock(mutex_);
+      const auto down_for = std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now() - down_since_);
+      counters_.time_down += down_for;
+      counters_.gave_up = true;
+      outage_running_ = false;
+      event.down_for = down_for;
+      event.path = path_;
+    }
+    if (parked_) {
+      auto parked = std::move(parked_);
+      asio::post(strand(), [handler = std::move(parked->handler), error = gave_up_]() mutable { handler(error, 0); });
+    }
+    emit(event);
+    return;
+  }
+  delay_ = std::min(delay_ * 2, std::max(reconnect.max_delay, reconnect.first_delay));
+  schedule_attempt();
+}
+
+void SerialPortStream::become_up() {
+  down_ = false;
+  LinkEvent event;
+  event.kind = LinkEvent::Kind::up;
+  event.attempts = attempts_;
+  {
+    std::lock_guard lock(mutex_);
+    const auto down_for = std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now() - down_since_);
+    ++counters_.reconnects;
+    counters_.time_down += down_for;
+    counters_.up = true;
+    outage_running_ = false;
+    event.down_for = down_for;
+    event.path = path_;
+  }
+  if (!parked_) {
+    owe(make_error_code(TransportError::reconnected));
+    emit(event);
+    return;
+  }
+  // The notice first, then the event, both through the strand in that order: by the time a handler
+  // sees `up`, the reader's completion is queued on the reader's executor, so a call the handler's
+  // program makes after it (queued behind) finds the client up again.
+  auto parked = std::move(parked_);
+  asio::post(strand(), [handler = std::move(parked->handler)]() mutable {
+    handler(make_error_code(TransportError::reconnected), 0);
+  });
+  asio::post(strand(), [this, self = shared_from_this(), event] { emit(event); });
+}
+
+void SerialPortStream::emit(const LinkEvent& event) {
+  std::vector<std::function<void(const LinkEvent&)>> handlers;
+  {
+    std::lock_guard lock(mutex_);
+    handlers = handlers_;
+  }
+  for (const auto& handler : handlers) handler(event);
 }
 
 }  // namespace tether::transports

@@ -20,6 +20,11 @@ class TransportCategory final : public boost::system::error_category {
       case TransportError::boot_timeout: return "device did not finish booting after the port opened";
       case TransportError::invalid_option: return "invalid transport option";
       case TransportError::simulator_stopped: return "virtual Uno stopped";
+      case TransportError::no_matching_port: return "no serial port matches the identity";
+      case TransportError::several_matching_ports: return "several serial ports match the identity";
+      case TransportError::disconnected: return "disconnected";
+      case TransportError::reconnected: return "reconnected";
+      case TransportError::reconnect_limit: return "the port did not come back (reconnect limit reached)";
     }
     return "unknown transport error";
   }

@@ -9,7 +9,12 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 
+#include <array>
 #include <atomic>
+#include <condition_variable>
+#include <cstdlib>
+#include <mutex>
+#include <optional>
 #include <cctype>
 #include <filesystem>
 #include <future>
@@ -24,6 +29,7 @@
 #include "tether/transports/pty_stream.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/tcp_stream.hpp"
+#include "tether/transports/testing/fake_port_tree.hpp"
 #include "tether/transports/testing/read_exactly.hpp"
 
 namespace tether::transports {
@@ -127,10 +133,12 @@ TEST(SerialPortStream, BootNoiseBeforeTheWaitEndsIsDiscarded) {
   pty->close();
 }
 
-TEST(SerialPortStream, VanishedDeviceEndsAPendingReadWithAnError) {
+TEST(SerialPortStream, VanishedDeviceEndsAPendingReadWithAnErrorWithoutReconnect) {
   IoThread io;
   auto pty = PtyStream::open(io.executor());
-  auto port = SerialPortStream::open(io.executor(), pty->slave_path());
+  SerialOptions options;
+  options.reconnect.enabled = false;
+  auto port = SerialPortStream::open(io.executor(), pty->slave_path(), options);
   std::vector<uint8_t> buffer(8);
   auto ended = std::make_shared<std::promise<error_code>>();  // outlives a failed wait
   port->async_read_some(asio::buffer(buffer), std::chrono::steady_clock::now() + 5s,
@@ -141,7 +149,134 @@ TEST(SerialPortStream, VanishedDeviceEndsAPendingReadWithAnError) {
   const error_code error = future.get();
   EXPECT_TRUE(error);
   EXPECT_NE(error, make_error_code(TransportError::timed_out)) << error.message();
+  EXPECT_NE(error, make_error_code(TransportError::disconnected)) << error.message();
   port->close();
+}
+
+// Link events, for waiting on them.
+class LinkEvents {
+ public:
+  void add(const LinkEvent& event) {
+    std::lock_guard lock(mutex_);
+    events_.push_back(event);
+    changed_.notify_all();
+  }
+  std::optional<LinkEvent> wait(std::size_t n) {
+    std::unique_lock lock(mutex_);
+    if (!changed_.wait_for(lock, 20s, [&] { return events_.size() >= n; })) return std::nullopt;
+    return events_[n - 1];
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<LinkEvent> events_;
+};
+
+// One read's outcome (the completion may come after a failed wait: shared).
+std::pair<error_code, std::string> read_once(ByteStream& stream) {
+  auto buffer = std::make_shared<std::array<char, 64>>();
+  auto done = std::make_shared<std::promise<std::pair<error_code, std::string>>>();
+  stream.async_read_some(asio::buffer(*buffer), std::chrono::steady_clock::now() + 20s,
+                         [buffer, done](error_code e, std::size_t n) { done->set_value({e, std::string(buffer->data(), n)}); });
+  auto future = done->get_future();
+  if (future.wait_for(30s) != std::future_status::ready) return {make_error_code(TransportError::timed_out), ""};
+  return future.get();
+}
+
+// A port named by its by-id name: the pty behind it goes away and a new one (another /dev/pts/N) takes the
+// name. The reader sees `disconnected`, then `reconnected`, then the new connection's bytes; writes during
+// the outage fail `disconnected` at once; the counters and events tell the story.
+TEST(SerialPortStream, ReopensAPortThatComesBackUnderAnotherPath) {
+  IoThread io;
+  testing::FakePortTree tree;
+  ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
+  ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
+  auto first = PtyStream::open(io.executor());
+  tree.add_by_id("usb-board-if00", first->slave_path());
+  PortSpec spec;
+  spec.by_id = "usb-board-if00";
+  auto opened = SerialPortStream::async_open(io.executor(), spec, SerialOptions(), asio::use_future);
+  auto port = opened.get();
+  LinkEvents events;
+  port->add_link_handler([&events](const LinkEvent& event) { events.add(event); });
+  first->write(asio::buffer(std::string("before")));
+  EXPECT_EQ(read_exactly(*port, 6, 5s), "before");
+
+  auto second = PtyStream::open(io.executor());  // while the first is open: it gets another number
+  EXPECT_NE(second->slave_path(), first->slave_path());
+  tree.remove_by_id("usb-board-if00");
+  first->close();  // unplugged
+  EXPECT_EQ(read_once(*port).first, make_error_code(TransportError::disconnected));
+  const auto down = events.wait(1);
+  ASSERT_TRUE(down);
+  EXPECT_EQ(down->kind, LinkEvent::Kind::down);
+  EXPECT_EQ(down->path, first->slave_path());
+  error_code write_error;
+  port->write(asio::buffer(std::string("lost")), write_error);
+  EXPECT_EQ(write_error, make_error_code(TransportError::disconnected));
+  EXPECT_FALSE(port->link_counters().up);
+
+  tree.add_by_id("usb-board-if00", second->slave_path());
+  const auto back = read_once(*port);
+  EXPECT_EQ(back.first, make_error_code(TransportError::reconnected));
+  EXPECT_EQ(back.second, "");
+  const auto up = events.wait(2);
+  ASSERT_TRUE(up);
+  EXPECT_EQ(up->kind, LinkEvent::Kind::up);
+  EXPECT_EQ(up->path, second->slave_path());
+  EXPECT_EQ(port->path(), second->slave_path());
+  second->write(asio::buffer(std::string("after")));
+  EXPECT_EQ(read_exactly(*port, 5, 5s), "after");
+  port->write(asio::buffer(std::string("to new")));
+  EXPECT_EQ(read_exactly(*second, 6, 5s), "to new");
+  const LinkCounters counters = port->link_counters();
+  EXPECT_EQ(counters.disconnects, 1u);
+  EXPECT_EQ(counters.reconnects, 1u);
+  EXPECT_TRUE(counters.up);
+  EXPECT_FALSE(counters.gave_up);
+  EXPECT_GE(counters.time_down, up->down_for);
+  port->close();
+  second->close();
+  ::unsetenv("TETHER_SYSFS_ROOT");
+  ::unsetenv("TETHER_DEV_ROOT");
+}
+
+// With an attempt limit, a port that does not come back ends the stream: `gave_up`, then reads and writes
+// fail `reconnect_limit`. The backoff is bounded below by first_delay: three attempts take >= 10+20+40 ms.
+TEST(SerialPortStream, GivesUpAfterItsAttemptLimit) {
+  IoThread io;
+  testing::FakePortTree tree;  // by-id, so that no other pty taking the number can answer
+  ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
+  ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
+  auto pty = PtyStream::open(io.executor());
+  tree.add_by_id("usb-board-if00", pty->slave_path());
+  PortSpec spec;
+  spec.by_id = "usb-board-if00";
+  SerialOptions options;
+  options.reconnect.first_delay = std::chrono::milliseconds(10);
+  options.reconnect.max_attempts = 3;
+  auto port = SerialPortStream::async_open(io.executor(), spec, options, asio::use_future).get();
+  LinkEvents events;
+  port->add_link_handler([&events](const LinkEvent& event) { events.add(event); });
+  tree.remove_by_id("usb-board-if00");
+  pty->close();
+  EXPECT_EQ(read_once(*port).first, make_error_code(TransportError::disconnected));
+  const auto gave_up = events.wait(2);
+  ASSERT_TRUE(gave_up);
+  EXPECT_EQ(gave_up->kind, LinkEvent::Kind::gave_up);
+  EXPECT_EQ(gave_up->attempts, 3u);
+  EXPECT_GE(gave_up->down_for, std::chrono::milliseconds(70));
+  EXPECT_EQ(read_once(*port).first, make_error_code(TransportError::reconnect_limit));
+  error_code write_error;
+  port->write(asio::buffer(std::string("x")), write_error);
+  EXPECT_EQ(write_error, make_error_code(TransportError::reconnect_limit));
+  EXPECT_TRUE(port->link_counters().gave_up);
+  EXPECT_EQ(port->link_counters().reconnects, 0u);
+  EXPECT_EQ(gave_up->reason, "no serial port matches by-id usb-board-if00 (no serial ports found)");
+  port->close();
+  ::unsetenv("TETHER_SYSFS_ROOT");
+  ::unsetenv("TETHER_DEV_ROOT");
 }
 
 TEST(SocatPtyPair, BulkDataCrossesARealSocatPair) {

@@ -321,7 +321,7 @@ TEST(TetherMonitor, StdoutNobodyReadsDoesNotOutlastAStopSignal) {
 TEST(TetherMonitor, LinkFailureExitsTwo) {
   auto device = std::make_unique<FakePort>();
   const std::string path = device->path();
-  ::tether::testing::ChildProcess monitor({TETHER_BINARY, "monitor", "--port", path, "--json"}, true);
+  ::tether::testing::ChildProcess monitor({TETHER_BINARY, "monitor", "--port", path, "--json", "--no-reconnect"}, true);
   device->send("#a[0]:00e7\r\n");
   const auto line = monitor.read_line(std::chrono::seconds(20));
   ASSERT_TRUE(line);

@@ -2,6 +2,8 @@
 // stdout and stderr, in the default canonical echoing mode), typing lines and reading the screen.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include <signal.h>
@@ -175,7 +177,8 @@ TEST(TetherShell, PipedElcanoShellWaitsForTheAnswers) {
 TEST(TetherShell, ElcanoLinkFailureAfterTheInputEndsWithTwo) {
   FakePort port;  // the ring: reads what the host sends, then goes away
   ::tether::testing::ChildProcess shell(
-      {"sh", "-c", "printf 'D{s 50}{a 25}\\n' | exec \"$0\" shell --port \"$1\" --codec elcano", TETHER_BINARY,
+      {"sh", "-c", "printf 'D{s 50}{a 25}\\n' | exec \"$0\" shell --port \"$1\" --codec elcano --no-reconnect",
+       TETHER_BINARY,
        port.path()},
       /*capture_stdout=*/true);
   const std::string sent = port.read_until('\n');
@@ -223,7 +226,7 @@ TEST(TetherShell, CtrlCWhileTheDeviceOpensExitsZero) {
 TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   auto board = std::make_unique<SimBoard>("proxy");
-  Terminal terminal({"shell", "--port", board->pty(), "--codec", "proxy"});
+  Terminal terminal({"shell", "--port", board->pty(), "--codec", "proxy", "--no-reconnect"});
   ASSERT_TRUE(terminal.expect("proxy> ")) << terminal.screen();
   board.reset();  // `tether sim` ends: the pty goes away
   EXPECT_TRUE(terminal.expect("link failed")) << terminal.screen();
@@ -234,11 +237,35 @@ TEST(TetherShell, LinkFailureEndsTheShellWithTwo) {
 TEST(TetherShell, IdleRomiShellHearsOfTheLinkFailure) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   auto board = std::make_unique<SimBoard>("romi-test");
-  Terminal terminal({"shell", "--port", board->pty()});
+  Terminal terminal({"shell", "--port", board->pty(), "--no-reconnect"});
   ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
   board.reset();  // `tether sim` ends: the pty goes away while the shell waits for input
   EXPECT_TRUE(terminal.expect("link failed")) << terminal.screen();
   EXPECT_EQ(terminal.wait_exit(), 2) << terminal.screen();
+}
+
+// By default the shell outlives its port: `tether sim` ends (its pty and the --link name go away), the shell
+// says so, its calls fail `disconnected`, and when another `tether sim` serves a new pty behind the same name
+// the shell says the link is up and the next call is answered.
+TEST(TetherShell, RidesOutAnOutageOfItsPort) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string link = ::testing::TempDir() + "/tether-shell-reconnect-" + std::to_string(::getpid());
+  const std::vector<std::string> sim = {firmware("romi-test").string(), "--link", link};
+  auto board = std::make_unique<SimBoard>(sim);
+  Terminal terminal({"shell", "--port", link});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  terminal.type("e\n");
+  ASSERT_TRUE(terminal.expect("[0,1,2]")) << terminal.screen();
+  board.reset();  // unplugged
+  ASSERT_TRUE(terminal.expect("link down: " + link + ": ")) << terminal.screen();
+  terminal.type("e\n");
+  EXPECT_TRUE(terminal.expect("disconnected")) << terminal.screen();
+  board = std::make_unique<SimBoard>(sim);  // back, maybe under another pts number
+  ASSERT_TRUE(terminal.expect("link up after ")) << terminal.screen();
+  terminal.type("e\n");
+  EXPECT_TRUE(terminal.expect("[0,1,2]")) << terminal.screen();
+  terminal.type(":quit\n");
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
 }
 
 }  // namespace

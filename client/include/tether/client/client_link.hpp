@@ -127,8 +127,11 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   void arm_timer(const Deadline& wakeup);
   /// Cancels the timer. Strand.
   void cancel_timer();
-  /// The first read or write error of the link (empty while it works). Strand.
+  /// The first read or write error of the link (empty while it works); `TransportError::disconnected`
+  /// while a supervised port is away (cleared when it is back). Strand.
   const error_code& link_error() const { return link_error_; }
+  /// True while a supervised port is away (`link_error()` is `disconnected`). Strand.
+  bool link_down() const;
 
   /// Bytes read from the stream, in order. Contract:
   ///   1. Runs on the strand after every successful read, with a view of the `size` bytes read, valid
@@ -144,11 +147,20 @@ class ClientLink : public std::enable_shared_from_this<ClientLink> {
   virtual void on_timer() = 0;
   /// The link failed: the first read or write error while open (EOF, unplugged device, ...). Contract:
   ///   1. Runs on the strand, at most once per link, and never after `close()`; `link_error()` holds
-  ///      `error` and the timer was cancelled.
-  ///   2. No further read starts; queued writes are dropped (their `WriteDone` gets `operation_aborted`
-  ///      when they would start, or whatever the hook passes to `abort_writes`).
+  ///      `error` and the timer was cancelled. Exception: a supervised port that vanished
+  ///      (`TransportError::disconnected`, serial_port_stream.hpp) is not the end: the hook runs with it
+  ///      once per outage, what waits fails with it, and new operations fail at once while `link_error()`
+  ///      holds it; when the port is back, `link_error()` is cleared and `on_link_restored` runs. An outage
+  ///      that ends for good (`reconnect_limit`) runs the hook again with that error.
+  ///   2. No further read starts (but during an outage); queued writes are dropped (their `WriteDone` gets
+  ///      `operation_aborted` when they would start, or whatever the hook passes to `abort_writes`).
   ///   3. Must not throw.
   virtual void on_link_failed(const error_code& error) = 0;
+  /// A supervised port is back after an outage (the stream re-opened it): the session the device had is
+  /// likely gone (an unplugged board lost power), so a client restarts what its codec's recovery needs.
+  /// Runs on the strand; `link_error()` is clear again. Default: nothing (the codec's reset detection
+  /// sees the rebooted device by itself). Must not throw.
+  virtual void on_link_restored() {}
   /// `close()` was called. Contract:
   ///   1. Runs on the strand, exactly once, after the timer was cancelled; posted by `close()`, so it
   ///      never runs inside a hook that called `close()`.

@@ -51,6 +51,7 @@
 #include <vector>
 
 #include "tether/transports/serial_port_stream.hpp"
+#include "tether/transports/serial_ports.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
 namespace tether::devices {
@@ -111,12 +112,21 @@ std::string_view to_string(Codec codec);
 
 /// A serial port (`{"serial": {...}}`).
 struct SerialTransport {
-  /// Device path: `/dev/ttyACM0`, `/dev/serial/by-id/...`.
+  /// Device path: `/dev/ttyACM0`, `/dev/serial/by-id/...`. May be empty when `usb` or `by_id` names the board.
   std::string path;
   /// Baud, boot wait, banner, exclusivity, latency, HUPCL. The parser starts from
   /// `SerialOptions::arduino_uno()` (2 s boot wait) and the codec's baud (57600 for proxy-compat, else
   /// 115200).
   transports::SerialOptions options = transports::SerialOptions::arduino_uno();
+  /// The board's USB identity (`"port": {"usb": {"vid", "pid", "serial"}}`, any subset): the port is looked
+  /// up when the device opens and again after it vanished (serial_ports.hpp); a `path` given as well must
+  /// be one of the matches. (After `options`, initialised: `SerialTransport{path, options}` still builds.)
+  transports::UsbIdentity usb = {};
+  /// A `/dev/serial/by-id` name (`"port": {"by_id": "usb-Arduino..."}`), looked up like `usb`.
+  std::string by_id = {};
+
+  /// `path`, `usb` and `by_id` as one `transports::PortSpec`.
+  transports::PortSpec port() const { return transports::PortSpec{path, usb, by_id}; }
 };
 
 /// A TCP-serial bridge such as ser2net (`{"tcp": {...}}`).

@@ -68,6 +68,7 @@
 #include "tether/client/link_clock.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether/transports/virtual_uno.hpp"
 
@@ -129,6 +130,10 @@ struct RoverDevice {
   /// see "Clocks of virtual devices"); null for hardware (the steady clock). For a program's own
   /// deadlines that must agree with the client's.
   std::shared_ptr<client::LinkClock> clock;
+  /// The serial port behind a serial device (null for the other transports): its link events
+  /// (`add_link_handler`: down, up, gave up) and outage counters (`link_counters`) when it is supervised
+  /// (`"reconnect"`, on by default).
+  std::shared_ptr<transports::SerialPortStream> port;
 };
 
 /// Hooks of `open_rover`.
@@ -207,6 +212,8 @@ struct OpenedTransport {
   /// The clock a client of this stream runs its deadlines on (see `RoverDevice::clock`): the board's
   /// simulated time for a virtual board or ring, null for hardware (the steady clock).
   std::shared_ptr<client::LinkClock> clock;
+  /// The serial port, for a serial device (see `RoverDevice::port`); else null.
+  std::shared_ptr<transports::SerialPortStream> port;
 };
 
 /// Opens only `device`'s transport, as `open_rover` does (serial port with its boot wait, TCP, a virtual

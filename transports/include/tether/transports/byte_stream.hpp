@@ -11,7 +11,11 @@
 ///     concurrent write (asio 1.74's `cancel()` would abort both directions);
 ///   - **blocking overloads** with `error_code&` and throwing variants, for tools and simple programs;
 ///   - `close()` that completes pending operations with `operation_aborted`, and a vanished device (EOF,
-///     EIO) that completes them with that error: a caller is never left hanging.
+///     EIO) that completes them with that error: a caller is never left hanging;
+///   - **outage notices** of a supervised device (a serial port that re-opens its board, serial_port_stream.hpp):
+///     one read completes with `TransportError::disconnected` when the port vanishes, and later one with
+///     `TransportError::reconnected` (no bytes) when it is back, before any byte of the new connection.
+///     Unlike an error they are not sticky: read on after them.
 ///
 /// Threading: the stream runs its completions on a strand of the executor it was created with, and its
 /// public functions may be called from any thread. As with asio streams, start at most one read and one
@@ -201,6 +205,8 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
   void on_device_read(error_code error, std::size_t size);
   void complete_pending_read(error_code error);
   std::size_t take_buffered(const std::vector<asio::mutable_buffer>& buffers);
+  void add_notice(const error_code& notice);
+  error_code take_notice();
 
   executor_type executor_;
   asio::strand<executor_type> strand_;
@@ -210,6 +216,9 @@ class ByteStream : public std::enable_shared_from_this<ByteStream> {
   std::size_t ahead_end_ = 0;
   bool device_read_in_flight_ = false;
   error_code device_error_;  // sticky: EOF, vanished device; delivered once the read-ahead is drained
+  // Outage notices of a supervised device (disconnected, reconnected), each delivered once, in order,
+  // after the bytes read before it; no device read starts while one waits.
+  std::vector<error_code> notices_;
   std::unique_ptr<PendingRead> pending_read_;
   std::uint64_t read_generation_ = 0;  // identifies the pending read a deadline belongs to
   asio::steady_timer deadline_timer_;

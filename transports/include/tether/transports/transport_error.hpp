@@ -23,6 +23,11 @@ enum class TransportError {
   boot_timeout,        ///< The device did not finish booting in time after the port opened.
   invalid_option,      ///< An option value is out of range (baud, buffer size, ...).
   simulator_stopped,   ///< The virtual Uno behind the stream stopped.
+  no_matching_port,    ///< No serial port has the identity asked for (serial_ports.hpp).
+  several_matching_ports,  ///< More than one serial port has the identity asked for.
+  disconnected,        ///< The port vanished (unplugged); a supervised stream is waiting for it to return.
+  reconnected,         ///< Not a failure: the notice that a supervised stream's port is back (a read, no bytes).
+  reconnect_limit,     ///< A supervised stream gave up re-opening its port (its attempt limit was reached).
 };
 
 /// The "tether.transport" category.
