@@ -7,7 +7,9 @@
 
 #include <google/protobuf/stubs/common.h>
 
+#include <algorithm>
 #include <array>
+#include <vector>
 
 #include "tether/core/crc.hpp"
 #include "tether/core/utf8.hpp"
@@ -96,6 +98,10 @@ struct Cursor {
 
 // A varint of at most 10 bytes; the bits past 64 are dropped (a 32-bit field keeps the low 32).
 DecodeError read_varint(Cursor& in, std::uint64_t& value) {
+  if (in.at != in.end && *in.at < 0x80) {  // one byte: most values
+    value = *in.at++;
+    return DecodeError::none;
+  }
   std::uint64_t result = 0;
   for (unsigned i = 0; i < 10; ++i) {
     if (in.at == in.end) return DecodeError::truncated;
@@ -111,6 +117,10 @@ DecodeError read_varint(Cursor& in, std::uint64_t& value) {
 
 // A tag: at most 5 bytes, the bits past 32 dropped.
 DecodeError read_tag(Cursor& in, std::uint32_t& value) {
+  if (in.at != in.end && *in.at < 0x80) {  // one byte: field numbers below 16
+    value = *in.at++;
+    return DecodeError::none;
+  }
   std::uint32_t result = 0;
   for (unsigned i = 0; i < 5; ++i) {
     if (in.at == in.end) return DecodeError::truncated;
@@ -127,12 +137,16 @@ DecodeError read_tag(Cursor& in, std::uint32_t& value) {
 // A length: at most 5 bytes and below 2 GiB, then that many bytes inside the message.
 DecodeError read_length(Cursor& in, ByteView& bytes) {
   std::uint32_t size = 0;
-  for (unsigned i = 0;; ++i) {
-    if (in.at == in.end) return DecodeError::truncated;
-    const std::uint8_t byte = *in.at++;
-    if (i == 4 && byte >= 0x08) return DecodeError::bad_length;
-    size |= static_cast<std::uint32_t>(byte & 0x7F) << (7 * i);
-    if (byte < 0x80) break;
+  if (in.at != in.end && *in.at < 0x80) {  // one byte: below 128
+    size = *in.at++;
+  } else {
+    for (unsigned i = 0;; ++i) {
+      if (in.at == in.end) return DecodeError::truncated;
+      const std::uint8_t byte = *in.at++;
+      if (i == 4 && byte >= 0x08) return DecodeError::bad_length;
+      size |= static_cast<std::uint32_t>(byte & 0x7F) << (7 * i);
+      if (byte < 0x80) break;
+    }
   }
   if (size > in.left()) return DecodeError::truncated;
   bytes = ByteView(in.at, size);
@@ -275,6 +289,66 @@ DecodeError read_body(std::uint8_t field, ByteView bytes, int depth, DeviceMessa
   return DecodeError::none;
 }
 
+// --- framing ---------------------------------------------------------------------------------------------
+
+constexpr std::size_t kSmallFrame = 160;
+
+// CRC-16/MCRF4XX of `size` bytes with the core's slicing tables (core/crc.hpp, the same as
+// Crc16Mcrf4xx::compute): eight bytes per step, then the last 0..7 in one step of their own (Crc16Mcrf4xx
+// takes those one by one, a chain of dependent loads). For n >= 2 bytes the register is absorbed by the
+// first two and byte i's share is row n-1-i.
+std::uint16_t crc16(const std::uint8_t* in, std::size_t size) {
+  using Slices = tether::detail::CrcSlices<boost::crc_optimal<16, 0x1021, 0x0000, 0x0000, true, true>, std::uint16_t>;
+  const Slices& t = Slices::get();
+  unsigned crc = 0xFFFF;
+  for (; size >= 8; size -= 8, in += 8) {
+    crc = t.row[7][(crc ^ in[0]) & 0xFFu] ^ t.row[6][((crc >> 8) ^ in[1]) & 0xFFu] ^ t.row[5][in[2]] ^ t.row[4][in[3]] ^
+          t.row[3][in[4]] ^ t.row[2][in[5]] ^ t.row[1][in[6]] ^ t.row[0][in[7]];
+  }
+  if (size == 1) return static_cast<std::uint16_t>((crc >> 8) ^ t.row[0][(crc ^ in[0]) & 0xFFu]);
+  if (size == 0) return static_cast<std::uint16_t>(crc);
+  unsigned tail = t.row[size - 1][(crc ^ in[0]) & 0xFFu] ^ t.row[size - 2][((crc >> 8) ^ in[1]) & 0xFFu];
+  for (std::size_t i = 2; i < size; ++i) tail ^= t.row[size - 1 - i][in[i]];
+  return static_cast<std::uint16_t>(tail);
+}
+
+// 0x00, COBS(raw), 0x00 at `out` (room for proxy::max_frame_size(size - 2)); the frame's size. Block by
+// block (a block: up to 254 non-zero bytes, then a zero or the end) with its code written once, the same
+// bytes as proxy::detail::CobsWriter's byte steps (a full block is followed by a new one, empty at the end).
+std::size_t cobs_frame(const std::uint8_t* raw, std::size_t size, std::uint8_t* const out) {
+  out[0] = 0x00;
+  std::uint8_t* at = out + 1;
+  const std::uint8_t* in = raw;
+  const std::uint8_t* const end = raw + size;
+  for (;;) {
+    std::uint8_t* const code = at++;
+    const std::uint8_t* const block_end = in + std::min<std::size_t>(254, static_cast<std::size_t>(end - in));
+    const std::uint8_t* scan = in;
+    while (scan != block_end && *scan != 0x00) *at++ = *scan++;
+    const auto length = static_cast<std::size_t>(scan - in);
+    *code = static_cast<std::uint8_t>(length + 1);
+    if (scan == block_end) {
+      if (length < 254) break;  // the data's end
+      in = scan;                // a full block: no zero follows it
+      continue;
+    }
+    in = scan + 1;  // past the zero the block stands for
+  }
+  *at++ = 0x00;
+  return static_cast<std::size_t>(at - out);
+}
+
+// A frame whose request is longer than the client sends (tests, other programs): on the heap.
+__attribute__((noinline)) void write_large_frame(const HostMessage& message, std::size_t size, std::string& frame) {
+  std::vector<std::uint8_t> raw(size + 2);
+  (void)encode(message, raw.data() + 2);
+  const std::uint16_t crc = crc16(raw.data() + 2, size);
+  raw[0] = static_cast<std::uint8_t>(crc & 0xFF);
+  raw[1] = static_cast<std::uint8_t>(crc >> 8);
+  std::vector<std::uint8_t> out(proxy::max_frame_size(size));
+  frame.assign(reinterpret_cast<const char*>(out.data()), cobs_frame(raw.data(), raw.size(), out.data()));
+}
+
 }  // namespace
 
 std::size_t encoded_size(const HostMessage& message) {
@@ -313,29 +387,22 @@ std::size_t encode(const HostMessage& message, std::uint8_t* const out) {
 
 void write_frame(const HostMessage& message, std::string& frame) {
   // The frame's raw bytes (crc16 ‖ payload) on the stack (the client's requests are at most 64 bytes); the
-  // CRC first, eight bytes per table step, then COBS in one byte loop: two short passes beat one whose
-  // every byte also feeds the CRC (proxy::encode_frame's loop, written for the AVR). The same bytes as
-  // proxy::encode_frame with a leading delimiter.
-  std::array<std::uint8_t, 160> small;
-  std::string large;
+  // CRC first, eight bytes per table step and the rest in one more, then COBS in one byte loop: two short
+  // passes beat one whose every byte also feeds the CRC (proxy::encode_frame's loop, written for the
+  // AVR). The same bytes as proxy::encode_frame with a leading delimiter.
   const std::size_t size = encoded_size(message);
-  std::uint8_t* raw = small.data();
-  if (size + 2 > small.size()) {
-    large.resize(size + 2);
-    raw = reinterpret_cast<std::uint8_t*>(large.data());
+  if (size + 2 > kSmallFrame) {
+    write_large_frame(message, size, frame);
+    return;
   }
-  (void)encode(message, raw + 2);
-  const std::uint16_t crc = Crc16Mcrf4xx::compute(ByteView(raw + 2, size));
+  std::array<std::uint8_t, kSmallFrame> raw;
+  (void)encode(message, raw.data() + 2);
+  const std::uint16_t crc = crc16(raw.data() + 2, size);
   raw[0] = static_cast<std::uint8_t>(crc & 0xFF);
   raw[1] = static_cast<std::uint8_t>(crc >> 8);
-  frame.resize(proxy::max_frame_size(size));
-  auto* const out = reinterpret_cast<std::uint8_t*>(frame.data());
-  out[0] = 0x00;
-  proxy::detail::CobsWriter writer(out + 1);
-  for (std::size_t i = 0; i < size + 2; ++i) writer.put(raw[i]);
-  const std::size_t encoded = writer.finish();
-  out[1 + encoded] = 0x00;
-  frame.resize(encoded + 2);
+  std::array<std::uint8_t, proxy::max_frame_size(kSmallFrame)> out;
+  const std::size_t written = cobs_frame(raw.data(), size + 2, out.data());
+  frame.assign(reinterpret_cast<const char*>(out.data()), written);
 }
 
 const char* describe(DecodeError error) {

@@ -50,7 +50,11 @@ TEST(RpcEnvelope, HostMessagesAreLibprotobufsBytes) {
                                        envelope::HostBody::open,  envelope::HostBody::close, envelope::HostBody::ping,
                                        envelope::HostBody::reset};
   for (int round = 0; round < 20000; ++round) {
-    const std::string request = random_bytes(rng, round % 10 == 0 ? 400 : 64);
+    std::string request = random_bytes(rng, round % 10 == 0 ? 400 : 64);
+    if (round % 20 == 1) {  // long runs without a zero: COBS blocks of 254 bytes, one ending the frame
+      request.assign(240 + rng() % 300, '\0');
+      for (char& c : request) c = static_cast<char>(1 + rng() % 255);
+    }
     envelope::HostMessage message;
     message.id = static_cast<std::uint32_t>(random_value(rng));
     message.body = bodies[rng() % 7];
@@ -73,6 +77,28 @@ TEST(RpcEnvelope, HostMessagesAreLibprotobufsBytes) {
     std::string written = "recycled frame string with old bytes in it";
     envelope::write_frame(message, written);
     ASSERT_EQ(hex(written), hex(frame)) << "round " << round;
+  }
+}
+
+// Every length around COBS's 254-byte block: a block ending exactly at the frame's end included.
+TEST(RpcEnvelope, FramesAroundTheCobsBlock) {
+  for (std::size_t length = 200; length < 560; ++length) {
+    std::string request(length, '\x5a');
+    envelope::HostMessage message;
+    message.id = 0x01020304;
+    message.body = envelope::HostBody::call;
+    message.method = 1;
+    message.request = ByteView::from_chars(request.data(), request.size());
+    const std::string payload = rpc::envelope_reference::to_libprotobuf(message).SerializeAsString();
+    std::string frame(proxy::max_frame_size(payload.size()), '\0');
+    const Result<size_t> size =
+        proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
+                            MutableByteView(reinterpret_cast<std::uint8_t*>(frame.data()), frame.size()));
+    ASSERT_TRUE(size.ok());
+    frame.resize(size.value());
+    std::string written;
+    envelope::write_frame(message, written);
+    ASSERT_EQ(hex(written), hex(frame)) << "request of " << length << " bytes";
   }
 }
 
