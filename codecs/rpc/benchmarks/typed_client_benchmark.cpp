@@ -1,7 +1,7 @@
 // Host cost of one rpc call through the typed client (the example's arm.proto, protoc's classes and the
 // compiled-in schema that tether_generate_rpc builds): encode + decode of one MoveJoint call, with the
 // functions the client runs (codecs/rpc/host/src/client.cpp), in its order:
-//   encode: the initiation encodes the request (`detail::make_call_request`: the call's copy), the strand
+//   encode: the initiation encodes the request (`detail::make_typed_call_request`: the call's copy), the strand
 //           writes the HostMessage envelope (id, method index, request bytes) and its frame (COBS + CRC-16,
 //           leading delimiter) into a frame string it recycles (`envelope::write_frame`);
 //   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope read
@@ -121,8 +121,7 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   std::string frame;  // the client's recycled frame string
   for (auto _ : state) {
     // Encode: the initiation's encoding of the request, then what the strand does with it.
-    rpc::detail::CallRequest call =
-        rpc::detail::make_call_request("MoveJoint", request, rpc::detail::typed_reply<arm::JointReply>());
+    rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request);
     if (call.type != method.input || schema.find(call.method) != &method) state.SkipWithError("not the compiled-in type");
     call_frame(call, method, kId, frame);
     call_bytes = frame.size();

@@ -158,11 +158,12 @@ class Messages : public std::enable_shared_from_this<Messages> {
   JsonMapping json_{schema_.pool()};
 };
 
-CallRequest make_call_request(std::string_view method, const pb::Message& request, TypedReply reply) {
+CallRequest make_call_request(std::string_view method, const pb::Message& request, TypedReply reply,
+                              const pb::Descriptor* type) {
   CallRequest call;
   call.reply = reply;
   call.method = std::string(method);
-  call.type = request.GetDescriptor();
+  call.type = type != nullptr ? type : request.GetDescriptor();
   call.encoded = request.SerializeToString(&call.request);
   return call;
 }

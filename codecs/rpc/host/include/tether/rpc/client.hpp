@@ -71,6 +71,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -280,10 +281,12 @@ struct TypedReply {
   const google::protobuf::Descriptor* type = nullptr;       ///< The class's type (null: none).
   std::shared_ptr<google::protobuf::Message> (*make)() = nullptr;  ///< A new, empty one.
 };
-/// `TypedReply` of protoc's class `Reply`.
+/// `TypedReply` of protoc's class `Reply` (its descriptor looked up once: protoc's accessor runs a
+/// `std::call_once` each time).
 template <typename Reply>
 TypedReply typed_reply() {
-  return TypedReply{Reply::descriptor(), [] { return std::shared_ptr<google::protobuf::Message>(std::make_shared<Reply>()); }};
+  static const google::protobuf::Descriptor* const type = Reply::descriptor();
+  return TypedReply{type, [] { return std::shared_ptr<google::protobuf::Message>(std::make_shared<Reply>()); }};
 }
 /// A call as the public API hands it over: the request is encoded at initiation (its copy: the caller's
 /// message may change or go once the initiating function returned), and checked against the schema later.
@@ -298,9 +301,21 @@ using ClientRef = client::ClientRef<ClientImpl>;
 /// Queues `call` on `impl` as operation `operation` (any thread). Defined in client.cpp.
 void start_call(const std::shared_ptr<ClientImpl>& impl, client::ClientLink::OperationId operation,
                 CallHandler handler, CallRequest call);
-/// The call of `method` with `request` as the initiation keeps it.
+/// The call of `method` with `request` as the initiation keeps it; `type` is the request's descriptor when
+/// the caller knows it (null: asked from the request).
 CallRequest make_call_request(std::string_view method, const google::protobuf::Message& request,
-                              TypedReply reply = TypedReply());
+                              TypedReply reply = TypedReply(), const google::protobuf::Descriptor* type = nullptr);
+/// `make_call_request` of a typed call: its reply as `Reply`, its request's descriptor from the static type
+/// `Request` when that is one of protoc's classes (final: the request is one), looked up once.
+template <typename Reply, typename Request>
+CallRequest make_typed_call_request(std::string_view method, const Request& request) {
+  if constexpr (requires { Request::descriptor(); }) {
+    static const google::protobuf::Descriptor* const type = Request::descriptor();
+    return make_call_request(method, request, typed_reply<Reply>(), type);
+  } else {
+    return make_call_request(method, request, typed_reply<Reply>());
+  }
+}
 /// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
 void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
 
@@ -375,22 +390,24 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   // copied through their bytes.
 
   /// Blocking `call` whose reply is a `Reply` (protoc's class of the method's output). Throws as `call`.
-  template <typename Reply>
-  Reply call_as(std::string_view method, const google::protobuf::Message& request) {
-    return detail::take_as<Reply>(call(detail::make_call_request(method, request, detail::typed_reply<Reply>())).reply);
+  template <typename Reply, typename Request>
+  Reply call_as(std::string_view method, const Request& request) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
+    return detail::take_as<Reply>(call(detail::make_typed_call_request<Reply>(method, request)).reply);
   }
   /// Blocking `call` whose reply is a `Reply`; failures in `error` (the reply is then empty).
-  template <typename Reply>
-  Reply call_as(std::string_view method, const google::protobuf::Message& request, error_code& error) {
-    return detail::take_as<Reply>(
-        call(detail::make_call_request(method, request, detail::typed_reply<Reply>()), error).reply);
+  template <typename Reply, typename Request>
+  Reply call_as(std::string_view method, const Request& request, error_code& error) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
+    return detail::take_as<Reply>(call(detail::make_typed_call_request<Reply>(method, request), error).reply);
   }
   /// `async_call` completing `void(error_code, Reply)` (an empty `Reply` on failure; a device's code and
   /// text are `async_call`'s `CallResult::device_error`).
-  template <typename Reply, typename Token>
-  auto async_call_as(std::string_view method, const google::protobuf::Message& request, Token&& token) {
+  template <typename Reply, typename Request, typename Token>
+  auto async_call_as(std::string_view method, const Request& request, Token&& token) {
+    static_assert(std::is_base_of_v<google::protobuf::Message, Request>, "a request is a protobuf message");
     return initiate<void(error_code, Reply)>(std::forward<Token>(token), &start_call_as<Reply>,
-                                             detail::make_call_request(method, request, detail::typed_reply<Reply>()));
+                                             detail::make_typed_call_request<Reply>(method, request));
   }
   /// `open_stream` whose handler takes each message as a `Typed` (protoc's class of the method's output):
   /// `handler(error, message)` as `StreamHandler`'s contract, with an empty message when the stream ends.
