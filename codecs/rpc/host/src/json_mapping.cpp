@@ -102,13 +102,12 @@ class JsonMapping::Direct {
     return false;
   }
 
+  // Two passes: the first only checks that the direct path takes all of `json` (the message untouched
+  // otherwise, as protobuf's refusal leaves it), the second replaces the message's content.
   static bool parse(std::string_view json, pb::Message& message) {
-    Reader in{json.data(), json.data() + json.size()};
+    if (!parse_all(json, message.GetDescriptor(), nullptr)) return false;
     message.Clear();
-    in.skip_space();
-    if (!parse_message(in, message, 0)) return false;
-    in.skip_space();
-    return in.at == in.end;
+    return parse_all(json, message.GetDescriptor(), &message);
   }
 
  private:
@@ -329,32 +328,51 @@ class JsonMapping::Direct {
     }
   };
 
-  static bool parse_value(Reader& in, pb::Message& message, const pb::FieldDescriptor* field, int depth) {
-    const pb::Reflection& r = *message.GetReflection();
+  static bool parse_all(std::string_view json, const pb::Descriptor* type, pb::Message* message) {
+    Reader in{json.data(), json.data() + json.size()};
+    if (!parse_message(in, type, message, 0)) return false;
+    in.skip_space();
+    return in.at == in.end;
+  }
+
+  // One value of `field` into `message` (null: only read).
+  static bool parse_value(Reader& in, pb::Message* message, const pb::FieldDescriptor* field, int depth) {
     const bool repeated = field->is_repeated();
     switch (field->cpp_type()) {
       case pb::FieldDescriptor::CPPTYPE_INT32: {
         std::int32_t value = 0;
         if (!in.integer(value)) return false;
-        repeated ? r.AddInt32(&message, field, value) : r.SetInt32(&message, field, value);
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddInt32(message, field, value) : r.SetInt32(message, field, value);
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_UINT32: {
         std::uint32_t value = 0;
         if (!in.integer(value)) return false;
-        repeated ? r.AddUInt32(&message, field, value) : r.SetUInt32(&message, field, value);
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddUInt32(message, field, value) : r.SetUInt32(message, field, value);
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_INT64: {
         std::int64_t value = 0;
         if (!in.integer(value)) return false;
-        repeated ? r.AddInt64(&message, field, value) : r.SetInt64(&message, field, value);
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddInt64(message, field, value) : r.SetInt64(message, field, value);
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_UINT64: {
         std::uint64_t value = 0;
         if (!in.integer(value)) return false;
-        repeated ? r.AddUInt64(&message, field, value) : r.SetUInt64(&message, field, value);
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddUInt64(message, field, value) : r.SetUInt64(message, field, value);
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_BOOL: {
@@ -364,7 +382,10 @@ class JsonMapping::Direct {
         } else if (!in.literal("false")) {
           return false;
         }
-        repeated ? r.AddBool(&message, field, value) : r.SetBool(&message, field, value);
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddBool(message, field, value) : r.SetBool(message, field, value);
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_ENUM: {
@@ -372,25 +393,35 @@ class JsonMapping::Direct {
         if (!in.string(name)) return false;
         const pb::EnumValueDescriptor* value = field->enum_type()->FindValueByName(std::string(name));
         if (value == nullptr) return false;
-        repeated ? r.AddEnumValue(&message, field, value->number()) : r.SetEnumValue(&message, field, value->number());
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddEnumValue(message, field, value->number()) : r.SetEnumValue(message, field, value->number());
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_STRING: {
         std::string_view text;
         if (!in.string(text)) return false;
-        repeated ? r.AddString(&message, field, std::string(text)) : r.SetString(&message, field, std::string(text));
+        if (message != nullptr) {
+          const pb::Reflection& r = *message->GetReflection();
+          repeated ? r.AddString(message, field, std::string(text)) : r.SetString(message, field, std::string(text));
+        }
         return true;
       }
       case pb::FieldDescriptor::CPPTYPE_MESSAGE:
-        return parse_message(in, repeated ? *r.AddMessage(&message, field) : *r.MutableMessage(&message, field), depth + 1);
+        if (message == nullptr) return parse_message(in, field->message_type(), nullptr, depth + 1);
+        return parse_message(in, field->message_type(),
+                             repeated ? message->GetReflection()->AddMessage(message, field)
+                                      : message->GetReflection()->MutableMessage(message, field),
+                             depth + 1);
       default:
         return false;
     }
   }
 
-  static bool parse_message(Reader& in, pb::Message& message, int depth) {
+  // An object of `type` into `message` (null: only read).
+  static bool parse_message(Reader& in, const pb::Descriptor* type, pb::Message* message, int depth) {
     if (depth > kMaxDepth || !in.take('{')) return false;
-    const pb::Descriptor* type = message.GetDescriptor();
     std::uint64_t seen_small = 0;  // fields met, by index (a key twice is protobuf's to judge)
     std::vector<bool> seen_large;
     if (in.take('}')) return true;
@@ -443,12 +474,9 @@ JsonMapping::~JsonMapping() = default;
 
 pb::util::Status JsonMapping::from_json(std::string_view json, pb::Message& message,
                                         const pb::util::JsonParseOptions& options) const {
-  // The direct path only into an empty message (a plain type's empty encoding is its cleared state): a
-  // JSON it hands to protobuf leaves the message as protobuf's refusal would, untouched.
   if (!options.ignore_unknown_fields && !options.case_insensitive_enum_parsing &&
-      direct_->plain(message.GetDescriptor()) && message.ByteSizeLong() == 0) {
-    if (Direct::parse(json, message)) return pb::util::Status();
-    message.Clear();
+      direct_->plain(message.GetDescriptor()) && Direct::parse(json, message)) {
+    return pb::util::Status();
   }
   std::string binary;
   pb::util::Status status = pb::util::JsonToBinaryString(types_.get(), type_url(message),

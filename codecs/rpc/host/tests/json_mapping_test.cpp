@@ -22,9 +22,9 @@ namespace {
 namespace pb = google::protobuf;
 using namespace tether;
 
-class JsonMappingTest : public ::testing::Test {
+class RpcJsonMapping : public ::testing::Test {
  protected:
-  JsonMappingTest()
+  RpcJsonMapping()
       : schema_(rpc::Schema::load(std::string(TETHER_RPC_TEST_SCHEMAS) + "/json_types.proto")),
         factory_(&schema_.pool()),
         json_(schema_.pool()),
@@ -168,7 +168,7 @@ class JsonMappingTest : public ::testing::Test {
   const pb::Message* rich_;
 };
 
-TEST_F(JsonMappingTest, PrintsAsProtobuf) {
+TEST_F(RpcJsonMapping, PrintsAsProtobuf) {
   std::mt19937_64 rng = tether::testing::seeded_generator(11);
   for (int round = 0; round < 3000; ++round) {
     expect_same_printing(*random_message(round % 3 == 0 ? *rich_ : *plain_, rng, round % 3 == 1));
@@ -176,7 +176,7 @@ TEST_F(JsonMappingTest, PrintsAsProtobuf) {
   expect_same_printing(*plain_);  // every field unset
 }
 
-TEST_F(JsonMappingTest, ParsesAsProtobuf) {
+TEST_F(RpcJsonMapping, ParsesAsProtobuf) {
   std::mt19937_64 rng = tether::testing::seeded_generator(12);
   static const std::vector<std::string> kInserts = {"{", "}", "[", "]", ",", ":", "\"", "\\", "-", "0", "1", "e",
                                                     ".", "null", "true", " ", "\"i32\":", "\"late\":1,", "\"x\":"};
@@ -208,7 +208,7 @@ TEST_F(JsonMappingTest, ParsesAsProtobuf) {
   }
 }
 
-TEST_F(JsonMappingTest, ParsesTheEdgesAsProtobuf) {
+TEST_F(RpcJsonMapping, ParsesTheEdgesAsProtobuf) {
   for (const std::string json : {
            "", " ", "{}", " { } ", "[]", "{} x", "{\"i32\": 2147483647}", "{\"i32\": 2147483648}",
            "{\"i32\": -2147483648}", "{\"i32\": -2147483649}", "{\"i32\": -0}", "{\"i32\": 01}", "{\"i32\": 1.0}",
