@@ -262,21 +262,23 @@ class CobsDecoder {
       if (avail < count) count = avail;
       if (room < count) count = static_cast<uint8_t>(room);
       if (count != 0) {
-        uint8_t taken;
-        if (at >= checked_from) {  // the hot path: a checked decoder past the frame's CRC field
-          taken = static_cast<uint8_t>(count - checked_run(in, out, count, crc));
-        } else {
+        uint8_t taken = 0;
+        if (at < checked_from) {
           // A decoder without checksum, or a frame's first bytes before the checked offset (its CRC
-          // field): copied only, up to that offset; the next turn takes the rest through the CRC (one
-          // copy of each run loop in the code).
+          // field): copied only, up to that offset; what follows goes through the CRC below (one copy
+          // of each run loop in the code: the second one was ~90 B of flash).
           const Index before = static_cast<Index>(checked_from - at);
-          if (before < count) count = static_cast<uint8_t>(before);
-          taken = static_cast<uint8_t>(count - copy_run(in, out, count));
+          const uint8_t unchecked = before < count ? static_cast<uint8_t>(before) : count;
+          const uint8_t rest = copy_run(in, out, unchecked);
+          taken = static_cast<uint8_t>(unchecked - rest);
+          if (rest != 0) count = taken;  // stopped at a zero: nothing for the CRC run
+        }
+        if (taken != count) {  // the hot path: a checked decoder past the frame's CRC field
+          taken = static_cast<uint8_t>(count - checked_run(in, out, static_cast<uint8_t>(count - taken), crc));
         }
         avail = static_cast<uint8_t>(avail - taken);
         at = static_cast<Index>(at + taken);
         left = static_cast<uint8_t>(left - taken);
-        if (taken == count && at == checked_from) continue;  // reached the checked offset: the rest checked
       }
       if (left != 0 || avail == 0) break;  // a zero inside the block, a full buffer, or all used
       const uint8_t code = *in;
