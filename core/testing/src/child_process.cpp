@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
+#include <fstream>
 #include <system_error>
 #include <thread>
 
@@ -75,6 +77,24 @@ std::optional<std::string> ChildProcess::read_line(std::chrono::milliseconds tim
 
 void ChildProcess::signal(int signal_number) {
   if (pid_ > 0 && !status_) ::kill(pid_, signal_number);
+}
+
+bool ChildProcess::wait_until_catching(int signal_number, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const std::string status_path = "/proc/" + std::to_string(pid_) + "/status";
+  const std::uint64_t bit = std::uint64_t{1} << (signal_number - 1);
+  for (;;) {
+    std::ifstream status(status_path);
+    std::string line;
+    while (std::getline(status, line)) {
+      if (line.starts_with("SigCgt:")) {
+        if ((std::stoull(line.substr(7), nullptr, 16) & bit) != 0) return true;
+        break;
+      }
+    }
+    if (status_ || std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
 }
 
 std::optional<int> ChildProcess::wait(std::chrono::milliseconds timeout) {

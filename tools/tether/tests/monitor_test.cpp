@@ -307,7 +307,10 @@ TEST(TetherMonitor, StdoutNobodyReadsDoesNotOutlastAStopSignal) {
   device.send("#!one:xxxx\r\n");
   const FullPipe pipe;
   ::tether::testing::ChildProcess run(pipe.tether_argv({"monitor", "--port", device.path()}), /*capture_stdout=*/true);
-  std::this_thread::sleep_for(std::chrono::seconds(1));
+  // The signal goes when tether handles it: sent before, it would meet the default action (a loaded
+  // machine can take longer than any fixed wait to start a sanitized tether).
+  ASSERT_TRUE(run.wait_until_catching(SIGTERM, std::chrono::seconds(60)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the monitor blocked on its full stdout
   run.signal(SIGTERM);
   const std::string err = stderr_of(run);
   const std::optional<int> status = run.wait(std::chrono::seconds(20));

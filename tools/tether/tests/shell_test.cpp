@@ -203,6 +203,7 @@ TEST(TetherShell, ElcanoShellToADeviceThatStoppedReadingEndsOnASignal) {
                                         /*capture_stdout=*/true);
   const auto signal_at = std::chrono::steady_clock::now() + std::chrono::seconds(2);
   while (std::chrono::steady_clock::now() < signal_at) (void)shell.read_line(std::chrono::milliseconds(100));
+  ASSERT_TRUE(shell.wait_until_catching(SIGTERM, std::chrono::seconds(60)));  // not the default action
   shell.signal(SIGTERM);
   while (shell.read_line(std::chrono::seconds(30))) {
   }

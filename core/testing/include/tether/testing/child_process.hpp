@@ -29,6 +29,9 @@ class ChildProcess {
   std::optional<std::string> read_line(std::chrono::milliseconds timeout);
   /// Sends `signal`.
   void signal(int signal_number);
+  /// Waits up to `timeout` until the process catches `signal_number` (a handler installed, per
+  /// /proc/<pid>/status): a signal sent before that would find the default action, not the program's.
+  bool wait_until_catching(int signal_number, std::chrono::milliseconds timeout);
   /// Waits up to `timeout` for the exit; the exit status (or -signal), nothing on timeout.
   std::optional<int> wait(std::chrono::milliseconds timeout);
   /// Process id.
