@@ -165,20 +165,6 @@ class EventLog {
   std::vector<transports::LinkEvent> events_;
 };
 
-class UseTree {
- public:
-  explicit UseTree(const transports::testing::FakePortTree& tree) {
-    ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
-    ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
-  }
-  ~UseTree() {
-    ::unsetenv("TETHER_SYSFS_ROOT");
-    ::unsetenv("TETHER_DEV_ROOT");
-  }
-  UseTree(const UseTree&) = delete;
-  UseTree& operator=(const UseTree&) = delete;
-};
-
 romi::Command servos(int throttle) { return romi::Command('S', {throttle, 1500}); }
 std::uint32_t key(int throttle) { return witness_key(static_cast<std::uint16_t>(throttle), 1500); }
 
@@ -189,7 +175,7 @@ TEST(DevicesReconnect, ARomiDeviceSurvivesItsPortComingBackUnderAnotherPath) {
   enable_virtual_boards();
   transports::IoThread io;
   transports::testing::FakePortTree tree;
-  const UseTree use(tree);
+  const transports::testing::UsingFakePortTree use(tree);
   UnpluggableBoard uno(io, tree);
   auto witness = demo::ExecutionWitness::attach(uno.board());
   ASSERT_TRUE(witness);
@@ -275,7 +261,7 @@ TEST(DevicesReconnect, WithoutReconnectAVanishedPortEndsTheClient) {
   enable_virtual_boards();
   transports::IoThread io;
   transports::testing::FakePortTree tree;
-  const UseTree use(tree);
+  const transports::testing::UsingFakePortTree use(tree);
   UnpluggableBoard uno(io, tree);
   const RoverConfig config = parse_config(std::string(R"({"devices": [{"name": "rover", "codec": "romi", "transport":)") +
                                           R"({"serial": {"port": {"by_id": ")" + kById +

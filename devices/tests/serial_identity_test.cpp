@@ -14,21 +14,6 @@
 namespace tether::devices {
 namespace {
 
-// Points the lookup at `tree` for the test's duration.
-class UseTree {
- public:
-  explicit UseTree(const transports::testing::FakePortTree& tree) {
-    ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
-    ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
-  }
-  ~UseTree() {
-    ::unsetenv("TETHER_SYSFS_ROOT");
-    ::unsetenv("TETHER_DEV_ROOT");
-  }
-  UseTree(const UseTree&) = delete;
-  UseTree& operator=(const UseTree&) = delete;
-};
-
 DeviceConfig romi_on(const std::string& serial) {
   return parse_config(R"({"devices": [{"name": "arm", "codec": "romi", "transport": {"serial": )" + serial + "}}]}")
       .devices.at(0);
@@ -39,7 +24,7 @@ TEST(DevicesSerialIdentity, OpensThePortBehindTheByIdName) {
   auto pty = transports::PtyStream::open(io.executor());
   transports::testing::FakePortTree tree;
   tree.add_by_id("usb-Virtual_Uno_1-if00", pty->slave_path());
-  const UseTree use(tree);
+  const transports::testing::UsingFakePortTree use(tree);
   const OpenedTransport opened =
       open_transport(romi_on(R"({"port": {"by_id": "usb-Virtual_Uno_1-if00"}, "boot_wait_ms": 0})"), io.executor());
   ASSERT_TRUE(opened.stream);
@@ -53,7 +38,7 @@ TEST(DevicesSerialIdentity, NoMatchingBoardNamesThePortAndTheCandidates) {
   transports::testing::FakePortTree tree;
   tree.add_usb_tty("ttyACM0", "1-1", "2341", "0043", "A1");
   tree.add_usb_tty("ttyACM1", "1-2", "2341", "0043", "B2");
-  const UseTree use(tree);
+  const transports::testing::UsingFakePortTree use(tree);
   try {
     (void)open_transport(romi_on(R"({"port": {"usb": {"serial": "C3"}}, "boot_wait_ms": 0})"), io.executor());
     ADD_FAILURE() << "opened";
@@ -77,7 +62,7 @@ TEST(DevicesSerialIdentity, AMatchThatIsNotATtyIsAClearError) {
   transports::IoThread io;
   transports::testing::FakePortTree tree;
   tree.add_usb_tty("ttyACM0", "1-1", "2341", "0043", "A1");  // <dev>/ttyACM0 is a regular file
-  const UseTree use(tree);
+  const transports::testing::UsingFakePortTree use(tree);
   try {
     (void)open_transport(romi_on(R"({"port": {"usb": {"serial": "A1"}}, "boot_wait_ms": 0})"), io.executor());
     ADD_FAILURE() << "opened";

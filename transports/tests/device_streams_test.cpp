@@ -190,8 +190,7 @@ std::pair<error_code, std::string> read_once(ByteStream& stream) {
 TEST(SerialPortStream, ReopensAPortThatComesBackUnderAnotherPath) {
   IoThread io;
   testing::FakePortTree tree;
-  ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
-  ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
+  const testing::UsingFakePortTree use(tree);
   auto first = PtyStream::open(io.executor());
   tree.add_by_id("usb-board-if00", first->slave_path());
   PortSpec spec;
@@ -238,8 +237,6 @@ TEST(SerialPortStream, ReopensAPortThatComesBackUnderAnotherPath) {
   EXPECT_GE(counters.time_down, up->down_for);
   port->close();
   second->close();
-  ::unsetenv("TETHER_SYSFS_ROOT");
-  ::unsetenv("TETHER_DEV_ROOT");
 }
 
 // With an attempt limit, a port that does not come back ends the stream: `gave_up`, then reads and writes
@@ -247,8 +244,7 @@ TEST(SerialPortStream, ReopensAPortThatComesBackUnderAnotherPath) {
 TEST(SerialPortStream, GivesUpAfterItsAttemptLimit) {
   IoThread io;
   testing::FakePortTree tree;  // by-id, so that no other pty taking the number can answer
-  ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
-  ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
+  const testing::UsingFakePortTree use(tree);
   auto pty = PtyStream::open(io.executor());
   tree.add_by_id("usb-board-if00", pty->slave_path());
   PortSpec spec;
@@ -275,8 +271,6 @@ TEST(SerialPortStream, GivesUpAfterItsAttemptLimit) {
   EXPECT_EQ(port->link_counters().reconnects, 0u);
   EXPECT_EQ(gave_up->reason, "no serial port matches by-id usb-board-if00 (no serial ports found)");
   port->close();
-  ::unsetenv("TETHER_SYSFS_ROOT");
-  ::unsetenv("TETHER_DEV_ROOT");
 }
 
 TEST(SocatPtyPair, BulkDataCrossesARealSocatPair) {

@@ -97,4 +97,21 @@ class FakePortTree {
   std::filesystem::path root_;
 };
 
+/// Points the port lookup at a FakePortTree (TETHER_SYSFS_ROOT, TETHER_DEV_ROOT) while it lives; the
+/// variables are unset again however the test ends.
+class UsingFakePortTree {
+ public:
+  /// Sets both variables to `tree`'s roots.
+  explicit UsingFakePortTree(const FakePortTree& tree) {
+    ::setenv("TETHER_SYSFS_ROOT", tree.sysfs().c_str(), 1);
+    ::setenv("TETHER_DEV_ROOT", tree.dev().c_str(), 1);
+  }
+  ~UsingFakePortTree() {
+    ::unsetenv("TETHER_SYSFS_ROOT");
+    ::unsetenv("TETHER_DEV_ROOT");
+  }
+  UsingFakePortTree(const UsingFakePortTree&) = delete;
+  UsingFakePortTree& operator=(const UsingFakePortTree&) = delete;
+};
+
 }  // namespace tether::transports::testing
