@@ -16,6 +16,7 @@
 #include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -168,15 +169,28 @@ class EventLog {
 romi::Command servos(int throttle) { return romi::Command('S', {throttle, 1500}); }
 std::uint32_t key(int throttle) { return witness_key(static_cast<std::uint16_t>(throttle), 1500); }
 
-TEST(DevicesReconnect, ARomiDeviceSurvivesItsPortComingBackUnderAnotherPath) {
-  if (!std::filesystem::exists(std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-rover.elf")) {
-    GTEST_SKIP() << "romi-rover image not built";
+// A romi-rover board behind the by-id name kById, in a fake port tree the lookup reads.
+class DevicesReconnect : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!std::filesystem::exists(std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-rover.elf")) {
+      GTEST_SKIP() << "romi-rover image not built";
+    }
+    enable_virtual_boards();
+    board_.emplace(io, tree_);
   }
-  enable_virtual_boards();
+  UnpluggableBoard& board() { return *board_; }
+
   transports::IoThread io;
-  transports::testing::FakePortTree tree;
-  const transports::testing::UsingFakePortTree use(tree);
-  UnpluggableBoard uno(io, tree);
+
+ private:
+  transports::testing::FakePortTree tree_;
+  const transports::testing::UsingFakePortTree use_{tree_};
+  std::optional<UnpluggableBoard> board_;
+};
+
+TEST_F(DevicesReconnect, ARomiDeviceSurvivesItsPortComingBackUnderAnotherPath) {
+  UnpluggableBoard& uno = board();
   auto witness = demo::ExecutionWitness::attach(uno.board());
   ASSERT_TRUE(witness);
 
@@ -254,15 +268,8 @@ TEST(DevicesReconnect, ARomiDeviceSurvivesItsPortComingBackUnderAnotherPath) {
   rover.close();
 }
 
-TEST(DevicesReconnect, WithoutReconnectAVanishedPortEndsTheClient) {
-  if (!std::filesystem::exists(std::filesystem::path(TETHER_FIRMWARE_DIR) / "romi-rover.elf")) {
-    GTEST_SKIP() << "romi-rover image not built";
-  }
-  enable_virtual_boards();
-  transports::IoThread io;
-  transports::testing::FakePortTree tree;
-  const transports::testing::UsingFakePortTree use(tree);
-  UnpluggableBoard uno(io, tree);
+TEST_F(DevicesReconnect, WithoutReconnectAVanishedPortEndsTheClient) {
+  UnpluggableBoard& uno = board();
   const RoverConfig config = parse_config(std::string(R"({"devices": [{"name": "rover", "codec": "romi", "transport":)") +
                                           R"({"serial": {"port": {"by_id": ")" + kById +
                                           R"("}, "boot_wait_ms": 0, "reconnect": false}}}]})");
