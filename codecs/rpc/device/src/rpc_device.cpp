@@ -118,9 +118,90 @@ TETHER_RPC_OUT_OF_LINE void put_message(Writer& out, uint8_t field, EncodeFuncti
 
 }  // namespace
 
+void DeviceCore::bind(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
+                      size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
+                      uint8_t request_bytes) {
+  service_ = &service;
+  sink_ = sink;
+  restart_ = restart;
+  restart_context_ = restart_context;
+  max_payload_ = static_cast<uint16_t>(max_payload);
+  max_out_ = static_cast<uint16_t>(max_out);
+  slots_ = slots;
+  requests_ = requests;
+  slot_count_ = slot_count;
+  request_bytes_ = request_bytes;
+}
+
+bool DeviceCore::poll_frame_deadline(Millis now) {
+  if (!partial_.expired(now)) return false;
+  partial_.disarm();
+  add_one(counters_.link.partial_timeouts);
+  return true;
+}
+
+TETHER_RPC_OUT_OF_LINE void DeviceCore::begin_with(Scratch& scratch, uint32_t session_id, Millis now) {
+  scratch_ = &scratch;
+  start(session_id, now);
+  scratch_ = nullptr;
+}
+
+TETHER_RPC_OUT_OF_LINE void DeviceCore::poll_with(Scratch& scratch, Millis now) {
+  scratch_ = &scratch;
+  poll_time(now);
+  scratch_ = nullptr;
+}
+
+TETHER_RPC_OUT_OF_LINE void DeviceCore::handle_frame(Scratch& scratch, const Cache& cache, ByteView payload,
+                                                     uint16_t fingerprint, Millis now) {
+  frame_handled();
+  scratch_ = &scratch;
+  tether_rpc_wire_HostMessage in;  // zeroed by the decoder
+  if (decode(payload, &in)) {
+    if (const CacheHead* const kept = cached(cache, in.id, fingerprint)) {
+      // A re-send: its first answer again, then the ack; nothing runs.
+      if (kept->size != 0) send_again(in.id, ByteView(reinterpret_cast<const uint8_t*>(kept + 1), kept->size));
+      send_ack(in.id, false);
+    } else {
+      const Outcome outcome = run(&in, now);
+      // Only what ran is remembered: a refused message is looked at again when re-sent.
+      if (!outcome.refused) remember(cache, in.id, fingerprint, outcome.answer);
+      send_ack(in.id, outcome.refused);
+      finish(&in);
+    }
+  }
+  scratch_ = nullptr;
+}
+
+const DeviceCore::CacheHead* DeviceCore::cached(const Cache& cache, uint32_t id, uint16_t fingerprint) {
+  const uint8_t* entry = reinterpret_cast<const uint8_t*>(cache.entries);
+  for (uint8_t i = 0; i < cached_; ++i, entry += cache.stride) {
+    const CacheHead* const head = reinterpret_cast<const CacheHead*>(entry);
+    if (head->id == id && head->fingerprint == fingerprint) {
+      add_one(counters_.link.duplicates);
+      return head;
+    }
+  }
+  return nullptr;
+}
+
+void DeviceCore::remember(const Cache& cache, uint32_t id, uint16_t fingerprint, ByteView answer) {
+  CacheHead* const head =
+      reinterpret_cast<CacheHead*>(reinterpret_cast<uint8_t*>(cache.entries) + cache_next_ * cache.stride);
+  cache_next_ = static_cast<uint8_t>(cache_next_ + 1 == cache.depth ? 0 : cache_next_ + 1);
+  if (cached_ < cache.depth) ++cached_;
+  head->id = id;
+  head->fingerprint = fingerprint;
+  // An answer over the room (never: the limits are the schema's largest) is kept as none.
+  const bool fits = answer.size() <= static_cast<size_t>(cache.stride - sizeof(CacheHead));
+  head->size = static_cast<uint16_t>(fits ? answer.size() : 0);
+  if (fits && !answer.empty()) memcpy(head + 1, answer.data(), answer.size());
+}
+
 void DeviceCore::start(uint32_t session_id, Millis now) {
   session_id_ = session_id;
-  watchdog_.start(now);
+  ping_.arm(now, kPingSilenceMs);
+  in_failsafe_ = false;
   next_info_.arm(now, kInfoPeriodMs);
   Writer out(scratch_->out, max_out_);
   uint8_t* const body = open_field(out, kResetField);
@@ -131,15 +212,19 @@ void DeviceCore::start(uint32_t session_id, Millis now) {
 
 void DeviceCore::track_frame(bool was_in_frame, bool in_frame, Millis now) {
   if (!was_in_frame && in_frame) {
-    partial_.on_frame_start(now);
+    partial_.arm(now, kPartialFrameMs);
     frame_handled();  // a new deadline: the next poll computes the earliest again
   } else if (was_in_frame && !in_frame) {
-    partial_.on_frame_end();
+    partial_.disarm();
   }
 }
 
 void DeviceCore::poll_time(Millis now) {
-  watchdog_.poll(now);
+  if (!in_failsafe_ && ping_.expired(now)) {  // the failsafe: every stream closed
+    in_failsafe_ = true;
+    add_one(counters_.link.failsafes);
+    close_streams();
+  }
   if (next_info_.expired(now)) {
     send_hello();
     next_info_.arm(next_info_.at(), kInfoPeriodMs);
@@ -154,8 +239,8 @@ void DeviceCore::poll_time(Millis now) {
 // The earliest deadline left (DeviceHello's is always armed): `poll` does nothing before it.
 TETHER_RPC_OUT_OF_LINE void DeviceCore::plan() {
   Millis due = next_info_.at();
-  if (!watchdog_.in_failsafe()) due = earlier(due, watchdog_.deadline());
-  due = earlier(due, partial_.deadline());
+  if (!in_failsafe_) due = earlier(due, ping_);
+  due = earlier(due, partial_);
   for (uint8_t i = 0; i < slot_count_; ++i) due = earlier(due, slots_[i].next);
   next_due_ = due;
 }
@@ -193,7 +278,8 @@ DeviceCore::Outcome DeviceCore::run(const void* host_message, Millis now) {
       }
       return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_ping_tag:
-      watchdog_.on_heartbeat(now);
+      ping_.arm(now, kPingSilenceMs);
+      in_failsafe_ = false;
       return Outcome{false, ByteView()};
     case tether_rpc_wire_HostMessage_reset_tag:
       return Outcome{false, ByteView()};  // finish() restarts, after the ack
@@ -248,7 +334,7 @@ TETHER_RPC_OUT_OF_LINE DeviceCore::Outcome DeviceCore::open(uint32_t id, uint32_
   if (method >= s.method_count) return refuse(id, DeviceErrorCode::unknown_method);
   const Method m = this->method(s, static_cast<uint8_t>(method));
   if (!m.streaming) return refuse(id, DeviceErrorCode::not_streaming);
-  if (period < min_period_ms_ || period > 0xFFFFu) return refuse(id, DeviceErrorCode::period_too_short);
+  if (period == 0 || period < min_period_ms_ || period > 0xFFFFu) return refuse(id, DeviceErrorCode::period_too_short);
   if (request.size() > request_bytes_) return refuse(id, DeviceErrorCode::request_too_large);
   if (!decode_request(m, request)) return refuse(id, DeviceErrorCode::bad_request);
   // The method's own slot (a re-open replaces its stream), else a free one.
@@ -400,7 +486,6 @@ void DeviceCore::finish(const void* host_message) {
   if (in.which_body == tether_rpc_wire_HostMessage_reset_tag && restart_ != nullptr) restart_(restart_context_);
 }
 
-void DeviceCore::on_failsafe(void* self, Millis) { static_cast<DeviceCore*>(self)->close_streams(); }
 
 #if defined(__AVR__)
 namespace {
@@ -409,6 +494,7 @@ namespace {
 const Method kConstantMethods[] TETHER_IN_FLASH = {{nullptr, nullptr, nullptr, false}};
 const Service kConstantService TETHER_IN_FLASH = {0, kConstantMethods, 1};
 constexpr Device<> kConstantInitialisedDevice(kConstantService, FrameSink{nullptr, nullptr});
+constexpr Device<> kUnboundDevice;
 }  // namespace
 #endif
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -149,9 +150,12 @@ Bytes nested_bytes(const tether::ByteView payload, uint32_t outer, uint32_t inne
   return {};
 }
 
-class RpcDevice : public ::testing::Test {
+// Each test runs on a device made with its bindings and on one made without arguments (all zeros: how the
+// images keep theirs in .bss) and bound afterwards.
+class RpcDevice : public ::testing::TestWithParam<bool> {
  protected:
-  RpcDevice() : device_(service_, recorder_.sink(), &wire::Recorder::restart, &recorder_) {
+  using Device = tether::rpc::device::Device<TestLimits>;
+  RpcDevice() {
     app = Application{};
     service_.schema_hash = hash_;
     device_.set_min_period_ms(5);
@@ -277,11 +281,25 @@ class RpcDevice : public ::testing::Test {
   const std::uint64_t hash_ = arm_hash();
   tether::rpc::device::Service service_ = make_service();
   wire::Recorder recorder_;
-  tether::rpc::device::Device<TestLimits> device_;
+  std::unique_ptr<Device> made_ = make_device();
+  Device& device_ = *made_;
   Millis now_ = 1000;
+
+ private:
+  std::unique_ptr<Device> make_device() {
+    if (!GetParam()) return std::make_unique<Device>(service_, recorder_.sink(), &wire::Recorder::restart, &recorder_);
+    auto device = std::make_unique<Device>();
+    device->bind(service_, recorder_.sink(), &wire::Recorder::restart, &recorder_);
+    return device;
+  }
 };
 
-TEST_F(RpcDevice, BeginSendsResetEventAfterADelimiter) {
+INSTANTIATE_TEST_SUITE_P(Made, RpcDevice, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& made) {
+                           return std::string(made.param ? "Bound" : "Constructed");
+                         });
+
+TEST_P(RpcDevice, BeginSendsResetEventAfterADelimiter) {
   ASSERT_EQ(recorder_.frames.size(), 1u);
   EXPECT_EQ(recorder_.frames[0][0], 0x00);  // flushes a half frame the host may hold from before
   const auto answers = this->answers();
@@ -290,7 +308,7 @@ TEST_F(RpcDevice, BeginSendsResetEventAfterADelimiter) {
   EXPECT_EQ(device_.session_id(), 0xC0FFEEu);
 }
 
-TEST_F(RpcDevice, HelloAnswersTheSchemaHashSessionAndSizes) {
+TEST_P(RpcDevice, HelloAnswersTheSchemaHashSessionAndSizes) {
   const auto answers = send(bare(7, tether_rpc_wire_HostMessage_hello_tag));
   ASSERT_EQ(answers.size(), 2u);
   ASSERT_EQ(answers[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
@@ -302,7 +320,7 @@ TEST_F(RpcDevice, HelloAnswersTheSchemaHashSessionAndSizes) {
   expect_ack(answers[1], 7, false);
 }
 
-TEST_F(RpcDevice, ACallRunsItsHandlerAndRepliesBeforeTheAck) {
+TEST_P(RpcDevice, ACallRunsItsHandlerAndRepliesBeforeTheAck) {
   for (const bool byte_by_byte : {false, true}) {
     const uint32_t id = byte_by_byte ? 2 : 1;
     const auto answers = send(move(id, 2, -4500), byte_by_byte);
@@ -318,7 +336,7 @@ TEST_F(RpcDevice, ACallRunsItsHandlerAndRepliesBeforeTheAck) {
   EXPECT_EQ(device_.counters().calls, 2u);
 }
 
-TEST_F(RpcDevice, AReSentCallGetsTheSameReplyWithoutRunningAgain) {
+TEST_P(RpcDevice, AReSentCallGetsTheSameReplyWithoutRunningAgain) {
   const auto first = send(move(5, 1, 100));
   app.move_status = Status::error(9, "must not run");
   const auto again = send(move(5, 1, 100));
@@ -334,7 +352,7 @@ TEST_F(RpcDevice, AReSentCallGetsTheSameReplyWithoutRunningAgain) {
   EXPECT_EQ(app.moves, 2);
 }
 
-TEST_F(RpcDevice, AHandlerErrorIsTheCallsAnswerAndIsRememberedLikeAReply) {
+TEST_P(RpcDevice, AHandlerErrorIsTheCallsAnswerAndIsRememberedLikeAReply) {
   app.move_status = Status::error(42, "joint 3 is locked");
   const auto answers = send(move(3, 3, 0));
   ASSERT_EQ(answers.size(), 2u);
@@ -352,7 +370,7 @@ TEST_F(RpcDevice, AHandlerErrorIsTheCallsAnswerAndIsRememberedLikeAReply) {
 
 // The cache keeps an answer's fields after its call id and rebuilds the rest: a re-send gets the first
 // answer's bytes, whatever the answer (a reply, an error with the longest text, a text in flash, id 0).
-TEST_F(RpcDevice, ReSentAnswersAreTheFirstOnesByteForByte) {
+TEST_P(RpcDevice, ReSentAnswersAreTheFirstOnesByteForByte) {
   static const char kInFlash[] TETHER_IN_FLASH = "kept in flash";
   const std::string longest(60, 'x');  // sent as its first 47 characters
   const Status statuses[] = {Status::ok(), Status::error(0xFEFF, longest.c_str()), Status::error_P(7, kInFlash)};
@@ -373,7 +391,7 @@ TEST_F(RpcDevice, ReSentAnswersAreTheFirstOnesByteForByte) {
   EXPECT_EQ(device_.counters().link.duplicates, 4u);
 }
 
-TEST_F(RpcDevice, RefusalsNameTheirCauseAndAreLookedAtAgainWhenReSent) {
+TEST_P(RpcDevice, RefusalsNameTheirCauseAndAreLookedAtAgainWhenReSent) {
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");
   expect_refusal(send(call(10, 3, {})), 10, DeviceErrorCode::unknown_method, "unknown method");
   EXPECT_EQ(device_.counters().refused, 2u);
@@ -389,14 +407,14 @@ TEST_F(RpcDevice, RefusalsNameTheirCauseAndAreLookedAtAgainWhenReSent) {
   EXPECT_EQ(app.watches, 0);
 }
 
-TEST_F(RpcDevice, NotAHostMessageIsAnsweredWithoutAnAck) {
+TEST_P(RpcDevice, NotAHostMessageIsAnsweredWithoutAnAck) {
   const auto answers = send_payload(Bytes{0x0A, 0x05, 0x01});  // field 1 as a truncated length-delimited
   ASSERT_EQ(answers.size(), 1u);
   expect_error(answers[0], 0, static_cast<uint32_t>(DeviceErrorCode::bad_envelope), "not a HostMessage");
   EXPECT_EQ(device_.counters().decode_errors, 1u);
 }
 
-TEST_F(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
+TEST_P(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
   const auto opened = send(open(20, 1, 100));
   ASSERT_EQ(opened.size(), 1u);
   expect_ack(opened[0], 20, false);
@@ -430,7 +448,7 @@ TEST_F(RpcDevice, AStreamSendsAMessagePerPeriodUntilClosed) {
 
 // The loop polls after every byte in or out; a poll at the same millisecond as the last one does nothing,
 // unless a frame was handled since (a stream opened then sends its first message at once).
-TEST_F(RpcDevice, AStreamOpenedAfterAPollAtTheSameMillisecondStartsAtTheNextPoll) {
+TEST_P(RpcDevice, AStreamOpenedAfterAPollAtTheSameMillisecondStartsAtTheNextPoll) {
   EXPECT_TRUE(poll_at(now_).empty());
   const auto opened = send(open(20, 1, 100));
   ASSERT_EQ(opened.size(), 1u);
@@ -442,7 +460,7 @@ TEST_F(RpcDevice, AStreamOpenedAfterAPollAtTheSameMillisecondStartsAtTheNextPoll
   EXPECT_EQ(poll_at(now_ + 100).size(), 1u);
 }
 
-TEST_F(RpcDevice, ReopeningAMethodReplacesItsStreamAndAFullTableRefuses) {
+TEST_P(RpcDevice, ReopeningAMethodReplacesItsStreamAndAFullTableRefuses) {
   send(open(30, 1, 100));
   send(open(31, 1, 50));
   EXPECT_FALSE(device_.stream_open(30));
@@ -456,7 +474,7 @@ TEST_F(RpcDevice, ReopeningAMethodReplacesItsStreamAndAFullTableRefuses) {
   EXPECT_TRUE(device_.stream_open(31));
 }
 
-TEST_F(RpcDevice, AStreamHandlerErrorOrAnOversizeMessageEndsTheStream) {
+TEST_P(RpcDevice, AStreamHandlerErrorOrAnOversizeMessageEndsTheStream) {
   send(open(40, 1, 100));
   app.watch_status = Status::error(7, "no sensor");
   auto due = poll_at(now_);
@@ -474,7 +492,7 @@ TEST_F(RpcDevice, AStreamHandlerErrorOrAnOversizeMessageEndsTheStream) {
   EXPECT_EQ(device_.counters().send_failures, 1u);
 }
 
-TEST_F(RpcDevice, PingSilenceClosesTheStreams) {
+TEST_P(RpcDevice, PingSilenceClosesTheStreams) {
   send(open(50, 1, 1000));
   poll_at(now_ + 9000);
   send(bare(51, tether_rpc_wire_HostMessage_ping_tag));  // at 10000: 10 s from here on
@@ -485,7 +503,7 @@ TEST_F(RpcDevice, PingSilenceClosesTheStreams) {
   EXPECT_EQ(device_.counters().link.failsafes, 1u);
 }
 
-TEST_F(RpcDevice, DeviceHelloEveryFiveSeconds) {
+TEST_P(RpcDevice, DeviceHelloEveryFiveSeconds) {
   auto answers = poll_at(now_ + 4999);
   EXPECT_TRUE(answers.empty());
   answers = poll_at(now_ + 1);
@@ -494,7 +512,7 @@ TEST_F(RpcDevice, DeviceHelloEveryFiveSeconds) {
   EXPECT_EQ(answers[0].message.body.hello.schema_hash, hash_);
 }
 
-TEST_F(RpcDevice, ResetAcksThenRestarts) {
+TEST_P(RpcDevice, ResetAcksThenRestarts) {
   const auto answers = send(bare(60, tether_rpc_wire_HostMessage_reset_tag));
   ASSERT_EQ(answers.size(), 1u);
   expect_ack(answers[0], 60, false);
@@ -502,7 +520,7 @@ TEST_F(RpcDevice, ResetAcksThenRestarts) {
   EXPECT_EQ(recorder_.bytes_at_restart, recorder_.bytes.size());  // the ack left first
 }
 
-TEST_F(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
+TEST_P(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
   const tether_rpc_wire_HostMessage message = move(70, 1, 1);
   const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
   device_.handle_bytes(tether::ByteView(frame.data(), 3), now_);
@@ -517,7 +535,7 @@ TEST_F(RpcDevice, AStalledFrameIsDroppedAtItsDeadline) {
 
 // A poll between deadlines returns at once (the earliest deadline is kept); every deadline still comes on
 // its millisecond: a stalled frame's (armed mid-way, after polls), DeviceHello's, a stream's.
-TEST_F(RpcDevice, PollsBetweenDeadlinesRunNothingAndEveryDeadlineComesOnTime) {
+TEST_P(RpcDevice, PollsBetweenDeadlinesRunNothingAndEveryDeadlineComesOnTime) {
   const tether_rpc_wire_HostMessage message = move(71, 1, 1);
   const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
   const Millis start = now_;

@@ -96,6 +96,8 @@ namespace detail {
 /// the decoder's run loop holds in CPU registers through its assembly. Steps as Crc16Mcrf4xx's AVR back end.
 struct CobsCrc {
   uint16_t state = 0xFFFF;  ///< The register; it is also the checksum (no final xor).
+  /// A register of all zeros (an unbound decoder's: reset before a frame's first byte).
+  static constexpr CobsCrc zero() { return CobsCrc{0}; }
   /// Starts a new computation.
   void reset() { state = 0xFFFF; }
   /// Feeds one byte (avr-libc's step, inline).
@@ -106,6 +108,12 @@ struct CobsCrc {
 #else
 /// The decoder's CRC-16/MCRF4XX on the host: the core's.
 using CobsCrc = Crc16Mcrf4xx;
+#endif
+/// An unbound decoder's register (all zeros on the AVR: a global decoder is in .bss).
+#if defined(__AVR__)
+constexpr CobsCrc unbound_crc() { return CobsCrc::zero(); }
+#else
+inline CobsCrc unbound_crc() { return CobsCrc(); }
 #endif
 }  // namespace detail
 
@@ -130,6 +138,13 @@ class CobsDecoder {
   /// `checked_from` < `Capacity`, `checksum()` covers each frame's decoded bytes from that offset on.
   constexpr explicit CobsDecoder(LinkCounters& counters, size_t checked_from = kUnchecked)
       : counters_(&counters), checked_from_(static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked)), buffer_{} {}
+  /// Decoder of all zeros (a global one takes no flash for its image, .bss): `bind` it before it decodes.
+  constexpr CobsDecoder() : counters_(nullptr), checked_from_(0), crc_(detail::unbound_crc()), buffer_{} {}
+  /// What the first constructor takes, for a decoder made by the second.
+  void bind(LinkCounters& counters, size_t checked_from = kUnchecked) {
+    counters_ = &counters;
+    checked_from_ = static_cast<Index>(checked_from < Capacity ? checked_from : kUnchecked);
+  }
 
   /// Consumes one byte.
   __attribute__((always_inline)) DecodeStatus feed(uint8_t byte) {

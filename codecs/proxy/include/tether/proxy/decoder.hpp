@@ -27,6 +27,12 @@ class Decoder {
   /// Decoder in `integrity` mode, counting into `counters` (frames_ok too); `counters` outlives it.
   constexpr Decoder(Integrity integrity, LinkCounters& counters)
       : cobs_(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked) {}
+  /// Decoder of all zeros (a global one takes no flash for its image, .bss): `bind` it before it decodes.
+  constexpr Decoder() : cobs_() {}
+  /// What the first constructor takes, for a decoder made by the second.
+  void bind(Integrity integrity, LinkCounters& counters) {
+    cobs_.bind(counters, integrity == Integrity::crc16 ? 2 : CobsDecoder<MaxPayload + 2>::kUnchecked);
+  }
 
   /// Consumes one byte.
   DecodeStatus feed(uint8_t byte) {

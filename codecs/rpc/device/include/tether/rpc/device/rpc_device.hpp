@@ -51,9 +51,6 @@
 
 #include "tether/core/bytes.hpp"
 #include "tether/core/counters.hpp"
-#include "tether/core/session/duplicate_filter.hpp"
-#include "tether/core/session/failsafe_watchdog.hpp"
-#include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/time.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/device/io.hpp"
@@ -116,7 +113,8 @@ class DeviceCore {
   const DeviceCounters& counters() const { return counters_; }
   /// Streams running now.
   uint8_t open_streams() const;
-  /// Shortest stream period accepted (default 1 ms; the generated glue sets one frame time at its baud).
+  /// Shortest stream period accepted (default and at least 1 ms; the generated glue sets one frame time at
+  /// its baud).
   void set_min_period_ms(uint16_t period) { min_period_ms_ = period; }
 
  protected:
@@ -139,14 +137,18 @@ class DeviceCore {
         sink_(sink),
         restart_(restart),
         restart_context_(restart_context),
-        partial_(kPartialFrameMs, counters_.link),
-        watchdog_(kPingSilenceMs, counters_.link, &DeviceCore::on_failsafe, this),
         max_payload_(static_cast<uint16_t>(max_payload)),
         max_out_(static_cast<uint16_t>(max_out)),
         slots_(slots),
         requests_(requests),
         slot_count_(slot_count),
         request_bytes_(request_bytes) {}
+  // All zeros, bound later (`bind`).
+  constexpr DeviceCore() {}
+  // What the first constructor takes, for a device made by the second.
+  void bind(const Service& service, FrameSink sink, RestartFunction restart, void* restart_context,
+            size_t max_payload, size_t max_out, StreamSlot* slots, uint8_t slot_count, uint8_t* requests,
+            uint8_t request_bytes);
 
   // What a body's handling produced, for the ack and the duplicate cache.
   struct Outcome {
@@ -167,20 +169,35 @@ class DeviceCore {
     void* reply;
     uint16_t reply_size;
   };
-  class UseScratch {
-   public:
-    UseScratch(DeviceCore& core, Scratch& scratch) : core_(core) { core_.scratch_ = &scratch; }
-    ~UseScratch() { core_.scratch_ = nullptr; }
-    UseScratch(const UseScratch&) = delete;
-    UseScratch& operator=(const UseScratch&) = delete;
 
-   private:
-    DeviceCore& core_;
+  // The exactly-once cache's entries (the derived device's table, `depth` rows of `stride` bytes: a head,
+  // then the answer's bytes).
+  struct CacheHead {
+    uint32_t id;
+    uint16_t fingerprint;
+    uint16_t size;  // of the answer kept
   };
+  template <uint16_t kCapacity>
+  struct CacheEntry {
+    CacheHead head;
+    uint8_t bytes[kCapacity];  // right after the head (byte aligned)
+  };
+  struct Cache {
+    CacheHead* entries;
+    uint16_t stride;  // bytes from an entry to the next (head and answer room)
+    uint8_t depth;
+  };
+
+  // The entry points' work, out of line with small frames (the derived device's own entry points only put
+  // their buffers on the stack): each runs with `scratch` as its buffers.
+  void begin_with(Scratch& scratch, uint32_t session_id, Millis now);
+  void poll_with(Scratch& scratch, Millis now);
+  // A checked frame's payload: decoded, looked up in `cache`, run, answered, acknowledged.
+  void handle_frame(Scratch& scratch, const Cache& cache, ByteView payload, uint16_t fingerprint, Millis now);
 
   void start(uint32_t session_id, Millis now);
   void track_frame(bool was_in_frame, bool in_frame, Millis now);
-  bool poll_frame_deadline(Millis now) { return partial_.poll(now); }
+  bool poll_frame_deadline(Millis now);
   // False while nothing can be due: no frame started or was handled since the last `poll` and `now` is
   // before the earliest deadline it left (the loop polls after every byte in or out and at every clock
   // tick; most of those passes end here, with one comparison).
@@ -210,7 +227,6 @@ class DeviceCore {
   DeviceCounters counters_;
 
  private:
-  static void on_failsafe(void* self, Millis now);
   Outcome call(uint32_t id, uint32_t method, ByteView request);
   Outcome open(uint32_t id, uint32_t method, ByteView request, uint32_t period, Millis now);
   void run_stream(uint8_t slot, Millis now);
@@ -224,25 +240,32 @@ class DeviceCore {
   // Sends the DeviceMessage written in the scratch `out`; its size, 0 when it did not fit (counted).
   size_t send_message(const wire::Writer& message, bool leading_delimiter = false);
   void send_hello();
+  // The cache entry of message `id` with `fingerprint`, null when none.
+  const CacheHead* cached(const Cache& cache, uint32_t id, uint16_t fingerprint);
+  void remember(const Cache& cache, uint32_t id, uint16_t fingerprint, ByteView answer);
 
-  const Service* service_;
-  FrameSink sink_;
-  RestartFunction restart_;
-  void* restart_context_;
-  session::PartialFrameDeadline partial_;
-  session::FailsafeWatchdog watchdog_;
+  // Zero-initialised (a global device with nothing non-zero is in .bss: no flash for its image).
+  const Service* service_ = nullptr;
+  FrameSink sink_ = {nullptr, nullptr};
+  RestartFunction restart_ = nullptr;
+  void* restart_context_ = nullptr;
+  Deadline partial_;     // armed from a frame's first byte to its end (kPartialFrameMs)
+  Deadline ping_;        // the failsafe's: kPingSilenceMs after the last Ping
+  bool in_failsafe_ = false;
   Deadline next_info_;
   uint32_t session_id_ = 0;
-  uint16_t min_period_ms_ = 1;
+  uint16_t min_period_ms_ = 0;  // 0: 1
   Millis next_due_ = 0;  // the earliest deadline the last `poll` left
   bool polled_ = false;
-  uint16_t max_payload_;
-  uint16_t max_out_;
+  uint16_t max_payload_ = 0;
+  uint16_t max_out_ = 0;
   Scratch* scratch_ = nullptr;
-  StreamSlot* slots_;
-  uint8_t* requests_;
-  uint8_t slot_count_;
-  uint8_t request_bytes_;
+  uint8_t cached_ = 0;      // cache entries in use
+  uint8_t cache_next_ = 0;  // the entry the next answer replaces
+  StreamSlot* slots_ = nullptr;
+  uint8_t* requests_ = nullptr;
+  uint8_t slot_count_ = 0;
+  uint8_t request_bytes_ = 0;
 };
 
 /// An rpc device with `Limits`' table sizes. Not copyable; main loop only (never from an interrupt).
@@ -256,16 +279,23 @@ class Device : public DeviceCore {
                    void* restart_context = nullptr)
       : DeviceCore(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
                    Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes),
-        decoder_(proxy::Integrity::crc16, counters_.link),
-        executed_(counters_.link) {}
+        decoder_(proxy::Integrity::crc16, counters_.link) {}
+  /// A device with nothing bound: all zeros (a global one is in .bss, no flash for its image and no
+  /// start-up code). `bind` it before anything else.
+  constexpr Device() {}
+  /// Binds a device made by the constructor without arguments, as the other constructor does.
+  void bind(const Service& service, FrameSink sink, RestartFunction restart = nullptr, void* restart_context = nullptr) {
+    DeviceCore::bind(service, sink, restart, restart_context, Limits::kMaxPayload, Limits::kMaxOutPayload, slot_table_,
+                     Limits::kStreams, &request_table_[0][0], Limits::kStreamRequestBytes);
+    decoder_.bind(proxy::Integrity::crc16, counters_.link);
+  }
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
 
   /// End of setup: remembers `session_id`, starts the clocks at `now`, sends ResetEvent.
   void begin(uint32_t session_id, Millis now) {
     Buffers buffers;
-    UseScratch use(*this, buffers);
-    start(session_id, now);
+    begin_with(buffers, session_id, now);
   }
 
   /// Handles one received byte at `now`; a completed frame is handled at once.
@@ -292,8 +322,7 @@ class Device : public DeviceCore {
     if (!poll_due(now)) return;
     if (poll_frame_deadline(now)) decoder_.restart();
     Buffers buffers;
-    UseScratch use(*this, buffers);
-    poll_time(now);
+    poll_with(buffers, now);
   }
 
   /// True while the stream opened by message `id` runs.
@@ -315,10 +344,17 @@ class Device : public DeviceCore {
     StructRoom<Limits::kRequestStructBytes> request;
     StructRoom<Limits::kReplyStructBytes> reply;
   };
-  void handle_payload(ByteView payload, uint16_t fingerprint, Millis now);
+  using Entry = CacheEntry<Limits::kReplyCacheBytes>;
+  static_assert(offsetof(Entry, bytes) == sizeof(CacheHead), "an entry's answer follows its head");
+  // Out of line: one call site per entry point, its buffers on its own stack only while a frame is handled.
+  __attribute__((noinline)) void handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
+    Buffers buffers;
+    const Cache cache{&cache_[0].head, sizeof(Entry), Limits::kDuplicateDepth};
+    handle_frame(buffers, cache, payload, fingerprint, now);
+  }
 
   proxy::Decoder<Limits::kMaxPayload> decoder_;
-  session::DuplicateFilter<uint32_t, Limits::kDuplicateDepth, Limits::kReplyCacheBytes> executed_;
+  Entry cache_[Limits::kDuplicateDepth] = {};
   StreamSlot slot_table_[Limits::kStreams] = {};
   uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes] = {};
 };
@@ -327,4 +363,3 @@ class Device : public DeviceCore {
 }  // namespace rpc
 }  // namespace tether
 
-#include "tether/rpc/device/rpc_device_impl.hpp"
