@@ -1,5 +1,7 @@
 // The Romi codec's plugin (plugin.hpp): its options in a configuration and its client on a device's stream.
+#include <chrono>
 #include <memory>
+#include <string_view>
 #include <string>
 #include <utility>
 
@@ -40,6 +42,19 @@ devices::DeviceClient open(std::shared_ptr<transports::ByteStream> stream, const
 
 }  // namespace
 
+transports::BootSignature boot_signature() {
+  transports::BootSignature signature;
+  signature.name = "probe #\\r\\n";
+  signature.probe = "#\r\n";
+  signature.probe_answered = [](std::string_view received) {
+    const std::size_t start = received.find('#');
+    return start != std::string_view::npos && received.find("\r\n", start) != std::string_view::npos;
+  };
+  signature.silence = std::chrono::milliseconds(1000);  // optiboot's window after a reset by DTR
+  signature.probe_interval = std::chrono::milliseconds(100);
+  return signature;
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -50,6 +65,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.parse_options = parse;
   row.validate = validate;
   row.open = open;
+  row.boot = boot_signature();
   return {row};
 }
 

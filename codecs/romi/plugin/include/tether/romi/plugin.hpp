@@ -33,6 +33,13 @@ struct DeviceOptions {
   std::optional<std::uint8_t> first_id;
 };
 
+/// What a Romi image does at boot, for `"boot": "detect"` (transports/boot_detection.hpp): nothing, like
+/// the reference RomiSerial, so the host probes once the line has been quiet for optiboot's 1 s: `#\r\n`, an
+/// empty frame, which every Romi firmware (Tether's and the reference) answers with an envelope error
+/// (`#_[-6]:...`) without running a handler; any `#...\r\n` line after it is the answer. A probe that
+/// lands in optiboot is no STK500 command: optiboot starts the sketch, and the next probe is answered.
+transports::BootSignature boot_signature();
+
 /// The codec's row of the devices table: `romi`, its option keys, parser and checks, `romi::Client`.
 std::vector<devices::CodecRow> codec_rows();
 
