@@ -140,7 +140,7 @@ void SerialPortStream::boot_apply(BootDetector::Step step) {
   });
 }
 
-void SerialPortStream::boot_finish(const BootReport& report, const error_code& error) {
+void SerialPortStream::boot_finish(BootReport report, const error_code& error) {
   ++boot_generation_;  // the detection's read and timer, still pending, find they are stale
   if (detector_) {
     error_code ignored;

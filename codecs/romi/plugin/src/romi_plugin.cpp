@@ -50,8 +50,10 @@ transports::BootSignature boot_signature() {
     const std::size_t start = received.find('#');
     return start != std::string_view::npos && received.find("\r\n", start) != std::string_view::npos;
   };
-  signature.silence = std::chrono::milliseconds(1000);  // optiboot's window after a reset by DTR
-  signature.probe_interval = std::chrono::milliseconds(100);
+  // Past optiboot's 1 s window, and never faster than it: every byte optiboot receives restarts that
+  // window (measured on the virtual Uno: probes every 100 ms from 1.0 s kept it alive until 2.1 s).
+  signature.silence = std::chrono::milliseconds(1200);
+  signature.probe_interval = std::chrono::milliseconds(1100);
   return signature;
 }
 

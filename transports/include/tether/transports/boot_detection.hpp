@@ -47,11 +47,10 @@ struct BootSignature {
   /// Whether `received` (every byte since the first probe) holds the answer to the probe, complete. The
   /// answer is dropped, never seen by the client. Required with a probe.
   std::function<bool(std::string_view received)> probe_answered;
-  /// Quiet time before the first probe: at least the bootloader's window (a probe sent into optiboot is
-  /// taken as STK500; a byte that is no STK500 command makes optiboot start the sketch, so the probe is
-  /// lost, not harmful, and the next one is answered).
+  /// Quiet time before the first probe: more than the bootloader's window (a probe sent into optiboot is
+  /// taken as STK500 and lost, and every byte optiboot receives restarts its 1 s window).
   std::chrono::milliseconds silence{1000};
-  /// Between probes that got no answer.
+  /// Between probes that got no answer: more than the bootloader's window too, or probes keep it alive.
   std::chrono::milliseconds probe_interval{100};
 
   /// Whether there is anything to detect (an announcement or a probe).

@@ -188,7 +188,7 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
   void boot(SteadyClock::time_point opened, BootHandler done);
   void boot_read();
   void boot_apply(BootDetector::Step step);
-  void boot_finish(const BootReport& report, const error_code& error);
+  void boot_finish(BootReport report, const error_code& error);  // by value: it may be the detector's, reset here
   void after_boot_wait(OpenHandler handler);
   void await_banner(std::shared_ptr<std::string> seen, SteadyClock::time_point deadline, OpenHandler handler);
   // Supervision (strand).
