@@ -6,7 +6,9 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <string>
@@ -58,6 +60,8 @@ class RecordingLink final : public ClientLink {
   int timer_fired = 0;
   int link_failures = 0;
   error_code failure;
+  int restored = 0;
+  bool down_when_restored = true;  // link_down() as on_link_restored saw it
   int closes = 0;
   std::function<void()> on_bytes_hook;
 
@@ -71,7 +75,74 @@ class RecordingLink final : public ClientLink {
     ++link_failures;
     failure = error;
   }
+  void on_link_restored() override {
+    ++restored;
+    down_when_restored = link_down() || link_error();
+  }
   void on_closed() override { ++closes; }
+};
+
+// A stream whose reads the test completes (bytes, or a supervised port's notices: `disconnected`,
+// `reconnected`, a final error), and whose writes fail with `disconnected` while `down` is set: what a
+// SerialPortStream does around an outage, without a port.
+class ScriptedStream final : public ByteStream {
+ public:
+  explicit ScriptedStream(executor_type executor) : ByteStream(std::move(executor)) {}
+  std::string description() const override { return "scripted"; }
+
+  // The next read completes with `error`, or with `bytes`. Any thread.
+  void deliver(error_code error, std::string bytes = {}) {
+    asio::post(strand(), [self = self(), error, bytes = std::move(bytes)] {
+      self->script_.push_back({error, bytes});
+      self->serve();
+    });
+  }
+  bool down = false;    // strand (the test runs the io_context itself: one thread)
+  std::string written;  // strand
+
+ protected:
+  void do_read(asio::mutable_buffer buffer, IoHandler handler) override {
+    buffer_ = buffer;
+    read_ = std::move(handler);
+    asio::post(strand(), [self = self()] { self->serve(); });
+  }
+  void do_write(asio::const_buffer buffer, IoHandler handler) override {
+    asio::post(strand(), [self = self(), buffer, handler = std::move(handler)]() mutable {
+      if (self->down) {
+        handler(make_error_code(TransportError::disconnected), 0);
+        return;
+      }
+      self->written.append(static_cast<const char*>(buffer.data()), buffer.size());
+      handler(error_code(), buffer.size());
+    });
+  }
+  void do_close(error_code& error) override {
+    error.clear();
+    script_.clear();
+    if (read_) asio::post(strand(), [handler = std::move(read_)]() mutable { handler(asio::error::operation_aborted, 0); });
+    read_ = IoHandler();
+  }
+
+ private:
+  struct Step {
+    error_code error;
+    std::string bytes;
+  };
+  std::shared_ptr<ScriptedStream> self() { return std::static_pointer_cast<ScriptedStream>(shared_from_this()); }
+  void serve() {
+    if (!read_ || script_.empty()) return;
+    const Step step = script_.front();
+    script_.erase(script_.begin());
+    IoHandler handler = std::move(read_);
+    read_ = IoHandler();
+    const std::size_t size = std::min(step.bytes.size(), buffer_.size());
+    std::memcpy(buffer_.data(), step.bytes.data(), size);
+    handler(step.error, step.error ? 0 : size);
+  }
+
+  asio::mutable_buffer buffer_;
+  IoHandler read_;
+  std::vector<Step> script_;
 };
 
 // Runs `io` until `done()` holds or `timeout` passed; the result of `done()`. Positive waits use the 10 s
@@ -202,6 +273,67 @@ TEST(ClientLink, LinkFailureIsReportedOnceAndStopsTheLink) {
   link->close();
   EXPECT_TRUE(run_until(io, [&] { return link->closes == 1; }));
   EXPECT_EQ(link->link_failures, 1);
+}
+
+// A supervised port's outage is a notice, not the end: the hook runs once with `disconnected` (the timer
+// cancelled, queued writes dropped), reading goes on, and when the stream says the port is back the link
+// error is cleared, on_link_restored runs and writes and reads flow again. A final error after that (the
+// reconnect limit) ends the link for good. Simulated time only: the timer's deadline passes during the
+// outage on the manual clock and nothing fires.
+TEST(ClientLink, AnOutageIsANoticeAndTheLinkGoesOnWhenThePortIsBack) {
+  asio::io_context io;
+  auto stream = std::make_shared<ScriptedStream>(io.get_executor());
+  auto clock = testing::ManualClock::create();
+  auto link = std::make_shared<RecordingLink>(stream, clock);
+  link->start();
+  stream->deliver(error_code(), "a");
+  ASSERT_TRUE(run_until(io, [&] { return link->bytes == "a"; }));
+  stream->deliver(make_error_code(TransportError::reconnected));  // not down: nothing to restore
+  stream->deliver(error_code(), "b");
+  ASSERT_TRUE(run_until(io, [&] { return link->bytes == "ab"; }));
+  EXPECT_EQ(link->restored, 0);
+
+  link->arm_in(100);
+  ASSERT_TRUE(run_until(io, [&] { return clock->pending() == 1; }));
+  stream->down = true;
+  stream->deliver(make_error_code(TransportError::disconnected));
+  ASSERT_TRUE(run_until(io, [&] { return link->link_failures == 1; }));
+  EXPECT_EQ(link->failure, make_error_code(TransportError::disconnected));
+  std::vector<error_code> results;
+  link->send("lost", [&](error_code error) { results.push_back(error); });
+  ASSERT_TRUE(run_until(io, [&] { return results.size() == 1; }));
+  EXPECT_EQ(results[0], asio::error::operation_aborted);
+  stream->deliver(make_error_code(TransportError::disconnected));  // a second notice of the same outage
+  clock->advance(1000);
+  io.restart();
+  io.poll();
+  EXPECT_EQ(link->link_failures, 1);
+  EXPECT_EQ(link->timer_fired, 0);
+
+  stream->down = false;
+  stream->deliver(make_error_code(TransportError::reconnected));
+  ASSERT_TRUE(run_until(io, [&] { return link->restored == 1; }));
+  EXPECT_FALSE(link->down_when_restored);
+  link->send("back", [&](error_code error) { results.push_back(error); });
+  stream->deliver(error_code(), "c");
+  ASSERT_TRUE(run_until(io, [&] { return results.size() == 2 && link->bytes == "abc"; }));
+  EXPECT_FALSE(results[1]);
+  EXPECT_EQ(stream->written, "back");
+  link->arm_in(100);
+  ASSERT_TRUE(run_until(io, [&] { return clock->pending() == 1; }));
+  clock->advance(100);
+  ASSERT_TRUE(run_until(io, [&] { return link->timer_fired == 1; }));
+
+  // Another outage that ends for good: the hook runs again with the final error, and reading stops.
+  stream->deliver(make_error_code(TransportError::disconnected));
+  stream->deliver(make_error_code(TransportError::reconnect_limit));
+  ASSERT_TRUE(run_until(io, [&] { return link->link_failures == 3; }));
+  EXPECT_EQ(link->failure, make_error_code(TransportError::reconnect_limit));
+  stream->deliver(error_code(), "d");
+  stream->deliver(make_error_code(TransportError::reconnected));
+  EXPECT_FALSE(run_until(io, [&] { return link->bytes != "abc" || link->restored != 1; }, 100ms));
+  link->close();
+  EXPECT_TRUE(run_until(io, [&] { return link->closes == 1; }));
 }
 
 TEST(ClientLink, AWriteErrorIsALinkFailure) {

@@ -452,10 +452,66 @@ class CloseOnStop {
   std::thread watcher_;
 };
 
+// A serial port that is not there (yet): what a port that reconnects waits for.
+bool port_missing(const transports::error_code& code) {
+  return code == boost::system::errc::no_such_file_or_directory || code == boost::system::errc::no_such_device ||
+         code == boost::system::errc::no_such_device_or_address || code == transports::TransportError::no_matching_port;
+}
+
 }  // namespace
 
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                       const ClientHooks& hooks, Progress& progress, std::string& error) {
+  transports::error_code code;
+  return open_device(target, std::move(executor), hooks, progress, error, code);
+}
+
+std::optional<OpenDevice> open_device_within(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                             const ClientHooks& hooks, Progress& progress,
+                                             std::chrono::steady_clock::time_point deadline, std::string& error) {
+  const auto* serial = std::get_if<devices::SerialTransport>(&target.config.transport);
+  const bool waits = serial != nullptr && serial->options.reconnect.enabled;
+  const auto started = std::chrono::steady_clock::now();
+  std::chrono::milliseconds delay(50);
+  for (;;) {
+    transports::error_code code;
+    std::string failure;
+    auto opened = open_device(target, executor, hooks, progress, failure, code);
+    if (opened) return opened;
+    const auto now = std::chrono::steady_clock::now();
+    if (!waits || !port_missing(code) || now >= deadline) {
+      error = failure;
+      if (waits && port_missing(code)) {
+        const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(now - started);
+        error += "; waited " + std::to_string(waited.count()) + " ms for it (the call's budget)";
+      }
+      return std::nullopt;
+    }
+    progress.show("waiting for " + devices::describe(target.config.transport) + " to appear...");
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(delay, deadline - now));
+    delay = std::min(delay * 2, std::chrono::milliseconds(1000));
+  }
+}
+
+bool wait_for_port(const OpenDevice& device, std::chrono::steady_clock::time_point deadline, Progress& progress) {
+  const auto& port = device.port();
+  if (!port || port->link_counters().up) return true;
+  progress.show("waiting for " + port->path() + " to come back...");
+  // The port re-opens by itself (its supervision polls, backing off to 1 s); a look every 10 ms sees it.
+  while (!port->link_counters().up) {
+    if (port->link_counters().gave_up || std::chrono::steady_clock::now() >= deadline) {
+      progress.clear();
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  progress.clear();
+  return true;
+}
+
+std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                      const ClientHooks& hooks, Progress& progress, std::string& error,
+                                      transports::error_code& code) {
   // The progress line goes away however opening ends (the caller prints the error or the first output).
   struct ClearProgress {
     Progress& progress;
@@ -489,6 +545,7 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     opened.port_ = opened.rover_->devices().front().port;
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
+    code = failure.code();
     return std::nullopt;
   }
   return opened;

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -118,7 +119,8 @@ class OpenDevice {
 
  private:
   friend std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
-                                               const ClientHooks& hooks, Progress& progress, std::string& error);
+                                               const ClientHooks& hooks, Progress& progress, std::string& error,
+                                               transports::error_code& code);
   // Copies of the rover's one device: the rover forgets its devices when it closes.
   devices::Codec codec_{};
   devices::DeviceClient client_;
@@ -134,6 +136,24 @@ class OpenDevice {
 /// `error` set (exit status 2).
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                       const ClientHooks& hooks, Progress& progress, std::string& error);
+
+/// `open_device` that also gives the cause of a failure in `code` (the transport's error: ENOENT, ...).
+std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                      const ClientHooks& hooks, Progress& progress, std::string& error,
+                                      transports::error_code& code);
+
+/// `open_device` for a command with a budget (`tether call`): while the device's serial port is missing
+/// (no such path, or no port with its identity) and its transport reconnects (not `--no-reconnect`), it
+/// tries again, backing off from 50 ms to at most 1 s, until `deadline`; a progress line says it waits.
+/// `error` then ends with how long it waited. Any other failure, or a transport that does not reconnect,
+/// fails at once as `open_device` does.
+std::optional<OpenDevice> open_device_within(const DeviceTarget& target, boost::asio::any_io_executor executor,
+                                             const ClientHooks& hooks, Progress& progress,
+                                             std::chrono::steady_clock::time_point deadline, std::string& error);
+
+/// Waits until `device`'s supervised serial port is back (true at once when it is up, or not a serial
+/// port), at most until `deadline`; a progress line says it waits.
+bool wait_for_port(const OpenDevice& device, std::chrono::steady_clock::time_point deadline, Progress& progress);
 
 /// Opens only the device's byte stream (no client: nothing is sent). Virtual rings are not supported.
 std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, boost::asio::any_io_executor executor,

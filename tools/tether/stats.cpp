@@ -3,6 +3,8 @@
 //
 // Output contract: a table on stdout (`key  value`, sections indented), or with --json one JSON object:
 // {"device": ..., "codec": ..., "seconds": ..., "link": {LinkCounters}, "proxy"/"ring"/"calls": {...}}.
+// A supervised serial port's outages are reported on stderr as they happen (`tether stats: link down: ...`,
+// `link up after N ms (PATH)`) and counted in the report's "port" object.
 // Exit status: 0 once the counters are printed (also after SIGINT/SIGTERM, with what was collected so far);
 // 2 usage errors and a device that cannot be opened.
 #include <atomic>
@@ -18,6 +20,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 
 namespace tether::cli {
 
@@ -159,6 +162,19 @@ int run_stats(int argc, char** argv) {
     return 0;
   }
   const StopAction close_on_stop([&device] { device->close(); });  // Ctrl-C ends a probe call at once
+  // An outage as it happens (its counters are in the report's "port"), on a line of its own: on a terminal
+  // the progress line is erased first and comes back at its next update.
+  if (const auto& port = device->port(); port && port->options().reconnect.enabled) {
+    port->add_link_handler([erase = stderr_is_terminal() ? "\r\033[K" : ""](const transports::LinkEvent& event) {
+      if (event.kind == transports::LinkEvent::Kind::up) {
+        std::fprintf(stderr, "%stether stats: link up after %lld ms (%s)\n", erase,
+                     static_cast<long long>(event.down_for.count()), event.path.c_str());
+      } else {
+        std::fprintf(stderr, "%stether stats: link %s: %s\n", erase, transports::to_string(event.kind),
+                     event.reason.c_str());
+      }
+    });
+  }
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();

@@ -19,6 +19,8 @@
 #include <thread>
 #include <vector>
 
+#include <unistd.h>
+
 #include "fake_port.hpp"
 #include "tether_process.hpp"
 
@@ -137,6 +139,71 @@ TEST(TetherCall, HelpExamplesRunOnTheImageTheyName) {
     EXPECT_EQ(run.out, example.answer + "\n");
   }
   EXPECT_NE(help.find("Try it: `tether call --virtual romi-test e`"), std::string::npos);
+}
+
+// A name for a port in the test's temporary folder (a stand-in for /dev/serial/by-id/...), not there yet.
+std::string port_link(const std::string& name) {
+  const std::string link = ::testing::TempDir() + "/tether-call-" + name + "-" + std::to_string(::getpid());
+  std::filesystem::remove(link);
+  return link;
+}
+
+// A port that is not there yet is waited for within the call's budget: the board plugged in while the call
+// waits (`tether sim --link` serves it behind the name) answers it.
+TEST(TetherCall, WaitsWithinItsBudgetForItsPortToAppear) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string link = port_link("appears");
+  Terminal terminal({"call", "--port", link, "--timeout", "60000", "e"});  // the budget only bounds a hang
+  ASSERT_TRUE(terminal.expect("waiting for serial " + link)) << terminal.screen();
+  const SimBoard board(std::vector<std::string>{firmware("romi-test").string(), "--link", link});
+  EXPECT_TRUE(terminal.expect("[0,1,2]")) << terminal.screen();
+  EXPECT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+}
+
+// ... and when the budget runs out first, the call fails with the open's error and says it waited.
+TEST(TetherCall, AMissingPortFailsWhenTheBudgetRunsOut) {
+  const std::string link = port_link("missing");
+  const Outcome run = run_tether({"call", "--port", link, "--timeout", "300", "e"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_TRUE(matches(run.err, "tether call: cannot open " + link + ": No such file or directory; waited # ms for it "
+                               "(the call's budget) (serial " + link + "*)\n"))
+      << run.err;
+}
+
+// With --no-reconnect nothing is waited for: a budget of an hour would outlast the test's hang limit.
+TEST(TetherCall, WithoutReconnectAMissingPortFailsAtOnce) {
+  const std::string link = port_link("no-reconnect");
+  const Outcome run = run_tether({"call", "--port", link, "--timeout", "3600000", "--no-reconnect", "e"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("No such file or directory"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find("waited"), std::string::npos) << run.err;
+}
+
+// A port that vanishes with the call on its way ends the call at once: the device may have run it, so it
+// is not sent again once the port is back.
+TEST(TetherCall, APortThatVanishesWithTheCallOnItsWayEndsIt) {
+  FakePort port;
+  const std::string link = port_link("vanishes");
+  std::filesystem::create_symlink(port.path(), link);
+  Terminal terminal({"call", "--port", link, "--timeout", "60000", "e"});
+  EXPECT_NE(port.read_until('\n').find("e:"), std::string::npos);  // the request reached the "device"
+  std::filesystem::remove(link);
+  port.pty->close();  // unplugged
+  EXPECT_TRUE(terminal.expect("disconnected")) << terminal.screen();
+  EXPECT_TRUE(terminal.expect("not sent again")) << terminal.screen();
+  EXPECT_EQ(terminal.wait_exit(), 2) << terminal.screen();
+}
+
+// rpc's call waits the same way (the helper is shared; its message names the rpc budget's outcome).
+TEST(TetherCall, AnRpcCallWaitsForAMissingPortWithinItsBudgetToo) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const std::string link = port_link("rpc");
+  std::filesystem::path schema = firmware("rpc-example");
+  schema.replace_extension(".proto");
+  const Outcome run = run_tether({"call", "--port", link, "--codec", "rpc", "--schema", schema.string(), "--timeout",
+                                  "300", "Describe"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("; waited "), std::string::npos) << run.err;
 }
 
 }  // namespace

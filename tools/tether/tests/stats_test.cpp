@@ -5,7 +5,11 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
+#include <memory>
 #include <string>
+#include <vector>
+
+#include <unistd.h>
 
 #include "fake_port.hpp"
 #include "tether_process.hpp"
@@ -91,6 +95,31 @@ TEST(TetherStats, CtrlCWhileTheDeviceOpensExitsZero) {
   ASSERT_TRUE(terminal.expect("waiting for the proxy session")) << terminal.screen();
   terminal.type("\x03");
   EXPECT_EQ(terminal.wait_exit(std::chrono::seconds(60)), 0) << terminal.screen();  // the opening ended at once
+}
+
+// An outage of the port while stats counts: reported as it happens, and counted in the report's "port"
+// (one disconnect, one reconnect, the time down). `tether sim --link` serves the board behind one name;
+// ending it unplugs the board, another one plugs it back.
+TEST(TetherStats, CountsAnOutageOfItsPort) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string link = ::testing::TempDir() + "/tether-stats-outage-" + std::to_string(::getpid());
+  const std::vector<std::string> sim = {firmware("romi-test").string(), "--link", link};
+  auto board = std::make_unique<SimBoard>(sim);
+  Terminal terminal({"stats", "--port", link, "--passive", "--duration", "600", "--json"});
+  ASSERT_TRUE(terminal.expect("counting, ")) << terminal.screen();
+  board.reset();  // unplugged
+  ASSERT_TRUE(terminal.expect("tether stats: link down: " + link + ": ")) << terminal.screen();
+  board = std::make_unique<SimBoard>(sim);
+  ASSERT_TRUE(terminal.expect("tether stats: link up after ")) << terminal.screen();
+  terminal.type("\x03");
+  ASSERT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+  const std::string screen = terminal.screen();
+  const std::size_t begin = screen.find("{\"device\"");
+  ASSERT_NE(begin, std::string::npos) << screen;
+  const json report = json::parse(screen.substr(begin, screen.find('\n', begin) - begin));
+  EXPECT_EQ(report["port"]["disconnects"], 1);
+  EXPECT_EQ(report["port"]["reconnects"], 1);
+  EXPECT_TRUE(report["port"]["time_down_ms"].is_number_unsigned()) << report.dump();
 }
 
 }  // namespace

@@ -197,6 +197,11 @@ void ClientImpl::on_link_failed(const error_code& error) {
   publish();
 }
 
+void ClientImpl::on_link_restored() {
+  on_restored(now());
+  publish();
+}
+
 void ClientImpl::on_closed() {
   fail_all(asio::error::operation_aborted);
   publish();

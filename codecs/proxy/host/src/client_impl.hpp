@@ -138,6 +138,9 @@ class ClientImpl : public client::ClientLink {
   virtual void fail_all(const error_code& error) = 0;
   // What `session()` reports.
   virtual SessionStatus session_status() const = 0;
+  // The port is back after an outage (the link's `on_link_restored`): the device may have lost power with
+  // it, and what it announced at its boot went nowhere, so the protocol starts its recovery itself.
+  virtual void on_restored(Millis now) = 0;
   // A new init key is about to be registered; false refuses it (the table of inits is full).
   virtual bool admit_init(InitKey key) {
     (void)key;
@@ -174,6 +177,7 @@ class ClientImpl : public client::ClientLink {
   void accept(OperationId operation, SendHandler handler, Send send);
   void on_bytes(const std::uint8_t* data, std::size_t size) override;
   void on_link_failed(const error_code& error) override;
+  void on_link_restored() override;
   void on_closed() override;
   void on_timer() override { pump(now()); }
 

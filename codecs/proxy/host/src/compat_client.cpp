@@ -81,6 +81,12 @@ class CompatClient final : public ClientImpl {
     ++counters_.resets_sent;
   }
 
+  // A device that lost power with its port sent its RESET event to nobody: replayed as if it had arrived.
+  void on_restored(Millis now) override {
+    if (options_.compat_replay_on_reset) replay_inits();
+    pump(now);
+  }
+
   void on_payload(ByteView payload, Millis now) override {
     RocketryProto::ArduinoOut out;
     if (!out.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {

@@ -127,6 +127,10 @@ class PrimaryClient final : public ClientImpl {
     pump(now);
   }
 
+  // Whether or not the device lost power during the outage, the session it had cannot be trusted (a new
+  // one's ResetEvent was lost, and the next Info is seconds away): the handshake of an open, inits replayed.
+  void on_restored(Millis now) override { restart(now); }
+
   // --- the pump ----------------------------------------------------------------------------------------
 
   void pump(Millis now) override {

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -32,6 +33,7 @@
 #include "tether/romi/client.hpp"
 #include "tether/romi/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/transport_error.hpp"
 
 namespace tether::cli {
 
@@ -56,7 +58,9 @@ const CommandText& command_text() {
           "\n"
           "  --timeout MS     total time of the call, retries and log lines included (default 2000, the spec's\n"
           "                   budget; with --config, the configuration's); each attempt waits at most\n"
-          "                   min(MS, 1000) for the answer\n"
+          "                   min(MS, 1000) for the answer. A serial port that is missing or vanishes before\n"
+          "                   the call is sent is waited for that long (not with --no-reconnect); one that\n"
+          "                   vanishes with the call on its way ends it (-33 disconnected: it may have run)\n"
           "  --id N           request id 0..255 (default: random, never 255; with --config, its first_id if\n"
           "                   set). Each run is a new session: a fixed id would make two runs of one command\n"
           "                   look like a repeated request to a device that filters repeated ids (it would\n"
@@ -170,10 +174,28 @@ static int run_call(int argc, char** argv) {
         }
       });
     };
-    auto device = open_device(*target, io.executor(), hooks, progress, error_text);
+    // A serial port that is missing, or vanishes before the call is sent, is waited for within the call's
+    // budget (not with --no-reconnect). A call the device may have received when its port vanished is not
+    // sent again: it may have run.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(romi_options.timing.call_budget);
+    auto device = open_device_within(*target, io.executor(), hooks, progress, deadline, error_text);
     if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");
     const auto client = device->client_as<romi::Client>();
-    response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
+    const auto call = [&] {
+      response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
+    };
+    call();
+    while (error == transports::TransportError::disconnected && response.attempts == 0 &&
+           wait_for_port(*device, deadline, progress)) {
+      call();
+    }
+    if (error == transports::TransportError::disconnected) {
+      response.message += response.attempts == 0
+                              ? ": the port was not back within the call's budget (" +
+                                    std::to_string(romi_options.timing.call_budget) + " ms)"
+                              : ": the port vanished with the call on its way (the device may have run it: not sent "
+                                "again)";
+    }
     device->close();
   }
 

@@ -722,6 +722,17 @@ class ClientImpl final : public client::ClientLink {
   }
 
   void fail_all(const error_code& error) {
+    fail_waiting(error);
+    std::map<std::uint64_t, StreamEntry> streams = std::move(streams_);
+    streams_.clear();
+    publish_streams();
+    for (auto& [key, entry] : streams) {
+      if (delivering(key)) call_stream_handler(entry.handler, error, StreamMessage());
+    }
+  }
+
+  // Every call, open, close and readiness wait fails with `error`; the streams stay (fail_all ends them).
+  void fail_waiting(const error_code& error) {
     ops_.fail_all([&](Ops::Operation& op) {
       CallResult result;
       if (op.state.stage == Op::Stage::in_flight) {
@@ -735,12 +746,6 @@ class ClientImpl final : public client::ClientLink {
     in_flight_.clear();
     abort_writes(error);
     established_ = false;
-    std::map<std::uint64_t, StreamEntry> streams = std::move(streams_);
-    streams_.clear();
-    publish_streams();
-    for (auto& [key, entry] : streams) {
-      if (delivering(key)) call_stream_handler(entry.handler, error, StreamMessage());
-    }
   }
 
   void on_cancel(OperationId operation) override {
@@ -929,9 +934,23 @@ class ClientImpl final : public client::ClientLink {
 
   void on_timer() override { pump(now()); }
   void on_link_failed(const error_code& error) override {
-    fail_all(error);
+    // A supervised port that vanished is away, not gone: what waits fails, but the streams stay the
+    // application's and are opened again on the device once the port is back (on_link_restored).
+    if (error == transports::TransportError::disconnected) {
+      fail_waiting(error);
+    } else {
+      fail_all(error);
+    }
     emit(events::LinkFailed{error});
     publish();
+  }
+  // The device may have lost power with its port (its streams closed, a new session whose Hello went
+  // nowhere): the session starts again as at the open (Hello, then every stream opened again).
+  void on_link_restored() override {
+    const Millis now = this->now();
+    lose_session();
+    monitor_.start(now);
+    pump(now);
   }
   void on_closed() override {
     fail_all(asio::error::operation_aborted);

@@ -32,6 +32,7 @@
 #include "rpc_text.hpp"
 #include "tether/rpc/plugin.hpp"
 #include "tether/transports/io_thread.hpp"
+#include "tether/transports/transport_error.hpp"
 
 namespace tether::cli {
 
@@ -58,7 +59,9 @@ const CommandText& rpc_call_text() {
           "\n"
           "  --timeout MS     a call: its whole budget, re-sends included (default 2000, or the configuration's\n"
           "                   call_budget_ms); a stream: the longest wait for its next message (default 2000 +\n"
-          "                   3 periods)\n"
+          "                   3 periods). A serial port that is missing or vanishes before the call is sent is\n"
+          "                   waited for within the budget (not with --no-reconnect); one that vanishes with\n"
+          "                   the call on its way ends it (disconnected: the device may have run it)\n"
           "  --period MS      a stream method's period, 1..65535 (required for one)\n"
           "  --count N        a stream: stop after N messages (default: until Ctrl-C)\n"
           "  --json           one JSON object per outcome: {\"method\":\"MoveJoint\",\"reply\":{...},\"message_id\":N,\n"
@@ -227,7 +230,12 @@ static int run_rpc_call(int argc, char** argv) {
 
   transports::IoThread io;
   Progress progress("call");
-  auto device = open_device(*target, io.executor(), ClientHooks(), progress, error_text);
+  // A serial port that is missing, or vanishes before the call is sent, is waited for within the call's
+  // budget (not with --no-reconnect). A call the device may have received when its port vanished is not
+  // sent again: it may have run.
+  const std::uint32_t budget_ms = options.client.timing.call_budget;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(budget_ms);
+  auto device = open_device_within(*target, io.executor(), ClientHooks(), progress, deadline, error_text);
   if (!device) return text.fail("cannot open " + error_text + " (" + target->label + ")");
   const auto client = device->client_as<rpc::Client>();
   // The client's own request type (its pool): the same fields, so the bytes carry over.
@@ -238,7 +246,17 @@ static int run_rpc_call(int argc, char** argv) {
     status = run_rpc_stream(*client, *method, *typed, arguments);
   } else {
     rpc::error_code error;
-    const rpc::CallResult result = client->call(method->name, *typed, error);
+    rpc::CallResult result = client->call(method->name, *typed, error);
+    while (error == transports::TransportError::disconnected && result.attempts == 0 &&
+           wait_for_port(*device, deadline, progress)) {
+      result = client->call(method->name, *typed, error);
+    }
+    std::string because;
+    if (error == transports::TransportError::disconnected) {
+      because = result.attempts == 0 ? " (the port was not back within the call's budget, " + std::to_string(budget_ms) + " ms)"
+                                     : " (the port vanished with the call on its way: the device may have run it, "
+                                       "so it is not sent again)";
+    }
     if (!error) {
       const std::string reply = rpc_message_json(*result.reply);
       std::printf("%s\n", arguments.json ? dump({{"method", method->name},
@@ -252,7 +270,7 @@ static int run_rpc_call(int argc, char** argv) {
       status = error == rpc::RpcError::device_error ? 1 : 2;
     } else {
       if (arguments.json) std::printf("%s\n", dump({{"method", method->name}, {"error", error.message()}}).c_str());
-      status = text.fail(method->name + ": " + error.message());
+      status = text.fail(method->name + ": " + error.message() + because);
     }
   }
   device->close();

@@ -98,6 +98,11 @@
 ///   | `ProxyError::wrong_mode`, `invalid_message`, `reserved_message`, `message_too_large`, `too_many_inits` | rejected before anything was written |
 ///   | `asio::error::operation_aborted` | `close()` (or the client's destruction) |
 ///   | the transport's error (eof, EIO, broken_pipe, ...) | the link failed |
+///   | `transports::TransportError::disconnected` | a supervised serial port vanished (in flight, or sent during the outage) |
+///
+/// When a supervised port is back after an outage the device may have lost power with it: primary runs
+/// the handshake of an open (Reset, ResetEvent, every registered init replayed, `SessionEstablished` with
+/// `first` false); compat replays the inits (with `compat_replay_on_reset`), as if its RESET had arrived.
 ///
 /// ## Events (`on_event`)
 /// Handlers receive an `Event` (a variant; see `events::`). Contract (`client::EventHandlers`, as for
@@ -333,7 +338,8 @@ struct UndecodableMessage {
   /// its oneof is unset or unknown to this schema (`unknown_messages`; newer firmware).
   bool malformed = true;
 };
-/// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done.
+/// The link failed (read or write error, EOF): every pending send failed with `error`; the client is done,
+/// unless `error` is `disconnected` (a supervised port vanished: the client goes on when it is back).
 using LinkFailed = client::LinkFailed;
 }  // namespace events
 

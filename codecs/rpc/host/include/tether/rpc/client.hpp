@@ -53,6 +53,12 @@
 ///   | `RpcError::unknown_method`, `wrong_kind`, `invalid_request`, `request_too_large` | rejected before anything was written |
 ///   | `asio::error::operation_aborted` | `close()` or the client's destruction |
 ///   | the transport's error | the link failed |
+///   | `transports::TransportError::disconnected` | a supervised serial port vanished (in flight, or called during the outage) |
+///
+/// ## A port that comes back (serial_port_stream.hpp's supervision)
+/// During an outage calls fail with `disconnected` at once and the streams stay open (their handlers get
+/// nothing). When the port is back the client starts a session as at the open (the device may have lost
+/// power with its port): Hello, then every stream opened again on the device, its `seq` from 0.
 ///
 /// ## Events, threading and lifetime: as `proxy::Client` (client_skeleton.hpp's contracts). Stream handlers
 /// run on the client's strand like event handlers, under the same contract.
@@ -187,7 +193,8 @@ struct StreamMessage {
 /// A stream's handler. Contract:
 ///   1. Called on the client's strand, in arrival order, with no error for each message.
 ///   2. Called once more, with the error, when the stream ends by itself (a device error or refusal, the
-///      link failed, the client closed, the schema does not match); never once `Stream::close()` returned,
+///      link failed for good, the client closed, the schema does not match; a supervised port's outage is
+///      not an end: the stream comes back with the port); never once `Stream::close()` returned,
 ///      except a call already running on another thread then (as event handlers, client_skeleton.hpp).
 ///   3. Must not block for long and must not call the blocking forms of the client; exceptions are caught
 ///      and dropped.
@@ -264,7 +271,7 @@ struct SchemaMismatch {
 struct DeviceErrorReport {
   DeviceError error;  ///< Its code and text.
 };
-/// The link failed.
+/// The link failed (`disconnected`: a supervised port vanished; the client goes on when it is back).
 using LinkFailed = client::LinkFailed;
 }  // namespace events
 
