@@ -69,6 +69,10 @@ void SerialPortStream::boot(SteadyClock::time_point opened, BootHandler done) {
   replay_.clear();
   const bool waits = options_.boot != BootMode::none && options_.boot_wait.count() > 0;
   if (waits && options_.boot == BootMode::detect && options_.boot_signature.usable()) {
+    // Bytes queued before this open (a pty keeps what a board printed while nobody had it open) are no
+    // announcement of the boot this open caused: an old ResetEvent would end the wait at once, during the
+    // bootloader, and the client's first bytes would be lost in it.
+    ::tcflush(object_.native_handle(), TCIFLUSH);
     boot_done_ = std::move(done);
     detector_ = std::make_unique<BootDetector>(options_.boot_signature, options_.boot_wait, opened);
     boot_read();
