@@ -127,7 +127,7 @@ void parse_reconnect(const Node& node, transports::ReconnectOptions& reconnect) 
 SerialTransport parse_serial(const Node& node, Codec codec) {
   const Object object(node);
   object.allow_only({"path", "port", "baud", "boot_wait_ms", "ready_banner", "boot_timeout_ms", "discard_boot_noise",
-                     "low_latency", "exclusive", "hang_up_on_close", "reconnect"});
+                     "low_latency", "exclusive", "hang_up_on_close", "reconnect", "boot"});
   SerialTransport serial;
   if (auto v = object.optional("port")) parse_port(*v, serial);
   if (auto v = object.optional("path"); v || (serial.usb.empty() && serial.by_id.empty())) {
@@ -136,6 +136,20 @@ SerialTransport parse_serial(const Node& node, Codec codec) {
   serial.options.baud = default_baud(codec);
   if (auto v = object.optional("baud")) serial.options.baud = read_baud(*v);
   if (auto v = object.optional("boot_wait_ms")) serial.options.boot_wait = std::chrono::milliseconds(read_ms(*v));
+  // Detect by default where the codec knows its firmware's boot (codecs.hpp, CodecRow::boot): the
+  // boot_wait is then the upper bound, reached only by a board that never says it booted.
+  const CodecRow& row = codec_row(codec);
+  serial.options.boot = row.boot.usable() ? transports::BootMode::detect : transports::BootMode::fixed;
+  if (auto v = object.optional("boot")) {
+    const std::string text = read_string(*v);
+    const auto mode = transports::parse_boot_mode(text);
+    if (!mode) fail(v->path, "expected \"detect\", \"fixed\" or \"none\", got " + quote_json(text));
+    if (*mode == transports::BootMode::detect && !row.boot.usable()) {
+      fail(v->path, "codec " + std::string(row.name) +
+                        "'s firmware announces nothing at boot and has no probe: use \"fixed\" (boot_wait_ms)");
+    }
+    serial.options.boot = *mode;
+  }
   if (auto v = object.optional("ready_banner")) serial.options.ready_banner = read_string(*v);
   if (auto v = object.optional("boot_timeout_ms")) {
     serial.options.boot_timeout = std::chrono::milliseconds(read_ms(*v, 1));

@@ -40,8 +40,10 @@ std::string device_path(std::size_t index) { return "devices[" + std::to_string(
 
 // --- transports ---------------------------------------------------------------------------------------------
 
-std::shared_ptr<transports::SerialPortStream> open_serial(const SerialTransport& serial, const std::string& path,
+std::shared_ptr<transports::SerialPortStream> open_serial(SerialTransport serial, Codec codec, const std::string& path,
                                                     const boost::asio::any_io_executor& executor) {
+  // The codec's firmware says what its boot looks like, unless the program gave a signature of its own.
+  if (!serial.options.boot_signature.usable()) serial.options.boot_signature = codec_row(codec).boot;
   error_code error;
   std::string message;
   const std::string port = transports::resolve_port(serial.port(), error, &message);
@@ -84,7 +86,7 @@ OpenedTransport open_device_transport(const DeviceConfig& device, const std::str
   OpenedTransport opened;
   try {
     if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
-      opened.port = open_serial(*serial, transport_path + ".serial", executor);
+      opened.port = open_serial(*serial, device.codec, transport_path + ".serial", executor);
       opened.stream = opened.port;
     } else if (const auto* tcp = std::get_if<TcpTransport>(&device.transport)) {
       opened.stream = open_tcp(*tcp, transport_path + ".tcp", executor);

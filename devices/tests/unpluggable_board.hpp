@@ -1,19 +1,23 @@
 // What the reconnect tests share: a virtual Uno (or a ring of them) behind a pty named by a stable by-id
 // symlink in a fake port tree, which a test unplugs (the pty's master closed, the name removed) and plugs
 // back under another /dev/pts/N; and a log of the port's link events to wait on. Nothing here sleeps to
-// decide anything: waits are for events and bytes, with limits that only bound a hang.
+// decide anything: waits are for events and bytes, with limits that only bound a hang. Optionally the first
+// board resets when the host opens its port, as an Uno's DTR does (`reset_on_open`), with a bootloader.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <sys/inotify.h>
 #include <unistd.h>
 
 #include <boost/asio/buffer.hpp>
+#include <boost/asio/posix/stream_descriptor.hpp>
 
 #include <array>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -38,10 +42,11 @@ using namespace std::chrono_literals;
 inline constexpr auto kHangLimit = 20s;  // only bounds a hang; nothing waits this long when it works
 inline constexpr const char* kById = "usb-Tether_Virtual_Uno_4242-if00";
 
-/// One board of an UnpluggableBoard: its image and, optionally, its EEPROM.
+/// One board of an UnpluggableBoard: its image and, optionally, its EEPROM and a bootloader.
 struct BoardImage {
   std::filesystem::path firmware;  ///< an .elf path
   std::vector<std::uint8_t> eeprom;
+  std::filesystem::path bootloader{};  ///< Intel HEX (optiboot), started by every external reset
 };
 
 /// `name.elf` in the build's firmware folder.
@@ -68,6 +73,7 @@ class UnpluggableBoard {
     for (const BoardImage& image : images) {
       transports::VirtualUnoOptions options;
       options.firmware = image.firmware;
+      options.bootloader = image.bootloader;
       options.pacing = transports::Pacing::real_time;
       options.name = "unpluggable[" + std::to_string(boards_.size()) + "]";
       std::error_code error;
@@ -111,6 +117,27 @@ class UnpluggableBoard {
   /// Board `i` (0: the one the host writes to).
   transports::VirtualUno& board(std::size_t i = 0) { return *boards_.at(i); }
 
+  /// From now on, every open of the plugged port by the host (the first open and each re-open) resets the
+  /// first board (ResetKind::external), as an Uno's DTR does: with a bootloader, it runs first. A pty has no
+  /// modem lines, so the open (inotify IN_OPEN on the slave, opened by the harness before) stands for DTR.
+  void reset_on_open() {
+    std::shared_ptr<transports::PtyStream> pty;
+    std::uint64_t generation = 0;
+    {
+      std::lock_guard lock(mutex_);
+      reset_on_open_ = true;
+      pty = pty_;
+      generation = generation_;
+    }
+    if (pty) watch_opens(pty->slave_path(), generation);
+  }
+
+  /// Resets by `reset_on_open` so far.
+  std::uint64_t open_resets() {
+    std::lock_guard lock(mutex_);
+    return open_resets_;
+  }
+
   /// A new pty behind the by-id name; returns its slave path.
   std::string plug() {
     auto pty = spare_ ? std::move(spare_) : transports::PtyStream::open(io_.executor());
@@ -122,6 +149,12 @@ class UnpluggableBoard {
       generation = ++generation_;
     }
     read_loop(pty, generation);
+    bool watch = false;
+    {
+      std::lock_guard lock(mutex_);
+      watch = reset_on_open_;
+    }
+    if (watch) watch_opens(pty->slave_path(), generation);
     tree_.add_by_id(kById, pty->slave_path());
     return pty->slave_path();
   }
@@ -136,6 +169,12 @@ class UnpluggableBoard {
     }
     tree_.remove_by_id(kById);
     if (pty) pty->close();
+    std::shared_ptr<boost::asio::posix::stream_descriptor> watcher;
+    {
+      std::lock_guard lock(mutex_);
+      watcher = std::move(watcher_);
+    }
+    if (watcher) boost::asio::post(watcher->get_executor(), [watcher] { watcher->close(); });
   }
   /// What an unplugged USB-powered Uno goes through: a power cycle of the first board (its RAM, so its
   /// session, gone), and back once its firmware listens again.
@@ -169,6 +208,46 @@ class UnpluggableBoard {
     }
   }
 
+  // Resets the first board at each IN_OPEN of `slave` while generation `generation` is plugged.
+  void watch_opens(const std::string& slave, std::uint64_t generation) {
+    const int fd = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+    if (fd < 0 || ::inotify_add_watch(fd, slave.c_str(), IN_OPEN) < 0) {
+      if (fd >= 0) ::close(fd);
+      ADD_FAILURE() << "inotify on " << slave << " failed";
+      return;
+    }
+    auto watcher = std::make_shared<boost::asio::posix::stream_descriptor>(io_.executor(), fd);
+    {
+      std::lock_guard lock(mutex_);
+      if (watcher_) boost::asio::post(watcher_->get_executor(), [old = watcher_] { old->close(); });
+      watcher_ = watcher;
+    }
+    read_opens(watcher, generation);
+  }
+  void read_opens(const std::shared_ptr<boost::asio::posix::stream_descriptor>& watcher, std::uint64_t generation) {
+    auto buffer = std::make_shared<std::array<char, 1024>>();
+    watcher->async_read_some(boost::asio::buffer(*buffer), [this, watcher, generation, buffer](
+                                                               boost::system::error_code error, std::size_t size) {
+      if (error) return;  // closed (unplugged)
+      bool opened = false;
+      for (std::size_t at = 0; at + sizeof(inotify_event) <= size;) {
+        inotify_event event;
+        std::memcpy(&event, buffer->data() + at, sizeof event);
+        if ((event.mask & IN_OPEN) != 0) opened = true;
+        at += sizeof(inotify_event) + event.len;
+      }
+      {
+        std::lock_guard lock(mutex_);
+        if (generation != generation_ || !pty_) return;
+        if (opened) {
+          ++open_resets_;
+          boards_.front()->reset(transports::ResetKind::external);
+        }
+      }
+      read_opens(watcher, generation);
+    });
+  }
+
   void read_loop(const std::shared_ptr<transports::PtyStream>& pty, std::uint64_t generation) {
     auto buffer = std::make_shared<std::array<std::uint8_t, 256>>();
     pty->async_read_some(boost::asio::buffer(*buffer), [this, pty, generation, buffer](boost::system::error_code error,
@@ -199,6 +278,9 @@ class UnpluggableBoard {
   std::uint64_t generation_ = 0;
   bool held_ = false;
   std::string held_bytes_;
+  bool reset_on_open_ = false;
+  std::shared_ptr<boost::asio::posix::stream_descriptor> watcher_;
+  std::uint64_t open_resets_ = 0;
 };
 
 /// Link events as they come, for waiting on them.

@@ -140,13 +140,16 @@ struct Transport {
 };
 
 /// Serial port options from keyword arguments (`baud`, `boot_wait` seconds, `ready_banner`, `reconnect`,
-/// `max_attempts`).
+/// `max_attempts`, `boot`), and the codec's boot signature (a client's; none for `tether.transports.serial`).
 struct SerialArguments {
   unsigned baud = 115200;
   double boot_wait = 2.0;
   std::string ready_banner;
   bool reconnect = true;
   unsigned max_attempts = 0;
+  /// `"detect"`, `"fixed"`, `"none"`; unset: detect where `signature` is usable, else fixed.
+  std::optional<std::string> boot = std::nullopt;
+  transports::BootSignature signature = {};
 };
 
 /// A link event as a Python dict: `{"kind": "down"|"up"|"gave_up", "reason", "path", "down_ms", "attempts"}`.

@@ -96,6 +96,16 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   transports::SerialOptions options;
   options.baud = serial.baud;
   options.boot_wait = std::chrono::milliseconds(static_cast<long>(serial.boot_wait * 1000.0));
+  options.boot_signature = serial.signature;
+  options.boot = serial.signature.usable() ? transports::BootMode::detect : transports::BootMode::fixed;
+  if (serial.boot) {
+    const auto mode = transports::parse_boot_mode(*serial.boot);
+    if (!mode) throw py::value_error("boot must be 'detect', 'fixed' or 'none', got '" + *serial.boot + "'");
+    if (*mode == transports::BootMode::detect && !serial.signature.usable()) {
+      throw py::value_error("boot='detect' needs a codec that knows its firmware's boot (a romi, proxy or rpc client)");
+    }
+    options.boot = *mode;
+  }
   options.ready_banner = serial.ready_banner;
   options.reconnect.enabled = serial.reconnect;
   options.reconnect.max_attempts = serial.max_attempts;
@@ -118,12 +128,15 @@ py::dict link_event_dict(const transports::LinkEvent& event) {
                      : event.kind == transports::LinkEvent::Kind::up ? "up"
                                                                       : "gave_up";
   return py::dict("kind"_a = kind, "reason"_a = event.reason, "path"_a = event.path,
-                  "down_ms"_a = event.down_for.count(), "attempts"_a = event.attempts);
+                  "down_ms"_a = event.down_for.count(), "attempts"_a = event.attempts,
+                  "ready_after_ms"_a = event.boot.ready_after.count());
 }
 
 py::dict link_counters_dict(const transports::LinkCounters& counters) {
   return py::dict("disconnects"_a = counters.disconnects, "reconnects"_a = counters.reconnects,
-                  "time_down_ms"_a = counters.time_down.count(), "up"_a = counters.up, "gave_up"_a = counters.gave_up);
+                  "time_down_ms"_a = counters.time_down.count(), "up"_a = counters.up, "gave_up"_a = counters.gave_up,
+                  "ready_after_ms"_a = counters.last_boot.ready_after.count(),
+                  "boot"_a = transports::to_string(counters.last_boot.outcome));
 }
 
 namespace {

@@ -214,14 +214,16 @@ void register_transports(py::module_& parent) {
   module.def(
       "serial",
       [](const std::string& path, unsigned baud, double boot_wait, const std::string& ready_banner, bool reconnect,
-         unsigned max_attempts) {
-        return open_serial(path, SerialArguments{baud, boot_wait, ready_banner, reconnect, max_attempts});
+         unsigned max_attempts, std::optional<std::string> boot) {
+        return open_serial(path, SerialArguments{baud, boot_wait, ready_banner, reconnect, max_attempts, boot});
       },
       py::arg("path"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
       py::arg("ready_banner") = "", py::arg("reconnect") = true, py::arg("max_attempts") = 0u,
+      py::arg("boot") = py::none(),
       "Opens a serial port (raw 8N1, exclusive). An Uno resets when its port opens: ``boot_wait`` seconds are "
       "waited and what it printed meanwhile is dropped, or, with ``ready_banner``, the port is ready once the "
-      "firmware printed it. A port that vanishes (unplugged) is re-opened when it is back (``reconnect``, "
+      "firmware printed it. ``boot``: 'fixed' (the default here: a bare port knows no codec) or 'none' (no wait; "
+      "a client's ``boot='detect'`` waits for its firmware's boot instead). A port that vanishes (unplugged) is re-opened when it is back (``reconnect``, "
       "at most ``max_attempts`` attempts per outage, 0: forever); meanwhile calls raise DisconnectedError. "
       "Raises FileNotFoundError/PermissionError/OSError, TransportError (bad baud, banner not seen: "
       "TransportTimeoutError).");

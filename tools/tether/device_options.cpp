@@ -85,8 +85,11 @@ std::string device_usage(std::string_view port_codec) {
       "  --port PATH         a serial port, or a pty (the one `tether sim` prints); with:\n"
       "    --codec C         " + codec_choices() + " (default: " + port_default + ")\n"
       "    --baud N          line speed (default 115200" + texts.bauds + ")\n"
-      "    --boot-wait MS    wait after opening and drop what the board printed meanwhile (default 0; 2000 for\n"
-      "                      an Arduino Uno, which resets when the port opens)\n"
+      "    --boot-wait MS    wait for the board after opening, at most MS (default 0: no wait; 2000 for an\n"
+      "                      Arduino Uno, which resets when the port opens)\n"
+      "    --boot MODE       how: detect (default where the codec knows its firmware's boot: ready when it\n"
+      "                      announces itself or answers a probe, MS the upper bound), fixed (wait MS, drop\n"
+      "                      what it printed), none\n"
       "  --config FILE --device NAME\n"
       "                      device NAME of a rover configuration (JSON, docs/examples/); its transport, codec\n"
       "                      and options come from the file (bare firmware names resolve in the firmware folder)\n"
@@ -140,7 +143,7 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
     options.reconnect = false;
     return OptionParse::consumed;
   }
-  static constexpr std::string_view kWithValue[] = {"--port",   "--baud",   "--codec",  "--boot-wait",
+  static constexpr std::string_view kWithValue[] = {"--port",   "--baud",   "--codec",  "--boot-wait", "--boot",
                                                     "--config", "--device", "--virtual"};
   const CodecFlag* const flag = find_codec_flag(argument);
   if (flag == nullptr && std::find(std::begin(kWithValue), std::end(kWithValue), argument) == std::end(kWithValue)) {
@@ -167,6 +170,9 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
   } else if (argument == "--boot-wait") {
     options.boot_wait_ms = parse_number(value, 0, 60000);
     if (!options.boot_wait_ms) return bad("milliseconds (0..60000)");
+  } else if (argument == "--boot") {
+    options.boot = transports::parse_boot_mode(value);
+    if (!options.boot) return bad("detect, fixed or none");
   } else if (argument == "--config") {
     if (value.empty()) return bad("a file");
     options.config_file = value;
@@ -233,7 +239,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   if (config) {
     for (const auto& [given, name] :
          {std::pair{options.codec.has_value(), "--codec"}, std::pair{options.baud.has_value(), "--baud"},
-          std::pair{options.boot_wait_ms.has_value(), "--boot-wait"}}) {
+          std::pair{options.boot_wait_ms.has_value(), "--boot-wait"}, std::pair{options.boot.has_value(), "--boot"}}) {
       if (given) {
         error = std::string(name) + " does not apply with --config (the configuration sets it)";
         return std::nullopt;
@@ -286,8 +292,9 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
       error = "--baud does not apply to --virtual (a virtual board has no line speed to set)";
       return std::nullopt;
     }
-    if (options.boot_wait_ms) {
-      error = "--boot-wait does not apply to --virtual (the board is ready when it opens)";
+    if (options.boot_wait_ms || options.boot) {
+      error = std::string(options.boot ? "--boot" : "--boot-wait") +
+              " does not apply to --virtual (the board is ready when it opens)";
       return std::nullopt;
     }
   }
@@ -329,6 +336,12 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     return std::nullopt;
   }
   const std::uint32_t baud = options.baud.value_or(devices::codec_row(codec).default_baud);
+  const bool detects = devices::codec_row(codec).boot.usable();
+  if (options.boot == transports::BootMode::detect && !detects) {
+    error = "--boot detect: codec " + std::string(devices::to_string(codec)) +
+            "'s firmware announces nothing at boot and has no probe (use --boot fixed)";
+    return std::nullopt;
+  }
   target.config.codec = codec;
   try {
     target.config.options = commands.default_options(baud, options);
@@ -342,6 +355,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
     serial.options = transports::SerialOptions();
     serial.options.baud = baud;
     serial.options.boot_wait = std::chrono::milliseconds(options.boot_wait_ms.value_or(0));
+    serial.options.boot = options.boot.value_or(detects ? transports::BootMode::detect : transports::BootMode::fixed);
     serial.options.reconnect.enabled = options.reconnect;
     target.config.name = options.port;
     target.config.transport = serial;
@@ -366,6 +380,14 @@ nlohmann::ordered_json OpenDevice::counters() const {
     counters["port"] = {{"disconnects", link.disconnects},
                         {"reconnects", link.reconnects},
                         {"time_down_ms", link.time_down.count()}};
+  }
+  if (port_ && port_->options().boot != transports::BootMode::none && port_->options().boot_wait.count() > 0) {
+    // The last open's (a re-open's after an outage): how long the board took to be ready, and how it said so.
+    const transports::BootReport boot = port_->boot_report();
+    counters["boot"] = {{"mode", transports::to_string(boot.mode)},
+                        {"outcome", transports::to_string(boot.outcome)},
+                        {"ready_after_ms", boot.ready_after.count()},
+                        {"probes", boot.probes}};
   }
   return counters;
 }

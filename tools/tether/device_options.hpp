@@ -38,6 +38,7 @@ struct DeviceOptions {
   std::optional<std::uint32_t> baud;             ///< --baud
   std::optional<devices::Codec> codec;           ///< --codec
   std::optional<std::uint32_t> boot_wait_ms;     ///< --boot-wait
+  std::optional<transports::BootMode> boot;      ///< --boot
   std::string config_file;                       ///< --config
   std::string device;                            ///< --device
   std::string firmware;                          ///< --virtual

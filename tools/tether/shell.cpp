@@ -360,9 +360,26 @@ int run_shell(int argc, char** argv) {
     return 0;
   }
 
+  const auto boot_line = [](const transports::BootReport& boot) {
+    std::string text = "ready after " + std::to_string(boot.ready_after.count()) + " ms";
+    if (boot.outcome == transports::BootOutcome::announced) text += " (the board announced its boot)";
+    if (boot.outcome == transports::BootOutcome::probed) text += " (it answered probe " + std::to_string(boot.probes) + ")";
+    if (boot.outcome == transports::BootOutcome::waited) text += " (fixed boot wait)";
+    if (boot.outcome == transports::BootOutcome::upper_bound) text += " (no sign of a boot: the whole boot wait)";
+    return text;
+  };
+  const auto boot_fields = [](const transports::BootReport& boot) {
+    return nlohmann::ordered_json{{"ready_after_ms", boot.ready_after.count()},
+                                  {"mode", transports::to_string(boot.mode)},
+                                  {"outcome", transports::to_string(boot.outcome)}};
+  };
+  const auto& opened_port = device->port();
+  const bool boot_waits = opened_port && opened_port->options().boot != transports::BootMode::none &&
+                          opened_port->options().boot_wait.count() > 0;
   if (const auto& port = device->port(); port && port->options().reconnect.enabled) {
     // The outage as it happens; giving up ends the shell like a failed link.
-    port->add_link_handler([printer, context_failed = context.link_failed](const transports::LinkEvent& event) {
+    port->add_link_handler([printer, context_failed = context.link_failed, boot_waits, boot_line,
+                            boot_fields](const transports::LinkEvent& event) {
       switch (event.kind) {
         case transports::LinkEvent::Kind::down:
           printer.info("link_down", "link down: " + event.reason, {{"reason", event.reason}});
@@ -370,6 +387,7 @@ int run_shell(int argc, char** argv) {
         case transports::LinkEvent::Kind::up:
           printer.info("link_up", "link up after " + std::to_string(event.down_for.count()) + " ms (" + event.path + ")",
                        {{"down_ms", event.down_for.count()}, {"path", event.path}});
+          if (boot_waits) printer.info("ready", boot_line(event.boot), boot_fields(event.boot));
           break;
         case transports::LinkEvent::Kind::gave_up:
           printer.info("link_lost",
@@ -387,6 +405,7 @@ int run_shell(int argc, char** argv) {
   const std::string prompt = interactive ? std::string(devices::to_string(codec)) + "> " : std::string();
   printer.info("open", "connected to " + device->description() + "; :help for help, :quit to leave",
                {{"device", device->description()}, {"codec", std::string(devices::to_string(codec))}});
+  if (boot_waits) printer.info("ready", boot_line(opened_port->boot_report()), boot_fields(opened_port->boot_report()));
   session->greet();
 
   auto reader = std::make_unique<LineReader>(prompt);

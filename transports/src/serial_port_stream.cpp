@@ -5,6 +5,7 @@
 #include <termios.h>
 
 #include <boost/asio/error.hpp>
+#include <boost/asio/write.hpp>
 
 #include <algorithm>
 
@@ -29,6 +30,7 @@ void SerialPortStream::start_open(executor_type executor, const PortSpec& port, 
     asio::post(stream->strand(), [handler = std::move(handler), error]() mutable { handler(error, nullptr); });
     return;
   }
+  const SteadyClock::time_point opened = SteadyClock::now();
   stream->object_.open(path, error);  // open and configure are quick: no need to be asynchronous
   if (!error) stream->configure(error);
   if (error) {
@@ -37,27 +39,129 @@ void SerialPortStream::start_open(executor_type executor, const PortSpec& port, 
     asio::post(stream->strand(), [handler = std::move(handler), error]() mutable { handler(error, nullptr); });
     return;
   }
-  if (options.boot_wait.count() == 0) {
-    asio::dispatch(stream->strand(), [stream, handler = std::move(handler)]() mutable {
+  asio::dispatch(stream->strand(), [stream, opened, handler = std::move(handler)]() mutable {
+    stream->boot(opened, [stream, handler = std::move(handler)](error_code boot_error) mutable {
+      if (boot_error) {
+        error_code ignored;
+        stream->close(ignored);
+        handler(boot_error, nullptr);
+        return;
+      }
       stream->after_boot_wait(std::move(handler));
     });
-    return;
-  }
-  // The board is in its bootloader now: anything sent would be lost.
-  stream->boot_timer_.expires_after(options.boot_wait);
-  stream->boot_timer_.async_wait([stream, handler = std::move(handler)](error_code) mutable {
-    stream->after_boot_wait(std::move(handler));
   });
 }
 
 void SerialPortStream::after_boot_wait(OpenHandler handler) {
   if (options_.ready_banner.empty()) {
-    if (options_.discard_boot_noise && options_.boot_wait.count() > 0) ::tcflush(object_.native_handle(), TCIFLUSH);
     asio::post(strand(), [self = std::static_pointer_cast<SerialPortStream>(shared_from_this()),
                           handler = std::move(handler)]() mutable { handler(error_code(), std::move(self)); });
     return;
   }
   await_banner(std::make_shared<std::string>(), SteadyClock::now() + options_.boot_timeout, std::move(handler));
+}
+
+// --- boot -------------------------------------------------------------------------------------------------
+
+// The board was opened at `opened` (it may be resetting now): wait for it as `options_.boot` says, then
+// `done` (on the strand). An error (the port vanished meanwhile) ends the wait early.
+void SerialPortStream::boot(SteadyClock::time_point opened, BootHandler done) {
+  replay_.clear();
+  const bool waits = options_.boot != BootMode::none && options_.boot_wait.count() > 0;
+  if (waits && options_.boot == BootMode::detect && options_.boot_signature.usable()) {
+    // Bytes queued before this open (a pty keeps what a board printed while nobody had it open) are no
+    // announcement of the boot this open caused: an old ResetEvent would end the wait at once, during the
+    // bootloader, and the client's first bytes would be lost in it.
+    ::tcflush(object_.native_handle(), TCIFLUSH);
+    boot_done_ = std::move(done);
+    detector_ = std::make_unique<BootDetector>(options_.boot_signature, options_.boot_wait, opened);
+    boot_read();
+    boot_apply(detector_->start());
+    return;
+  }
+  BootReport report;
+  report.mode = options_.boot;
+  if (!waits) {
+    boot_finish(report, error_code());
+    done(error_code());
+    return;
+  }
+  // fixed (or detect without a signature): the board is in its bootloader now; anything sent would be lost.
+  boot_done_ = std::move(done);
+  const std::uint64_t generation = ++boot_generation_;
+  boot_timer_.expires_at(opened + options_.boot_wait);
+  boot_timer_.async_wait([this, weak = weak_from_this(), generation, opened](error_code error) {
+    const auto alive = weak.lock();
+    if (!alive || error || closing_ || generation != boot_generation_) return;
+    if (options_.discard_boot_noise) ::tcflush(object_.native_handle(), TCIFLUSH);
+    BootReport waited;
+    waited.mode = options_.boot;
+    waited.outcome = BootOutcome::waited;
+    waited.ready_after = std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now() - opened);
+    boot_finish(waited, error_code());
+  });
+}
+
+void SerialPortStream::boot_read() {
+  object_.async_read_some(
+      asio::buffer(boot_buffer_),
+      asio::bind_executor(strand(), [this, weak = weak_from_this(), generation = boot_generation_](
+                                        error_code error, std::size_t size) {
+        const auto alive = weak.lock();
+        if (!alive || closing_ || generation != boot_generation_ || !detector_) return;
+        if (error) {
+          // The port vanished while the board booted: the open (or re-open) fails with what the OS said.
+          BootReport report = detector_->report();
+          return boot_finish(report, error);
+        }
+        const BootDetector::Step step = detector_->on_bytes(
+            std::string_view(reinterpret_cast<const char*>(boot_buffer_.data()), size), SteadyClock::now());
+        if (!detector_->done()) boot_read();
+        boot_apply(step);
+      }));
+}
+
+void SerialPortStream::boot_apply(BootDetector::Step step) {
+  using Action = BootDetector::Step::Action;
+  if (step.action == Action::ready || step.action == Action::gave_up) {
+    if (step.action == Action::ready) {
+      replay_ = detector_->kept();
+    } else if (options_.discard_boot_noise) {
+      ::tcflush(object_.native_handle(), TCIFLUSH);  // what the fixed wait does
+    }
+    return boot_finish(detector_->report(), error_code());
+  }
+  if (step.action == Action::probe) {
+    // Small and rare: a plain write; an error shows on the read (the port vanished).
+    error_code ignored;
+    asio::write(object_, asio::buffer(options_.boot_signature.probe), ignored);
+  }
+  boot_timer_.expires_at(step.wake);
+  boot_timer_.async_wait([this, weak = weak_from_this(), generation = boot_generation_](error_code error) {
+    const auto alive = weak.lock();
+    if (!alive || error || closing_ || generation != boot_generation_ || !detector_) return;
+    boot_apply(detector_->on_timer(SteadyClock::now()));
+  });
+}
+
+void SerialPortStream::boot_finish(BootReport report, const error_code& error) {
+  ++boot_generation_;  // the detection's read and timer, still pending, find they are stale
+  if (detector_) {
+    error_code ignored;
+    boot_timer_.cancel();
+    object_.cancel(ignored);  // the detection's read: the client's reads start afresh
+    detector_.reset();
+  }
+  if (!error) {
+    std::lock_guard lock(mutex_);
+    counters_.last_boot = report;
+  }
+  if (auto done = std::move(boot_done_)) done(error);
+}
+
+BootReport SerialPortStream::boot_report() const {
+  std::lock_guard lock(mutex_);
+  return counters_.last_boot;
 }
 
 void SerialPortStream::await_banner(std::shared_ptr<std::string> seen, SteadyClock::time_point deadline,
@@ -176,6 +280,13 @@ void SerialPortStream::do_read(asio::mutable_buffer buffer, IoHandler handler) {
     asio::post(strand(), [handler = std::move(handler), notice]() mutable { handler(notice, 0); });
     return;
   }
+  if (!replay_.empty() && !down_) {
+    const std::size_t size = std::min(buffer.size(), replay_.size());
+    std::copy_n(replay_.data(), size, static_cast<char*>(buffer.data()));
+    replay_.erase(0, size);
+    asio::post(strand(), [handler = std::move(handler), size]() mutable { handler(error_code(), size); });
+    return;
+  }
   if (gave_up_) {
     asio::post(strand(), [handler = std::move(handler), error = gave_up_]() mutable { handler(error, 0); });
     return;
@@ -235,6 +346,7 @@ void SerialPortStream::on_io_error(std::uint64_t connection, const error_code& e
 
 void SerialPortStream::lose(const error_code& error) {
   down_ = true;
+  replay_.clear();
   ++connection_;
   error_code ignored;
   object_.close(ignored);  // a read in flight completes (aborted) and carries the notice
@@ -281,6 +393,7 @@ void SerialPortStream::attempt() {
   std::string message;
   const std::string path = resolve_port(spec_, error, &message);
   if (error) return retry_later(message);
+  const SteadyClock::time_point opened = SteadyClock::now();
   object_.open(path, error);
   if (!error) configure(error);
   if (error) {
@@ -292,13 +405,13 @@ void SerialPortStream::attempt() {
     std::lock_guard lock(mutex_);
     path_ = path;
   }
-  if (options_.boot_wait.count() == 0) return become_up();
-  boot_timer_.expires_after(options_.boot_wait);
-  boot_timer_.async_wait([this, weak = weak_from_this()](error_code wait_error) {
+  boot(opened, [this, weak = weak_from_this(), path](error_code boot_error) {
     const auto alive = weak.lock();
-    if (!alive || wait_error || closing_) return;
-    if (options_.discard_boot_noise) ::tcflush(object_.native_handle(), TCIFLUSH);
-    become_up();
+    if (!alive || closing_) return;
+    if (!boot_error) return become_up();
+    error_code ignored;
+    object_.close(ignored);
+    retry_later(path + ": " + boot_error.message());
   });
 }
 
@@ -345,6 +458,7 @@ void SerialPortStream::become_up() {
     outage_running_ = false;
     event.down_for = down_for;
     event.path = path_;
+    event.boot = counters_.last_boot;
   }
   if (!parked_) {
     owe(make_error_code(TransportError::reconnected));

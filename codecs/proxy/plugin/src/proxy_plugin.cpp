@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string_view>
 #include <string>
 #include <utility>
 #include <variant>
@@ -216,6 +217,24 @@ void await_proxy(const devices::DeviceClient& device_client, const devices::Devi
 
 }  // namespace
 
+
+transports::BootSignature boot_signature() {
+  transports::BootSignature signature;
+  signature.name = "ResetEvent frame";
+  // 0x00, then a whole COBS frame (code byte, CRC, payload: no 0x00 inside) and its 0x00 delimiter: where
+  // the first 0x00 is, so the frame reaches the client, whose session starts from it.
+  signature.find_announcement = [](std::string_view received) -> std::optional<std::size_t> {
+    for (std::size_t start = received.find('\0'); start != std::string_view::npos;
+         start = received.find('\0', start + 1)) {
+      const std::size_t end = received.find('\0', start + 1);
+      if (end == std::string_view::npos) return std::nullopt;
+      if (end - start > 3) return start;
+    }
+    return std::nullopt;
+  };
+  return signature;
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   std::vector<devices::CodecRow> rows(2);
   // proxy and proxy-compat: one client and parser, the mode from the codec.
@@ -236,6 +255,7 @@ std::vector<devices::CodecRow> codec_rows() {
   rows[0].option_keys = {
       "baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms", "max_sends", "queue_timeout_ms",
       "ping_period_ms", "reset_timeout_ms", "open_timeout_ms",      "inits"};
+  rows[0].boot = boot_signature();
   fill(rows[1], kCompatCodec, "proxy-compat", "proxy::Client (proxy::Options::compat())");
   rows[1].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[1].default_baud = 57600;  // the deployed firmware's

@@ -1,5 +1,7 @@
 // The Romi codec's plugin (plugin.hpp): its options in a configuration and its client on a device's stream.
+#include <chrono>
 #include <memory>
+#include <string_view>
 #include <string>
 #include <utility>
 
@@ -40,6 +42,21 @@ devices::DeviceClient open(std::shared_ptr<transports::ByteStream> stream, const
 
 }  // namespace
 
+transports::BootSignature boot_signature() {
+  transports::BootSignature signature;
+  signature.name = "probe #\\r\\n";
+  signature.probe = "#\r\n";
+  signature.probe_answered = [](std::string_view received) {
+    const std::size_t start = received.find('#');
+    return start != std::string_view::npos && received.find("\r\n", start) != std::string_view::npos;
+  };
+  // Past optiboot's 1 s window, and never faster than it: every byte optiboot receives restarts that
+  // window (measured on the virtual Uno: probes every 100 ms from 1.0 s kept it alive until 2.1 s).
+  signature.silence = std::chrono::milliseconds(1200);
+  signature.probe_interval = std::chrono::milliseconds(1100);
+  return signature;
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -50,6 +67,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.parse_options = parse;
   row.validate = validate;
   row.open = open;
+  row.boot = boot_signature();
   return {row};
 }
 

@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string_view>
 #include <string>
 #include <utility>
 #include <variant>
@@ -167,6 +168,23 @@ Schema load_schema(const DeviceOptions& options, const std::string& options_path
   }
 }
 
+transports::BootSignature boot_signature() {
+  transports::BootSignature signature;
+  signature.name = "ResetEvent frame";
+  // 0x00, then a whole COBS frame (code byte, CRC, payload: no 0x00 inside) and its 0x00 delimiter: where
+  // the first 0x00 is, so the frame reaches the client, whose session starts from it.
+  signature.find_announcement = [](std::string_view received) -> std::optional<std::size_t> {
+    for (std::size_t start = received.find('\0'); start != std::string_view::npos;
+         start = received.find('\0', start + 1)) {
+      const std::size_t end = received.find('\0', start + 1);
+      if (end == std::string_view::npos) return std::nullopt;
+      if (end - start > 3) return start;
+    }
+    return std::nullopt;
+  };
+  return signature;
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -183,6 +201,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.validate = validate_rpc;
   row.open = open_rpc;
   row.await_ready = await_rpc;
+  row.boot = boot_signature();
   return {row};
 }
 

@@ -48,6 +48,7 @@
 #include "tether/devices/config.hpp"
 #include "tether/devices/json_reader.hpp"
 #include "tether/devices/rover.hpp"
+#include "tether/transports/boot_detection.hpp"
 #include "tether/transports/byte_stream.hpp"
 
 namespace tether::devices {
@@ -150,6 +151,10 @@ struct CodecRow {
   std::function<std::vector<std::uint8_t>(const RingBoardContext& board)> ring_board_settings;
   /// The EEPROM files its boards take (`tether flash --eeprom`: the first row that has one parses the file).
   EepromFileFormat eeprom_file;
+  /// What its firmware does at boot (transports/boot_detection.hpp): an announcement to recognise or a probe
+  /// to send, so a serial device that resets on open is ready as soon as it booted (`"boot": "detect"`, the
+  /// default where this is `usable()`). Unset: its devices wait `boot_wait_ms` (`"fixed"`).
+  transports::BootSignature boot;
   /// The options of a configuration's device (`OptionsContext::options` null: the defaults).
   std::function<CodecOptions(const OptionsContext& context)> parse_options;
   /// Checks options built in code (what parsing guarantees); throws `ConfigError` at `options_path`'s keys.

@@ -4,9 +4,13 @@
 ///
 /// An Arduino Uno resets when DTR rises, which Linux does on every open. The board then runs its
 /// bootloader (about 0.5-1.5 s) before the sketch starts, and bytes sent meanwhile are lost or land in the
-/// bootloader. `SerialOptions::arduino_uno()` therefore waits for the boot, then discards whatever the
-/// board printed so far (boot noise), or waits for a banner the firmware prints when ready. Options for
-/// links without DTR (ptys, the virtual Uno, ser2net) skip all of that.
+/// bootloader. `SerialOptions::boot` says how the open waits for it: `BootMode::fixed` waits `boot_wait`
+/// and then discards whatever the board printed so far (boot noise); `BootMode::detect` completes as soon
+/// as the codec's `BootSignature` (boot_detection.hpp) says the sketch runs (its boot announcement, or the
+/// answer to a probe sent after the bootloader's quiet window), `boot_wait` being the upper bound after
+/// which it falls back to the fixed wait's result; `BootMode::none` does not wait. A `ready_banner` may
+/// be awaited on top. `boot_report()` says how long the board took. Options for links without DTR (ptys,
+/// the virtual Uno, ser2net) skip all of that.
 ///
 /// ## Supervision (`SerialOptions::reconnect`, on by default)
 /// A port that vanishes (unplugged: EOF, EIO, ENODEV on a read or write) does not end the stream. The
@@ -14,18 +18,20 @@
 /// is back), the stream closes the port and tries to re-open it: the same `PortSpec` looked up again (a
 /// board named by identity may come back under another path), after 50 ms, then backing off to at most
 /// `ReconnectOptions::max_delay` (1 s) between attempts, forever or up to `max_attempts`. Re-opened, it
-/// configures the port and waits `boot_wait` (dropping the boot noise) as at the first open, then the
+/// configures the port and waits for the boot as at the first open (`boot`, `boot_wait`), then the
 /// next read completes with `TransportError::reconnected` (no bytes), before any byte of the new
 /// connection: a client's cue to run its session recovery. Having given up, reads and writes fail with
-/// `TransportError::reconnect_limit`. Link events (down with its reason, up with the outage's length, gave
-/// up) go to the handlers of `add_link_handler`; `link_counters()` counts them. A `ready_banner` is awaited
-/// only at the first open. Reads and writes stay ordered and bounded; nothing is retried by the stream.
+/// `TransportError::reconnect_limit`. Link events (down with its reason, up with the outage's length and
+/// the boot's report, gave up) go to the handlers of `add_link_handler`; `link_counters()` counts them. A
+/// `ready_banner` is awaited only at the first open. Reads and writes stay ordered and bounded; nothing is
+/// retried by the stream.
 #pragma once
 
 #include <boost/asio/serial_port.hpp>
 
 #include <boost/asio/steady_timer.hpp>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -36,6 +42,7 @@
 #include <vector>
 
 #include "tether/transports/asio_object_stream.hpp"
+#include "tether/transports/boot_detection.hpp"
 #include "tether/transports/serial_ports.hpp"
 
 namespace tether::transports {
@@ -61,6 +68,7 @@ struct LinkEvent {
   std::string path;                    ///< The port's path (up: the new one).
   std::chrono::milliseconds down_for{0};  ///< up / gave_up: how long the link was down.
   unsigned attempts = 0;               ///< up / gave_up: re-open attempts this outage.
+  BootReport boot;                     ///< up: how the board came up after the re-open.
 };
 
 /// `down`, `up`, `gave up`: for messages.
@@ -73,6 +81,7 @@ struct LinkCounters {
   std::chrono::milliseconds time_down{0};  ///< Total time without the port (the current outage included).
   bool up = true;                         ///< False during an outage and after giving up.
   bool gave_up = false;                   ///< The reconnect limit was reached: the stream is done.
+  BootReport last_boot;                   ///< The last open's (first or re-open) time to ready and how.
 };
 
 /// How to open a serial port.
@@ -81,13 +90,16 @@ struct SerialOptions {
   bool exclusive = true;                         ///< TIOCEXCL: no second process opens the port.
   bool low_latency = false;                      ///< ASYNC_LOW_LATENCY where the driver supports it.
   bool hang_up_on_close = true;                  ///< HUPCL: drop DTR on close (the next open resets an Uno).
-  std::chrono::milliseconds boot_wait{0};        ///< Wait after opening before the port is usable.
+  BootMode boot = BootMode::fixed;               ///< How to wait for the board after an open (file comment).
+  std::chrono::milliseconds boot_wait{0};        ///< fixed: the wait; detect: its upper bound; 0: none.
+  BootSignature boot_signature;                  ///< detect: the firmware's (a codec row's `boot`); unusable: fixed.
   std::string ready_banner;                      ///< If set: wait until the device printed this.
   std::chrono::milliseconds boot_timeout{5000};  ///< Limit of the wait for `ready_banner`.
   bool discard_boot_noise = true;                ///< Drop bytes received before the port became usable.
   ReconnectOptions reconnect;                    ///< Re-open a port that vanished (on by default).
 
-  /// An Arduino Uno that resets on open: 2 s boot wait, noise discarded.
+  /// An Arduino Uno that resets on open: 2 s fixed boot wait, noise discarded (a codec's signature and
+  /// `BootMode::detect` shorten it: devices/codecs.hpp).
   static SerialOptions arduino_uno() {
     SerialOptions options;
     options.boot_wait = std::chrono::milliseconds(2000);
@@ -151,6 +163,8 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
   void add_link_handler(std::function<void(const LinkEvent&)> handler);
   /// The outage counters. Any thread.
   LinkCounters link_counters() const;
+  /// How the board came up after the last open (first or re-open). Any thread.
+  BootReport boot_report() const;
 
   /// Constructed by `open` (public for std::make_shared).
   SerialPortStream(executor_type executor, std::string path, const SerialOptions& options);
@@ -169,7 +183,12 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
                          OpenHandler handler);
   static void start_open(executor_type executor, const PortSpec& port, const SerialOptions& options,
                          OpenHandler handler);
+  using BootHandler = UniqueFunction<void(error_code)>;
   void configure(error_code& error);
+  void boot(SteadyClock::time_point opened, BootHandler done);
+  void boot_read();
+  void boot_apply(BootDetector::Step step);
+  void boot_finish(BootReport report, const error_code& error);  // by value: it may be the detector's, reset here
   void after_boot_wait(OpenHandler handler);
   void await_banner(std::shared_ptr<std::string> seen, SteadyClock::time_point deadline, OpenHandler handler);
   // Supervision (strand).
@@ -201,6 +220,12 @@ class SerialPortStream final : public AsioObjectStream<asio::serial_port> {
   unsigned attempts_ = 0;
   std::chrono::milliseconds delay_{0};
   std::string last_failure_;
+  // Boot detection (strand).
+  std::unique_ptr<BootDetector> detector_;
+  BootHandler boot_done_;
+  std::uint64_t boot_generation_ = 0;  // tells the completions of a finished detection apart
+  std::array<std::uint8_t, 256> boot_buffer_{};
+  std::string replay_;  // bytes the detection read past the announcement: the first the client reads
 
   // Any thread.
   mutable std::mutex mutex_;

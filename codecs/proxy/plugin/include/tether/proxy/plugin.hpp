@@ -47,6 +47,12 @@ struct DeviceOptions {
   std::chrono::milliseconds open_timeout{15000};
 };
 
+/// What the `proxy` image does at boot, for `"boot": "detect"` (transports/boot_detection.hpp): at the end of
+/// its setup it sends 0x00 and a COBS frame holding `ResetEvent{sessionId}`; that frame (kept for the client,
+/// whose handshake starts from it) is the announcement. The `proxy-compat` image, like the deployed firmware,
+/// sends nothing at boot and has no request without an effect: its devices wait a fixed `boot_wait`.
+transports::BootSignature boot_signature();
+
 /// The codec's rows of the devices table: `proxy` (primary mode) and `proxy-compat` (the deployed variant,
 /// 57600 baud), one parser and client.
 std::vector<devices::CodecRow> codec_rows();

@@ -33,6 +33,14 @@ struct DeviceOptions {
   std::optional<std::uint8_t> first_id;
 };
 
+/// What a Romi image does at boot, for `"boot": "detect"` (transports/boot_detection.hpp): nothing, like
+/// the reference RomiSerial, so the host probes once the line has been quiet for 1.2 s (optiboot's 1 s and a
+/// margin), then every 1.1 s: `#\r\n`, an
+/// empty frame, which every Romi firmware (Tether's and the reference) answers with an envelope error
+/// (`#_[-6]:007f`) without running a handler; any `#...\r\n` line after it is the answer. A probe that lands
+/// in optiboot restarts its 1 s window (every byte it receives does), hence never a faster retry.
+transports::BootSignature boot_signature();
+
 /// The codec's row of the devices table: `romi`, its option keys, parser and checks, `romi::Client`.
 std::vector<devices::CodecRow> codec_rows();
 

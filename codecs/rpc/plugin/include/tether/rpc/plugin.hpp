@@ -39,6 +39,10 @@ struct DeviceOptions {
   std::chrono::milliseconds open_timeout{15000};
 };
 
+/// What an rpc image does at boot, for `"boot": "detect"` (transports/boot_detection.hpp): `begin` sends 0x00
+/// and a COBS frame holding `ResetEvent{session}`; that frame (kept for the client) is the announcement.
+transports::BootSignature boot_signature();
+
 /// The codec's row of the devices table: `rpc`.
 std::vector<devices::CodecRow> codec_rows();
 
