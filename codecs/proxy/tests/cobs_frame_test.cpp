@@ -2,11 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstddef>
+#include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "tether/core/crc.hpp"
+#include "tether/proxy/boot_frame.hpp"
 #include "tether/proxy/cobs.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
@@ -324,6 +327,21 @@ TEST(ProxyFrame, TooSmallBufferIsReported) {
                          MutableByteView(out.data(), out.size()))
                 .status(),
             Status::buffer_too_small);
+}
+
+// The boot announcement: a frame between two 0x00 after whatever came before it; shorter runs are noise.
+TEST(ProxyBootFrame, FoundAtTheZeroBeforeTheFirstWholeFrame) {
+  const auto find = [](const std::vector<std::uint8_t>& bytes) -> long {
+    std::size_t start = 99;
+    return find_boot_frame(bytes.data(), bytes.size(), start) ? static_cast<long>(start) : -1;
+  };
+  EXPECT_EQ(find({}), -1);
+  EXPECT_EQ(find({0x00, 0x04, 0x11, 0x22}), -1);                    // not closed yet
+  EXPECT_EQ(find({0x00, 0x03, 0x11, 0x00}), -1);                    // two bytes between: noise
+  EXPECT_EQ(find({0x00, 0x04, 0x11, 0x22, 0x00}), 0);               // code byte and CRC: the shortest frame
+  EXPECT_EQ(find({0x7E, 0x00, 0x01, 0x00, 0x05, 0x01, 0x02, 0x03, 0x04, 0x00}), 3);
+  const std::vector<std::uint8_t> frame = {0x41, 0x42, 0x00, 0x05, 0x01, 0x02, 0x03, 0x04, 0x00, 0x00};
+  EXPECT_EQ(find(frame), 2);
 }
 
 }  // namespace

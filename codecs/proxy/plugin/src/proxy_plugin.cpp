@@ -2,6 +2,7 @@
 // clients, and opening's wait for the handshake and the inits.
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -11,6 +12,7 @@
 #include <variant>
 
 #include "tether/devices/json_reader.hpp"
+#include "tether/proxy/boot_frame.hpp"
 #include "tether/proxy/plugin.hpp"
 
 namespace tether::proxy {
@@ -221,16 +223,13 @@ void await_proxy(const devices::DeviceClient& device_client, const devices::Devi
 transports::BootSignature boot_signature() {
   transports::BootSignature signature;
   signature.name = "ResetEvent frame";
-  // 0x00, then a whole COBS frame (code byte, CRC, payload: no 0x00 inside) and its 0x00 delimiter: where
-  // the first 0x00 is, so the frame reaches the client, whose session starts from it.
+  // From the first 0x00 on, so the frame reaches the client, whose session starts from it.
   signature.find_announcement = [](std::string_view received) -> std::optional<std::size_t> {
-    for (std::size_t start = received.find('\0'); start != std::string_view::npos;
-         start = received.find('\0', start + 1)) {
-      const std::size_t end = received.find('\0', start + 1);
-      if (end == std::string_view::npos) return std::nullopt;
-      if (end - start > 3) return start;
+    std::size_t start = 0;
+    if (!find_boot_frame(reinterpret_cast<const std::uint8_t*>(received.data()), received.size(), start)) {
+      return std::nullopt;
     }
-    return std::nullopt;
+    return start;
   };
   return signature;
 }

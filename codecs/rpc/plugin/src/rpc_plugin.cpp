@@ -12,6 +12,7 @@
 #include <variant>
 
 #include "tether/devices/json_reader.hpp"
+#include "tether/proxy/boot_frame.hpp"
 #include "tether/rpc/plugin.hpp"
 
 namespace tether::rpc {
@@ -171,16 +172,13 @@ Schema load_schema(const DeviceOptions& options, const std::string& options_path
 transports::BootSignature boot_signature() {
   transports::BootSignature signature;
   signature.name = "ResetEvent frame";
-  // 0x00, then a whole COBS frame (code byte, CRC, payload: no 0x00 inside) and its 0x00 delimiter: where
-  // the first 0x00 is, so the frame reaches the client, whose session starts from it.
+  // From the first 0x00 on, so the frame reaches the client, whose session starts from it.
   signature.find_announcement = [](std::string_view received) -> std::optional<std::size_t> {
-    for (std::size_t start = received.find('\0'); start != std::string_view::npos;
-         start = received.find('\0', start + 1)) {
-      const std::size_t end = received.find('\0', start + 1);
-      if (end == std::string_view::npos) return std::nullopt;
-      if (end - start > 3) return start;
+    std::size_t start = 0;
+    if (!proxy::find_boot_frame(reinterpret_cast<const std::uint8_t*>(received.data()), received.size(), start)) {
+      return std::nullopt;
     }
-    return std::nullopt;
+    return start;
   };
   return signature;
 }
