@@ -95,9 +95,14 @@ namespace detail {
 /// The decoder's CRC-16/MCRF4XX on the AVR: the bare register (Crc16Mcrf4xx keeps it private), which
 /// the decoder's run loop holds in CPU registers through its assembly. Steps as Crc16Mcrf4xx's AVR back end.
 struct CobsCrc {
-  uint16_t state = 0xFFFF;  ///< The register; it is also the checksum (no final xor).
+  /// A register ready for a new computation.
+  constexpr CobsCrc() : state(0xFFFF) {}
+  /// A register holding `initial` (constructors, not member initialisers: the Arduino IDE compiles C++11,
+  /// where a struct with those is no aggregate).
+  explicit constexpr CobsCrc(uint16_t initial) : state(initial) {}
+  uint16_t state;  ///< The register; it is also the checksum (no final xor).
   /// A register of all zeros (an unbound decoder's: reset before a frame's first byte).
-  static constexpr CobsCrc zero() { return CobsCrc{0}; }
+  static constexpr CobsCrc zero() { return CobsCrc(0); }
   /// Starts a new computation.
   void reset() { state = 0xFFFF; }
   /// Feeds one byte (avr-libc's step, inline).
