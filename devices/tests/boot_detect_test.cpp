@@ -20,12 +20,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <system_error>
 #include <thread>
-#include <variant>
 #include <vector>
 
 #include "tether/devices/config.hpp"
@@ -35,6 +33,7 @@
 #include "tether/rpc/client.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/virtual_uno.hpp"
+#include "proxy_session_log.hpp"
 #include "unpluggable_board.hpp"
 
 namespace tether::devices {
@@ -244,14 +243,7 @@ TEST_F(DevicesBootDetectionAfterReopen, AProxyBoardThatRebootedDuringTheOutageIs
   auto events = std::make_shared<testing::EventLog>();
   port->add_link_handler([events](const transports::LinkEvent& event) { events->add(event); });
   const auto client = rover.client<proxy::Client>("dev");
-  std::mutex mutex;
-  std::vector<proxy::events::SessionEstablished> sessions;
-  client->on_event([&](const proxy::Event& event) {
-    if (const auto* established = std::get_if<proxy::events::SessionEstablished>(&event)) {
-      std::lock_guard lock(mutex);
-      sessions.push_back(*established);
-    }
-  });
+  testing::ProxySessionLog sessions(*client);
   ASSERT_TRUE(client->session().established);
 
   uno->unplug();
@@ -274,10 +266,7 @@ TEST_F(DevicesBootDetectionAfterReopen, AProxyBoardThatRebootedDuringTheOutageIs
   EXPECT_EQ(port->link_counters().last_boot.outcome, transports::BootOutcome::announced);
 
   // The client starts its new session by itself, the init replayed; a send right after is acked.
-  ASSERT_TRUE(testing::wait_until([&] {
-    std::lock_guard lock(mutex);
-    return !sessions.empty();
-  }));
+  ASSERT_TRUE(sessions.wait_first());
   EXPECT_TRUE(client->session().established);
   EXPECT_TRUE(uno->board().pin(13).output && uno->board().pin(13).level) << "the init replayed";
   boost::system::error_code error;

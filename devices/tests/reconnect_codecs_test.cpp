@@ -14,7 +14,6 @@
 #include <mutex>
 #include <set>
 #include <string>
-#include <variant>
 #include <vector>
 
 #include "tether/core/execution_witness.hpp"
@@ -25,6 +24,7 @@
 #include "tether/proxy/client.hpp"
 #include "tether/rpc/client.hpp"
 #include "tether/transports/virtual_uno.hpp"
+#include "proxy_session_log.hpp"
 #include "unpluggable_board.hpp"
 
 namespace tether::devices {
@@ -32,6 +32,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using testing::EventLog;
+using testing::ProxySessionLog;
 using testing::UnpluggableBoard;
 using testing::wait_until;
 using transports::TransportError;
@@ -58,14 +59,7 @@ TEST_F(DevicesReconnectCodecs, AProxyDeviceGetsANewSessionAndItsInitsAfterAPower
   ASSERT_TRUE(device.port);
   const auto events = watch_link(device);
   const auto client = rover.client<proxy::Client>("dev");
-  std::mutex mutex;
-  std::vector<proxy::events::SessionEstablished> sessions;
-  client->on_event([&](const proxy::Event& event) {
-    if (const auto* established = std::get_if<proxy::events::SessionEstablished>(&event)) {
-      std::lock_guard lock(mutex);
-      sessions.push_back(*established);
-    }
-  });
+  ProxySessionLog sessions(*client);
   ASSERT_TRUE(client->session().established);
   const std::uint32_t first_session = client->session().session_id.value_or(0);
   EXPECT_TRUE(uno->board().pin(13).output && uno->board().pin(13).level) << "the digital init at the open";
@@ -103,15 +97,9 @@ TEST_F(DevicesReconnectCodecs, AProxyDeviceGetsANewSessionAndItsInitsAfterAPower
   uno->plug();
   EXPECT_EQ(events->wait(2).kind, transports::LinkEvent::Kind::up);
   // The client restarts the session by itself: handshake, the two inits replayed, a new session id.
-  ASSERT_TRUE(wait_until([&] {
-    std::lock_guard lock(mutex);
-    return sessions.size() >= 1;
-  }));
-  {
-    std::lock_guard lock(mutex);
-    EXPECT_FALSE(sessions.front().first);
-    EXPECT_EQ(sessions.front().inits, 2u);
-  }
+  ASSERT_TRUE(sessions.wait_first());
+  EXPECT_FALSE(sessions.sessions().front().first);
+  EXPECT_EQ(sessions.sessions().front().inits, 2u);
   EXPECT_TRUE(client->session().established);
   EXPECT_NE(client->session().session_id.value_or(0), first_session);
   EXPECT_TRUE(uno->board().pin(13).output && uno->board().pin(13).level) << "the digital init replayed";
