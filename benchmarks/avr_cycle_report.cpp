@@ -493,8 +493,8 @@ std::string frame_of(const std::string& payload) {
   return std::string(reinterpret_cast<const char*>(frame), size);
 }
 
-// rpc: HostMessage{id, call{method, request}} / {id, open{method, request, period_ms}}; arm.proto's
-// method indices: MoveJoint 0, Watch 1.
+// rpc: HostMessage{id, call{method, request}} / {id, open{method, request, period_ms}}; the method indices
+// of arm.proto (MoveJoint 0, Watch 1) and servos.proto (Move 0, Watch 1), whose requests have the same fields.
 std::string rpc_move_joint(std::uint32_t id, std::uint32_t joint, std::int32_t angle) {
   std::string request, call, message;
   put_uint(request, 1, joint);
@@ -595,56 +595,76 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-int measure_exchanges(std::vector<ExchangeResult>& rows, double& stream_idle, double& rest_idle) {
+// The CPU asleep on an rpc image at rest and while it streams at 100 Hz.
+struct StreamIdle {
+  std::string image;
+  double at_rest = 0;
+  double streaming = 0;
+};
+
+// An rpc image's rows (its first method is unary with JointRequest's fields, its second a stream: the
+// frames are the same for rpc-example and rpc-servos): a call exchange and its turnaround, a stream message
+// at 100 Hz, and the idle time left while streaming. `key` prefixes the rows' keys, `call` and `stream` name
+// the exchanges in the rows' texts.
+int measure_rpc_image(const std::string& image, const std::string& key, const std::string& call,
+                      const std::string& stream, std::vector<ExchangeResult>& rows, std::vector<StreamIdle>& idle) {
+  constexpr int kExchangeMs = 12;  // request in (<= 3 ms), answers out (<= 4 ms) at 115200, and margin
+  int status = 0;
+  ImageBench bench(image);
+  std::vector<double> cycles, turnarounds;
+  unsigned bytes = 0;
+  std::size_t frame_size = 0;
+  for (int i = 0; i < 21; ++i) {
+    const double rest = bench.rest_per_ms(20);
+    const std::string frame = rpc_move_joint(static_cast<std::uint32_t>(1000 + i), 2, -4500 + i);
+    frame_size = frame.size();
+    unsigned out = 0, delimiters = 0;
+    const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
+    if (delimiters < 2) {  // Reply and Ack (each frame ends with 0x00; the device writes no leading one)
+      std::fprintf(stderr, "%s did not answer its first method (%u bytes out)\n", image.c_str(), out);
+      status = 1;
+      break;
+    }
+    if (i > 0) {  // the first after boot includes one-off work
+      cycles.push_back(spent);
+      turnarounds.push_back(static_cast<double>(bench.turnaround()));
+    }
+    bytes = static_cast<unsigned>(frame.size()) + out;
+  }
+  if (!cycles.empty()) {
+    rows.push_back({key + ".move_joint", image + ": " + call + " in -> Reply + Ack out (whole loop, UART interrupts)",
+                    bytes, median(cycles)});
+    rows.push_back({key + ".move_joint.turnaround",
+                    image + ": " + call + " turnaround, request's 0x00 read -> Reply's first byte written",
+                    static_cast<unsigned>(frame_size), median(turnarounds)});
+  }
+  // The stream: its second method at 10 ms for 1 s, against 1 s at rest.
+  const double rest = bench.rest_per_ms(1000);
+  StreamIdle measured{image};
+  measured.at_rest = 1.0 - rest * 1000.0 / bench.uno().frequency_hz();
+  unsigned out = 0, delimiters = 0;
+  bench.exchange(rpc_open_watch(5000, 10), 100, rest, out, delimiters);  // opened, streaming
+  const std::uint64_t before = bench.uno().stats().awake_cycles;
+  const double spent = bench.exchange("", 1000, rest, out, delimiters);
+  const double awake = static_cast<double>(bench.uno().stats().awake_cycles - before);
+  measured.streaming = 1.0 - awake / bench.uno().frequency_hz();
+  if (delimiters < 95) {
+    std::fprintf(stderr, "%s streamed %u frames in 1 s at 10 ms\n", image.c_str(), delimiters);
+    status = 1;
+  } else {
+    rows.push_back({key + ".stream_message", image + ": " + stream + " at 100 Hz, per StreamMessage", out / delimiters,
+                    spent / delimiters});
+    idle.push_back(measured);
+  }
+  return status;
+}
+
+int measure_exchanges(std::vector<ExchangeResult>& rows, std::vector<StreamIdle>& idle) {
   int status = 0;
   constexpr int kExchangeMs = 12;  // request in (<= 3 ms), answers out (<= 4 ms) at 115200, and margin
-  {
-    ImageBench bench("rpc-example");
-    std::vector<double> cycles, turnarounds;
-    unsigned bytes = 0;
-    std::size_t frame_size = 0;
-    for (int i = 0; i < 21; ++i) {
-      const double rest = bench.rest_per_ms(20);
-      const std::string frame = rpc_move_joint(static_cast<std::uint32_t>(1000 + i), 2, -4500 + i);
-      frame_size = frame.size();
-      unsigned out = 0, delimiters = 0;
-      const double spent = bench.exchange(frame, kExchangeMs, rest, out, delimiters);
-      if (delimiters < 2) {  // Reply and Ack (each frame ends with 0x00; the device writes no leading one)
-        std::fprintf(stderr, "rpc-example did not answer MoveJoint (%u bytes out)\n", out);
-        status = 1;
-        break;
-      }
-      if (i > 0) {  // the first after boot includes one-off work
-        cycles.push_back(spent);
-        turnarounds.push_back(static_cast<double>(bench.turnaround()));
-      }
-      bytes = static_cast<unsigned>(frame.size()) + out;
-    }
-    if (!cycles.empty()) {
-      rows.push_back({"image.rpc.move_joint",
-                      "rpc-example: MoveJoint{2, -4500} in -> Reply + Ack out (whole loop, UART interrupts)", bytes,
-                      median(cycles)});
-      rows.push_back({"image.rpc.move_joint.turnaround",
-                      "rpc-example: MoveJoint turnaround, request's 0x00 read -> Reply's first byte written",
-                      static_cast<unsigned>(frame_size), median(turnarounds)});
-    }
-    // The stream: Watch at 10 ms for 1 s, against 1 s at rest.
-    const double rest = bench.rest_per_ms(1000);
-    rest_idle = 1.0 - rest * 1000.0 / bench.uno().frequency_hz();
-    unsigned out = 0, delimiters = 0;
-    bench.exchange(rpc_open_watch(5000, 10), 100, rest, out, delimiters);  // opened, streaming
-    const std::uint64_t before = bench.uno().stats().awake_cycles;
-    const double spent = bench.exchange("", 1000, rest, out, delimiters);
-    const double awake = static_cast<double>(bench.uno().stats().awake_cycles - before);
-    stream_idle = 1.0 - awake / bench.uno().frequency_hz();
-    if (delimiters < 95) {
-      std::fprintf(stderr, "rpc-example streamed %u frames in 1 s at 10 ms\n", delimiters);
-      status = 1;
-    } else {
-      rows.push_back({"image.rpc.stream_message", "rpc-example: Watch at 100 Hz, per StreamMessage (State, 4 angles)",
-                      out / delimiters, spent / delimiters});
-    }
-  }
+  status |= measure_rpc_image("rpc-example", "image.rpc", "MoveJoint{2, -4500}", "Watch (State, 4 angles)", rows, idle);
+  status |= measure_rpc_image("rpc-servos", "image.rpc_servos", "Move{2, -4500}", "Watch (Telemetry, 4 angles)", rows,
+                              idle);
   {
     ImageBench bench("proxy");
     unsigned out = 0, delimiters = 0;
@@ -719,20 +739,22 @@ int main(int argc, char** argv) {
   }
 
   std::vector<ExchangeResult> exchanges;
-  double stream_idle = 0, rest_idle = 0;
-  status |= measure_exchanges(exchanges, stream_idle, rest_idle);
+  std::vector<StreamIdle> idle;
+  status |= measure_exchanges(exchanges, idle);
   std::printf("\nWhole exchanges on the images (awake cycles, the image at rest removed; median of 20)\n");
   std::printf("%-84s %6s %8s %12s\n", "exchange", "bytes", "cycles", "cycles/byte");
   for (const ExchangeResult& r : exchanges) {
     std::printf("%-84s %6u %8.0f %12.1f\n", r.what.c_str(), r.bytes, r.cycles, r.cycles / r.bytes);
   }
-  std::printf("rpc-example CPU asleep (idle): %.2f %% at rest, %.2f %% streaming at 100 Hz (%.2f %% of the idle time "
-              "left)\n",
-              100.0 * rest_idle, 100.0 * stream_idle, 100.0 * stream_idle / rest_idle);
+  for (const StreamIdle& i : idle) {
+    std::printf("%s CPU asleep (idle): %.2f %% at rest, %.2f %% streaming at 100 Hz (%.2f %% of the idle time left)\n",
+                i.image.c_str(), 100.0 * i.at_rest, 100.0 * i.streaming, 100.0 * i.streaming / i.at_rest);
+  }
 
   std::vector<ImageSize> sizes;
   std::printf("\n%-16s %8s %8s\n", "image", "flash B", "RAM B");
-  for (const char* image : {"romi-bench", "romi-blink", "romi-test", "proxy", "proxy-compat", "elcano-node", "rpc-example"}) {
+  for (const char* image : {"romi-bench", "romi-blink", "romi-test", "proxy", "proxy-compat", "elcano-node", "rpc-example",
+                            "rpc-servos"}) {
     if (const auto size = image_size(image)) {
       sizes.push_back(*size);
       std::printf("%-16s %8u %8u\n", image, size->flash, size->ram);
@@ -805,8 +827,12 @@ int main(int argc, char** argv) {
            << ", \"bytes\": " << r.bytes << ", \"cycles\": " << r.cycles << "}"
            << (i + 1 < exchanges.size() ? "," : "") << "\n";
     }
-    json << "  ],\n  \"rpc_stream_100hz\": {\"idle_at_rest\": " << rest_idle << ", \"idle_streaming\": " << stream_idle
-         << "}";
+    json << "  ],\n  \"rpc_stream_100hz\": [\n";
+    for (std::size_t i = 0; i < idle.size(); ++i) {
+      json << "    {\"image\": " << json_string(idle[i].image) << ", \"idle_at_rest\": " << idle[i].at_rest
+           << ", \"idle_streaming\": " << idle[i].streaming << "}" << (i + 1 < idle.size() ? "," : "") << "\n";
+    }
+    json << "  ]";
     json << ",\n  \"images\": [\n";
     for (std::size_t i = 0; i < sizes.size(); ++i) {
       json << "    {\"image\": " << json_string(sizes[i].image) << ", \"flash\": " << sizes[i].flash

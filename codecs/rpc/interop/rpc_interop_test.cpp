@@ -45,6 +45,7 @@ using uno_testing::wait_for;
 
 const std::string kArmSchema = TETHER_RPC_EXAMPLE_SCHEMA;
 const std::string kOtherSchema = TETHER_RPC_INTEROP_DIR "/other_arm.proto";
+const std::string kServosSchema = TETHER_RPC_SERVOS_SCHEMA;
 
 VirtualUnoOptions board() { return uno_testing::arm_board(std::string(TETHER_FIRMWARE_DIR) + "/rpc-example.elf"); }
 
@@ -422,6 +423,46 @@ TEST(RpcInterop, UnderLineNoiseNoCallRunsTwiceAndNoAnswerIsWrong) {
   EXPECT_GT(counters.link.retries, 0u);  // the noise did cost re-sends
   // The device agrees on how many ran.
   EXPECT_EQ(as<arm::Description>(*client.call("Describe", arm::DescribeRequest()).reply).moves(), witness.runs.size());
+  client.close();
+}
+
+// The smallest device the codec is sized for (rpc-servos: one unary method and one stream, its own schema
+// image/servos.proto), driven through a schema read at run time: the hello's hash, a call, the handler's
+// error, a stream of the angle the call set.
+TEST(RpcInterop, TheSmallestImageServesItsOwnSchema) {
+  IoThread io;
+  auto stream = VirtualUnoStream::open(
+      io.executor(), uno_testing::arm_board(std::string(TETHER_FIRMWARE_DIR) + "/rpc-servos.elf"));
+  Client client(stream, Schema::load(kServosSchema), on_board_time(stream));
+  client.wait_ready();
+  ASSERT_TRUE(client.session().device_hash.has_value());
+  EXPECT_EQ(*client.session().device_hash, Schema::load(kServosSchema).hash());
+  EXPECT_EQ(client.call_json("Move", R"({"servo": 2, "angleCdeg": -4500})"), R"({"angleCdeg":-4500})");
+  try {
+    client.call_json("Move", R"({"servo": 9, "angleCdeg": 0})");
+    ADD_FAILURE() << "servo 9 was moved";
+  } catch (const CallError& error) {
+    EXPECT_EQ(error.code(), RpcError::device_error) << error.what();
+    EXPECT_EQ(error.device_error().code, 1);
+    EXPECT_EQ(error.device_error().text, "no servo");
+  }
+  std::mutex mutex;
+  std::vector<std::string> messages;
+  Stream watch = client.open_stream("Watch", *client.new_request("Watch"), 10ms,
+                                    [&](const error_code& error, const StreamMessage& message) {
+                                      if (error) return;
+                                      std::string json;
+                                      (void)google::protobuf::util::MessageToJsonString(*message.message, &json);
+                                      std::lock_guard lock(mutex);
+                                      messages.push_back(json);
+                                    });
+  ASSERT_TRUE(wait_for([&] {
+    std::lock_guard lock(mutex);
+    return messages.size() >= 5;
+  }));
+  watch.close();
+  std::lock_guard lock(mutex);
+  EXPECT_NE(messages.back().find(R"("anglesCdeg":[0,0,-4500,0])"), std::string::npos) << messages.back();
   client.close();
 }
 

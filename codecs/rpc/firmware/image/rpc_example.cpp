@@ -7,31 +7,18 @@
 // answer follows from the calls before it. Each MoveJoint that runs is recorded by the execution witness
 // (tether/core/execution_witness.hpp) with the key witness_key(joint, uint16_t(angle_cdeg)).
 //
-// RAM: the device runtime's static tables (~0.45 KB: the receive buffer, the exactly-once cache, the
-// counters; the method table is in flash) and its stack at the deepest point (a call's request and reply
-// structs, its answer being encoded and framed) leave little of the 2 KB: the UART rings are small (RX 32
-// bytes: the loop takes bytes as they come and decodes them in place; TX 16 bytes: `write` waits for room,
-// ~1.5 ms for a 16-byte frame), the handlers' error texts in flash (Status::error_P) and the device's entry
-// points out of line (below).
+// The main loop is every image's (uart_device.hpp).
 #include <avr/pgmspace.h>
 
 #include "ArmRpc_service.h"
-#include "tether/core/bytes.hpp"
 #include "tether/core/execution_witness.hpp"
-#include "tether/firmware/runtime.hpp"
-#include "tether/proxy/device/session_id.hpp"
+#include "uart_device.hpp"
 
 namespace {
 
-using Serial = tether::firmware::Uart0<32, 16>;
 constexpr uint32_t kBaud = 115200;
-// The shortest stream period: one frame of the largest stream message at the baud (10 bits a byte),
-// rounded up, so that a stream never sends faster than the line carries it.
-constexpr uint16_t kMinPeriodMs = static_cast<uint16_t>(
-    (static_cast<uint32_t>(tether::proxy::max_frame_size(ArmRpcService::Limits::kMaxOutPayload)) * 10u * 1000u + kBaud -
-     1u) /
-    kBaud);
-static_assert(kMinPeriodMs == 7, "a 76-byte frame takes 6.6 ms at 115200 baud");
+static_assert(tether::rpc::image::min_period_ms<ArmRpcService::Limits>(kBaud) == 7,
+              "a 76-byte frame takes 6.6 ms at 115200 baud");
 
 constexpr uint8_t kJoints = 4;
 constexpr int32_t kMinCdeg = -18000;
@@ -52,14 +39,7 @@ const char kNoJoint[] PROGMEM = "no joint";
 const char kOutOfRange[] PROGMEM = "out of range";
 const char kOnHold[] PROGMEM = "on hold";
 
-void write_frame(void*, tether::ByteView frame) { Serial::write(frame); }
-
-void restart(void*) {
-  Serial::flush();  // the Reset's ack must leave the UART first
-  tether::firmware::system_reset();
-}
-
-// Bound in `start`: made without arguments it is all zeros, in .bss (its ~0.45 KB image would otherwise be
+// Bound at start: made without arguments it is all zeros, in .bss (its ~0.45 KB image would otherwise be
 // in flash as .data).
 ArmRpcService::Device device;
 
@@ -110,47 +90,6 @@ tether::rpc::Status Arm_Describe(const arm_DescribeRequest&, arm_Description& re
   return tether::rpc::Status::ok();
 }
 
-namespace {
+TETHER_UART0_ISRS(tether::rpc::image::Uart);
 
-// The device's entry points out of line: each puts its answer buffers on the stack for its own run
-// (rpc_device.hpp's Buffers); inlined into main, the compiler keeps their room in main's frame for good,
-// ~150 bytes each under the deepest point (a call's reply).
-__attribute__((noinline)) void start(uint32_t session_id) {
-  device.bind(ArmRpcService::service(), tether::rpc::device::FrameSink{write_frame, nullptr}, restart);
-  device.set_min_period_ms(kMinPeriodMs);
-  device.begin(session_id, tether::firmware::millis());  // end of setup: ResetEvent
-}
-__attribute__((noinline)) size_t handle(tether::ByteView received) {
-  return device.handle_bytes(received, tether::firmware::millis());
-}
-__attribute__((noinline)) void poll() { device.poll(tether::firmware::millis()); }
-
-// Sleeps until a byte arrives or the clock ticks: a wake by the transmitter alone (one per byte sent,
-// ~30 a stream message) goes back to sleep without a loop pass, as nothing can have come due. The tick
-// is seen in the clock's low byte (one load, no interrupt lock: each of those wakes is cheaper).
-void sleep_until_work() {
-  const uint8_t at = tether::firmware::millis_low_byte();
-  do {
-    tether::firmware::idle<Serial>();
-  } while (Serial::available() == 0 && tether::firmware::millis_low_byte() == at);
-}
-
-}  // namespace
-
-TETHER_UART0_ISRS(Serial);
-
-int main() {
-  // First, before interrupts and before the stack grows: it reads the untouched SRAM (session_id.hpp).
-  const uint32_t session_id = tether::proxy::device::boot_session_id();
-  tether::firmware::runtime_init<Serial>(kBaud);
-  start(session_id);
-  for (;;) {
-    // What the RX ring holds, read in place: a frame's bytes go through the decoder's run loop.
-    const tether::ByteView received = Serial::peek();
-    if (!received.empty()) {
-      Serial::consume(static_cast<uint8_t>(handle(received)));
-    }
-    poll();
-    if (received.empty()) sleep_until_work();
-  }
-}
+int main() { tether::rpc::image::run_uart_device<ArmRpcService, device, kBaud>(); }
