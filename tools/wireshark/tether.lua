@@ -227,7 +227,6 @@ end
 
 -- Request sent (first pass): remembered under `key`; the same bytes again under the same key are a re-send.
 local function note_request(pinfo, key, bytes)
-  if pinfo.visited then return end
   local previous = pending[key]
   if previous and not previous.answered and previous.bytes == bytes then
     link_of(pinfo.number).resend_of = previous.frame
@@ -236,20 +235,21 @@ local function note_request(pinfo, key, bytes)
 end
 
 -- Answer received (first pass): linked to the latest request under `key` (`kind`: response or ack).
-local function note_answer(pinfo, key, kind)
-  if pinfo.visited then return end
+local function note_answer(pinfo, key, kind, completes)
   local request = pending[key]
-  if not request then return end
+  if not request then return nil end
   local answer = link_of(pinfo.number)
   answer.request = request.frame
   answer.time = pinfo.abs_ts - request.time
   local req = link_of(request.frame)
   if kind == "ack" then
     if not req.ack then req.ack = pinfo.number end
+    if completes then request.answered = true end
   else
     if not req.response then req.response = pinfo.number end
     request.answered = true
   end
+  return request
 end
 
 local function nstime_of(seconds)
@@ -258,12 +258,14 @@ local function nstime_of(seconds)
   return NSTime.new(math.floor(us / 1e6), (us % 1000000) * 1000)
 end
 
-local function show_links(pinfo, tree, tvb)
+-- The links of this frame; `ack_answers`: an ack is the request's answer (proxy), not a receipt (rpc).
+local function show_links(pinfo, tree, tvb, ack_answers)
   local l = linked[pinfo.number]
   if not l then return end
   local zero = tvb(0, 0)
-  if l.response then tree:add(f.response_in, zero, l.response):set_generated() end
-  if l.ack then tree:add(f.ack_in, zero, l.ack):set_generated() end
+  local response = l.response or (ack_answers and l.ack)
+  if response then tree:add(f.response_in, zero, response):set_generated() end
+  if l.ack and not ack_answers then tree:add(f.ack_in, zero, l.ack):set_generated() end
   if l.resend_of then tree:add(f.resend_of, zero, l.resend_of):set_generated() end
   if l.request then
     tree:add(f.request_in, zero, l.request):set_generated()
@@ -389,19 +391,6 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
     end
   end
 
-  -- Request and answer: by id per link; a manual request is answered with id 00.
-  local iface = tostring(link.interface)
-  if kind == "manual request" then
-    note_request(pinfo, iface .. ":manual", raw)
-  elseif kind == "request" and id then
-    note_request(pinfo, iface .. ":" .. id, raw)
-  elseif kind == "response" and id then
-    if id == 0 and pending[iface .. ":manual"] and not pending[iface .. ":manual"].answered then
-      note_answer(pinfo, iface .. ":manual", "response")
-    else
-      note_answer(pinfo, iface .. ":" .. id, "response")
-    end
-  end
   show_links(pinfo, t, tvb)
 
   local info = kind .. " " .. payload
@@ -568,7 +557,6 @@ local function dissect_proxy(tvb, pinfo, tree, link, direction)
   t:add(f.message, tvb(), type_name):set_generated()
   local fields, complete = read_fields(payload)
   if not complete then t:add_proto_expert_info(e.malformed, "payload is not a complete protobuf message") end
-  local iface = tostring(link.interface)
   local info
   if direction == 2 then
     local name = oneof_of(fields, compat and compat_in_names or proxy_in_names)
@@ -578,7 +566,6 @@ local function dissect_proxy(tvb, pinfo, tree, link, direction)
       local id = id_field and id_field.wire == 0 and id_field.value or 0
       t:add(f.message_id, tvb(), id):set_generated()
       info = info .. " id=" .. id
-      if not bad_crc then note_request(pinfo, iface .. ":" .. id, payload) end
     end
   else
     local name, member = oneof_of(fields, compat and compat_out_names or proxy_out_names)
@@ -591,10 +578,9 @@ local function dissect_proxy(tvb, pinfo, tree, link, direction)
       t:add(f.refused, tvb(), refused):set_generated()
       if refused then t:add_proto_expert_info(e.refused, "message " .. id .. " refused") end
       info = info .. " id=" .. id .. (refused and " refused" or "")
-      if not bad_crc then note_answer(pinfo, iface .. ":" .. id, "response") end
     end
   end
-  show_links(pinfo, t, tvb)
+  show_links(pinfo, t, tvb, true)
   pinfo.cols.info:append(info)
   call_protobuf(payload_tvb, pinfo, tree, type_name)
 end
@@ -657,9 +643,6 @@ end
 local host_body_names = { [2] = "hello", [3] = "call", [4] = "open", [5] = "close", [6] = "ping", [7] = "reset" }
 local device_body_names = { [1] = "ack", [2] = "reply", [3] = "error", [4] = "stream", [5] = "hello", [6] = "reset" }
 
--- Method calls and streams per interface, by message id (first pass), so that replies find their type.
-local rpc_calls = {}   -- [iface .. ":" .. id] = method index
-
 local function dissect_rpc(tvb, pinfo, tree, link, direction)
   local with_crc = link.crc ~= "off"
   local t = tree:add(tether, tvb(), "rpc")
@@ -673,7 +656,6 @@ local function dissect_rpc(tvb, pinfo, tree, link, direction)
   if link.schema and not schema then
     t:add_proto_expert_info(e.no_schema, "schema " .. link.schema .. " not found (Tether preferences: rpc schema folders)")
   end
-  local iface = tostring(link.interface)
   local inner  -- { from, to, type } of the method message inside the envelope
   local info
 
@@ -693,14 +675,12 @@ local function dissect_rpc(tvb, pinfo, tree, link, direction)
       local body_bytes = payload:sub(body.from, body.to)
       local index = varint_of(body_bytes, 1)
       local method = method_item(index)
-      if not pinfo.visited then rpc_calls[iface .. ":" .. id] = index end
       info = info .. " " .. (method and method.name or ("method " .. index))
       local request = field_of(read_fields(body_bytes), 2)
       if method and request and request.wire == 2 then
         inner = { body.from + request.from - 1, body.from + request.to - 1, method.input }
       end
     end
-    if not bad_crc then note_request(pinfo, iface .. ":" .. id, payload) end
   else
     local name, body = oneof_of(fields, device_body_names)
     info = name or "DeviceMessage"
@@ -712,12 +692,11 @@ local function dissect_rpc(tvb, pinfo, tree, link, direction)
       t:add(f.refused, tvb(), refused):set_generated()
       if refused then t:add_proto_expert_info(e.refused, "message " .. id .. " refused") end
       info = info .. " id=" .. id .. (refused and " refused" or "")
-      if not bad_crc then note_answer(pinfo, iface .. ":" .. id, "ack") end
     elseif name == "reply" or name == "error" then
       local call = varint_of(body_bytes, 1)
       t:add(f.rpc_call, tvb(), call):set_generated()
       info = info .. " call=" .. call
-      local index = rpc_calls[iface .. ":" .. call]
+      local index = linked[pinfo.number] and linked[pinfo.number].method
       local method = index and method_item(index)
       if method then info = info .. " " .. method.name end
       if name == "error" then
@@ -735,14 +714,13 @@ local function dissect_rpc(tvb, pinfo, tree, link, direction)
           inner = { body.to + 1, body.to, method.output }  -- an empty reply: every field at its default
         end
       end
-      if not bad_crc then note_answer(pinfo, iface .. ":" .. call, "response") end
     elseif name == "stream" then
       local stream = varint_of(body_bytes, 1)
       local seq = varint_of(body_bytes, 2)
       t:add(f.rpc_stream, tvb(), stream):set_generated()
       t:add(f.rpc_seq, tvb(), seq):set_generated()
       info = info .. " stream=" .. stream .. " seq=" .. seq
-      local index = rpc_calls[iface .. ":" .. stream]
+      local index = linked[pinfo.number] and linked[pinfo.number].method
       local method = index and method_item(index)
       if method then info = info .. " " .. method.name end
       local message = field_of(read_fields(body_bytes), 3)
@@ -859,6 +837,94 @@ local function dissect_elcano(tvb, pinfo, tree, link, direction)
 end
 
 -------------------------------------------------------------------------------------------------------------
+-- Requests and answers, linked on the first pass over the file
+--
+-- Wireshark's first pass may run without a protocol tree (tshark -2 without a read filter, Wireshark
+-- loading a file), and then the interface's fields are not available: the codec is then told by the bytes
+-- (Romi `#`, a COBS frame's 0x00) and every link shares one table. Only frames whose check passes count.
+
+-- The COBS payload of `raw` with its CRC-16 checked and removed (`crc`: true, false, or nil to take it
+-- when it matches); nil for a frame that must not count.
+local function checked_payload(raw, crc)
+  local first, last = 1, #raw
+  while first <= last and raw:byte(first) == 0 do first = first + 1 end
+  if last < first or raw:byte(last) ~= 0 then return nil end
+  local decoded = cobs_decode(raw:sub(first, last - 1))
+  if not decoded or #decoded == 0 then return nil end
+  if crc == false then return decoded end
+  local matches = #decoded >= 2 and decoded:byte(1) + 256 * decoded:byte(2) == crc16_mcrf4xx(decoded, 3, #decoded)
+  if matches then return decoded:sub(3) end
+  if crc == nil then return decoded end
+  return nil
+end
+
+-- Records frame `pinfo.number` of link `iface` (`codec`: a codec name, or "cobs" when told by the bytes).
+local function bookkeep(pinfo, iface, codec, link, direction, raw)
+  if codec == "romi" then
+    local line = raw:match("^(#[^\r\n]*)\r?\n?$")
+    if not line or line:sub(2, 2) == "!" then return end
+    local colon = line:match(".*():")
+    if not colon then return end
+    local meta = line:sub(colon + 1)
+    if meta == "xxxx" then
+      if direction == 2 then note_request(pinfo, iface .. ":manual", raw) end
+      return
+    end
+    local id_text, crc_text = meta:match("^([0-9a-f][0-9a-f])([0-9a-f][0-9a-f])$")
+    if not id_text or tonumber(crc_text, 16) ~= crc8_smbus(line, 1, colon + 2) then return end
+    local id = tonumber(id_text, 16)
+    if direction == 2 then
+      note_request(pinfo, iface .. ":" .. id, raw)
+    elseif direction == 1 then
+      local manual = pending[iface .. ":manual"]
+      if id == 0 and manual and not manual.answered then
+        note_answer(pinfo, iface .. ":manual", "response")
+      else
+        note_answer(pinfo, iface .. ":" .. id, "response")
+      end
+    end
+    return
+  end
+  if codec ~= "proxy" and codec ~= "rpc" and codec ~= "cobs" then return end
+  local crc
+  if codec ~= "cobs" then crc = link.crc ~= "off" end
+  local payload = checked_payload(raw, crc)
+  if not payload then return end
+  local fields = read_fields(payload)
+  if direction == 2 then
+    local id = varint_of(payload, 1)
+    note_request(pinfo, iface .. ":" .. id, payload)
+    if codec ~= "proxy" then
+      -- An rpc call or stream: its method, for the answers' message types.
+      local body = field_of(fields, 3) or field_of(fields, 4)
+      if body and body.wire == 2 then
+        local index = varint_of(payload:sub(body.from, body.to), 1)
+        link_of(pinfo.number).method = index
+        pending[iface .. ":" .. id].method = index
+      end
+    end
+  elseif direction == 1 then
+    local first = fields[1]
+    if not first or first.wire ~= 2 then return end
+    local body = payload:sub(first.from, first.to)
+    if first.number == 1 then  -- an ack (both envelopes): the proxy's answer, the rpc's receipt
+      note_answer(pinfo, iface .. ":" .. varint_of(body, 1), "ack", codec == "proxy")
+    elseif codec ~= "proxy" and (first.number == 2 or first.number == 3 or first.number == 4) then
+      local inner = read_fields(body)
+      if not inner[1] or inner[1].wire ~= 0 then return end  -- a proxy Error's text, not an rpc call id
+      local key = iface .. ":" .. varint_of(body, 1)
+      local request = pending[key]
+      if first.number == 4 then  -- a stream message: no answer, the method of its stream
+        if request and request.method then link_of(pinfo.number).method = request.method end
+        return
+      end
+      request = note_answer(pinfo, key, "response")
+      if request and request.method then link_of(pinfo.number).method = request.method end
+    end
+  end
+end
+
+-------------------------------------------------------------------------------------------------------------
 -- The packet
 
 local codecs = { romi = dissect_romi, proxy = dissect_proxy, ["proxy-compat"] = dissect_proxy, rpc = dissect_rpc,
@@ -870,7 +936,17 @@ end
 
 function tether.dissector(tvb, pinfo, tree)
   local description = fx_description()
-  local link = parse_description(description and description.value)
+  if not description then
+    -- A pass without a protocol tree: nothing to show, only the first pass's bookkeeping (by the bytes).
+    if not pinfo.visited and tvb:len() > 0 then
+      local raw = tvb:raw()
+      local direction = pinfo.p2p_dir == 0 and 2 or pinfo.p2p_dir == 1 and 1 or 0
+      local codec = raw:sub(1, 1) == "#" and "romi" or raw:byte(#raw) == 0 and "cobs" or nil
+      if codec then bookkeep(pinfo, "?", codec, {}, direction, raw) end
+    end
+    return
+  end
+  local link = parse_description(description.value)
   if not link then
     local t = tree:add(tether, tvb(), "Tether (not a Tether link)")
     t:add_proto_expert_info(e.not_tether, "interface description does not start with 'tether'")
@@ -905,7 +981,8 @@ function tether.dissector(tvb, pinfo, tree)
     if text:sub(1, 8) == "unframed" then
       local reason = text:match("^unframed:%s*(.*)$") or ""
       t:add(f.unframed, tvb(), reason)
-      t:add_proto_expert_info(e.unframed, text)
+      t:add_proto_expert_info(e.unframed, tvb:len() .. " bytes that formed no frame"
+        .. (reason ~= "" and " (" .. reason .. ")" or ""))
       local raw = tvb:raw()
       if #raw > 0 and is_text(raw) then t:add(f.text, tvb(), raw) end
       pinfo.cols.info:append("unframed (" .. (reason ~= "" and reason or "no reason") .. ") " .. tvb:len() .. " bytes")
@@ -913,7 +990,7 @@ function tether.dissector(tvb, pinfo, tree)
       return
     elseif text:sub(1, 6) == "link: " then
       t:add(f.link_event, tvb(0, 0), text:sub(7))
-      t:add_proto_expert_info(e.link_event, text)
+      t:add_proto_expert_info(e.link_event, "link event: " .. text:sub(7))
       pinfo.cols.info:append(text)
       return
     end
@@ -922,6 +999,7 @@ function tether.dissector(tvb, pinfo, tree)
     pinfo.cols.info:append("empty packet")
     return
   end
+  if not pinfo.visited then bookkeep(pinfo, tostring(link.interface), link.codec, link, direction, tvb:raw()) end
 
   local dissect = codecs[link.codec or ""]
   if dissect then

@@ -1,0 +1,520 @@
+// The Wireshark dissector (tools/wireshark/tether.lua) read back through Debian's tshark: captures of every
+// codec, their frames made by the codecs' own encoders (real CRCs), damaged frames, unframed bytes, link
+// events and request/answer pairs; every field the dissector shows is checked in tshark's JSON. Skipped,
+// saying why, when tshark is not installed.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "capture_file.hpp"
+#include "tether/elcano/encoder.hpp"
+#include "tether/elcano/message.hpp"
+#include "tether/proxy/cobs.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/romi/encoder.hpp"
+#include "rocketry.pb.h"
+#include "tether_proxy.pb.h"
+
+namespace {
+
+using tether::wireshark_test::CaptureFile;
+using tether::wireshark_test::Direction;
+namespace fs = std::filesystem;
+
+constexpr std::uint64_t kStart = 1'800'000'000'000'000;  // microseconds since the epoch
+
+// ---- frames from the codecs' encoders ----------------------------------------------------------------------
+
+std::string romi_request(std::string_view payload, std::uint8_t id) {
+  std::array<std::uint8_t, 128> out{};
+  const auto size = tether::romi::encode_request(tether::ByteView::from_chars(payload.data(), payload.size()), id,
+                                                 tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+std::string romi_manual(std::string_view payload) {
+  std::array<std::uint8_t, 128> out{};
+  const auto size = tether::romi::encode_manual_request(tether::ByteView::from_chars(payload.data(), payload.size()),
+                                                        tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+std::string romi_response(char opcode, std::string_view body, std::uint8_t id) {
+  std::array<std::uint8_t, 128> out{};
+  const auto size = tether::romi::encode_response(opcode, tether::ByteView::from_chars(body.data(), body.size()), id,
+                                                  tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+std::string romi_log(std::string_view text) {
+  std::array<std::uint8_t, 128> out{};
+  const auto size = tether::romi::encode_log(tether::ByteView::from_chars(text.data(), text.size()),
+                                             tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+std::string proxy_frame(const std::string& payload, tether::proxy::Integrity integrity, bool leading_delimiter) {
+  std::vector<std::uint8_t> out(tether::proxy::max_frame_size(payload.size()));
+  const auto size = tether::proxy::encode_frame(tether::ByteView::from_chars(payload.data(), payload.size()),
+                                                integrity, leading_delimiter,
+                                                tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+// A frame whose CRC-16 is wrong: COBS(crc ^ 0x0101 ‖ payload) ‖ 0x00 (the wire damaged it).
+std::string proxy_frame_with_bad_crc(const std::string& payload) {
+  const std::string good = proxy_frame(payload, tether::proxy::Integrity::crc16, false);
+  std::vector<std::uint8_t> decoded(good.size());
+  const auto size = tether::proxy::cobs_decode(
+      tether::ByteView::from_chars(good.data(), good.size() - 1), tether::MutableByteView(decoded.data(), decoded.size()));
+  EXPECT_TRUE(size.ok());
+  decoded.resize(size.value());
+  decoded[0] ^= 0x01;
+  decoded[1] ^= 0x01;
+  std::vector<std::uint8_t> out(tether::proxy::cobs_max_encoded_size(decoded.size()));
+  const auto encoded = tether::proxy::cobs_encode(tether::ByteView(decoded.data(), decoded.size()),
+                                                  tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(encoded.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), encoded.value()) + std::string(1, '\0');
+}
+
+std::string elcano(const tether::elcano::Message& message, tether::elcano::Generation generation) {
+  std::array<std::uint8_t, 128> out{};
+  const auto size = tether::elcano::encode_message(message, generation, tether::MutableByteView(out.data(), out.size()));
+  EXPECT_TRUE(size.ok());
+  return std::string(reinterpret_cast<const char*>(out.data()), size.value());
+}
+
+// ---- tshark ------------------------------------------------------------------------------------------------
+
+// One packet's fields: every field name found in tshark's JSON tree, with its values in tree order.
+using Fields = std::map<std::string, std::vector<std::string>>;
+
+void flatten(const nlohmann::json& node, Fields& fields) {
+  if (!node.is_object()) return;
+  for (const auto& [key, value] : node.items()) {
+    if (value.is_string()) {
+      fields[key].push_back(value.get<std::string>());
+    } else if (value.is_array()) {
+      for (const auto& element : value) {
+        if (element.is_string()) fields[key].push_back(element.get<std::string>());
+        else flatten(element, fields);
+      }
+    } else if (value.is_object()) {
+      flatten(value, fields);
+    }
+  }
+}
+
+std::string shell_quote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    if (c == '\'') quoted += "'\\''";
+    else quoted += c;
+  }
+  return quoted + "'";
+}
+
+class Dissector : public testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string(TETHER_TSHARK).empty() || !fs::exists(TETHER_TSHARK)) {
+      GTEST_SKIP() << "package test skipped: tshark not found (Debian: apt install tshark)";
+    }
+    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
+    scratch_ = fs::path(TETHER_WIRESHARK_TEST_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
+    fs::remove_all(scratch_);
+    fs::create_directories(scratch_ / "home");
+  }
+
+  // Dissects `capture` in two passes (so requests show their answers) with the plugin of the source tree,
+  // the codecs' .proto folders in Protobuf's search paths and protobuf fields as Wireshark fields.
+  std::vector<Fields> dissect(const CaptureFile& capture, const std::string& extra_options = {}) {
+    const std::string file = (scratch_ / "capture.pcapng").string();
+    capture.write(file);
+    std::string command = "HOME=" + shell_quote((scratch_ / "home").string()) + " " + shell_quote(TETHER_TSHARK) +
+                          " -n -2 -X lua_script:" + shell_quote(TETHER_WIRESHARK_PLUGIN);
+    std::istringstream dirs(TETHER_PROTO_DIRS);
+    for (std::string dir; std::getline(dirs, dir, '|');) {
+      command += " -o " + shell_quote("uat:protobuf_search_paths:\"" + dir + "\",\"TRUE\"");
+    }
+    command += " -o protobuf.pbf_as_hf:TRUE " + extra_options + " -r " + shell_quote(file) +
+               " -T json --no-duplicate-keys 2>" + shell_quote((scratch_ / "stderr.txt").string());
+    std::string output;
+    FILE* pipe = popen(command.c_str(), "r");
+    if (pipe == nullptr) {
+      ADD_FAILURE() << "cannot run " << command;
+      return {};
+    }
+    std::array<char, 4096> buffer{};
+    for (std::size_t n; (n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0;) output.append(buffer.data(), n);
+    const int status = pclose(pipe);
+    std::ifstream stderr_file(scratch_ / "stderr.txt");
+    std::string errors((std::istreambuf_iterator<char>(stderr_file)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(status, 0) << command << "\n" << errors;
+    // Lua errors reach tshark's stderr or the tree; neither may have one.
+    EXPECT_EQ(errors.find("Lua"), std::string::npos) << errors;
+    std::ofstream(scratch_ / "dissection.json") << output;
+    std::vector<Fields> packets;
+    const auto json = nlohmann::json::parse(output, nullptr, false);
+    if (json.is_discarded() || !json.is_array()) {
+      ADD_FAILURE() << "tshark's output is not a JSON array:\n" << output.substr(0, 2000) << "\n" << errors;
+      return {};
+    }
+    for (const auto& packet : json) {
+      Fields fields;
+      flatten(packet["_source"]["layers"], fields);
+      for (const auto& [key, values] : fields) {
+        EXPECT_EQ(key.find("_ws.lua"), key.find("_ws.lua.fake")) << "Lua error in packet: " << key;
+      }
+      packets.push_back(std::move(fields));
+    }
+    return packets;
+  }
+
+  fs::path scratch_;
+};
+
+// The values of `name` in `packet` (empty when absent).
+std::vector<std::string> values(const Fields& packet, const std::string& name) {
+  const auto found = packet.find(name);
+  return found == packet.end() ? std::vector<std::string>{} : found->second;
+}
+// The single value of `name` (a failure when absent or repeated).
+std::string value(const Fields& packet, const std::string& name) {
+  const auto all = values(packet, name);
+  EXPECT_EQ(all.size(), 1u) << name;
+  return all.empty() ? std::string() : all.front();
+}
+bool has(const Fields& packet, const std::string& name) { return packet.count(name) != 0; }
+// The dissector's expert messages of the packet, joined (Wireshark's own for the packet's comments left out).
+std::string experts(const Fields& packet) {
+  const auto comments = values(packet, "frame.comment");
+  std::string joined;
+  for (const auto& message : values(packet, "_ws.expert.message")) {
+    if (std::find(comments.begin(), comments.end(), message) == comments.end()) joined += message + "\n";
+  }
+  return joined;
+}
+
+using Vs = std::vector<std::string>;
+
+// ---- Romi --------------------------------------------------------------------------------------------------
+
+TEST_F(Dissector, Romi) {
+  CaptureFile capture;
+  const auto arm = capture.add_link("arm", "tether codec=romi baud=115200 transport=serial");
+  tether::romi::RequestBuilder shutdown('M');
+  shutdown.add_int(16).add_string(tether::ByteView::from_literal("Shutdown"));
+  ASSERT_EQ(shutdown.error(), tether::romi::Error::no_error);
+  const std::string shutdown_payload(reinterpret_cast<const char*>(shutdown.payload().data()),
+                                     shutdown.payload().size());
+  std::string damaged = romi_response('b', "[0]", 9);
+  damaged[damaged.size() - 3] = damaged[damaged.size() - 3] == '0' ? '1' : '0';  // the CRC's low digit
+
+  capture.add_packet(arm, kStart, Direction::outbound, romi_request("a[1,2,3]", 7));                 // 1
+  capture.add_packet(arm, kStart + 200, Direction::inbound, romi_log("moving: joint 2"));            // 2
+  capture.add_packet(arm, kStart + 1500, Direction::inbound, romi_response('a', "[0,42,\"ok\"]", 7));  // 3
+  capture.add_packet(arm, kStart + 10000, Direction::outbound, romi_request(shutdown_payload, 8));    // 4
+  capture.add_packet(arm, kStart + 1010000, Direction::outbound, romi_request(shutdown_payload, 8));  // 5
+  capture.add_packet(arm, kStart + 1012500, Direction::inbound, romi_response('M', "[-16]", 8));     // 6
+  capture.add_packet(arm, kStart + 1020000, Direction::inbound, damaged);                            // 7
+  capture.add_packet(arm, kStart + 1030000, Direction::inbound, "zz\x01", "unframed: noise");        // 8
+  capture.add_packet(arm, kStart + 1040000, Direction::outbound, romi_manual("?"));                  // 9
+  capture.add_packet(arm, kStart + 1041000, Direction::inbound, romi_response('?', "[0,\"romi\"]", 0));  // 10
+  capture.add_packet(arm, kStart + 1050000, Direction::inbound, "", "link: down");                   // 11
+  capture.add_packet(arm, kStart + 1060000, Direction::outbound, romi_request("g", 10));             // 12
+  capture.add_packet(arm, kStart + 1061000, Direction::inbound, romi_response('g', "[3,\"no: power\"]", 10));  // 13
+  const auto p = dissect(capture);
+  ASSERT_EQ(p.size(), 13u);
+
+  // Every packet: the link, from the interface, and the direction, from the flags.
+  for (const auto& packet : p) {
+    EXPECT_EQ(value(packet, "tether.device"), "arm");
+    EXPECT_EQ(value(packet, "tether.codec"), "romi");
+    EXPECT_EQ(value(packet, "tether.baud"), "115200");
+    EXPECT_EQ(value(packet, "tether.transport"), "serial");
+  }
+  EXPECT_EQ(value(p[0], "tether.direction"), "2");
+  EXPECT_EQ(value(p[1], "tether.direction"), "1");
+
+  // A request: opcode, arguments, id, CRC; answered in frame 3 after 1.5 ms.
+  EXPECT_EQ(value(p[0], "tether.romi.kind"), "request");
+  EXPECT_EQ(value(p[0], "tether.romi.opcode"), "a");
+  EXPECT_EQ(value(p[0], "tether.romi.args"), "[1,2,3]");
+  EXPECT_EQ(values(p[0], "tether.romi.arg"), (Vs{"1", "2", "3"}));
+  EXPECT_EQ(value(p[0], "tether.romi.id"), "7");
+  EXPECT_EQ(value(p[0], "tether.romi.crc"), value(p[0], "tether.romi.crc.computed"));
+  EXPECT_EQ(value(p[0], "tether.romi.crc.status"), "1");
+  EXPECT_EQ(value(p[0], "tether.response_in"), "3");
+  EXPECT_FALSE(has(p[0], "tether.request_in"));
+  EXPECT_EQ(experts(p[0]), "");
+
+  // A log line, between the request and its response.
+  EXPECT_EQ(value(p[1], "tether.romi.kind"), "log");
+  EXPECT_EQ(value(p[1], "tether.romi.log"), "moving: joint 2");
+  EXPECT_FALSE(has(p[1], "tether.romi.id"));
+  EXPECT_EQ(experts(p[1]), "");
+
+  // The response: code 0 and its values.
+  EXPECT_EQ(value(p[2], "tether.romi.kind"), "response");
+  EXPECT_EQ(value(p[2], "tether.romi.opcode"), "a");
+  EXPECT_EQ(value(p[2], "tether.romi.code"), "0");
+  EXPECT_FALSE(has(p[2], "tether.romi.error"));
+  EXPECT_EQ(values(p[2], "tether.romi.value"), (Vs{"42", "\"ok\""}));
+  EXPECT_EQ(value(p[2], "tether.romi.id"), "7");
+  EXPECT_EQ(value(p[2], "tether.romi.crc.status"), "1");
+  EXPECT_EQ(value(p[2], "tether.request_in"), "1");
+  EXPECT_EQ(value(p[2], "tether.response_time"), "0.001500000");
+  EXPECT_EQ(experts(p[2]), "");
+
+  // A string argument; the same bytes again are a re-send, and the answer goes to the last send.
+  EXPECT_EQ(values(p[3], "tether.romi.arg"), (Vs{"16", "\"Shutdown\""}));
+  EXPECT_EQ(value(p[3], "tether.romi.id"), "8");
+  EXPECT_FALSE(has(p[3], "tether.resend_of"));
+  EXPECT_EQ(value(p[4], "tether.resend_of"), "4");
+  EXPECT_EQ(value(p[4], "tether.response_in"), "6");
+
+  // An error reply: the code and its meaning, as expert info.
+  EXPECT_EQ(value(p[5], "tether.romi.code"), "-16");
+  EXPECT_EQ(value(p[5], "tether.romi.error"), "unknown opcode");
+  EXPECT_EQ(value(p[5], "tether.request_in"), "5");
+  EXPECT_EQ(value(p[5], "tether.response_time"), "0.002500000");
+  EXPECT_EQ(experts(p[5]), "error -16: unknown opcode\n");
+
+  // A damaged CRC: the frame is still decoded, its CRC marked bad.
+  EXPECT_EQ(value(p[6], "tether.romi.opcode"), "b");
+  EXPECT_EQ(value(p[6], "tether.romi.id"), "9");
+  EXPECT_EQ(value(p[6], "tether.romi.crc.status"), "0");
+  EXPECT_NE(value(p[6], "tether.romi.crc"), value(p[6], "tether.romi.crc.computed"));
+  EXPECT_NE(experts(p[6]).find("CRC-8"), std::string::npos) << experts(p[6]);
+  EXPECT_TRUE(has(p[6], "tether.bad_crc"));
+
+  // Unframed bytes: shown as such, with their reason.
+  EXPECT_EQ(value(p[7], "tether.unframed"), "noise");
+  EXPECT_FALSE(has(p[7], "tether.romi.kind"));
+  EXPECT_EQ(experts(p[7]), "3 bytes that formed no frame (noise)\n");
+
+  // A manual request (`:xxxx`), answered with id 00.
+  EXPECT_EQ(value(p[8], "tether.romi.kind"), "manual request");
+  EXPECT_EQ(value(p[8], "tether.romi.opcode"), "?");
+  EXPECT_FALSE(has(p[8], "tether.romi.id"));
+  EXPECT_EQ(value(p[8], "tether.response_in"), "10");
+  EXPECT_EQ(value(p[9], "tether.romi.id"), "0");
+  EXPECT_EQ(values(p[9], "tether.romi.value"), (Vs{"\"romi\""}));
+  EXPECT_EQ(value(p[9], "tether.request_in"), "9");
+
+  // A link event.
+  EXPECT_EQ(value(p[10], "tether.link_event"), "down");
+  EXPECT_EQ(experts(p[10]), "link event: down\n");
+
+  // No arguments; an application's error code (positive), its ':' sent as '-'.
+  EXPECT_EQ(value(p[11], "tether.romi.opcode"), "g");
+  EXPECT_FALSE(has(p[11], "tether.romi.args"));
+  EXPECT_EQ(value(p[12], "tether.romi.code"), "3");
+  EXPECT_EQ(value(p[12], "tether.romi.error"), "application error 3");
+  EXPECT_EQ(values(p[12], "tether.romi.value"), (Vs{"\"no- power\""}));
+  EXPECT_EQ(value(p[12], "tether.request_in"), "12");
+}
+
+// ---- proxy -------------------------------------------------------------------------------------------------
+
+TEST_F(Dissector, Proxy) {
+  using tether::proxy::Integrity;
+  CaptureFile capture;
+  const auto io = capture.add_link("io", "tether codec=proxy baud=115200 transport=serial crc=on");
+  const auto legacy = capture.add_link("legacy", "tether codec=proxy-compat baud=57600 transport=pty");
+
+  tether::proxy::ArduinoIn control;
+  control.set_messageid(5);
+  control.mutable_servocontrol()->set_pin(9);
+  control.mutable_servocontrol()->set_position(120);
+  tether::proxy::ArduinoOut ack;
+  ack.mutable_ack()->set_messageid(5);
+  tether::proxy::ArduinoIn too_far;
+  too_far.set_messageid(6);
+  too_far.mutable_servocontrol()->set_pin(9);
+  too_far.mutable_servocontrol()->set_position(999);
+  tether::proxy::ArduinoOut error;
+  error.mutable_error()->set_text("pin 9: position 999 not in 0..180");
+  tether::proxy::ArduinoOut refused;
+  refused.mutable_ack()->set_messageid(6);
+  refused.mutable_ack()->set_refused(true);
+  tether::proxy::ArduinoOut info;
+  info.mutable_info()->set_sessionid(0xBEEF);
+  RocketryProto::ArduinoIn servo_init;
+  servo_init.mutable_servoinit()->set_pin(9);
+  servo_init.mutable_servoinit()->set_safeposition(90);
+  RocketryProto::ArduinoOut event;
+  event.mutable_eventmessage()->set_type(RocketryProto::SERVO_INIT);
+  event.mutable_eventmessage()->set_data(9);
+
+  capture.add_packet(io, kStart, Direction::outbound, proxy_frame(control.SerializeAsString(), Integrity::crc16, true));
+  capture.add_packet(io, kStart + 3000, Direction::inbound, proxy_frame(ack.SerializeAsString(), Integrity::crc16, false));
+  capture.add_packet(io, kStart + 4000, Direction::outbound,
+                     proxy_frame(too_far.SerializeAsString(), Integrity::crc16, false));
+  capture.add_packet(io, kStart + 6000, Direction::inbound, proxy_frame(error.SerializeAsString(), Integrity::crc16, false));
+  capture.add_packet(io, kStart + 6500, Direction::inbound,
+                     proxy_frame(refused.SerializeAsString(), Integrity::crc16, false));
+  capture.add_packet(io, kStart + 7000, Direction::inbound, proxy_frame_with_bad_crc(info.SerializeAsString()));
+  capture.add_packet(io, kStart + 8000, Direction::inbound, std::string("\x05\x01\x02", 3), "unframed: cut at close");
+  capture.add_packet(legacy, kStart + 9000, Direction::outbound,
+                     proxy_frame(servo_init.SerializeAsString(), Integrity::none, true));
+  capture.add_packet(legacy, kStart + 9500, Direction::inbound,
+                     proxy_frame(event.SerializeAsString(), Integrity::none, false));
+  capture.add_packet(io, kStart + 10000, Direction::outbound, std::string(1, '\0'));
+  const auto p = dissect(capture);
+  ASSERT_EQ(p.size(), 10u);
+
+  // A message: COBS undone, CRC good, the protobuf fields by name; acked in frame 2.
+  EXPECT_EQ(value(p[0], "tether.device"), "io");
+  EXPECT_EQ(value(p[0], "tether.codec"), "proxy");
+  EXPECT_EQ(value(p[0], "tether.direction"), "2");
+  EXPECT_EQ(value(p[0], "tether.cobs.leading_delimiter"), "00");
+  EXPECT_EQ(value(p[0], "tether.crc16.status"), "1");
+  EXPECT_EQ(value(p[0], "tether.crc16"), value(p[0], "tether.crc16.computed"));
+  EXPECT_EQ(value(p[0], "tether.message"), "tether.proxy.ArduinoIn");
+  EXPECT_EQ(value(p[0], "tether.message_id"), "5");
+  EXPECT_EQ(value(p[0], "pbf.tether.proxy.ArduinoIn.messageId"), "5");
+  EXPECT_EQ(value(p[0], "pbf.tether.proxy.ServoControl.pin"), "9");
+  EXPECT_EQ(value(p[0], "pbf.tether.proxy.ServoControl.position"), "120");
+  EXPECT_EQ(value(p[0], "tether.response_in"), "2");
+  EXPECT_EQ(experts(p[0]), "");
+
+  // Its ack, matched to the message id, with the response time.
+  EXPECT_EQ(value(p[1], "tether.message"), "tether.proxy.ArduinoOut");
+  EXPECT_EQ(value(p[1], "tether.ack.message_id"), "5");
+  EXPECT_EQ(value(p[1], "tether.ack.refused"), "0");
+  EXPECT_EQ(value(p[1], "pbf.tether.proxy.Ack.messageId"), "5");
+  EXPECT_EQ(value(p[1], "tether.request_in"), "1");
+  EXPECT_EQ(value(p[1], "tether.response_time"), "0.003000000");
+  EXPECT_EQ(experts(p[1]), "");
+
+  // A refused message: its Error, then its ack saying refused (expert info).
+  EXPECT_EQ(value(p[2], "pbf.tether.proxy.ServoControl.position"), "999");
+  EXPECT_EQ(value(p[2], "tether.response_in"), "5");
+  EXPECT_EQ(value(p[3], "pbf.tether.proxy.Error.text"), "pin 9: position 999 not in 0..180");
+  EXPECT_FALSE(has(p[3], "tether.request_in"));
+  EXPECT_EQ(value(p[4], "tether.ack.message_id"), "6");
+  EXPECT_EQ(value(p[4], "tether.ack.refused"), "1");
+  EXPECT_EQ(value(p[4], "pbf.tether.proxy.Ack.refused"), "1");
+  EXPECT_EQ(value(p[4], "tether.request_in"), "3");
+  EXPECT_EQ(experts(p[4]), "message 6 refused\n");
+
+  // A damaged CRC: marked bad, the message still shown.
+  EXPECT_EQ(value(p[5], "tether.crc16.status"), "0");
+  EXPECT_NE(value(p[5], "tether.crc16"), value(p[5], "tether.crc16.computed"));
+  EXPECT_EQ(value(p[5], "pbf.tether.proxy.ArduinoInfo.sessionId"), "48879");
+  EXPECT_NE(experts(p[5]).find("CRC-16"), std::string::npos) << experts(p[5]);
+
+  // Unframed bytes.
+  EXPECT_EQ(value(p[6], "tether.unframed"), "cut at close");
+  EXPECT_EQ(experts(p[6]), "3 bytes that formed no frame (cut at close)\n");
+  EXPECT_FALSE(has(p[6], "tether.message"));
+
+  // Compatibility mode: no CRC, RocketryProto, no ids.
+  EXPECT_EQ(value(p[7], "tether.device"), "legacy");
+  EXPECT_EQ(value(p[7], "tether.codec"), "proxy-compat");
+  EXPECT_FALSE(has(p[7], "tether.crc16"));
+  EXPECT_FALSE(has(p[7], "tether.message_id"));
+  EXPECT_EQ(value(p[7], "tether.message"), "RocketryProto.ArduinoIn");
+  EXPECT_EQ(value(p[7], "pbf.RocketryProto.ServoInit.pin"), "9");
+  EXPECT_EQ(value(p[7], "pbf.RocketryProto.ServoInit.safePosition"), "90");
+  EXPECT_EQ(value(p[8], "tether.message"), "RocketryProto.ArduinoOut");
+  EXPECT_EQ(value(p[8], "pbf.RocketryProto.EventMessage.type"), "1");
+  EXPECT_EQ(value(p[8], "pbf.RocketryProto.EventMessage.data"), "9");
+  EXPECT_EQ(experts(p[7]) + experts(p[8]), "");
+
+  // A lone delimiter (a sender flushing the line).
+  EXPECT_EQ(value(p[9], "tether.message"), "empty frame (a delimiter)");
+}
+
+// ---- Elcano ------------------------------------------------------------------------------------------------
+
+TEST_F(Dissector, Elcano) {
+  using tether::elcano::Generation;
+  using tether::elcano::Message;
+  CaptureFile capture;
+  const auto ring = capture.add_link("ring", "tether codec=elcano baud=115200 transport=serial generation=B");
+  const auto ring_d = capture.add_link("ring-d", "tether codec=elcano baud=115200 transport=serial generation=D");
+  std::string damaged = elcano(Message::drive(50, 25), Generation::d);
+  damaged[damaged.size() - 2] = damaged[damaged.size() - 2] == '0' ? '1' : '0';
+
+  capture.add_packet(ring, kStart, Direction::outbound, elcano(Message::drive(50, 25), Generation::b));
+  capture.add_packet(ring, kStart + 100, Direction::inbound, elcano(Message::sensor(69, -12, 432, 420, 90210), Generation::b));
+  capture.add_packet(ring, kStart + 200, Direction::outbound, elcano(Message::goal(1, 90, 100, 200, 75), Generation::b));
+  capture.add_packet(ring, kStart + 300, Direction::inbound, "D{s}{a 25}\n");
+  capture.add_packet(ring, kStart + 400, Direction::inbound, "D{s 1}\n");
+  capture.add_packet(ring_d, kStart + 500, Direction::inbound, elcano(Message::segment(4, 160, 80, 3200, -64000), Generation::d));
+  capture.add_packet(ring_d, kStart + 600, Direction::outbound, damaged);
+  capture.add_packet(ring_d, kStart + 700, Direction::inbound, "X{n4", "unframed: cut at close");
+  const auto p = dissect(capture);
+  ASSERT_EQ(p.size(), 8u);
+
+  EXPECT_EQ(value(p[0], "tether.codec"), "elcano");
+  EXPECT_EQ(value(p[0], "tether.elcano.generation"), "B");
+  EXPECT_EQ(value(p[0], "tether.elcano.type"), "D (drive)");
+  EXPECT_EQ(value(p[0], "tether.elcano.speed"), "50");
+  EXPECT_EQ(value(p[0], "tether.elcano.angle"), "25");
+  EXPECT_FALSE(has(p[0], "tether.elcano.crc"));
+  EXPECT_EQ(experts(p[0]), "");
+
+  EXPECT_EQ(value(p[1], "tether.elcano.type"), "S (sensor)");
+  EXPECT_EQ(value(p[1], "tether.elcano.speed"), "69");
+  EXPECT_EQ(value(p[1], "tether.elcano.angle"), "-12");
+  EXPECT_EQ(value(p[1], "tether.elcano.bearing"), "432");
+  EXPECT_EQ(value(p[1], "tether.elcano.east"), "420");
+  EXPECT_EQ(value(p[1], "tether.elcano.north"), "90210");
+  EXPECT_EQ(experts(p[1]), "");
+
+  EXPECT_EQ(value(p[2], "tether.elcano.type"), "G (goal)");
+  EXPECT_EQ(value(p[2], "tether.elcano.number"), "1");
+  EXPECT_EQ(value(p[2], "tether.elcano.bearing"), "90");
+  EXPECT_EQ(value(p[2], "tether.elcano.probability"), "75");
+  EXPECT_EQ(value(p[2], "tether.elcano.east"), "100");
+  EXPECT_EQ(value(p[2], "tether.elcano.north"), "200");
+
+  // Damaged messages, as the reader names them.
+  EXPECT_NE(value(p[3], "tether.elcano.error").find("bad_number"), std::string::npos);
+  EXPECT_NE(experts(p[3]).find("bad_number"), std::string::npos);
+  EXPECT_NE(value(p[4], "tether.elcano.error").find("inval_comb"), std::string::npos);
+  EXPECT_EQ(value(p[4], "tether.elcano.speed"), "1");
+
+  // Generation D: `{p E}{q N}` and the decimal CRC-8 (the format's example).
+  EXPECT_EQ(value(p[5], "tether.elcano.generation"), "D");
+  EXPECT_EQ(value(p[5], "tether.elcano.type"), "X (segment)");
+  EXPECT_EQ(value(p[5], "tether.elcano.number"), "4");
+  EXPECT_EQ(value(p[5], "tether.elcano.speed"), "160");
+  EXPECT_EQ(value(p[5], "tether.elcano.bearing"), "80");
+  EXPECT_EQ(value(p[5], "tether.elcano.east"), "3200");
+  EXPECT_EQ(value(p[5], "tether.elcano.north"), "-64000");
+  EXPECT_EQ(value(p[5], "tether.elcano.crc"), "243");
+  EXPECT_EQ(value(p[5], "tether.elcano.crc.computed"), "243");
+  EXPECT_EQ(value(p[5], "tether.elcano.crc.status"), "1");
+  EXPECT_EQ(experts(p[5]), "");
+
+  EXPECT_EQ(value(p[6], "tether.elcano.type"), "D (drive)");
+  EXPECT_EQ(value(p[6], "tether.elcano.crc.status"), "0");
+  EXPECT_NE(experts(p[6]).find("CRC-8"), std::string::npos);
+
+  EXPECT_EQ(value(p[7], "tether.unframed"), "cut at close");
+  EXPECT_EQ(value(p[7], "tether.text"), "X{n4");
+  EXPECT_FALSE(has(p[7], "tether.elcano.type"));
+}
+
+}  // namespace
