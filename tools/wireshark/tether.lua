@@ -966,7 +966,7 @@ function tether.dissector(tvb, pinfo, tree)
   if link.baud then t:add(f.baud, tvb(0, 0), link.baud):set_generated() end
   if link.transport then t:add(f.transport, tvb(0, 0), link.transport):set_generated() end
   t:add(f.direction, tvb(0, 0), direction):set_generated()
-  pinfo.cols.info = (name and name.value or "?") .. " " .. (direction == 2 and "<- " or direction == 1 and "-> " or "")
+  pinfo.cols.info = (name and name.value or "?") .. ": "
   if direction == 1 then
     pinfo.cols.src = name and name.value or "device"
     pinfo.cols.dst = "host"

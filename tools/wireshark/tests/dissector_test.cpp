@@ -332,6 +332,29 @@ TEST_F(Dissector, Romi) {
   EXPECT_EQ(value(p[12], "tether.request_in"), "12");
 }
 
+// Two links whose requests use the same ids: with a protocol tree on the first pass (here a read filter;
+// Wireshark with a display filter) each answer is linked on its own link. Without one (the test above) the
+// links share one table, which is right while their ids do not overlap in time.
+TEST_F(Dissector, RequestsOfTwoLinksWithTheSameIdsStayApartWhenTheFirstPassHasATree) {
+  CaptureFile capture;
+  const auto left = capture.add_link("left", "tether codec=romi baud=115200 transport=serial");
+  const auto right = capture.add_link("right", "tether codec=romi baud=115200 transport=tcp");
+  capture.add_packet(left, kStart, Direction::outbound, romi_request("a[1]", 5));
+  capture.add_packet(right, kStart + 100, Direction::outbound, romi_request("a[2]", 5));
+  capture.add_packet(right, kStart + 900, Direction::inbound, romi_response('a', "[0]", 5));
+  capture.add_packet(left, kStart + 2000, Direction::inbound, romi_response('a', "[0]", 5));
+  const auto p = dissect(capture, "-R tether");
+  ASSERT_EQ(p.size(), 4u);
+  EXPECT_EQ(value(p[0], "tether.device"), "left");
+  EXPECT_EQ(value(p[1], "tether.transport"), "tcp");
+  EXPECT_EQ(value(p[0], "tether.response_in"), "4");
+  EXPECT_EQ(value(p[1], "tether.response_in"), "3");
+  EXPECT_EQ(value(p[2], "tether.request_in"), "2");
+  EXPECT_EQ(value(p[2], "tether.response_time"), "0.000800000");
+  EXPECT_EQ(value(p[3], "tether.request_in"), "1");
+  EXPECT_EQ(value(p[3], "tether.response_time"), "0.002000000");
+}
+
 // ---- proxy -------------------------------------------------------------------------------------------------
 
 TEST_F(Dissector, Proxy) {
