@@ -130,12 +130,24 @@ std::string shell_quote(const std::string& text) {
   return quoted + "'";
 }
 
+// The plugin and the .proto folders ('|'-separated): the source tree's, or an install's when the environment
+// names them (package.wireshark_dissector: the installed files).
+std::string plugin_path() {
+  const char* path = std::getenv("TETHER_WIRESHARK_PLUGIN");
+  return path != nullptr ? path : TETHER_WIRESHARK_PLUGIN;
+}
+std::string proto_dirs() {
+  const char* dirs = std::getenv("TETHER_PROTO_DIRS");
+  return dirs != nullptr ? dirs : TETHER_PROTO_DIRS;
+}
+
 class Dissector : public testing::Test {
  protected:
   void SetUp() override {
     if (std::string(TETHER_TSHARK).empty() || !fs::exists(TETHER_TSHARK)) {
       GTEST_SKIP() << "package test skipped: tshark not found (Debian: apt install tshark)";
     }
+    ASSERT_TRUE(fs::exists(plugin_path())) << plugin_path();
     const auto* info = testing::UnitTest::GetInstance()->current_test_info();
     scratch_ = fs::path(TETHER_WIRESHARK_TEST_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
     fs::remove_all(scratch_);
@@ -148,8 +160,8 @@ class Dissector : public testing::Test {
     const std::string file = (scratch_ / "capture.pcapng").string();
     capture.write(file);
     std::string command = "HOME=" + shell_quote((scratch_ / "home").string()) + " " + shell_quote(TETHER_TSHARK) +
-                          " -n -2 -X lua_script:" + shell_quote(TETHER_WIRESHARK_PLUGIN);
-    std::istringstream dirs(TETHER_PROTO_DIRS);
+                          " -n -2 -X lua_script:" + shell_quote(plugin_path());
+    std::istringstream dirs(proto_dirs());
     for (std::string dir; std::getline(dirs, dir, '|');) {
       command += " -o " + shell_quote("uat:protobuf_search_paths:\"" + dir + "\",\"TRUE\"");
     }
