@@ -22,8 +22,10 @@
 #include "tether/proxy/cobs.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/romi/encoder.hpp"
+#include "arm.pb.h"
 #include "rocketry.pb.h"
 #include "tether_proxy.pb.h"
+#include "tether_rpc.pb.h"
 
 namespace {
 
@@ -477,6 +479,162 @@ TEST_F(Dissector, Proxy) {
 
   // A lone delimiter (a sender flushing the line).
   EXPECT_EQ(value(p[9], "tether.message"), "empty frame (a delimiter)");
+}
+
+// ---- rpc ---------------------------------------------------------------------------------------------------
+
+// The rpc frame of an envelope message: the proxy's framing with its CRC.
+template <typename Message>
+std::string rpc_frame(const Message& message) {
+  return proxy_frame(message.SerializeAsString(), tether::proxy::Integrity::crc16, false);
+}
+
+TEST_F(Dissector, Rpc) {
+  using tether::rpc::wire::DeviceMessage;
+  using tether::rpc::wire::HostMessage;
+  CaptureFile capture;
+  const auto arm = capture.add_link("arm", "tether codec=rpc baud=115200 transport=pty schema=arm.proto package=arm");
+  const auto other = capture.add_link("other", "tether codec=rpc baud=115200 transport=pty schema=missing.proto package=x");
+
+  HostMessage move;
+  move.set_id(3);
+  move.mutable_call()->set_method(0);
+  arm::JointRequest joint;
+  joint.set_joint(2);
+  joint.set_angle_cdeg(-4500);
+  move.mutable_call()->set_request(joint.SerializeAsString());
+  DeviceMessage ack;
+  ack.mutable_ack()->set_id(3);
+  DeviceMessage reply;
+  reply.mutable_reply()->set_call(3);
+  arm::JointReply reached;
+  reached.set_reached_cdeg(-4500);
+  reply.mutable_reply()->set_reply(reached.SerializeAsString());
+  HostMessage watch;
+  watch.set_id(4);
+  watch.mutable_open()->set_method(1);
+  watch.mutable_open()->set_period_ms(100);
+  DeviceMessage watch_ack;
+  watch_ack.mutable_ack()->set_id(4);
+  DeviceMessage state;
+  state.mutable_stream()->set_stream(4);
+  state.mutable_stream()->set_seq(7);
+  arm::State angles;
+  for (const int angle : {100, 200, -300, 0}) angles.add_angles_cdeg(angle);
+  angles.set_millis(1000);
+  angles.set_mode(arm::MODE_ACTIVE);
+  state.mutable_stream()->set_message(angles.SerializeAsString());
+  HostMessage bad_joint;
+  bad_joint.set_id(5);
+  bad_joint.mutable_call()->set_method(0);
+  joint.set_joint(9);
+  bad_joint.mutable_call()->set_request(joint.SerializeAsString());
+  DeviceMessage no_joint;
+  no_joint.mutable_error()->set_call(5);
+  no_joint.mutable_error()->set_code(1);
+  no_joint.mutable_error()->set_text("no joint");
+  HostMessage unknown;
+  unknown.set_id(6);
+  unknown.mutable_call()->set_method(9);
+  DeviceMessage refused;
+  refused.mutable_ack()->set_id(6);
+  refused.mutable_ack()->set_refused(true);
+  DeviceMessage unknown_method;
+  unknown_method.mutable_error()->set_call(6);
+  unknown_method.mutable_error()->set_code(0xFF01);
+  DeviceMessage hello;
+  hello.mutable_hello()->set_schema_hash(0x0123456789ABCDEFull);
+  hello.mutable_hello()->set_session(77);
+  hello.mutable_hello()->set_methods(4);
+
+  capture.add_packet(arm, kStart, Direction::outbound, rpc_frame(move));             // 1
+  capture.add_packet(arm, kStart + 1000, Direction::inbound, rpc_frame(ack));        // 2
+  capture.add_packet(arm, kStart + 2500, Direction::inbound, rpc_frame(reply));      // 3
+  capture.add_packet(arm, kStart + 3000, Direction::outbound, rpc_frame(watch));     // 4
+  capture.add_packet(arm, kStart + 3500, Direction::inbound, rpc_frame(watch_ack));  // 5
+  capture.add_packet(arm, kStart + 103500, Direction::inbound, rpc_frame(state));    // 6
+  capture.add_packet(arm, kStart + 104000, Direction::outbound, rpc_frame(bad_joint));  // 7
+  capture.add_packet(arm, kStart + 105000, Direction::inbound, rpc_frame(no_joint));    // 8
+  capture.add_packet(arm, kStart + 106000, Direction::outbound, rpc_frame(unknown));    // 9
+  capture.add_packet(arm, kStart + 106500, Direction::inbound, rpc_frame(refused));     // 10
+  capture.add_packet(arm, kStart + 107000, Direction::inbound, rpc_frame(unknown_method));  // 11
+  capture.add_packet(arm, kStart + 108000, Direction::inbound, rpc_frame(hello));       // 12
+  capture.add_packet(other, kStart + 109000, Direction::outbound, rpc_frame(move));     // 13
+  const std::string schemas = TETHER_RPC_EXAMPLE_DIR;
+  const auto p = dissect(capture, "-o " + shell_quote("uat:protobuf_search_paths:\"" + schemas + "\",\"TRUE\"") +
+                                      " -o " + shell_quote("tether.schema_dirs:" + schemas));
+  ASSERT_EQ(p.size(), 13u);
+
+  // A call: the envelope, its method by name and its request as the method's input type.
+  EXPECT_EQ(value(p[0], "tether.codec"), "rpc");
+  EXPECT_EQ(value(p[0], "tether.crc16.status"), "1");
+  EXPECT_EQ(value(p[0], "tether.message"), "tether.rpc.wire.HostMessage");
+  EXPECT_EQ(value(p[0], "tether.message_id"), "3");
+  EXPECT_EQ(value(p[0], "tether.rpc.method_index"), "0");
+  EXPECT_EQ(value(p[0], "tether.rpc.method"), "MoveJoint");
+  EXPECT_EQ(value(p[0], "tether.rpc.type"), "arm.JointRequest");
+  EXPECT_EQ(value(p[0], "pbf.tether.rpc.wire.HostMessage.id"), "3");
+  EXPECT_TRUE(has(p[0], "pbf.tether.rpc.wire.HostMessage.call"));  // method 0: not on the wire (proto3)
+  EXPECT_TRUE(has(p[0], "pbf.tether.rpc.wire.Call.request"));
+  EXPECT_EQ(value(p[0], "pbf.arm.JointRequest.joint"), "2");
+  EXPECT_EQ(value(p[0], "pbf.arm.JointRequest.angle_cdeg"), "-4500");
+  EXPECT_EQ(value(p[0], "tether.ack_in"), "2");
+  EXPECT_EQ(value(p[0], "tether.response_in"), "3");
+  EXPECT_EQ(experts(p[0]), "");
+
+  // Its ack (a receipt) and its reply (the answer), both pointing back with their times.
+  EXPECT_EQ(value(p[1], "tether.message"), "tether.rpc.wire.DeviceMessage");
+  EXPECT_EQ(value(p[1], "tether.ack.message_id"), "3");
+  EXPECT_EQ(value(p[1], "tether.ack.refused"), "0");
+  EXPECT_EQ(value(p[1], "tether.request_in"), "1");
+  EXPECT_EQ(value(p[1], "tether.response_time"), "0.001000000");
+  EXPECT_EQ(value(p[2], "tether.rpc.call"), "3");
+  EXPECT_EQ(value(p[2], "tether.rpc.method"), "MoveJoint");
+  EXPECT_EQ(value(p[2], "tether.rpc.type"), "arm.JointReply");
+  EXPECT_EQ(value(p[2], "pbf.arm.JointReply.reached_cdeg"), "-4500");
+  EXPECT_EQ(value(p[2], "tether.request_in"), "1");
+  EXPECT_EQ(value(p[2], "tether.response_time"), "0.002500000");
+  EXPECT_EQ(experts(p[2]), "");
+
+  // A stream: opened, acked; its messages as the method's output type.
+  EXPECT_EQ(value(p[3], "tether.rpc.method"), "Watch");
+  EXPECT_EQ(value(p[3], "pbf.tether.rpc.wire.OpenStream.period_ms"), "100");
+  EXPECT_EQ(value(p[3], "tether.ack_in"), "5");
+  EXPECT_EQ(value(p[5], "tether.rpc.stream"), "4");
+  EXPECT_EQ(value(p[5], "tether.rpc.seq"), "7");
+  EXPECT_EQ(value(p[5], "tether.rpc.method"), "Watch");
+  EXPECT_EQ(value(p[5], "tether.rpc.type"), "arm.State");
+  EXPECT_EQ(values(p[5], "pbf.arm.State.angles_cdeg"), (Vs{"100", "200", "-300", "0"}));
+  EXPECT_EQ(value(p[5], "pbf.arm.State.millis"), "1000");
+  EXPECT_EQ(value(p[5], "pbf.arm.State.mode"), "1");
+  EXPECT_FALSE(has(p[5], "tether.request_in"));
+
+  // An application's error and Tether's own, with their meaning; a refused message.
+  EXPECT_EQ(value(p[7], "tether.rpc.call"), "5");
+  EXPECT_EQ(value(p[7], "tether.rpc.method"), "MoveJoint");
+  EXPECT_EQ(value(p[7], "tether.rpc.error_code"), "1");
+  EXPECT_EQ(value(p[7], "tether.rpc.error"), "application error");
+  EXPECT_EQ(value(p[7], "pbf.tether.rpc.wire.DeviceError.text"), "no joint");
+  EXPECT_EQ(value(p[7], "tether.request_in"), "7");
+  EXPECT_EQ(experts(p[7]), "error 1: application error\n");
+  EXPECT_EQ(value(p[8], "tether.rpc.method_index"), "9");
+  EXPECT_FALSE(has(p[8], "tether.rpc.method"));
+  EXPECT_EQ(value(p[9], "tether.ack.refused"), "1");
+  EXPECT_EQ(experts(p[9]), "message 6 refused\n");
+  EXPECT_EQ(value(p[10], "tether.rpc.error_code"), "65281");
+  EXPECT_EQ(value(p[10], "tether.rpc.error"), "unknown method");
+  EXPECT_EQ(value(p[10], "tether.request_in"), "9");
+
+  // The device's hello.
+  EXPECT_EQ(value(p[11], "pbf.tether.rpc.wire.DeviceHello.session"), "77");
+  EXPECT_EQ(value(p[11], "pbf.tether.rpc.wire.DeviceHello.methods"), "4");
+
+  // A schema that is not found: the envelope still, the method by its index, and why not by name.
+  EXPECT_EQ(value(p[12], "tether.device"), "other");
+  EXPECT_EQ(value(p[12], "tether.rpc.method_index"), "0");
+  EXPECT_FALSE(has(p[12], "tether.rpc.method"));
+  EXPECT_EQ(value(p[12], "pbf.tether.rpc.wire.HostMessage.id"), "3");
+  EXPECT_NE(experts(p[12]).find("schema missing.proto not found"), std::string::npos) << experts(p[12]);
 }
 
 // ---- Elcano ------------------------------------------------------------------------------------------------
