@@ -12,6 +12,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -708,6 +709,87 @@ TEST_F(Dissector, Elcano) {
   EXPECT_EQ(value(p[7], "tether.unframed"), "cut at close");
   EXPECT_EQ(value(p[7], "tether.text"), "X{n4");
   EXPECT_FALSE(has(p[7], "tether.elcano.type"));
+}
+
+// ---- bad input ---------------------------------------------------------------------------------------------
+
+// Damaged frames of every codec, made from each codec's alphabet (seeded: the same bytes every run), and
+// links that are not Tether's or name a codec the dissector does not know: shown, never a Lua error (which
+// dissect() fails on), with a tree on the first pass and without.
+TEST_F(Dissector, DamagedFramesNeverRaiseALuaError) {
+  CaptureFile capture;
+  struct Link {
+    std::uint32_t id;
+    std::string alphabet;
+    bool cobs;
+  };
+  const std::string romi = "#!:[],\"-0123456789abcdefxAZ \r\n";
+  const std::string elcano = "DSGX{}pqnsaobrz -0123456789,\n\t";
+  std::vector<Link> links;
+  links.push_back({capture.add_link("romi", "tether codec=romi baud=115200 transport=serial"), romi, false});
+  links.push_back({capture.add_link("proxy", "tether codec=proxy baud=115200 transport=serial crc=on"), "", true});
+  links.push_back({capture.add_link("compat", "tether codec=proxy-compat baud=57600 transport=serial"), "", true});
+  links.push_back({capture.add_link("rpc", "tether codec=rpc baud=115200 transport=pty schema=arm.proto package=arm"), "",
+                   true});
+  links.push_back({capture.add_link("elcano-b", "tether codec=elcano baud=115200 transport=serial generation=B"),
+                   elcano, false});
+  links.push_back({capture.add_link("elcano-d", "tether codec=elcano baud=115200 transport=serial generation=D"),
+                   elcano, false});
+  links.push_back({capture.add_link("plugin", "tether codec=mycodec baud=- transport=virtual"), romi, false});
+  links.push_back({capture.add_link("other", "not a tether link"), romi, false});
+  links.push_back({capture.add_link("bare", "tether"), "", true});
+  std::mt19937 random(20261206);
+  std::uint64_t time = kStart;
+  std::size_t packets = 0;
+  for (const auto& link : links) {
+    for (int i = 0; i < 60; ++i) {
+      std::string bytes;
+      const auto size = std::uniform_int_distribution<std::size_t>(0, 40)(random);
+      for (std::size_t k = 0; k < size; ++k) {
+        if (link.cobs) {
+          bytes.push_back(static_cast<char>(std::uniform_int_distribution<int>(0, 255)(random)));
+        } else {
+          bytes.push_back(link.alphabet[std::uniform_int_distribution<std::size_t>(0, link.alphabet.size() - 1)(random)]);
+        }
+      }
+      if (link.cobs && i % 4 == 0) bytes.push_back('\0');
+      if (link.cobs && i % 4 == 1) {  // valid COBS around random bytes: the CRC and protobuf layers see them
+        std::vector<std::uint8_t> out(tether::proxy::cobs_max_encoded_size(bytes.size()));
+        const auto encoded = tether::proxy::cobs_encode(tether::ByteView::from_chars(bytes.data(), bytes.size()),
+                                                        tether::MutableByteView(out.data(), out.size()));
+        ASSERT_TRUE(encoded.ok());
+        bytes.assign(reinterpret_cast<const char*>(out.data()), encoded.value());
+        bytes.push_back('\0');
+      }
+      if (link.cobs && i % 4 == 2) {  // a message with a good CRC and a random protobuf payload
+        bytes = proxy_frame(bytes, tether::proxy::Integrity::crc16, i % 8 == 2);
+      }
+      if (!link.cobs && i % 2 == 0) bytes += "\n";
+      const auto direction = i % 3 == 0 ? Direction::outbound : Direction::inbound;
+      const char* comment = i % 17 == 0 ? "unframed" : i % 19 == 0 ? "link: up ready after 37 ms" : "";
+      capture.add_packet(link.id, time += 100, direction, bytes, comment);
+      ++packets;
+    }
+  }
+  // Frames at the edges of each syntax.
+  for (const char* text : {"#", "#!", "#:", "#!:", "#a[", "#a]:0000\r\n", "#a[1,[2,\"x]:00zz\r\n", "#:ffff\r\n"}) {
+    capture.add_packet(links[0].id, time += 100, Direction::inbound, text);
+    ++packets;
+  }
+  for (const char* text : {"D", "D{", "D{s", "D{s 1", "D{s 1,2}{a 2}", "S{p ,}\n", "G{n 99999999999}\n", "X{q 1}12\n"}) {
+    capture.add_packet(links[5].id, time += 100, Direction::inbound, text);
+    ++packets;
+  }
+  for (const std::string& bytes : {std::string("\x05\x01\x00", 3), std::string("\xff\x00", 2), std::string("\x01\x00", 2),
+                                   std::string("\x03\xff\xff\x00", 4), std::string("\x04\x01\x02\x0a\x00", 5)}) {
+    for (const auto index : {1, 2, 3}) {
+      capture.add_packet(links[static_cast<std::size_t>(index)].id, time += 100, Direction::inbound, bytes);
+      capture.add_packet(links[static_cast<std::size_t>(index)].id, time += 100, Direction::outbound, bytes);
+      packets += 2;
+    }
+  }
+  EXPECT_EQ(dissect(capture).size(), packets);
+  EXPECT_EQ(dissect(capture, "-R frame").size(), packets);
 }
 
 }  // namespace
