@@ -463,8 +463,11 @@ local function call_protobuf(tvb, pinfo, tree, type_name)
     return
   end
   pinfo.private["pb_msg_type"] = "message," .. type_name
+  -- The Info column stays ours (the protobuf dissector would append "(PROTOBUF) <type>" per call).
+  local info = tostring(pinfo.cols.info)
   local ok = pcall(Dissector.call, protobuf, tvb, pinfo, tree)
   if not ok then data_dissector:call(tvb, pinfo, tree) end
+  pinfo.cols.info = info
 end
 
 -------------------------------------------------------------------------------------------------------------
@@ -705,7 +708,7 @@ local function dissect_rpc(tvb, pinfo, tree, link, direction)
         t:add(f.rpc_code, tvb(), code):set_generated()
         t:add(f.rpc_error, tvb(), meaning):set_generated()
         t:add_proto_expert_info(e.error_reply, "error " .. code .. ": " .. meaning)
-        info = info .. " error " .. code
+        info = info .. " error " .. code .. " " .. meaning
       else
         local reply = field_of(read_fields(body_bytes), 2)
         if method and reply and reply.wire == 2 then
