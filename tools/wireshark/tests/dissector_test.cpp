@@ -561,10 +561,19 @@ TEST_F(Dissector, Rpc) {
   capture.add_packet(arm, kStart + 107000, Direction::inbound, rpc_frame(unknown_method));  // 11
   capture.add_packet(arm, kStart + 108000, Direction::inbound, rpc_frame(hello));       // 12
   capture.add_packet(other, kStart + 109000, Direction::outbound, rpc_frame(move));     // 13
+  HostMessage home = move;
+  home.set_id(7);
+  joint.set_joint(1);
+  joint.set_angle_cdeg(0);
+  home.mutable_call()->set_request(joint.SerializeAsString());
+  DeviceMessage at_zero;  // a reply whose message has every field at its default: no bytes at all
+  at_zero.mutable_reply()->set_call(7);
+  capture.add_packet(arm, kStart + 110000, Direction::outbound, rpc_frame(home));     // 14
+  capture.add_packet(arm, kStart + 111000, Direction::inbound, rpc_frame(at_zero));   // 15
   const std::string schemas = TETHER_RPC_EXAMPLE_DIR;
   const auto p = dissect(capture, "-o " + shell_quote("uat:protobuf_search_paths:\"" + schemas + "\",\"TRUE\"") +
                                       " -o " + shell_quote("tether.schema_dirs:" + schemas));
-  ASSERT_EQ(p.size(), 13u);
+  ASSERT_EQ(p.size(), 15u);
 
   // A call: the envelope, its method by name and its request as the method's input type.
   EXPECT_EQ(value(p[0], "tether.codec"), "rpc");
@@ -636,6 +645,13 @@ TEST_F(Dissector, Rpc) {
   EXPECT_FALSE(has(p[12], "tether.rpc.method"));
   EXPECT_EQ(value(p[12], "pbf.tether.rpc.wire.HostMessage.id"), "3");
   EXPECT_NE(experts(p[12]).find("schema missing.proto not found"), std::string::npos) << experts(p[12]);
+
+  // An empty reply message (every field at its default).
+  EXPECT_EQ(value(p[13], "pbf.arm.JointRequest.joint"), "1");
+  EXPECT_EQ(value(p[14], "tether.rpc.method"), "MoveJoint");
+  EXPECT_EQ(value(p[14], "tether.rpc.type"), "arm.JointReply");
+  EXPECT_EQ(value(p[14], "tether.request_in"), "14");
+  EXPECT_EQ(experts(p[14]), "");
 }
 
 // ---- Elcano ------------------------------------------------------------------------------------------------
