@@ -654,6 +654,41 @@ TEST_F(Dissector, Rpc) {
   EXPECT_EQ(experts(p[14]), "");
 }
 
+// A schema with nanopb's options inline (`import "nanopb.proto"`): named when nanopb's folder (which has
+// nanopb.proto and the descriptor.proto it imports) is in Protobuf's search paths, not loaded as a whole.
+TEST_F(Dissector, RpcSchemaImportingNanopb) {
+  if (std::string(TETHER_NANOPB_PROTO_DIR).empty()) GTEST_SKIP() << "nanopb.proto not found (Debian: nanopb)";
+  using tether::rpc::wire::DeviceMessage;
+  using tether::rpc::wire::HostMessage;
+  const auto schemas = scratch_ / "schemas";
+  fs::create_directories(schemas);
+  fs::copy_file(TETHER_RPC_NANOPB_SCHEMA, schemas / "arm_nanopb.proto");
+  CaptureFile capture;
+  const auto arm = capture.add_link("arm", "tether codec=rpc baud=115200 transport=serial schema=arm_nanopb.proto package=arm");
+  HostMessage watch;
+  watch.set_id(1);
+  watch.mutable_open()->set_method(1);
+  watch.mutable_open()->set_period_ms(50);
+  DeviceMessage state;
+  state.mutable_stream()->set_stream(1);
+  arm::State angles;
+  angles.add_angles_cdeg(-1);
+  angles.set_millis(20);
+  state.mutable_stream()->set_message(angles.SerializeAsString());
+  capture.add_packet(arm, kStart, Direction::outbound, rpc_frame(watch));
+  capture.add_packet(arm, kStart + 50000, Direction::inbound, rpc_frame(state));
+  const auto p = dissect(capture, "-o " + shell_quote("uat:protobuf_search_paths:\"" + schemas.string() + "\",\"TRUE\"") +
+                                      " -o " + shell_quote(std::string("uat:protobuf_search_paths:\"") +
+                                                           TETHER_NANOPB_PROTO_DIR + "\",\"FALSE\"") +
+                                      " -o " + shell_quote("tether.schema_dirs:" + schemas.string()));
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(value(p[0], "tether.rpc.method"), "Watch");
+  EXPECT_EQ(value(p[1], "tether.rpc.method"), "Watch");
+  EXPECT_EQ(value(p[1], "tether.rpc.type"), "arm.State");
+  EXPECT_EQ(value(p[1], "pbf.arm.State.angles_cdeg"), "-1");
+  EXPECT_EQ(value(p[1], "pbf.arm.State.millis"), "20");
+}
+
 // ---- Elcano ------------------------------------------------------------------------------------------------
 
 TEST_F(Dissector, Elcano) {
