@@ -14,7 +14,10 @@
 -- are named when Tether's .proto folder (share/tether/proto) is in Protobuf's search paths (docs/wireshark.md).
 -- Written for Wireshark 4.0's Lua 5.2 API.
 
-local tether = Proto("tether", "Tether")
+-- One copy only: with the package's copy and one in the personal folder both loaded, the second would fail
+-- to register the same protocol again (an error dialog at every start). The first one loaded stays.
+local registered, tether = pcall(Proto, "tether", "Tether")
+if not registered then return end
 
 -------------------------------------------------------------------------------------------------------------
 -- Preferences

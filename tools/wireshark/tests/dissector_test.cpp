@@ -144,6 +144,17 @@ std::string proto_dirs() {
   return dirs != nullptr ? dirs : TETHER_PROTO_DIRS;
 }
 
+// Standard output of a shell command.
+std::string run(const std::string& command) {
+  std::string output;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return output;
+  std::array<char, 4096> buffer{};
+  for (std::size_t n; (n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0;) output.append(buffer.data(), n);
+  pclose(pipe);
+  return output;
+}
+
 class Dissector : public testing::Test {
  protected:
   void SetUp() override {
@@ -151,6 +162,14 @@ class Dissector : public testing::Test {
       GTEST_SKIP() << "package test skipped: tshark not found (Debian: apt install tshark)";
     }
     ASSERT_TRUE(fs::exists(plugin_path())) << plugin_path();
+    // A tether.lua Wireshark loads by itself (an installed package's) would be the one tested: the plugin
+    // keeps the first copy loaded.
+    const std::string plugins = run("HOME=" + shell_quote((scratch_ / "home").string()) + " " +
+                                    shell_quote(TETHER_TSHARK) + " -G plugins 2>/dev/null");
+    if (plugins.find("tether.lua") != std::string::npos) {
+      GTEST_SKIP() << "package test skipped: Wireshark already loads an installed tether.lua, which would be "
+                      "tested instead of " << plugin_path() << ":\n" << plugins;
+    }
     const auto* info = testing::UnitTest::GetInstance()->current_test_info();
     scratch_ = fs::path(TETHER_WIRESHARK_TEST_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
     fs::remove_all(scratch_);
