@@ -849,8 +849,8 @@ end
 -- loading a file), and then the interface's fields are not available: the codec is then told by the bytes
 -- (Romi `#`, a COBS frame's 0x00) and every link shares one table. Only frames whose check passes count.
 
--- The COBS payload of `raw` with its CRC-16 checked and removed (`crc`: true, false, or nil to take it
--- when it matches); nil for a frame that must not count.
+-- The COBS payload of `raw` with its CRC-16 checked and removed (`crc` true), or as it is (`crc` false); nil
+-- for a frame that must not count.
 local function checked_payload(raw, crc)
   local first, last = 1, #raw
   while first <= last and raw:byte(first) == 0 do first = first + 1 end
@@ -858,9 +858,9 @@ local function checked_payload(raw, crc)
   local decoded = cobs_decode(raw:sub(first, last - 1))
   if not decoded or #decoded == 0 then return nil end
   if crc == false then return decoded end
-  local matches = #decoded >= 2 and decoded:byte(1) + 256 * decoded:byte(2) == crc16_mcrf4xx(decoded, 3, #decoded)
-  if matches then return decoded:sub(3) end
-  if crc == nil then return decoded end
+  if #decoded >= 2 and decoded:byte(1) + 256 * decoded:byte(2) == crc16_mcrf4xx(decoded, 3, #decoded) then
+    return decoded:sub(3)
+  end
   return nil
 end
 
@@ -892,7 +892,9 @@ local function bookkeep(pinfo, iface, codec, link, direction, raw)
     return
   end
   if codec ~= "proxy" and codec ~= "rpc" and codec ~= "cobs" then return end
-  local crc
+  -- Told by the bytes, only a frame with a good CRC-16 counts: proxy-compat's frames have none, and their
+  -- messages (an EventMessage reads as an ack) are not requests and answers.
+  local crc = true
   if codec ~= "cobs" then crc = link.crc ~= "off" end
   local payload = checked_payload(raw, crc)
   if not payload then return end

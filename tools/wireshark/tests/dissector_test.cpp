@@ -435,8 +435,15 @@ TEST_F(Dissector, Proxy) {
   capture.add_packet(legacy, kStart + 9500, Direction::inbound,
                      proxy_frame(event.SerializeAsString(), Integrity::none, false));
   capture.add_packet(io, kStart + 10000, Direction::outbound, std::string(1, '\0'));
+  RocketryProto::ArduinoIn move;  // no field 1: read as an envelope, it would be message id 0
+  move.mutable_servocontrol()->set_pin(9);
+  move.mutable_servocontrol()->set_position(45);
+  RocketryProto::ArduinoOut reset;  // EventMessage{RESET}: read as an envelope, an ack of id 0
+  reset.mutable_eventmessage()->set_type(RocketryProto::RESET);
+  capture.add_packet(legacy, kStart + 11000, Direction::outbound, proxy_frame(move.SerializeAsString(), Integrity::none, true));
+  capture.add_packet(legacy, kStart + 12000, Direction::inbound, proxy_frame(reset.SerializeAsString(), Integrity::none, false));
   const auto p = dissect(capture);
-  ASSERT_EQ(p.size(), 10u);
+  ASSERT_EQ(p.size(), 12u);
 
   // A message: COBS undone, CRC good, the protobuf fields by name; acked in frame 2.
   EXPECT_EQ(value(p[0], "tether.device"), "io");
@@ -499,6 +506,14 @@ TEST_F(Dissector, Proxy) {
 
   // A lone delimiter (a sender flushing the line).
   EXPECT_EQ(value(p[9], "tether.message"), "empty frame (a delimiter)");
+
+  // Compatibility mode has no ids: nothing is linked, also when the first pass tells codecs by the bytes.
+  EXPECT_EQ(value(p[10], "pbf.RocketryProto.ServoControl.position"), "45");
+  EXPECT_TRUE(has(p[11], "pbf.RocketryProto.ArduinoOut.eventMessage"));
+  for (const auto& packet : {p[7], p[8], p[10], p[11]}) {
+    EXPECT_FALSE(has(packet, "tether.response_in"));
+    EXPECT_FALSE(has(packet, "tether.request_in"));
+  }
 }
 
 // ---- rpc ---------------------------------------------------------------------------------------------------
