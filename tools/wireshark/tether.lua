@@ -602,8 +602,7 @@ local function strip_proto_comments(text)
 end
 
 -- Reads `schema` (a file name as the capture gives it): { package =, methods = { [index] = {name, input,
--- output, streaming} } } or nil. Types are qualified with the package unless they already contain a '.'
--- of a known package (nested and imported types are looked up by Wireshark's protobuf dissector).
+-- output, streaming} } } or nil. The types' full names are looked up by Wireshark's protobuf dissector.
 local function load_schema(name)
   if schemas[name] ~= nil then return schemas[name] or nil end
   local candidates = { name }
@@ -627,14 +626,21 @@ local function load_schema(name)
   end
   text = strip_proto_comments(text)
   local schema = { package = text:match("package%s+([%w_%.]+)%s*;") or "", methods = {} }
+  local declared = {}
+  for name in text:gmatch("message%s+([%w_]+)") do declared[name] = true end
+  for name in text:gmatch("enum%s+([%w_]+)") do declared[name] = true end
   local service = text:match("service%s+[%w_]+%s*(%b{})")
   if service then
     local index = 0
     for method, input, stream, output in service:gmatch(
         "rpc%s+([%w_]+)%s*%(%s*([%w_%.]+)%s*%)%s*returns%s*%(%s*(s?t?r?e?a?m?)%s*([%w_%.]+)%s*%)") do
+      -- Protobuf's scoping, simplified: a name whose first part is a message or enum of this file is the
+      -- package's; another dotted name is already full (an import's, `google.protobuf.Empty`).
       local function qualify(type_name)
         if type_name:sub(1, 1) == "." then return type_name:sub(2) end
-        if schema.package ~= "" then return schema.package .. "." .. type_name end
+        local first = type_name:match("^([%w_]+)")
+        local own = type_name:find(".", 1, true) == nil or declared[first]
+        if own and schema.package ~= "" then return schema.package .. "." .. type_name end
         return type_name
       end
       schema.methods[index] = { name = method, input = qualify(input), output = qualify(output),

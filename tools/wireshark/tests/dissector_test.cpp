@@ -723,6 +723,48 @@ TEST_F(Dissector, RpcSchemaImportingNanopb) {
   EXPECT_EQ(value(p[1], "pbf.arm.State.millis"), "20");
 }
 
+// Method types named as protobuf scopes them: a nested type of the schema's package and an imported
+// well-known type (found in protobuf's include folder, in the search paths without loading it all).
+TEST_F(Dissector, RpcMethodTypesNestedAndImported) {
+  using tether::rpc::wire::DeviceMessage;
+  using tether::rpc::wire::HostMessage;
+  const auto schemas = scratch_ / "schemas";
+  fs::create_directories(schemas);
+  std::ofstream(schemas / "shop.proto") << R"(syntax = "proto3";
+package shop;
+import "google/protobuf/wrappers.proto";
+message Outer {
+  message Inner { int32 x = 1; }
+}
+service Shop {
+  // Not a method: rpc Fake(Outer) returns (Outer);
+  rpc Count(google.protobuf.Int32Value) returns (Outer.Inner);
+}
+)";
+  CaptureFile capture;
+  const auto shop = capture.add_link("shop", "tether codec=rpc baud=115200 transport=serial schema=shop.proto package=shop");
+  HostMessage count;
+  count.set_id(1);
+  count.mutable_call()->set_request(std::string("\x08\x07", 2));  // Int32Value{value: 7}
+  DeviceMessage reply;
+  reply.mutable_reply()->set_call(1);
+  reply.mutable_reply()->set_reply(std::string("\x08\x05", 2));  // Outer.Inner{x: 5}
+  capture.add_packet(shop, kStart, Direction::outbound, rpc_frame(count));
+  capture.add_packet(shop, kStart + 700, Direction::inbound, rpc_frame(reply));
+  const auto p = dissect(capture, "-o " + shell_quote("uat:protobuf_search_paths:\"" + schemas.string() + "\",\"TRUE\"") +
+                                      " -o " + shell_quote(std::string("uat:protobuf_search_paths:\"") +
+                                                           TETHER_PROTOBUF_INCLUDE_DIR + "\",\"FALSE\"") +
+                                      " -o " + shell_quote("tether.schema_dirs:" + schemas.string()));
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(value(p[0], "tether.rpc.method"), "Count");
+  EXPECT_EQ(value(p[0], "tether.rpc.type"), "google.protobuf.Int32Value");
+  EXPECT_EQ(value(p[0], "pbf.google.protobuf.Int32Value.value"), "7");
+  EXPECT_EQ(value(p[1], "tether.rpc.method"), "Count");
+  EXPECT_EQ(value(p[1], "tether.rpc.type"), "shop.Outer.Inner");
+  EXPECT_EQ(value(p[1], "pbf.shop.Outer.Inner.x"), "5");
+  EXPECT_EQ(value(p[1], "tether.request_in"), "1");
+}
+
 // ---- Elcano ------------------------------------------------------------------------------------------------
 
 TEST_F(Dissector, Elcano) {
