@@ -162,6 +162,10 @@ class Dissector : public testing::Test {
       GTEST_SKIP() << "package test skipped: tshark not found (Debian: apt install tshark)";
     }
     ASSERT_TRUE(fs::exists(plugin_path())) << plugin_path();
+    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
+    scratch_ = fs::path(TETHER_WIRESHARK_TEST_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
+    fs::remove_all(scratch_);
+    fs::create_directories(scratch_ / "home");  // tshark's HOME: no personal preferences or plugins
     // A tether.lua Wireshark loads by itself (an installed package's) would be the one tested: the plugin
     // keeps the first copy loaded.
     const std::string plugins = run("HOME=" + shell_quote((scratch_ / "home").string()) + " " +
@@ -170,14 +174,11 @@ class Dissector : public testing::Test {
       GTEST_SKIP() << "package test skipped: Wireshark already loads an installed tether.lua, which would be "
                       "tested instead of " << plugin_path() << ":\n" << plugins;
     }
-    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
-    scratch_ = fs::path(TETHER_WIRESHARK_TEST_DIR) / (std::string(info->test_suite_name()) + "." + info->name());
-    fs::remove_all(scratch_);
-    fs::create_directories(scratch_ / "home");
   }
 
-  // Dissects `capture` in two passes (so requests show their answers) with the plugin of the source tree,
-  // the codecs' .proto folders in Protobuf's search paths and protobuf fields as Wireshark fields.
+  // Dissects `capture` in two passes (so requests show their answers) with the plugin (the source tree's,
+  // or the environment's), the .proto folders in Protobuf's search paths and protobuf fields as Wireshark
+  // fields; `extra_options` go to tshark as they are.
   std::vector<Fields> dissect(const CaptureFile& capture, const std::string& extra_options = {}) {
     const std::string file = (scratch_ / "capture.pcapng").string();
     capture.write(file);
