@@ -58,3 +58,18 @@ def test_bad_boot_values_are_value_errors():
             tether.transports.serial(board.port, boot="detect")
         with pytest.raises(ValueError, match="needs a codec"):
             tether.proxy.Client(board.port, compat=True, boot="detect")
+        # Elcano boards announce nothing either, and no request is answered by every board of a ring.
+        with pytest.raises(ValueError, match="needs a codec"):
+            tether.elcano.RingClient(board.port, boot="detect")
+        with pytest.raises(ValueError, match="got 'later'"):
+            tether.elcano.RingClient(board.port, boot="later")
+
+
+def test_an_elcano_ring_client_takes_boot_fixed_or_none():
+    with tether.VirtualUno("elcano-node") as board:
+        # The board, configured for nothing, forwards every message: the request comes back round the ring,
+        # which shows the port carried it both ways after the wait.
+        for mode in ("none", "fixed"):
+            with tether.elcano.RingClient(board.port, boot=mode, boot_wait=0.2) as client:
+                with pytest.raises(tether.elcano.ElcanoError, match="came back round the ring"):
+                    client.request(tether.elcano.Message(type="drive", speed=50, angle=25), reply_type="sensor")

@@ -4,62 +4,37 @@ as /dev/serial/by-id gives one) for a virtual Uno's pty; the Uno goes away and a
 Nothing sleeps: the test waits for the events (a generous limit only bounds a hang)."""
 
 import os
-import threading
 
 import pytest
 
 import tether
 
 
-class Events:
-    def __init__(self):
-        self.items = []
-        self.changed = threading.Condition()
-
-    def add(self, event):
-        with self.changed:
-            self.items.append(event)
-            self.changed.notify_all()
-
-    def wait(self, count):
-        with self.changed:
-            assert self.changed.wait_for(lambda: len(self.items) >= count, timeout=30), self.items
-            return self.items[count - 1]
-
-
-def test_a_serial_port_that_comes_back_behind_its_name(tmp_path):
-    link = tmp_path / "usb-Tether_Uno-if00"
-    first = tether.VirtualUno("romi-test")
-    second = None
-    os.symlink(first.port, link)
-    transport = tether.transports.serial(str(link), boot_wait=0)
-    events = Events()
-    transport.on_link_event(events.add)
+def test_a_serial_port_that_comes_back_behind_its_name(unpluggable, link_events):
+    board = unpluggable("romi-test")
+    link = board.link
+    transport = tether.transports.serial(link, boot_wait=0)
+    events = link_events(transport)
     client = tether.romi.Client(transport)
     try:
         assert client.call("e") == [0, 1, 2]
-        os.unlink(link)
-        first.close()  # unplugged
+        board.unplug()
         down = events.wait(1)
-        assert down["kind"] == "down" and str(link) in down["reason"]
+        assert down["kind"] == "down" and link in down["reason"]
         with pytest.raises(tether.DisconnectedError) as caught:
             client.call("e")
         assert isinstance(caught.value, ConnectionError) and isinstance(caught.value, tether.TransportError)
         assert transport.link_counters()["up"] is False
 
-        second = tether.VirtualUno("romi-test")
-        os.symlink(second.port, link)
+        board.plug_in()
         up = events.wait(2)
-        assert up["kind"] == "up" and up["down_ms"] >= 0 and up["path"] == str(link)
+        assert up["kind"] == "up" and up["down_ms"] >= 0 and up["path"] == link
         assert client.call("e") == [0, 1, 2]
         counters = transport.link_counters()
         assert counters["disconnects"] == 1 and counters["reconnects"] == 1 and counters["up"] is True
         assert counters["gave_up"] is False
     finally:
         client.close()
-        first.close()
-        if second is not None:
-            second.close()
 
 
 def test_without_reconnect_the_link_fails_for_good(tmp_path):

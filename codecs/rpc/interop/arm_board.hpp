@@ -8,11 +8,13 @@
 
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "../../../interop-tests/stack_paint.hpp"
 #include "arm.pb.h"
 #include "tether/rpc/client.hpp"
 #include "tether/testing/eventually.hpp"
@@ -109,6 +111,35 @@ inline void call_every_method(Client& client) {
     const CallResult described = client.call("Describe", arm::DescribeRequest(), error);
     EXPECT_FALSE(error) << error.message() << " " << described.device_error.text;
   }
+}
+
+/// The peak-stack tests' run and verdict, on a board whose client was made with `timing.ping_period = 0`
+/// (the paint reads the stack pointer and writes the SRAM below it at two quantum boundaries, so the device
+/// must be idle across both: a frame handled between them would be painted over). With the free SRAM
+/// painted: every method, an error, a 100 Hz stream with a call between its messages and the device's own
+/// hello; then prints `[ figures ] NAME: static RAM, peak stack, RAM never used` and expects at least 64 B
+/// never used.
+inline void expect_ram_unused_after_everything(Client& client, transports::VirtualUno& uno, const char* name) {
+  using namespace std::chrono_literals;
+  client.wait_ready();
+  let_board_run(uno, 20ms);
+  testing::paint_free_sram(uno);
+  call_every_method(client);
+  error_code error;
+  Received received;
+  Stream watch = client.open_stream("Watch", arm::StateRequest(), 10ms, received.handler());
+  ASSERT_TRUE(wait_for([&] { return received.count() >= 20; }))
+      << received.count() << " messages, ended: " << (received.end_texts.empty() ? "no" : received.end_texts[0]);
+  client.call("MoveJoint", joint_request(2, 4500), error);  // a call between stream messages
+  EXPECT_FALSE(error) << error.message();
+  watch.close();
+  let_board_run(uno, 5100ms);  // a DeviceHello of its own
+  const std::size_t stack = testing::peak_stack(uno);
+  const std::size_t static_ram = testing::heap_start(uno) - transports::atmega328p::kSramStart;
+  const std::size_t never_used = testing::never_used_sram(uno);
+  std::printf("[ figures ] %s: static RAM %zu B, peak stack %zu B, %zu B of RAM never used\n", name, static_ram, stack,
+              never_used);
+  EXPECT_GE(never_used, 64u) << "static data " << static_ram << " B + peak stack " << stack << " B";
 }
 
 }  // namespace tether::rpc::uno_testing

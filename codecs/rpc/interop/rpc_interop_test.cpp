@@ -16,7 +16,6 @@
 #include <string>
 #include <vector>
 
-#include "../../../interop-tests/stack_paint.hpp"
 #include "arm_board.hpp"
 #include "arm.pb.h"
 #include "tether/client/testing/event_log.hpp"
@@ -431,31 +430,10 @@ TEST(RpcInterop, UnderLineNoiseNoCallRunsTwiceAndNoAnswerIsWrong) {
 TEST(RpcInterop, PeakStackOverEveryMethodLeavesRamUnused) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board());
-  auto& uno = stream->board();
-  // No pings: the paint reads the stack pointer and writes the SRAM below it at two quantum boundaries, so
-  // the device must be idle across both (a frame handled between them would be painted over).
   Options options = on_board_time(stream);
-  options.timing.ping_period = 0;
+  options.timing.ping_period = 0;  // the device idle across the paint
   Client client(stream, Schema::load(kArmSchema), options);
-  client.wait_ready();
-  let_board_run(uno, 20ms);
-  testing::paint_free_sram(uno);
-  uno_testing::call_every_method(client);
-  error_code error;
-  Received received;
-  Stream watch = client.open_stream("Watch", arm::StateRequest(), 10ms, received.handler());
-  ASSERT_TRUE(wait_for([&] { return received.count() >= 20; }))
-      << received.count() << " messages, ended: " << (received.end_texts.empty() ? "no" : received.end_texts[0]);
-  client.call("MoveJoint", joint_request(2, 4500), error);  // a call between stream messages
-  EXPECT_FALSE(error) << error.message();
-  watch.close();
-  let_board_run(uno, 5100ms);  // a DeviceHello of its own
-  const std::size_t stack = testing::peak_stack(uno);
-  const std::size_t static_ram = testing::heap_start(uno) - transports::atmega328p::kSramStart;
-  const std::size_t never_used = testing::never_used_sram(uno);
-  std::printf("[ figures ] rpc-example: static RAM %zu B, peak stack %zu B, %zu B of RAM never used\n", static_ram,
-              stack, never_used);
-  EXPECT_GE(never_used, 64u) << "static data " << static_ram << " B + peak stack " << stack << " B";
+  uno_testing::expect_ram_unused_after_everything(client, stream->board(), "rpc-example");
   client.close();
 }
 

@@ -15,6 +15,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -204,6 +205,28 @@ TEST(TetherCall, AnRpcCallWaitsForAMissingPortWithinItsBudgetToo) {
                                   "300", "Describe"});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("; waited "), std::string::npos) << run.err;
+}
+
+// An rpc stream rides an outage: while its port is gone the wait for the next message is suspended (the
+// command waits for the port), and the board plugged in again behind the name carries the stream on (the
+// client re-opens it in the new session). The pause outlasts the stream's --timeout: without the
+// suspension the command failed with "no stream message within 2000 ms".
+TEST(TetherCall, AnRpcStreamWaitsForItsVanishedPortAndGoesOn) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const std::string link = port_link("rpc-stream");
+  std::filesystem::path schema = firmware("rpc-example");
+  schema.replace_extension(".proto");
+  const std::vector<std::string> sim = {firmware("rpc-example").string(), "--link", link};
+  std::optional<SimBoard> board(std::in_place, sim);
+  Terminal terminal({"call", "--port", link, "--codec", "rpc", "--schema", schema.string(), "--timeout", "2000",
+                     "--json", "Watch", "--period", "20", "--count", "30"});
+  ASSERT_TRUE(terminal.expect("\"seq\":3,")) << terminal.screen();
+  board.reset();  // unplugged: `tether sim` closes its pty and removes the name
+  ASSERT_TRUE(terminal.expect("waiting for " + link + " to come back")) << terminal.screen();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  board.emplace(sim);
+  EXPECT_EQ(terminal.wait_exit(std::chrono::seconds(60)), 0) << terminal.screen();
+  EXPECT_EQ(terminal.screen().find("no stream message"), std::string::npos) << terminal.screen();
 }
 
 }  // namespace

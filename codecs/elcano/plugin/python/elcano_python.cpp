@@ -220,13 +220,16 @@ None) and ``request_failed`` (undeliverable: a request failed with it). The GIL 
 On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, every deadline runs on the
 board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, const std::string& generation, std::vector<std::string> capture,
-                       unsigned baud, double boot_wait, py::object on_event, py::object clock) {
+                       unsigned baud, double boot_wait, py::object on_event, py::object clock,
+                       std::optional<std::string> boot) {
              elcano::Options options;
              options.node.generation = generation_from(generation);
              for (const auto& name : capture) options.node.capture = options.node.capture.with(type_from(py::str(name)));
              options.node.pacing.baud = baud;
              std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
-             Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}});
+             // Elcano boards announce nothing at boot and a ring has no request every board answers: `boot`
+             // is "fixed" (the default) or "none"; "detect" is refused with the reason.
+             Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}, true, 0, boot});
              const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              options.clock = link_clock(board);
              auto wrapper = std::make_shared<RingClient>();
@@ -245,7 +248,7 @@ board's simulated time (see ``tether.romi.Client``).)doc")
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("generation") = "B",
            py::arg("capture") = std::vector<std::string>{}, py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
-           py::arg("on_event") = py::none(), py::arg("clock") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none())
       .def(
           "request",
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {

@@ -62,3 +62,36 @@ def test_reset_failsafe_is_primary_only():
                 client.reset_failsafe()
             assert caught.value.code == 4  # wrong_mode
             assert isinstance(caught.value, ValueError)
+
+
+def test_a_board_plugged_in_again_gets_a_new_session_with_the_inits_replayed(unpluggable, link_events):
+    # The new board knows no pin: the servo and the output work on it only because the client ran the
+    # handshake again when the port came back and replayed the inits of the first session.
+    sessions = []
+    established = threading.Condition()
+
+    def on_event(event):
+        if event.kind == "session_established":
+            with established:
+                sessions.append(event)
+                established.notify_all()
+
+    board = unpluggable("proxy", seed=2)
+    transport = tether.transports.serial(board.link, boot_wait=0)
+    events = link_events(transport)
+    with tether.proxy.Client(transport, on_event=on_event) as client:
+        assert client.servo(9).init(90).acked
+        assert client.digital(13).init(False).acked
+        with established:
+            assert established.wait_for(lambda: len(sessions) >= 1, timeout=30)
+        board.unplug()
+        assert events.wait(1)["kind"] == "down"
+        board.plug_in()
+        assert events.wait(2)["kind"] == "up"
+        with established:
+            assert established.wait_for(lambda: len(sessions) >= 2, timeout=30), sessions
+        assert client.digital(13).set(True).acked
+        assert wait_for(lambda: board.board.pin(13).level)
+        assert client.servo(9).set(120).acked
+        assert client.counters().inits_replayed >= 2
+        assert transport.link_counters()["reconnects"] == 1

@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-#include "../../../interop-tests/stack_paint.hpp"
 #include "../../interop/arm_board.hpp"
 #include "arm.pb.h"
 #include "tether/rpc/client.hpp"
@@ -127,28 +126,10 @@ TEST(RpcArduinoSketch, WatchStreamsTheStateAtItsPeriodUntilClosed) {
 TEST(RpcArduinoSketch, PeakStackOverEveryMethodLeavesRamUnused) {
   IoThread io;
   auto stream = VirtualUnoStream::open(io.executor(), board());
-  auto& uno = stream->board();
   Options options = on_board_time(stream);
-  options.timing.ping_period = 0;  // the device idle across the paint (see the interop test's twin)
+  options.timing.ping_period = 0;  // the device idle across the paint
   Client client(stream, Schema::load(kArmSchema), options);
-  client.wait_ready();
-  let_board_run(uno, 20ms);
-  testing::paint_free_sram(uno);
-  uno_testing::call_every_method(client);
-  error_code error;
-  Received received;
-  Stream watch = client.open_stream("Watch", arm::StateRequest(), 10ms, received.handler());
-  ASSERT_TRUE(wait_for([&] { return received.count() >= 20; })) << received.count() << " messages";
-  client.call("MoveJoint", joint_request(2, 4500), error);
-  EXPECT_FALSE(error) << error.message();
-  watch.close();
-  let_board_run(uno, 5100ms);  // a DeviceHello of its own
-  const std::size_t stack = testing::peak_stack(uno);
-  const std::size_t static_ram = testing::heap_start(uno) - transports::atmega328p::kSramStart;
-  const std::size_t never_used = testing::never_used_sram(uno);
-  std::printf("[ figures ] ArmSketch: static RAM %zu B, peak stack %zu B, %zu B of RAM never used\n", static_ram,
-              stack, never_used);
-  EXPECT_GE(never_used, 64u) << "static data " << static_ram << " B + peak stack " << stack << " B";
+  uno_testing::expect_ram_unused_after_everything(client, stream->board(), "ArmSketch");
   client.close();
 }
 

@@ -164,3 +164,22 @@ def test_the_examples_python_script(monkeypatch, capsys):
     assert lines[2] == "SetMode(MODE_ACTIVE, -9000..9000): was MODE_IDLE"
     assert lines[3].startswith("Describe: ") and lines[3].endswith(" joints, -9000..9000, 1 moves")
     assert lines[4] == "Watch: 3 states, joint 2 at -4500"
+
+
+def test_calls_go_on_after_the_board_is_plugged_in_again(unpluggable, link_events):
+    # A board plugged in again boots afresh: the client's new session is with it (its move count starts over).
+    board = unpluggable("rpc-example", seed=5)
+    transport = tether.transports.serial(board.link, boot_wait=0)
+    events = link_events(transport)
+    with tether.rpc.Client(transport, SCHEMA) as arm:
+        assert arm.call("MoveJoint", joint=1, angle_cdeg=1200).reached_cdeg == 1200
+        assert arm.call("MoveJoint", joint=2, angle_cdeg=300).reached_cdeg == 300
+        assert arm.call("Describe").moves == 2
+        board.unplug()
+        assert events.wait(1)["kind"] == "down"
+        board.plug_in()
+        assert events.wait(2)["kind"] == "up"
+        assert arm.wait_ready() == arm.session().session_id
+        assert arm.call("MoveJoint", joint=0, angle_cdeg=-700).reached_cdeg == -700
+        assert arm.call("Describe").moves == 1
+        assert transport.link_counters()["reconnects"] == 1

@@ -63,7 +63,8 @@ const CommandText& rpc_call_text() {
           "                   waited for within the budget (not with --no-reconnect); one that vanishes with\n"
           "                   the call on its way ends it (disconnected: the device may have run it)\n"
           "  --period MS      a stream method's period, 1..65535 (required for one)\n"
-          "  --count N        a stream: stop after N messages (default: until Ctrl-C)\n"
+          "  --count N        a stream: stop after N messages (default: until Ctrl-C); while its serial port\n"
+          "                   is gone the stream waits for it and goes on with the board behind it\n"
           "  --json           one JSON object per outcome: {\"method\":\"MoveJoint\",\"reply\":{...},\"message_id\":N,\n"
           "                   \"attempts\":N}; a stream's {\"method\":\"Watch\",\"seq\":N,\"message\":{...}}; the\n"
           "                   device's error {\"method\":...,\"error\":\"device_error\",\"code\":42,\"text\":\"...\"}\n"
@@ -127,9 +128,11 @@ void print_device_error(bool json, const std::string& method, const rpc::error_c
   std::fprintf(stderr, "tether call: %s\n", line.text.c_str());
 }
 
-// A stream's messages until `count`, its end or a stop signal.
-int run_rpc_stream(rpc::Client& client, const rpc::Method& method, const google::protobuf::Message& request,
-                   const RpcCallArguments& arguments) {
+// A stream's messages until `count`, its end or a stop signal. While the device's serial port is gone the
+// wait for the next message is suspended: the command waits for the port (the client re-opens the stream
+// in the board's new session once it is back), and the wait starts again when it is.
+int run_rpc_stream(rpc::Client& client, const OpenDevice& device, const rpc::Method& method,
+                   const google::protobuf::Message& request, const RpcCallArguments& arguments, Progress& progress) {
   struct State {
     std::mutex mutex;
     std::condition_variable changed;
@@ -166,9 +169,25 @@ int run_rpc_stream(rpc::Client& client, const rpc::Method& method, const google:
   }
   const std::atomic<bool>& stop = catch_stop_signals();
   const auto gap = std::chrono::milliseconds(arguments.timeout_ms.value_or(2000 + 3 * *arguments.period_ms));
+  const std::shared_ptr<transports::SerialPortStream>& port = device.port();
+  bool waiting_for_port = false;
   std::unique_lock lock(state->mutex);
   while (!state->ended && (count == 0 || state->received < count) && !stop) {
     state->changed.wait_for(lock, std::chrono::milliseconds(50));
+    if (port && !port->link_counters().up) {
+      if (port->link_counters().gave_up) {
+        lock.unlock();
+        progress.clear();
+        stream.close();
+        return rpc_call_text().fail(name + ": " + port->path() + " vanished and did not come back");
+      }
+      if (!waiting_for_port) progress.show("waiting for " + port->path() + " to come back...");
+      waiting_for_port = true;
+      state->last = std::chrono::steady_clock::now();
+      continue;
+    }
+    if (waiting_for_port) progress.clear();
+    waiting_for_port = false;
     if (std::chrono::steady_clock::now() - state->last > gap && !state->ended) {
       lock.unlock();
       stream.close();
@@ -243,7 +262,7 @@ static int run_rpc_call(int argc, char** argv) {
   typed->ParseFromString(request->SerializeAsString());
   int status = 0;
   if (method->streaming) {
-    status = run_rpc_stream(*client, *method, *typed, arguments);
+    status = run_rpc_stream(*client, *device, *method, *typed, arguments, progress);
   } else {
     rpc::error_code error;
     rpc::CallResult result = client->call(method->name, *typed, error);

@@ -282,8 +282,12 @@ class CobsDecoder {
       if (avail < count) count = avail;
       if (room < count) count = static_cast<uint8_t>(room);
       if (count != 0) {
-        uint8_t taken = 0;
-        if (at < checked_from) {
+        uint8_t taken;
+        uint8_t checked;  // how many go through the CRC run
+        if (at >= checked_from) {  // the hot path: a checked decoder past the frame's CRC field
+          taken = 0;
+          checked = count;
+        } else {
           // A decoder without checksum, or a frame's first bytes before the checked offset (its CRC
           // field): copied only, up to that offset; what follows goes through the CRC below (one copy
           // of each run loop in the code: the second one was ~90 B of flash).
@@ -291,11 +295,9 @@ class CobsDecoder {
           const uint8_t unchecked = before < count ? static_cast<uint8_t>(before) : count;
           const uint8_t rest = copy_run(in, out, unchecked);
           taken = static_cast<uint8_t>(unchecked - rest);
-          if (rest != 0) count = taken;  // stopped at a zero: nothing for the CRC run
+          checked = rest != 0 ? 0 : static_cast<uint8_t>(count - unchecked);  // stopped at a zero: none
         }
-        if (taken != count) {  // the hot path: a checked decoder past the frame's CRC field
-          taken = static_cast<uint8_t>(count - checked_run(in, out, static_cast<uint8_t>(count - taken), crc));
-        }
+        if (checked != 0) taken = static_cast<uint8_t>(taken + checked - checked_run(in, out, checked, crc));
         avail = static_cast<uint8_t>(avail - taken);
         at = static_cast<Index>(at + taken);
         left = static_cast<uint8_t>(left - taken);
