@@ -88,7 +88,7 @@ function(tether_debian_package)
   set(CPACK_DEBIAN_TETHER_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: libprotobuf, libsimavr, libelf, libedit
   set(CPACK_DEBIAN_TETHER_PACKAGE_DEPENDS "tether-firmware (= ${PROJECT_VERSION})")  # demo, --virtual, sim
   set(CPACK_DEBIAN_TETHER_PACKAGE_RECOMMENDS "avrdude, python3-matplotlib, nanopb")  # tether flash; tether bench's plots; tether generate
-  set(CPACK_DEBIAN_TETHER_PACKAGE_SUGGESTS "libtether-dev")
+  set(CPACK_DEBIAN_TETHER_PACKAGE_SUGGESTS "libtether-dev, wireshark | tshark")  # captures read by tether.lua
   set(CPACK_DEBIAN_TETHER_DESCRIPTION "messages between a robot's computer and its AVR boards
 Tether carries messages between a robot's host computer and its AVR
 Arduinos over serial links, in three protocols: the Romi text protocol,

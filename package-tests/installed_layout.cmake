@@ -37,6 +37,10 @@ set(expected
   share/tether/firmware/rpc-example.elf
   share/tether/firmware/rpc-example.proto
   share/tether/rpc-arduino/src/TetherRpcArduino.h
+  ${LIBDIR}/wireshark/plugins/tether.lua
+  share/tether/proto/tether_proxy.proto
+  share/tether/proto/rocketry.proto
+  share/tether/proto/tether_rpc.proto
   share/tether/examples/rover-virtual.json
   share/man/man1/tether.1.gz
   share/doc/tether/README.md
