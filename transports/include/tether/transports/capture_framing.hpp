@@ -16,6 +16,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace tether::transports {
@@ -62,6 +63,24 @@ struct DelimitedFraming {
   /// Longest frame, end byte included; longer ones are unframed (`too long`) up to the next end byte (or
   /// start byte, with `restart_on_start`). Unframed runs are cut into packets of at most this size too.
   std::size_t max_frame = 1024;
+
+  /// COBS frames: every non-zero byte is framed, 0x00 ends a frame, leading 0x00s belong to the next frame.
+  static DelimitedFraming cobs(std::size_t max_frame) {
+    DelimitedFraming framing;
+    framing.end = 0;
+    framing.leading_end_bytes = true;
+    framing.max_frame = max_frame;
+    return framing;
+  }
+  /// Lines from one of the `start` bytes to `\n`; a start byte inside a line starts the next one.
+  static DelimitedFraming lines(std::string start, std::size_t max_frame) {
+    DelimitedFraming framing;
+    framing.start = std::move(start);
+    framing.end = '\n';
+    framing.restart_on_start = true;
+    framing.max_frame = max_frame;
+    return framing;
+  }
 };
 
 /// The framer of a `DelimitedFraming`.
