@@ -373,6 +373,7 @@ void RecordingStream::do_close(error_code& error) {
   flush(*inbound_, CaptureDirection::inbound, "cut at close");
   flush(*outbound_, CaptureDirection::outbound, "cut at close");
   inner_->close(error);
+  if (close_recorder_) recorder_->close();
 }
 
 }  // namespace tether::transports

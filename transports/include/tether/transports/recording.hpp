@@ -32,6 +32,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -163,6 +164,9 @@ class RecordingStream final : public ByteStream {
   void record_event(const std::string& text);
   /// `recording to FILE over <inner>`.
   std::string description() const override;
+  /// Closes the recorder too when this stream closes (the file is then complete): for a recorder of this
+  /// link alone (a client opened with `record=`, `tether monitor --write`).
+  void close_recorder_on_close(bool close) { close_recorder_ = close; }
 
   /// Constructed by `wrap` (public for std::make_shared).
   RecordingStream(std::shared_ptr<ByteStream> inner, std::shared_ptr<CaptureRecorder> recorder,
@@ -186,6 +190,7 @@ class RecordingStream final : public ByteStream {
   std::unique_ptr<CaptureFramer> inbound_;
   std::unique_ptr<CaptureFramer> outbound_;
   std::shared_ptr<std::vector<std::uint8_t>> scratch_;
+  std::atomic<bool> close_recorder_{false};
 };
 
 }  // namespace tether::transports
