@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -180,6 +181,45 @@ TEST(TetherRecord, DemoUnderNoiseRecordsEveryDeviceFramedOrMarkedUnframed) {
   std::size_t tshark_unframed = 0;
   for (const auto& comment : comments) tshark_unframed += comment.rfind("unframed", 0) == 0 ? 1u : 0u;
   EXPECT_EQ(tshark_unframed, unframed);
+}
+
+TEST(TetherReplay, PrintsACaptureAsTheTapWould) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = capture_file("replay");
+  ASSERT_EQ(run_tether({"call", "--virtual", "romi-test", "--record", file, "e"}).status, 0);
+  const Outcome replay = run_tether({"replay", file});
+  ASSERT_EQ(replay.status, 0) << replay.err;
+  ASSERT_EQ(replay.lines().size(), 2u) << replay.out;
+  EXPECT_TRUE(matches(replay.lines()[0], "0.000 host->device frame~e id *")) << replay.lines()[0];
+  EXPECT_TRUE(matches(replay.lines()[1], "#.# device->host frame~e[0,1,2] id *")) << replay.lines()[1];
+  const Outcome json = run_tether({"replay", file, "--json"});
+  ASSERT_EQ(json.status, 0) << json.err;
+  EXPECT_TRUE(matches(json.lines()[0], R"({"t_ms":0.0,"direction":"host->device","kind":"frame",*})")) << json.out;
+}
+
+TEST(TetherReplay, BadFilesAreErrorsNamingTheOffset) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = capture_file("replay-bad");
+  ASSERT_EQ(run_tether({"call", "--virtual", "romi-test", "--record", file, "e"}).status, 0);
+  const std::string cut = capture_file("replay-cut");
+  {
+    std::ifstream whole(file, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 10);
+  }
+  const Outcome truncated = run_tether({"replay", cut});
+  EXPECT_EQ(truncated.status, 2);
+  EXPECT_TRUE(matches(truncated.err, "tether replay: " + cut + ": offset #: block of type 0x00000006 truncated*"))
+      << truncated.err;
+  const Outcome text = run_tether({"replay", TETHER_SOURCE_DIR "/README.md"});
+  EXPECT_EQ(text.status, 2);
+  EXPECT_NE(text.err.find("offset 0: not a pcapng file"), std::string::npos) << text.err;
+  const Outcome missing = run_tether({"replay"});
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.err.find("no capture file given"), std::string::npos);
+  const Outcome device = run_tether({"replay", file, "--device", "other"});
+  EXPECT_EQ(device.status, 2);
+  EXPECT_NE(device.err.find("no device 'other' (devices: \"romi-test\")"), std::string::npos) << device.err;
 }
 
 }  // namespace
