@@ -3,6 +3,9 @@
 // without --force; a capture file that cannot be written is an error before the device opens.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
 #include "tether_process.hpp"
 
@@ -181,6 +185,35 @@ TEST(TetherRecord, DemoUnderNoiseRecordsEveryDeviceFramedOrMarkedUnframed) {
   std::size_t tshark_unframed = 0;
   for (const auto& comment : comments) tshark_unframed += comment.rfind("unframed", 0) == 0 ? 1u : 0u;
   EXPECT_EQ(tshark_unframed, unframed);
+}
+
+// `monitor --tap --write`: an application's session through the tap is recorded, and replaying the file
+// prints what the tap printed (times aside).
+TEST(TetherRecord, TapWritesTheSessionAndReplayPrintsWhatTheTapPrinted) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = capture_file("tap");
+  ::tether::testing::ChildProcess tap({TETHER_BINARY, "monitor", "--virtual", "romi-test", "--tap", "--write", file},
+                                      true);
+  const auto ready = tap.read_line(std::chrono::seconds(30));
+  ASSERT_TRUE(ready && ready->starts_with("PTY /dev/")) << ready.value_or("(nothing)");
+  const Outcome call = run_tether({"call", "--port", ready->substr(4), "e"});
+  EXPECT_EQ(call.status, 0) << call.err;
+  std::vector<std::string> printed;
+  for (int i = 0; i < 2; ++i) {
+    const auto line = tap.read_line(std::chrono::seconds(20));
+    ASSERT_TRUE(line);
+    printed.push_back(line->substr(line->find(' ')));  // without the time
+  }
+  tap.signal(SIGTERM);
+  EXPECT_EQ(tap.wait(std::chrono::seconds(20)), 0);
+  const Capture capture = read_back(file);
+  ASSERT_EQ(capture.interfaces.size(), 1u);
+  EXPECT_EQ(capture.interfaces[0].word("codec"), "romi");
+  const Outcome replay = run_tether({"replay", file});
+  ASSERT_EQ(replay.status, 0) << replay.err;
+  std::vector<std::string> replayed;
+  for (const auto& line : replay.lines()) replayed.push_back(line.substr(line.find(' ')));
+  EXPECT_EQ(replayed, printed);
 }
 
 TEST(TetherReplay, PrintsACaptureAsTheTapWould) {
