@@ -299,8 +299,9 @@ int run_monitor(int argc, char** argv) {
   auto stream = open_stream(*target, io.executor(), progress, error);
   if (!stream) return command_text().fail(target->label + ": " + error);
   // However the monitor ends, the capture file is complete, and a recording that lost packets says so.
-  const EndRecording end_recording(std::dynamic_pointer_cast<transports::RecordingStream>(stream), "monitor");
-  if (const auto port = std::dynamic_pointer_cast<transports::SerialPortStream>(stream);
+  const auto recording = std::dynamic_pointer_cast<transports::RecordingStream>(stream);
+  const EndRecording end_recording(recording, "monitor");
+  if (const auto port = std::dynamic_pointer_cast<transports::SerialPortStream>(recording ? recording->inner() : stream);
       port && port->options().reconnect.enabled) {
     port->add_link_handler([](const transports::LinkEvent& event) {
       if (event.kind == transports::LinkEvent::Kind::up) {

@@ -160,6 +160,8 @@ class RecordingStream final : public ByteStream {
   const std::shared_ptr<CaptureRecorder>& recorder() const { return recorder_; }
   /// This link's interface id in the capture.
   std::uint32_t interface() const { return interface_; }
+  /// The stream it records (a serial port's, for its link events).
+  const std::shared_ptr<ByteStream>& inner() const { return inner_; }
   /// Records a link event: a zero-length packet with comment `link: <text>` (`down`, `up ready after 37 ms`).
   void record_event(const std::string& text);
   /// `recording to FILE over <inner>`.
