@@ -361,9 +361,34 @@ Names codec_names() {
   return names;
 }
 
+// `"record": "FILE"` or `{"file": ..., "max_bytes", "max_seconds", "files", "overwrite"}`: a capture file,
+// relative to the configuration's folder like every file it names.
+transports::RecordOptions parse_record(const Node& node, const ParseOptions& options) {
+  transports::RecordOptions record;
+  const auto resolve = [&](const std::string& file) {
+    const std::filesystem::path path(file);
+    return path.is_relative() && !options.base_dir.empty() ? (options.base_dir / path).lexically_normal() : path;
+  };
+  if (node.value.is_string()) {
+    record.file = resolve(read_nonempty_string(node));
+    return record;
+  }
+  if (!node.value.is_object()) node.expected("a capture file name or an object with \"file\"");
+  const Object object(node);
+  object.allow_only({"file", "max_bytes", "max_seconds", "files", "overwrite"});
+  record.file = resolve(read_nonempty_string(object.required("file")));
+  if (auto v = object.optional("max_bytes")) record.max_file_bytes = read_unsigned(*v, 4096);
+  if (auto v = object.optional("max_seconds")) {
+    record.max_file_duration = std::chrono::milliseconds(read_unsigned(*v, 1, 366u * 24 * 3600) * 1000);
+  }
+  if (auto v = object.optional("files")) record.ring_files = static_cast<unsigned>(read_unsigned(*v, 2, 1000));
+  if (auto v = object.optional("overwrite")) record.overwrite = read_bool(*v);
+  return record;
+}
+
 DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
   const Object object(node);
-  object.allow_only({"name", "codec", "transport", "options"});
+  object.allow_only({"name", "codec", "transport", "options", "record"});
   DeviceConfig device;
   device.name = read_nonempty_string(object.required("name"));
   const std::vector<const CodecRow*> rows = codec_rows();
@@ -373,6 +398,7 @@ DeviceConfig parse_device(const Node& node, const ParseOptions& options) {
   device.options = parse_options(object.optional("options"), object.path() + ".options", device.codec, device.transport,
                                  options.base_dir);
   if (!pending.empty()) encode_board_settings(pending, codec_row(device.codec), device);
+  if (auto v = object.optional("record")) device.record = parse_record(*v, options);
   return device;
 }
 
@@ -476,9 +502,10 @@ void validate(const RoverConfig& config) {
 RoverConfig parse_document(const nlohmann::json& document, const ParseOptions& options) {
   if (!document.is_object()) fail("", "expected a JSON object at the top level, got " + show_json(document));
   const Object root(Node{document, ""});
-  root.allow_only({"name", "devices"});
+  root.allow_only({"name", "devices", "record"});
   RoverConfig config;
   if (auto v = root.optional("name")) config.name = read_string(*v);
+  if (auto v = root.optional("record")) config.record = parse_record(*v, options);
   const Node devices = root.required("devices");
   if (!devices.value.is_array() || devices.value.empty()) devices.expected("a non-empty array of devices");
   std::map<std::string, std::size_t, std::less<>> names;

@@ -6,6 +6,7 @@
 #include <cerrno>
 
 #include <cstdlib>
+#include <filesystem>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -121,8 +122,20 @@ class RoverOpener {
     validate(config);
     Rover rover;
     try {
+      // The capture files first: a file that may not be written fails the open before any device resets.
+      Recorders recorders;
       for (std::size_t i = 0; i < config.devices.size(); ++i) {
-        open_device(rover, config.devices[i], i, executor, options);
+        const DeviceConfig& device = config.devices[i];
+        if (device.record) {
+          recorders.for_device.push_back(recorder_of(rover, recorders, *device.record, device_path(i) + ".record"));
+        } else if (config.record) {
+          recorders.for_device.push_back(recorder_of(rover, recorders, *config.record, "record"));
+        } else {
+          recorders.for_device.push_back(nullptr);
+        }
+      }
+      for (std::size_t i = 0; i < config.devices.size(); ++i) {
+        open_device(rover, config.devices[i], i, executor, options, recorders.for_device[i]);
         if (options.on_opened) options.on_opened(rover.devices_.back());
       }
     } catch (...) {
@@ -133,8 +146,31 @@ class RoverOpener {
   }
 
  private:
+  struct Recorders {
+    std::vector<std::pair<std::filesystem::path, std::shared_ptr<transports::CaptureRecorder>>> by_file;
+    std::vector<std::shared_ptr<transports::CaptureRecorder>> for_device;
+  };
+
+  // The recorder of `record`'s file: one per file, however many devices name it; closed with the rover.
+  static std::shared_ptr<transports::CaptureRecorder> recorder_of(Rover& rover, Recorders& recorders,
+                                                                  const transports::RecordOptions& record,
+                                                                  const std::string& path) {
+    const auto file = record.file.lexically_normal();
+    for (const auto& [each, recorder] : recorders.by_file) {
+      if (each == file) return recorder;
+    }
+    error_code error;
+    std::string message;
+    auto recorder = transports::CaptureRecorder::open(record, error, message);
+    if (!recorder) fail(path, message, error);
+    recorders.by_file.emplace_back(file, recorder);
+    rover.stops_.push_back([recorder] { recorder->close(); });
+    return recorder;
+  }
+
   static void open_device(Rover& rover, const DeviceConfig& device, std::size_t index,
-                          const boost::asio::any_io_executor& executor, const OpenOptions& hooks) {
+                          const boost::asio::any_io_executor& executor, const OpenOptions& hooks,
+                          const std::shared_ptr<transports::CaptureRecorder>& recorder) {
     const std::string path = device_path(index);
     const std::string transport_path = path + ".transport";
     OpenedTransport transport = open_device_transport(device, transport_path, executor);
@@ -148,6 +184,12 @@ class RoverOpener {
       if (stop) stop();
       fail(transport_path, std::string("wrap_stream: ") + error.what(), make_error_code(DevicesError::invalid_config));
     }
+    // Outside the program's wrapper: what is recorded is what the client wrote and read.
+    std::shared_ptr<transports::RecordingStream> recording;
+    if (recorder) {
+      recording = record_stream(device, stream, recorder);
+      stream = recording;
+    }
 
     RoverDevice opened;
     opened.name = device.name;
@@ -156,6 +198,7 @@ class RoverOpener {
     opened.boards = std::move(boards);
     opened.clock = transport.clock;
     opened.port = transport.port;
+    opened.recording = recording;
     try {
       const CodecRow& codec = codec_row(device.codec);
       opened.client = codec.open(stream, device, std::move(transport.clock));
@@ -287,6 +330,38 @@ void start_open(RoverConfig config, boost::asio::any_io_executor executor, OpenO
 Rover open_rover(const RoverConfig& config, boost::asio::any_io_executor executor, error_code& error,
                  std::string* message) {
   return open_rover(config, std::move(executor), OpenOptions(), error, message);
+}
+
+std::string capture_description(const DeviceConfig& device) {
+  using transports::capture_word_value;
+  const CodecRow& row = codec_row(device.codec);
+  std::string baud = "-";
+  std::string transport;
+  if (const auto* serial = std::get_if<SerialTransport>(&device.transport)) {
+    baud = std::to_string(serial->options.baud);
+    transport = "serial";
+  } else if (std::holds_alternative<TcpTransport>(device.transport)) {
+    transport = "tcp";
+  } else if (std::holds_alternative<VirtualTransport>(device.transport)) {
+    transport = "virtual";
+  } else {
+    transport = "virtual_ring";
+  }
+  std::string description = "tether codec=" + capture_word_value(row.name) + " baud=" + baud + " transport=" + transport;
+  if (row.capture_words) {
+    const std::string words = row.capture_words(device);
+    if (!words.empty()) description += " " + words;
+  }
+  return description;
+}
+
+std::shared_ptr<transports::RecordingStream> record_stream(const DeviceConfig& device,
+                                                           std::shared_ptr<transports::ByteStream> stream,
+                                                           std::shared_ptr<transports::CaptureRecorder> recorder) {
+  const CodecRow& row = codec_row(device.codec);
+  const transports::CaptureFraming framing = row.capture_framing ? row.capture_framing(device) : nullptr;
+  return transports::RecordingStream::wrap(std::move(stream), std::move(recorder), device.name,
+                                           capture_description(device), framing);
 }
 
 OpenedTransport open_transport(const DeviceConfig& device, boost::asio::any_io_executor executor) {

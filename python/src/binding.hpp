@@ -13,6 +13,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -164,6 +165,13 @@ Transport take_stream(py::handle port_or_transport, const SerialArguments& seria
 /// Opens a serial port (GIL released while opening and waiting for the boot). Raises ValueError for a
 /// baud of 0 or a path with a NUL.
 Transport open_serial(const std::string& path, const SerialArguments& serial);
+
+/// A client's `record=` (None: nothing): a capture file (str or os.PathLike) or a dict like a configuration's
+/// `record` (`file`, `max_bytes`, `max_seconds`, `files`, `overwrite`). Wraps `transport`'s stream so its link
+/// is recorded as a device of codec `codec` (its capture framing) named after the port; the file closes
+/// with the client. Raises FileExistsError (an existing file without `overwrite`), OSError, ValueError or
+/// TypeError.
+void record_transport(Transport& transport, const py::object& record, std::string_view codec);
 
 /// Resolves a firmware image: a path (contains '/') as is, a name in the package's firmware folder.
 /// Raises ValueError for a name with a NUL in it.

@@ -4,7 +4,13 @@
 #include <mutex>
 #include <new>
 
+#include <cerrno>
+#include <filesystem>
+
 #include "binding.hpp"
+#include "tether/devices/codecs.hpp"
+#include "tether/devices/rover.hpp"
+#include "tether/transports/recording.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "virtual_board.hpp"
 
@@ -121,6 +127,96 @@ Transport open_serial(const std::string& path, const SerialArguments& serial) {
   transport.port = stream;
   transport.stream = std::move(stream);
   return transport;
+}
+
+namespace {
+
+std::string path_of(const py::handle& value, const char* what) {
+  if (py::isinstance<py::str>(value) || py::isinstance(value, py::module_::import("os").attr("PathLike"))) {
+    const std::string path = py::str(py::module_::import("os").attr("fspath")(value)).cast<std::string>();
+    check_path(path, what);
+    if (path.empty()) throw py::value_error(std::string(what) + ": an empty file name");
+    return path;
+  }
+  throw py::type_error(std::string(what) + ": expected a file name (str or os.PathLike), got " +
+                       py::str(py::type::of(value).attr("__name__")).cast<std::string>());
+}
+
+std::uint64_t whole_number(const py::handle& value, const char* what, std::uint64_t min, std::uint64_t max) {
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value)) {
+    throw py::type_error(std::string("record: ") + what + " must be an int");
+  }
+  const long long number = value.cast<long long>();
+  if (number < 0 || static_cast<std::uint64_t>(number) < min || static_cast<std::uint64_t>(number) > max) {
+    throw py::value_error(std::string("record: ") + what + " must be " + std::to_string(min) + ".." + std::to_string(max));
+  }
+  return static_cast<std::uint64_t>(number);
+}
+
+transports::RecordOptions record_options(const py::object& record) {
+  transports::RecordOptions options;
+  if (!py::isinstance<py::dict>(record)) {
+    options.file = path_of(record, "record");
+    return options;
+  }
+  const py::dict given = record.cast<py::dict>();
+  for (const auto& [key, value] : given) {
+    const std::string name = py::str(key).cast<std::string>();
+    if (name == "file") {
+      options.file = path_of(value, "record file");
+    } else if (name == "overwrite") {
+      if (!py::isinstance<py::bool_>(value)) throw py::type_error("record: overwrite must be a bool");
+      options.overwrite = value.cast<bool>();
+    } else if (name == "max_bytes") {
+      options.max_file_bytes = whole_number(value, "max_bytes", 4096, std::uint64_t{1} << 50);
+    } else if (name == "max_seconds") {
+      options.max_file_duration = std::chrono::seconds(whole_number(value, "max_seconds", 1, 366u * 24 * 3600));
+    } else if (name == "files") {
+      options.ring_files = static_cast<unsigned>(whole_number(value, "files", 2, 1000));
+    } else {
+      throw py::value_error("record: unknown key '" + name + "' (file, max_bytes, max_seconds, files, overwrite)");
+    }
+  }
+  if (options.file.empty()) throw py::value_error("record: missing key 'file'");
+  return options;
+}
+
+}  // namespace
+
+void record_transport(Transport& transport, const py::object& record, std::string_view codec) {
+  if (record.is_none()) return;
+  const transports::RecordOptions options = record_options(record);
+  const devices::CodecRow* row = devices::find_codec(codec);
+  if (row == nullptr) throw py::value_error("record: unknown codec " + std::string(codec));
+  boost::system::error_code error;
+  std::string message;
+  auto recorder = transports::CaptureRecorder::open(options, error, message);
+  if (!recorder) {
+    if (transport.stream) transport.stream->close();
+    if (error == boost::system::errc::file_exists) {
+      PyErr_SetString(PyExc_FileExistsError, message.c_str());
+      throw py::error_already_set();
+    }
+    if (error.category() == boost::system::system_category()) {
+      PyErr_SetObject(PyExc_OSError, py::make_tuple(error.value(), message).ptr());
+      throw py::error_already_set();
+    }
+    throw py::value_error(message);
+  }
+  devices::DeviceConfig device;
+  device.name = transport.path.empty() ? std::string(row->name) : transport.path;
+  device.codec = row->codec;
+  if (transport.board && transport.path.empty()) {
+    device.transport = devices::VirtualTransport{};
+  } else {
+    devices::SerialTransport serial;
+    serial.path = transport.path;
+    if (transport.port) serial.options.baud = transport.port->options().baud;
+    device.transport = serial;
+  }
+  auto recording = devices::record_stream(device, transport.stream, std::move(recorder));
+  recording->close_recorder_on_close(true);
+  transport.stream = std::move(recording);
 }
 
 py::dict link_event_dict(const transports::LinkEvent& event) {

@@ -45,6 +45,7 @@ const CommandText& command_text() {
       "bench",
       "usage: tether bench [--config FILE] [--devices A,B] [--sweep ber=R,...] [--sweep rate=HZ,...|max]\n"
       "                    [--iterations N | --duration S] [--seed N] [--isolated] [--reset] [--out DIR]\n"
+      "                    [--record FILE [--force]]\n"
       "                    [--workload servo|sensor] [--payload small|large] [--saturation] [--no-plots]\n"
       "                    [--json]\n"
       "   or: tether bench --compare A.json B.json [--json]\n"
@@ -96,6 +97,8 @@ const CommandText& command_text() {
       "                       positions and {r})\n"
       "                     A device that cannot do it (a proxy config without the pin) is skipped\n"
       "  --isolated         one device at a time (default: all at once, as on a rover)\n"
+      "  --record FILE      record every device's link into FILE (pcapng, docs/captures.md); an existing FILE\n"
+      "                     is an error unless --force overwrites it\n"
       "  --saturation       after the sweep, per device and BER: a ramp of open-loop rates 10, 20, 40 ... 640\n"
       "                     op/s (each step --iterations or --duration long) that stops at the first step\n"
       "                     not sustained (< 99 % success, or < 95 % of the rate achieved): the highest\n"
@@ -277,6 +280,7 @@ int run_bench(int argc, char** argv) {
   options.firmware_dir = firmware_dir();
   options.tether_version = TETHER_VERSION;
   std::string config_file;
+  transports::RecordOptions record;  // --record, --force
   std::filesystem::path out_dir = "tether-bench";
   bool json = false;
   bool plots = true;
@@ -321,6 +325,12 @@ int run_bench(int argc, char** argv) {
       const char* file = value();
       if (file == nullptr) return command_text().usage_error("--config needs a file");
       config_file = file;
+    } else if (arg == "--record") {
+      const char* file = value();
+      if (file == nullptr || *file == '\0') return command_text().usage_error("--record needs a capture file");
+      record.file = file;
+    } else if (arg == "--force") {
+      record.overwrite = true;
     } else if (arg == "--devices") {
       const char* list = value();
       if (list == nullptr || *list == '\0') return command_text().usage_error("--devices needs names: A,B");
@@ -381,6 +391,17 @@ int run_bench(int argc, char** argv) {
       devices::ParseOptions parse;
       parse.firmware_dir = options.firmware_dir;
       options.config = devices::load_config(config_file, parse);
+    }
+    if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
+    if (!record.file.empty()) {
+      // Every device into the one file, one interface each (the configuration's own `record` keys give way).
+      if (!options.config) {
+        devices::ParseOptions parse;
+        parse.firmware_dir = options.firmware_dir;
+        options.config = devices::parse_config(devices::default_virtual_rover_config(), parse);
+      }
+      options.config->record = record;
+      for (devices::DeviceConfig& device : options.config->devices) device.record.reset();
     }
   } catch (const devices::ConfigError& config_error) {
     return command_text().fail(config_error.what());

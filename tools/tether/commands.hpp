@@ -39,6 +39,7 @@ std::vector<Command> plugin_subcommands();
 int run_sim(int argc, char** argv);
 int run_shell(int argc, char** argv);
 int run_monitor(int argc, char** argv);
+int run_replay(int argc, char** argv);
 int run_stats(int argc, char** argv);
 int run_demo(int argc, char** argv);
 int run_bench(int argc, char** argv);

@@ -28,7 +28,7 @@ const CommandText& command_text() {
   static const CommandText text(
       "demo",
       "usage: tether demo [--config FILE] [--iterations N] [--period MS] [--ber RATE] [--no-reset] [--seed N]\n"
-      "                   [--json]\n"
+      "                   [--json] [--record FILE [--force]]\n"
       "\n"
       "Runs the same workload through every device of a rover and prints a side-by-side table per codec:\n"
       "operations, successes, wrong answers, wire bytes per operation, p50/p99 latency, retries, stale\n"
@@ -45,6 +45,8 @@ const CommandText& command_text() {
       "  --no-reset       do not power-cycle the virtual devices halfway (hardware is never reset)\n"
       "  --seed N         seed of the injected noise (default 1)\n"
       "  --json           print the report as one JSON object instead of the table\n"
+      "  --record FILE    record every device's link into FILE (pcapng, one interface per device;\n"
+      "                   docs/captures.md); an existing FILE is an error unless --force overwrites it\n"
       "\n"
       "Exit status: 0 every device completed operations (after its reset, when one was injected); 1 a device\n"
       "never did; 2 usage or configuration errors.\n");
@@ -57,6 +59,7 @@ int run_demo(int argc, char** argv) {
   demo::DemoOptions options;
   options.firmware_dir = firmware_dir();
   std::string config_file;
+  transports::RecordOptions record;  // --record, --force
   bool json = false;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     const std::string arg(argument);
@@ -69,6 +72,12 @@ int run_demo(int argc, char** argv) {
       const char* file = value();
       if (file == nullptr) return command_text().usage_error("--config needs a file");
       config_file = file;
+    } else if (arg == "--record") {
+      const char* file = value();
+      if (file == nullptr || *file == '\0') return command_text().usage_error("--record needs a capture file");
+      record.file = file;
+    } else if (arg == "--force") {
+      record.overwrite = true;
     } else if (arg == "--iterations") {
       const char* text = value();
       const auto n = text ? parse_number(text, 1, 100000) : std::nullopt;
@@ -104,6 +113,17 @@ int run_demo(int argc, char** argv) {
       devices::ParseOptions parse;
       parse.firmware_dir = options.firmware_dir;
       options.config = devices::load_config(config_file, parse);
+    }
+    if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
+    if (!record.file.empty()) {
+      // Every device into the one file, one interface each (the configuration's own `record` keys give way).
+      if (!options.config) {
+        devices::ParseOptions parse;
+        parse.firmware_dir = options.firmware_dir;
+        options.config = devices::parse_config(devices::default_virtual_rover_config(), parse);
+      }
+      options.config->record = record;
+      for (devices::DeviceConfig& device : options.config->devices) device.record.reset();
     }
   } catch (const devices::ConfigError& error) {
     return command_text().fail(error.what());

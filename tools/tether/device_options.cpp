@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
@@ -99,7 +100,8 @@ std::string device_usage(std::string_view port_codec) {
       "                      The codec follows the name (" + texts.prefixes + ")\n"
       "                      unless --codec says\n"
       "  --no-reconnect      a serial port that vanishes (unplugged) ends the link; by default the command\n"
-      "                      waits for it to come back (its calls fail `disconnected` meanwhile) and goes on\n";
+      "                      waits for it to come back (its calls fail `disconnected` meanwhile) and goes on\n" +
+      record_usage();
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);
     if (commands == nullptr || (commands->flags.empty() && commands->usage_note.empty())) continue;
@@ -131,6 +133,79 @@ std::filesystem::path firmware_image(const std::string& name) {
   return std::filesystem::path(firmware_dir()) / (has_suffix ? name : name + ".elf");
 }
 
+std::string record_usage(std::string_view write_flag) {
+  const std::string flag = std::string(write_flag) + " FILE";
+  return "recording (docs/captures.md):\n"
+         "  " + flag + std::string(flag.size() < 18 ? 18 - flag.size() : 1, ' ') +
+         "record what crosses the link into FILE (pcapng: Wireshark, tshark, `tether replay`);\n"
+         "                      an existing FILE is an error unless --force\n"
+         "    --force           overwrite FILE (and its ring files)\n"
+         "    --record-max-bytes N    start the next ring file at N bytes (at least 4096)\n"
+         "    --record-max-seconds S  start the next ring file after S seconds\n"
+         "    --record-files N        ring files kept with a limit (2..1000, default 2): FILE, STEM.1.EXT, ...\n";
+}
+
+std::optional<transports::RecordOptions> record_options(const DeviceOptions& options, std::string& error) {
+  if (options.record.empty()) {
+    if (options.force) error = "--force applies to --record only";
+    if (options.record_max_bytes) error = "--record-max-bytes needs --record FILE";
+    if (options.record_max_seconds) error = "--record-max-seconds needs --record FILE";
+    if (options.record_files) error = "--record-files needs --record FILE";
+    return std::nullopt;
+  }
+  transports::RecordOptions record;
+  record.file = options.record;
+  record.overwrite = options.force;
+  if (options.record_max_bytes) record.max_file_bytes = *options.record_max_bytes;
+  if (options.record_max_seconds) record.max_file_duration = std::chrono::seconds(*options.record_max_seconds);
+  if (options.record_files) {
+    if (!options.record_max_bytes && !options.record_max_seconds) {
+      error = "--record-files needs a limit (--record-max-bytes or --record-max-seconds)";
+      return std::nullopt;
+    }
+    record.ring_files = *options.record_files;
+  }
+  return record;
+}
+
+nlohmann::ordered_json record_counters(const transports::RecordingStream& recording) {
+  const transports::RecordCounters counters = recording.recorder()->counters();
+  nlohmann::ordered_json report = {{"file", counters.file},
+                                   {"packets", counters.packets},
+                                   {"bytes", counters.bytes},
+                                   {"dropped", counters.dropped_packets},
+                                   {"lost", counters.lost_packets},
+                                   {"files", counters.files},
+                                   {"write_errors", counters.write_errors}};
+  if (!counters.error.empty()) report["error"] = counters.error;
+  return report;
+}
+
+void report_recording_losses(const transports::CaptureRecorder& recorder, std::string_view command) {
+  const transports::RecordCounters counters = recorder.counters();
+  const std::string head = "tether" + (command.empty() ? std::string() : " " + std::string(command)) + ": recording " +
+                           recorder.options().file.string() + ": ";
+  if (counters.dropped_packets > 0) {
+    std::fprintf(stderr, "%s%llu packets dropped (the disk did not keep up)\n", head.c_str(),
+                 static_cast<unsigned long long>(counters.dropped_packets));
+  }
+  if (!counters.error.empty()) {
+    std::fprintf(stderr, "%sstopped: %s (%llu packets not recorded)\n", head.c_str(), counters.error.c_str(),
+                 static_cast<unsigned long long>(counters.lost_packets));
+  }
+}
+
+EndRecording::EndRecording(std::shared_ptr<transports::RecordingStream> recording, std::string_view command)
+    : recording_(std::move(recording)), command_(command) {}
+
+EndRecording::~EndRecording() {
+  if (!recording_) return;
+  transports::error_code ignored;
+  recording_->close(ignored);
+  recording_->recorder()->close();
+  report_recording_losses(*recording_->recorder(), command_);
+}
+
 namespace {
 
 enum class OptionParse { not_mine, consumed, error };
@@ -143,8 +218,13 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
     options.reconnect = false;
     return OptionParse::consumed;
   }
+  if (argument == "--force") {
+    options.force = true;
+    return OptionParse::consumed;
+  }
   static constexpr std::string_view kWithValue[] = {"--port",   "--baud",   "--codec",  "--boot-wait", "--boot",
-                                                    "--config", "--device", "--virtual"};
+                                                    "--config", "--device", "--virtual", "--record",
+                                                    "--record-max-bytes", "--record-max-seconds", "--record-files"};
   const CodecFlag* const flag = find_codec_flag(argument);
   if (flag == nullptr && std::find(std::begin(kWithValue), std::end(kWithValue), argument) == std::end(kWithValue)) {
     return OptionParse::not_mine;
@@ -182,6 +262,19 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
   } else if (argument == "--virtual") {
     if (value.empty()) return bad("a firmware image");
     options.firmware = value;
+  } else if (argument == "--record") {
+    if (value.empty()) return bad("a capture file");
+    options.record = value;
+  } else if (argument == "--record-max-bytes") {
+    const auto bytes = parse_signed(value, 4096, std::int64_t{1} << 50);
+    if (!bytes) return bad("bytes (4096 or more)");
+    options.record_max_bytes = static_cast<std::uint64_t>(*bytes);
+  } else if (argument == "--record-max-seconds") {
+    options.record_max_seconds = parse_number(value, 1, 366u * 24 * 3600);
+    if (!options.record_max_seconds) return bad("seconds (1 or more)");
+  } else if (argument == "--record-files") {
+    options.record_files = parse_number(value, 2, 1000);
+    if (!options.record_files) return bad("a number 2..1000");
   } else {
     if (const auto expected = flag->check(value)) return bad(*expected);
     std::erase_if(options.codec_flags, [&](const auto& given) { return given.first == argument; });
@@ -222,7 +315,23 @@ devices::Codec codec_of_arguments(int argc, char** argv, devices::Codec default_
   return options.codec.value_or(default_codec);  // `--codec rpc --help`: that codec's usage
 }
 
+namespace {
+std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices::Codec default_codec,
+                                           std::string& error);
+}  // namespace
+
 std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices::Codec default_codec,
+                                           std::string& error) {
+  std::optional<transports::RecordOptions> record = record_options(options, error);
+  if (!error.empty()) return std::nullopt;
+  std::optional<DeviceTarget> target = resolve_target(options, default_codec, error);
+  // --record replaces a configuration's own `record` (the rover's applies to a whole rover only).
+  if (target && record) target->config.record = record;
+  return target;
+}
+
+namespace {
+std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices::Codec default_codec,
                                            std::string& error) {
   const bool port = !options.port.empty();
   const bool config = !options.config_file.empty() || !options.device.empty();
@@ -372,6 +481,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   target.label = devices::describe(target.config.transport) + " (" + std::string(devices::to_string(codec)) + ")";
   return target;
 }
+}  // namespace
 
 nlohmann::ordered_json OpenDevice::counters() const {
   nlohmann::ordered_json counters = codec_commands(codec())->counters(client());
@@ -381,6 +491,7 @@ nlohmann::ordered_json OpenDevice::counters() const {
                         {"reconnects", link.reconnects},
                         {"time_down_ms", link.time_down.count()}};
   }
+  if (recording_) counters["record"] = record_counters(*recording_);
   if (port_ && port_->options().boot != transports::BootMode::none && port_->options().boot_wait.count() > 0) {
     // The last open's (a re-open's after an outage): how long the board took to be ready, and how it said so.
     const transports::BootReport boot = port_->boot_report();
@@ -403,7 +514,12 @@ nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds, co
 }
 
 void OpenDevice::close() {
-  if (rover_) std::call_once(*close_once_, [this] { rover_->close(); });
+  if (rover_) {
+    std::call_once(*close_once_, [this] {
+      rover_->close();  // closes the capture file too
+      if (recording_) report_recording_losses(*recording_->recorder(), "");
+    });
+  }
 }
 
 namespace {
@@ -543,6 +659,7 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     opened.codec_ = opened.rover_->devices().front().codec;
     opened.client_ = opened.rover_->devices().front().client;
     opened.port_ = opened.rover_->devices().front().port;
+    opened.recording_ = opened.rover_->devices().front().recording;
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
     code = failure.code();
@@ -556,8 +673,19 @@ std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, 
   progress.show("opening " + devices::describe(target.config.transport) + "...");
   std::shared_ptr<transports::ByteStream> stream;
   try {
+    // The capture file first: one that may not be written fails before the device resets.
+    std::shared_ptr<transports::CaptureRecorder> recorder;
+    if (target.config.record) {
+      transports::error_code code;
+      recorder = transports::CaptureRecorder::open(*target.config.record, code, error);
+      if (!recorder) {
+        progress.clear();
+        return nullptr;
+      }
+    }
     // A ring's boards live as long as its stream.
     stream = devices::open_transport(target.config, std::move(executor)).stream;
+    if (recorder) stream = devices::record_stream(target.config, std::move(stream), std::move(recorder));
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();
   }

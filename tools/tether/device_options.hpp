@@ -25,6 +25,7 @@
 #include "tether/devices/config.hpp"
 #include "tether/devices/rover.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/recording.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 
 namespace tether::cli {
@@ -43,6 +44,11 @@ struct DeviceOptions {
   std::string device;                            ///< --device
   std::string firmware;                          ///< --virtual
   bool reconnect = true;                         ///< false: --no-reconnect (a serial port that vanishes ends the link)
+  std::string record;                            ///< --record (monitor: --write): the capture file
+  bool force = false;                            ///< --force: --record may overwrite an existing file
+  std::optional<std::uint64_t> record_max_bytes;   ///< --record-max-bytes
+  std::optional<std::uint32_t> record_max_seconds; ///< --record-max-seconds
+  std::optional<std::uint32_t> record_files;       ///< --record-files
   /// The flags only some codecs take (their rows' `CodecCommands::flags`, `--generation D`), as given and
   /// in that order; each value already passed its flag's check.
   std::vector<std::pair<std::string, std::string>> codec_flags;
@@ -110,6 +116,8 @@ class OpenDevice {
   }
   /// The serial port of a serial device (its link events and outage counters), else null.
   const std::shared_ptr<transports::SerialPortStream>& port() const { return port_; }
+  /// The recording of the link (--record, or the configuration's `record`), else null.
+  const std::shared_ptr<transports::RecordingStream>& recording() const { return recording_; }
   /// The client's counters: `{"link": {...}, "proxy"/"ring": {...}, ...}` (the codec row's `counters`), and
   /// for a supervised serial port `"port": {"disconnects", "reconnects", "time_down_ms"}`.
   nlohmann::ordered_json counters() const;
@@ -126,6 +134,7 @@ class OpenDevice {
   devices::DeviceClient client_;
   std::string description_;
   std::shared_ptr<transports::SerialPortStream> port_;
+  std::shared_ptr<transports::RecordingStream> recording_;
   std::shared_ptr<devices::Rover> rover_;
   std::shared_ptr<std::once_flag> close_once_ = std::make_shared<std::once_flag>();
 };
@@ -155,7 +164,39 @@ std::optional<OpenDevice> open_device_within(const DeviceTarget& target, boost::
 /// port), at most until `deadline`; a progress line says it waits.
 bool wait_for_port(const OpenDevice& device, std::chrono::steady_clock::time_point deadline, Progress& progress);
 
-/// Opens only the device's byte stream (no client: nothing is sent). Virtual rings are not supported.
+/// The usage lines of --record and its limits (in `device_usage`; `write_flag` names the file flag: `--record
+/// FILE`, monitor's `--write FILE`).
+std::string record_usage(std::string_view write_flag = "--record");
+
+/// The recording options of `--record FILE` (with `--force` and the limits), or nothing without --record.
+/// `error` when a limit or --force is given without --record.
+std::optional<transports::RecordOptions> record_options(const DeviceOptions& options, std::string& error);
+
+/// Ends a recording when it goes out of scope: closes the stream and the recorder (the file is complete), and
+/// says on stderr how many packets were dropped or lost and why recording stopped, if it did.
+class EndRecording {
+ public:
+  /// For `recording` (null: nothing to do) of `tether <command>`.
+  EndRecording(std::shared_ptr<transports::RecordingStream> recording, std::string_view command);
+  ~EndRecording();
+  EndRecording(const EndRecording&) = delete;
+  EndRecording& operator=(const EndRecording&) = delete;
+
+ private:
+  std::shared_ptr<transports::RecordingStream> recording_;
+  std::string command_;
+};
+
+/// Says on stderr (`tether <command>: recording FILE: 12 packets dropped (the disk was too slow)`) what a
+/// recording lost, if anything.
+void report_recording_losses(const transports::CaptureRecorder& recorder, std::string_view command);
+
+/// The counters of a recording for `stats` and the shell's `:stats`: `{"file", "packets", "dropped", ...}`.
+nlohmann::ordered_json record_counters(const transports::RecordingStream& recording);
+
+/// Opens only the device's byte stream (no client: nothing is sent), recorded when the target says so (the
+/// result is then a `transports::RecordingStream`; closing it and its recorder ends the file). Virtual rings
+/// are not supported.
 std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                                     Progress& progress, std::string& error);
 

@@ -83,6 +83,7 @@ const CommandText& command_text() {
       "  --duration S   stop after S seconds (decimals allowed)\n"
       "  --keepalive    proxy primary mode: send a Ping every second (the only thing monitor then sends)\n"
       "  --tap          pass an application's session through a new pty and decode both directions\n"
+      "  --write FILE   record the session into FILE (pcapng), as --record FILE does (see recording above)\n"
       "\n"
       "Runs until --count, --duration, SIGINT or SIGTERM (exit status 0). Exit status 2: usage errors, a\n"
       "device that cannot be opened, a link that failed (the device went away).\n",
@@ -111,6 +112,10 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
       arguments.keepalive = true;
     } else if (argument == "--tap") {
       arguments.tap = true;
+    } else if (argument == "--write") {
+      // The tap's recording: the same as --record FILE.
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return text.usage_error("--write needs a capture file");
+      arguments.device.record = argv[++i];
     } else if (argument == "--count" || argument == "--duration") {
       if (i + 1 >= argc) return text.usage_error(std::string(argument) + " needs a value");
       const std::string_view value = argv[++i];
@@ -293,7 +298,10 @@ int run_monitor(int argc, char** argv) {
   Progress progress("monitor");
   auto stream = open_stream(*target, io.executor(), progress, error);
   if (!stream) return command_text().fail(target->label + ": " + error);
-  if (const auto port = std::dynamic_pointer_cast<transports::SerialPortStream>(stream);
+  // However the monitor ends, the capture file is complete, and a recording that lost packets says so.
+  const auto recording = std::dynamic_pointer_cast<transports::RecordingStream>(stream);
+  const EndRecording end_recording(recording, "monitor");
+  if (const auto port = std::dynamic_pointer_cast<transports::SerialPortStream>(recording ? recording->inner() : stream);
       port && port->options().reconnect.enabled) {
     port->add_link_handler([](const transports::LinkEvent& event) {
       if (event.kind == transports::LinkEvent::Kind::up) {

@@ -13,6 +13,12 @@
 #include "tether/testing/random_seed.hpp"
 #include "tether/transports/fault_injecting_stream.hpp"
 #include "tether/transports/in_memory_stream.hpp"
+#include "tether/transports/recording.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
 
 namespace tether::transports {
 namespace {
@@ -142,6 +148,66 @@ TEST(FaultInjectingStream, ALinkThatLosesEverythingRecoversWhenFaultsStop) {
   faulty->set_faults(FaultConfig(), FaultConfig());
   EXPECT_EQ(transfer(io, *faulty, *device_end, pattern(100)), pattern(100));
   EXPECT_NE(faulty->description().find("drop=0"), std::string::npos);
+}
+
+// A recording of a noisy link (the host's end of it): the damage shows as bytes that formed no frame, in
+// stream order with the frames, and nothing the host read is missing from the capture. Same seed, same
+// capture.
+TEST(FaultInjectingStream, ARecordingShowsTheNoiseAsUnframedBytes) {
+  FaultConfig noise;
+  noise.bit_error_rate = 1e-2;
+  noise.drop_rate = 0.02;
+  std::string lines;
+  for (int i = 0; i < 100; ++i) lines += "#e[" + std::to_string(i) + ",1,2]:" + std::to_string(10 + i % 90) + "ab\r\n";
+  const std::vector<uint8_t> payload(lines.begin(), lines.end());
+  std::vector<Capture> captures;
+  for (int run = 0; run < 2; ++run) {
+    char folder[] = "/tmp/tether-noise-capture-XXXXXX";
+    ASSERT_NE(::mkdtemp(folder), nullptr);
+    RecordOptions options;
+    options.file = std::filesystem::path(folder) / "noise.pcapng";
+    auto recorder = CaptureRecorder::open(options);
+    std::vector<uint8_t> received;
+    {
+      asio::io_context io;
+      auto [host_end, device_end] = InMemoryStream::make_pair(io.get_executor(), 1 << 16);
+      auto faulty = FaultInjectingStream::wrap(host_end, FaultConfig(), noise, 42);
+      const CaptureFraming romi = [](bool) {
+        return std::make_unique<DelimitedFramer>(DelimitedFraming::lines("#", 1032));
+      };
+      auto recorded = RecordingStream::wrap(faulty, recorder, "arm", "tether codec=romi baud=- transport=virtual", romi,
+                                            [] { return std::uint64_t{1}; });
+      received = transfer(io, *device_end, *recorded, payload);
+      recorded->close();
+    }
+    recorder->close();
+    boost::system::error_code error;
+    std::string message;
+    auto capture = read_capture(options.file.string(), error, message);
+    ASSERT_TRUE(capture) << message;
+    std::filesystem::remove_all(folder);
+    std::vector<uint8_t> recorded_bytes;
+    std::size_t unframed = 0;
+    for (const auto& packet : capture->packets) {
+      EXPECT_EQ(packet.direction, CaptureDirection::inbound);
+      recorded_bytes.insert(recorded_bytes.end(), packet.data.begin(), packet.data.end());
+      if (packet.unframed()) {
+        ++unframed;
+      } else {
+        EXPECT_EQ(packet.data.front(), '#');
+        EXPECT_EQ(packet.data.back(), '\n');
+      }
+    }
+    EXPECT_EQ(recorded_bytes, received);  // every byte, in order
+    EXPECT_NE(received, payload);         // the noise did hit
+    EXPECT_GT(unframed, 0u);
+    captures.push_back(std::move(*capture));
+  }
+  ASSERT_EQ(captures[0].packets.size(), captures[1].packets.size());
+  for (std::size_t i = 0; i < captures[0].packets.size(); ++i) {
+    EXPECT_EQ(captures[0].packets[i].data, captures[1].packets[i].data);
+    EXPECT_EQ(captures[0].packets[i].comment, captures[1].packets[i].comment);
+  }
 }
 
 }  // namespace

@@ -100,6 +100,15 @@ devices::EepromUpload read_node_file(std::string_view text) {
 
 }  // namespace
 
+// Captures: a message is a line from its header (D, S, G or X) to `\n`; a header inside a message starts the
+// next one (the sender reset), as in the decoder. Bounded generously: the decoder keeps 96 bytes without
+// whitespace, a message with spaces is longer on the wire.
+transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
+  return [](bool) -> std::unique_ptr<transports::CaptureFramer> {
+    return std::make_unique<transports::DelimitedFramer>(transports::DelimitedFraming::lines("DSGX", 1024));
+  };
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -120,6 +129,12 @@ std::vector<devices::CodecRow> codec_rows() {
   row.parse_options = parse_elcano;
   row.validate = validate_elcano;
   row.open = open_elcano;
+  row.capture_framing = capture_framing;
+  row.capture_words = [](const devices::DeviceConfig& device) -> std::string {
+    const auto* options = device.options.get_if<DeviceOptions>();
+    if (options == nullptr) return {};
+    return std::string("generation=") + (options->generation == Generation::d ? "D" : "B");
+  };
   return {row};
 }
 

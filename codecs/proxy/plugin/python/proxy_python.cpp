@@ -277,7 +277,7 @@ On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, ev
 board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, bool compat, std::optional<unsigned> baud, double boot_wait,
                        double send_budget, std::optional<std::uint32_t> first_message_id, py::object on_event,
-                       py::object clock, std::optional<std::string> boot) {
+                       py::object clock, std::optional<std::string> boot, py::object record) {
              if (!(send_budget > 0.0) || send_budget > 3600.0) throw py::value_error("send_budget must be 0 < t <= 3600 s");
              proxy::Options options = compat ? proxy::Options::compat() : proxy::Options::primary();
              if (baud) options.timing.baud = *baud;
@@ -285,6 +285,7 @@ board's simulated time (see ``tether.romi.Client``).)doc")
              options.first_message_id = first_message_id;
              std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{options.timing.baud, boot_wait, {}, true, 0, boot, compat ? transports::BootSignature{} : proxy::boot_signature()});
+             record_transport(transport, record, compat ? "proxy-compat" : "proxy");
              const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              options.clock = link_clock(board);
              auto wrapper = std::make_shared<ProxyClient>();
@@ -303,7 +304,7 @@ board's simulated time (see ``tether.romi.Client``).)doc")
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("compat") = false, py::arg("baud") = py::none(),
            py::arg("boot_wait") = 2.0, py::arg("send_budget") = 1.0, py::arg("first_message_id") = py::none(),
-           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none(), py::arg("record") = py::none())
       .def(
           "servo",
           [](const std::shared_ptr<ProxyClient>& self, py::handle pin) {

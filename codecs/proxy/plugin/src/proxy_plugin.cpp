@@ -13,6 +13,7 @@
 
 #include "tether/devices/json_reader.hpp"
 #include "tether/proxy/boot_frame.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/proxy/plugin.hpp"
 
 namespace tether::proxy {
@@ -234,6 +235,14 @@ transports::BootSignature boot_signature() {
   return signature;
 }
 
+// Captures: a frame is COBS bytes up to their 0x00, with the 0x00 a sender writes in front of a frame to
+// flush line garbage; bounded by the largest frame of the client's largest payload.
+transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
+  return [](bool) -> std::unique_ptr<transports::CaptureFramer> {
+    return std::make_unique<transports::DelimitedFramer>(transports::DelimitedFraming::cobs(max_frame_size(kMaxPayload)));
+  };
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   std::vector<devices::CodecRow> rows(2);
   // proxy and proxy-compat: one client and parser, the mode from the codec.
@@ -249,12 +258,14 @@ std::vector<devices::CodecRow> codec_rows() {
     };
     row.open = open_proxy;
     row.await_ready = await_proxy;
+    row.capture_framing = capture_framing;
   };
   fill(rows[0], kCodec, "proxy", "proxy::Client");
   rows[0].option_keys = {
       "baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms", "max_sends", "queue_timeout_ms",
       "ping_period_ms", "reset_timeout_ms", "open_timeout_ms",      "inits"};
   rows[0].boot = boot_signature();
+  rows[0].capture_words = [](const devices::DeviceConfig&) -> std::string { return "crc=on"; };
   fill(rows[1], kCompatCodec, "proxy-compat", "proxy::Client (proxy::Options::compat())");
   rows[1].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[1].default_baud = 57600;  // the deployed firmware's

@@ -292,10 +292,11 @@ time as the clock of every deadline. ``clock=board.clock`` puts a client opened 
 (None: the board it was opened on, or whose pty it opened by path in this process, else the steady clock). On a
 board's clock the windows are the device's seconds, exact whatever the machine's load; the board's ``close()`` closes the client.)doc")
       .def(py::init([](py::object port, unsigned baud, double boot_wait, double attempt_timeout, double call_budget,
-                       int max_attempts, bool retry_on_timeout, py::object on_log, py::object clock, std::optional<std::string> boot) {
+                       int max_attempts, bool retry_on_timeout, py::object on_log, py::object clock, std::optional<std::string> boot, py::object record) {
              const session::CallTiming timing = timing_from(attempt_timeout, call_budget, max_attempts, retry_on_timeout);
              std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}, true, 0, boot, romi::boot_signature()});
+             record_transport(transport, record, "romi");
              const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              auto wrapper = std::make_shared<RomiClient>();
              wrapper->io = transport.io;
@@ -314,7 +315,7 @@ board's clock the windows are the device's seconds, exact whatever the machine's
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
            py::arg("attempt_timeout") = 1.0, py::arg("call_budget") = 2.0, py::arg("max_attempts") = 3,
-           py::arg("retry_on_timeout") = false, py::arg("on_log") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none())
+           py::arg("retry_on_timeout") = false, py::arg("on_log") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none(), py::arg("record") = py::none())
       .def(
           "call",
           [](RomiClient& self, const std::string& command, const py::args& args, bool check) {

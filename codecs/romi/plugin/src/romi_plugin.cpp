@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "tether/devices/json_reader.hpp"
+#include "tether/romi/limits.hpp"
 #include "tether/romi/plugin.hpp"
 
 namespace tether::romi {
@@ -57,6 +58,15 @@ transports::BootSignature boot_signature() {
   return signature;
 }
 
+// Captures: a frame is `#...\n` (the decoder's framing: `#` starts a frame anywhere, also inside one);
+// bounded by the host decoder's capacity and the frame's overhead.
+transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
+  return [](bool) -> std::unique_ptr<transports::CaptureFramer> {
+    return std::make_unique<transports::DelimitedFramer>(
+        transports::DelimitedFraming::lines("#", kHostDecoderCapacity + kFrameOverhead));
+  };
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -68,6 +78,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.validate = validate;
   row.open = open;
   row.boot = boot_signature();
+  row.capture_framing = capture_framing;
   return {row};
 }
 

@@ -1,3 +1,4 @@
+import os
 from types import SimpleNamespace
 from typing import Any, Awaitable, Callable, Iterator, Optional, Sequence, Union
 
@@ -56,7 +57,8 @@ class Client:
                  import_paths: Sequence[str] = ..., service: Optional[str] = None, baud: Optional[int] = None,
                  boot_wait: float = 2.0, call_budget: float = 2.0, queue_timeout: float = 10.0,
                  first_message_id: Optional[int] = None, on_event: Optional[Callable[[SimpleNamespace], None]] = None,
-                 clock: Optional[VirtualUnoClock] = None, boot: Optional[str] = None) -> None: ...
+                 clock: Optional[VirtualUnoClock] = None, boot: Optional[str] = None,
+                 record: Union[str, os.PathLike[str], dict[str, object], None] = None) -> None: ...
     @property
     def methods(self) -> list[str]: ...
     @property

@@ -333,7 +333,7 @@ board's simulated time.)doc")
       .def(py::init([](py::object port, const std::string& schema_path, std::vector<std::string> import_paths,
                        std::optional<std::string> service, std::optional<unsigned> baud, double boot_wait,
                        double call_budget, double queue_timeout, std::optional<std::uint32_t> first_message_id,
-                       py::object on_event, py::object clock, std::optional<std::string> boot) {
+                       py::object on_event, py::object clock, std::optional<std::string> boot, py::object record) {
              check_path(schema_path, "schema");
              rpc::SchemaOptions schema_options;
              for (const std::string& path : import_paths) schema_options.import_paths.emplace_back(path);
@@ -354,6 +354,7 @@ board's simulated time.)doc")
              options.first_message_id = first_message_id;
              std::shared_ptr<VirtualBoard> chosen = board_of_clock(clock);
              Transport transport = take_stream(port, SerialArguments{options.timing.baud, boot_wait, {}, true, 0, boot, rpc::boot_signature()});
+             record_transport(transport, record, "rpc");
              const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              options.clock = link_clock(board);
              auto wrapper = std::make_shared<RpcClient>();
@@ -368,7 +369,7 @@ board's simulated time.)doc")
            py::arg("import_paths") = std::vector<std::string>(), py::arg("service") = py::none(),
            py::arg("baud") = py::none(), py::arg("boot_wait") = 2.0, py::arg("call_budget") = 2.0,
            py::arg("queue_timeout") = 10.0, py::arg("first_message_id") = py::none(),
-           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none(), py::arg("record") = py::none())
       .def_property_readonly("methods", [](RpcClient& self) {
         py::list names;
         for (const rpc::Method& m : self.get().schema().methods()) names.append(m.name);

@@ -13,7 +13,10 @@
 
 #include "tether/devices/json_reader.hpp"
 #include "tether/proxy/boot_frame.hpp"
+#include "tether/proxy/encoder.hpp"
 #include "tether/rpc/plugin.hpp"
+
+#include <google/protobuf/descriptor.h>
 
 namespace tether::rpc {
 
@@ -183,6 +186,28 @@ transports::BootSignature boot_signature() {
   return signature;
 }
 
+// Captures: the proxy's frames (COBS, CRC-16 in front of the payload), bounded by the largest payload; the
+// interface names the schema and its package, for a dissector that decodes the methods' fields.
+transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
+  return [](bool) -> std::unique_ptr<transports::CaptureFramer> {
+    return std::make_unique<transports::DelimitedFramer>(transports::DelimitedFraming::cobs(proxy::max_frame_size(kMaxPayload)));
+  };
+}
+
+std::string capture_words(const devices::DeviceConfig& device) {
+  const auto* options = device.options.get_if<DeviceOptions>();
+  if (options == nullptr) return "crc=on";
+  std::string words = "schema=" + transports::capture_word_value(options->schema.string());
+  try {
+    const Schema schema = Schema::load(options->schema, options->schema_options);
+    const std::string package = schema.service().file()->package();
+    if (!package.empty()) words += " package=" + transports::capture_word_value(package);
+  } catch (const std::exception&) {
+    // Opening reports a schema that cannot be read; the capture then names the file only.
+  }
+  return words + " crc=on";
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -200,6 +225,8 @@ std::vector<devices::CodecRow> codec_rows() {
   row.open = open_rpc;
   row.await_ready = await_rpc;
   row.boot = boot_signature();
+  row.capture_framing = capture_framing;
+  row.capture_words = capture_words;
   return {row};
 }
 

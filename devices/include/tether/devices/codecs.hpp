@@ -50,6 +50,7 @@
 #include "tether/devices/rover.hpp"
 #include "tether/transports/boot_detection.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/capture_framing.hpp"
 
 namespace tether::devices {
 
@@ -170,6 +171,13 @@ struct CodecRow {
   /// device's limits; throws `ConfigError` under `device_path` (`devices[1]`). Unset: ready when created.
   std::function<void(const DeviceClient& client, const DeviceConfig& device, const std::string& device_path)>
       await_ready;
+  /// How a recording of its devices cuts the bytes into packets (transports/capture_framing.hpp,
+  /// docs/captures.md): one framer per direction, whole frames as packets and what formed none as `unframed`
+  /// ones. Unset: every read and write is one `unframed: no framing` packet.
+  std::function<transports::CaptureFraming(const DeviceConfig& device)> capture_framing;
+  /// The words its devices' capture interfaces add to `tether codec=... baud=... transport=...` (space-separated
+  /// `key=value`, values through `transports::capture_word_value`): `generation=D`, `crc=on`. Unset: none.
+  std::function<std::string(const DeviceConfig& device)> capture_words;
 };
 
 /// The row of `codec`. Throws `std::out_of_range` for a value no row has.

@@ -50,6 +50,7 @@
 #include <variant>
 #include <vector>
 
+#include "tether/transports/recording.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/serial_ports.hpp"
 #include "tether/transports/virtual_uno.hpp"
@@ -224,12 +225,18 @@ struct DeviceConfig {
   Codec codec{};  ///< Protocol (a plugin's `kCodec`, or a registered codec's value).
   TransportConfig transport;  ///< How it is reached.
   CodecOptions options;       ///< The codec's options (defaults when the document gives none).
+  /// Record this device's link into a capture file of its own (`"record": "FILE"`, docs/captures.md); unset:
+  /// into the rover's (`RoverConfig::record`) if it has one, else not recorded.
+  std::optional<transports::RecordOptions> record = std::nullopt;
 };
 
 /// Every device of a rover, in the document's order (the order they open in).
 struct RoverConfig {
   std::string name;                  ///< Optional rover name (logs).
   std::vector<DeviceConfig> devices; ///< At least one.
+  /// Record every device's link that has no `record` of its own into this one capture file, one interface
+  /// per device (`"record"` at the top level).
+  std::optional<transports::RecordOptions> record = std::nullopt;
 };
 
 /// Where firmware names and relative paths resolve.

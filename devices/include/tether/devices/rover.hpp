@@ -68,6 +68,7 @@
 #include "tether/client/link_clock.hpp"
 #include "tether/devices/config.hpp"
 #include "tether/transports/byte_stream.hpp"
+#include "tether/transports/recording.hpp"
 #include "tether/transports/serial_port_stream.hpp"
 #include "tether/transports/unique_function.hpp"
 #include "tether/transports/virtual_uno.hpp"
@@ -134,6 +135,9 @@ struct RoverDevice {
   /// (`add_link_handler`: down, up, gave up) and outage counters (`link_counters`) when it is supervised
   /// (`"reconnect"`, on by default).
   std::shared_ptr<transports::SerialPortStream> port;
+  /// The recording of its link when it is recorded (`DeviceConfig::record` or `RoverConfig::record`), else
+  /// null: its recorder's counters (`recorder()->counters()`: packets written, dropped, why it stopped).
+  std::shared_ptr<transports::RecordingStream> recording = nullptr;
 };
 
 /// Hooks of `open_rover`.
@@ -186,7 +190,8 @@ class Rover {
   /// Every device, in the configuration's order.
   const std::vector<RoverDevice>& devices() const;
 
-  /// Closes every client (in reverse order) and stops the virtual boards and rings. Idempotent; the rover
+  /// Closes every client (in reverse order), stops the virtual boards and rings and closes the capture files
+  /// (what was recorded is on disk when it returns). Idempotent; the rover
   /// is empty afterwards. Never waits for a device (see the clients' `close()`).
   void close();
   /// True while the rover holds devices.
@@ -200,6 +205,16 @@ class Rover {
   std::vector<RoverDevice> devices_;
   std::vector<std::function<void()>> stops_;  // stop what the clients do not (virtual rings), after they closed
 };
+
+/// The if_description of `device`'s interface in a capture (docs/captures.md):
+/// `tether codec=romi baud=115200 transport=serial`, then its codec row's `capture_words`.
+std::string capture_description(const DeviceConfig& device);
+
+/// Wraps `stream` so that `recorder` records it as `device`'s link: an interface named after the device,
+/// described by `capture_description`, cut by its codec row's `capture_framing`.
+std::shared_ptr<transports::RecordingStream> record_stream(const DeviceConfig& device,
+                                                           std::shared_ptr<transports::ByteStream> stream,
+                                                           std::shared_ptr<transports::CaptureRecorder> recorder);
 
 /// A device's transport opened on its own, without a client (`tether monitor` reads the raw bytes).
 struct OpenedTransport {

@@ -1,0 +1,208 @@
+// `tether replay FILE`: prints a capture (docs/captures.md) as `tether monitor --tap` prints a live session:
+// each device link's bytes, each direction through its codec's monitor decoder (the interface's `codec=`
+// word, its options from the other words: `generation=D`, `schema=arm.proto`), with the recorded times.
+//
+// Output contract: one line per record, `<time> [<device>] <direction> <kind> <detail>` (the device named
+// when the capture has several links; time in ms since the first packet, or ISO 8601 UTC with --utc), link
+// events as `link <event>`; with --json one object per line. Exit status 0; 2 for usage errors and a file
+// that is not a readable Tether capture (the reader's message names the offset).
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "cli_support.hpp"
+#include "codec_commands.hpp"
+#include "commands.hpp"
+#include "device_options.hpp"
+#include "monitor_decoding.hpp"
+#include "tether/devices/codecs.hpp"
+#include "tether/transports/pcapng.hpp"
+
+namespace tether::cli {
+
+namespace {
+
+const CommandText& command_text() {
+  static const CommandText text(
+      "replay",
+      "usage: tether replay FILE [--device NAME] [--utc] [--json]\n"
+      "\n"
+      "Prints what a capture recorded (a pcapng file written by --record, monitor --write or a configuration's\n"
+      "\"record\"; docs/captures.md) as `tether monitor --tap` prints a session: every frame, log line,\n"
+      "message and error of each device link, both directions, decoded by the codec the capture names, with\n"
+      "the recorded times (milliseconds since the first packet).\n"
+      "\n"
+      "  --device NAME  only the link of device NAME (an interface of the capture)\n"
+      "  --utc          ISO 8601 UTC wall-clock timestamps (as recorded) instead of milliseconds\n"
+      "  --json         one JSON object per line: {\"t_ms\":12.345,\"device\":\"arm\",\"direction\":\"host->device\",\n"
+      "                 \"kind\":\"frame\",...} (\"time\" with --utc)\n"
+      "\n"
+      "Exit status: 0 the capture was printed; 2 usage errors, a file that is not a Tether capture, is\n"
+      "truncated or corrupt (the message names the offset), or names a codec or schema this tether cannot\n"
+      "decode.\n");
+  return text;
+}
+
+std::string utc_text(std::uint64_t microseconds) {
+  const std::time_t seconds = static_cast<std::time_t>(microseconds / 1000000);
+  std::tm parts{};
+  gmtime_r(&seconds, &parts);
+  char buffer[64];
+  const std::size_t length = std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%S", &parts);
+  std::snprintf(buffer + length, sizeof buffer - length, ".%03dZ", static_cast<int>((microseconds / 1000) % 1000));
+  return buffer;
+}
+
+// The device configuration a monitor decoder needs, from an interface's description: its codec's row and
+// the options its codec flags would give (`generation=D` as `--generation D`).
+std::optional<devices::DeviceConfig> device_of(const transports::CaptureInterface& interface, std::string& error) {
+  const std::string codec = interface.word("codec");
+  const devices::CodecRow* row = devices::find_codec(codec);
+  const CodecCommands* commands = row != nullptr ? codec_commands(row->codec) : nullptr;
+  if (commands == nullptr || !commands->monitor_decoder) {
+    error = codec.empty() ? "its description names no codec (not a Tether capture?)"
+                          : "codec '" + codec + "' is not one this tether can decode";
+    return std::nullopt;
+  }
+  DeviceOptions options;
+  for (const auto& [key, value] : interface.words()) {
+    const std::string flag = "--" + key;
+    for (const CodecFlag& each : commands->flags) {
+      if (each.name != flag) continue;
+      if (const auto expected = each.check(value)) {
+        error = key + "=" + value + ": expected " + *expected;
+        return std::nullopt;
+      }
+      options.codec_flags.emplace_back(flag, value);
+    }
+  }
+  devices::DeviceConfig device;
+  device.name = interface.name;
+  device.codec = row->codec;
+  const std::string baud = interface.word("baud");
+  const std::uint32_t speed = baud.empty() || baud == "-" ? row->default_baud
+                                                          : parse_number(baud, 1, 4000000).value_or(row->default_baud);
+  try {
+    device.options = commands->default_options(speed, options);
+  } catch (const devices::ConfigError& failure) {
+    error = failure.what();
+    return std::nullopt;
+  }
+  return device;
+}
+
+}  // namespace
+
+int run_replay(int argc, char** argv) {
+  std::string file;
+  std::optional<std::string> only;
+  bool utc = false;
+  bool json = false;
+  const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
+    if (argument == "--utc") {
+      utc = true;
+    } else if (argument == "--json") {
+      json = true;
+    } else if (argument == "--device") {
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--device needs a device name");
+      only = argv[++i];
+    } else if (!argument.starts_with("-") && file.empty()) {
+      file = argument;
+    } else {
+      return command_text().unexpected_argument(argument);
+    }
+    return std::nullopt;
+  };
+  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
+  if (file.empty()) return command_text().usage_error("no capture file given");
+
+  boost::system::error_code error;
+  std::string message;
+  const std::optional<transports::Capture> capture = transports::read_capture(file, error, message);
+  if (!capture) return command_text().fail(message);
+
+  // One decoder per link and direction, made when the link first has bytes.
+  struct Link {
+    devices::DeviceConfig device;
+    std::unique_ptr<MonitorDecoder> decoders[2];
+  };
+  std::vector<std::optional<Link>> links(capture->interfaces.size());
+  bool found = !only;
+  for (std::size_t i = 0; i < capture->interfaces.size(); ++i) {
+    const transports::CaptureInterface& interface = capture->interfaces[i];
+    if (only && interface.name != *only) continue;
+    found = true;
+    std::string why;
+    std::optional<devices::DeviceConfig> device = device_of(interface, why);
+    if (!device) {
+      return command_text().fail(file + ": interface " + std::to_string(i) + " (" + printable(interface.name) +
+                                 "): " + why);
+    }
+    links[i] = Link{std::move(*device), {}};
+  }
+  if (!found) {
+    devices::NameList names;
+    for (const auto& interface : capture->interfaces) names.add(interface.name);
+    return command_text().fail(file + ": no device '" + *only + "' (devices: " + names.text() + ")");
+  }
+  const bool named = capture->interfaces.size() > 1 && !only;
+  const std::uint64_t first = capture->packets.empty() ? 0 : capture->packets.front().timestamp_us;
+
+  std::vector<MonitorRecord> records;
+  for (const transports::CapturePacket& packet : capture->packets) {
+    if (packet.interface >= links.size() || !links[packet.interface]) continue;
+    Link& link = *links[packet.interface];
+    const std::uint64_t since = packet.timestamp_us >= first ? packet.timestamp_us - first : 0;
+    const auto print = [&](const MonitorRecord& record, std::optional<Direction> direction) {
+      if (json) {
+        nlohmann::ordered_json object;
+        if (utc) {
+          object["time"] = utc_text(packet.timestamp_us);
+        } else {
+          object["t_ms"] = static_cast<double>(since) / 1000.0;
+        }
+        if (named) object["device"] = link.device.name;
+        if (direction) object["direction"] = to_string(*direction);
+        const nlohmann::ordered_json fields = record_json(record);
+        for (const auto& [key, value] : fields.items()) object[key] = value;
+        out().line(dump(object));
+        return;
+      }
+      char stamp[32];
+      std::snprintf(stamp, sizeof stamp, "%.3f", static_cast<double>(since) / 1000.0);
+      out().line((utc ? utc_text(packet.timestamp_us) : std::string(stamp)) + " " +
+                 (named ? printable(link.device.name) + " " : std::string()) +
+                 (direction ? std::string(to_string(*direction)) + " " : std::string()) + record_text(record));
+    };
+    if (packet.link_event()) {
+      const std::string event = packet.comment.substr(6);
+      print(MonitorRecord{"link", printable(event), {{"event", event}}, false}, std::nullopt);
+      continue;
+    }
+    if (packet.direction == transports::CaptureDirection::unknown) continue;
+    const Direction direction = packet.direction == transports::CaptureDirection::inbound ? Direction::device_to_host
+                                                                                          : Direction::host_to_device;
+    auto& decoder = link.decoders[direction == Direction::device_to_host ? 0 : 1];
+    const Millis now = static_cast<Millis>(since / 1000);
+    if (!decoder) {
+      DecoderRole role;
+      role.direction = direction;
+      role.ring_node = false;  // only decode, as a tap does
+      decoder = make_monitor_decoder(link.device, role, now);
+    }
+    for (const std::uint8_t byte : packet.data) decoder->feed(byte, now, records);
+    for (const MonitorRecord& record : records) print(record, direction);
+    records.clear();
+  }
+  out().flush();
+  if (const std::string failure = out().write_failure(); !failure.empty()) return command_text().fail(failure);
+  return 0;
+}
+
+}  // namespace tether::cli
