@@ -228,10 +228,13 @@ local function link_of(frame)
   return l
 end
 
--- Request sent (first pass): remembered under `key`; the same bytes again under the same key are a re-send.
-local function note_request(pinfo, key, bytes)
+-- Request sent (first pass): remembered under `key`; the same bytes again under the same key are a re-send,
+-- answered or not (a client sends a request again after an error answer too: a damaged request's, say).
+-- `window`: how long (seconds) the same bytes still count as a re-send where ids wrap quickly (Romi's
+-- 8-bit ids: the host's call budget); nil: always.
+local function note_request(pinfo, key, bytes, window)
   local previous = pending[key]
-  if previous and not previous.answered and previous.bytes == bytes then
+  if previous and previous.bytes == bytes and (not window or pinfo.abs_ts - previous.time <= window) then
     link_of(pinfo.number).resend_of = previous.frame
   end
   pending[key] = { frame = pinfo.number, time = pinfo.abs_ts, bytes = bytes }
@@ -300,6 +303,12 @@ local function split_values(s, base_offset)
   return values
 end
 
+-- A frame's bytes shown as text: anything but printable ASCII as \xNN (a line hit by noise is not UTF-8,
+-- which Wireshark's tree, columns and JSON output expect of a string).
+local function printable(s)
+  return (s:gsub("[^\32-\126]", function(c) return string.format("\\x%02x", c:byte()) end))
+end
+
 local function dissect_romi(tvb, pinfo, tree, link, direction)
   local raw = tvb:raw()
   local line_end = #raw
@@ -308,13 +317,13 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
   local t = tree:add(tether, tvb(), "Romi")
   if line:sub(1, 1) ~= "#" then
     t:add_proto_expert_info(e.malformed, "Romi frame without its '#'")
-    pinfo.cols.info:append("malformed " .. line)
+    pinfo.cols.info:append("malformed " .. printable(line))
     return
   end
   local colon = line:match(".*():")  -- the last ':' (log text may contain ':')
   if not colon then
     t:add_proto_expert_info(e.malformed, "Romi frame without its ':' metadata")
-    pinfo.cols.info:append("malformed " .. line)
+    pinfo.cols.info:append("malformed " .. printable(line))
     return
   end
   local meta = line:sub(colon + 1)
@@ -323,9 +332,9 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
   if line:sub(2, 2) == "!" then
     local text = line:sub(3, colon - 1)
     t:add(f.romi_kind, tvb(0, 2), "log")
-    t:add(f.romi_log, tvb(2, colon - 3), text)
+    t:add(f.romi_log, tvb(2, colon - 3), printable(text))
     if meta ~= "xxxx" then t:add_proto_expert_info(e.malformed, "log line metadata is not 'xxxx'") end
-    pinfo.cols.info:append("log: " .. text)
+    pinfo.cols.info:append("log: " .. printable(text))
     return
   end
 
@@ -338,7 +347,7 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
   t:add(f.romi_kind, tvb(0, 1), kind)
 
   local opcode = payload:sub(1, 1)
-  if opcode ~= "" then t:add(f.romi_opcode, tvb(1, 1), opcode) end
+  if opcode ~= "" then t:add(f.romi_opcode, tvb(1, 1), printable(opcode)) end
   local args_text = payload:sub(2)
   local values = {}
   if args_text ~= "" then
@@ -346,7 +355,7 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
     if not inner then
       t:add_proto_expert_info(e.malformed, "arguments not in [...]")
     else
-      local args_item = t:add(f.romi_args, tvb(2, #args_text), args_text)
+      local args_item = t:add(f.romi_args, tvb(2, #args_text), printable(args_text))
       values = split_values(inner, 3)
       if kind == "response" then
         local first = values[1]
@@ -362,13 +371,13 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
             args_item:add_proto_expert_info(e.error_reply, "error " .. code .. ": " .. meaning)
           end
           for i = 2, #values do
-            args_item:add(f.romi_value, tvb(values[i][2], #values[i][1]), values[i][1])
+            args_item:add(f.romi_value, tvb(values[i][2], #values[i][1]), printable(values[i][1]))
           end
           summary = code == 0 and "ok" or ("error " .. code .. " " .. meaning)
         end
       else
         for i = 1, #values do
-          args_item:add(f.romi_arg, tvb(values[i][2], #values[i][1]), values[i][1])
+          args_item:add(f.romi_arg, tvb(values[i][2], #values[i][1]), printable(values[i][1]))
         end
       end
     end
@@ -378,7 +387,7 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
   if not manual then
     local id_text, crc_text = meta:match("^(%x%x)(%x%x)$")
     if not id_text or meta:find("%u") then
-      t:add_proto_expert_info(e.malformed, "metadata '" .. meta .. "' is not two lowercase hex bytes")
+      t:add_proto_expert_info(e.malformed, "metadata '" .. printable(meta) .. "' is not two lowercase hex bytes")
     else
       id = tonumber(id_text, 16)
       local crc = tonumber(crc_text, 16)
@@ -396,7 +405,7 @@ local function dissect_romi(tvb, pinfo, tree, link, direction)
 
   show_links(pinfo, t, tvb)
 
-  local info = kind .. " " .. payload
+  local info = kind .. " " .. printable(payload)
   if id then info = info .. " id=" .. id end
   if summary then info = info .. " " .. summary end
   pinfo.cols.info:append(info)
@@ -765,6 +774,7 @@ local function dissect_elcano(tvb, pinfo, tree, link, direction)
   local t = tree:add(tether, tvb(), "Elcano")
   t:add(f.elcano_generation, tvb(0, 0), generation):set_generated()
   local function fail(why)
+    why = printable(why)
     t:add(f.elcano_error, tvb(), why)
     t:add_proto_expert_info(e.malformed, why)
     pinfo.cols.info:append("malformed: " .. why)
@@ -845,7 +855,7 @@ local function dissect_elcano(tvb, pinfo, tree, link, direction)
     t:add(f.elcano_error, tvb(), "inval_comb: missing " .. table.concat(missing, " "))
     t:add_proto_expert_info(e.malformed, "inval_comb: " .. elcano_types[header] .. " without " .. table.concat(missing, " "))
   end
-  pinfo.cols.info:append(elcano_types[header] .. " " .. s)
+  pinfo.cols.info:append(elcano_types[header] .. " " .. printable(s))
 end
 
 -------------------------------------------------------------------------------------------------------------
@@ -886,7 +896,7 @@ local function bookkeep(pinfo, iface, codec, link, direction, raw)
     if not id_text or tonumber(crc_text, 16) ~= crc8_smbus(line, 1, colon + 2) then return end
     local id = tonumber(id_text, 16)
     if direction == 2 then
-      note_request(pinfo, iface .. ":" .. id, raw)
+      note_request(pinfo, iface .. ":" .. id, raw, 2.0)  -- the host's call budget
     elseif direction == 1 then
       local manual = pending[iface .. ":manual"]
       if id == 0 and manual and not manual.answered then

@@ -182,6 +182,11 @@ class Dissector : public testing::Test {
   std::vector<Fields> dissect(const CaptureFile& capture, const std::string& extra_options = {}) {
     const std::string file = (scratch_ / "capture.pcapng").string();
     capture.write(file);
+    return dissect_file(file, extra_options);
+  }
+
+  // `dissect` of a capture file as it is (one `tether --record` wrote, say).
+  std::vector<Fields> dissect_file(const std::string& file, const std::string& extra_options = {}) {
     std::string command = "HOME=" + shell_quote((scratch_ / "home").string()) + " " + shell_quote(TETHER_TSHARK) +
                           " -n -2 -X lua_script:" + shell_quote(plugin_path());
     std::istringstream dirs(proto_dirs());
@@ -918,6 +923,69 @@ TEST_F(Dissector, DamagedFramesNeverRaiseALuaError) {
   }
   EXPECT_EQ(dissect(capture).size(), packets);
   EXPECT_EQ(dissect(capture, "-R frame").size(), packets);
+}
+
+// A capture `tether demo --record` made under line noise, read with the dissector: for every device, the
+// frames from the device it shows damaged (a CRC that does not check, COBS or a line that does not parse,
+// bytes that formed no frame) are the ones the demo's clients dropped (its crc_errors + framing_errors), and for
+// the codecs whose requests carry ids (romi, proxy, rpc) the requests it marks as re-sent are the demo's
+// retries. The capture holds the bytes the host read, after the noise, and the ones it wrote, before it.
+TEST_F(Dissector, ADemoRecordedUnderNoiseShowsTheDamageAndTheResendsTheDemoCounted) {
+  if (!fs::exists(TETHER_BINARY) || !fs::exists(std::string(TETHER_FIRMWARE_DIR) + "/romi-rover.elf")) {
+    GTEST_SKIP() << "the tether command or the demo's images are not built";
+  }
+  const std::string file = (scratch_ / "demo.pcapng").string();
+  const std::string report_file = (scratch_ / "demo.json").string();
+  const std::string command = shell_quote(TETHER_BINARY) +
+                              " demo --iterations 30 --period 10 --ber 0.001 --no-reset --seed 3 --json --record " +
+                              shell_quote(file) + " > " + shell_quote(report_file) + " 2>/dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  std::ifstream report_stream(report_file);
+  const auto report = nlohmann::json::parse(report_stream, nullptr, false);
+  ASSERT_TRUE(report.is_object() && report.contains("devices")) << report_file;
+
+  struct Seen {
+    std::size_t damaged = 0;  // from the device
+    std::size_t resends = 0;  // to the device
+  };
+  std::map<std::string, Seen> seen;
+  const auto packets = dissect_file(file);
+  ASSERT_FALSE(packets.empty());
+  for (const Fields& packet : packets) {
+    if (!has(packet, "tether.device")) continue;
+    Seen& device = seen[value(packet, "tether.device")];
+    const std::string codec = value(packet, "tether.codec");
+    if (value(packet, "tether.direction") == "2") {
+      if (has(packet, "tether.resend_of")) ++device.resends;
+      continue;
+    }
+    if (has(packet, "tether.link_event")) continue;
+    bool damaged = has(packet, "tether.unframed");
+    if (codec == "romi" && !has(packet, "tether.romi.log")) {
+      damaged = damaged || values(packet, "tether.romi.crc.status") != std::vector<std::string>{"1"};
+    } else if (codec == "proxy" || codec == "rpc") {
+      damaged = damaged || values(packet, "tether.crc16.status") != std::vector<std::string>{"1"};
+    } else if (codec == "proxy-compat") {  // no CRC: only COBS that does not decode
+      damaged = damaged || !has(packet, "tether.cobs.decoded_length");
+    } else if (codec == "elcano") {
+      damaged = damaged || has(packet, "tether.elcano.error") ||
+                values(packet, "tether.elcano.crc.status") == std::vector<std::string>{"0"};
+    }
+    if (damaged) ++device.damaged;
+  }
+  std::size_t damaged_in_all = 0;
+  for (const auto& device : report["devices"]) {
+    const std::string name = device["device"].get<std::string>();
+    const std::string codec = device["codec"].get<std::string>();
+    SCOPED_TRACE(name + " (" + codec + ")");
+    const auto dropped = device["crc_errors"].get<std::size_t>() + device["framing_errors"].get<std::size_t>();
+    EXPECT_EQ(seen[name].damaged, dropped);
+    damaged_in_all += dropped;
+    if (codec == "romi" || codec == "proxy" || codec == "rpc") {
+      EXPECT_EQ(seen[name].resends, device["retries"].get<std::size_t>());
+    }
+  }
+  EXPECT_GT(damaged_in_all, 0u) << "the noise damaged nothing: the test shows nothing";
 }
 
 }  // namespace
