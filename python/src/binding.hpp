@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "tether/client/client_skeleton.hpp"
+#include "tether/devices/config.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/io_thread.hpp"
 #include "tether/transports/serial_port_stream.hpp"
@@ -171,7 +172,10 @@ Transport open_serial(const std::string& path, const SerialArguments& serial);
 /// is recorded as a device of codec `codec` (its capture framing) named after the port; the file closes
 /// with the client. Raises FileExistsError (an existing file without `overwrite`), OSError, ValueError or
 /// TypeError.
-void record_transport(Transport& transport, const py::object& record, std::string_view codec);
+/// `codec_options`: the device's options as a configuration gives them (what the interface's description says of
+/// the codec: an Elcano ring's generation), or none.
+void record_transport(Transport& transport, const py::object& record, std::string_view codec,
+                      devices::CodecOptions codec_options = {});
 
 /// Resolves a firmware image: a path (contains '/') as is, a name in the package's firmware folder.
 /// Raises ValueError for a name with a NUL in it.

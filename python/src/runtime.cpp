@@ -183,7 +183,8 @@ transports::RecordOptions record_options(const py::object& record) {
 
 }  // namespace
 
-void record_transport(Transport& transport, const py::object& record, std::string_view codec) {
+void record_transport(Transport& transport, const py::object& record, std::string_view codec,
+                      devices::CodecOptions codec_options) {
   if (record.is_none()) return;
   const transports::RecordOptions options = record_options(record);
   const devices::CodecRow* row = devices::find_codec(codec);
@@ -206,6 +207,7 @@ void record_transport(Transport& transport, const py::object& record, std::strin
   devices::DeviceConfig device;
   device.name = transport.path.empty() ? std::string(row->name) : transport.path;
   device.codec = row->codec;
+  device.options = std::move(codec_options);
   if (transport.board && transport.path.empty()) {
     device.transport = devices::VirtualTransport{};
   } else {

@@ -106,3 +106,35 @@ def test_a_rover_configuration_records_every_device_into_one_file(tmp_path):
     assert [kind for kind, _ in blocks][:2] == [0x0A0D0D0A, 1]
     assert b"arm" in blocks[1][1]
     assert any(direction == 1 and not comment for direction, _, comment in packets(capture))
+
+
+def interface_descriptions(path):
+    """if_description (option 3) of every Interface Description Block."""
+    descriptions = []
+    for kind, body in pcapng_blocks(path):
+        if kind != 1:
+            continue
+        at = 8
+        while at + 4 <= len(body):
+            code, size = struct.unpack_from("<HH", body, at)
+            if code == 0:
+                break
+            if code == 3:
+                descriptions.append(body[at + 4:at + 4 + size].decode())
+            at += 4 + (size + 3) // 4 * 4
+    return descriptions
+
+
+def test_an_elcano_ring_client_records_its_link_with_the_rings_generation(tmp_path):
+    capture = tmp_path / "ring.pcapng"
+    with tether.VirtualUno("elcano-node") as board:
+        client = tether.elcano.RingClient(board.port, generation="B", boot="none", record=capture)
+        # The board, configured for nothing, forwards the message: it comes back round the ring.
+        with pytest.raises(tether.elcano.ElcanoError, match="came back round the ring"):
+            client.request(tether.elcano.Message(type="drive", speed=50, angle=25), reply_type="sensor")
+        client.close()
+    assert interface_descriptions(capture) == ["tether codec=elcano baud=115200 transport=serial generation=B"]
+    frames = [(direction, data) for direction, data, comment in packets(capture) if not comment]
+    assert (2, frames[0][1]) == frames[0] and frames[0][1].startswith(b"D{s 50}{a 25}")
+    # The board re-encodes what it forwards.
+    assert any(direction == 1 and data.startswith(b"D{") and data.endswith(b"\n") for direction, data in frames[1:])

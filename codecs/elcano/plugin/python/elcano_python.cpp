@@ -9,6 +9,7 @@
 #include "binding.hpp"
 #include "rover_holder.hpp"
 #include "tether/elcano/client.hpp"
+#include "tether/elcano/plugin.hpp"
 #include "virtual_board.hpp"
 
 namespace tether::python {
@@ -221,7 +222,7 @@ On a ``tether.VirtualUno`` (``Client(board)``) or with ``clock=board.clock``, ev
 board's simulated time (see ``tether.romi.Client``).)doc")
       .def(py::init([](py::object port, const std::string& generation, std::vector<std::string> capture,
                        unsigned baud, double boot_wait, py::object on_event, py::object clock,
-                       std::optional<std::string> boot) {
+                       std::optional<std::string> boot, py::object record) {
              elcano::Options options;
              options.node.generation = generation_from(generation);
              for (const auto& name : capture) options.node.capture = options.node.capture.with(type_from(py::str(name)));
@@ -230,6 +231,9 @@ board's simulated time (see ``tether.romi.Client``).)doc")
              // Elcano boards announce nothing at boot and a ring has no request every board answers: `boot`
              // is "fixed" (the default) or "none"; "detect" is refused with the reason.
              Transport transport = take_stream(port, SerialArguments{baud, boot_wait, {}, true, 0, boot});
+             elcano::DeviceOptions recorded;  // what the capture's interface says of the ring
+             recorded.generation = options.node.generation;
+             record_transport(transport, record, "elcano", recorded);
              const std::shared_ptr<VirtualBoard> board = deadline_board(std::move(chosen), transport);
              options.clock = link_clock(board);
              auto wrapper = std::make_shared<RingClient>();
@@ -248,7 +252,8 @@ board's simulated time (see ``tether.romi.Client``).)doc")
            }),
            py::arg("port_or_transport"), py::kw_only(), py::arg("generation") = "B",
            py::arg("capture") = std::vector<std::string>{}, py::arg("baud") = 115200u, py::arg("boot_wait") = 2.0,
-           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none())
+           py::arg("on_event") = py::none(), py::arg("clock") = py::none(), py::arg("boot") = py::none(),
+           py::arg("record") = py::none())
       .def(
           "request",
           [](RingClient& self, const elcano::Message& request, py::handle reply_type) {
