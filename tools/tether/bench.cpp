@@ -387,22 +387,8 @@ int run_bench(int argc, char** argv) {
   }
 
   try {
-    if (!config_file.empty()) {
-      devices::ParseOptions parse;
-      parse.firmware_dir = options.firmware_dir;
-      options.config = devices::load_config(config_file, parse);
-    }
     if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
-    if (!record.file.empty()) {
-      // Every device into the one file, one interface each (the configuration's own `record` keys give way).
-      if (!options.config) {
-        devices::ParseOptions parse;
-        parse.firmware_dir = options.firmware_dir;
-        options.config = devices::parse_config(devices::default_virtual_rover_config(), parse);
-      }
-      options.config->record = record;
-      for (devices::DeviceConfig& device : options.config->devices) device.record.reset();
-    }
+    options.config = rover_to_run(config_file, options.firmware_dir, record);
   } catch (const devices::ConfigError& config_error) {
     return command_text().fail(config_error.what());
   }

@@ -109,22 +109,8 @@ int run_demo(int argc, char** argv) {
   if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
 
   try {
-    if (!config_file.empty()) {
-      devices::ParseOptions parse;
-      parse.firmware_dir = options.firmware_dir;
-      options.config = devices::load_config(config_file, parse);
-    }
     if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
-    if (!record.file.empty()) {
-      // Every device into the one file, one interface each (the configuration's own `record` keys give way).
-      if (!options.config) {
-        devices::ParseOptions parse;
-        parse.firmware_dir = options.firmware_dir;
-        options.config = devices::parse_config(devices::default_virtual_rover_config(), parse);
-      }
-      options.config->record = record;
-      for (devices::DeviceConfig& device : options.config->devices) device.record.reset();
-    }
+    options.config = rover_to_run(config_file, options.firmware_dir, record);
   } catch (const devices::ConfigError& error) {
     return command_text().fail(error.what());
   }

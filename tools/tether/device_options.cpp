@@ -114,6 +114,21 @@ std::string device_usage(std::string_view port_codec) {
 
 
 
+std::optional<devices::RoverConfig> rover_to_run(const std::string& config_file,
+                                                 const std::filesystem::path& firmware_dir,
+                                                 const transports::RecordOptions& record) {
+  devices::ParseOptions parse;
+  parse.firmware_dir = firmware_dir;
+  std::optional<devices::RoverConfig> config;
+  if (!config_file.empty()) config = devices::load_config(config_file, parse);
+  if (!record.file.empty()) {
+    if (!config) config = devices::parse_config(devices::default_virtual_rover_config(), parse);
+    config->record = record;
+    for (devices::DeviceConfig& device : config->devices) device.record.reset();
+  }
+  return config;
+}
+
 std::string firmware_dir() {
   if (const char* dir = std::getenv("TETHER_FIRMWARE_DIR"); dir != nullptr && *dir != '\0') return dir;
   // An installed or unpacked `tether` uses the images installed with it (relative to the binary, so a

@@ -209,6 +209,13 @@ nlohmann::ordered_json stats_report(const OpenDevice& device, double seconds,
 /// top-level values as `key  value`, objects as a heading followed by their indented entries.
 std::string counters_table(const nlohmann::ordered_json& report);
 
+/// The rover `demo` and `bench` run: `config_file`'s (none: the virtual rover, or the command's default when
+/// nothing is recorded either), with every device recorded into `record.file` when it names one (one
+/// interface each; the configuration's own `record` keys give way). Throws `devices::ConfigError`.
+std::optional<devices::RoverConfig> rover_to_run(const std::string& config_file,
+                                                 const std::filesystem::path& firmware_dir,
+                                                 const transports::RecordOptions& record);
+
 /// The firmware folder: $TETHER_FIRMWARE_DIR, else the images installed with this binary
 /// (`<prefix>/share/tether/firmware`), else the build's.
 std::string firmware_dir();
