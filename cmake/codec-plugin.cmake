@@ -42,32 +42,41 @@
 # docs/codecs.md, "Adding a codec".
 include_guard(GLOBAL)
 
-# One optional part of a plugin: an object library of its sources against `api`, listed for its collector.
+# One optional part of a plugin: an interface library whose sources (INTERFACE_SOURCES, absolute) the library
+# that collects the part compiles as its own, against `api` and the plugin. So the parts of every codec share
+# the collector's unity batches (TETHER_UNITY_BUILD): compiled alone, each of these small sources spent most
+# of its time instantiating the same asio, JSON and std::function templates as the others.
 function(_tether_codec_plugin_part name part api)
-  add_library(tether_${name}_${part} OBJECT ${ARGN})
-  target_link_libraries(tether_${name}_${part} PUBLIC ${api} tether_${name}_plugin)
-  tether_warnings(tether_${name}_${part})
+  set(_sources "")
+  foreach(_source IN LISTS ARGN)
+    cmake_path(ABSOLUTE_PATH _source BASE_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} NORMALIZE)
+    list(APPEND _sources ${_source})
+  endforeach()
+  add_library(tether_${name}_${part} INTERFACE)
+  target_sources(tether_${name}_${part} INTERFACE ${_sources})
+  target_link_libraries(tether_${name}_${part} INTERFACE ${api} tether_${name}_plugin)
   set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_PARTS_${part} ${name})
 endfunction()
 
-# tether_codec_plugin_collect(PART part ROW_TYPE type FUNCTION function TEMPLATE file OUTPUT file OBJECTS var):
-# for the library that holds one part (commands, workloads) of every plugin: OUTPUT is TEMPLATE configured
-# with @TETHER_PLUGIN_DECLARATIONS@ (each plugin's `std::vector<ROW_TYPE> tether::<plugin>::FUNCTION();`) and
-# @TETHER_PLUGIN_CALLS@ (an `add(...)` of each), and VAR lists the plugins' objects of that part.
+# tether_codec_plugin_collect(PART part ROW_TYPE type FUNCTION function TEMPLATE file OUTPUT file
+#                             LIBRARIES var): for the library that holds one part (commands, subcommands,
+# workloads) of every plugin: OUTPUT is TEMPLATE configured with @TETHER_PLUGIN_DECLARATIONS@ (each plugin's
+# `std::vector<ROW_TYPE> tether::<plugin>::FUNCTION();`) and @TETHER_PLUGIN_CALLS@ (an `add(...)` of each),
+# and VAR lists the plugins' part libraries, to link PRIVATE: their sources become the collector's.
 function(tether_codec_plugin_collect)
-  cmake_parse_arguments(COLLECT "" "PART;ROW_TYPE;FUNCTION;TEMPLATE;OUTPUT;OBJECTS" "" ${ARGN})
+  cmake_parse_arguments(COLLECT "" "PART;ROW_TYPE;FUNCTION;TEMPLATE;OUTPUT;LIBRARIES" "" ${ARGN})
   get_property(_plugins GLOBAL PROPERTY TETHER_CODEC_PLUGIN_PARTS_${COLLECT_PART})
   set(TETHER_PLUGIN_DECLARATIONS "")
   set(TETHER_PLUGIN_CALLS "")
-  set(_objects "")
+  set(_libraries "")
   foreach(_plugin IN LISTS _plugins)
     string(APPEND TETHER_PLUGIN_DECLARATIONS "namespace tether::${_plugin} {\nstd::vector<${COLLECT_ROW_TYPE}> "
       "${COLLECT_FUNCTION}();\n}  // namespace tether::${_plugin}\n")
     string(APPEND TETHER_PLUGIN_CALLS "  add(tether::${_plugin}::${COLLECT_FUNCTION}());\n")
-    list(APPEND _objects $<TARGET_OBJECTS:tether_${_plugin}_${COLLECT_PART}>)
+    list(APPEND _libraries tether_${_plugin}_${COLLECT_PART})
   endforeach()
   configure_file(${COLLECT_TEMPLATE} ${COLLECT_OUTPUT} @ONLY)
-  set(${COLLECT_OBJECTS} ${_objects} PARENT_SCOPE)
+  set(${COLLECT_LIBRARIES} ${_libraries} PARENT_SCOPE)
 endfunction()
 
 function(tether_codec_plugin name)
@@ -104,7 +113,7 @@ function(tether_codec_plugin name)
   if(PLUGIN_SUBCOMMANDS)
     _tether_codec_plugin_part(${name} subcommands tether_cli_api ${PLUGIN_SUBCOMMANDS})
     if(PLUGIN_SUBCOMMAND_LIBRARIES)
-      target_link_libraries(tether_${name}_subcommands PRIVATE ${PLUGIN_SUBCOMMAND_LIBRARIES})
+      target_link_libraries(tether_${name}_subcommands INTERFACE ${PLUGIN_SUBCOMMAND_LIBRARIES})
       set_property(GLOBAL APPEND PROPERTY TETHER_CODEC_PLUGIN_SUBCOMMAND_LIBRARIES ${PLUGIN_SUBCOMMAND_LIBRARIES})
     endif()
   endif()

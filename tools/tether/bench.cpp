@@ -40,12 +40,12 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& bench_command() {
   static const CommandText text(
       "bench",
       "usage: tether bench [--config FILE] [--devices A,B] [--sweep ber=R,...] [--sweep rate=HZ,...|max]\n"
       "                    [--iterations N | --duration S] [--seed N] [--isolated] [--reset] [--out DIR]\n"
-      "                    [--record FILE [--force]]\n"
+      "                    [--record FILE [--force] [--record-max-bytes N|--record-max-seconds S]]\n"
       "                    [--workload servo|sensor] [--payload small|large] [--saturation] [--no-plots]\n"
       "                    [--json]\n"
       "   or: tether bench --compare A.json B.json [--json]\n"
@@ -98,7 +98,9 @@ const CommandText& command_text() {
       "                     A device that cannot do it (a proxy config without the pin) is skipped\n"
       "  --isolated         one device at a time (default: all at once, as on a rover)\n"
       "  --record FILE      record every device's link into FILE (pcapng, docs/captures.md); an existing FILE\n"
-      "                     is an error unless --force overwrites it\n"
+      "                     is an error unless --force overwrites it; long runs: --record-max-bytes N or\n"
+      "                     --record-max-seconds S start a ring file at N bytes or after S seconds (FILE,\n"
+      "                     STEM.1.EXT, ...), --record-files N keeps N of them (default 2)\n"
       "  --saturation       after the sweep, per device and BER: a ramp of open-loop rates 10, 20, 40 ... 640\n"
       "                     op/s (each step --iterations or --duration long) that stops at the first step\n"
       "                     not sustained (< 99 % success, or < 95 % of the rate achieved): the highest\n"
@@ -241,9 +243,9 @@ std::optional<nlohmann::json> read_json(const std::string& path, std::string& er
 int run_compare(const std::string& a, const std::string& b, bool json) {
   std::string error;
   const auto first = read_json(a, error);
-  if (!first) return command_text().fail(error);
+  if (!first) return bench_command().fail(error);
   const auto second = read_json(b, error);
-  if (!second) return command_text().fail(error);
+  if (!second) return bench_command().fail(error);
   bench::Comparison comparison;
   try {
     comparison = bench::compare(*first, *second);
@@ -255,7 +257,7 @@ int run_compare(const std::string& a, const std::string& b, bool json) {
     } else if (message.rfind("B", 0) == 0 && (message.size() == 1 || message[1] == '.' || message[1] == ':')) {
       message = b + message.substr(1);
     }
-    return command_text().fail(message);
+    return bench_command().fail(message);
   }
   if (json) {
     std::printf("%s\n", dump(nlohmann::ordered_json{{"a", a}, {"b", b}, {"flagged", comparison.flagged},
@@ -280,7 +282,7 @@ int run_bench(int argc, char** argv) {
   options.firmware_dir = firmware_dir();
   options.tether_version = TETHER_VERSION;
   std::string config_file;
-  transports::RecordOptions record;  // --record, --force
+  DeviceOptions recording;  // --record, --force and the ring-file limits
   std::filesystem::path out_dir = "tether-bench";
   bool json = false;
   bool plots = true;
@@ -301,7 +303,7 @@ int run_bench(int argc, char** argv) {
       } else if (text == "sensor") {
         options.workload = bench::WorkloadKind::sensor;
       } else {
-        return command_text().usage_error("--workload needs servo or sensor, got '" + text + "'");
+        return bench_command().usage_error("--workload needs servo or sensor, got '" + text + "'");
       }
     } else if (arg == "--payload") {
       const char* size = value();
@@ -313,7 +315,7 @@ int run_bench(int argc, char** argv) {
       } else if (text == "demo") {
         options.payload = bench::Payload::demo;
       } else {
-        return command_text().usage_error("--payload needs small, large or demo, got '" + text + "'");
+        return bench_command().usage_error("--payload needs small, large or demo, got '" + text + "'");
       }
     } else if (arg == "--saturation") {
       options.saturation_ramp = true;
@@ -323,74 +325,74 @@ int run_bench(int argc, char** argv) {
       plots = false;
     } else if (arg == "--config") {
       const char* file = value();
-      if (file == nullptr) return command_text().usage_error("--config needs a file");
+      if (file == nullptr) return bench_command().usage_error("--config needs a file");
       config_file = file;
-    } else if (arg == "--record") {
-      const char* file = value();
-      if (file == nullptr || *file == '\0') return command_text().usage_error("--record needs a capture file");
-      record.file = file;
-    } else if (arg == "--force") {
-      record.overwrite = true;
     } else if (arg == "--devices") {
       const char* list = value();
-      if (list == nullptr || *list == '\0') return command_text().usage_error("--devices needs names: A,B");
+      if (list == nullptr || *list == '\0') return bench_command().usage_error("--devices needs names: A,B");
       options.devices = split(list, ',');
       for (const std::string& name : options.devices) {
-        if (name.empty()) return command_text().usage_error("--devices: an empty name in '" + std::string(list) + "'");
+        if (name.empty()) return bench_command().usage_error("--devices: an empty name in '" + std::string(list) + "'");
       }
     } else if (arg == "--sweep") {
       const char* text = value();
-      if (text == nullptr) return command_text().usage_error("--sweep needs KEY=VALUES (ber=0,1e-4 or rate=10,50,max)");
-      if (const auto error = parse_sweep(text, options)) return command_text().usage_error(*error);
+      if (text == nullptr) return bench_command().usage_error("--sweep needs KEY=VALUES (ber=0,1e-4 or rate=10,50,max)");
+      if (const auto error = parse_sweep(text, options)) return bench_command().usage_error(*error);
     } else if (arg == "--iterations") {
       const char* text = value();
       const auto n = text ? parse_number(text, 1, 100000) : std::nullopt;
-      if (!n) return command_text().usage_error("--iterations needs a number 1..100000");
+      if (!n) return bench_command().usage_error("--iterations needs a number 1..100000");
       options.iterations = *n;
       iterations_given = true;
     } else if (arg == "--duration") {
       const char* text = value();
       const auto seconds = text ? parse_double(text, 0.1, 3600.0) : std::nullopt;
-      if (!seconds) return command_text().usage_error("--duration needs seconds 0.1..3600");
+      if (!seconds) return bench_command().usage_error("--duration needs seconds 0.1..3600");
       options.duration = std::chrono::milliseconds(std::lround(*seconds * 1000.0));
     } else if (arg == "--seed") {
       const char* text = value();
       const auto n = text ? parse_number(text, 0, 0xFFFFFFFFu) : std::nullopt;
-      if (!n) return command_text().usage_error("--seed needs a number");
+      if (!n) return bench_command().usage_error("--seed needs a number");
       options.seed = *n;
     } else if (arg == "--out") {
       const char* dir = value();
-      if (dir == nullptr || *dir == '\0') return command_text().usage_error("--out needs a folder");
+      if (dir == nullptr || *dir == '\0') return bench_command().usage_error("--out needs a folder");
       out_dir = dir;
     } else if (arg == "--compare") {
       const char* a = value();
       const char* b = value();
-      if (a == nullptr || b == nullptr) return command_text().usage_error("--compare needs two files: A.json B.json");
+      if (a == nullptr || b == nullptr) return bench_command().usage_error("--compare needs two files: A.json B.json");
       compare_files = {a, b};
+    } else if (std::string error; parse_record_flag(argc, argv, i, recording, error)) {
+      if (!error.empty()) return bench_command().usage_error(error);
     } else {
-      return command_text().unexpected_argument(arg);
+      return bench_command().unexpected_argument(arg);
     }
     return std::nullopt;
   };
-  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
+  if (const auto status = parse_arguments(argc, argv, bench_command(), own)) return *status;
   if (!compare_files.empty()) return run_compare(compare_files[0], compare_files[1], json);
   if (iterations_given && options.duration) {
-    return command_text().usage_error("--iterations and --duration exclude each other");
+    return bench_command().usage_error("--iterations and --duration exclude each other");
   }
+
+  // Usage errors before anything is written.
+  std::string record_error;
+  const std::optional<transports::RecordOptions> record = record_options(recording, record_error);
+  if (!record_error.empty()) return bench_command().usage_error(record_error);
 
   // The output folder first: a run of minutes must not end in "cannot write".
   std::error_code error;
   std::filesystem::create_directories(out_dir, error);
-  if (error) return command_text().fail("--out " + out_dir.string() + ": " + error.message());
+  if (error) return bench_command().fail("--out " + out_dir.string() + ": " + error.message());
   if (!write_file(out_dir / "bench.json", "{}\n")) {
-    return command_text().fail("--out " + out_dir.string() + ": cannot write bench.json there");
+    return bench_command().fail("--out " + out_dir.string() + ": cannot write bench.json there");
   }
 
   try {
-    if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
-    options.config = rover_to_run(config_file, options.firmware_dir, record);
+    options.config = rover_to_run(config_file, options.firmware_dir, record.value_or(transports::RecordOptions{}));
   } catch (const devices::ConfigError& config_error) {
-    return command_text().fail(config_error.what());
+    return bench_command().fail(config_error.what());
   }
 
   Progress progress("bench");
@@ -412,14 +414,14 @@ int run_bench(int argc, char** argv) {
     report = bench::run_bench(options);
   } catch (const std::exception& run_error) {  // devices::ConfigError included
     progress.clear();
-    return command_text().fail(run_error.what());
+    return bench_command().fail(run_error.what());
   }
   progress.clear();
 
   const nlohmann::json document = bench::to_json(report);
   const std::string json_text = document.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   if (!write_file(out_dir / "bench.json", json_text) || !write_file(out_dir / "bench.csv", bench::to_csv(report))) {
-    return command_text().fail("--out " + out_dir.string() + ": cannot write bench.json / bench.csv");
+    return bench_command().fail("--out " + out_dir.string() + ": cannot write bench.json / bench.csv");
   }
   if (json) {
     std::fputs(json_text.c_str(), stdout);
@@ -433,15 +435,15 @@ int run_bench(int argc, char** argv) {
     const std::filesystem::path script = plot_script();
     const int status = run_program({python, script.string(), (out_dir / "bench.json").string(), out_dir.string()});
     if (status == kProgramStopped) {
-      return command_text().fail("stopped while drawing the plots (the plotting was ended); bench.json and bench.csv "
+      return bench_command().fail("stopped while drawing the plots (the plotting was ended); bench.json and bench.csv "
                                  "are in " + out_dir.string());
     }
     if (status == 3) {
-      return command_text().fail("the plots need matplotlib (Debian: apt install python3-matplotlib); bench.json and "
+      return bench_command().fail("the plots need matplotlib (Debian: apt install python3-matplotlib); bench.json and "
                                  "bench.csv are in " + out_dir.string());
     }
     if (status != 0) {
-      return command_text().fail("drawing the plots failed (" + python + " " + script.string() + ", status " +
+      return bench_command().fail("drawing the plots failed (" + python + " " + script.string() + ", status " +
                                  std::to_string(status) + "); bench.json and bench.csv are in " + out_dir.string());
     }
     if (!json) std::printf("\nreport: %s\n", (out_dir / "report.html").string().c_str());

@@ -24,11 +24,11 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& demo_command() {
   static const CommandText text(
       "demo",
       "usage: tether demo [--config FILE] [--iterations N] [--period MS] [--ber RATE] [--no-reset] [--seed N]\n"
-      "                   [--json] [--record FILE [--force]]\n"
+      "                   [--json] [--record FILE [--force] [--record-max-bytes N|--record-max-seconds S]]\n"
       "\n"
       "Runs the same workload through every device of a rover and prints a side-by-side table per codec:\n"
       "operations, successes, wrong answers, wire bytes per operation, p50/p99 latency, retries, stale\n"
@@ -46,7 +46,9 @@ const CommandText& command_text() {
       "  --seed N         seed of the injected noise (default 1)\n"
       "  --json           print the report as one JSON object instead of the table\n"
       "  --record FILE    record every device's link into FILE (pcapng, one interface per device;\n"
-      "                   docs/captures.md); an existing FILE is an error unless --force overwrites it\n"
+      "                   docs/captures.md); an existing FILE is an error unless --force overwrites it;\n"
+      "                   --record-max-bytes N or --record-max-seconds S start a ring file at N bytes or\n"
+      "                   after S seconds (FILE, STEM.1.EXT, ...), --record-files N keeps N (default 2)\n"
       "\n"
       "Exit status: 0 every device completed operations (after its reset, when one was injected); 1 a device\n"
       "never did; 2 usage or configuration errors.\n");
@@ -59,7 +61,7 @@ int run_demo(int argc, char** argv) {
   demo::DemoOptions options;
   options.firmware_dir = firmware_dir();
   std::string config_file;
-  transports::RecordOptions record;  // --record, --force
+  DeviceOptions recording;  // --record, --force and the ring-file limits
   bool json = false;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     const std::string arg(argument);
@@ -70,49 +72,47 @@ int run_demo(int argc, char** argv) {
       options.reset_halfway = false;
     } else if (arg == "--config") {
       const char* file = value();
-      if (file == nullptr) return command_text().usage_error("--config needs a file");
+      if (file == nullptr) return demo_command().usage_error("--config needs a file");
       config_file = file;
-    } else if (arg == "--record") {
-      const char* file = value();
-      if (file == nullptr || *file == '\0') return command_text().usage_error("--record needs a capture file");
-      record.file = file;
-    } else if (arg == "--force") {
-      record.overwrite = true;
     } else if (arg == "--iterations") {
       const char* text = value();
       const auto n = text ? parse_number(text, 1, 100000) : std::nullopt;
-      if (!n) return command_text().usage_error("--iterations needs a number 1..100000");
+      if (!n) return demo_command().usage_error("--iterations needs a number 1..100000");
       options.iterations = *n;
     } else if (arg == "--period") {
       const char* text = value();
       const auto n = text ? parse_number(text, 0, 60000) : std::nullopt;
-      if (!n) return command_text().usage_error("--period needs milliseconds 0..60000");
+      if (!n) return demo_command().usage_error("--period needs milliseconds 0..60000");
       options.period = std::chrono::milliseconds(*n);
     } else if (arg == "--ber") {
       const char* text = value();
       char* end = nullptr;
       const double rate = text ? std::strtod(text, &end) : -1.0;
       if (text == nullptr || end == text || *end != '\0' || !(rate >= 0.0 && rate <= 0.01)) {
-        return command_text().usage_error("--ber needs a rate 0..0.01");
+        return demo_command().usage_error("--ber needs a rate 0..0.01");
       }
       options.bit_error_rate = rate;
     } else if (arg == "--seed") {
       const char* text = value();
       const auto n = text ? parse_number(text, 0, 0xFFFFFFFFu) : std::nullopt;
-      if (!n) return command_text().usage_error("--seed needs a number");
+      if (!n) return demo_command().usage_error("--seed needs a number");
       options.seed = *n;
+    } else if (std::string error; parse_record_flag(argc, argv, i, recording, error)) {
+      if (!error.empty()) return demo_command().usage_error(error);
     } else {
-      return command_text().usage_error("unknown argument " + arg);
+      return demo_command().usage_error("unknown argument " + arg);
     }
     return std::nullopt;
   };
-  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
+  if (const auto status = parse_arguments(argc, argv, demo_command(), own)) return *status;
 
   try {
-    if (record.overwrite && record.file.empty()) return command_text().usage_error("--force applies to --record only");
-    options.config = rover_to_run(config_file, options.firmware_dir, record);
+    std::string record_error;
+    const std::optional<transports::RecordOptions> record = record_options(recording, record_error);
+    if (!record_error.empty()) return demo_command().usage_error(record_error);
+    options.config = rover_to_run(config_file, options.firmware_dir, record.value_or(transports::RecordOptions{}));
   } catch (const devices::ConfigError& error) {
-    return command_text().fail(error.what());
+    return demo_command().fail(error.what());
   }
 
   Progress progress("demo");
@@ -132,7 +132,7 @@ int run_demo(int argc, char** argv) {
     report = demo::run_demo(options);
   } catch (const std::exception& error) {  // devices::ConfigError included
     progress.clear();
-    return command_text().fail(error.what());
+    return demo_command().fail(error.what());
   }
   progress.clear();
 

@@ -300,6 +300,17 @@ OptionParse parse_device_option(int argc, char** argv, int& index, DeviceOptions
 
 }  // namespace
 
+bool parse_record_flag(int argc, char** argv, int& index, DeviceOptions& options, std::string& error) {
+  static constexpr std::string_view kRecordFlags[] = {"--record", "--force", "--record-max-bytes",
+                                                      "--record-max-seconds", "--record-files"};
+  if (std::find(std::begin(kRecordFlags), std::end(kRecordFlags), std::string_view(argv[index])) ==
+      std::end(kRecordFlags)) {
+    return false;
+  }
+  parse_device_option(argc, argv, index, options, error);
+  return true;
+}
+
 std::optional<int> parse_device_arguments(int argc, char** argv, const CommandText& text, DeviceOptions& options,
                                           const ArgumentHandler& handle) {
   return parse_arguments(argc, argv, text, [&](std::string_view argument, int& index) -> std::optional<int> {

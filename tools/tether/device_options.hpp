@@ -168,6 +168,12 @@ bool wait_for_port(const OpenDevice& device, std::chrono::steady_clock::time_poi
 /// FILE`, monitor's `--write FILE`).
 std::string record_usage(std::string_view write_flag = "--record");
 
+/// Takes argv[index] when it is a recording flag (`--record FILE`, `--force`, `--record-max-bytes N`,
+/// `--record-max-seconds S`, `--record-files N`; `index` advanced past its value) into `options`, for the
+/// commands that hold a whole rover instead of one device (demo, bench). Returns true when it took the flag;
+/// `error` is then the usage error of a bad value, if any.
+bool parse_record_flag(int argc, char** argv, int& index, DeviceOptions& options, std::string& error);
+
 /// The recording options of `--record FILE` (with `--force` and the limits), or nothing without --record.
 /// `error` when a limit or --force is given without --record.
 std::optional<transports::RecordOptions> record_options(const DeviceOptions& options, std::string& error);

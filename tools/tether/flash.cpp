@@ -94,12 +94,12 @@ constexpr const char* kUsageTail =
     "Exit status: 0 written and verified; 2 usage errors, a bad image, no avrdude, a busy or missing port,\n"
     "no bootloader answer, a verification error.\n";
 
-const CommandText& command_text() {
+const CommandText& flash_command() {
   static const CommandText text("flash", std::string(kUsageHead) + eeprom_file_usage() + kUsageTail);
   return text;
 }
 
-struct Arguments {
+struct FlashArguments {
   std::string port;
   std::filesystem::path image;
   std::uint32_t baud = 115200;
@@ -111,8 +111,8 @@ struct Arguments {
   bool json = false;
 };
 
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_flash_arguments(int argc, char** argv, FlashArguments& arguments) {
+  const CommandText& text = flash_command();
   bool have_image = false;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--json") {
@@ -341,7 +341,7 @@ bool lost_bootloader(const AvrdudeRun& run) {
 }
 
 // What went wrong, from avrdude's words (avrdude 7.1).
-std::string explain_failure(const AvrdudeRun& run, const Arguments& arguments) {
+std::string explain_failure(const AvrdudeRun& run, const FlashArguments& arguments) {
   const std::string& out = run.output;
   if (run.status == -1) {
     return "avrdude did not finish within " + std::to_string(arguments.timeout_ms / 1000) + " s (stopped)";
@@ -378,9 +378,9 @@ std::string tail_lines(const std::string& text, int count) {
 }  // namespace
 
 int run_flash(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
-  const CommandText& text = command_text();
+  FlashArguments arguments;
+  if (const auto status = parse_flash_arguments(argc, argv, arguments)) return *status;
+  const CommandText& text = flash_command();
 
   std::string problem;
   auto image = read_flash_image(arguments.image, problem);

@@ -44,7 +44,7 @@ namespace {
 
 namespace asio = boost::asio;
 
-const CommandText& command_text() {
+const CommandText& monitor_command() {
   static const CommandText text(
       "monitor",
       std::string(
@@ -91,7 +91,7 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct MonitorArguments {
   DeviceOptions device;
   bool utc = false;
   bool json = false;
@@ -101,8 +101,8 @@ struct Arguments {
   std::optional<std::uint32_t> duration_ms;
 };
 
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_monitor_arguments(int argc, char** argv, MonitorArguments& arguments) {
+  const CommandText& text = monitor_command();
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       arguments.utc = true;
@@ -139,7 +139,7 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 // Prints records, one line each, and counts them towards --count (from any thread).
 class RecordPrinter {
  public:
-  explicit RecordPrinter(const Arguments& arguments)
+  explicit RecordPrinter(const MonitorArguments& arguments)
       : json_(arguments.json), count_(arguments.count), stamps_(arguments.utc) {}
 
   /// Prints `record` (with its direction when `direction` is set); true once --count is reached.
@@ -171,11 +171,11 @@ Millis elapsed_ms(std::chrono::steady_clock::time_point start) {
 }
 
 // --tap: the application's pty on one side, the device on the other.
-int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::ByteStream& device,
+int run_tap(const MonitorArguments& arguments, const DeviceTarget& target, transports::ByteStream& device,
             transports::IoThread& io) {
   boost::system::error_code error;
   const auto application = transports::PtyStream::open(io.executor(), error);
-  if (!application) return command_text().fail("cannot open a pseudo-terminal: " + error.message());
+  if (!application) return monitor_command().fail("cannot open a pseudo-terminal: " + error.message());
   if (arguments.json) {
     out().line(dump({{"pty", application->slave_path()}, {"device", target.label}}));
   } else {
@@ -277,27 +277,27 @@ int run_tap(const Arguments& arguments, const DeviceTarget& target, transports::
 }  // namespace
 
 int run_monitor(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  MonitorArguments arguments;
+  if (const auto status = parse_monitor_arguments(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, default_codec(), error);
-  if (!target) return command_text().usage_error(error);
+  if (!target) return monitor_command().usage_error(error);
   const CodecCommands& commands = *codec_commands(target->config.codec);
   if (!commands.monitor_decoder) {
-    return command_text().usage_error(target->label + ": the monitor cannot decode " +
+    return monitor_command().usage_error(target->label + ": the monitor cannot decode " +
                                       std::string(devices::to_string(target->config.codec)));
   }
   if (arguments.keepalive && !commands.monitor_keepalive) {
-    return command_text().usage_error("--keepalive applies to the proxy codec (primary mode) only");
+    return monitor_command().usage_error("--keepalive applies to the proxy codec (primary mode) only");
   }
   if (arguments.keepalive && arguments.tap) {
-    return command_text().usage_error("--keepalive and --tap exclude each other (the application pings)");
+    return monitor_command().usage_error("--keepalive and --tap exclude each other (the application pings)");
   }
 
   transports::IoThread io;
   Progress progress("monitor");
   auto stream = open_stream(*target, io.executor(), progress, error);
-  if (!stream) return command_text().fail(target->label + ": " + error);
+  if (!stream) return monitor_command().fail(target->label + ": " + error);
   // However the monitor ends, the capture file is complete, and a recording that lost packets says so.
   const auto recording = std::dynamic_pointer_cast<transports::RecordingStream>(stream);
   const EndRecording end_recording(recording, "monitor");

@@ -26,7 +26,7 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& ports_command() {
   static const CommandText text(
       "ports",
       "usage: tether ports [--config FILE] [--json]\n"
@@ -78,14 +78,14 @@ int run_ports(int argc, char** argv) {
     if (argument == "--json") {
       json = true;
     } else if (argument == "--config") {
-      if (i + 1 >= argc || std::string_view(argv[i + 1]).empty()) return command_text().usage_error("--config needs a file");
+      if (i + 1 >= argc || std::string_view(argv[i + 1]).empty()) return ports_command().usage_error("--config needs a file");
       config_file = argv[++i];
     } else {
-      return command_text().usage_error("unknown argument " + std::string(argument));
+      return ports_command().usage_error("unknown argument " + std::string(argument));
     }
     return std::nullopt;
   };
-  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
+  if (const auto status = parse_arguments(argc, argv, ports_command(), own)) return *status;
 
   std::vector<const devices::DeviceConfig*> serial_devices;
   devices::RoverConfig config;
@@ -95,7 +95,7 @@ int run_ports(int argc, char** argv) {
       where.firmware_dir = firmware_dir();
       config = devices::load_config(config_file, where);
     } catch (const devices::ConfigError& error) {
-      return command_text().fail(error.what());
+      return ports_command().fail(error.what());
     }
     for (const devices::DeviceConfig& device : config.devices) {
       if (std::holds_alternative<devices::SerialTransport>(device.transport)) serial_devices.push_back(&device);

@@ -46,7 +46,7 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& shell_command() {
   static const CommandText text(
       "shell",
       std::string(
@@ -80,13 +80,13 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct ShellArguments {
   DeviceOptions device;
   bool json = false;
 };
 
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_shell_arguments(int argc, char** argv, ShellArguments& arguments) {
+  const CommandText& text = shell_command();
   const auto own = [&](std::string_view argument, int&) -> std::optional<int> {
     if (argument != "--json") return text.unexpected_argument(argument);
     arguments.json = true;
@@ -296,15 +296,15 @@ std::vector<std::string> split_words(const std::string& line) {
 }  // namespace
 
 int run_shell(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  ShellArguments arguments;
+  if (const auto status = parse_shell_arguments(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, default_codec(), error);
-  if (!target) return command_text().usage_error(error);
+  if (!target) return shell_command().usage_error(error);
   const devices::Codec codec = target->config.codec;
   const CodecCommands& commands = *codec_commands(codec);
   if (!commands.open_shell) {
-    return command_text().usage_error(target->label + ": the shell does not speak " +
+    return shell_command().usage_error(target->label + ": the shell does not speak " +
                                       std::string(devices::to_string(codec)));
   }
 
@@ -354,7 +354,7 @@ int run_shell(int argc, char** argv) {
   Progress progress("shell");
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device && g_stop_signalled) return 0;
-  if (!device) return command_text().fail(target->label + ": " + error);
+  if (!device) return shell_command().fail(target->label + ": " + error);
   if (g_stop_signalled) {
     device->close();
     return 0;

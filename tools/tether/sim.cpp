@@ -31,7 +31,7 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& sim_command() {
   static const CommandText text(
       "sim",
       "usage: tether sim IMAGE [--fast] [--link PATH] [--baud N] [--json]\n"
@@ -68,7 +68,7 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct SimArguments {
   std::filesystem::path image;
   bool fast = false;
   std::optional<std::filesystem::path> link;
@@ -78,8 +78,8 @@ struct Arguments {
 };
 
 // Returns an exit status if parsing ends the program (help or error).
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_sim_arguments(int argc, char** argv, SimArguments& arguments) {
+  const CommandText& text = sim_command();
   bool have_image = false;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--fast") {
@@ -153,8 +153,8 @@ void remove_link(const std::filesystem::path& link, const std::string& target) {
 }  // namespace
 
 int run_sim(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  SimArguments arguments;
+  if (const auto status = parse_sim_arguments(argc, argv, arguments)) return *status;
 
   // Block the stop signals in every thread (the simulation thread inherits the mask); sigtimedwait
   // below takes them synchronously.
@@ -164,7 +164,7 @@ int run_sim(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   sigaddset(&stop_signals, SIGUSR1);  // the reset button (taken only with --bootloader, ignored otherwise)
   if (const int error = pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr); error != 0) {
-    return command_text().fail(std::string("cannot block signals: ") + std::strerror(error));
+    return sim_command().fail(std::string("cannot block signals: ") + std::strerror(error));
   }
 
   transports::VirtualUnoOptions options;
@@ -176,19 +176,19 @@ int run_sim(int argc, char** argv) {
   std::error_code error;
   std::string message;
   auto uno = transports::VirtualUno::create(options, error, &message);
-  if (!uno) return command_text().fail(message.empty() ? error.message() : message);
+  if (!uno) return sim_command().fail(message.empty() ? error.message() : message);
 
   // Open the pty before starting, so the boot output waits in it for the first client.
   const std::string path = uno->open_pty(error);
-  if (error) return command_text().fail("cannot open a pseudo-terminal: " + error.message());
+  if (error) return sim_command().fail("cannot open a pseudo-terminal: " + error.message());
   if (arguments.link) {
-    if (make_link(*arguments.link, path, message)) return command_text().fail(message);
+    if (make_link(*arguments.link, path, message)) return sim_command().fail(message);
   }
   try {
     uno->start();
   } catch (const std::exception& failure) {
     if (arguments.link) remove_link(*arguments.link, path);
-    return command_text().fail(failure.what());
+    return sim_command().fail(failure.what());
   }
   // "Ready" means the firmware listens: bytes a client writes before the firmware enables its UART
   // receiver would be lost (a proxy client's opening Reset, a first Romi request), as on a booting board.

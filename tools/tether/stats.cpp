@@ -52,7 +52,7 @@ CodecTexts codec_texts() {
   return texts;
 }
 
-const CommandText& command_text() {
+const CommandText& stats_command() {
   static const CodecTexts texts = codec_texts();
   static const CommandText text(
       "stats",
@@ -80,7 +80,7 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct StatsArguments {
   DeviceOptions device;
   std::uint32_t duration_ms = 5000;
   std::string probe;
@@ -90,8 +90,8 @@ struct Arguments {
   bool json = false;
 };
 
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_stats_arguments(int argc, char** argv, StatsArguments& arguments) {
+  const CommandText& text = stats_command();
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--json") {
       arguments.json = true;
@@ -126,11 +126,11 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 }  // namespace
 
 int run_stats(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  StatsArguments arguments;
+  if (const auto status = parse_stats_arguments(argc, argv, arguments)) return *status;
   std::string error;
   const auto target = resolve_device(arguments.device, default_codec(), error);
-  if (!target) return command_text().usage_error(error);
+  if (!target) return stats_command().usage_error(error);
   const CodecCommands& commands = *codec_commands(target->config.codec);
   const bool probes = static_cast<bool>(commands.send_probe);
   if (!probes && (arguments.probe_given || arguments.passive)) {
@@ -139,12 +139,12 @@ int run_stats(int argc, char** argv) {
       const CodecCommands* other = codec_commands(row->codec);
       if (other != nullptr && other->send_probe) probing += (probing.empty() ? "" : " or ") + std::string(row->name);
     }
-    return command_text().usage_error("--probe and --passive apply to the " + probing + " codec only");
+    return stats_command().usage_error("--probe and --passive apply to the " + probing + " codec only");
   }
   const std::string probe = arguments.probe_given ? arguments.probe : std::string(commands.default_probe);
   if (probes && !arguments.passive) {
     if (const auto reason = commands.check_probe(probe)) {
-      return command_text().usage_error("--probe '" + probe + "': " + *reason);
+      return stats_command().usage_error("--probe '" + probe + "': " + *reason);
     }
   }
 
@@ -156,7 +156,7 @@ int run_stats(int argc, char** argv) {
   hooks.stopped = [&stop] { return stop.load(); };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
   if (!device && stop) return 0;
-  if (!device) return command_text().fail(target->label + ": " + error);
+  if (!device) return stats_command().fail(target->label + ": " + error);
   if (stop) {
     device->close();
     return 0;

@@ -187,6 +187,33 @@ TEST(TetherRecord, DemoUnderNoiseRecordsEveryDeviceFramedOrMarkedUnframed) {
   EXPECT_EQ(tshark_unframed, unframed);
 }
 
+// `demo` and `bench` take the device commands' ring-file limits: a demo's capture past the size limit goes
+// on in the ring's next file, each a complete capture of every device.
+TEST(TetherRecord, DemoRecordsIntoRingFilesWithTheDeviceCommandsLimits) {
+  TETHER_REQUIRE_FIRMWARE("romi-rover");
+  const std::string file = capture_file("demo-ring");
+  const std::string second = (fs::path(file).parent_path() / "tether-record-demo-ring.1.pcapng").string();
+  fs::remove(second);
+  const Outcome run = run_tether({"demo", "--iterations", "10", "--period", "10", "--ber", "0", "--no-reset",
+                                  "--record", file, "--record-max-bytes", "4096", "--record-files", "2"});
+  ASSERT_EQ(run.status, 0) << run.err;
+  for (const std::string& each : {file, second}) {
+    const Capture capture = read_back(each);
+    EXPECT_EQ(capture.interfaces.size(), 6u) << each;
+    EXPECT_FALSE(capture.packets.empty()) << each;
+  }
+  // A usage error writes nothing, not even the output folder.
+  const fs::path out = fs::path(::testing::TempDir()) / "tether-record-bench-usage";
+  fs::remove_all(out);
+  const Outcome alone = run_tether({"bench", "--record-files", "3", "--iterations", "1", "--out", out.string()});
+  EXPECT_EQ(alone.status, 2);
+  EXPECT_NE(alone.err.find("--record-files needs --record FILE"), std::string::npos) << alone.err;
+  EXPECT_FALSE(fs::exists(out));
+  const Outcome bad = run_tether({"demo", "--record", file, "--record-max-bytes", "12"});
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("--record-max-bytes needs bytes (4096 or more), got '12'"), std::string::npos) << bad.err;
+}
+
 // `monitor --tap --write`: an application's session through the tap is recorded, and replaying the file
 // prints what the tap printed (times aside).
 TEST(TetherRecord, TapWritesTheSessionAndReplayPrintsWhatTheTapPrinted) {

@@ -28,7 +28,7 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& proxy_send_command() {
   static const CommandText text(
       "send",
       std::string(
@@ -72,7 +72,7 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct ProxySendArguments {
   DeviceOptions device;
   std::optional<std::uint32_t> timeout_ms;
   std::uint32_t settle_ms = 500;
@@ -80,8 +80,8 @@ struct Arguments {
   std::vector<std::string> words;
 };
 
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_proxy_send_arguments(int argc, char** argv, ProxySendArguments& arguments) {
+  const CommandText& text = proxy_send_command();
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--json") {
       arguments.json = true;
@@ -170,14 +170,14 @@ std::string plural(std::uint32_t count, const char* word) {
 
 // Internal: reached through this plugin's subcommands() only.
 static int run_send(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  ProxySendArguments arguments;
+  if (const auto status = parse_proxy_send_arguments(argc, argv, arguments)) return *status;
   std::string error;
   auto target = resolve_device(arguments.device, proxy::kCodec, error);
-  if (!target) return command_text().usage_error(error);
+  if (!target) return proxy_send_command().usage_error(error);
   if (target->config.codec != proxy::kCodec && target->config.codec != proxy::kCompatCodec) {
     const devices::Codec codec = target->config.codec;
-    return command_text().usage_error(target->label + " speaks " + std::string(devices::to_string(codec)) +
+    return proxy_send_command().usage_error(target->label + " speaks " + std::string(devices::to_string(codec)) +
                                       ", not the proxy protocol (`tether shell` and `monitor` talk to it)");
   }
   auto& proxy_options = target->config.options.get<proxy::DeviceOptions>();
@@ -190,7 +190,7 @@ static int run_send(int argc, char** argv) {
     std::size_t end = start + 1;
     while (end < arguments.words.size() && arguments.words[end].find('=') != std::string::npos) ++end;
     auto command = parse_proxy_command(mode, std::span(arguments.words).subspan(start, end - start), error);
-    if (!command) return command_text().usage_error(error);
+    if (!command) return proxy_send_command().usage_error(error);
     commands.push_back(std::move(*command));
     start = end;
   }
@@ -204,7 +204,7 @@ static int run_send(int argc, char** argv) {
     client.get<proxy::Client>()->on_event([seen](const proxy::Event& event) { observe(*seen, event); });
   };
   auto device = open_device(*target, io.executor(), hooks, progress, error);
-  if (!device) return command_text().fail(target->label + ": " + error);
+  if (!device) return proxy_send_command().fail(target->label + ": " + error);
   proxy::Client& client = *device->client_as<proxy::Client>();
 
   int status = 0;

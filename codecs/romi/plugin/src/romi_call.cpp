@@ -39,7 +39,7 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& romi_call_command() {
   static const CommandText text(
       "call",
       std::string(
@@ -82,7 +82,7 @@ const CommandText& command_text() {
   return text;
 }
 
-struct Arguments {
+struct RomiCallArguments {
   DeviceOptions device;
   std::optional<std::uint32_t> timeout_ms;
   std::optional<std::uint8_t> id;
@@ -92,8 +92,8 @@ struct Arguments {
 };
 
 // Returns an exit status if parsing ends the program (help or error).
-std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
-  const CommandText& text = command_text();
+std::optional<int> parse_romi_call_arguments(int argc, char** argv, RomiCallArguments& arguments) {
+  const CommandText& text = romi_call_command();
   const auto take_command = [&](std::string_view argument) -> std::optional<int> {
     if (arguments.command) {
       return text.usage_error("more than one command given (quote the command: 'M[16,\"Shutdown\"]')");
@@ -139,13 +139,13 @@ std::optional<int> parse(int argc, char** argv, Arguments& arguments) {
 
 // Internal: reached through this plugin's subcommands() only.
 static int run_call(int argc, char** argv) {
-  Arguments arguments;
-  if (const auto status = parse(argc, argv, arguments)) return *status;
+  RomiCallArguments arguments;
+  if (const auto status = parse_romi_call_arguments(argc, argv, arguments)) return *status;
   std::string error_text;
   auto target = resolve_device(arguments.device, romi::kCodec, error_text);
-  if (!target) return command_text().usage_error(error_text);
+  if (!target) return romi_call_command().usage_error(error_text);
   if (target->config.codec != romi::kCodec) {
-    return command_text().usage_error(target->label + " speaks " +
+    return romi_call_command().usage_error(target->label + " speaks " +
                                       std::string(devices::to_string(target->config.codec)) +
                                       ", not romi (`tether send`, `shell` or `monitor` talk to it)");
   }
@@ -179,7 +179,7 @@ static int run_call(int argc, char** argv) {
     // sent again: it may have run.
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(romi_options.timing.call_budget);
     auto device = open_device_within(*target, io.executor(), hooks, progress, deadline, error_text);
-    if (!device) return command_text().fail("cannot open " + error_text + " (" + target->label + ")");
+    if (!device) return romi_call_command().fail("cannot open " + error_text + " (" + target->label + ")");
     const auto client = device->client_as<romi::Client>();
     const auto call = [&] {
       response = arguments.manual ? client->call_manual(command, error) : client->call(command, error);
