@@ -5,7 +5,8 @@
 // Output contract: one line per record, `<time> [<device>] <direction> <kind> <detail>` (the device named
 // when the capture has several links; time in ms since the first packet, or ISO 8601 UTC with --utc), link
 // events as `link <event>`; with --json one object per line. Exit status 0; 2 for usage errors and a file
-// that is not a readable Tether capture (the reader's message names the offset).
+// that is not a readable Tether capture (the reader's message names the offset). `--against-virtual IMAGE`
+// compares a virtual board's answers with the recorded ones instead (replay_against_virtual.hpp).
 #include <cstdio>
 #include <ctime>
 #include <map>
@@ -51,8 +52,9 @@ const CommandText& command_text() {
       "boot (faster than real time when it can), and compares what it answers with what was recorded: both cut\n"
       "into frames by the codec's framing, aligned, each difference printed with its time and the frame as\n"
       "replay prints it (changed: the recorded frame, then the new one as `now`; recorded-only; new-only),\n"
-      "then `same: N frames the same, 0 differ` or `different: ...`. Frames that differ between two runs by\n"
-      "nature are left out or compared in part by the codec's rules and counted (`ignored:` lines):\n" +
+      "then `same: N frames the same, 0 differ` or `different: ...`. A codec on rings runs IMAGE as --virtual\n"
+      "does: a ring of one board. Frames that differ between two runs by nature are left out or compared in\n"
+      "part by the codec's rules and counted (`ignored:` lines):\n" +
           against_virtual_rules_usage() +
           "  --settle MS    board time run past the link's last recorded packet (default 500)\n"
       "  --json         one object per difference ({\"difference\":\"changed\",\"t_ms\":..,\"recorded\":{..},\n"

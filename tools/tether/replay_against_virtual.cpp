@@ -24,6 +24,7 @@
 #include <system_error>
 #include <unordered_map>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "codec_commands.hpp"
@@ -73,8 +74,13 @@ class Sequence {
     time_us_ = time_us;
     framer_->feed(bytes, [this](transports::FramedPacket packet) { take(std::move(packet)); });
   }
+  // What is pending at the end is a frame the end of the recording (or of the run) cut, not an answer: it is
+  // counted, not compared.
   void close() {
-    framer_->flush("cut at close", [this](transports::FramedPacket packet) { take(std::move(packet)); });
+    framer_->flush("cut at close", [this](transports::FramedPacket packet) {
+      take(std::move(packet));
+      items_.back().view = {true, {}, "cut at close: a partial frame where the recording or the run ended"};
+    });
   }
   std::vector<Item>& items() { return items_; }
 
@@ -249,7 +255,7 @@ std::string against_virtual_rules_usage() {
   std::string plain;
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);
-    if (commands == nullptr || !commands->monitor_decoder || row->virtual_boards != devices::VirtualBoards::single) continue;
+    if (commands == nullptr || !commands->monitor_decoder) continue;
     if (commands->replay_rules.empty()) {
       plain += (plain.empty() ? "" : ", ") + std::string(row->name);
     } else {
@@ -257,6 +263,7 @@ std::string against_virtual_rules_usage() {
     }
   }
   if (!plain.empty()) text += "    " + plain + ": every frame compared byte for byte\n";
+  text += "    all: a partial frame where the recording or the run ended counted, not compared\n";
   return text;
 }
 
@@ -290,10 +297,6 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   }
   const devices::CodecRow& row = devices::codec_row(device->codec);
   const CodecCommands& commands = *codec_commands(device->codec);  // device_of found it
-  if (row.virtual_boards != devices::VirtualBoards::single) {
-    return text.fail(run.file + ": device '" + printable(interface.name) + "' speaks " + std::string(row.name) +
-                     ", whose virtual devices are rings of boards: --against-virtual runs one board");
-  }
 
   // The image: found as `--virtual` finds it, and of the capture's codec when its name says one.
   const fs::path image = firmware_image(run.image);
@@ -307,6 +310,25 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   if (const devices::CodecRow* named = codec_named_by(image); named != nullptr && named->codec != device->codec) {
     return text.fail(image.filename().string() + " is a " + std::string(named->name) + " image, and device '" +
                      printable(interface.name) + "' of " + run.file + " speaks " + std::string(row.name));
+  }
+
+  // A codec on rings runs the board as `--virtual IMAGE` does: a ring of one, set up by the codec (an Elcano
+  // node's settings in its EEPROM).
+  std::vector<std::uint8_t> eeprom;
+  if (row.virtual_boards != devices::VirtualBoards::single) {
+    devices::DeviceConfig lone = *device;
+    const devices::VirtualRingTransport* ring = nullptr;
+    try {
+      if (commands.lone_virtual_board) commands.lone_virtual_board(image, DeviceOptions(), lone);
+      ring = std::get_if<devices::VirtualRingTransport>(&lone.transport);
+    } catch (const devices::ConfigError& failure) {
+      return text.fail(failure.what());
+    }
+    if (ring == nullptr || ring->boards.size() != 1) {
+      return text.fail(run.file + ": device '" + printable(interface.name) + "' speaks " + std::string(row.name) +
+                       ", whose virtual devices are rings, and its codec gives no lone board to run");
+    }
+    eeprom = ring->boards.front().eeprom;
   }
 
   // The link's packets.
@@ -340,6 +362,7 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   };
   std::vector<Output> output;
   transports::VirtualUno& uno = *board;
+  if (!eeprom.empty()) uno.write_eeprom(0, eeprom);
   uno.set_output_handler([&output, &uno](const std::uint8_t* data, std::size_t size) {
     output.push_back({uno.simulated_time(), std::vector<std::uint8_t>(data, data + size)});
   });

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "tether/proxy/encoder.hpp"
+#include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
@@ -95,6 +97,22 @@ TEST(TetherReplayAgainstVirtual, RomiSessionAgainstItsOwnImageIsTheSame) {
   EXPECT_EQ(summary["result"], "same");
   EXPECT_EQ(summary["same"], 3);
   EXPECT_EQ(summary["differ"], 0);
+
+  // A frame the end of the recording cut is counted, not compared.
+  Capture capture = replay_read(file);
+  CapturePacket cut = capture.packets.back();
+  ASSERT_EQ(cut.direction, CaptureDirection::inbound);
+  const std::string partial = "#!lo";
+  cut.data.assign(partial.begin(), partial.end());
+  cut.comment = "unframed: cut at close";
+  capture.packets.push_back(cut);
+  const std::string edited = replay_file("romi-cut");
+  replay_write(capture, edited);
+  const Outcome replay_cut = run_tether({"replay", edited, "--against-virtual", "romi-test"});
+  EXPECT_EQ(replay_cut.status, 0) << replay_cut.out << replay_cut.err;
+  EXPECT_EQ(replay_cut.out,
+            "ignored: 1 recorded, 0 new frames: cut at close: a partial frame where the recording or the run ended\n"
+            "same: 3 frames the same, 0 differ; 1 recorded and 0 new frames ignored\n");
 }
 
 TEST(TetherReplayAgainstVirtual, RomiSessionAgainstAnotherImagePrintsTheChangedAnswer) {
@@ -215,6 +233,41 @@ TEST(TetherReplayAgainstVirtual, RpcSessionAgainstItsImageAndAnother) {
   EXPECT_EQ(other.status, 1) << other.out << other.err;
   EXPECT_NE(other.out.find("changed       message  device-hello"), std::string::npos) << other.out;
   EXPECT_NE(other.out.find("(not this schema"), std::string::npos) << other.out;
+}
+
+// Elcano's virtual devices are rings: the image runs as `--virtual` runs it, a ring of one board set up by the
+// codec (it answers each drive message with a sensor report).
+TEST(TetherReplayAgainstVirtual, ElcanoLoneBoardSessionAndAChangedReport) {
+  TETHER_REQUIRE_FIRMWARE("elcano-node");
+  const std::string file = replay_file("elcano");
+  ::tether::testing::ChildProcess shell({"sh", "-c",
+                                         "printf 'D{s 50}{a 25}\\nD{s -20}{a 5}\\n' | exec \"$0\" shell --virtual "
+                                         "elcano-node --record \"$1\"",
+                                         TETHER_BINARY, file},
+                                        /*capture_stdout=*/true);
+  std::string out;
+  while (const auto line = shell.read_line(std::chrono::seconds(60))) out += *line + "\n";
+  ASSERT_EQ(shell.wait(std::chrono::seconds(20)), 0) << out;
+  const Outcome same = run_tether({"replay", file, "--against-virtual", "elcano-node"});
+  EXPECT_EQ(same.status, 0) << same.out << same.err;
+  EXPECT_EQ(same.out, "same: 2 frames the same, 0 differ\n");
+
+  Capture capture = replay_read(file);
+  const auto frames = answers(capture);
+  ASSERT_EQ(frames.size(), 2u);
+  auto& report = capture.packets[frames[1]].data;
+  const std::string recorded(report.begin(), report.end());
+  ASSERT_EQ(recorded.substr(0, 11), "S{s -20}{a ") << recorded;
+  report[11] = static_cast<std::uint8_t>('6');  // {a 5} -> {a 6}
+  const std::string edited = replay_file("elcano-edited");
+  replay_write(capture, edited);
+  const Outcome changed = run_tether({"replay", edited, "--against-virtual", "elcano-node"});
+  EXPECT_EQ(changed.status, 1) << changed.out << changed.err;
+  const auto lines = changed.lines();
+  ASSERT_EQ(lines.size(), 3u) << changed.out;
+  EXPECT_TRUE(matches(lines[0], "#.# changed~message~S{s -20}{a 6}*")) << lines[0];
+  EXPECT_TRUE(matches(lines[1], "#.#~now~message~S{s -20}{a 5}*")) << lines[1];
+  EXPECT_EQ(lines[2], "different: 1 frame the same, 1 differ (1 changed, 0 recorded only, 0 new only)");
 }
 
 TEST(TetherReplayAgainstVirtual, BadRequestsAreErrors) {

@@ -157,7 +157,7 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
     row.replay_rules = "info (ArduinoInfo, every 5 s) ignored; resetEvent compared without its sessionId";
   } else {
     row.replay_frame_view = compat_replay_view;
-    row.replay_rules = "the state stream (servoState, digitalState, dcMotorState, loadCellState; every 50 ms) ignored";
+    row.replay_rules = "the state stream (servoState, digitalState, ..., loadCellState; every 50 ms) ignored";
   }
   return row;
 }
