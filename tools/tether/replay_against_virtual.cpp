@@ -217,7 +217,10 @@ std::vector<Edit> align(const std::vector<int>& a, const std::vector<int>& b, bo
   const std::vector<int> middle_a(a.begin() + static_cast<long>(head), a.end() - static_cast<long>(tail));
   const std::vector<int> middle_b(b.begin() + static_cast<long>(head), b.end() - static_cast<long>(tail));
   std::vector<Edit> edits(head, Edit::same);
-  if (auto middle = shortest_edit(middle_a, middle_b, kMaxEdits)) {
+  if (middle_a.empty() || middle_b.empty()) {  // one side only: no search needed, however long
+    edits.insert(edits.end(), middle_a.size(), Edit::recorded_only);
+    edits.insert(edits.end(), middle_b.size(), Edit::new_only);
+  } else if (auto middle = shortest_edit(middle_a, middle_b, kMaxEdits)) {
     edits.insert(edits.end(), middle->begin(), middle->end());
   } else {
     gave_up = true;
