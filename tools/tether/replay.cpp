@@ -123,7 +123,7 @@ int run_replay(int argc, char** argv) {
   bool utc = false;
   bool json = false;
   std::optional<std::string> against_virtual;
-  std::uint32_t settle_ms = 500;
+  std::optional<std::uint32_t> settle_ms;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       utc = true;
@@ -150,13 +150,14 @@ int run_replay(int argc, char** argv) {
   if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
   if (file.empty()) return command_text().usage_error("no capture file given");
   if (against_virtual && utc) return command_text().usage_error("--utc does not apply to --against-virtual");
+  if (settle_ms && !against_virtual) return command_text().usage_error("--settle applies to --against-virtual only");
 
   boost::system::error_code error;
   std::string message;
   const std::optional<transports::Capture> capture = transports::read_capture(file, error, message);
   if (!capture) return command_text().fail(message);
   if (against_virtual) {
-    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms, device_of}, command_text());
+    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms.value_or(500), device_of}, command_text());
   }
 
   // One decoder per link and direction, made when the link first has bytes.

@@ -307,6 +307,9 @@ TEST(TetherReplayAgainstVirtual, BadRequestsAreErrors) {
   const Outcome no_image = run_tether({"replay", file, "--against-virtual"});
   EXPECT_EQ(no_image.status, 2);
   EXPECT_NE(no_image.err.find("--against-virtual needs an image"), std::string::npos) << no_image.err;
+  const Outcome settle = run_tether({"replay", file, "--settle", "10"});
+  EXPECT_EQ(settle.status, 2);
+  EXPECT_NE(settle.err.find("--settle applies to --against-virtual only"), std::string::npos) << settle.err;
   const Outcome utc = run_tether({"replay", file, "--utc", "--against-virtual", "romi-test"});
   EXPECT_EQ(utc.status, 2);
   EXPECT_NE(utc.err.find("--utc does not apply to --against-virtual"), std::string::npos) << utc.err;
