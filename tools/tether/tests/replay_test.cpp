@@ -10,9 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
@@ -73,12 +76,51 @@ std::string replay_proxy_frame(const proxy::ArduinoOut& message) {
   return std::string(reinterpret_cast<const char*>(frame), written.value());
 }
 
-// A proxy session: the client's Reset handshake, a servo initialised and moved.
+// The messageId of a proxy frame: of the host's message, or of the device's ack.
+std::optional<std::uint32_t> replay_proxy_id(const std::vector<std::uint8_t>& bytes, bool from_host) {
+  LinkCounters counters;
+  proxy::Decoder<256> decoder(proxy::Integrity::crc16, counters);
+  for (const std::uint8_t byte : bytes) {
+    if (decoder.feed(byte) != DecodeStatus::frame) continue;
+    const ByteView payload = decoder.frame();
+    if (from_host) {
+      proxy::ArduinoIn message;
+      if (message.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) return message.messageid();
+    } else {
+      proxy::ArduinoOut message;
+      if (message.ParseFromArray(payload.data(), static_cast<int>(payload.size())) && message.has_ack()) {
+        return message.ack().messageid();
+      }
+    }
+    return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+// A proxy session: the client's Reset handshake, a servo initialised and moved. The client's first Ping races
+// the device's restart after the Reset: lost while it reboots, it is taken once its receiver is back. The
+// recording's board ran behind the wall clock by as much as the machine's load made it, the replay's runs on
+// the recorded offsets, so a message the recording shows lost may come late enough in the replay to be taken:
+// the host's messages the device never acked are taken out, for a session whose outcome does not depend on
+// the load it was recorded under.
 std::string record_proxy_session(const std::string& name) {
   const std::string file = replay_file(name);
   const Outcome run = run_tether({"send", "--virtual", "proxy", "--record", file, "servo-init", "pin=9",
                                   "safe-position=90", "servo-control", "pin=9", "position=120"});
   EXPECT_EQ(run.status, 0) << run.err;
+  Capture capture = replay_read(file);
+  std::set<std::uint32_t> acked;
+  for (const CapturePacket& packet : capture.packets) {
+    if (packet.direction != CaptureDirection::inbound) continue;
+    if (const auto id = replay_proxy_id(packet.data, false)) acked.insert(*id);
+  }
+  std::erase_if(capture.packets, [&](const CapturePacket& packet) {
+    if (packet.direction != CaptureDirection::outbound) return false;
+    const auto id = replay_proxy_id(packet.data, true);
+    return id && acked.count(*id) == 0;
+  });
+  fs::remove(file);
+  replay_write(capture, file);
   return file;
 }
 
@@ -213,7 +255,10 @@ TEST(TetherReplayAgainstVirtual, ProxyPeriodicInfoIsIgnoredAndCountedAndAMissing
   ASSERT_EQ(printed.status, 0) << printed.err;
   std::size_t infos = 0;
   for (const auto& line : printed.lines()) infos += line.find("\"type\":\"info\"") != std::string::npos ? 1u : 0u;
-  const auto lines = replay.lines();
+  // A ping the client wrote while the device restarted after its Reset is lost on both runs, or on neither,
+  // as the recorded timing has it: the note that says so is not this test's.
+  std::vector<std::string> lines = replay.lines();
+  std::erase_if(lines, [](const std::string& line) { return line.starts_with("note: "); });
   ASSERT_EQ(lines.size(), 4u) << replay.out;
   EXPECT_TRUE(matches(lines[0], "#.# new-only~message~pinState pin: 9 value: 120")) << lines[0];
   EXPECT_TRUE(matches(lines[1], "ignored: " + std::to_string(infos + 1) +
