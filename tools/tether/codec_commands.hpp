@@ -13,6 +13,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -72,6 +73,20 @@ struct CodecFlag {
   std::function<std::optional<std::string>(std::string_view value)> check;
 };
 
+/// How `tether replay --against-virtual` compares one device->host frame of the codec (a recorded one or one the
+/// virtual board sent): what differs between two runs of the same firmware by nature (a session id chosen at
+/// boot, a periodic report whose count depends on how long the run was) is left out or compared without it,
+/// under a rule the report names and counts.
+struct ReplayFrameView {
+  /// Left out of the comparison (counted under `rule`).
+  bool ignored = false;
+  /// Compared instead of the frame's bytes when not empty (the frame with what differs by nature taken out).
+  std::string key;
+  /// Why, for the report (`info: sent every 5 s, how many depends on the run's length`); empty when the frame
+  /// is compared as it is.
+  std::string rule;
+};
+
 /// The `tether` command's row of a codec.
 struct CodecCommands {
   /// The codec's name: its devices row's (`romi`).
@@ -113,6 +128,12 @@ struct CodecCommands {
       monitor_decoder;
   /// `monitor --keepalive` applies (proxy primary mode).
   bool monitor_keepalive = false;
+  /// `tether replay --against-virtual`: how a device->host frame (its bytes and what the monitor decoder made of
+  /// them) is compared. Unset: every frame is compared byte for byte.
+  std::function<ReplayFrameView(std::span<const std::uint8_t> frame, const std::vector<MonitorRecord>& decoded)>
+      replay_frame_view;
+  /// What `replay_frame_view` leaves out, for the usage text and the report (`proxy: ...`); empty: nothing.
+  std::string_view replay_rules;
   /// `tether stats`' usage: what runs on the link meanwhile (after the codec's name; lines after the first
   /// indented by 16 spaces, each ending in a newline).
   std::string_view stats_activity;

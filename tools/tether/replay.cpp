@@ -5,7 +5,8 @@
 // Output contract: one line per record, `<time> [<device>] <direction> <kind> <detail>` (the device named
 // when the capture has several links; time in ms since the first packet, or ISO 8601 UTC with --utc), link
 // events as `link <event>`; with --json one object per line. Exit status 0; 2 for usage errors and a file
-// that is not a readable Tether capture (the reader's message names the offset).
+// that is not a readable Tether capture (the reader's message names the offset). `--against-virtual IMAGE`
+// compares a virtual board's answers with the recorded ones instead (replay_against_virtual.hpp).
 #include <cstdio>
 #include <ctime>
 #include <map>
@@ -21,6 +22,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "monitor_decoding.hpp"
+#include "replay_against_virtual.hpp"
 #include "tether/devices/codecs.hpp"
 #include "tether/transports/pcapng.hpp"
 
@@ -32,6 +34,7 @@ const CommandText& command_text() {
   static const CommandText text(
       "replay",
       "usage: tether replay FILE [--device NAME] [--utc] [--json]\n"
+      "       tether replay FILE [--device NAME] --against-virtual IMAGE [--settle MS] [--json]\n"
       "\n"
       "Prints what a capture recorded (a pcapng file written by --record, monitor --write or a configuration's\n"
       "\"record\"; docs/captures.md) as `tether monitor --tap` prints a session: every frame, log line,\n"
@@ -43,9 +46,24 @@ const CommandText& command_text() {
       "  --json         one JSON object per line: {\"t_ms\":12.345,\"device\":\"arm\",\"direction\":\"host->device\",\n"
       "                 \"kind\":\"frame\",...} (\"time\" with --utc)\n"
       "\n"
-      "Exit status: 0 the capture was printed; 2 usage errors, a file that is not a Tether capture, is\n"
-      "truncated or corrupt (the message names the offset), or names a codec or schema this tether cannot\n"
-      "decode.\n");
+      "--against-virtual IMAGE: boots IMAGE (an image name such as romi-test, or a path to an .elf, as --virtual\n"
+      "takes it) on a virtual Uno, sends it the host->device bytes of the link (--device NAME; not needed when\n"
+      "the capture has one) at their recorded offsets from the link's first one, on the board's clock from its\n"
+      "boot (faster than real time when it can), and compares what it answers with what was recorded: both cut\n"
+      "into frames by the codec's framing, aligned, each difference printed with its time and the frame as\n"
+      "replay prints it (changed: the recorded frame, then the new one as `now`; recorded-only; new-only),\n"
+      "then `same: N frames the same, 0 differ` or `different: ...`. A codec on rings runs IMAGE as --virtual\n"
+      "does: a ring of one board. Frames that differ between two runs by nature are left out or compared in\n"
+      "part by the codec's rules and counted (`ignored:` lines):\n" +
+          against_virtual_rules_usage() +
+          "  --settle MS    board time run past the link's last recorded packet (default 500)\n"
+      "  --json         one object per difference ({\"difference\":\"changed\",\"t_ms\":..,\"recorded\":{..},\n"
+      "                 \"new\":{..}}), per rule, and {\"summary\":{\"result\":\"same\",\"same\":N,\"differ\":M,..}}\n"
+      "\n"
+      "Exit status: 0 the capture was printed (--against-virtual: the board answered as recorded); 1 the board's\n"
+      "answers differ; 2 usage errors, a file that is not a Tether capture, is truncated or corrupt (the message\n"
+      "names the offset), names a codec or schema this tether cannot decode, has no such link, or an image that\n"
+      "is missing or of another codec.\n");
   return text;
 }
 
@@ -104,6 +122,8 @@ int run_replay(int argc, char** argv) {
   std::optional<std::string> only;
   bool utc = false;
   bool json = false;
+  std::optional<std::string> against_virtual;
+  std::optional<std::uint32_t> settle_ms;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       utc = true;
@@ -112,6 +132,14 @@ int run_replay(int argc, char** argv) {
     } else if (argument == "--device") {
       if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--device needs a device name");
       only = argv[++i];
+    } else if (argument == "--against-virtual") {
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--against-virtual needs an image");
+      against_virtual = argv[++i];
+    } else if (argument == "--settle") {
+      const auto value = i + 1 < argc ? parse_number(argv[i + 1], 0, 3600000) : std::nullopt;
+      if (!value) return command_text().usage_error("--settle needs milliseconds (0..3600000)");
+      settle_ms = *value;
+      ++i;
     } else if (!argument.starts_with("-") && file.empty()) {
       file = argument;
     } else {
@@ -121,11 +149,16 @@ int run_replay(int argc, char** argv) {
   };
   if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
   if (file.empty()) return command_text().usage_error("no capture file given");
+  if (against_virtual && utc) return command_text().usage_error("--utc does not apply to --against-virtual");
+  if (settle_ms && !against_virtual) return command_text().usage_error("--settle applies to --against-virtual only");
 
   boost::system::error_code error;
   std::string message;
   const std::optional<transports::Capture> capture = transports::read_capture(file, error, message);
   if (!capture) return command_text().fail(message);
+  if (against_virtual) {
+    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms.value_or(500), device_of}, command_text());
+  }
 
   // One decoder per link and direction, made when the link first has bytes.
   struct Link {

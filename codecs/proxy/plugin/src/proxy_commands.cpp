@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <memory>
+#include <span>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -83,6 +84,34 @@ class ProxyShell final : public ShellSession {
   ShellPrinter printer_;
 };
 
+// What differs between two runs of the same proxy firmware by nature (`tether replay --against-virtual`): the
+// sessionId is new at every boot, and ArduinoInfo comes every 5 s of the board's time, so how many there are
+// depends on how long each run lasted and where its boot fell.
+ReplayFrameView proxy_replay_view(std::span<const std::uint8_t>, const std::vector<MonitorRecord>& decoded) {
+  for (const MonitorRecord& record : decoded) {
+    if (record.kind != "message") continue;
+    const std::string type = record.json.value("type", std::string());
+    if (type == "info") return {true, {}, "info: sent every 5 s (how many depends on the run's length)"};
+    if (type == "resetEvent") return {false, "resetEvent", "resetEvent: compared without its sessionId (new at every boot)"};
+  }
+  return {};
+}
+
+// The deployed variant's device sends its state stream (a state message per initialised pin or motor, then
+// the load cell's) every 50 ms of its time whatever happens: how many there are depends on the run's length.
+ReplayFrameView compat_replay_view(std::span<const std::uint8_t>, const std::vector<MonitorRecord>& decoded) {
+  for (const MonitorRecord& record : decoded) {
+    if (record.kind != "message") continue;
+    const std::string type = record.json.value("type", std::string());
+    if (type == "servoState" || type == "digitalState" || type == "dcMotorState" || type == "stepperMotorState" ||
+        type == "loadCellState") {
+      return {true, {}, "state stream (servoState, digitalState, dcMotorState, loadCellState): sent every 50 ms "
+                        "(how many depends on the run's length)"};
+    }
+  }
+  return {};
+}
+
 CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
   CodecCommands row;
   row.name = name;
@@ -123,6 +152,13 @@ CodecCommands proxy_commands(std::string_view name, proxy::Mode mode) {
   };
   row.monitor_decoder = make_proxy_monitor_decoder;
   row.monitor_keepalive = mode == proxy::Mode::primary;
+  if (mode == proxy::Mode::primary) {
+    row.replay_frame_view = proxy_replay_view;
+    row.replay_rules = "info (ArduinoInfo, every 5 s) ignored; resetEvent compared without its sessionId";
+  } else {
+    row.replay_frame_view = compat_replay_view;
+    row.replay_rules = "the state stream (servoState, digitalState, ..., loadCellState; every 50 ms) ignored";
+  }
   return row;
 }
 

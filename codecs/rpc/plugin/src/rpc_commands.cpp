@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -150,6 +151,19 @@ class RpcShell final : public ShellSession {
   std::map<std::string, rpc::Stream> streams_;
 };
 
+// What differs between two runs of the same rpc firmware by nature (`tether replay --against-virtual`): the
+// session the device draws at every boot, in its reset-event and its hello.
+ReplayFrameView rpc_replay_view(std::span<const std::uint8_t>, const std::vector<MonitorRecord>& decoded) {
+  for (const MonitorRecord& record : decoded) {
+    if (record.kind != "message" || !record.json.contains("session")) continue;
+    nlohmann::ordered_json rest = record.json;
+    rest.erase("session");
+    return {false, dump(rest), record.json.value("message", std::string()) +
+                                   ": compared without its session (new at every boot)"};
+  }
+  return {};
+}
+
 CodecCommands rpc_commands() {
   CodecCommands row;
   row.name = "rpc";
@@ -219,6 +233,8 @@ CodecCommands rpc_commands() {
   row.open_shell = [](const devices::DeviceClient& client, const devices::DeviceConfig&, const ShellContext& context) {
     return std::unique_ptr<ShellSession>(std::make_unique<RpcShell>(rpc_client(client), context));
   };
+  row.replay_frame_view = rpc_replay_view;
+  row.replay_rules = "reset-event and device-hello compared without their session";
   row.monitor_decoder = [](const devices::DeviceConfig& config, const DecoderRole& role, Millis) {
     return make_rpc_monitor_decoder(rpc_config_schema(config), role);
   };
