@@ -21,6 +21,7 @@
 #include "commands.hpp"
 #include "device_options.hpp"
 #include "monitor_decoding.hpp"
+#include "replay_as_device.hpp"
 #include "tether/devices/codecs.hpp"
 #include "tether/transports/pcapng.hpp"
 
@@ -32,6 +33,7 @@ const CommandText& command_text() {
   static const CommandText text(
       "replay",
       "usage: tether replay FILE [--device NAME] [--utc] [--json]\n"
+      "       tether replay FILE [--device NAME] --as-device [--link PATH] [--loop] [--json]\n"
       "\n"
       "Prints what a capture recorded (a pcapng file written by --record, monitor --write or a configuration's\n"
       "\"record\"; docs/captures.md) as `tether monitor --tap` prints a session: every frame, log line,\n"
@@ -43,9 +45,21 @@ const CommandText& command_text() {
       "  --json         one JSON object per line: {\"t_ms\":12.345,\"device\":\"arm\",\"direction\":\"host->device\",\n"
       "                 \"kind\":\"frame\",...} (\"time\" with --utc)\n"
       "\n"
+      "--as-device plays the recorded device of link NAME (needed when the capture has several) on a\n"
+      "pseudo-terminal, so host code can be tested offline against a recorded session: prints `PTY <path>`\n"
+      "({\"pty\":...,\"device\":...} with --json); when the host sends the next recorded request (ids and\n"
+      "CRCs aside), the device frames recorded after it go out with their recorded delays, rewritten for the\n"
+      "host (its ids, the CRCs over them); frames the device sent on its own (log lines, state messages) go\n"
+      "at their recorded times after the request they followed. A request that does not match the\n"
+      "recording is a line on stderr (expected, got) and gets the device's answer to an unknown request.\n"
+      "Ends at the end of the recording (once the host has read it all and was quiet for 0.5 s), or on\n"
+      "SIGINT/SIGTERM.\n"
+      "  --link PATH    also make PATH a symlink to the pty (removed at exit)\n"
+      "  --loop         start the recording again at its end instead of ending\n"
+      "\n"
       "Exit status: 0 the capture was printed; 2 usage errors, a file that is not a Tether capture, is\n"
       "truncated or corrupt (the message names the offset), or names a codec or schema this tether cannot\n"
-      "decode.\n");
+      "decode or play.\n");
   return text;
 }
 
@@ -104,11 +118,20 @@ int run_replay(int argc, char** argv) {
   std::optional<std::string> only;
   bool utc = false;
   bool json = false;
+  bool as_device = false;
+  AsDeviceOptions play;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       utc = true;
     } else if (argument == "--json") {
       json = true;
+    } else if (argument == "--as-device") {
+      as_device = true;
+    } else if (argument == "--loop") {
+      play.loop = true;
+    } else if (argument == "--link") {
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--link needs a path");
+      play.link = argv[++i];
     } else if (argument == "--device") {
       if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--device needs a device name");
       only = argv[++i];
@@ -121,6 +144,10 @@ int run_replay(int argc, char** argv) {
   };
   if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
   if (file.empty()) return command_text().usage_error("no capture file given");
+  if (!as_device && (play.loop || play.link)) {
+    return command_text().usage_error(std::string(play.loop ? "--loop" : "--link") + " applies to --as-device only");
+  }
+  if (as_device && utc) return command_text().usage_error("--utc does not apply to --as-device");
 
   boost::system::error_code error;
   std::string message;
@@ -150,6 +177,20 @@ int run_replay(int argc, char** argv) {
     devices::NameList names;
     for (const auto& interface : capture->interfaces) names.add(interface.name);
     return command_text().fail(file + ": no device '" + *only + "' (devices: " + names.text() + ")");
+  }
+  if (as_device) {
+    if (capture->interfaces.size() != 1 && !only) {
+      devices::NameList names;
+      for (const auto& interface : capture->interfaces) names.add(interface.name);
+      return command_text().usage_error("--as-device plays one link: name it with --device (devices: " +
+                                        names.text() + ")");
+    }
+    for (std::uint32_t i = 0; i < links.size(); ++i) {
+      if (!links[i]) continue;
+      play.file = file;
+      play.json = json;
+      return replay_as_device(*capture, i, links[i]->device, play);
+    }
   }
   const bool named = capture->interfaces.size() > 1 && !only;
   const std::uint64_t first = capture->packets.empty() ? 0 : capture->packets.front().timestamp_us;
