@@ -1,6 +1,7 @@
-// Every codec row's rules for playing a recorded device (`tether replay --as-device`): which requests match
-// (the fields the replay rewrites left out), the recorded answers rewritten for the live host (ids, CRCs),
-// and what a request the recording lacks is answered.
+// The rules of the romi, proxy, proxy-compat and elcano rows (rpc's: its plugin's tests) for playing a
+// recorded device (`tether replay --as-device`): which requests match (the fields the replay rewrites left
+// out), the recorded answers rewritten for the live host (ids, CRCs), and what a request the recording
+// lacks is answered.
 #include <gtest/gtest.h>
 
 #include <memory>
@@ -103,8 +104,8 @@ TEST(CaptureReplay, RomiAnswersWhatTheRecordingLacksAsTheFirmwareAnswersAnUnknow
 Bytes proxy_frame(const google::protobuf::Message& message, bool leading) {
   const std::string payload = message.SerializeAsString();
   Bytes frame(proxy::max_frame_size(payload.size()));
-  const auto written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16,
-                                           leading, MutableByteView(frame.data(), frame.size()));
+  const auto written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
+                                           proxy::Integrity::crc16, leading, MutableByteView(frame.data(), frame.size()));
   frame.resize(written.value());
   return frame;
 }
@@ -188,6 +189,19 @@ TEST(CaptureReplay, ProxyCompatMatchesWholeMessagesAndPlaysAnswersAsRecorded) {
   const Bytes event = {0x03, 0x08, 0x01, 0x00};
   EXPECT_EQ(*rules->rewrite(view(event)), event);
   EXPECT_TRUE(rules->answer(view(frame)).empty());
+}
+
+TEST(CaptureReplay, ElcanoMatchesMessagesAsANodeForwardsThemAndPlaysAnswersAsRecorded) {
+  const auto rules = replayer("elcano");
+  ASSERT_TRUE(rules);
+  const ReplayRequest drive = rules->classify(view(bytes_of("D{s 50}{a 25}\n")));
+  EXPECT_EQ(drive.kind, ReplayRequest::Kind::request);
+  EXPECT_EQ(rules->classify(view(bytes_of("D{s50}{a25}\n"))).key, drive.key);  // whitespace is no difference
+  EXPECT_NE(rules->classify(view(bytes_of("D{s 51}{a 25}\n"))).key, drive.key);
+  EXPECT_EQ(rules->classify(view(bytes_of("D{s}{a 25}\n"))).kind, ReplayRequest::Kind::other);  // damaged
+  const Bytes sensor = bytes_of("S{s 69}{a -12}{b 432}{p 420,90210}\n");
+  EXPECT_EQ(*rules->rewrite(view(sensor)), sensor);
+  EXPECT_TRUE(rules->answer(view(bytes_of("D{s 1}{a 2}\n"))).empty());
 }
 
 }  // namespace

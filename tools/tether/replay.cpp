@@ -52,14 +52,14 @@ const CommandText& command_text() {
       "host (its ids, the CRCs over them); frames the device sent on its own (log lines, state messages) go\n"
       "at their recorded times after the request they followed. A request that does not match the\n"
       "recording is a line on stderr (expected, got) and gets the device's answer to an unknown request.\n"
-      "Ends at the end of the recording (once the host has read it all and was quiet for 0.5 s), or on\n"
-      "SIGINT/SIGTERM.\n"
+      "Ends at the end of the recording (once the host has read it all and 0.5 s passed without a frame),\n"
+      "or on SIGINT/SIGTERM.\n"
       "  --link PATH    also make PATH a symlink to the pty (removed at exit)\n"
       "  --loop         start the recording again at its end instead of ending\n"
       "\n"
-      "Exit status: 0 the capture was printed; 2 usage errors, a file that is not a Tether capture, is\n"
-      "truncated or corrupt (the message names the offset), or names a codec or schema this tether cannot\n"
-      "decode or play.\n");
+      "Exit status: 0 the capture was printed (or played to its end, or stopped by a signal); 2 usage errors,\n"
+      "a file that is not a Tether capture, is truncated or corrupt (the message names the offset), or names\n"
+      "a codec or schema this tether cannot decode or play.\n");
   return text;
 }
 

@@ -11,9 +11,9 @@
 // came) and gets the codec's answer to an unknown request; a keepalive gets the codec's answer at once.
 //
 // Output contract (as `tether sim`'s): exactly one line `PTY <slave path>` on stdout once the pty is open
-// (`{"pty":...,"device":...}` with --json); mismatches on stderr. Ends 0 after the last step was played and
-// the host has read it all, and 500 ms passed without a frame from the host (with --loop: starts again);
-// or on SIGINT/SIGTERM.
+// (`{"pty":...,"device":...}` with --json); mismatches on stderr. Ends 0 after the last step was played, the
+// host has read it all, and 500 ms passed without a frame either way (with --loop: starts again); or on
+// SIGINT/SIGTERM.
 #include "replay_as_device.hpp"
 
 #include <fcntl.h>
@@ -83,8 +83,9 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
   }
   const std::unique_ptr<transports::CaptureReplayer> rules = row.capture_replay(device);
   const transports::CaptureFraming framing =
-      row.capture_framing ? row.capture_framing(device)
-                          : transports::CaptureFraming([](bool) { return std::make_unique<transports::ChunkFramer>(); });
+      row.capture_framing
+          ? row.capture_framing(device)
+          : transports::CaptureFraming([](bool) { return std::make_unique<transports::ChunkFramer>(); });
 
   // The steps, from the link's packets in file order.
   std::vector<Step> steps(1);
@@ -152,8 +153,10 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     }
   };
   bool write_failed = false;
+  Clock::time_point last_activity = Clock::now();  // the last frame from the host or to it
   const auto send = [&](const Bytes& bytes) {
     if (bytes.empty() || write_failed) return;
+    last_activity = Clock::now();
     boost::system::error_code write_error;
     write_to_device(*pty, boost::asio::buffer(bytes), write_error);
     if (write_error) {
@@ -168,7 +171,6 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
 
   std::size_t next = 1;  // the step whose request comes next
   std::size_t requests = 0;
-  Clock::time_point last_host_frame = Clock::now();
   schedule(steps[0], Clock::now());
   const std::unique_ptr<transports::CaptureFramer> framer = framing(false);
   std::array<std::uint8_t, 1024> buffer{};
@@ -182,7 +184,8 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     if (next == steps.size() && pending.empty()) {
       int unread = 0;
       const bool drained = ::ioctl(watch, FIONREAD, &unread) == 0 && unread == 0;
-      if (drained && now - last_host_frame >= kGrace) {
+      // The grace also covers bytes still on their way into the slave's queue (FIONREAD does not count them).
+      if (drained && now - last_activity >= kGrace) {
         if (!options.loop) break;
         next = 1;
         schedule(steps[0], now);
@@ -204,7 +207,7 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     now = Clock::now();
     framer->feed(std::span<const std::uint8_t>(buffer.data(), size), [&](transports::FramedPacket packet) {
       if (!packet.frame) return;
-      last_host_frame = now;
+      last_activity = now;
       const transports::ReplayRequest request = rules->classify(view(packet.bytes));
       if (request.kind == transports::ReplayRequest::Kind::request) {
         ++requests;

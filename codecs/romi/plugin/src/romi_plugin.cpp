@@ -116,7 +116,8 @@ class RomiReplayer final : public transports::CaptureReplayer {
   transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
     const Decoded decoded = decode(frame);
     if (!decoded.complete || decoded.frame.log) return {};
-    return {transports::ReplayRequest::Kind::request, decoded.frame.manual ? decoded.payload + " (manual)" : decoded.payload};
+    return {transports::ReplayRequest::Kind::request,
+            decoded.frame.manual ? decoded.payload + " (manual)" : decoded.payload};
   }
 
   void matched(std::span<const std::uint8_t> recorded, std::span<const std::uint8_t> live) override {
