@@ -117,6 +117,30 @@ TEST(TetherReplayAsDevice, ProxySendGetsTheRecordedAcksUnderItsOwnMessageIds) {
   EXPECT_EQ(device.errors(), "");
 }
 
+TEST(TetherReplayAsDevice, RpcCallAndStreamGetTheRecordedRepliesUnderTheirOwnIds) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const std::string schema = fs::path(firmware("rpc-example")).replace_extension(".proto").string();
+  const std::vector<std::vector<std::string>> sessions = {{"MoveJoint", "joint=1", "angle_cdeg=3000"},
+                                                          {"--count", "3", "--period", "50", "Watch"}};
+  for (std::size_t i = 0; i < sessions.size(); ++i) {
+    const std::string file = temporary("rpc" + std::to_string(i) + ".pcapng");
+    std::vector<std::string> record = {"call", "--virtual", "rpc-example", "--record", file};
+    record.insert(record.end(), sessions[i].begin(), sessions[i].end());
+    const Outcome recorded = run_tether(record);
+    ASSERT_EQ(recorded.status, 0) << recorded.err;
+    PlayedDevice device({file, "--as-device"}, "rpc" + std::to_string(i));
+    ASSERT_FALSE(device.pty().empty());
+    std::vector<std::string> call = {"call", "--port", device.pty(), "--codec", "rpc", "--schema", schema};
+    call.insert(call.end(), sessions[i].begin(), sessions[i].end());
+    // A new client: new message ids, which the replies, acks and stream messages must carry.
+    const Outcome live = run_tether(call);
+    EXPECT_EQ(live.status, 0) << live.err;
+    EXPECT_EQ(live.out, recorded.out);
+    EXPECT_EQ(device.process().wait(std::chrono::seconds(30)), 0) << device.errors();
+    EXPECT_EQ(device.errors(), "");
+  }
+}
+
 TEST(TetherReplayAsDevice, UsageErrors) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   const std::string file = temporary("usage.pcapng");
