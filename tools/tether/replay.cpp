@@ -55,7 +55,7 @@ const CommandText& command_text() {
       "Ends at the end of the recording (once the host has read it all and 0.5 s passed without a frame),\n"
       "or on SIGINT/SIGTERM.\n"
       "  --link PATH    also make PATH a symlink to the pty (removed at exit)\n"
-      "  --loop         start the recording again at its end instead of ending\n"
+      "  --loop         start the recording again as soon as its last frame went out, until a signal\n"
       "\n"
       "Exit status: 0 the capture was printed (or played to its end, or stopped by a signal); 2 usage errors,\n"
       "a file that is not a Tether capture, is truncated or corrupt (the message names the offset), or names\n"

@@ -12,8 +12,8 @@
 //
 // Output contract (as `tether sim`'s): exactly one line `PTY <slave path>` on stdout once the pty is open
 // (`{"pty":...,"device":...}` with --json); mismatches on stderr. Ends 0 after the last step was played, the
-// host has read it all, and 500 ms passed without a frame either way (with --loop: starts again); or on
-// SIGINT/SIGTERM.
+// host has read it all, and 500 ms passed without a frame either way; or on SIGINT/SIGTERM. With --loop the
+// recording starts again as soon as its last frame went out, until a signal.
 #include "replay_as_device.hpp"
 
 #include <fcntl.h>
@@ -182,14 +182,17 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
       pending.pop_front();
     }
     if (next == steps.size() && pending.empty()) {
+      if (options.loop) {
+        // At once, not after a grace: a host that runs its session again right away finds the first request
+        // expected.
+        next = 1;
+        schedule(steps[0], now);
+        continue;
+      }
       int unread = 0;
       const bool drained = ::ioctl(watch, FIONREAD, &unread) == 0 && unread == 0;
       // The grace also covers bytes still on their way into the slave's queue (FIONREAD does not count them).
-      if (drained && now - last_activity >= kGrace) {
-        if (!options.loop) break;
-        next = 1;
-        schedule(steps[0], now);
-      }
+      if (drained && now - last_activity >= kGrace) break;
     }
     auto wait = std::chrono::milliseconds(100);
     if (!pending.empty()) {
@@ -235,7 +238,7 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     });
   }
   if (host_failed || write_failed) return 2;
-  if (stop && next < steps.size()) {
+  if (stop && !options.loop && next < steps.size()) {
     std::fprintf(stderr, "tether replay: stopped before the end of the recording: %zu of %zu requests played\n",
                  next - 1, steps.size() - 1);
   }

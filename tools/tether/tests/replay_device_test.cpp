@@ -95,6 +95,22 @@ TEST(TetherReplayAsDevice, ARequestTheRecordingLacksIsALineOnStderrAndAnsweredAs
   EXPECT_EQ(device.process().wait(std::chrono::seconds(30)), 0) << device.errors();
 }
 
+TEST(TetherReplayAsDevice, LoopPlaysTheRecordingAgainUntilASignal) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = temporary("romi-loop.pcapng");
+  ASSERT_EQ(run_tether({"call", "--virtual", "romi-test", "--record", file, "e"}).status, 0);
+  PlayedDevice device({file, "--as-device", "--loop"}, "romi-loop");
+  ASSERT_FALSE(device.pty().empty());
+  for (int i = 0; i < 3; ++i) {
+    const Outcome call = run_tether({"call", "--port", device.pty(), "e"});
+    EXPECT_EQ(call.status, 0) << i << call.err;
+    EXPECT_EQ(call.out, "[0,1,2]\n") << i;
+  }
+  device.process().signal(SIGINT);
+  EXPECT_EQ(device.process().wait(std::chrono::seconds(30)), 0);
+  EXPECT_EQ(device.errors(), "");
+}
+
 TEST(TetherReplayAsDevice, ProxySendGetsTheRecordedAcksUnderItsOwnMessageIds) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   const std::string file = temporary("proxy.pcapng");
