@@ -12,8 +12,9 @@
 //
 // Output contract (as `tether sim`'s): exactly one line `PTY <slave path>` on stdout once the pty is open
 // (`{"pty":...,"device":...}` with --json); mismatches on stderr. Ends 0 after the last step was played, the
-// host has read it all, and 500 ms passed without a frame either way; or on SIGINT/SIGTERM. With --loop the
-// recording starts again as soon as its last frame went out, until a signal.
+// host has read it all (or left it unread for 2 s: it closed the port), and 500 ms passed without a frame
+// either way; or on SIGINT/SIGTERM. With --loop the recording starts again as soon as its last frame went
+// out, until a signal.
 #include "replay_as_device.hpp"
 
 #include <fcntl.h>
@@ -49,8 +50,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using Bytes = std::vector<std::uint8_t>;
 
-// How long the host has to be quiet after the last step before the replay ends.
+// How long the link has to be quiet after the last step before the replay ends.
 constexpr std::chrono::milliseconds kGrace{500};
+// How long bytes may stay unread before they count as left behind by a host that closed the port.
+constexpr std::chrono::milliseconds kGone{2000};
 
 struct RecordedFrame {
   Bytes bytes;
@@ -169,6 +172,8 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     if (const std::optional<Bytes> rewritten = rules->rewrite(view(frame.bytes))) send(*rewritten);
   };
 
+  int last_unread = 0;  // what the host had not read yet at the last look, and since when
+  Clock::time_point unread_since = Clock::now();
   std::size_t next = 1;  // the step whose request comes next
   std::size_t requests = 0;
   schedule(steps[0], Clock::now());
@@ -190,9 +195,15 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
         continue;
       }
       int unread = 0;
-      const bool drained = ::ioctl(watch, FIONREAD, &unread) == 0 && unread == 0;
+      if (::ioctl(watch, FIONREAD, &unread) != 0) unread = 0;
+      if (unread != last_unread) {
+        last_unread = unread;
+        unread_since = now;
+      }
       // The grace also covers bytes still on their way into the slave's queue (FIONREAD does not count them).
-      if (drained && now - last_activity >= kGrace) break;
+      // Bytes that stay unread for kGone were left behind by a host that closed the port (an ack after the
+      // reply it waited for): nobody will read them.
+      if (now - last_activity >= kGrace && (unread == 0 || now - unread_since >= kGone)) break;
     }
     auto wait = std::chrono::milliseconds(100);
     if (!pending.empty()) {

@@ -11,9 +11,11 @@
 #include <iterator>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "tether/testing/child_process.hpp"
+#include "tether/transports/pcapng.hpp"
 #include "tether_process.hpp"
 
 namespace tether::cli::testing {
@@ -93,6 +95,39 @@ TEST(TetherReplayAsDevice, ARequestTheRecordingLacksIsALineOnStderrAndAnsweredAs
   EXPECT_EQ(right.status, 0) << right.err;
   EXPECT_EQ(right.out, "[0,1,2]\n");
   EXPECT_EQ(device.process().wait(std::chrono::seconds(30)), 0) << device.errors();
+}
+
+// A capture written by hand: one Romi link, `#e:05` answered 20 ms later, then a log line 800 ms after it.
+std::string romi_capture_with_a_late_log_line(const std::string& name) {
+  using transports::CaptureDirection;
+  namespace pcapng = transports::pcapng;
+  const auto bytes = [](std::string_view text) { return std::vector<std::uint8_t>(text.begin(), text.end()); };
+  const std::uint64_t t0 = 1700000000000000;
+  std::vector<std::vector<std::uint8_t>> blocks = {
+      pcapng::section_header("tether test"),
+      pcapng::interface_description("arm", "tether codec=romi baud=115200 transport=serial"),
+      pcapng::enhanced_packet(0, t0, CaptureDirection::outbound, bytes("#e:05cd\r\n"), ""),
+      pcapng::enhanced_packet(0, t0 + 20000, CaptureDirection::inbound, bytes("#e[0,1,2]:05c7\r\n"), ""),
+      pcapng::enhanced_packet(0, t0 + 820000, CaptureDirection::inbound, bytes("#!bye:xxxx\r\n"), "")};
+  const std::string file = temporary(name);
+  std::ofstream out(file, std::ios::binary);
+  for (const auto& block : blocks) {
+    out.write(reinterpret_cast<const char*>(block.data()), static_cast<std::streamsize>(block.size()));
+  }
+  return file;
+}
+
+// The host closed the port before the recording's last frame came: nobody reads it, and the replay still
+// ends (it waited for it to be read, for ever).
+TEST(TetherReplayAsDevice, EndsWhenTheHostLeftTheLastFramesUnread) {
+  const std::string file = romi_capture_with_a_late_log_line("late-log.pcapng");
+  PlayedDevice device({file, "--as-device"}, "late-log");
+  ASSERT_FALSE(device.pty().empty());
+  const Outcome call = run_tether({"call", "--port", device.pty(), "--id", "77", "e"});
+  EXPECT_EQ(call.status, 0) << call.err;
+  EXPECT_EQ(call.out, "[0,1,2]\n");
+  EXPECT_EQ(device.process().wait(std::chrono::seconds(30)), 0) << device.errors();
+  EXPECT_EQ(device.errors(), "");
 }
 
 TEST(TetherReplayAsDevice, LoopPlaysTheRecordingAgainUntilASignal) {
