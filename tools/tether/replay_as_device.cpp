@@ -108,7 +108,7 @@ int replay_as_device(const transports::Capture& capture, std::uint32_t interface
     } else if (packet.direction == transports::CaptureDirection::inbound) {
       Step& step = steps.back();
       const std::uint64_t delay = packet.timestamp_us >= step.at_us ? packet.timestamp_us - step.at_us : 0;
-      steps.back().frames.push_back(RecordedFrame{packet.data, delay, !packet.unframed()});
+      step.frames.push_back(RecordedFrame{packet.data, delay, !packet.unframed()});
     }
   }
 
