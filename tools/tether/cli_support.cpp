@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <map>
 #include <thread>
 #include <utility>
@@ -405,6 +406,34 @@ std::string printable(std::string_view bytes) {
     i += length;
   }
   return text;
+}
+
+std::error_code make_link(const std::filesystem::path& link, const std::string& target, std::string& message) {
+  std::error_code error;
+  const auto status = std::filesystem::symlink_status(link, error);
+  if (!error && std::filesystem::exists(status)) {
+    if (!std::filesystem::is_symlink(status)) {
+      message = link.string() + " exists and is not a symlink";
+      return std::make_error_code(std::errc::file_exists);
+    }
+    std::filesystem::remove(link, error);
+    if (error) {
+      message = "cannot replace " + link.string() + ": " + error.message();
+      return error;
+    }
+  }
+  error.clear();
+  std::filesystem::create_symlink(target, link, error);
+  if (error) message = "cannot create the symlink " + link.string() + ": " + error.message();
+  return error;
+}
+
+void remove_link(const std::filesystem::path& link, const std::string& target) {
+  std::error_code error;
+  if (std::filesystem::is_symlink(std::filesystem::symlink_status(link, error)) &&
+      std::filesystem::read_symlink(link, error) == target) {
+    std::filesystem::remove(link, error);
+  }
 }
 
 }  // namespace tether::cli

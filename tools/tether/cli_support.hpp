@@ -14,11 +14,13 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include "tether/transports/byte_stream.hpp"
 
@@ -94,6 +96,12 @@ inline constexpr std::chrono::milliseconds kDeviceWriteTimeout{4000};
 std::size_t write_to_device(transports::ByteStream& stream, boost::asio::const_buffer bytes,
                             boost::system::error_code& error,
                             std::chrono::steady_clock::time_point end = std::chrono::steady_clock::time_point::max());
+
+/// Makes `link` point to `target` (a pty's `--link PATH`). An existing symlink is taken to be stale and
+/// replaced; anything else at that path is left alone and reported (`message`, and the error).
+std::error_code make_link(const std::filesystem::path& link, const std::string& target, std::string& message);
+/// Removes `link` if it still points to `target` (someone may have replaced it meanwhile).
+void remove_link(const std::filesystem::path& link, const std::string& target);
 
 /// Parses a decimal number in [minimum, maximum]; nothing when malformed or out of range.
 std::optional<std::uint32_t> parse_number(std::string_view text, std::uint32_t minimum, std::uint32_t maximum);

@@ -23,6 +23,7 @@
 #include "device_options.hpp"
 #include "monitor_decoding.hpp"
 #include "replay_against_virtual.hpp"
+#include "replay_as_device.hpp"
 #include "tether/devices/codecs.hpp"
 #include "tether/transports/pcapng.hpp"
 
@@ -30,11 +31,12 @@ namespace tether::cli {
 
 namespace {
 
-const CommandText& command_text() {
+const CommandText& replay_command() {
   static const CommandText text(
       "replay",
       "usage: tether replay FILE [--device NAME] [--utc] [--json]\n"
       "       tether replay FILE [--device NAME] --against-virtual IMAGE [--settle MS] [--json]\n"
+      "       tether replay FILE [--device NAME] --as-device [--link PATH] [--loop] [--json]\n"
       "\n"
       "Prints what a capture recorded (a pcapng file written by --record, monitor --write or a configuration's\n"
       "\"record\"; docs/captures.md) as `tether monitor --tap` prints a session: every frame, log line,\n"
@@ -60,10 +62,23 @@ const CommandText& command_text() {
       "  --json         one object per difference ({\"difference\":\"changed\",\"t_ms\":..,\"recorded\":{..},\n"
       "                 \"new\":{..}}), per rule, and {\"summary\":{\"result\":\"same\",\"same\":N,\"differ\":M,..}}\n"
       "\n"
-      "Exit status: 0 the capture was printed (--against-virtual: the board answered as recorded); 1 the board's\n"
-      "answers differ; 2 usage errors, a file that is not a Tether capture, is truncated or corrupt (the message\n"
-      "names the offset), names a codec or schema this tether cannot decode, has no such link, or an image that\n"
-      "is missing or of another codec.\n");
+      "--as-device plays the recorded device of link NAME (needed when the capture has several) on a\n"
+      "pseudo-terminal, so host code can be tested offline against a recorded session: prints `PTY <path>`\n"
+      "({\"pty\":...,\"device\":...} with --json); when the host sends the next recorded request (ids and\n"
+      "CRCs aside), the device frames recorded after it go out with their recorded delays, rewritten for the\n"
+      "host (its ids, the CRCs over them); frames the device sent on its own (log lines, state messages) go\n"
+      "at their recorded times after the request they followed. A request that does not match the\n"
+      "recording is a line on stderr (expected, got) and gets the device's answer to an unknown request.\n"
+      "Ends at the end of the recording (once the host has read it all, or left it unread for 2 s, and 0.5 s\n"
+      "passed without a frame), or on SIGINT/SIGTERM.\n"
+      "  --link PATH    also make PATH a symlink to the pty (removed at exit)\n"
+      "  --loop         start the recording again as soon as its last frame went out, until a signal\n"
+      "\n"
+      "Exit status: 0 the capture was printed (--against-virtual: the board answered as recorded;\n"
+      "--as-device: played to its end, or stopped by a signal); 1 the board's answers differ; 2 usage errors,\n"
+      "a file that is not a Tether capture, is truncated or corrupt (the message names the offset), names a\n"
+      "codec or schema this tether cannot decode or play, has no such link, or an image that is missing or of\n"
+      "another codec.\n");
   return text;
 }
 
@@ -124,40 +139,55 @@ int run_replay(int argc, char** argv) {
   bool json = false;
   std::optional<std::string> against_virtual;
   std::optional<std::uint32_t> settle_ms;
+  bool as_device = false;
+  AsDeviceOptions play;
   const auto own = [&](std::string_view argument, int& i) -> std::optional<int> {
     if (argument == "--utc") {
       utc = true;
     } else if (argument == "--json") {
       json = true;
+    } else if (argument == "--as-device") {
+      as_device = true;
+    } else if (argument == "--loop") {
+      play.loop = true;
+    } else if (argument == "--link") {
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return replay_command().usage_error("--link needs a path");
+      play.link = argv[++i];
     } else if (argument == "--device") {
-      if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--device needs a device name");
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return replay_command().usage_error("--device needs a device name");
       only = argv[++i];
     } else if (argument == "--against-virtual") {
-      if (i + 1 >= argc || *argv[i + 1] == '\0') return command_text().usage_error("--against-virtual needs an image");
+      if (i + 1 >= argc || *argv[i + 1] == '\0') return replay_command().usage_error("--against-virtual needs an image");
       against_virtual = argv[++i];
     } else if (argument == "--settle") {
       const auto value = i + 1 < argc ? parse_number(argv[i + 1], 0, 3600000) : std::nullopt;
-      if (!value) return command_text().usage_error("--settle needs milliseconds (0..3600000)");
+      if (!value) return replay_command().usage_error("--settle needs milliseconds (0..3600000)");
       settle_ms = *value;
       ++i;
     } else if (!argument.starts_with("-") && file.empty()) {
       file = argument;
     } else {
-      return command_text().unexpected_argument(argument);
+      return replay_command().unexpected_argument(argument);
     }
     return std::nullopt;
   };
-  if (const auto status = parse_arguments(argc, argv, command_text(), own)) return *status;
-  if (file.empty()) return command_text().usage_error("no capture file given");
-  if (against_virtual && utc) return command_text().usage_error("--utc does not apply to --against-virtual");
-  if (settle_ms && !against_virtual) return command_text().usage_error("--settle applies to --against-virtual only");
+  if (const auto status = parse_arguments(argc, argv, replay_command(), own)) return *status;
+  if (file.empty()) return replay_command().usage_error("no capture file given");
+  if (against_virtual && utc) return replay_command().usage_error("--utc does not apply to --against-virtual");
+  if (settle_ms && !against_virtual) return replay_command().usage_error("--settle applies to --against-virtual only");
+  if (!as_device && (play.loop || play.link)) {
+    return replay_command().usage_error(std::string(play.loop ? "--loop" : "--link") + " applies to --as-device only");
+  }
+  if (as_device && utc) return replay_command().usage_error("--utc does not apply to --as-device");
+  if (as_device && against_virtual) return replay_command().usage_error("--as-device and --against-virtual exclude each other");
 
   boost::system::error_code error;
   std::string message;
   const std::optional<transports::Capture> capture = transports::read_capture(file, error, message);
-  if (!capture) return command_text().fail(message);
+  if (!capture) return replay_command().fail(message);
   if (against_virtual) {
-    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms.value_or(500), device_of}, command_text());
+    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms.value_or(500), device_of},
+                                  replay_command());
   }
 
   // One decoder per link and direction, made when the link first has bytes.
@@ -174,7 +204,7 @@ int run_replay(int argc, char** argv) {
     std::string why;
     std::optional<devices::DeviceConfig> device = device_of(interface, why);
     if (!device) {
-      return command_text().fail(file + ": interface " + std::to_string(i) + " (" + printable(interface.name) +
+      return replay_command().fail(file + ": interface " + std::to_string(i) + " (" + printable(interface.name) +
                                  "): " + why);
     }
     links[i] = Link{std::move(*device), {}};
@@ -182,7 +212,21 @@ int run_replay(int argc, char** argv) {
   if (!found) {
     devices::NameList names;
     for (const auto& interface : capture->interfaces) names.add(interface.name);
-    return command_text().fail(file + ": no device '" + *only + "' (devices: " + names.text() + ")");
+    return replay_command().fail(file + ": no device '" + *only + "' (devices: " + names.text() + ")");
+  }
+  if (as_device) {
+    if (capture->interfaces.size() != 1 && !only) {
+      devices::NameList names;
+      for (const auto& interface : capture->interfaces) names.add(interface.name);
+      return replay_command().usage_error("--as-device plays one link: name it with --device (devices: " +
+                                        names.text() + ")");
+    }
+    for (std::uint32_t i = 0; i < links.size(); ++i) {
+      if (!links[i]) continue;
+      play.file = file;
+      play.json = json;
+      return replay_as_device(*capture, i, links[i]->device, play);
+    }
   }
   const bool named = capture->interfaces.size() > 1 && !only;
   const std::uint64_t first = capture->packets.empty() ? 0 : capture->packets.front().timestamp_us;
@@ -234,7 +278,7 @@ int run_replay(int argc, char** argv) {
     records.clear();
   }
   out().flush();
-  if (const std::string failure = out().write_failure(); !failure.empty()) return command_text().fail(failure);
+  if (const std::string failure = out().write_failure(); !failure.empty()) return replay_command().fail(failure);
   return 0;
 }
 

@@ -119,37 +119,6 @@ std::optional<int> parse_sim_arguments(int argc, char** argv, SimArguments& argu
   return std::nullopt;
 }
 
-// Makes `link` point to `target`. An existing symlink is taken to be stale and replaced; anything else
-// at that path is left alone and reported.
-std::error_code make_link(const std::filesystem::path& link, const std::string& target, std::string& message) {
-  std::error_code error;
-  const auto status = std::filesystem::symlink_status(link, error);
-  if (!error && std::filesystem::exists(status)) {
-    if (!std::filesystem::is_symlink(status)) {
-      message = link.string() + " exists and is not a symlink";
-      return std::make_error_code(std::errc::file_exists);
-    }
-    std::filesystem::remove(link, error);
-    if (error) {
-      message = "cannot replace " + link.string() + ": " + error.message();
-      return error;
-    }
-  }
-  error.clear();
-  std::filesystem::create_symlink(target, link, error);
-  if (error) message = "cannot create the symlink " + link.string() + ": " + error.message();
-  return error;
-}
-
-// Removes `link` if it still points to `target` (someone may have replaced it meanwhile).
-void remove_link(const std::filesystem::path& link, const std::string& target) {
-  std::error_code error;
-  if (std::filesystem::is_symlink(std::filesystem::symlink_status(link, error)) &&
-      std::filesystem::read_symlink(link, error) == target) {
-    std::filesystem::remove(link, error);
-  }
-}
-
 }  // namespace
 
 int run_sim(int argc, char** argv) {

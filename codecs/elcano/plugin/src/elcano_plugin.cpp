@@ -3,10 +3,12 @@
 #include <cstddef>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <variant>
 
+#include "tether/elcano/decoder.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/elcano/node_settings.hpp"
 #include "tether/elcano/plugin.hpp"
@@ -109,6 +111,45 @@ transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
   };
 }
 
+namespace {
+
+// Playing a recorded Elcano device: ring messages carry no ids (and generation D's CRC covers only the
+// message), so nothing is rewritten. A request is the message as a node forwards it (without whitespace);
+// a message the recording lacks is answered with nothing, as a ring answers a message no node captures.
+class ElcanoReplayer final : public transports::CaptureReplayer {
+ public:
+  explicit ElcanoReplayer(Generation generation) : generation_(generation) {}
+
+  transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
+    LinkCounters counters;
+    Decoder<> decoder(generation_, counters);
+    for (const std::uint8_t byte : frame) {
+      const DecodeStatus status = decoder.feed(byte);
+      if (status == DecodeStatus::error) return {};
+      if (status == DecodeStatus::frame) {
+        const ByteView bytes = decoder.forward();
+        return {transports::ReplayRequest::Kind::request,
+                std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size())};
+      }
+    }
+    return {};
+  }
+  void matched(std::span<const std::uint8_t>, std::span<const std::uint8_t>) override {}
+  std::optional<std::vector<std::uint8_t>> rewrite(std::span<const std::uint8_t> recorded) override {
+    return std::vector<std::uint8_t>(recorded.begin(), recorded.end());
+  }
+  std::vector<std::vector<std::uint8_t>> answer(std::span<const std::uint8_t>) override { return {}; }
+
+ private:
+  Generation generation_;
+};
+
+}  // namespace
+
+std::unique_ptr<transports::CaptureReplayer> capture_replayer(Generation generation) {
+  return std::make_unique<ElcanoReplayer>(generation);
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -130,6 +171,10 @@ std::vector<devices::CodecRow> codec_rows() {
   row.validate = validate_elcano;
   row.open = open_elcano;
   row.capture_framing = capture_framing;
+  row.capture_replay = [](const devices::DeviceConfig& device) {
+    const auto* options = device.options.get_if<DeviceOptions>();
+    return capture_replayer(options != nullptr ? options->generation : Generation::b);
+  };
   row.capture_words = [](const devices::DeviceConfig& device) -> std::string {
     const auto* options = device.options.get_if<DeviceOptions>();
     if (options == nullptr) return {};

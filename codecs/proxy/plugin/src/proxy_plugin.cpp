@@ -3,9 +3,11 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <string>
 #include <utility>
@@ -13,6 +15,8 @@
 
 #include "tether/devices/json_reader.hpp"
 #include "tether/proxy/boot_frame.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/device_message.hpp"
 #include "tether/proxy/encoder.hpp"
 #include "tether/proxy/plugin.hpp"
 
@@ -243,6 +247,121 @@ transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
   };
 }
 
+namespace {
+
+// One frame's payload (leading 0x00s, COBS, the CRC checked in primary mode); nothing when it is damaged.
+std::optional<std::string> frame_payload(std::span<const std::uint8_t> bytes, Integrity integrity) {
+  LinkCounters counters;
+  Decoder<kMaxPayload> decoder(integrity, counters);
+  for (const std::uint8_t byte : bytes) {
+    const DecodeStatus status = decoder.feed(byte);
+    if (status == DecodeStatus::error) return std::nullopt;
+    if (status == DecodeStatus::frame) {
+      const ByteView payload = decoder.frame();
+      return std::string(reinterpret_cast<const char*>(payload.data()), payload.size());
+    }
+  }
+  return std::nullopt;
+}
+
+std::vector<std::uint8_t> frame_of(const google::protobuf::Message& message, Integrity integrity, bool leading) {
+  const std::string payload = message.SerializeAsString();
+  std::vector<std::uint8_t> frame(max_frame_size(payload.size()));
+  const Result<std::size_t> written = encode_frame(ByteView::from_chars(payload.data(), payload.size()), integrity,
+                                                   leading, MutableByteView(frame.data(), frame.size()));
+  frame.resize(written.ok() ? written.value() : 0);
+  return frame;
+}
+
+// Playing a recorded proxy device (primary mode): a request is its ArduinoIn without the messageId (the live
+// host numbers its own), an Ack goes out with the live id of the message its recorded id matched, the
+// CRC-16 and COBS over the new payload; every other message (ResetEvent with its recorded sessionId,
+// PinState, Error, ArduinoInfo) as recorded. A ping is acked whenever it comes, as the device acks it; a
+// message the recording does not have is refused as the device refuses one it cannot run: an Error saying
+// why, then its Ack with `refused`.
+class ProxyReplayer final : public transports::CaptureReplayer {
+ public:
+  transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
+    ArduinoIn message;
+    if (!parse(frame, message)) return {};
+    message.clear_messageid();
+    const bool ping = message.data_case() == ArduinoIn::kPing;
+    return {ping ? transports::ReplayRequest::Kind::keepalive : transports::ReplayRequest::Kind::request,
+            message.ShortDebugString()};
+  }
+
+  void matched(std::span<const std::uint8_t> recorded, std::span<const std::uint8_t> live) override {
+    ArduinoIn was;
+    ArduinoIn now;
+    if (parse(recorded, was) && parse(live, now)) ids_[was.messageid()] = now.messageid();
+  }
+
+  std::optional<std::vector<std::uint8_t>> rewrite(std::span<const std::uint8_t> recorded) override {
+    std::vector<std::uint8_t> same(recorded.begin(), recorded.end());
+    const std::optional<std::string> payload = frame_payload(recorded, Integrity::crc16);
+    ArduinoOut message;
+    if (!payload || !parse_device_message(message, ByteView::from_chars(payload->data(), payload->size())) ||
+        !message.has_ack()) {
+      return same;
+    }
+    const auto live = ids_.find(message.ack().messageid());
+    if (live == ids_.end()) return std::nullopt;  // a recorded ping's ack, or a message the live host did not send
+    message.mutable_ack()->set_messageid(live->second);
+    return frame_of(message, Integrity::crc16, !recorded.empty() && recorded[0] == 0);
+  }
+
+  std::vector<std::vector<std::uint8_t>> answer(std::span<const std::uint8_t> live) override {
+    ArduinoIn request;
+    if (!parse(live, request)) return {};  // the device drops a damaged frame (and counts it)
+    std::vector<std::vector<std::uint8_t>> frames;
+    const bool ping = request.data_case() == ArduinoIn::kPing;
+    if (!ping) {
+      ArduinoOut error;
+      error.mutable_error()->set_text("replay: not the recorded message");
+      error.mutable_error()->set_level(Error::WARNING);
+      frames.push_back(frame_of(error, Integrity::crc16, false));
+    }
+    ArduinoOut ack;
+    ack.mutable_ack()->set_messageid(request.messageid());
+    ack.mutable_ack()->set_refused(!ping);
+    frames.push_back(frame_of(ack, Integrity::crc16, false));
+    return frames;
+  }
+
+ private:
+  static bool parse(std::span<const std::uint8_t> frame, ArduinoIn& message) {
+    const std::optional<std::string> payload = frame_payload(frame, Integrity::crc16);
+    return payload && message.ParseFromString(*payload);
+  }
+
+  std::map<std::uint32_t, std::uint32_t> ids_;  // recorded messageId -> the live message's
+};
+
+// proxy-compat: no ids, no CRC, no acks. A request is the whole message; answers go as recorded; the
+// deployed firmware answers a message it cannot run with an ErrorMessage of its own kind, which the
+// recording cannot say, so a message it does not have is answered with nothing.
+class CompatReplayer final : public transports::CaptureReplayer {
+ public:
+  transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
+    const std::optional<std::string> payload = frame_payload(frame, Integrity::none);
+    RocketryProto::ArduinoIn message;
+    if (!payload || !message.ParseFromString(*payload)) return {};
+    return {transports::ReplayRequest::Kind::request, message.ShortDebugString()};
+  }
+  void matched(std::span<const std::uint8_t>, std::span<const std::uint8_t>) override {}
+  std::optional<std::vector<std::uint8_t>> rewrite(std::span<const std::uint8_t> recorded) override {
+    return std::vector<std::uint8_t>(recorded.begin(), recorded.end());
+  }
+  std::vector<std::vector<std::uint8_t>> answer(std::span<const std::uint8_t>) override { return {}; }
+};
+
+}  // namespace
+
+std::unique_ptr<transports::CaptureReplayer> capture_replayer(Mode mode) {
+  if (mode == Mode::primary) return std::make_unique<ProxyReplayer>();
+  return std::make_unique<CompatReplayer>();
+}
+
 std::vector<devices::CodecRow> codec_rows() {
   std::vector<devices::CodecRow> rows(2);
   // proxy and proxy-compat: one client and parser, the mode from the codec.
@@ -261,6 +380,7 @@ std::vector<devices::CodecRow> codec_rows() {
     row.capture_framing = capture_framing;
   };
   fill(rows[0], kCodec, "proxy", "proxy::Client");
+  rows[0].capture_replay = [](const devices::DeviceConfig&) { return capture_replayer(Mode::primary); };
   rows[0].option_keys = {
       "baud",           "bits_per_byte",    "processing_margin_ms", "send_budget_ms", "max_sends", "queue_timeout_ms",
       "ping_period_ms", "reset_timeout_ms", "open_timeout_ms",      "inits"};
@@ -269,6 +389,7 @@ std::vector<devices::CodecRow> codec_rows() {
   fill(rows[1], kCompatCodec, "proxy-compat", "proxy::Client (proxy::Options::compat())");
   rows[1].option_keys = {"queue_timeout_ms", "stale_after_ms", "replay_on_reset", "open_timeout_ms", "inits"};
   rows[1].default_baud = 57600;  // the deployed firmware's
+  rows[1].capture_replay = [](const devices::DeviceConfig&) { return capture_replayer(Mode::compat); };
   return rows;
 }
 

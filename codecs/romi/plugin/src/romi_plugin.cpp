@@ -1,11 +1,18 @@
 // The Romi codec's plugin (plugin.hpp): its options in a configuration and its client on a device's stream.
+#include <array>
 #include <chrono>
+#include <map>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string_view>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "tether/devices/json_reader.hpp"
+#include "tether/romi/decoder.hpp"
+#include "tether/romi/encoder.hpp"
 #include "tether/romi/limits.hpp"
 #include "tether/romi/plugin.hpp"
 
@@ -67,6 +74,88 @@ transports::CaptureFraming capture_framing(const devices::DeviceConfig&) {
   };
 }
 
+namespace {
+
+// One frame decoded as a Romi decoder sees it (either direction: the host's capacity bounds both).
+struct Decoded {
+  bool complete = false;     // a whole frame, its CRC right
+  Frame frame;               // what was parsed (after an error too)
+  std::string payload;       // a copy of frame.payload
+  Error error = Error::no_error;
+};
+
+Decoded decode(std::span<const std::uint8_t> bytes) {
+  LinkCounters counters;
+  Decoder<kHostDecoderCapacity> decoder(counters);
+  Decoded result;
+  for (const std::uint8_t byte : bytes) {
+    const DecodeStatus status = decoder.feed(byte);
+    if (status == DecodeStatus::more) continue;
+    result.frame = decoder.frame();
+    result.payload.assign(reinterpret_cast<const char*>(result.frame.payload.data()), result.frame.payload.size());
+    result.frame.payload = ByteView();
+    result.complete = status == DecodeStatus::frame;
+    if (!result.complete) result.error = decoder.error();
+    return result;
+  }
+  return result;  // no `\n`: the framing cut it short
+}
+
+std::vector<std::uint8_t> response(char opcode, std::string_view body, std::uint8_t id) {
+  std::vector<std::uint8_t> frame(body.size() + kResponseOverhead + 16);
+  const Result<std::size_t> written = encode_response(
+      opcode, ByteView::from_chars(body.data(), body.size()), id, MutableByteView(frame.data(), frame.size()));
+  frame.resize(written.ok() ? written.value() : 0);
+  return frame;
+}
+
+// Playing a recorded Romi device: a request is its payload (`a[1]`; the id and CRC are the host's), an
+// answer goes out with the id of the live request its recorded request matched and the CRC-8 over it.
+class RomiReplayer final : public transports::CaptureReplayer {
+ public:
+  transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
+    const Decoded decoded = decode(frame);
+    if (!decoded.complete || decoded.frame.log) return {};
+    return {transports::ReplayRequest::Kind::request,
+            decoded.frame.manual ? decoded.payload + " (manual)" : decoded.payload};
+  }
+
+  void matched(std::span<const std::uint8_t> recorded, std::span<const std::uint8_t> live) override {
+    const Decoded was = decode(recorded);
+    const Decoded now = decode(live);
+    // A manual request's answer carries id 00, both recorded and live.
+    ids_[was.frame.has_id ? was.frame.id : 0] = now.frame.has_id ? now.frame.id : 0;
+  }
+
+  std::optional<std::vector<std::uint8_t>> rewrite(std::span<const std::uint8_t> recorded) override {
+    const std::vector<std::uint8_t> same(recorded.begin(), recorded.end());
+    const Decoded decoded = decode(recorded);
+    if (!decoded.complete || decoded.frame.log || decoded.frame.manual || !decoded.frame.has_id) return same;
+    const auto live = ids_.find(decoded.frame.id);
+    if (live == ids_.end()) return std::nullopt;  // the answer to a request the live host did not send
+    if (decoded.payload.empty()) return same;
+    return response(decoded.payload[0], std::string_view(decoded.payload).substr(1), live->second);
+  }
+
+  // What Romi firmware answers: an envelope error with what it parsed of the frame (its opcode, its id or
+  // 00), and -16 (unknown opcode) to a request it has no handler for: the recording has none for it.
+  std::vector<std::vector<std::uint8_t>> answer(std::span<const std::uint8_t> live) override {
+    const Decoded decoded = decode(live);
+    if (decoded.frame.log) return {};
+    const Error error = decoded.complete ? Error::unknown_opcode : decoded.error;
+    if (error == Error::no_error) return {};  // cut short: the firmware is still waiting for its end
+    const std::string body = "[" + std::to_string(static_cast<int>(error)) + "]";
+    return {response(decoded.frame.opcode, body, decoded.frame.has_id ? decoded.frame.id : 0)};
+  }
+
+ private:
+  std::map<std::uint8_t, std::uint8_t> ids_;  // recorded request id -> the live request's
+};
+
+}  // namespace
+
+std::unique_ptr<transports::CaptureReplayer> capture_replayer() { return std::make_unique<RomiReplayer>(); }
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -79,6 +168,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.open = open;
   row.boot = boot_signature();
   row.capture_framing = capture_framing;
+  row.capture_replay = [](const devices::DeviceConfig&) { return capture_replayer(); };
   return {row};
 }
 

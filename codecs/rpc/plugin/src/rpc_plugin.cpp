@@ -3,9 +3,11 @@
 #include <condition_variable>
 #include <filesystem>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <string>
 #include <utility>
@@ -13,10 +15,14 @@
 
 #include "tether/devices/json_reader.hpp"
 #include "tether/proxy/boot_frame.hpp"
+#include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
+#include "tether/rpc/errors.hpp"
 #include "tether/rpc/plugin.hpp"
 
 #include <google/protobuf/descriptor.h>
+
+#include "tether_rpc.pb.h"
 
 namespace tether::rpc {
 
@@ -208,6 +214,114 @@ std::string capture_words(const devices::DeviceConfig& device) {
   return words + " crc=on";
 }
 
+namespace {
+
+// One frame's payload (leading 0x00s, COBS, CRC-16 checked); nothing when it is damaged.
+std::optional<std::string> frame_payload(std::span<const std::uint8_t> bytes) {
+  LinkCounters counters;
+  proxy::Decoder<kMaxPayload> decoder(proxy::Integrity::crc16, counters);
+  for (const std::uint8_t byte : bytes) {
+    const DecodeStatus status = decoder.feed(byte);
+    if (status == DecodeStatus::error) return std::nullopt;
+    if (status == DecodeStatus::frame) {
+      const ByteView payload = decoder.frame();
+      return std::string(reinterpret_cast<const char*>(payload.data()), payload.size());
+    }
+  }
+  return std::nullopt;
+}
+
+std::vector<std::uint8_t> frame_of(const google::protobuf::Message& message, bool leading) {
+  const std::string payload = message.SerializeAsString();
+  std::vector<std::uint8_t> frame(proxy::max_frame_size(payload.size()));
+  const Result<std::size_t> written =
+      proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, leading,
+                          MutableByteView(frame.data(), frame.size()));
+  frame.resize(written.ok() ? written.value() : 0);
+  return frame;
+}
+
+// Playing a recorded rpc device: a request is its HostMessage without the id (and a CloseStream without the
+// stream, which is an id); the ids a device message carries (Ack.id, Reply.call, DeviceError.call,
+// StreamMessage.stream) become the live ones of the messages they were recorded for, CRC-16 and COBS redone;
+// DeviceHello and ResetEvent go as recorded (the live host learns the recorded session). A ping is acked
+// whenever it comes; a message the recording lacks is refused as the device refuses a method it does not
+// have: DeviceError{unknown_method}, then Ack{refused}.
+class RpcReplayer final : public transports::CaptureReplayer {
+ public:
+  transports::ReplayRequest classify(std::span<const std::uint8_t> frame) override {
+    wire::HostMessage message;
+    if (!parse(frame, message)) return {};
+    message.clear_id();
+    if (message.has_close()) message.mutable_close()->clear_stream();
+    return {message.has_ping() ? transports::ReplayRequest::Kind::keepalive : transports::ReplayRequest::Kind::request,
+            message.ShortDebugString()};
+  }
+
+  void matched(std::span<const std::uint8_t> recorded, std::span<const std::uint8_t> live) override {
+    wire::HostMessage was;
+    wire::HostMessage now;
+    if (parse(recorded, was) && parse(live, now)) ids_[was.id()] = now.id();
+  }
+
+  std::optional<std::vector<std::uint8_t>> rewrite(std::span<const std::uint8_t> recorded) override {
+    std::vector<std::uint8_t> same(recorded.begin(), recorded.end());
+    const std::optional<std::string> payload = frame_payload(recorded);
+    wire::DeviceMessage message;
+    if (!payload || !message.ParseFromString(*payload)) return same;
+    const auto live = [this](std::uint32_t id) -> std::optional<std::uint32_t> {
+      const auto found = ids_.find(id);
+      if (found == ids_.end()) return std::nullopt;
+      return found->second;
+    };
+    std::optional<std::uint32_t> id;
+    if (message.has_ack()) {
+      if ((id = live(message.ack().id()))) message.mutable_ack()->set_id(*id);
+    } else if (message.has_reply()) {
+      if ((id = live(message.reply().call()))) message.mutable_reply()->set_call(*id);
+    } else if (message.has_error()) {
+      if (message.error().call() == 0) return same;  // not about a message (a frame that was no HostMessage)
+      if ((id = live(message.error().call()))) message.mutable_error()->set_call(*id);
+    } else if (message.has_stream()) {
+      if ((id = live(message.stream().stream()))) message.mutable_stream()->set_stream(*id);
+    } else {
+      return same;
+    }
+    if (!id) return std::nullopt;  // about a message the live host did not send (a recorded ping's ack)
+    return frame_of(message, !recorded.empty() && recorded[0] == 0);
+  }
+
+  std::vector<std::vector<std::uint8_t>> answer(std::span<const std::uint8_t> live) override {
+    wire::HostMessage request;
+    if (!parse(live, request)) return {};  // a frame the device drops (and counts)
+    std::vector<std::vector<std::uint8_t>> frames;
+    if (!request.has_ping()) {
+      wire::DeviceMessage error;
+      error.mutable_error()->set_call(request.id());
+      error.mutable_error()->set_code(static_cast<std::uint32_t>(DeviceErrorCode::unknown_method));
+      error.mutable_error()->set_text("replay: not the recorded message");
+      frames.push_back(frame_of(error, false));
+    }
+    wire::DeviceMessage ack;
+    ack.mutable_ack()->set_id(request.id());
+    ack.mutable_ack()->set_refused(!request.has_ping());
+    frames.push_back(frame_of(ack, false));
+    return frames;
+  }
+
+ private:
+  static bool parse(std::span<const std::uint8_t> frame, wire::HostMessage& message) {
+    const std::optional<std::string> payload = frame_payload(frame);
+    return payload && message.ParseFromString(*payload);
+  }
+
+  std::map<std::uint32_t, std::uint32_t> ids_;  // recorded message id -> the live message's
+};
+
+}  // namespace
+
+std::unique_ptr<transports::CaptureReplayer> capture_replayer() { return std::make_unique<RpcReplayer>(); }
+
 std::vector<devices::CodecRow> codec_rows() {
   devices::CodecRow row;
   row.codec = kCodec;
@@ -227,6 +341,7 @@ std::vector<devices::CodecRow> codec_rows() {
   row.boot = boot_signature();
   row.capture_framing = capture_framing;
   row.capture_words = capture_words;
+  row.capture_replay = [](const devices::DeviceConfig&) { return capture_replayer(); };
   return {row};
 }
 

@@ -51,6 +51,7 @@
 #include "tether/transports/boot_detection.hpp"
 #include "tether/transports/byte_stream.hpp"
 #include "tether/transports/capture_framing.hpp"
+#include "tether/transports/capture_replay.hpp"
 
 namespace tether::devices {
 
@@ -178,6 +179,10 @@ struct CodecRow {
   /// The words its devices' capture interfaces add to `tether codec=... baud=... transport=...` (space-separated
   /// `key=value`, values through `transports::capture_word_value`): `generation=D`, `crc=on`. Unset: none.
   std::function<std::string(const DeviceConfig& device)> capture_words;
+  /// How `tether replay --as-device` plays a recorded device of it to a live host
+  /// (transports/capture_replay.hpp): which recorded request a host frame is, and the recorded answers with
+  /// the live host's ids and CRCs. Unset: its captures cannot be played as a device.
+  std::function<std::unique_ptr<transports::CaptureReplayer>(const DeviceConfig& device)> capture_replay;
 };
 
 /// The row of `codec`. Throws `std::out_of_range` for a value no row has.

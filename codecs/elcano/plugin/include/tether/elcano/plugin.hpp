@@ -41,6 +41,11 @@ struct DeviceOptions {
 /// name listed twice. For `capture` here and in a ring board's settings.
 TypeSet read_message_types(const devices::JsonNode& node);
 
+/// How `tether replay --as-device` plays a recorded device of a ring of `generation`
+/// (transports/capture_replay.hpp): messages matched as a node forwards them (without whitespace), answers
+/// as recorded (no ids to rewrite), nothing to a message the recording lacks.
+std::unique_ptr<transports::CaptureReplayer> capture_replayer(Generation generation);
+
 /// The codec's row of the devices table: `elcano`, its option keys, parser and checks, carried by one
 /// board or a virtual ring, `elcano::RingClient`.
 std::vector<devices::CodecRow> codec_rows();

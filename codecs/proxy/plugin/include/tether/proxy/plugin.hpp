@@ -53,6 +53,12 @@ struct DeviceOptions {
 /// sends nothing at boot and has no request without an effect: its devices wait a fixed `boot_wait`.
 transports::BootSignature boot_signature();
 
+/// How `tether replay --as-device` plays a recorded device of `mode` (transports/capture_replay.hpp):
+/// primary: requests matched without their messageId, Acks sent with the live message's id (CRC-16 and COBS
+/// redone), pings acked, a message the recording lacks refused (Error, then Ack `refused`); compat: whole
+/// messages matched, answers as recorded, nothing to a message the recording lacks.
+std::unique_ptr<transports::CaptureReplayer> capture_replayer(Mode mode);
+
 /// The codec's rows of the devices table: `proxy` (primary mode) and `proxy-compat` (the deployed variant,
 /// 57600 baud), one parser and client.
 std::vector<devices::CodecRow> codec_rows();

@@ -41,6 +41,11 @@ struct DeviceOptions {
 /// in optiboot restarts its 1 s window (every byte it receives does), hence never a faster retry.
 transports::BootSignature boot_signature();
 
+/// How `tether replay --as-device` plays a recorded Romi device (transports/capture_replay.hpp): requests
+/// matched on their payload, answers sent with the live request's id and their CRC-8 over it, -16 (unknown
+/// opcode) to a request the recording does not have, envelope errors as the firmware answers them.
+std::unique_ptr<transports::CaptureReplayer> capture_replayer();
+
 /// The codec's row of the devices table: `romi`, its option keys, parser and checks, `romi::Client`.
 std::vector<devices::CodecRow> codec_rows();
 

@@ -43,6 +43,12 @@ struct DeviceOptions {
 /// and a COBS frame holding `ResetEvent{session}`; that frame (kept for the client) is the announcement.
 transports::BootSignature boot_signature();
 
+/// How `tether replay --as-device` plays a recorded rpc device (transports/capture_replay.hpp): requests
+/// matched without their id, the ids in Ack, Reply, DeviceError and StreamMessage made the live message's
+/// (CRC-16 and COBS redone), pings acked, a message the recording lacks refused (DeviceError
+/// unknown_method, Ack refused).
+std::unique_ptr<transports::CaptureReplayer> capture_replayer();
+
 /// The codec's row of the devices table: `rpc`.
 std::vector<devices::CodecRow> codec_rows();
 
