@@ -83,9 +83,9 @@ devices::Codec default_codec() {
   return rows.empty() ? devices::Codec{} : rows.front()->codec;
 }
 
-devices::Codec codec_of_image(const std::filesystem::path& firmware) {
+const devices::CodecRow* codec_row_of_image(const std::filesystem::path& firmware) {
   const std::string stem = firmware.stem().string();
-  devices::Codec codec = default_codec();
+  const devices::CodecRow* best = nullptr;
   std::size_t longest = 0;
   for (const devices::CodecRow* row : devices::codec_rows()) {
     const CodecCommands* commands = codec_commands(row->codec);
@@ -93,11 +93,16 @@ devices::Codec codec_of_image(const std::filesystem::path& firmware) {
     for (const std::string_view prefix : commands->image_prefixes) {
       if (prefix.size() > longest && stem.starts_with(prefix)) {
         longest = prefix.size();
-        codec = row->codec;
+        best = row;
       }
     }
   }
-  return codec;
+  return best;
+}
+
+devices::Codec codec_of_image(const std::filesystem::path& firmware) {
+  const devices::CodecRow* row = codec_row_of_image(firmware);
+  return row != nullptr ? row->codec : default_codec();
 }
 
 std::unique_ptr<MonitorDecoder> make_monitor_decoder(const devices::DeviceConfig& config, const DecoderRole& role,

@@ -172,7 +172,10 @@ std::optional<devices::Codec> parse_codec(std::string_view text);
 std::string codec_choices();
 /// The codec whose row `is_default` (else the first row's).
 devices::Codec default_codec();
-/// The codec of a `--virtual` image (by its file name).
+/// The row of the codec a `--virtual` image's file name says (the longest image prefix it starts with:
+/// `romi-blink` is romi's), or null when no codec claims the name.
+const devices::CodecRow* codec_row_of_image(const std::filesystem::path& firmware);
+/// The codec of a `--virtual` image (by its file name; the default codec when no codec claims it).
 devices::Codec codec_of_image(const std::filesystem::path& firmware);
 
 /// `{"frames_ok": 1, ...}` of every link counter.

@@ -233,24 +233,6 @@ std::vector<Edit> align(const std::vector<int>& a, const std::vector<int>& b, bo
   return edits;
 }
 
-// The codec a `--virtual` image's name says (`romi-blink`: romi), or nothing when no codec claims the name.
-const devices::CodecRow* codec_named_by(const fs::path& image) {
-  const std::string stem = image.stem().string();
-  const devices::CodecRow* best = nullptr;
-  std::size_t longest = 0;
-  for (const devices::CodecRow* row : devices::codec_rows()) {
-    const CodecCommands* commands = codec_commands(row->codec);
-    if (commands == nullptr) continue;
-    for (const std::string_view prefix : commands->image_prefixes) {
-      if (prefix.size() > longest && stem.starts_with(prefix)) {
-        longest = prefix.size();
-        best = row;
-      }
-    }
-  }
-  return best;
-}
-
 }  // namespace
 
 std::string against_virtual_rules_usage() {
@@ -310,7 +292,7 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
     return text.fail("firmware image not found: " + image.string() + ": " + std::system_category().message(reason));
   }
   if (!fs::is_regular_file(status)) return text.fail("not a firmware image: " + image.string() + " is not a regular file");
-  if (const devices::CodecRow* named = codec_named_by(image); named != nullptr && named->codec != device->codec) {
+  if (const devices::CodecRow* named = codec_row_of_image(image); named != nullptr && named->codec != device->codec) {
     return text.fail(image.filename().string() + " is a " + std::string(named->name) + " image, and device '" +
                      printable(interface.name) + "' of " + run.file + " speaks " + std::string(row.name));
   }
