@@ -19,7 +19,7 @@ constexpr Command kFirst[] = {
 constexpr Command kRest[] = {
     {"shell", run_shell, "interactive terminal for a device: type messages, see answers and what it sends"},
     {"monitor", run_monitor, "decode and print everything a device sends, with timestamps (passive)"},
-    {"replay", run_replay, "print a capture file (--record, monitor --write) as monitor --tap prints a session"},
+    {"replay", run_replay, "print a capture (--record, monitor --write) as monitor --tap would; check a firmware against it, play its device on a pty"},
     {"demo", run_demo, "compare the protocols: the same servo workload on every device of a (virtual) rover, with noise and resets"},
     {"bench", run_bench, "benchmark the protocols over noise and rates: latency, bytes, CPU, saturation; JSON, CSV, plots, report.html"},
     {"flash", run_flash, "upload a firmware image through the board's bootloader (avrdude, optiboot), verified"},
