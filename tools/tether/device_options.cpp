@@ -142,6 +142,24 @@ std::string firmware_dir() {
   return TETHER_FIRMWARE_DIR;
 }
 
+std::optional<std::string> firmware_image_problem(const std::filesystem::path& firmware) {
+  std::error_code status_error;
+  const std::filesystem::file_status status = std::filesystem::status(firmware, status_error);
+  if (!std::filesystem::exists(status) || std::filesystem::is_directory(status)) {
+    const int reason = std::filesystem::is_directory(status) ? EISDIR : ENOENT;
+    return "firmware image not found: " + firmware.string() + ": " + std::system_category().message(reason);
+  }
+  if (std::filesystem::is_regular_file(status)) return std::nullopt;
+  // A device, FIFO or socket exists, so "not found" would mislead; reading one could block or never end.
+  const std::filesystem::file_type type = status.type();
+  const char* kind = type == std::filesystem::file_type::character ? "a character device"
+                     : type == std::filesystem::file_type::block   ? "a block device"
+                     : type == std::filesystem::file_type::fifo    ? "a FIFO"
+                     : type == std::filesystem::file_type::socket  ? "a socket"
+                                                                   : "not a regular file";
+  return "not a firmware image: " + firmware.string() + " is " + kind + " (an AVR ELF file is needed)";
+}
+
 std::filesystem::path firmware_image(const std::string& name) {
   if (name.find('/') != std::string::npos) return name;
   const bool has_suffix = name.size() > 4 && name.ends_with(".elf");
@@ -436,22 +454,8 @@ std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices
   const std::filesystem::path firmware = board ? firmware_image(options.firmware) : std::filesystem::path();
   if (board) {
     // Before the codec, which the image's name suggests: a missing image is "not found", not a codec mismatch.
-    std::error_code status_error;
-    const std::filesystem::file_status status = std::filesystem::status(firmware, status_error);
-    if (!std::filesystem::exists(status) || std::filesystem::is_directory(status)) {
-      const int reason = std::filesystem::is_directory(status) ? EISDIR : ENOENT;
-      error = "firmware image not found: " + firmware.string() + ": " + std::system_category().message(reason);
-      return std::nullopt;
-    }
-    if (!std::filesystem::is_regular_file(status)) {
-      // A device, FIFO or socket exists, so "not found" would mislead; reading one could block or never end.
-      const std::filesystem::file_type type = status.type();
-      const char* kind = type == std::filesystem::file_type::character ? "a character device"
-                         : type == std::filesystem::file_type::block   ? "a block device"
-                         : type == std::filesystem::file_type::fifo    ? "a FIFO"
-                         : type == std::filesystem::file_type::socket  ? "a socket"
-                                                                       : "not a regular file";
-      error = "not a firmware image: " + firmware.string() + " is " + kind + " (an AVR ELF file is needed)";
+    if (std::optional<std::string> problem = firmware_image_problem(firmware)) {
+      error = std::move(*problem);
       return std::nullopt;
     }
   }

@@ -231,4 +231,8 @@ std::string firmware_dir();
 /// optional (`romi-test`, `romi-test.elf`).
 std::filesystem::path firmware_image(const std::string& name);
 
+/// Why `firmware` cannot be a firmware image (`firmware image not found: ...`, `not a firmware image: ... is a
+/// FIFO ...`), or nothing when it is a regular file.
+std::optional<std::string> firmware_image_problem(const std::filesystem::path& firmware);
+
 }  // namespace tether::cli

@@ -7,6 +7,7 @@
 // events as `link <event>`; with --json one object per line. Exit status 0; 2 for usage errors and a file
 // that is not a readable Tether capture (the reader's message names the offset). `--against-virtual IMAGE`
 // compares a virtual board's answers with the recorded ones instead (replay_against_virtual.hpp).
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <map>
@@ -130,6 +131,37 @@ std::optional<devices::DeviceConfig> device_of(const transports::CaptureInterfac
   return device;
 }
 
+// The one link `--against-virtual` and `--as-device` play (`--device NAME`'s, or the capture's only one) and
+// its device; nothing, with the message in `error`, when there is no such link or it cannot be decoded.
+std::optional<std::pair<std::size_t, devices::DeviceConfig>> one_link(const transports::Capture& capture,
+                                                                      const std::optional<std::string>& only,
+                                                                      const std::string& file, std::string& error) {
+  devices::NameList names;
+  for (const auto& interface : capture.interfaces) names.add(interface.name);
+  std::size_t link = 0;
+  if (only) {
+    const auto named = std::find_if(capture.interfaces.begin(), capture.interfaces.end(),
+                                    [&](const auto& interface) { return interface.name == *only; });
+    if (named == capture.interfaces.end()) {
+      error = file + ": no device '" + printable(*only) + "' (devices: " + names.text() + ")";
+      return std::nullopt;
+    }
+    link = static_cast<std::size_t>(named - capture.interfaces.begin());
+  } else if (capture.interfaces.size() != 1) {
+    error = file + (capture.interfaces.empty() ? ": no device links in the capture"
+                                               : ": " + std::to_string(capture.interfaces.size()) + " device links (" +
+                                                     names.text() + "): name one with --device");
+    return std::nullopt;
+  }
+  std::string why;
+  std::optional<devices::DeviceConfig> device = device_of(capture.interfaces[link], why);
+  if (!device) {
+    error = file + ": interface " + std::to_string(link) + " (" + printable(capture.interfaces[link].name) + "): " + why;
+    return std::nullopt;
+  }
+  return std::pair{link, std::move(*device)};
+}
+
 }  // namespace
 
 int run_replay(int argc, char** argv) {
@@ -179,15 +211,26 @@ int run_replay(int argc, char** argv) {
     return replay_command().usage_error(std::string(play.loop ? "--loop" : "--link") + " applies to --as-device only");
   }
   if (as_device && utc) return replay_command().usage_error("--utc does not apply to --as-device");
-  if (as_device && against_virtual) return replay_command().usage_error("--as-device and --against-virtual exclude each other");
+  if (as_device && against_virtual) {
+    return replay_command().usage_error("--as-device and --against-virtual exclude each other");
+  }
 
   boost::system::error_code error;
   std::string message;
   const std::optional<transports::Capture> capture = transports::read_capture(file, error, message);
   if (!capture) return replay_command().fail(message);
-  if (against_virtual) {
-    return replay_against_virtual({file, &*capture, only, *against_virtual, json, settle_ms.value_or(500), device_of},
-                                  replay_command());
+  if (against_virtual || as_device) {
+    std::string why;
+    std::optional<std::pair<std::size_t, devices::DeviceConfig>> chosen = one_link(*capture, only, file, why);
+    if (!chosen) return replay_command().fail(why);
+    if (against_virtual) {
+      return replay_against_virtual(
+          {file, &*capture, chosen->first, std::move(chosen->second), *against_virtual, json, settle_ms.value_or(500)},
+          replay_command());
+    }
+    play.file = file;
+    play.json = json;
+    return replay_as_device(*capture, static_cast<std::uint32_t>(chosen->first), chosen->second, play);
   }
 
   // One decoder per link and direction, made when the link first has bytes.
@@ -213,20 +256,6 @@ int run_replay(int argc, char** argv) {
     devices::NameList names;
     for (const auto& interface : capture->interfaces) names.add(interface.name);
     return replay_command().fail(file + ": no device '" + *only + "' (devices: " + names.text() + ")");
-  }
-  if (as_device) {
-    if (capture->interfaces.size() != 1 && !only) {
-      devices::NameList names;
-      for (const auto& interface : capture->interfaces) names.add(interface.name);
-      return replay_command().usage_error("--as-device plays one link: name it with --device (devices: " +
-                                        names.text() + ")");
-    }
-    for (std::uint32_t i = 0; i < links.size(); ++i) {
-      if (!links[i]) continue;
-      play.file = file;
-      play.json = json;
-      return replay_as_device(*capture, i, links[i]->device, play);
-    }
   }
   const bool named = capture->interfaces.size() > 1 && !only;
   const std::uint64_t first = capture->packets.empty() ? 0 : capture->packets.front().timestamp_us;

@@ -255,44 +255,16 @@ std::string against_virtual_rules_usage() {
 int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   const transports::Capture& capture = *run.capture;
 
-  // The link.
-  std::size_t link = 0;
-  if (run.device) {
-    const auto named = std::find_if(capture.interfaces.begin(), capture.interfaces.end(),
-                                    [&](const auto& interface) { return interface.name == *run.device; });
-    if (named == capture.interfaces.end()) {
-      devices::NameList names;
-      for (const auto& interface : capture.interfaces) names.add(interface.name);
-      return text.fail(run.file + ": no device '" + printable(*run.device) + "' (devices: " + names.text() + ")");
-    }
-    link = static_cast<std::size_t>(named - capture.interfaces.begin());
-  } else if (capture.interfaces.size() != 1) {
-    devices::NameList names;
-    for (const auto& interface : capture.interfaces) names.add(interface.name);
-    return text.fail(run.file + (capture.interfaces.empty() ? ": no device links in the capture"
-                                                            : ": " + std::to_string(capture.interfaces.size()) +
-                                                                  " device links (" + names.text() +
-                                                                  "): name one with --device"));
-  }
+  const std::size_t link = run.link;
   const transports::CaptureInterface& interface = capture.interfaces[link];
-  std::string why;
-  const std::optional<devices::DeviceConfig> device = run.device_of(interface, why);
-  if (!device) {
-    return text.fail(run.file + ": interface " + std::to_string(link) + " (" + printable(interface.name) + "): " + why);
-  }
-  const devices::CodecRow& row = devices::codec_row(device->codec);
-  const CodecCommands& commands = *codec_commands(device->codec);  // device_of found it
+  const devices::DeviceConfig& device = run.device;
+  const devices::CodecRow& row = devices::codec_row(device.codec);
+  const CodecCommands& commands = *codec_commands(device.codec);  // device_of found it
 
   // The image: found as `--virtual` finds it, and of the capture's codec when its name says one.
   const fs::path image = firmware_image(run.image);
-  std::error_code status_error;
-  const fs::file_status status = fs::status(image, status_error);
-  if (!fs::exists(status) || fs::is_directory(status)) {
-    const int reason = fs::is_directory(status) ? EISDIR : ENOENT;
-    return text.fail("firmware image not found: " + image.string() + ": " + std::system_category().message(reason));
-  }
-  if (!fs::is_regular_file(status)) return text.fail("not a firmware image: " + image.string() + " is not a regular file");
-  if (const devices::CodecRow* named = codec_row_of_image(image); named != nullptr && named->codec != device->codec) {
+  if (const std::optional<std::string> problem = firmware_image_problem(image)) return text.fail(*problem);
+  if (const devices::CodecRow* named = codec_row_of_image(image); named != nullptr && named->codec != device.codec) {
     return text.fail(image.filename().string() + " is a " + std::string(named->name) + " image, and device '" +
                      printable(interface.name) + "' of " + run.file + " speaks " + std::string(row.name));
   }
@@ -301,7 +273,7 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   // node's settings in its EEPROM).
   std::vector<std::uint8_t> eeprom;
   if (row.virtual_boards != devices::VirtualBoards::single) {
-    devices::DeviceConfig lone = *device;
+    devices::DeviceConfig lone = device;
     const devices::VirtualRingTransport* ring = nullptr;
     try {
       if (commands.lone_virtual_board) commands.lone_virtual_board(image, DeviceOptions(), lone);
@@ -376,13 +348,13 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   const transports::VirtualUnoStats board_stats = uno.stats();
 
   // Both sides cut and decoded alike.
-  Sequence recorded(*device, row, commands);
+  Sequence recorded(device, row, commands);
   for (const transports::CapturePacket& packet : capture.packets) {
     if (packet.interface != link || packet.direction != CaptureDirection::inbound) continue;
     recorded.feed(since_first(packet.timestamp_us), packet.data);
   }
   recorded.close();
-  Sequence answered(*device, row, commands);
+  Sequence answered(device, row, commands);
   for (const Output& each : output) answered.feed(recorded_time(each.at), each.bytes);
   answered.close();
 

@@ -3,7 +3,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <optional>
 #include <string>
 
@@ -17,13 +16,11 @@ namespace tether::cli {
 struct AgainstVirtual {
   std::string file;                         ///< The capture's file name, for messages.
   const transports::Capture* capture = nullptr;  ///< The capture, read.
-  std::optional<std::string> device;        ///< `--device`: the link (nothing: the capture's only one).
+  std::size_t link = 0;                     ///< The capture's interface of the device (`--device`, or its only one).
+  devices::DeviceConfig device;             ///< That link's device: its codec and the options its words give.
   std::string image;                        ///< `--against-virtual IMAGE`, as given.
   bool json = false;                        ///< `--json`.
   std::uint32_t settle_ms = 500;            ///< Board time run past the link's last recorded packet.
-  /// The device configuration of an interface (its codec and the options its words give), or nothing with
-  /// the reason in the string.
-  std::function<std::optional<devices::DeviceConfig>(const transports::CaptureInterface&, std::string&)> device_of;
 };
 
 /// The usage lines of the codecs' comparison rules (`    proxy: ...`), and what the others do.

@@ -19,6 +19,7 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/serial_port_stream.hpp"
+#include "proxy_frames.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
 
@@ -36,15 +37,6 @@ std::vector<std::string> without_stamps(const std::vector<std::string>& lines) {
     rest.push_back(space == std::string::npos ? line : line.substr(space + 1));
   }
   return rest;
-}
-
-std::string proxy_frame(const proxy::ArduinoOut& message) {
-  const std::string payload = message.SerializeAsString();
-  std::uint8_t frame[proxy::max_frame_size(64)];
-  const Result<std::size_t> written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
-                                                          proxy::Integrity::crc16, false, MutableByteView(frame));
-  EXPECT_TRUE(written.ok());
-  return std::string(reinterpret_cast<const char*>(frame), written.value());
 }
 
 // Romi: responses, a log line, a response with a bad CRC, garbage before a frame.

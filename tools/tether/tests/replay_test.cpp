@@ -19,6 +19,7 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
+#include "proxy_frames.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
 
@@ -65,15 +66,6 @@ std::vector<std::size_t> answers(const Capture& capture) {
     if (capture.packets[i].direction == CaptureDirection::inbound && !capture.packets[i].unframed()) indexes.push_back(i);
   }
   return indexes;
-}
-
-std::string replay_proxy_frame(const proxy::ArduinoOut& message) {
-  const std::string payload = message.SerializeAsString();
-  std::uint8_t frame[proxy::max_frame_size(64)];
-  const Result<std::size_t> written = proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()),
-                                                          proxy::Integrity::crc16, false, MutableByteView(frame));
-  EXPECT_TRUE(written.ok());
-  return std::string(reinterpret_cast<const char*>(frame), written.value());
 }
 
 // The messageId of a proxy frame: of the host's message, or of the device's ack.
@@ -232,13 +224,13 @@ TEST(TetherReplayAgainstVirtual, ProxyPeriodicInfoIsIgnoredAndCountedAndAMissing
   CapturePacket info;
   proxy::ArduinoOut message;
   message.mutable_info()->set_sessionid(12345);
-  const std::string bytes = replay_proxy_frame(message);
+  const std::string bytes = proxy_frame(message);
   info.data.assign(bytes.begin(), bytes.end());
   // The pinState of the servo's move out, an info in.
   proxy::ArduinoOut moved;
   moved.mutable_pinstate()->set_pin(9);
   moved.mutable_pinstate()->set_value(120);
-  const std::string moved_bytes = replay_proxy_frame(moved);
+  const std::string moved_bytes = proxy_frame(moved);
   const auto pin = std::find_if(frames.begin(), frames.end(), [&](std::size_t index) {
     const auto& data = capture.packets[index].data;
     return std::string(data.begin(), data.end()) == moved_bytes;
