@@ -259,7 +259,7 @@ int replay_against_virtual(const AgainstVirtual& run, const CommandText& text) {
   const transports::CaptureInterface& interface = capture.interfaces[link];
   const devices::DeviceConfig& device = run.device;
   const devices::CodecRow& row = devices::codec_row(device.codec);
-  const CodecCommands& commands = *codec_commands(device.codec);  // device_of found it
+  const CodecCommands& commands = *codec_commands(device.codec);  // the device was decoded through its row
 
   // The image: found as `--virtual` finds it, and of the capture's codec when its name says one.
   const fs::path image = firmware_image(run.image);
