@@ -15,6 +15,7 @@
 
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
+#include "capture_files.hpp"
 #include "tether_process.hpp"
 
 namespace tether::cli::testing {
@@ -25,19 +26,7 @@ using transports::Capture;
 using transports::CaptureDirection;
 
 // A fresh file name in the test's temporary folder (removed first).
-std::string capture_file(const std::string& name) {
-  const fs::path file = fs::path(::testing::TempDir()) / ("tether-record-" + name + ".pcapng");
-  fs::remove(file);
-  return file.string();
-}
-
-Capture read_back(const std::string& file) {
-  boost::system::error_code error;
-  std::string message;
-  const auto capture = transports::read_capture(file, error, message);
-  EXPECT_TRUE(capture) << message;
-  return capture ? *capture : Capture();
-}
+std::string capture_file(const std::string& name) { return fresh_capture_file("tether-record-" + name); }
 
 std::string text_of(const std::vector<std::uint8_t>& bytes) { return {bytes.begin(), bytes.end()}; }
 
@@ -71,7 +60,7 @@ TEST(TetherRecord, CallRecordsBothDirectionsReadableByTheReaderAndTshark) {
   const Outcome run = run_tether({"call", "--virtual", "romi-test", "--record", file, "e"});
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_EQ(run.out, "[0,1,2]\n");
-  const Capture capture = read_back(file);
+  const Capture capture = read_capture_file(file);
   EXPECT_EQ(capture.application, "tether " TETHER_VERSION);
   ASSERT_EQ(capture.interfaces.size(), 1u);
   EXPECT_EQ(capture.interfaces[0].name, "romi-test");
@@ -117,7 +106,7 @@ TEST(TetherRecord, AnExistingFileIsNeverOverwrittenWithoutForce) {
   EXPECT_EQ(fs::file_size(file), 8u);
   const Outcome forced = run_tether({"call", "--virtual", "romi-test", "--record", file, "--force", "e"});
   EXPECT_EQ(forced.status, 0) << forced.err;
-  EXPECT_FALSE(read_back(file).packets.empty());
+  EXPECT_FALSE(read_capture_file(file).packets.empty());
 
   const Outcome alone = run_tether({"call", "--virtual", "romi-test", "--force", "e"});
   EXPECT_EQ(alone.status, 2);
@@ -146,7 +135,7 @@ TEST(TetherRecord, DemoUnderNoiseRecordsEveryDeviceFramedOrMarkedUnframed) {
   const Outcome run = run_tether({"demo", "--iterations", "10", "--period", "10", "--ber", "0.01", "--no-reset",
                                   "--seed", "3", "--record", file});
   ASSERT_LE(run.status, 1) << run.err;
-  const Capture capture = read_back(file);
+  const Capture capture = read_capture_file(file);
   ASSERT_EQ(capture.interfaces.size(), 6u);
   std::vector<std::string> codecs;
   for (const auto& interface : capture.interfaces) codecs.push_back(interface.word("codec"));
@@ -198,7 +187,7 @@ TEST(TetherRecord, DemoRecordsIntoRingFilesWithTheDeviceCommandsLimits) {
                                   "--record", file, "--record-max-bytes", "4096", "--record-files", "2"});
   ASSERT_EQ(run.status, 0) << run.err;
   for (const std::string& each : {file, second}) {
-    const Capture capture = read_back(each);
+    const Capture capture = read_capture_file(each);
     EXPECT_EQ(capture.interfaces.size(), 6u) << each;
     EXPECT_FALSE(capture.packets.empty()) << each;
   }
@@ -233,7 +222,7 @@ TEST(TetherRecord, TapWritesTheSessionAndReplayPrintsWhatTheTapPrinted) {
   }
   tap.signal(SIGTERM);
   EXPECT_EQ(tap.wait(std::chrono::seconds(20)), 0);
-  const Capture capture = read_back(file);
+  const Capture capture = read_capture_file(file);
   ASSERT_EQ(capture.interfaces.size(), 1u);
   EXPECT_EQ(capture.interfaces[0].word("codec"), "romi");
   const Outcome replay = run_tether({"replay", file});

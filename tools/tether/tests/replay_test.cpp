@@ -19,6 +19,7 @@
 #include "tether/proxy/encoder.hpp"
 #include "tether/testing/child_process.hpp"
 #include "tether/transports/pcapng.hpp"
+#include "capture_files.hpp"
 #include "proxy_frames.hpp"
 #include "tether_process.hpp"
 #include "tether_proxy.pb.h"
@@ -32,19 +33,7 @@ using transports::CaptureDirection;
 using transports::CapturePacket;
 
 // A fresh file name in the test's temporary folder (removed first).
-std::string replay_file(const std::string& name) {
-  const fs::path file = fs::path(::testing::TempDir()) / ("tether-replay-" + name + ".pcapng");
-  fs::remove(file);
-  return file.string();
-}
-
-Capture replay_read(const std::string& file) {
-  boost::system::error_code error;
-  std::string message;
-  const auto capture = transports::read_capture(file, error, message);
-  EXPECT_TRUE(capture) << message;
-  return capture ? *capture : Capture();
-}
+std::string replay_file(const std::string& name) { return fresh_capture_file("tether-replay-" + name); }
 
 // Writes `capture` to `file` (what the test changed in it included).
 void replay_write(const Capture& capture, const std::string& file) {
@@ -100,7 +89,7 @@ std::string record_proxy_session(const std::string& name) {
   const Outcome run = run_tether({"send", "--virtual", "proxy", "--record", file, "servo-init", "pin=9",
                                   "safe-position=90", "servo-control", "pin=9", "position=120"});
   EXPECT_EQ(run.status, 0) << run.err;
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   std::set<std::uint32_t> acked;
   for (const CapturePacket& packet : capture.packets) {
     if (packet.direction != CaptureDirection::inbound) continue;
@@ -133,7 +122,7 @@ TEST(TetherReplayAgainstVirtual, RomiSessionAgainstItsOwnImageIsTheSame) {
   EXPECT_EQ(summary["differ"], 0);
 
   // A frame the end of the recording cut is counted, not compared.
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   CapturePacket cut = capture.packets.back();
   ASSERT_EQ(cut.direction, CaptureDirection::inbound);
   const std::string partial = "#!lo";
@@ -178,7 +167,7 @@ TEST(TetherReplayAgainstVirtual, FramesOnlyOneSideHasAreAligned) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   const std::string file = replay_file("romi-edit");
   ASSERT_EQ(run_tether({"call", "--virtual", "romi-test", "--record", file, "g[3]"}).status, 0);
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   const auto frames = answers(capture);
   ASSERT_EQ(frames.size(), 4u);  // three log lines, the answer
   CapturePacket extra = capture.packets[frames[3]];
@@ -218,7 +207,7 @@ TEST(TetherReplayAgainstVirtual, ProxySessionIsTheSameWithItsSessionIdsSetAside)
 TEST(TetherReplayAgainstVirtual, ProxyPeriodicInfoIsIgnoredAndCountedAndAMissingFrameShown) {
   TETHER_REQUIRE_FIRMWARE("proxy");
   const std::string file = record_proxy_session("proxy-edit");
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   const auto frames = answers(capture);
   ASSERT_FALSE(frames.empty());
   CapturePacket info;
@@ -301,7 +290,7 @@ TEST(TetherReplayAgainstVirtual, ElcanoLoneBoardSessionAndAChangedReport) {
   EXPECT_EQ(same.status, 0) << same.out << same.err;
   EXPECT_EQ(same.out, "same: 2 frames the same, 0 differ\n");
 
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   const auto frames = answers(capture);
   ASSERT_EQ(frames.size(), 2u);
   auto& report = capture.packets[frames[1]].data;
@@ -352,7 +341,7 @@ TEST(TetherReplayAgainstVirtual, BadRequestsAreErrors) {
   EXPECT_NE(utc.err.find("--utc does not apply to --against-virtual"), std::string::npos) << utc.err;
 
   // Two links: one must be named; the named one is replayed.
-  Capture capture = replay_read(file);
+  Capture capture = read_capture_file(file);
   ASSERT_EQ(capture.interfaces.size(), 1u);
   capture.interfaces.push_back(capture.interfaces[0]);
   capture.interfaces[1].name = "second";
@@ -374,7 +363,7 @@ TEST(TetherReplayAgainstVirtual, BadRequestsAreErrors) {
   EXPECT_EQ(named.out, "same: 1 frame the same, 0 differ\n");
 
   // A link whose host sent nothing.
-  Capture quiet = replay_read(file);
+  Capture quiet = read_capture_file(file);
   std::erase_if(quiet.packets, [](const CapturePacket& packet) { return packet.direction == CaptureDirection::outbound; });
   const std::string silent = replay_file("silent");
   replay_write(quiet, silent);

@@ -241,11 +241,11 @@ std::vector<std::uint8_t> frame_of(const google::protobuf::Message& message, boo
   return frame;
 }
 
-// Playing a recorded rpc device: a request is its HostMessage without the id (and a CloseStream without the
-// stream, which is an id); the ids a device message carries (Ack.id, Reply.call, DeviceError.call,
+// Playing a recorded rpc device: a request is its HostMessage without the id; the ids a device message carries (Ack.id, Reply.call, DeviceError.call,
 // StreamMessage.stream) become the live ones of the messages they were recorded for, CRC-16 and COBS redone;
-// DeviceHello and ResetEvent go as recorded (the live host learns the recorded session). A ping is acked
-// whenever it comes; a message the recording lacks is refused as the device refuses a method it does not
+// DeviceHello and ResetEvent go as recorded (the live host learns the recorded session). A ping and a
+// CloseStream are acked whenever they come and never waited for: a client that ends its process closes its
+// stream on the way out, and the close may or may not get out before the port does. A message the recording lacks is refused as the device refuses a method it does not
 // have: DeviceError{unknown_method}, then Ack{refused}.
 class RpcReplayer final : public transports::CaptureReplayer {
  public:
@@ -253,8 +253,8 @@ class RpcReplayer final : public transports::CaptureReplayer {
     wire::HostMessage message;
     if (!parse(frame, message)) return {};
     message.clear_id();
-    if (message.has_close()) message.mutable_close()->clear_stream();
-    return {message.has_ping() ? transports::ReplayRequest::Kind::keepalive : transports::ReplayRequest::Kind::request,
+    const bool keepalive = message.has_ping() || message.has_close();
+    return {keepalive ? transports::ReplayRequest::Kind::keepalive : transports::ReplayRequest::Kind::request,
             message.ShortDebugString()};
   }
 
@@ -295,7 +295,8 @@ class RpcReplayer final : public transports::CaptureReplayer {
     wire::HostMessage request;
     if (!parse(live, request)) return {};  // a frame the device drops (and counts)
     std::vector<std::vector<std::uint8_t>> frames;
-    if (!request.has_ping()) {
+    const bool keepalive = request.has_ping() || request.has_close();
+    if (!keepalive) {
       wire::DeviceMessage error;
       error.mutable_error()->set_call(request.id());
       error.mutable_error()->set_code(static_cast<std::uint32_t>(DeviceErrorCode::unknown_method));
@@ -304,7 +305,7 @@ class RpcReplayer final : public transports::CaptureReplayer {
     }
     wire::DeviceMessage ack;
     ack.mutable_ack()->set_id(request.id());
-    ack.mutable_ack()->set_refused(!request.has_ping());
+    ack.mutable_ack()->set_refused(!keepalive);
     frames.push_back(frame_of(ack, false));
     return frames;
   }
