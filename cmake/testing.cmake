@@ -14,15 +14,21 @@ function(_tether_check_label label)
   endif()
 endfunction()
 
-# tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [PROPERTIES <name> <value>...]): registers every
-# GoogleTest case of <target> as <prefix><Suite>.<Case> with <label> (and the further test properties).
+# tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [FILTER <gtest filter>] [PROPERTIES <name> <value>...]):
+# registers every GoogleTest case of <target> (or those FILTER selects) as <prefix><Suite>.<Case> with <label>
+# (and the further test properties). A program that gathers several folders' or tiers' cases is registered
+# once per FILTER, so each case keeps its name and tier.
 function(tether_add_gtests target)
-  cmake_parse_arguments(TESTS "" "PREFIX;LABEL" "PROPERTIES" ${ARGN})
+  cmake_parse_arguments(TESTS "" "PREFIX;LABEL;FILTER" "PROPERTIES" ${ARGN})
   if(NOT TESTS_PREFIX OR NOT TESTS_LABEL)
     message(FATAL_ERROR "tether_add_gtests(${target}) needs PREFIX and LABEL")
   endif()
   _tether_check_label(${TESTS_LABEL})
-  gtest_discover_tests(${target} TEST_PREFIX "${TESTS_PREFIX}" DISCOVERY_TIMEOUT 60
+  set(filter "")
+  if(TESTS_FILTER)
+    set(filter TEST_FILTER "${TESTS_FILTER}")
+  endif()
+  gtest_discover_tests(${target} TEST_PREFIX "${TESTS_PREFIX}" DISCOVERY_TIMEOUT 60 ${filter}
     PROPERTIES LABELS ${TESTS_LABEL} ${TESTS_PROPERTIES})
 endfunction()
 

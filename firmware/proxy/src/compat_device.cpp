@@ -20,7 +20,7 @@ static_assert(RocketryProto_ArduinoIn_size <= CompatDevice::kMaxPayload, "an Ard
 
 namespace {
 
-RocketryProto_ArduinoOut out_message(pb_size_t which) {
+RocketryProto_ArduinoOut compat_out_message(pb_size_t which) {
   RocketryProto_ArduinoOut out = RocketryProto_ArduinoOut_init_zero;
   out.which_data = which;
   return out;
@@ -58,7 +58,7 @@ CompatDevice::CompatDevice(FrameSink sink, RestartFunction restart, void* restar
 void CompatDevice::begin(Millis now) {
   hardware::load_cell_begin();
   next_states_.arm(now, kStatePeriodMs);
-  RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_eventMessage_tag);
+  RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_eventMessage_tag);
   out.data.eventMessage.type = RocketryProto_EventTypes_RESET;
   send(&out);
 }
@@ -84,21 +84,21 @@ void CompatDevice::poll(Millis now) {
 void CompatDevice::send_states() {
   for (uint8_t pin = 0; pin < kPinCount; ++pin) {
     if (!is_servo(pin)) continue;
-    RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_servoState_tag);
+    RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_servoState_tag);
     out.data.servoState.pin = pin;
     out.data.servoState.position = servo_position_[pin];
     send(&out);
   }
   for (uint8_t pin = 0; pin < kPinCount; ++pin) {
     if (!is_digital(pin)) continue;
-    RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_digitalState_tag);
+    RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_digitalState_tag);
     out.data.digitalState.pin = pin;
     out.data.digitalState.activated = digital_level(pin);
     send(&out);
   }
   for (uint8_t i = 0; i < motor_count_; ++i) {
     const DcMotor& motor = motors_[i];
-    RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_dcMotorState_tag);
+    RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_dcMotorState_tag);
     out.data.dcMotorState.motorForwardPin = motor.forward;
     out.data.dcMotorState.motorReversePin = motor.reverse;
     out.data.dcMotorState.position = motor.position;
@@ -109,7 +109,7 @@ void CompatDevice::send_states() {
   }
   uint32_t load = 0;
   if (hardware::load_cell_read(load)) {
-    RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_loadCellState_tag);
+    RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_loadCellState_tag);
     out.data.loadCellState.value = load;
     send(&out);
   }
@@ -294,7 +294,7 @@ bool CompatDevice::send(const void* out_message) {
 }
 
 void CompatDevice::send_event(uint8_t type, uint32_t pin) {
-  RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_eventMessage_tag);
+  RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_eventMessage_tag);
   out.data.eventMessage.type = static_cast<RocketryProto_EventTypes>(type);
   out.data.eventMessage.data = static_cast<int32_t>(pin);
   send(&out);
@@ -306,7 +306,7 @@ void CompatDevice::refuse_pin(uint32_t pin) {
 }
 
 void CompatDevice::send_error(uint8_t type, int32_t data) {
-  RocketryProto_ArduinoOut out = out_message(RocketryProto_ArduinoOut_errorMessage_tag);
+  RocketryProto_ArduinoOut out = compat_out_message(RocketryProto_ArduinoOut_errorMessage_tag);
   out.data.errorMessage.type = static_cast<RocketryProto_ErrorTypes>(type);
   out.data.errorMessage.data = data;
   send(&out);

@@ -20,7 +20,7 @@ using cli::testing::Outcome;
 using cli::testing::run_tether;
 
 const fs::path kSchemas = fs::path(TETHER_RPC_TEST_SCHEMAS).lexically_normal();
-const std::string kArm = (kSchemas / "arm.proto").string();
+const std::string kArmSchema = (kSchemas / "arm.proto").string();
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -47,7 +47,7 @@ void expect_refused(const Outcome& run, const std::string& reason) {
 
 TEST(TetherRpcGenerate, WritesTheArduinoLibraryOfTheSchema) {
   const fs::path out = scratch("writes");
-  const Outcome run = run_tether({"generate", kArm, "--out", out.string()});
+  const Outcome run = run_tether({"generate", kArmSchema, "--out", out.string()});
   ASSERT_EQ(run.status, 0) << run.err;
   const fs::path library = out / "ArmRpc";
   EXPECT_EQ(run.out, library.string() + "\n");
@@ -107,10 +107,10 @@ TEST(TetherRpcGenerate, NanopbFieldOptionsInTheSchemaGiveTheBounds) {
 TEST(TetherRpcGenerate, UsageErrorsExitTwoWithTheReason) {
   const fs::path out = scratch("usage");
   expect_refused(run_tether({"generate", "--out", out.string()}), "no schema");
-  expect_refused(run_tether({"generate", kArm}), "no --out");
-  expect_refused(run_tether({"generate", kArm, "--out"}), "--out needs a value");
-  expect_refused(run_tether({"generate", kArm, "--out", out.string(), "--bogus"}), "--bogus");
-  expect_refused(run_tether({"generate", kArm, kArm, "--out", out.string()}), "unexpected argument");
+  expect_refused(run_tether({"generate", kArmSchema}), "no --out");
+  expect_refused(run_tether({"generate", kArmSchema, "--out"}), "--out needs a value");
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string(), "--bogus"}), "--bogus");
+  expect_refused(run_tether({"generate", kArmSchema, kArmSchema, "--out", out.string()}), "unexpected argument");
   EXPECT_TRUE(fs::is_empty(out));
   const Outcome help = run_tether({"generate", "--help"});
   EXPECT_EQ(help.status, 0);
@@ -130,48 +130,48 @@ TEST(TetherRpcGenerate, ASchemaThatDoesNotReadIsRefusedWithProtocsMessage) {
 
 TEST(TetherRpcGenerate, ANameThatIsNotAnIdentifierIsRefused) {
   const fs::path out = scratch("name");
-  expect_refused(run_tether({"generate", kArm, "--out", out.string(), "--name", "Arm-Rpc"}),
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string(), "--name", "Arm-Rpc"}),
                  "library name \"Arm-Rpc\" is not a C++ identifier");
-  expect_refused(run_tether({"generate", kArm, "--out", out.string(), "--name", "9Arm"}), "not a C++ identifier");
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string(), "--name", "9Arm"}), "not a C++ identifier");
   // A name whose header would replace one of the kit's.
-  expect_refused(run_tether({"generate", kArm, "--out", out.string(), "--name", "TetherRpcArduino"}),
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string(), "--name", "TetherRpcArduino"}),
                  "clashes with the kit's TetherRpcArduino.h");
   EXPECT_TRUE(fs::is_empty(out));
 }
 
 TEST(TetherRpcGenerate, AnExistingFolderIsReplacedOnlyWithForceAndOnlyWhenGenerated) {
   const fs::path out = scratch("existing");
-  ASSERT_EQ(run_tether({"generate", kArm, "--out", out.string()}).status, 0);
+  ASSERT_EQ(run_tether({"generate", kArmSchema, "--out", out.string()}).status, 0);
   std::ofstream(out / "ArmRpc" / "src" / "stale.cpp") << "// left over\n";
-  expect_refused(run_tether({"generate", kArm, "--out", out.string()}), "exists and is not empty: give --force");
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string()}), "exists and is not empty: give --force");
   EXPECT_TRUE(fs::exists(out / "ArmRpc" / "src" / "stale.cpp"));
   // --force replaces the whole generated folder: nothing of the old one stays.
-  const Outcome forced = run_tether({"generate", kArm, "--out", out.string(), "--force"});
+  const Outcome forced = run_tether({"generate", kArmSchema, "--out", out.string(), "--force"});
   EXPECT_EQ(forced.status, 0) << forced.err;
   EXPECT_FALSE(fs::exists(out / "ArmRpc" / "src" / "stale.cpp"));
   EXPECT_TRUE(fs::exists(out / "ArmRpc" / "src" / "ArmRpc.h"));
   // A folder of the user's own is never replaced.
   fs::create_directories(out / "Mine");
   std::ofstream(out / "Mine" / "notes.txt") << "mine\n";
-  expect_refused(run_tether({"generate", kArm, "--out", out.string(), "--name", "Mine", "--force"}),
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string(), "--name", "Mine", "--force"}),
                  "was not written by `tether generate`");
   EXPECT_EQ(read(out / "Mine" / "notes.txt"), "mine\n");
   // An empty folder is taken.
   fs::create_directories(out / "Empty");
-  EXPECT_EQ(run_tether({"generate", kArm, "--out", out.string(), "--name", "Empty"}).status, 0);
+  EXPECT_EQ(run_tether({"generate", kArmSchema, "--out", out.string(), "--name", "Empty"}).status, 0);
   EXPECT_TRUE(fs::exists(out / "Empty" / "src" / "Empty.h"));
 }
 
 TEST(TetherRpcGenerate, AMissingNanopbOrKitIsNamedAndNothingIsLeft) {
   const fs::path out = scratch("missing");
-  expect_refused(run_tether({"generate", kArm, "--out", out.string()},
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string()},
                             {"TETHER_NANOPB_GENERATOR=" + (out / "no-nanopb_generator.py").string()}),
                  "could not be run (Debian: apt install nanopb");
-  expect_refused(run_tether({"generate", kArm, "--out", out.string()},
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string()},
                             {"TETHER_RPC_ARDUINO_DIR=" + (out / "no-kit").string()}),
                  "the Arduino kit is missing");
   // nanopb refusing the schema's options: its exit status is named, the staging folder removed.
-  expect_refused(run_tether({"generate", kArm, "--out", out.string()}, {"TETHER_NANOPB_GENERATOR=/bin/false"}),
+  expect_refused(run_tether({"generate", kArmSchema, "--out", out.string()}, {"TETHER_NANOPB_GENERATOR=/bin/false"}),
                  "nanopb's generator failed on");
   EXPECT_TRUE(fs::is_empty(out)) << fs::directory_iterator(out)->path();
 }
