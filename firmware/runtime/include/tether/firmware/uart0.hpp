@@ -180,19 +180,20 @@ class Uart0 {
 
   /// Queues as many bytes of `bytes` as fit now; returns how many (a prefix). Never waits.
   static size_t try_write(ByteView bytes) {
-    uint8_t head = tx_.head;
-    uint8_t space = static_cast<uint8_t>(ByteRing<TxSize>::kCapacity - static_cast<uint8_t>(head - tx_.tail));
-    size_t count = 0;
-    while (count < bytes.size() && space != 0) {
-      tx_.bytes[head & ByteRing<TxSize>::kMask] = bytes[count++];
-      head = static_cast<uint8_t>(head + 1u);
-      --space;
-    }
-    if (count != 0) {
-      compiler_barrier();
-      tx_.head = head;
-      start_transmitter();
-    }
+    const uint8_t head = tx_.head;
+    const uint8_t space = static_cast<uint8_t>(ByteRing<TxSize>::kCapacity - static_cast<uint8_t>(head - tx_.tail));
+    const uint8_t count = bytes.size() < space ? static_cast<uint8_t>(bytes.size()) : space;
+    if (count == 0) return 0;
+    // In at most two runs (to the ring's end, then from its start): a pointer step per byte, no index
+    // arithmetic.
+    const uint8_t offset = static_cast<uint8_t>(head & ByteRing<TxSize>::kMask);
+    const uint16_t to_end = static_cast<uint16_t>(TxSize - offset);
+    const uint8_t first = count < to_end ? count : static_cast<uint8_t>(to_end);
+    const uint8_t* in = copy_run(&tx_.bytes[offset], bytes.data(), first);
+    if (first != count) copy_run(&tx_.bytes[0], in, static_cast<uint8_t>(count - first));
+    compiler_barrier();  // the bytes must be in their slots before the ISR can see the new head
+    tx_.head = static_cast<uint8_t>(head + count);
+    start_transmitter();
     return count;
   }
 
@@ -338,6 +339,14 @@ class Uart0 {
 
  private:
   static bool interrupts_enabled() { return (SREG & _BV(SREG_I)) != 0; }
+
+  /// Copies `count` (> 0) bytes from `in` to `out`; returns where `in` ended.
+  static const uint8_t* copy_run(uint8_t* out, const uint8_t* in, uint8_t count) {
+    do {
+      *out++ = *in++;
+    } while (--count != 0);
+    return in;
+  }
 
   /// Writing 1 clears TXC0, so flush() waits for this byte. Written from the value begin() chose
   /// rather than read-modify-write: U2X0 keeps its value, FE0/DOR0/UPE0 must be written 0 anyway, and
