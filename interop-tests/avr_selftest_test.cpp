@@ -134,5 +134,8 @@ TEST_F(AvrSelftest, EngineDeviceHalfRunsOnTheAvr) {
   }
 }
 
+// The frame writer's AVR assembly loop writes the bytes of the plain COBS encoding of crc16 ‖ payload.
+TEST_F(AvrSelftest, FrameEncoderMatchesPlainCobsOnTheAvr) { EXPECT_TRUE(has_line("engine frame_encoder ok")); }
+
 }  // namespace
 }  // namespace tether
