@@ -257,8 +257,8 @@ void check_frame_encoder(uint32_t seed) {
     if (!ok) break;
     size += cobs.value();
     expected[size++] = 0;
-    const auto written = tether::proxy::encode_frame(tether::ByteView(payload, length),
-                                                     tether::proxy::Integrity::crc16, lead, tether::MutableByteView(framed));
+    const auto written = tether::proxy::encode_frame(tether::ByteView(payload, length), tether::proxy::Integrity::crc16,
+                                                     lead, tether::MutableByteView(framed));
     ok = written.ok() && written.value() == size;
     for (size_t i = 0; ok && i < size; ++i) ok = framed[i] == expected[i];
   }

@@ -939,8 +939,9 @@ ServoEdges measure_d9_edges(CompatBoard& board, std::uint32_t pulse_us, int ms, 
 // 50 ms state stream going out and a control coming in every millisecond (~75 % of the line), which keeps
 // the UART's receive routine busy (at one control a frame no compare met another routine in 2 s). The
 // compares are always exactly the ticks apart; the routine is held off by the UART's (up to ~3 us: each of
-// its handlers runs ~50 cycles), the edges are not: every pulse within kPulseErrorBoundCycles of its ticks. The demo once measured D9 at
-// 2190 us for 2193 (position 160): a pulse whose edge met the UART's routine, before the lead.
+// its handlers runs ~50 cycles), the edges are not: every pulse within kPulseErrorBoundCycles of its
+// ticks. The demo once measured D9 at 2190 us for 2193 (position 160): a pulse whose edge met the UART's
+// routine, before the lead.
 TEST(ProxyCompatPins, AServoPulseIsItsTicksWhateverInterruptHeldTheRoutineOff) {
   constexpr std::uint32_t kPulseUs = 2193;  // position 160 on the Servo library's 544..2400 us
   CompatBoard board;
