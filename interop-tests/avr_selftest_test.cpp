@@ -1,7 +1,7 @@
 // Runs firmware/selftest (avr-selftest.elf) on a simulated ATmega328P with the `simavr` command and checks
 // what it reports: the avr-libc CRC back end against the check values and against the host's Boost back
-// end on the same pseudo-random buffers (seeded through the EEPROM, from RANDOM_SEED), and the session
-// engine's device half running with AVR integer widths.
+// end on the same pseudo-random buffers (seeded through the EEPROM, from RANDOM_SEED), the session
+// engine's device half running with AVR integer widths, and the proxy frame writer's AVR loop.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -133,6 +133,9 @@ TEST_F(AvrSelftest, EngineDeviceHalfRunsOnTheAvr) {
     EXPECT_TRUE(has_line(std::string("engine ") + name + " ok")) << name;
   }
 }
+
+// The frame writer's AVR assembly loop writes the bytes of the plain COBS encoding of crc16 ‖ payload.
+TEST_F(AvrSelftest, FrameEncoderMatchesPlainCobsOnTheAvr) { EXPECT_TRUE(has_line("engine frame_encoder ok")); }
 
 }  // namespace
 }  // namespace tether

@@ -6,6 +6,9 @@
 //   4. The proxy frame decoder's run path (its AVR assembly) against its per-byte path, on pseudo-random
 //      frames with zeros, damage and oversize ones, fed in runs of every length.
 //   5. `add_one_in_interrupt` (assembly): the carry through every byte, the 2^32 wrap, nothing beside touched.
+//   6. The proxy frame writer's CRC-16 frames (their AVR assembly loop) against COBS of the CRC and the
+//      payload written plainly, on pseudo-random payloads of 0..260 bytes: no zeros (full blocks), few,
+//      many, with and without the leading delimiter.
 // Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
 // Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
 #include <avr/eeprom.h>
@@ -20,6 +23,7 @@
 #include "tether/core/session/failsafe_watchdog.hpp"
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/proxy/cobs.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
 
@@ -221,6 +225,46 @@ void check_proxy_runs(uint32_t seed) {
   report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
 }
 
+// The frame writer against the frame built plainly: crc16 ‖ payload, COBS-encoded (cobs_encode: the C++
+// loop), the delimiters around it. Payloads of 0..260 bytes of every zero density: none (blocks of 254
+// bytes), 1 in 64, 1 in 4; the CRC itself is zero in a byte now and then (its patching's other cases).
+// The buffers are on the stack, only while this runs (the 2 KB also hold the other checks' own).
+void check_frame_encoder(uint32_t seed) {
+  constexpr uint16_t kMaxLength = 260;
+  uint8_t plain[2 + kMaxLength];  // crc16 ‖ payload
+  uint8_t expected[tether::proxy::max_frame_size(kMaxLength)];
+  uint8_t framed[sizeof expected];
+  uint8_t* const payload = plain + 2;
+  tether::selftest::Xorshift32 random(seed ^ 0xC0B5C0B5u);
+  bool ok = true;
+  for (uint8_t round = 0; round < 96 && ok; ++round) {
+    const uint16_t length =
+        round < 3 ? static_cast<uint16_t>(252u + round) : static_cast<uint16_t>(random.next() % (kMaxLength + 1u));
+    const uint8_t zeros = static_cast<uint8_t>(round % 3 == 0 ? 0 : round % 3 == 1 ? 64 : 4);  // 1 in `zeros`
+    for (uint16_t i = 0; i < length; ++i) {
+      const uint8_t byte = random.next_byte();
+      payload[i] = zeros != 0 && random.next() % zeros == 0 ? 0 : static_cast<uint8_t>(byte == 0 ? 1 : byte);
+    }
+    const bool lead = random.next() % 2 == 0;
+    const uint16_t crc = tether::Crc16Mcrf4xx::compute(tether::ByteView(payload, length));
+    plain[0] = static_cast<uint8_t>(crc & 0xFF);
+    plain[1] = static_cast<uint8_t>(crc >> 8);
+    size_t size = 0;
+    if (lead) expected[size++] = 0;
+    const auto cobs = tether::proxy::cobs_encode(tether::ByteView(plain, length + 2u),
+                                                 tether::MutableByteView(expected + size, sizeof expected - size - 1));
+    ok = cobs.ok();
+    if (!ok) break;
+    size += cobs.value();
+    expected[size++] = 0;
+    const auto written = tether::proxy::encode_frame(tether::ByteView(payload, length), tether::proxy::Integrity::crc16,
+                                                     lead, tether::MutableByteView(framed));
+    ok = written.ok() && written.value() == size;
+    for (size_t i = 0; ok && i < size; ++i) ok = framed[i] == expected[i];
+  }
+  report("frame_encoder", ok);
+}
+
 // Start values whose carry stops in each byte in turn (and crosses the sign bit); the last wraps to 0 and
 // must not carry past the counter.
 void check_interrupt_counter() {
@@ -254,6 +298,7 @@ int main() {
   check_request_ids();
   check_proxy_runs(seed);
   check_interrupt_counter();
+  check_frame_encoder(seed);
   put("selftest end failures ");
   put_hex(failures, 2);
   put("\n");

@@ -44,7 +44,8 @@ tether::Millis millis() {
   return now;
 }
 
-uint8_t millis_low_byte() { return static_cast<uint8_t>(g_millis); }
+// The low byte alone (the AVR is little-endian): a volatile uint32_t read loads all four.
+uint8_t millis_low_byte() { return *reinterpret_cast<const volatile uint8_t*>(&g_millis); }
 
 uint32_t micros() {
   tether::Millis ms;

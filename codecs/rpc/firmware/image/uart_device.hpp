@@ -9,8 +9,9 @@
 // RAM: the device runtime's static tables (the receive buffer, the exactly-once cache, the counters; the
 // method table is in flash) and its stack at the deepest point (a call's request and reply structs, its
 // answer being encoded and framed) leave little of the 2 KB: the UART rings are small (RX 32 bytes: the
-// loop takes bytes as they come; TX 16 bytes: `write` waits for room, ~1.5 ms for a 16-byte frame) and the
-// device's entry points are out of line (below). The image defines the UART's interrupts:
+// loop takes bytes as they come; TX 32 bytes: a stream message of a few fields, an ack or a short reply is
+// queued at once, a longer frame waits for room in `write`, each byte sent waking it) and the device's
+// entry points are out of line (below). The image defines the UART's interrupts:
 // `TETHER_UART0_ISRS(tether::rpc::image::Uart);`.
 #pragma once
 
@@ -24,8 +25,8 @@ namespace tether {
 namespace rpc {
 namespace image {
 
-/// UART0 with the images' rings: RX 32 bytes, TX 16.
-using Uart = tether::firmware::Uart0<32, 16>;
+/// UART0 with the images' rings: RX 32 bytes, TX 32.
+using Uart = tether::firmware::Uart0<32, 32>;
 
 /// The shortest stream period a device with `Limits` keeps at `baud`: one frame of its largest outgoing
 /// message at the baud (10 bits a byte), rounded up, so that a stream never sends faster than the line

@@ -26,16 +26,16 @@ inline void select_idle_sleep_mode() {
 
 /// Sleeps in IDLE mode until an interrupt has run, unless `work_pending()` returns true; it is called
 /// with interrupts disabled, so what it reads cannot change before the sleep starts except through an
-/// interrupt, which then ends the sleep. Returns with interrupts enabled.
+/// interrupt, which then ends the sleep. Returns with interrupts enabled. SMCR is written whole (IDLE
+/// with SE, then 0: the runtime owns it), one OUT each rather than three read-modify-writes per wake.
 template <typename Condition>
 void idle_unless(Condition work_pending) {
-  select_idle_sleep_mode();
   cli();
   if (!work_pending()) {
-    sleep_enable();
+    SMCR = _BV(SE);  // IDLE (SM2..SM0 = 000), sleep enabled
     sei();
     sleep_cpu();
-    sleep_disable();
+    SMCR = 0;
   }
   sei();
 }

@@ -87,6 +87,8 @@ class Writer {
   void close(uint8_t* mark);
 
  private:
+  void close_long(uint8_t* mark, size_t length);  // a length of two bytes or more: the value moved
+
   uint8_t* begin_;
   uint8_t* at_;
   uint8_t* end_;
