@@ -138,7 +138,8 @@ lcurly:
   if (generation_ != Generation::d || static_cast<uint8_t>(byte - '0') >= 10 || out == buffer_ + 1) {
     goto stop_lcurly;
   }
-  crc_end_ = static_cast<size_t>(out - buffer_);  // the generation D trailer starts (trailer_ is 0)
+  crc_end_ = static_cast<size_t>(out - buffer_);  // the generation D trailer starts
+  trailer_ = 0;
 
 trailer:
   if (next == end) goto stop_trailer;
@@ -164,10 +165,12 @@ letter:
   }
   offset = field_of(byte);
   // field_of has 0 for generation B `p` (two fields: E,N); every other 0 is an unknown letter.
-  if (offset == 0 && (byte != 'p' || generation_ != Generation::b)) goto stop_letter;
+  if (offset == 0) {
+    if (byte != 'p' || generation_ != Generation::b) goto stop_letter;
+    second_ = false;  // read only for `p` (field 0)
+  }
   detail::store_next(out, byte);
   ++next;
-  second_ = false;
   negative = false;
   digits = 0;
   small = 0;
@@ -323,6 +326,7 @@ DecodeStatus Decoder<Capacity>::finish() {
 template <size_t Capacity>
 __attribute__((noinline)) void Decoder<Capacity>::start(uint8_t header) {
   open(header);
+  size_ = 1;
   state_ = State::lcurly;
 }
 
@@ -342,10 +346,8 @@ __attribute__((always_inline)) inline void Decoder<Capacity>::open(uint8_t heade
   message_.probability = kUnset;
   message_.east = kUnset;
   message_.north = kUnset;
-  buffer_[0] = header;
-  size_ = 1;
-  trailer_ = 0;
-  trailer_digits_ = false;
+  buffer_[0] = header;  // size_ 1: run() keeps the size in its cursor, start() sets it
+  trailer_digits_ = false;  // trailer_ is reset where a trailer starts
 }
 
 template <size_t Capacity>
@@ -392,6 +394,7 @@ DecodeStatus Decoder<Capacity>::step(uint8_t byte) {
       }
       if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
         crc_end_ = size_;
+        trailer_ = 0;
         state_ = State::trailer;
         return step(byte);
       }
