@@ -38,18 +38,9 @@ bool to_message(const SerialData& data, Message& message) {
 // `fields` (tether::elcano::field_bits): the fields of `message` that may hold a value; the others are
 // unset, so NaN is stored without reading them (a drive carries two of the seven).
 void from_message(const Message& message, uint8_t fields, SerialData& data) {
-  if (message.type == Type::drive) {  // the usual capture, ahead of the switch's search
-    data.kind = MsgType::drive;
-  } else {
-    switch (message.type) {
-      case Type::drive: data.kind = MsgType::drive; break;
-      case Type::sensor: data.kind = MsgType::sensor; break;
-      case Type::goal: data.kind = MsgType::goal; break;
-      case Type::segment: data.kind = MsgType::seg; break;
-    }
-  }
   namespace bits = tether::elcano::field_bits;
-  if (fields == (bits::speed | bits::angle)) {  // a drive's own fields: the usual capture
+  if (fields == (bits::speed | bits::angle)) {  // a drive with its own fields only: the usual capture
+    data.kind = MsgType::drive;
     data.number = NaN;
     data.speed_cmPs = message.speed;
     data.angle_deg = message.angle;
@@ -58,6 +49,12 @@ void from_message(const Message& message, uint8_t fields, SerialData& data) {
     data.posN_cm = NaN;
     data.probability = NaN;
     return;
+  }
+  switch (message.type) {
+    case Type::drive: data.kind = MsgType::drive; break;
+    case Type::sensor: data.kind = MsgType::sensor; break;
+    case Type::goal: data.kind = MsgType::goal; break;
+    case Type::segment: data.kind = MsgType::seg; break;
   }
   data.number = message.number;
   data.speed_cmPs = message.speed;
