@@ -388,6 +388,7 @@ void record(Trace& trace, const Decoder<Capacity>& reader, DecodeStatus status, 
       event += " " + std::to_string(field);
     }
     event += " [" + std::string(reinterpret_cast<const char*>(reader.forward().data()), reader.forward().size()) + "]";
+    event += " fields=" + std::to_string(reader.fields());
   } else {
     event = "error " + std::to_string(static_cast<int>(reader.error()));
   }
@@ -440,7 +441,8 @@ std::string random_stream(std::mt19937_64& random) {
       "D{ s 5 0 }{a\t25}\r\n", "D{s 2147483647}{a 1}\n", "D{s -2147483648}{a 99999999}\n", "D{s 2147483648}\n",
       "D{s 1234567890}{a -123456789}\n", "{", "}", "-", ",", " ", "\n", "D", "X", "7", "0", "9", "p", "q", "o", "z",
       "\t", "\r", std::string(1, '\0'), "D{s50}{a25}999\n", "D{p 1,2,3}\n", "D{s --1}\n", "G{n1}{b2}{p3}{q4}{o5}88\n",
-      std::string(120, '1'), "D{s " + std::string(100, '5') + "}\n"};
+      std::string(120, '1'), "D{s " + std::string(100, '5') + "}\n", "D{s 1}{a 2}{b 3}\n", "D{s 1}{s 2}{a 3}\n",
+      "D{n7}{b8}{a1}{s2}\n"};
   std::uniform_int_distribution<size_t> pick(0, pieces.size() - 1);
   std::uniform_int_distribution<int> count(1, 30);
   std::uniform_int_distribution<int> byte(0, 255);
@@ -451,6 +453,65 @@ std::string random_stream(std::mt19937_64& random) {
     if (percent(random) < 3) c = static_cast<char>(byte(random));
   }
   return stream;
+}
+
+// Every field of `m` outside `fields` (Decoder::fields()) is unset.
+void expect_unset_outside(const Message& m, uint8_t fields) {
+  const std::pair<uint8_t, int32_t> all[] = {
+      {field_bits::number, m.number},     {field_bits::speed, m.speed},   {field_bits::angle, m.angle},
+      {field_bits::obstacle, m.obstacle}, {field_bits::bearing, m.bearing}, {field_bits::probability, m.probability},
+      {field_bits::east, m.east},         {field_bits::north, m.north}};
+  for (const auto& [bit, value] : all) {
+    if ((fields & bit) == 0) {
+      EXPECT_EQ(value, kUnset) << "field bit " << int(bit);
+    }
+  }
+}
+
+TEST(ElcanoReader, FieldsNamesWhatAMessageMaySetAndTheNextMessageSeesNoneOfIt) {
+  // A drive carrying only s and a reports those two (field_bits), and the next message's start resets
+  // only them: whatever follows, by span or byte by byte, must show none of an earlier message's fields.
+  for (const bool by_span : {true, false}) {
+    LinkCounters counters;
+    Decoder<> reader(Generation::b, counters);
+    const auto read = [&](const std::string& text) {
+      DecodeStatus last = DecodeStatus::more;
+      if (by_span) {
+        ByteView rest = ByteView::from_chars(text.data(), text.size());
+        while (!rest.empty()) {
+          const FeedResult result = reader.feed(rest);
+          rest = rest.subview(result.consumed);
+          last = result.status;
+        }
+      } else {
+        for (const char c : text) last = reader.feed(static_cast<uint8_t>(c));
+      }
+      return last;
+    };
+    const uint8_t drive = field_bits::speed | field_bits::angle;
+    ASSERT_EQ(read("D{s 50}{a 25}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.fields(), drive);
+    ASSERT_EQ(read("X{n 4}{s 160}{b 80}{p 3200,-64000}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.frame(), Message::segment(4, 160, 80, 3200, -64000));
+    EXPECT_EQ(reader.fields(), field_bits::all);
+    ASSERT_EQ(read("D{s 1}{a 2}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.frame(), Message::drive(1, 2));
+    ASSERT_EQ(read("D{s 1}{a 2}{b 3}\n"), DecodeStatus::frame);  // an extra attribute: any field
+    EXPECT_EQ(reader.fields(), field_bits::all);
+    EXPECT_EQ(reader.frame().bearing, 3);
+    ASSERT_EQ(read("D{s 5}{a 6}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.frame(), Message::drive(5, 6));
+    ASSERT_EQ(read("D{s 5}{s 7}{a 6}\n"), DecodeStatus::frame);  // a repeated one: three attributes
+    EXPECT_EQ(reader.fields(), field_bits::all);
+    ASSERT_EQ(read("D{s 5}{a 6}\n"), DecodeStatus::frame);
+    // A message that fails after a drive: its fields are reset at the next start, all of them.
+    ASSERT_EQ(read("S{n 7}{b 3}{r 1}\n"), DecodeStatus::error);
+    ASSERT_EQ(read("D{s 8}{a 9}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.frame(), Message::drive(8, 9));
+    EXPECT_EQ(reader.fields(), drive);
+    ASSERT_EQ(read("G{n 1}{b 2}{p 3,4}\n"), DecodeStatus::frame);
+    EXPECT_EQ(reader.frame(), Message::goal(1, 2, 3, 4));
+  }
 }
 
 TEST(ElcanoReader, SpanFeedingReportsExactlyWhatByteFeedingDoes) {
@@ -501,6 +562,8 @@ TEST(ElcanoReader, AMessageReadAfterOthersIsTheMessageAFreshDecoderReads) {
           const Message& m = reader.frame();
           const Message& f = fresh.frame();
           EXPECT_EQ(m.type, f.type) << "round " << round;
+          EXPECT_EQ(reader.fields(), fresh.fields()) << "round " << round;
+          expect_unset_outside(m, reader.fields());
           EXPECT_EQ((std::vector<int32_t>{m.number, m.speed, m.angle, m.obstacle, m.bearing, m.probability, m.east,
                                           m.north}),
                     (std::vector<int32_t>{f.number, f.speed, f.angle, f.obstacle, f.bearing, f.probability, f.east,

@@ -35,16 +35,26 @@ bool to_message(const SerialData& data, Message& message) {
   return tether::elcano::has_required_fields(message);
 }
 
-void from_message(const Message& message, SerialData& data) {
-  if (message.type == Type::drive) {  // the usual capture, ahead of the switch's search
+// `fields` (tether::elcano::field_bits): the fields of `message` that may hold a value; the others are
+// unset, so NaN is stored without reading them (a drive carries two of the seven).
+void from_message(const Message& message, uint8_t fields, SerialData& data) {
+  namespace bits = tether::elcano::field_bits;
+  if (fields == (bits::speed | bits::angle)) {  // a drive with its own fields only: the usual capture
     data.kind = MsgType::drive;
-  } else {
-    switch (message.type) {
-      case Type::drive: data.kind = MsgType::drive; break;
-      case Type::sensor: data.kind = MsgType::sensor; break;
-      case Type::goal: data.kind = MsgType::goal; break;
-      case Type::segment: data.kind = MsgType::seg; break;
-    }
+    data.number = NaN;
+    data.speed_cmPs = message.speed;
+    data.angle_deg = message.angle;
+    data.bearing_deg = NaN;
+    data.posE_cm = NaN;
+    data.posN_cm = NaN;
+    data.probability = NaN;
+    return;
+  }
+  switch (message.type) {
+    case Type::drive: data.kind = MsgType::drive; break;
+    case Type::sensor: data.kind = MsgType::sensor; break;
+    case Type::goal: data.kind = MsgType::goal; break;
+    case Type::segment: data.kind = MsgType::seg; break;
   }
   data.number = message.number;
   data.speed_cmPs = message.speed;
@@ -132,7 +142,7 @@ ParseStateError ParseState::update() {
     switch (kind) {
       case RingEvent::Kind::none: break;
       case RingEvent::Kind::captured:
-        if (dt != nullptr) from_message(node_.message(), *dt);
+        if (dt != nullptr) from_message(node_.message(), node_.message_fields(), *dt);
         result = ParseStateError::success;
         break;
       case RingEvent::Kind::forwarded: result = ParseStateError::passthru; break;

@@ -323,6 +323,45 @@ TEST(ElcanoOnStream, SerialPassedAsAStreamIsReadInPlace) {
   EXPECT_EQ(dt.speed_cmPs, 1);
 }
 
+TEST(ElcanoOnHardwareSerial, ACapturedMessageLeavesEveryFieldItDoesNotCarryNaN) {
+  // The reference's SerialData after a capture: the message's fields, NaN for every other one, whatever
+  // dt held and whatever came before (a drive with only s and a copies two fields and stores NaN).
+  Port port;
+  elcano::ParseState ps;
+  elcano::SerialData dt;
+  ps.dt = &dt;
+  ps.input = &port.serial;
+  ps.output = &port.serial;
+  ps.capture = elcano::MsgType::drive | elcano::MsgType::seg;
+  dt.number = dt.bearing_deg = dt.posE_cm = dt.posN_cm = dt.probability = 11;  // set by the sketch
+  port.receive("D{s 50}{a 25}\n");
+  ASSERT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(dt.kind, elcano::MsgType::drive);
+  EXPECT_EQ(dt.speed_cmPs, 50);
+  EXPECT_EQ(dt.angle_deg, 25);
+  for (const int32_t field : {dt.number, dt.bearing_deg, dt.posE_cm, dt.posN_cm, dt.probability}) {
+    EXPECT_EQ(field, elcano::NaN);
+  }
+  port.receive("X{n 4}{s 160}{b 80}{p 3200,-64000}\n");
+  ASSERT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(dt.kind, elcano::MsgType::seg);
+  EXPECT_EQ(dt.angle_deg, elcano::NaN);
+  EXPECT_EQ(dt.posN_cm, -64000);
+  port.receive("D{s 1}{a 2}{b 3}\n");  // an attribute a drive does not carry is read (the reference's)
+  ASSERT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(dt.bearing_deg, 3);
+  EXPECT_EQ(dt.number, elcano::NaN);
+  EXPECT_EQ(dt.posE_cm, elcano::NaN);
+  dt.bearing_deg = 12;
+  port.receive("D{s 5}{a 6}\n");
+  ASSERT_EQ(ps.update(), elcano::ParseStateError::success);
+  EXPECT_EQ(dt.speed_cmPs, 5);
+  EXPECT_EQ(dt.angle_deg, 6);
+  for (const int32_t field : {dt.number, dt.bearing_deg, dt.posE_cm, dt.posN_cm, dt.probability}) {
+    EXPECT_EQ(field, elcano::NaN);
+  }
+}
+
 TEST(ElcanoOnStream, AStreamIsReadInRunsWithOneAvailableEach) {
   CountingStream stream("D{s 50}{a 25}\n");
   elcano::ParseState ps;

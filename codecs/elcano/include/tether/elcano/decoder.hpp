@@ -124,6 +124,10 @@ class Decoder {
   FeedResult feed(ByteView bytes);
   /// After `frame`: the message.
   const Message& frame() const { return message_; }
+  /// After `frame`: the `field_bits` of the fields the message may have set (every field outside them is
+  /// `kUnset`): `speed | angle` for a drive that carried only those (the usual message on a ring), else
+  /// `field_bits::all`. A copy of the message can then skip the rest.
+  uint8_t fields() const { return fields_; }
   /// After `frame`: the message's bytes to forward (see the file overview); valid until the next byte.
   ByteView forward() const { return ByteView(buffer_, size_); }
   /// After `error`: why the message was dropped.
@@ -138,6 +142,8 @@ class Decoder {
 
  private:
   enum class State : uint8_t { header, lcurly, letter, number, trailer, skip };
+  // Each attribute of a complete message keeps at least 4 bytes (`{s1}`): attributes_ cannot wrap.
+  static_assert(Capacity <= 4 * 255, "Decoder counts a message's attributes in 8 bits");
   // Digits any int32 magnitude can take without a range check (999999999 < 2^31).
   static constexpr uint8_t kSafeDigits = 9;
 
@@ -175,6 +181,7 @@ class Decoder {
   }
   // After an attribute's letter (already kept): its number starts, for `field` (field_of the letter).
   void begin_number(uint8_t field) {
+    ++attributes_;
     field_ = field;
     second_ = false;
     negative_ = false;
@@ -202,6 +209,10 @@ class Decoder {
   Generation generation_;
   uint8_t digits_ = 0;     // digits of the number so far (saturates at 255)
   uint8_t field_ = 0;      // what `}` sets: field_of(letter); 0 only for generation B `p` (E,N)
+  uint8_t attributes_ = 0;  // attribute letters taken since open() (a complete message's: <= Capacity / 4)
+  // The fields of message_ that may hold a value (field_bits): none before the first message, a complete
+  // message's fields_set(), all while a message is read or after one failed; open() resets only those.
+  uint8_t fields_ = 0;
   size_t size_ = 0;
   uint32_t value_ = 0;     // magnitude, at most 2^31 (32-bit: the AVR has no cheap 64-bit multiply)
   bool second_ = false;    // generation B `p`: reading N after the comma

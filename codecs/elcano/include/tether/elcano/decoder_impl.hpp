@@ -131,6 +131,7 @@ lcurly:
     // The counter's carry loop (~10 AVR cycles; an inline 32-bit `++` through the pointer is ~24), inline
     // as in an interrupt handler: a call to add_one would make the run save more registers.
     add_one_in_interrupt(counters_->frames_ok);
+    fields_ = detail::fields_set(message_.type, attributes_);
     state_ = State::header;
     size_ = static_cast<size_t>(out - buffer_);
     return RunEnd{next, true};
@@ -138,7 +139,8 @@ lcurly:
   if (generation_ != Generation::d || static_cast<uint8_t>(byte - '0') >= 10 || out == buffer_ + 1) {
     goto stop_lcurly;
   }
-  crc_end_ = static_cast<size_t>(out - buffer_);  // the generation D trailer starts (trailer_ is 0)
+  crc_end_ = static_cast<size_t>(out - buffer_);  // the generation D trailer starts
+  trailer_ = 0;
 
 trailer:
   if (next == end) goto stop_trailer;
@@ -164,10 +166,13 @@ letter:
   }
   offset = field_of(byte);
   // field_of has 0 for generation B `p` (two fields: E,N); every other 0 is an unknown letter.
-  if (offset == 0 && (byte != 'p' || generation_ != Generation::b)) goto stop_letter;
+  if (offset == 0) {
+    if (byte != 'p' || generation_ != Generation::b) goto stop_letter;
+    second_ = false;  // read only for `p` (field 0)
+  }
   detail::store_next(out, byte);
   ++next;
-  second_ = false;
+  ++attributes_;
   negative = false;
   digits = 0;
   small = 0;
@@ -316,6 +321,7 @@ DecodeStatus Decoder<Capacity>::finish() {
   if (!detail::required_fields_set(message_)) return fail_at_line_end(Error::inval_comb);
   if (!keep('\n')) return fail_at_line_end(Error::too_long);
   ++counters_->frames_ok;
+  fields_ = detail::fields_set(message_.type, attributes_);
   state_ = State::header;
   return DecodeStatus::frame;
 }
@@ -323,6 +329,7 @@ DecodeStatus Decoder<Capacity>::finish() {
 template <size_t Capacity>
 __attribute__((noinline)) void Decoder<Capacity>::start(uint8_t header) {
   open(header);
+  size_ = 1;
   state_ = State::lcurly;
 }
 
@@ -333,19 +340,23 @@ __attribute__((always_inline)) inline void Decoder<Capacity>::open(uint8_t heade
   static_assert(offsetof(Message, north) == offsetof(Message, number) + 7 * sizeof(int32_t) &&
                     sizeof(Message) <= offsetof(Message, north) + 2 * sizeof(int32_t),
                 "Decoder::open clears every field of Message");
-  message_.type = static_cast<Type>(header);
-  message_.number = kUnset;
+  // Only the fields the last message may have set (fields_; the others are kUnset already): a drive's
+  // two (the usual message on a ring) or all eight; a test per field would cost more than its stores.
   message_.speed = kUnset;
   message_.angle = kUnset;
-  message_.obstacle = kUnset;
-  message_.bearing = kUnset;
-  message_.probability = kUnset;
-  message_.east = kUnset;
-  message_.north = kUnset;
-  buffer_[0] = header;
-  size_ = 1;
-  trailer_ = 0;
-  trailer_digits_ = false;
+  if ((fields_ & ~(field_bits::speed | field_bits::angle)) != 0) {
+    message_.number = kUnset;
+    message_.obstacle = kUnset;
+    message_.bearing = kUnset;
+    message_.probability = kUnset;
+    message_.east = kUnset;
+    message_.north = kUnset;
+  }
+  fields_ = field_bits::all;  // until this message completes
+  attributes_ = 0;
+  message_.type = static_cast<Type>(header);
+  buffer_[0] = header;  // size_ 1: run() keeps the size in its cursor, start() sets it
+  trailer_digits_ = false;  // trailer_ is reset where a trailer starts
 }
 
 template <size_t Capacity>
@@ -392,6 +403,7 @@ DecodeStatus Decoder<Capacity>::step(uint8_t byte) {
       }
       if (generation_ == Generation::d && byte >= '0' && byte <= '9' && size_ > 1) {
         crc_end_ = size_;
+        trailer_ = 0;
         state_ = State::trailer;
         return step(byte);
       }

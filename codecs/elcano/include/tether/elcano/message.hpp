@@ -92,6 +92,19 @@ struct Message {
   }
 };
 
+/// One bit per field of `Message`, for `Decoder::fields()`: which fields a decoded message may have set.
+namespace field_bits {
+constexpr uint8_t number = 0x01;       ///< `number`.
+constexpr uint8_t speed = 0x02;        ///< `speed`.
+constexpr uint8_t angle = 0x04;        ///< `angle`.
+constexpr uint8_t obstacle = 0x08;     ///< `obstacle`.
+constexpr uint8_t bearing = 0x10;      ///< `bearing`.
+constexpr uint8_t probability = 0x20;  ///< `probability`.
+constexpr uint8_t east = 0x40;         ///< `east`.
+constexpr uint8_t north = 0x80;        ///< `north`.
+constexpr uint8_t all = 0xFF;          ///< Every field.
+}  // namespace field_bits
+
 /// Field-by-field equality: same type and the same value (or both unset) in every field, `obstacle` and
 /// the fields the type does not carry included.
 constexpr bool operator==(const Message& a, const Message& b) {
@@ -124,6 +137,12 @@ __attribute__((always_inline)) inline bool required_fields_set(const Message& m)
       return m.number != kUnset && m.speed != kUnset && m.bearing != kUnset && m.east != kUnset && m.north != kUnset;
   }
   return false;
+}
+/// The field_bits a complete message of `type` (its required fields set) may have set when it carried
+/// `attributes` attributes: a drive with two carried s and a only (the usual message on a ring); any other
+/// message possibly any field (field_bits::all).
+__attribute__((always_inline)) inline uint8_t fields_set(Type type, uint8_t attributes) {
+  return type == Type::drive && attributes == 2 ? field_bits::speed | field_bits::angle : field_bits::all;
 }
 }  // namespace detail
 

@@ -164,6 +164,8 @@ class RingNode {
   RingEvent event(RingEvent::Kind kind) const;
   /// The message of the last event that had one (valid until the next byte).
   const Message& message() const { return reader_.frame(); }
+  /// With `message()`: the `field_bits` of its fields that may hold a value (`Decoder::fields()`).
+  uint8_t message_fields() const { return reader_.fields(); }
   /// Why the last `dropped` event dropped.
   Error error() const { return error_; }
   /// Queues `message` for the next node and remembers it (rule 2). `Status::invalid_argument` when it
