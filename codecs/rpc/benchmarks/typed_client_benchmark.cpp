@@ -5,10 +5,11 @@
 //           writes the HostMessage envelope (id, method index, request bytes) and its frame (COBS + CRC-16,
 //           leading delimiter) into a frame string it recycles (`envelope::write_frame`);
 //   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope read
-//           (`envelope::decode`), the reply bytes kept in the call's state until the Ack, the reply made
-//           as the typed call's class (an arm::JointReply, `detail::typed_reply`) and parsed (a type without
+//           (`envelope::decode`), the reply bytes kept in the call's state until the Ack, the reply taken
+//           from the client's recycled replies of the typed call's class (an arm::JointReply,
+//           `detail::TypedReplies`: the previous call's, released by its caller) and parsed (a type without
 //           strings: libprotobuf's parser alone), then moved out as the typed client hands it over
-//           (`Client::call_as`).
+//           (`Client::call_as`), which releases it for the next call.
 // BM_RpcTypedMoveJointWithAck also decodes the device's Ack frame, the other frame of the round trip.
 // BM_RpcDynamicJsonMoveJoint is the dynamic client's `call_json` (the CLI's and Python's path): the schema
 // read from arm.proto at run time, the request parsed from JSON into a dynamic message, the reply printed as
@@ -119,6 +120,7 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   std::size_t call_bytes = 0;
   std::int64_t reached = 0;
   std::string frame;  // the client's recycled frame string
+  rpc::detail::TypedReplies replies;  // the client's recycled replies
   for (auto _ : state) {
     // Encode: the initiation's encoding of the request, then what the strand does with it.
     rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request);
@@ -128,9 +130,9 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
     benchmark::DoNotOptimize(frame.data());
 
     const std::string reply_bytes = reply_payload(decoder, answer, with_ack, state);
-    // The typed call's reply class is the method's output: made as one (client.cpp on_completion).
+    // The typed call's reply class is the method's output: taken as one (client.cpp on_completion).
     if (call.reply.type != method.output) state.SkipWithError("not the typed reply");
-    std::shared_ptr<pb::Message> decoded = call.reply.make();
+    std::shared_ptr<pb::Message> decoded = replies.take(call.reply);
     if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) {
       state.SkipWithError("bad reply");
     }

@@ -168,6 +168,22 @@ CallRequest make_call_request(std::string_view method, const pb::Message& reques
   return call;
 }
 
+std::shared_ptr<pb::Message> TypedReplies::take(const TypedReply& typed) {
+  Slot* free = nullptr;
+  for (Slot& slot : slots_) {
+    if (slot.type == typed.type && slot.message.use_count() == 1) {
+      // The caller's release (another thread's decrement) happens before the reuse: what it did to the
+      // reply is done before the parse writes it.
+      std::atomic_thread_fence(std::memory_order_acquire);
+      return slot.message;
+    }
+    if (free == nullptr && !slot.message) free = &slot;
+  }
+  std::shared_ptr<pb::Message> made = typed.make();
+  if (free != nullptr) *free = Slot{typed.type, made};
+  return made;
+}
+
 void copy_through_bytes(const pb::Message& from, pb::Message& to) {
   std::string bytes;
   (void)from.SerializeToString(&bytes);  // messages of the client: every field set is valid proto3
@@ -664,8 +680,9 @@ class ClientImpl final : public client::ClientLink {
     }
     if (!error) {
       const TypedReply& typed = op->state.typed;
-      result.reply = typed.make != nullptr && typed.type == op->state.method->output ? typed.make()
-                                                                                     : messages_->make(op->state.method->output);
+      result.reply = typed.make != nullptr && typed.type == op->state.method->output
+                         ? typed_replies_.take(typed)
+                         : messages_->make(op->state.method->output);
       if (!messages_->parse(*result.reply, ByteView::from_chars(op->state.reply.data(), op->state.reply.size()))) {
         result.reply.reset();
         error = RpcError::bad_reply;
@@ -1008,6 +1025,7 @@ class ClientImpl final : public client::ClientLink {
   client::MessageIds ids_;
   std::array<UntrackedId, 8> untracked_{};
   std::array<std::shared_ptr<std::string>, kMaxInFlight + 4> spare_frames_;  // frame_of's strings
+  TypedReplies typed_replies_;  // typed calls' replies
   std::size_t untracked_next_ = 0;
   std::map<std::uint32_t, Ops::iterator> in_flight_;  // by message id
   std::map<std::uint64_t, StreamEntry> streams_;     // by key

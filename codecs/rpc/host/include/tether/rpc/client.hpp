@@ -70,6 +70,7 @@
 #include <boost/system/system_error.hpp>
 
 #include <chrono>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -78,6 +79,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <typeinfo>
 #include <utility>
 #include <variant>
 
@@ -295,6 +297,24 @@ TypedReply typed_reply() {
   static const google::protobuf::Descriptor* const type = Reply::descriptor();
   return TypedReply{type, [] { return std::shared_ptr<google::protobuf::Message>(std::make_shared<Reply>()); }};
 }
+/// The replies of a client's typed calls, recycled: each is made as the caller's class once per slot and
+/// parsed into again once the caller has let it go (the slot's reference is the only one left), so a
+/// warmed-up typed call allocates no reply. Used by one thread at a time (the client's strand).
+class TypedReplies {
+ public:
+  /// A `typed.type` message to parse the reply into: a released one of that class, else a new one (kept
+  /// in a free slot for the next calls).
+  std::shared_ptr<google::protobuf::Message> take(const TypedReply& typed);
+
+ private:
+  struct Slot {
+    const google::protobuf::Descriptor* type = nullptr;
+    std::shared_ptr<google::protobuf::Message> message;
+  };
+  // Replies handed over and not yet released: the calls in flight and the completions on their way to
+  // their callers; more than this many at once are made and dropped as before.
+  std::array<Slot, 8> slots_;
+};
 /// A call as the public API hands it over: the request is encoded at initiation (its copy: the caller's
 /// message may change or go once the initiating function returned), and checked against the schema later.
 struct CallRequest {
@@ -326,13 +346,24 @@ CallRequest make_typed_call_request(std::string_view method, const Request& requ
 /// Copies `from` into `to`, a message of the same type from another pool, through its bytes.
 void copy_through_bytes(const google::protobuf::Message& from, google::protobuf::Message& to);
 
+/// `message` as `Typed` when it is one, else null. protoc's classes are final: their exact type, compared
+/// by `typeid`, is what a `dynamic_cast` would search the hierarchy for.
+template <typename Typed, typename Message>
+Typed* as_class(Message* message) {
+  if constexpr (std::is_final_v<Typed>) {
+    return typeid(*message) == typeid(Typed) ? static_cast<Typed*>(message) : nullptr;
+  } else {
+    return dynamic_cast<Typed*>(message);
+  }
+}
+
 /// `message` as the program's class `Typed`: moved out when it is one (a compiled-in schema's), copied
 /// through its bytes otherwise (a schema read from a file); empty when null.
 template <typename Typed>
 Typed take_as(const std::shared_ptr<google::protobuf::Message>& message) {
   Typed out;
   if (!message) return out;
-  if (Typed* typed = dynamic_cast<Typed*>(message.get())) {
+  if (Typed* typed = as_class<Typed>(message.get())) {
     out = std::move(*typed);
   } else {
     copy_through_bytes(*message, out);
@@ -425,7 +456,7 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
     return open_stream(method, request, period,
                        [handler = std::move(handler)](const error_code& error, const StreamMessage& message) {
                          if (!message.message) return handler(error, Typed::default_instance());
-                         if (const auto* typed = dynamic_cast<const Typed*>(message.message.get())) {
+                         if (const auto* typed = detail::as_class<const Typed>(message.message.get())) {
                            return handler(error, *typed);
                          }
                          Typed copy;
