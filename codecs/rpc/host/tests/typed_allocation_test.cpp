@@ -1,0 +1,165 @@
+// Heap allocations of a warmed-up typed call's encode + decode: none. The steps are the client's own, in
+// its order (client.cpp; the typed client benchmark runs the same): the initiation encodes the request
+// (`detail::make_typed_call_request`), the strand writes the envelope's frame into a recycled string
+// (`envelope::write_frame`), the device's Reply and Ack frames go through the incremental decoder and
+// `envelope::decode`, the reply's bytes are kept in the call's state until the Ack, the reply is taken
+// from the client's recycled replies (`detail::TypedReplies`), parsed, and moved out to the caller
+// (`detail::take_as`, as `Client::call_as`). Counted by this program's own global operator new (its own
+// executable: the replacement is global), on this thread only.
+#include <google/protobuf/message.h>
+#include <gtest/gtest.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <new>
+#include <string>
+
+#include "arm.tether.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/encoder.hpp"
+#include "tether/rpc/client.hpp"
+#include "tether/rpc/envelope.hpp"
+#include "tether/rpc/schema.hpp"
+#include "tether_rpc.pb.h"
+
+namespace {
+thread_local std::size_t allocations = 0;
+}  // namespace
+
+// Every form a program's `new` reaches (the aligned ones are left to the runtime: nothing here aligns).
+void* operator new(std::size_t size) {
+  ++allocations;
+  if (void* memory = std::malloc(size == 0 ? 1 : size)) return memory;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+  ++allocations;
+  return std::malloc(size == 0 ? 1 : size);
+}
+void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept { return operator new(size, tag); }
+void operator delete(void* memory) noexcept { std::free(memory); }
+void operator delete[](void* memory) noexcept { std::free(memory); }
+void operator delete(void* memory, std::size_t) noexcept { std::free(memory); }
+void operator delete[](void* memory, std::size_t) noexcept { std::free(memory); }
+void operator delete(void* memory, const std::nothrow_t&) noexcept { std::free(memory); }
+void operator delete[](void* memory, const std::nothrow_t&) noexcept { std::free(memory); }
+
+namespace {
+
+using namespace tether;
+
+std::string frame_of(const std::string& payload) {
+  std::string out(proxy::max_frame_size(payload.size()), '\0');
+  const Result<size_t> size =
+      proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
+                          MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
+  out.resize(size.ok() ? size.value() : 0);
+  return out;
+}
+
+// One typed MoveJoint call's encode and decode, with the state the client keeps between calls.
+class TypedCall {
+ public:
+  TypedCall() : method_(*schema_.find("MoveJoint")), decoder_(proxy::Integrity::crc16, counters_) {
+    request_.set_joint(2);
+    request_.set_angle_cdeg(-4500);
+    arm::JointReply joint;
+    joint.set_reached_cdeg(-4500);
+    rpc::wire::DeviceMessage reply;
+    reply.mutable_reply()->set_call(kId);
+    reply.mutable_reply()->set_reply(joint.SerializeAsString());
+    rpc::wire::DeviceMessage ack;
+    ack.mutable_ack()->set_id(kId);
+    reply_frame_ = frame_of(reply.SerializeAsString());
+    ack_frame_ = frame_of(ack.SerializeAsString());
+  }
+
+  // The reply's reached_cdeg (0 when a step failed: the test's checks say which).
+  std::int32_t run() {
+    // Encode: the initiation's request, then the strand's frame.
+    rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request_);
+    if (!call.encoded || schema_.find(call.method) != &method_ || call.reply.type != method_.output) return 0;
+    rpc::envelope::HostMessage message;
+    message.id = kId;
+    message.body = rpc::envelope::HostBody::call;
+    message.method = method_.index;
+    message.request = ByteView::from_chars(call.request.data(), call.request.size());
+    rpc::envelope::write_frame(message, frame_);
+    if (frame_.size() < 8) return 0;
+
+    // Decode: the device's Reply and Ack.
+    std::string reply_bytes;  // the call's state until the Ack
+    bool acked = false;
+    for (const std::string* incoming : {&reply_frame_, &ack_frame_}) {
+      ByteView input = ByteView::from_chars(incoming->data(), incoming->size());
+      while (!input.empty()) {
+        const FeedResult fed = decoder_.feed(input);
+        input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
+        if (fed.status != DecodeStatus::frame) continue;
+        rpc::envelope::DeviceMessage out;
+        if (rpc::envelope::decode(decoder_.frame(), out) != rpc::envelope::DecodeError::none) return 0;
+        if (out.body == rpc::envelope::DeviceBody::reply && out.reply.call == kId) {
+          reply_bytes.assign(reinterpret_cast<const char*>(out.reply.reply.data()), out.reply.reply.size());
+        }
+        if (out.body == rpc::envelope::DeviceBody::ack && out.ack.id == kId) acked = true;
+      }
+    }
+    if (!acked) return 0;
+    std::shared_ptr<google::protobuf::Message> decoded = replies_.take(call.reply);
+    if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) return 0;
+    const arm::JointReply reply = rpc::detail::take_as<arm::JointReply>(decoded);
+    return reply.reached_cdeg();
+  }
+
+ private:
+  static constexpr std::uint32_t kId = 0x12345678;
+  const rpc::Schema schema_{arm::ArmClient::descriptor()};
+  const rpc::Method& method_;
+  LinkCounters counters_;
+  proxy::Decoder<rpc::kMaxPayload> decoder_;
+  rpc::detail::TypedReplies replies_;
+  std::string frame_;
+  arm::JointRequest request_;
+  std::string reply_frame_;
+  std::string ack_frame_;
+};
+
+TEST(RpcTypedCallAllocations, AWarmedUpTypedCallsEncodeAndDecodeAllocateNothing) {
+  TypedCall call;
+  const std::size_t before_first = allocations;
+  ASSERT_EQ(call.run(), -4500);
+  // The first call makes what later calls reuse (its frame string and its reply): the count sees them.
+  EXPECT_GT(allocations - before_first, 0u);
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(call.run(), -4500);
+  std::size_t counted = 0;  // around the calls alone: the checks' own allocations are not the calls'
+  int right = 0;
+  for (int i = 0; i < 100; ++i) {
+    const std::size_t before = allocations;
+    const std::int32_t reached = call.run();
+    counted += allocations - before;
+    right += reached == -4500 ? 1 : 0;
+  }
+  EXPECT_EQ(right, 100);
+  EXPECT_EQ(counted, 0u) << "allocations in 100 warmed-up typed calls";
+}
+
+TEST(RpcTypedCallAllocations, AReplyTheCallerStillHoldsIsNotReused) {
+  const rpc::detail::TypedReply typed = rpc::detail::typed_reply<arm::JointReply>();
+  rpc::detail::TypedReplies replies;
+  std::shared_ptr<google::protobuf::Message> held = replies.take(typed);
+  ASSERT_NE(dynamic_cast<arm::JointReply*>(held.get()), nullptr);
+  const google::protobuf::Message* const first = held.get();
+  std::shared_ptr<google::protobuf::Message> second = replies.take(typed);
+  EXPECT_NE(second.get(), first);  // the first one's caller still has it
+  second.reset();
+  held.reset();
+  const std::size_t before = allocations;
+  std::shared_ptr<google::protobuf::Message> again = replies.take(typed);
+  EXPECT_EQ(allocations - before, 0u);
+  EXPECT_EQ(again.get(), first);  // released: parsed into again
+}
+
+}  // namespace
