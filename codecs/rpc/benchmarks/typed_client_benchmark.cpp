@@ -4,9 +4,10 @@
 //   encode: the initiation encodes the request (`detail::make_typed_call_request`: the call's copy), the strand
 //           writes the HostMessage envelope (id, method index, request bytes) and its frame (COBS + CRC-16,
 //           leading delimiter) into a frame string it recycles (`envelope::write_frame`);
-//   decode: the device's Reply frame through the incremental decoder, the DeviceMessage envelope read
-//           (`envelope::decode`), the reply bytes kept in the call's state until the Ack, the reply taken
-//           from the client's recycled replies of the typed call's class (an arm::JointReply,
+//   decode: the device's Reply frame through the client's frame reader (`envelope::FrameReader`: whole
+//           in one read, so decoded in one pass), the DeviceMessage envelope read (`envelope::decode`),
+//           the reply bytes kept in the call's state until the Ack, the reply taken from the client's
+//           recycled replies of the typed call's class (an arm::JointReply,
 //           `detail::TypedReplies`: the previous call's, released by its caller) and parsed (a type without
 //           strings: libprotobuf's parser alone), then moved out as the typed client hands it over
 //           (`Client::call_as`), which releases it for the next call.
@@ -75,9 +76,9 @@ void call_frame(const rpc::detail::CallRequest& call, const rpc::Method& method,
   rpc::envelope::write_frame(message, frame);
 }
 
-// Decode: the device's frames through the incremental decoder; the Reply's payload bytes.
+// Decode: the device's frames through the client's frame reader; the Reply's payload bytes.
 template <std::size_t Capacity>
-std::string reply_payload(proxy::Decoder<Capacity>& decoder, const DeviceFrames& answer, bool with_ack,
+std::string reply_payload(rpc::envelope::FrameReader<Capacity>& decoder, const DeviceFrames& answer, bool with_ack,
                           benchmark::State& state) {
   std::string reply_bytes;
   for (const std::string* incoming : {&answer.reply, &answer.ack}) {
@@ -113,7 +114,7 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   constexpr std::uint32_t kId = 0x12345678;
   const DeviceFrames answer = device_frames(kId);
   LinkCounters counters;
-  proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
+  rpc::envelope::FrameReader<rpc::kMaxPayload> decoder(counters);  // the client's
   arm::JointRequest request;
   request.set_joint(2);
   request.set_angle_cdeg(-4500);
@@ -153,7 +154,7 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
   const pb::Message* request_prototype = factory.GetPrototype(method.input);
   const pb::Message* reply_prototype = factory.GetPrototype(method.output);
   LinkCounters counters;
-  proxy::Decoder<rpc::kMaxPayload> decoder(proxy::Integrity::crc16, counters);
+  rpc::envelope::FrameReader<rpc::kMaxPayload> decoder(counters);  // the client's
   const std::string json_request = R"({"joint": 2, "angleCdeg": -4500})";
   const rpc::JsonMapping json(schema.pool());  // the client's, made once with its schema
   pb::util::JsonPrintOptions print;

@@ -230,7 +230,7 @@ class ClientImpl final : public client::ClientLink {
         messages_(std::make_shared<Messages>(std::move(schema))),
         ops_(executor(), [this] { publish(); }),
         ready_(executor(), [this] { publish(); }),
-        decoder_(proxy::Integrity::crc16, counters_.link),
+        decoder_(counters_.link),
         table_(session::CallTiming(), 0, counters_.link),
         heartbeat_(options.timing.ping_period),
         monitor_(hello_timing(options.timing), counters_.link),
@@ -1018,7 +1018,7 @@ class ClientImpl final : public client::ClientLink {
   Counters counters_;
   Ops ops_;  // in acceptance order
   ReadyWaiters ready_;
-  proxy::Decoder<kMaxPayload> decoder_;
+  envelope::FrameReader<kMaxPayload> decoder_;
   Table table_;
   session::HeartbeatSchedule heartbeat_;
   Monitor monitor_;

@@ -436,6 +436,37 @@ DecodeError decode(ByteView payload, DeviceMessage& out) {
   });
 }
 
+WholeFrame read_whole_frame(ByteView encoded, std::uint8_t* const out, std::size_t capacity, std::size_t& size) {
+  // The decoder's steps, a block at a time: each code byte after the first stores the zero its previous
+  // block (one of fewer than 254 bytes) stood for, then the block's bytes; a store past `capacity` is
+  // the decoder's overflow, which comes before a block cut short (found only at the delimiter).
+  const std::uint8_t* in = encoded.data();
+  const std::uint8_t* const end = in + encoded.size();
+  std::size_t at = 0;
+  std::uint8_t last_code = 0xFF;  // the first code stores no zero
+  while (in != end) {
+    const std::uint8_t code = *in++;
+    if (last_code != 0xFF) {
+      if (at == capacity) return WholeFrame::too_long;
+      out[at++] = 0x00;
+    }
+    last_code = code;
+    const std::size_t block = code - 1u;
+    const auto left = static_cast<std::size_t>(end - in);
+    const std::size_t here = block < left ? block : left;
+    if (here > capacity - at) return WholeFrame::too_long;
+    std::memcpy(out + at, in, here);
+    at += here;
+    in += here;
+    if (here != block) return WholeFrame::bad_cobs;
+  }
+  if (at < 2) return WholeFrame::too_short;
+  const auto sent = static_cast<std::uint16_t>(out[0] | out[1] << 8);
+  if (crc16(out + 2, at - 2) != sent) return WholeFrame::crc_mismatch;
+  size = at;
+  return WholeFrame::frame;
+}
+
 bool text_is_utf8(ByteView text) {
   return google::protobuf::internal::IsStructurallyValidUTF8(reinterpret_cast<const char*>(text.data()),
                                                              static_cast<int>(text.size()));

@@ -1,6 +1,7 @@
 // The hand-written envelope (envelope.hpp) against libprotobuf's classes of tether_rpc.proto: the
 // HostMessages it writes are libprotobuf's bytes, its frames proxy::encode_frame's, and it reads a
-// DeviceMessage exactly when libprotobuf does, with the same fields (randomized: RANDOM_SEED repeats a run).
+// DeviceMessage exactly when libprotobuf does, with the same fields; its frame reader reports what
+// proxy::Decoder does (randomized: RANDOM_SEED repeats a run).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 
 #include "envelope_reference.hpp"
 #include "tether/proxy/encoder.hpp"
+#include "tether/rpc/client.hpp"
 #include "tether/rpc/envelope.hpp"
 #include "tether/testing/random_seed.hpp"
 
@@ -422,3 +424,101 @@ TEST(RpcEnvelope, DeviceTextNotUtf8) {
 }
 
 }  // namespace
+
+// --- FrameReader: proxy::Decoder's frames, errors and counters ------------------------------------------
+
+// Everything a link may deliver: frames (payloads up to past the bound, zeros included), frames with a
+// byte changed (a zero splits them), cut short or without their delimiter, garbage, lone delimiters.
+std::string random_link_bytes(std::mt19937_64& rng, int pieces) {
+  std::string stream;
+  for (int piece = 0; piece < pieces; ++piece) {
+    const unsigned kind = static_cast<unsigned>(rng() % 10);
+    if (kind == 8) {
+      stream += random_bytes(rng, 40);
+      continue;
+    }
+    if (kind == 9) {
+      stream.append(1 + rng() % 3, '\0');
+      continue;
+    }
+    const std::size_t size = rng() % 4 == 0 ? rng() % 300 : rng() % 40;
+    std::string payload;
+    for (std::size_t i = 0; i < size; ++i) {
+      payload += static_cast<char>(rng() % 4 == 0 ? 0 : rng() % 256);
+    }
+    std::string frame(proxy::max_frame_size(payload.size()), '\0');
+    const Result<size_t> written =
+        proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, rng() % 2 == 0,
+                            MutableByteView(reinterpret_cast<std::uint8_t*>(frame.data()), frame.size()));
+    frame.resize(written.ok() ? written.value() : 0);
+    if (kind == 5 && !frame.empty()) frame[rng() % frame.size()] = static_cast<char>(rng() % 256);
+    if (kind == 6 && frame.size() > 1) frame.resize(1 + rng() % (frame.size() - 1));
+    if (kind == 7 && !frame.empty()) frame.pop_back();
+    stream += frame;
+  }
+  return stream;
+}
+
+// What a decoder reports for `stream` delivered in `chunks`: each frame's payload or error, and its
+// counters after each chunk.
+template <typename Decoder>
+std::vector<std::string> decode_events(Decoder& decoder, const LinkCounters& counters, const std::string& stream,
+                                       const std::vector<std::size_t>& chunks) {
+  std::vector<std::string> events;
+  std::size_t at = 0;
+  for (const std::size_t chunk : chunks) {
+    ByteView input = ByteView::from_chars(stream.data() + at, chunk);
+    at += chunk;
+    while (!input.empty()) {
+      const FeedResult fed = decoder.feed(input);
+      input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
+      if (fed.status == DecodeStatus::frame) {
+        const ByteView frame = decoder.frame();
+        events.push_back("frame " + hex(std::string(reinterpret_cast<const char*>(frame.data()), frame.size())));
+      } else if (fed.status == DecodeStatus::error) {
+        events.push_back("error " + std::string(proxy::describe(decoder.error())));
+      }
+    }
+    events.push_back("counters ok " + std::to_string(counters.frames_ok) + " crc " + std::to_string(counters.crc_errors) +
+                     " framing " + std::to_string(counters.framing_errors) + " oversize " +
+                     std::to_string(counters.oversize_frames) + " resyncs " + std::to_string(counters.resyncs));
+  }
+  return events;
+}
+
+TEST(RpcFrameReader, ReportsWhatTheProxyDecoderReportsInAnyChunking) {
+  std::mt19937_64 rng = tether::testing::seeded_generator(4);
+  for (int round = 0; round < 300; ++round) {
+    const std::string stream = random_link_bytes(rng, 1 + static_cast<int>(rng() % 12));
+    std::vector<std::size_t> chunks;  // whole, byte by byte, or in random reads
+    const unsigned split = static_cast<unsigned>(rng() % 3);
+    for (std::size_t at = 0; at < stream.size();) {
+      const std::size_t chunk = split == 0 ? stream.size() : split == 1 ? 1 : 1 + rng() % 64;
+      chunks.push_back(std::min(chunk, stream.size() - at));
+      at += chunks.back();
+    }
+    LinkCounters reference_counters;
+    proxy::Decoder<kMaxPayload> reference(proxy::Integrity::crc16, reference_counters);
+    LinkCounters counters;
+    envelope::FrameReader<kMaxPayload> reader(counters);
+    ASSERT_EQ(decode_events(reader, counters, stream, chunks), decode_events(reference, reference_counters, stream, chunks))
+        << "stream " << hex(stream) << " in " << chunks.size() << " reads";
+  }
+}
+
+TEST(RpcFrameReader, WholeFrameVerdicts) {
+  std::uint8_t out[8];
+  std::size_t size = 0;
+  const auto verdict = [&](const std::string& encoded, std::size_t capacity) {
+    return envelope::read_whole_frame(ByteView::from_chars(encoded.data(), encoded.size()), out, capacity, size);
+  };
+  // 0xFFFF is the CRC-16/MCRF4XX of no bytes: an empty payload.
+  EXPECT_EQ(verdict(str({0x03, 0xFF, 0xFF}), 8), envelope::WholeFrame::frame);
+  EXPECT_EQ(size, 2u);
+  EXPECT_EQ(verdict(str({0x03, 0xFF, 0xFE}), 8), envelope::WholeFrame::crc_mismatch);
+  EXPECT_EQ(verdict(str({0x01}), 8), envelope::WholeFrame::too_short);
+  EXPECT_EQ(verdict(str({0x02, 0xFF}), 8), envelope::WholeFrame::too_short);
+  EXPECT_EQ(verdict(str({0x05, 0xFF, 0xFF}), 8), envelope::WholeFrame::bad_cobs);
+  EXPECT_EQ(verdict(str({0x05, 0xFF, 0xFF}), 1), envelope::WholeFrame::too_long);  // overflow comes first
+  EXPECT_EQ(verdict(str({0x03, 0xFF, 0xFF, 0x01}), 2), envelope::WholeFrame::too_long);  // the implied zero
+}

@@ -1,7 +1,7 @@
 // Heap allocations of a warmed-up typed call's encode + decode: none. The steps are the client's own, in
 // its order (client.cpp; the typed client benchmark runs the same): the initiation encodes the request
 // (`detail::make_typed_call_request`), the strand writes the envelope's frame into a recycled string
-// (`envelope::write_frame`), the device's Reply and Ack frames go through the incremental decoder and
+// (`envelope::write_frame`), the device's Reply and Ack frames go through the client's frame reader and
 // `envelope::decode`, the reply's bytes are kept in the call's state until the Ack, the reply is taken
 // from the client's recycled replies (`detail::TypedReplies`), parsed, and moved out to the caller
 // (`detail::take_as`, as `Client::call_as`). Counted by this program's own global operator new (its own
@@ -63,7 +63,7 @@ std::string frame_of(const std::string& payload) {
 // One typed MoveJoint call's encode and decode, with the state the client keeps between calls.
 class TypedCall {
  public:
-  TypedCall() : method_(*schema_.find("MoveJoint")), decoder_(proxy::Integrity::crc16, counters_) {
+  TypedCall() : method_(*schema_.find("MoveJoint")), decoder_(counters_) {
     request_.set_joint(2);
     request_.set_angle_cdeg(-4500);
     arm::JointReply joint;
@@ -119,7 +119,7 @@ class TypedCall {
   const rpc::Schema schema_{arm::ArmClient::descriptor()};
   const rpc::Method& method_;
   LinkCounters counters_;
-  proxy::Decoder<rpc::kMaxPayload> decoder_;
+  rpc::envelope::FrameReader<rpc::kMaxPayload> decoder_;
   rpc::detail::TypedReplies replies_;
   std::string frame_;
   arm::JointRequest request_;

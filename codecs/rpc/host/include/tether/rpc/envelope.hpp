@@ -9,15 +9,23 @@
 ///     unknown fields of every wire type, groups included; a repeated scalar: the last one wins; a
 ///     repeated oneof message: merged; another oneof member: replaces) and refuses the rest with a
 ///     reason (`DecodeError`).
+/// `FrameReader` takes the device's frames off the link: proxy::Decoder's frames, errors and counters,
+/// with a frame that arrived whole decoded in one pass.
 /// A DeviceError's text is handed over as the device sent it; `device_text` makes it what
 /// proxy::parse_device_message keeps of it (libprotobuf refuses a proto3 string that is not UTF-8).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "tether/core/bytes.hpp"
+#include "tether/core/counters.hpp"
+#include "tether/core/decode_status.hpp"
+#include "tether/proxy/decoder.hpp"
+#include "tether/proxy/errors.hpp"
 
 namespace tether::rpc::envelope {
 
@@ -49,6 +57,96 @@ std::size_t encode(const HostMessage& message, std::uint8_t* out);
 /// `message` as a proxy frame (COBS(crc16 ‖ message) ‖ 0x00, after a leading 0x00) in `frame`, replaced
 /// (its capacity is reused: a recycled frame string allocates nothing).
 void write_frame(const HostMessage& message, std::string& frame);
+
+/// What `read_whole_frame` found in one complete COBS frame.
+enum class WholeFrame : std::uint8_t {
+  frame,         ///< A payload whose CRC-16 matched.
+  too_long,      ///< More decoded bytes than the buffer holds.
+  bad_cobs,      ///< The frame ended inside a block.
+  too_short,     ///< Fewer than the CRC's two bytes.
+  crc_mismatch,  ///< The CRC-16 in front of the payload does not match it.
+};
+/// Decodes the COBS frame `encoded` (the bytes between two delimiters: no 0x00, at least one byte) into
+/// `out` (room for `capacity` bytes) and checks its CRC-16/MCRF4XX; on `frame`, `size` is the decoded
+/// size (the CRC's two bytes, then the payload). proxy::Decoder's verdict on the same bytes.
+WholeFrame read_whole_frame(ByteView encoded, std::uint8_t* out, std::size_t capacity, std::size_t& size);
+
+/// The device's frames out of the bytes the link delivers: the same frames, errors and LinkCounters as
+/// proxy::Decoder<MaxPayload> in crc16 mode (which it holds), but a frame that arrives whole in one read
+/// is decoded in one pass (its blocks copied, its CRC computed eight bytes per step, `read_whole_frame`)
+/// instead of byte by byte with the CRC's per-byte chain. Bytes of a frame split across reads, and any
+/// bytes after an overlong frame until its delimiter, go through proxy::Decoder.
+template <std::size_t MaxPayload>
+class FrameReader {
+ public:
+  /// Reader counting into `counters` (frames_ok, crc_errors, framing_errors, oversize_frames, resyncs);
+  /// `counters` outlives it.
+  explicit FrameReader(LinkCounters& counters) : counters_(counters), decoder_(proxy::Integrity::crc16, counters) {}
+  /// Consumes `bytes` up to and including the first one that completes a frame or an error, as
+  /// proxy::Decoder::feed (a frame too long is reported once its delimiter is in `bytes`, when it arrived
+  /// whole).
+  FeedResult feed(ByteView bytes) {
+    if (idle_ && !bytes.empty()) {
+      const void* zero = std::memchr(bytes.data(), 0, bytes.size());
+      if (zero != nullptr) return feed_whole(bytes, static_cast<const std::uint8_t*>(zero));
+    }
+    const FeedResult fed = decoder_.feed(bytes);
+    from_decoder_ = true;
+    if (fed.status == DecodeStatus::more) {
+      // Idle again only after a delimiter (a resync's end or one between frames): the decoder's state
+      // is then the fresh one.
+      idle_ = fed.consumed != 0 && bytes[fed.consumed - 1] == 0x00;
+    } else {
+      idle_ = fed.status == DecodeStatus::frame || decoder_.error() != proxy::FrameError::frame_too_long;
+    }
+    return fed;
+  }
+  /// After `frame`: the checked payload (valid until the next feed).
+  ByteView frame() const {
+    if (from_decoder_) return decoder_.frame();
+    return ByteView(buffer_.data() + 2, size_ - 2);
+  }
+  /// After `error`: why the frame was dropped.
+  proxy::FrameError error() const { return from_decoder_ ? decoder_.error() : error_; }
+
+ private:
+  // The frame from the reader's position to `zero`, its delimiter, whole (the decoder is between frames).
+  FeedResult feed_whole(ByteView bytes, const std::uint8_t* zero) {
+    from_decoder_ = false;
+    const auto consumed = static_cast<std::size_t>(zero - bytes.data()) + 1;
+    if (consumed == 1) return FeedResult{DecodeStatus::more, 1};  // a delimiter between frames
+    const ByteView encoded(bytes.data(), consumed - 1);
+    switch (read_whole_frame(encoded, buffer_.data(), buffer_.size(), size_)) {
+      case WholeFrame::frame:
+        add_one(counters_.frames_ok);
+        return FeedResult{DecodeStatus::frame, consumed};
+      case WholeFrame::too_long:  // the decoder drops it where it overflows, then resyncs at the delimiter
+        add_one(counters_.oversize_frames);
+        add_one(counters_.resyncs);
+        return fail(proxy::FrameError::frame_too_long, consumed);
+      case WholeFrame::bad_cobs:
+      case WholeFrame::too_short:
+        add_one(counters_.framing_errors);
+        return fail(proxy::FrameError::framing_error, consumed);
+      case WholeFrame::crc_mismatch:
+        add_one(counters_.crc_errors);
+        return fail(proxy::FrameError::crc_mismatch, consumed);
+    }
+    return FeedResult{DecodeStatus::more, consumed};
+  }
+  FeedResult fail(proxy::FrameError error, std::size_t consumed) {
+    error_ = error;
+    return FeedResult{DecodeStatus::error, consumed};
+  }
+
+  LinkCounters& counters_;
+  proxy::Decoder<MaxPayload> decoder_;
+  bool idle_ = true;           // the decoder is between frames: the next frame may be read whole
+  bool from_decoder_ = false;  // the last event was the decoder's
+  proxy::FrameError error_ = proxy::FrameError::none;
+  std::size_t size_ = 0;
+  std::array<std::uint8_t, MaxPayload + 2> buffer_{};
+};
 
 /// Which body a DeviceMessage carries (its oneof; the values are the field numbers).
 enum class DeviceBody : std::uint8_t {
