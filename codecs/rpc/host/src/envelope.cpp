@@ -429,7 +429,7 @@ DecodeError decode(ByteView payload, DeviceMessage& out) {
     if (const DecodeError error = read_length(c, bytes); error != DecodeError::none) return error;
     const auto body = static_cast<DeviceBody>(field);
     if (out.body != body) {  // another member of the oneof: it replaces the one before
-      out = DeviceMessage();
+      if (out.body != DeviceBody::none) out = DeviceMessage();  // none: still the fresh one
       out.body = body;
     }
     return read_body(field, bytes, kMaxDepth - 1, out);
