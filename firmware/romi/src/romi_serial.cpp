@@ -57,6 +57,10 @@ void RomiSerialBase::set_handlers(const MessageHandler* handlers, uint8_t count)
 }
 
 inline void RomiSerialBase::receive_special(uint8_t byte) {
+  if (byte == '#') {
+    begin_request();
+    return;
+  }
   if (byte == '\n' && decoder_.awaiting_end()) {
     // This '\n' completes a frame: the response's '#' (see receive) leaves first, before the call
     // into the out-of-line path, as the first thing the turnaround does.
@@ -123,8 +127,13 @@ void RomiSerialBase::handle_byte(uint8_t byte, Millis now) {
   if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
+void RomiSerialBase::begin_request() {
+  frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
+  decoder_.feed_hash();
+}
+
 void RomiSerialBase::receive(uint8_t byte) {
-  if (byte == '#') frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
+  // Never a '#' (receive_special takes those: begin_request).
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -217,7 +226,7 @@ void RomiSerialBase::dispatch(const Frame& frame) {
   // While the handler runs (and until its reply is out), the request's opcode is request_'s and its id
   // and manual flag the frame's: no byte reaches the decoder during the call.
   call_ = Call::awaiting_reply;
-  ++counters_.executed;  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
+  add_one_inline(counters_.executed);  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
   // The string argument is terminated in place in the frame: its closing '"' is the handler's NUL, and
   // is put back after the call (the frame's bytes become the cache's key below).
   const char* string = "";

@@ -311,6 +311,9 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
   // without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // A frame's '#' (its deadline, the decoder's start): apart from receive(), whose parse and dispatch
+  // make it save five registers a call that this path does not need.
+  __attribute__((noinline)) void begin_request();
   // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
   __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
