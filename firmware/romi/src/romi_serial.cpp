@@ -311,11 +311,15 @@ void RomiSerialBase::handler_reply(ByteView body) {
   call_ = Call::replied;
   // Checked in the view's width: a handler's text may be longer than 255 bytes.
   if (body.size() + kResponseOverhead > reply_capacity_) {
-    add_one(counters_.replies_too_long);
-    send_code(Error::reply_too_long, true);  // fits every reply buffer
+    send_too_long();
     return;
   }
   send_response(body.data(), static_cast<uint8_t>(body.size()));
+}
+
+void RomiSerialBase::send_too_long() {
+  add_one(counters_.replies_too_long);
+  send_code(Error::reply_too_long, true);  // fits every reply buffer
 }
 
 void RomiSerialBase::log(const char* text) {

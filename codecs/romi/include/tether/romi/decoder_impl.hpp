@@ -133,14 +133,13 @@ __attribute__((always_inline)) inline void Decoder<Capacity, Counters>::feed_has
   state_ = State::body;
   size_ = 0;
   seen_colon_ = false;
-  // Nothing of the previous frame (its id!) may leak into this one. Field by field: assigning a
-  // fresh Frame() builds a temporary on the AVR's stack first.
-  frame_.payload = ByteView();
-  frame_.log = false;
+  // Nothing of the previous frame (its id!) may leak into this one: the fields that finish_line and
+  // fail() may leave as they are. Both write the payload, the log flag and the opcode before any status
+  // shows the frame (6 stores less on a device's every request). Field by field: assigning a fresh
+  // Frame() builds a temporary on the AVR's stack first.
   frame_.manual = false;
   frame_.has_id = false;
   frame_.id = 0;
-  frame_.opcode = '_';
 }
 
 template <size_t Capacity, typename Counters>

@@ -322,6 +322,9 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   void dispatch(const Frame& frame);
   // The reply of send_ok() and send(); out of line, or avr-gcc copies it into every handler that calls them.
   __attribute__((noinline)) void handler_reply(ByteView body);
+  // A handler's reply that does not fit: -31 instead. Out of line, so that handler_reply's usual path
+  // saves no registers (its call here needs `this` after another call).
+  __attribute__((noinline)) void send_too_long();
   // The responses' functions echo the opcode and id of the decoder's frame: the request being handled
   // (a parsed request's opcode is its frame's), the frame a protocol error answers, or the frame a
   // deadline dropped (Decoder::abandon). Their arguments then fit the registers a call may clobber (on
