@@ -57,15 +57,14 @@ void RomiSerialBase::set_handlers(const MessageHandler* handlers, uint8_t count)
 }
 
 inline void RomiSerialBase::receive_special(uint8_t byte) {
-  if (byte == '#') {
-    begin_request();
-    return;
-  }
   if (byte == '\n' && decoder_.awaiting_end()) {
     // This '\n' completes a frame: the response's '#' (see receive) leaves first, before the call
     // into the out-of-line path, as the first thing the turnaround does.
     out_->write('#');
     hash_sent_ = true;
+  } else if (byte == '#') {  // after the '\n' test: not on the turnaround's path
+    begin_request();
+    return;
   }
   receive(byte);
 }
