@@ -1,8 +1,6 @@
-// AVR back end of crc.hpp's CRC-8/SMBUS: one lookup per byte in a 256-entry flash table, 6 cycles a
-// step (the 16-entry nibble table before it: 34.6 a byte in a loop; avr-libc's bit loop
-// `_crc8_ccitt_update`: 61.5), for 256 bytes of flash and up to 255 more of padding before the table,
-// which starts at a multiple of 256 (the step's address is the table's high byte and the index: the
-// indexed load's 16-bit add made it 8 cycles). Romi checks and writes one CRC per frame (a whole `#a` request and its
+// AVR back end of crc.hpp's CRC-8/SMBUS: one lookup per byte in a 256-entry flash table, 8 cycles a
+// byte in a loop (the 16-entry nibble table before it: 34.6; avr-libc's bit loop `_crc8_ccitt_update`:
+// 61.5), for 256 bytes of flash. Romi checks and writes one CRC per frame (a whole `#a` request and its
 // reply: 14 bytes, ~370 cycles less than with the nibble table), Elcano generation D one per message.
 #include <avr/pgmspace.h>
 
@@ -13,9 +11,8 @@ namespace tether {
 namespace detail {
 
 // kCrc8SmbusTable[i]: the register (poly 0x07, MSB first) after shifting the byte i through it, so that
-// for a byte b, crc' = kCrc8SmbusTable[crc ^ b]. At a multiple of 256 (crc.hpp's step takes the index as
-// the address's low byte).
-const uint8_t kCrc8SmbusTable[256] PROGMEM __attribute__((aligned(256))) = {
+// for a byte b, crc' = kCrc8SmbusTable[crc ^ b].
+const uint8_t kCrc8SmbusTable[256] PROGMEM = {
     0x00, 0x07, 0x0e, 0x09, 0x1c, 0x1b, 0x12, 0x15, 0x38, 0x3f, 0x36, 0x31, 0x24, 0x23, 0x2a, 0x2d,
     0x70, 0x77, 0x7e, 0x79, 0x6c, 0x6b, 0x62, 0x65, 0x48, 0x4f, 0x46, 0x41, 0x54, 0x53, 0x5a, 0x5d,
     0xe0, 0xe7, 0xee, 0xe9, 0xfc, 0xfb, 0xf2, 0xf5, 0xd8, 0xdf, 0xd6, 0xd1, 0xc4, 0xc3, 0xca, 0xcd,

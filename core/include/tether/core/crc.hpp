@@ -150,19 +150,7 @@ class Crc8Smbus {
   void reset();
   /// Feeds one byte (inline, one flash lookup: a codec folds it into its own byte loop).
   __attribute__((always_inline)) void update(uint8_t byte) {
-    if (__builtin_constant_p(state_ ^ byte)) {  // e.g. a frame's '#' first: the entry's address is known
-      state_ = pgm_read_byte(&detail::kCrc8SmbusTable[static_cast<uint8_t>(state_ ^ byte)]);
-      return;
-    }
-    // The table starts at a multiple of 256 (crc8_avr.cpp): the index is the entry's address's low byte
-    // and the table's high byte the rest, 6 cycles a step where the indexed load's addition made it 8.
-    __asm__(
-        "mov r30, %[index]\n\t"
-        "ldi r31, hi8(%[table])\n\t"
-        "lpm %[state], Z"
-        : [state] "=r"(state_)
-        : [index] "r"(static_cast<uint8_t>(state_ ^ byte)), [table] "i"(detail::kCrc8SmbusTable)
-        : "r30", "r31");
+    state_ = pgm_read_byte(&detail::kCrc8SmbusTable[static_cast<uint8_t>(state_ ^ byte)]);
   }
   /// Feeds bytes; any chunking gives the same result.
   void update(ByteView bytes);
