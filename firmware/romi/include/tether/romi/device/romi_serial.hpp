@@ -308,8 +308,8 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   bool cache_expired(Millis now) const { return cached_request_size_ != 0 && tick_reached(now, cache_expires_at_); }
   // Forgets the cached reply if it expired at now_ (after a clock reading; one copy for both callers).
   __attribute__((noinline)) void expire_cache();
-  // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
-  // without the timeout check. Out of line: the per-byte loop stays small.
+  // A byte the decoder's inline path did not take ('\r', '\n', bytes outside frames, overflow; a '#' goes
+  // to begin_request), without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
   // A frame's '#' (its deadline, the decoder's start): apart from receive(), whose parse and dispatch
   // make it save five registers a call that this path does not need.
