@@ -1,7 +1,8 @@
 // Runs firmware/selftest (avr-selftest.elf) on a simulated ATmega328P with the `simavr` command and checks
 // what it reports: the avr-libc CRC back end against the check values and against the host's Boost back
 // end on the same pseudo-random buffers (seeded through the EEPROM, from RANDOM_SEED), the session
-// engine's device half running with AVR integer widths, and the proxy frame writer's AVR loop.
+// engine's device half running with AVR integer widths, the proxy frame writer's AVR loop and the Romi
+// decoder's body run against its per-byte path.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -136,6 +137,9 @@ TEST_F(AvrSelftest, EngineDeviceHalfRunsOnTheAvr) {
 
 // The frame writer's AVR assembly loop writes the bytes of the plain COBS encoding of crc16 ‖ payload.
 TEST_F(AvrSelftest, FrameEncoderMatchesPlainCobsOnTheAvr) { EXPECT_TRUE(has_line("engine frame_encoder ok")); }
+
+// The Romi decoder's body run (AVR assembly) gives what its per-byte path gives, damaged frames included.
+TEST_F(AvrSelftest, RomiDecoderRunsMatchItsPerBytePathOnTheAvr) { EXPECT_TRUE(has_line("engine romi_runs ok")); }
 
 }  // namespace
 }  // namespace tether

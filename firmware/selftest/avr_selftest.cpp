@@ -9,6 +9,9 @@
 //   6. The proxy frame writer's CRC-16 frames (their AVR assembly loop) against COBS of the CRC and the
 //      payload written plainly, on pseudo-random payloads of 0..260 bytes: no zeros (full blocks), few,
 //      many, with and without the leading delimiter.
+//   7. The Romi decoder's body run (its AVR assembly) against its per-byte path, on pseudo-random request,
+//      manual and log frames with damage (special bytes put in, cut short, garbage between frames) and
+//      oversize ones, fed in runs of every length.
 // Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
 // Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
 #include <avr/eeprom.h>
@@ -26,6 +29,7 @@
 #include "tether/proxy/cobs.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
+#include "tether/romi/decoder.hpp"
 
 namespace {
 
@@ -225,6 +229,119 @@ void check_proxy_runs(uint32_t seed) {
   report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
 }
 
+// One Romi decoder event, compared between the two paths: status, the error or the frame's payload size and
+// CRC-16, its flags, id and opcode.
+struct RomiEvent {
+  uint8_t status;
+  uint8_t detail;
+  uint16_t digest;
+  uint8_t flags;
+  uint8_t id;
+  char opcode;
+  bool operator!=(const RomiEvent& other) const {
+    return status != other.status || detail != other.detail || digest != other.digest || flags != other.flags ||
+           id != other.id || opcode != other.opcode;
+  }
+};
+
+template <typename Decoder>
+RomiEvent romi_event(tether::DecodeStatus status, const Decoder& decoder) {
+  const tether::romi::Frame& frame = decoder.frame();
+  RomiEvent event{static_cast<uint8_t>(status), 0, 0,
+                  static_cast<uint8_t>((frame.log ? 1 : 0) | (frame.manual ? 2 : 0) | (frame.has_id ? 4 : 0)),
+                  frame.id, frame.opcode};
+  if (status == tether::DecodeStatus::frame) {
+    event.detail = static_cast<uint8_t>(frame.payload.size());
+    event.digest = tether::Crc16Mcrf4xx::compute(frame.payload);
+  } else {
+    event.detail = static_cast<uint8_t>(decoder.error());
+  }
+  return event;
+}
+
+// A Romi frame into `out`: a request (opcode, body of digits, brackets, commas, quotes, spaces and now and
+// then a ':'), a manual one (`xxxx`) or a log line, with its id and CRC; returns its size.
+uint8_t romi_frame(tether::selftest::Xorshift32& random, uint8_t* out) {
+  static const char kBody[] = "0123456789[],-\" !azAZ?:";
+  uint8_t size = 0;
+  out[size++] = '#';
+  const uint8_t kind = static_cast<uint8_t>(random.next() % 4);  // 0, 1: request, 2: manual, 3: log
+  if (kind == 3) out[size++] = '!';
+  out[size++] = static_cast<uint8_t>("aeZ9?_"[random.next() % 6]);
+  const uint8_t length = static_cast<uint8_t>(random.next() % 40);  // the decoder below holds 32
+  for (uint8_t i = 0; i < length; ++i) out[size++] = static_cast<uint8_t>(kBody[random.next() % (sizeof kBody - 1)]);
+  out[size++] = ':';
+  static const char kHex[] = "0123456789abcdef";
+  if (kind == 2) {
+    for (uint8_t i = 0; i < 4; ++i) out[size++] = 'x';
+  } else {
+    const uint8_t id = random.next_byte();
+    out[size++] = static_cast<uint8_t>(kHex[id >> 4]);
+    out[size++] = static_cast<uint8_t>(kHex[id & 0xF]);
+    const uint8_t crc = tether::Crc8Smbus::compute(tether::ByteView(out, size));
+    out[size++] = static_cast<uint8_t>(kHex[crc >> 4]);
+    out[size++] = static_cast<uint8_t>(kHex[crc & 0xF]);
+  }
+  out[size++] = '\r';
+  out[size++] = '\n';
+  return size;
+}
+
+void check_romi_runs(uint32_t seed) {
+  tether::selftest::Xorshift32 random(seed ^ 0x52304D49u);
+  bool ok = true;
+  uint16_t frames = 0;
+  uint16_t errors = 0;
+  for (uint8_t round = 0; round < 32 && ok; ++round) {
+    uint8_t wire[200];
+    uint8_t size = 0;
+    while (true) {  // frames until the buffer is full
+      uint8_t frame[64];
+      uint8_t used = romi_frame(random, frame);
+      if (static_cast<unsigned int>(size + used) + 2u > sizeof wire) break;
+      const uint8_t damage = static_cast<uint8_t>(random.next() % 6);
+      if (damage == 0) frame[1 + random.next() % (used - 1u)] = static_cast<uint8_t>("#\r\n:x"[random.next() % 5]);
+      if (damage == 1) used = static_cast<uint8_t>(1 + random.next() % used);  // cut short
+      if (damage == 2) wire[size++] = static_cast<uint8_t>("z\n#"[random.next() % 3]);  // garbage before it
+      for (uint8_t i = 0; i < used; ++i) wire[size++] = frame[i];
+    }
+    tether::LinkCounters byte_counters;
+    tether::LinkCounters run_counters;
+    tether::romi::Decoder<32> by_byte(byte_counters);
+    tether::romi::Decoder<32> by_run(run_counters);
+    RomiEvent expected[24];
+    uint8_t events = 0;
+    for (uint8_t i = 0; i < size && events < 24; ++i) {
+      const tether::DecodeStatus status = by_byte.feed(wire[i]);
+      if (status != tether::DecodeStatus::more) expected[events++] = romi_event(status, by_byte);
+    }
+    uint8_t seen = 0;
+    uint8_t at = 0;
+    while (at < size && ok) {
+      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
+      if (end > size) end = size;
+      while (at < end && ok) {
+        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
+        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
+        at = static_cast<uint8_t>(at + fed.consumed);
+        if (fed.status != tether::DecodeStatus::more) {
+          ok = ok && seen < events && !(romi_event(fed.status, by_run) != expected[seen]);
+          ++seen;
+        }
+      }
+    }
+    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
+         run_counters.crc_errors == byte_counters.crc_errors &&
+         run_counters.framing_errors == byte_counters.framing_errors &&
+         run_counters.oversize_frames == byte_counters.oversize_frames && run_counters.resyncs == byte_counters.resyncs &&
+         by_run.in_frame() == by_byte.in_frame();
+    frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
+    errors = static_cast<uint16_t>(errors + byte_counters.framing_errors + byte_counters.oversize_frames +
+                                   byte_counters.crc_errors);
+  }
+  report("romi_runs", ok && frames > 32 && errors > 32);  // both kinds of event were compared
+}
+
 // The frame writer against the frame built plainly: crc16 ‖ payload, COBS-encoded (cobs_encode: the C++
 // loop), the delimiters around it. Payloads of 0..260 bytes of every zero density: none (blocks of 254
 // bytes), 1 in 64, 1 in 4; the CRC itself is zero in a byte now and then (its patching's other cases).
@@ -299,6 +416,7 @@ int main() {
   check_proxy_runs(seed);
   check_interrupt_counter();
   check_frame_encoder(seed);
+  check_romi_runs(seed);
   put("selftest end failures ");
   put_hex(failures, 2);
   put("\n");

@@ -33,10 +33,6 @@ bool is_reserved(uint8_t c) { return c == '#' || c == ':' || c == '"' || c == '\
 
 }  // namespace
 
-bool is_opcode(uint8_t c) {
-  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '?';
-}
-
 bool is_string_char(uint8_t c) {
   if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')) return true;
   switch (c) {

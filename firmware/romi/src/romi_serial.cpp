@@ -62,6 +62,9 @@ inline void RomiSerialBase::receive_special(uint8_t byte) {
     // into the out-of-line path, as the first thing the turnaround does.
     out_->write('#');
     hash_sent_ = true;
+  } else if (byte == '#') {  // after the '\n' test: not on the turnaround's path
+    begin_request();
+    return;
   }
   receive(byte);
 }
@@ -123,8 +126,13 @@ void RomiSerialBase::handle_byte(uint8_t byte, Millis now) {
   if (!decoder_.feed_body(byte)) receive_special(byte);
 }
 
+void RomiSerialBase::begin_request() {
+  frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
+  decoder_.feed_hash();
+}
+
 void RomiSerialBase::receive(uint8_t byte) {
-  if (byte == '#') frame_deadline_ = now_ + kRequestDeadlineMs;  // a new '#' restarts the window
+  // Never a '#' (receive_special takes those: begin_request).
   const DecodeStatus status = decoder_.feed_special(byte);
   if (status == DecodeStatus::more) {
     // The frame's '\r' checked out and only its '\n' is missing: parse it now, so the
@@ -217,7 +225,7 @@ void RomiSerialBase::dispatch(const Frame& frame) {
   // While the handler runs (and until its reply is out), the request's opcode is request_'s and its id
   // and manual flag the frame's: no byte reaches the decoder during the call.
   call_ = Call::awaiting_reply;
-  ++counters_.executed;  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
+  add_one_inline(counters_.executed);  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
   // The string argument is terminated in place in the frame: its closing '"' is the handler's NUL, and
   // is put back after the call (the frame's bytes become the cache's key below).
   const char* string = "";
@@ -302,11 +310,15 @@ void RomiSerialBase::handler_reply(ByteView body) {
   call_ = Call::replied;
   // Checked in the view's width: a handler's text may be longer than 255 bytes.
   if (body.size() + kResponseOverhead > reply_capacity_) {
-    add_one(counters_.replies_too_long);
-    send_code(Error::reply_too_long, true);  // fits every reply buffer
+    send_too_long();
     return;
   }
   send_response(body.data(), static_cast<uint8_t>(body.size()));
+}
+
+void RomiSerialBase::send_too_long() {
+  add_one(counters_.replies_too_long);
+  send_code(Error::reply_too_long, true);  // fits every reply buffer
 }
 
 void RomiSerialBase::log(const char* text) {

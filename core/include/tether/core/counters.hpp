@@ -63,4 +63,15 @@ __attribute__((always_inline)) inline void add_one_in_interrupt(volatile uint32_
 #endif
 }
 
+/// Adds one to a counter on a hot path of the main program (a device's per-request counters), inline:
+/// on the AVR the same carry loop as `add_one_in_interrupt` (~10 cycles, where an inline `++` of a member
+/// is ~24 and `add_one`'s call ~25); elsewhere `++`.
+__attribute__((always_inline)) inline void add_one_inline(uint32_t& counter) {
+#if defined(__AVR__)
+  add_one_in_interrupt(counter);
+#else
+  ++counter;
+#endif
+}
+
 }  // namespace tether

@@ -253,12 +253,35 @@ TETHER_ARDUINO_INLINE void write_all(HardwareSerial& serial, const uint8_t* byte
   while (bytes != end && write_idle(serial, *bytes)) ++bytes;  // as long as the UART takes them at once
   if (bytes != end) write_ring(serial, bytes, end);
 }
-/// `write_all` for a caller that is out of line itself (a stream's write_all): the ring's copy inline in it.
+/// `write_all` for a caller that is out of line itself (a stream's write_all): a run the ring has room for
+/// is copied inline (in at most two stretches); one that must wait for room goes to `write_ring`, called
+/// last, so that the caller saves no registers for it (`put_ring` inline, with its call to
+/// `write_waiting` in the middle, made it save six: 24 cycles a reply).
 TETHER_ARDUINO_INLINE void write_all_inline(HardwareSerial& serial, const uint8_t* bytes, size_t size) {
   SerialRings::written(serial) = true;  // what flush() checks
   const uint8_t* const end = bytes + size;
   while (bytes != end && write_idle(serial, *bytes)) ++bytes;  // as long as the UART takes them at once
-  if (bytes != end) put_ring(serial, bytes, end);
+  if (bytes == end) return;
+  const uint8_t head = SerialRings::tx_head(serial);
+  const uint8_t tail = SerialRings::tx_tail(serial);  // the interrupt may free more meanwhile: not counted
+  uint8_t room = static_cast<uint8_t>(static_cast<unsigned int>(tail) - head - 1u);  // one slot stays free
+  if (SERIAL_TX_BUFFER_SIZE != 256 && tail <= head) room = static_cast<uint8_t>(room + SERIAL_TX_BUFFER_SIZE);
+  const uint8_t count = static_cast<uint8_t>(end - bytes);  // a stream's write_all: at most 255
+  if (count <= room) {
+    unsigned char* const ring = SerialRings::tx_buffer(serial);
+    const uint8_t first = static_cast<uint8_t>(SERIAL_TX_BUFFER_SIZE - head);  // slots up to the ring's end
+    if (count < first) {
+      copy_bytes(ring + head, bytes, count);
+      tx_publish(serial, static_cast<uint8_t>(head + count));
+    } else {  // to the ring's end, then from its start
+      copy_bytes(ring + head, bytes, first);
+      const uint8_t rest = static_cast<uint8_t>(count - first);
+      if (rest != 0) copy_bytes(ring, bytes + first, rest);
+      tx_publish(serial, rest);
+    }
+    return;
+  }
+  write_ring(serial, bytes, end);
 }
 #else
 /// Takes up to `capacity` bytes waiting in `serial`'s receive ring into `bytes`; returns how many.

@@ -191,6 +191,40 @@ TEST(ArduinoSerialOnHardwareSerial, ARequestInTheRingIsAnsweredThroughTheRing) {
   EXPECT_EQ(port.sent(), response('a', "[0]", 7));
 }
 
+// ArduinoSerial::write_all queues a run the ring has room for itself (to the ring's end, then from its
+// start) and hands one that must wait to the core's write(): every ring position, with the ring holding
+// nothing, a little, or nearly all of its 63 bytes already, and runs that fit, fill it or exceed it.
+TEST(ArduinoSerialOnHardwareSerial, RepliesAreQueuedInOrderAtEveryRingPosition) {
+  for (uint8_t start = 0; start < SERIAL_TX_BUFFER_SIZE; ++start) {
+    for (const int queued : {0, 1, 30, 62}) {
+      for (const int size : {1, 2, 11, 15, 32, 63, 100}) {
+        Port port;
+        romiserial::ArduinoSerial serial(port.serial);
+        port.serial.reset_rings(0, start);
+        port.busy();  // the UART sends something: every byte below is queued
+        std::string before;
+        for (int i = 0; i < queued; ++i) before += static_cast<char>('a' + i % 26);
+        std::string run;
+        for (int i = 0; i < size; ++i) run += static_cast<char>('A' + i % 26);
+        const std::vector<uint8_t> first = bytes_of(before);
+        const std::vector<uint8_t> second = bytes_of(run);
+        if (queued != 0) serial.write_all(first.data(), static_cast<uint8_t>(queued));
+        ASSERT_EQ(port.serial.tx_queued(), queued);
+        serial.write_all(second.data(), static_cast<uint8_t>(size));
+        const std::string where = "start " + std::to_string(start) + ", queued " + std::to_string(queued) +
+                                  ", size " + std::to_string(size);
+        if (queued + size < SERIAL_TX_BUFFER_SIZE) {  // room for all of it: queued at once, published
+          EXPECT_EQ(port.serial.tx_queued(), queued + size) << where;
+          EXPECT_NE(port.uart.ucsrb & _BV(UDRIE0), 0u) << where;
+        } else {  // the core's write() made room by sending (the byte of busy() first, unrecorded)
+          EXPECT_EQ(port.serial.tx_queued(), SERIAL_TX_BUFFER_SIZE - 1) << where;
+        }
+        EXPECT_EQ(port.sent(), before + run) << where;
+      }
+    }
+  }
+}
+
 TEST(ArduinoSerialOnHardwareSerial, RequestsArrivingByteByByteAreAnsweredOnce) {
   Port port;
   romiserial::ArduinoSerial serial(port.serial);

@@ -123,6 +123,9 @@ class Decoder {
   /// by one, and returns how many (0 when the first is not one, or no frame is open); the byte after them
   /// goes to `feed_special`. A device's byte loop: the frame's position stays in a register for the run.
   uint8_t feed_body_run(const uint8_t* bytes, uint8_t count);
+  /// Consumes a `#`, as `feed_special('#')` does (a new frame starts, whatever came before it is dropped),
+  /// inline: a device that tells a `#` apart itself starts its frame without `feed_special`'s call.
+  void feed_hash();
   /// Consumes a byte `feed_body` refused (frame start and end, errors, bytes outside frames). Out of
   /// line: the rare cases must not weigh on the inlined per-byte path.
   __attribute__((noinline)) DecodeStatus feed_special(uint8_t byte);

@@ -41,6 +41,47 @@ __attribute__((always_inline)) inline uint8_t Decoder<Capacity, Counters>::feed_
   const uint8_t* in = bytes;
   uint8_t* const start = buffer_.data();
   uint8_t* out = start + size;
+#if defined(__AVR__)
+  if (sizeof(Index) == 1 && left != 0) {
+    // The same loop in assembly: 11 cycles a usual byte, where avr-gcc's took 17 (it moved the input
+    // pointer between registers twice a byte). The last ':' of the run is noted by the low byte of its
+    // position's address (the buffer is at most 255 bytes: the difference of the low bytes is the offset).
+    uint8_t byte;
+    uint8_t colon = 0;
+    uint8_t seen = 0;
+    __asm__ volatile(
+        "1: ld %[byte], Z+\n\t"
+        "cpi %[byte], 0x24\n\t"  // every special byte is at most '#' (0x23)
+        "brlo 4f\n\t"
+        "cpi %[byte], ':'\n\t"
+        "breq 5f\n"
+        "2: st X+, %[byte]\n\t"
+        "dec %[left]\n\t"
+        "brne 1b\n\t"
+        "rjmp 7f\n"
+        "4: cpi %[byte], '#'\n\t"
+        "breq 6f\n\t"
+        "cpi %[byte], '\\r'\n\t"
+        "breq 6f\n\t"
+        "cpi %[byte], '\\n'\n\t"
+        "brne 2b\n"
+        "6: sbiw %[in], 1\n\t"  // the special byte stays for the caller
+        "rjmp 7f\n"
+        "5: mov %[colon], %A[out]\n\t"
+        "ldi %[seen], 1\n\t"
+        "rjmp 2b\n"
+        "7:"
+        : [in] "+z"(in), [out] "+x"(out), [left] "+r"(left), [byte] "=&r"(byte), [colon] "+r"(colon),
+          [seen] "+d"(seen)
+        :
+        : "memory");
+    if (seen != 0) {
+      seen_colon_ = true;
+      last_colon_ = static_cast<Index>(colon - static_cast<uint8_t>(reinterpret_cast<uintptr_t>(start)));
+    }
+    left = 0;
+  }
+#endif
   for (; left != 0; --left) {
     const uint8_t byte = *in;
     // One compare for the usual bytes: every special one is at most '#' (0x23).
@@ -85,22 +126,26 @@ char Decoder<Capacity, Counters>::partial_opcode() const {
 }
 
 template <size_t Capacity, typename Counters>
+__attribute__((always_inline)) inline void Decoder<Capacity, Counters>::feed_hash() {
+  // A new frame starts anywhere; whatever came before it is dropped.
+  if (state_ == State::body || state_ == State::expect_lf || skipping_) add_one(counters_->resyncs);
+  skipping_ = false;
+  state_ = State::body;
+  size_ = 0;
+  seen_colon_ = false;
+  // Nothing of the previous frame (its id!) may leak into this one: the fields that finish_line and
+  // fail() may leave as they are. Both write the payload, the log flag and the opcode before any status
+  // shows the frame (6 stores less on a device's every request). Field by field: assigning a fresh
+  // Frame() builds a temporary on the AVR's stack first.
+  frame_.manual = false;
+  frame_.has_id = false;
+  frame_.id = 0;
+}
+
+template <size_t Capacity, typename Counters>
 DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
   if (byte == '#') {
-    // A new frame starts anywhere; whatever came before it is dropped.
-    if (state_ == State::body || state_ == State::expect_lf || skipping_) add_one(counters_->resyncs);
-    skipping_ = false;
-    state_ = State::body;
-    size_ = 0;
-    seen_colon_ = false;
-    // Nothing of the previous frame (its id!) may leak into this one. Field by field: assigning a
-    // fresh Frame() builds a temporary on the AVR's stack first.
-    frame_.payload = ByteView();
-    frame_.log = false;
-    frame_.manual = false;
-    frame_.has_id = false;
-    frame_.id = 0;
-    frame_.opcode = '_';
+    feed_hash();
     return DecodeStatus::more;
   }
   switch (state_) {
@@ -121,7 +166,7 @@ DecodeStatus Decoder<Capacity, Counters>::feed_special(uint8_t byte) {
     case State::expect_lf:
       if (byte != '\n') return fail(Error::expected_end);
       state_ = State::idle;
-      ++counters_->frames_ok;  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
+      add_one_inline(counters_->frames_ok);  // every request's: inline (add_one's call costs ~25 cycles on the AVR)
       return DecodeStatus::frame;
   }
   return DecodeStatus::more;

@@ -308,9 +308,12 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   bool cache_expired(Millis now) const { return cached_request_size_ != 0 && tick_reached(now, cache_expires_at_); }
   // Forgets the cached reply if it expired at now_ (after a clock reading; one copy for both callers).
   __attribute__((noinline)) void expire_cache();
-  // A byte the decoder's inline path did not take ('#', '\r', '\n', bytes outside frames, overflow),
-  // without the timeout check. Out of line: the per-byte loop stays small.
+  // A byte the decoder's inline path did not take ('\r', '\n', bytes outside frames, overflow; a '#' goes
+  // to begin_request), without the timeout check. Out of line: the per-byte loop stays small.
   __attribute__((noinline)) void receive(uint8_t byte);
+  // A frame's '#' (its deadline, the decoder's start): apart from receive(), whose parse and dispatch
+  // make it save five registers a call that this path does not need.
+  __attribute__((noinline)) void begin_request();
   // receive(), after sending the response's '#' at once when `byte` completes a frame (the turnaround).
   __attribute__((always_inline)) void receive_special(uint8_t byte);
   void handle_frame(const Frame& frame);
@@ -319,6 +322,9 @@ class RomiSerialBase : public IRomiSerial, private detail::RomiSerialState {
   void dispatch(const Frame& frame);
   // The reply of send_ok() and send(); out of line, or avr-gcc copies it into every handler that calls them.
   __attribute__((noinline)) void handler_reply(ByteView body);
+  // A handler's reply that does not fit: -31 instead. Out of line, so that handler_reply's usual path
+  // saves no registers (its call here needs `this` after another call).
+  __attribute__((noinline)) void send_too_long();
   // The responses' functions echo the opcode and id of the decoder's frame: the request being handled
   // (a parsed request's opcode is its frame's), the frame a protocol error answers, or the frame a
   // deadline dropped (Decoder::abandon). Their arguments then fit the registers a call may clobber (on
