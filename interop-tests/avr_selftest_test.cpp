@@ -141,5 +141,14 @@ TEST_F(AvrSelftest, FrameEncoderMatchesPlainCobsOnTheAvr) { EXPECT_TRUE(has_line
 // The Romi decoder's body run (AVR assembly) gives what its per-byte path gives, damaged frames included.
 TEST_F(AvrSelftest, RomiDecoderRunsMatchItsPerBytePathOnTheAvr) { EXPECT_TRUE(has_line("engine romi_runs ok")); }
 
+// The Elcano decoder's run (AVR assembly for long numbers) gives what its per-byte path gives, both
+// generations, damaged messages included.
+TEST_F(AvrSelftest, ElcanoDecoderRunsMatchItsPerBytePathOnTheAvr) { EXPECT_TRUE(has_line("engine elcano_runs ok")); }
+
+// The required-field test's AVR shortcut (the top byte first) says what the plain comparison says.
+TEST_F(AvrSelftest, ElcanoRequiredFieldsTestMatchesThePlainComparisonOnTheAvr) {
+  EXPECT_TRUE(has_line("engine elcano_required_fields ok"));
+}
+
 }  // namespace
 }  // namespace tether

@@ -12,6 +12,10 @@
 //   7. The Romi decoder's body run (its AVR assembly) against its per-byte path, on pseudo-random request,
 //      manual and log frames with damage (special bytes put in, cut short, garbage between frames) and
 //      oversize ones, fed in runs of every length.
+//   8. The Elcano decoder's run (its AVR assembly for a number's fifth to ninth digit) against its per-byte
+//      path, generations B and D, on pseudo-random messages with numbers of 1 to 10 digits, damage and
+//      oversize ones, fed in runs of every length; the required-field test's AVR top-byte shortcut against
+//      the plain comparison, on values around the unset marker, and on drives read whole.
 // Ends with "selftest end failures=N", then sleeps with interrupts off (simavr stops there).
 // Uses a polled UART on purpose: it must not depend on the firmware runtime it helps to validate.
 #include <avr/eeprom.h>
@@ -26,6 +30,7 @@
 #include "tether/core/session/failsafe_watchdog.hpp"
 #include "tether/core/session/partial_frame_deadline.hpp"
 #include "tether/core/session/request_table.hpp"
+#include "tether/elcano/decoder.hpp"
 #include "tether/proxy/cobs.hpp"
 #include "tether/proxy/decoder.hpp"
 #include "tether/proxy/encoder.hpp"
@@ -342,6 +347,192 @@ void check_romi_runs(uint32_t seed) {
   report("romi_runs", ok && frames > 32 && errors > 32);  // both kinds of event were compared
 }
 
+// What an Elcano decoder reported: the status, then the error or the message, its field bits and a digest of
+// its forwarded bytes.
+struct ElcanoEvent {
+  uint8_t status;
+  uint8_t error;
+  uint8_t type;
+  uint8_t fields;
+  uint16_t forward;  // size << 8 ^ CRC-8 of the bytes
+  uint16_t values;   // CRC-16 of the message's eight values
+  bool operator!=(const ElcanoEvent& other) const {
+    return status != other.status || error != other.error || type != other.type || fields != other.fields ||
+           forward != other.forward || values != other.values;
+  }
+};
+
+template <typename Decoder>
+ElcanoEvent elcano_event(tether::DecodeStatus status, const Decoder& decoder) {
+  ElcanoEvent event{static_cast<uint8_t>(status), 0, 0, 0, 0, 0};
+  if (status == tether::DecodeStatus::error) {
+    event.error = static_cast<uint8_t>(decoder.error());
+  } else {
+    const tether::elcano::Message& m = decoder.frame();
+    const int32_t values[] = {m.number, m.speed, m.angle, m.obstacle, m.bearing, m.probability, m.east, m.north};
+    event.type = static_cast<uint8_t>(m.type);
+    event.fields = decoder.fields();
+    event.values = tether::Crc16Mcrf4xx::compute(tether::ByteView(reinterpret_cast<const uint8_t*>(values), sizeof values));
+    event.forward = static_cast<uint16_t>((decoder.forward().size() << 8) ^ tether::Crc8Smbus::compute(decoder.forward()));
+  }
+  return event;
+}
+
+// Values whose bytes cross the unset marker's (0x7FFFFFFF): the top byte 0x7F with the others not all
+// ones, the marker itself, the int32 ends and one past them (bad_number).
+const char* const kElcanoEdgeNumbers[] = {"2147483647", "2147483646", "2130706432", "2147483392", "2147483648",
+                                          "-2147483648", "-2147483649", "16777215", "2113929215", "999999999",
+                                          "1000000000", "4294967295"};
+
+// One Elcano message of `generation` (a drive most often): attributes with numbers of 1 to 10 digits
+// (edge values now and then), spaces in generation B, its CRC-8 trailer in generation D (wrong now and then).
+uint8_t elcano_message(tether::selftest::Xorshift32& random, tether::elcano::Generation generation, uint8_t* out) {
+  const bool b = generation == tether::elcano::Generation::b;
+  uint8_t size = 0;
+  const uint8_t type = static_cast<uint8_t>(random.next() % 7);
+  out[size++] = static_cast<uint8_t>("DDDDSGX"[type]);
+  // Half the messages carry their type's required attributes, in order; the others 0 to 5 random ones.
+  static const char* const kRequired[] = {"sa", "sa", "sa", "sa", "sabpq", "nbpq", "nsbpq"};
+  const char* required = random.next() % 2 == 0 ? kRequired[type] : nullptr;
+  const uint8_t attributes = required != nullptr ? static_cast<uint8_t>(__builtin_strlen(required) - (b && type > 3 ? 1 : 0))
+                                                 : static_cast<uint8_t>(random.next() % 6);
+  for (uint8_t a = 0; a < attributes && size < 64; ++a) {  // an attribute adds at most 48 bytes: 128 hold it
+    out[size++] = '{';
+    const uint8_t letter = static_cast<uint8_t>(required != nullptr ? required[a]
+                                                : b ? "sasanbrpz"[random.next() % 9]
+                                                    : "sasanbrpqoz"[random.next() % 11]);
+    out[size++] = letter;
+    const uint8_t numbers = b && letter == 'p' ? 2 : 1;
+    for (uint8_t n = 0; n < numbers; ++n) {
+      if (n != 0) out[size++] = ',';
+      if (b && random.next() % 4 == 0) out[size++] = ' ';
+      if (random.next() % 8 == 0) {
+        for (const char* edge = kElcanoEdgeNumbers[random.next() % (sizeof kElcanoEdgeNumbers / sizeof kElcanoEdgeNumbers[0])];
+             *edge != '\0'; ++edge) {
+          out[size++] = static_cast<uint8_t>(*edge);
+        }
+      } else {
+        if (random.next() % 4 == 0) out[size++] = '-';
+        const uint8_t digits = static_cast<uint8_t>(1 + random.next() % (required != nullptr ? 9 : 10));
+        for (uint8_t d = 0; d < digits; ++d) {
+          out[size++] = static_cast<uint8_t>('0' + random.next() % 10);
+          if (b && random.next() % 16 == 0) out[size++] = ' ';
+        }
+      }
+    }
+    out[size++] = '}';
+  }
+  if (!b) {
+    uint8_t crc = tether::Crc8Smbus::compute(tether::ByteView(out, size));
+    if (random.next() % 8 == 0) crc = static_cast<uint8_t>(crc + 1);
+    if (crc >= 100) out[size++] = static_cast<uint8_t>('0' + crc / 100);
+    if (crc >= 10) out[size++] = static_cast<uint8_t>('0' + crc / 10 % 10);
+    out[size++] = static_cast<uint8_t>('0' + crc % 10);
+  }
+  out[size++] = '\n';
+  return size;
+}
+
+void check_elcano_runs(uint32_t seed) {
+  tether::selftest::Xorshift32 random(seed ^ 0x454C4341u);
+  bool ok = true;
+  uint16_t frames = 0;
+  uint16_t errors = 0;
+  uint16_t long_numbers = 0;  // frames with a value of 5 or more digits: the assembly's
+  for (uint8_t round = 0; round < 48 && ok; ++round) {
+    const tether::elcano::Generation generation = round % 2 == 0 ? tether::elcano::Generation::b : tether::elcano::Generation::d;
+    uint8_t wire[200];
+    uint8_t size = 0;
+    while (true) {  // messages until the buffer is full
+      uint8_t message[128];
+      uint8_t used = elcano_message(random, generation, message);
+      if (static_cast<unsigned int>(size + used) + 2u > sizeof wire) break;
+      const uint8_t damage = static_cast<uint8_t>(random.next() % 8);
+      if (damage == 0) message[1 + random.next() % (used - 1u)] = static_cast<uint8_t>("{}\n-,D x"[random.next() % 9]);
+      if (damage == 1) used = static_cast<uint8_t>(1 + random.next() % used);  // cut short
+      if (damage == 2) wire[size++] = static_cast<uint8_t>("z\n "[random.next() % 3]);  // garbage before it
+      for (uint8_t i = 0; i < used; ++i) wire[size++] = message[i];
+    }
+    tether::LinkCounters byte_counters;
+    tether::LinkCounters run_counters;
+    tether::elcano::Decoder<64> by_byte(generation, byte_counters);
+    tether::elcano::Decoder<64> by_run(generation, run_counters);
+    ElcanoEvent expected[24];
+    uint8_t events = 0;
+    for (uint8_t i = 0; i < size && events < 24; ++i) {
+      const tether::DecodeStatus status = by_byte.feed(wire[i]);
+      if (status == tether::DecodeStatus::more) continue;
+      expected[events++] = elcano_event(status, by_byte);
+      if (status != tether::DecodeStatus::frame) continue;
+      const tether::elcano::Message& m = by_byte.frame();
+      const int32_t values[] = {m.number, m.speed, m.angle, m.obstacle, m.bearing, m.probability, m.east, m.north};
+      for (const int32_t value : values) {
+        if (value != tether::elcano::kUnset && (value >= 10000 || value <= -10000)) {
+          ++long_numbers;
+          break;
+        }
+      }
+    }
+    uint8_t seen = 0;
+    uint8_t at = 0;
+    while (at < size && ok) {
+      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
+      if (end > size) end = size;
+      while (at < end && ok) {
+        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
+        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
+        at = static_cast<uint8_t>(at + fed.consumed);
+        if (fed.status != tether::DecodeStatus::more) {
+          ok = ok && seen < events && !(elcano_event(fed.status, by_run) != expected[seen]);
+          ++seen;
+        }
+      }
+    }
+    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
+         run_counters.crc_errors == byte_counters.crc_errors &&
+         run_counters.framing_errors == byte_counters.framing_errors &&
+         run_counters.oversize_frames == byte_counters.oversize_frames && run_counters.resyncs == byte_counters.resyncs &&
+         by_run.in_frame() == by_byte.in_frame();
+    frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
+    errors = static_cast<uint16_t>(errors + byte_counters.framing_errors + byte_counters.oversize_frames +
+                                   byte_counters.crc_errors);
+  }
+  // Every kind of event was compared, long numbers among the frames.
+  report("elcano_runs", ok && frames > 48 && errors > 48 && long_numbers > 16);
+}
+
+// detail::is_set (on the AVR the top byte first) against the plain comparison; then drives read whole, the
+// only type whose line end takes it: set unless exactly the marker.
+void check_elcano_required_fields(uint32_t seed) {
+  tether::selftest::Xorshift32 random(seed ^ 0x53455421u);
+  bool ok = true;
+  static const uint32_t kValues[] = {0u, 1u, 0xFFFFFFFFu, 0x7F000000u, 0x7FFFFFFEu, 0x7FFFFFFFu, 0x7EFFFFFFu,
+                                     0x80000000u, 0xFF7FFFFFu, 0x007FFFFFu, 0x7FFF7FFFu, 0x7F7FFFFFu};
+  for (uint16_t i = 0; i < 400 && ok; ++i) {
+    uint32_t bits = i < sizeof kValues / sizeof kValues[0] ? kValues[i] : random.next();
+    if (i >= 200) bits = (bits & 0x00FFFFFFu) | 0x7F000000u | (random.next() % 2 == 0 ? 0x00FFFF00u : 0u);
+    const int32_t value = static_cast<int32_t>(bits);
+    ok = tether::elcano::detail::is_set(value) == (value != tether::elcano::kUnset);
+  }
+  static const struct {
+    const char* text;
+    bool frame;
+  } kDrives[] = {{"D{s 2147483647}{a 5}\n", false},  {"D{s 5}{a 2147483647}\n", false},
+                 {"D{s 2147483646}{a 5}\n", true},   {"D{s 2130706432}{a 2147483392}\n", true},
+                 {"D{s -1}{a 16777215}\n", true},    {"D{s 50}\n", false},
+                 {"D{a 25}{s 2147483647}\n", false}, {"D{s 50}{a 25}\n", true}};
+  tether::LinkCounters counters;
+  tether::elcano::Decoder<64> decoder(tether::elcano::Generation::b, counters);
+  for (const auto& drive : kDrives) {
+    const tether::ByteView text = tether::ByteView(reinterpret_cast<const uint8_t*>(drive.text), __builtin_strlen(drive.text));
+    const tether::FeedResult fed = decoder.feed(text);
+    ok = ok && fed.consumed == text.size() &&
+         fed.status == (drive.frame ? tether::DecodeStatus::frame : tether::DecodeStatus::error) &&
+         (drive.frame || decoder.error() == tether::elcano::Error::inval_comb);
+  }
+  report("elcano_required_fields", ok);
+}
+
 // The frame writer against the frame built plainly: crc16 ‖ payload, COBS-encoded (cobs_encode: the C++
 // loop), the delimiters around it. Payloads of 0..260 bytes of every zero density: none (blocks of 254
 // bytes), 1 in 64, 1 in 4; the CRC itself is zero in a byte now and then (its patching's other cases).
@@ -417,6 +608,8 @@ int main() {
   check_interrupt_counter();
   check_frame_encoder(seed);
   check_romi_runs(seed);
+  check_elcano_runs(seed);
+  check_elcano_required_fields(seed);
   put("selftest end failures ");
   put_hex(failures, 2);
   put("\n");

@@ -18,6 +18,46 @@ __attribute__((always_inline)) inline void store_next(uint8_t*& out, uint8_t byt
 #endif
 }
 
+// Decoder::run's `value * 10 + digit` for a number's fifth to ninth digit (value < 10^8: no overflow). On the
+// AVR byte by byte on the hardware multiplier, in place: six registers, where avr-gcc's shifts and adds
+// held two 32-bit values and a constant, four more registers that run() saved and restored on every call.
+__attribute__((always_inline)) inline uint32_t times_ten_plus(uint32_t value, uint8_t digit) {
+#if defined(__AVR__)
+  // Each byte times 10 is at most 2550: its high byte (at most 9) plus the carry of adding the carry in
+  // (the digit at first) is the next byte's carry, at most 10; the top byte's high byte is 0 (< 10^9).
+  uint8_t carry = digit;
+  uint8_t ten;  // loaded here: an input operand would be hoisted into a register held across run()'s loops
+  __asm__(
+      "ldi %[ten], 10\n\t"
+      "mul %A[value], %[ten]\n\t"
+      "add r0, %[carry]\n\t"
+      "mov %A[value], r0\n\t"
+      "mov %[carry], r1\n\t"
+      "brcc 1f\n\t"
+      "inc %[carry]\n"
+      "1: mul %B[value], %[ten]\n\t"
+      "add r0, %[carry]\n\t"
+      "mov %B[value], r0\n\t"
+      "mov %[carry], r1\n\t"
+      "brcc 2f\n\t"
+      "inc %[carry]\n"
+      "2: mul %C[value], %[ten]\n\t"
+      "add r0, %[carry]\n\t"
+      "mov %C[value], r0\n\t"
+      "mov %[carry], r1\n\t"
+      "brcc 3f\n\t"
+      "inc %[carry]\n"
+      "3: mul %D[value], %[ten]\n\t"
+      "add r0, %[carry]\n\t"
+      "mov %D[value], r0\n\t"
+      "clr r1"
+      : [value] "+r"(value), [carry] "+r"(carry), [ten] "=&d"(ten));
+  return value;
+#else
+  return (((value << 2) + value) << 1) + digit;
+#endif
+}
+
 }  // namespace detail
 
 template <size_t Capacity>
@@ -188,10 +228,9 @@ number:
       small = static_cast<uint16_t>((((small << 2) + small) << 1) + digit);
     } else {
       if (digits >= kSafeDigits) goto stop_number;  // the range check is feed(byte)'s
-      // Fewer than 9 digits so far: one more stays in int32. value * 10 as (value * 5) * 2 in shifts
-      // (a 32-bit multiply is a library call on the AVR).
-      const uint32_t value = digits == 4 ? small : value_;
-      value_ = (((value << 2) + value) << 1) + digit;
+      // Fewer than 9 digits so far: one more stays in int32 (a 32-bit multiply is a library call on the
+      // AVR; times_ten_plus says how it is done there).
+      value_ = detail::times_ten_plus(digits == 4 ? small : value_, digit);
     }
     ++digits;
     detail::store_next(out, byte);
@@ -204,8 +243,10 @@ number:
     if (offset != 0) {
       *field(offset) = number;
     } else if (second_) {  // generation B `p E,N` (field_of has no single field for it)
-      message_.east = first_;
+      // N first: E's copy can then take N's registers (E first kept four more registers, saved and restored
+      // on every run on the AVR).
       message_.north = number;
+      message_.east = first_;
     } else {
       goto stop_number;  // `{p E}` without N: feed(byte)'s bad_number
     }
