@@ -144,7 +144,10 @@ class RomiReplayer final : public transports::CaptureReplayer {
     if (decoded.frame.log) return {};
     const Error error = decoded.complete ? Error::unknown_opcode : decoded.error;
     if (error == Error::no_error) return {};  // cut short: the firmware is still waiting for its end
-    const std::string body = "[" + std::to_string(static_cast<int>(error)) + "]";
+    // Appended, not `"[" + std::to_string(...)`: g++ 12 at -O3 warns a bogus overlap (-Wrestrict) there.
+    std::string body = "[";
+    body += std::to_string(static_cast<int>(error));
+    body += ']';
     return {response(decoded.frame.opcode, body, decoded.frame.has_id ? decoded.frame.id : 0)};
   }
 
