@@ -174,6 +174,36 @@ ProxyEvent proxy_event(tether::DecodeStatus status, const Decoder& decoder) {
   return event;
 }
 
+// Feeds `wire` to `by_run` in runs of 1-48 bytes (lengths from `random`): true when every run was taken a
+// byte or more at a time and the events were exactly `expected` (the per-byte decoder's), in order.
+template <typename Decoder, typename Event>
+bool runs_give(tether::selftest::Xorshift32& random, const uint8_t* wire, uint8_t size, Decoder& by_run,
+               const Event* expected, uint8_t events, Event (*event_of)(tether::DecodeStatus, const Decoder&)) {
+  bool ok = true;
+  uint8_t seen = 0;
+  uint8_t at = 0;
+  while (at < size && ok) {
+    uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
+    if (end > size) end = size;
+    while (at < end && ok) {
+      const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
+      ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
+      at = static_cast<uint8_t>(at + fed.consumed);
+      if (fed.status != tether::DecodeStatus::more) {
+        ok = ok && seen < events && !(event_of(fed.status, by_run) != expected[seen]);
+        ++seen;
+      }
+    }
+  }
+  return ok && seen == events;
+}
+
+// The counters of the per-byte and the run-fed decoder agree.
+bool same_counters(const tether::LinkCounters& a, const tether::LinkCounters& b) {
+  return a.frames_ok == b.frames_ok && a.crc_errors == b.crc_errors && a.framing_errors == b.framing_errors &&
+         a.oversize_frames == b.oversize_frames && a.resyncs == b.resyncs;
+}
+
 void check_proxy_runs(uint32_t seed) {
   using tether::proxy::Integrity;
   tether::selftest::Xorshift32 random(seed ^ 0x5A5A5A5Au);
@@ -210,25 +240,8 @@ void check_proxy_runs(uint32_t seed) {
       const tether::DecodeStatus status = by_byte.feed(wire[i]);
       if (status != tether::DecodeStatus::more) expected[events++] = proxy_event(status, by_byte);
     }
-    uint8_t seen = 0;
-    uint8_t at = 0;
-    while (at < size && ok) {
-      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
-      if (end > size) end = size;
-      while (at < end && ok) {
-        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
-        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
-        at = static_cast<uint8_t>(at + fed.consumed);
-        if (fed.status != tether::DecodeStatus::more) {
-          ok = ok && seen < events && !(proxy_event(fed.status, by_run) != expected[seen]);
-          ++seen;
-        }
-      }
-    }
-    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
-         run_counters.crc_errors == byte_counters.crc_errors &&
-         run_counters.framing_errors == byte_counters.framing_errors &&
-         run_counters.oversize_frames == byte_counters.oversize_frames && by_run.in_frame() == by_byte.in_frame();
+    ok = runs_give(random, wire, size, by_run, expected, events, &proxy_event) &&
+         same_counters(run_counters, byte_counters) && by_run.in_frame() == by_byte.in_frame();
     frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
   }
   report("proxy_runs", ok && frames > 24);  // most rounds deliver frames: the check compared something
@@ -320,26 +333,8 @@ void check_romi_runs(uint32_t seed) {
       const tether::DecodeStatus status = by_byte.feed(wire[i]);
       if (status != tether::DecodeStatus::more) expected[events++] = romi_event(status, by_byte);
     }
-    uint8_t seen = 0;
-    uint8_t at = 0;
-    while (at < size && ok) {
-      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
-      if (end > size) end = size;
-      while (at < end && ok) {
-        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
-        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
-        at = static_cast<uint8_t>(at + fed.consumed);
-        if (fed.status != tether::DecodeStatus::more) {
-          ok = ok && seen < events && !(romi_event(fed.status, by_run) != expected[seen]);
-          ++seen;
-        }
-      }
-    }
-    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
-         run_counters.crc_errors == byte_counters.crc_errors &&
-         run_counters.framing_errors == byte_counters.framing_errors &&
-         run_counters.oversize_frames == byte_counters.oversize_frames && run_counters.resyncs == byte_counters.resyncs &&
-         by_run.in_frame() == by_byte.in_frame();
+    ok = runs_give(random, wire, size, by_run, expected, events, &romi_event) &&
+         same_counters(run_counters, byte_counters) && by_run.in_frame() == by_byte.in_frame();
     frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
     errors = static_cast<uint16_t>(errors + byte_counters.framing_errors + byte_counters.oversize_frames +
                                    byte_counters.crc_errors);
@@ -483,26 +478,8 @@ void check_elcano_runs(uint32_t seed) {
         }
       }
     }
-    uint8_t seen = 0;
-    uint8_t at = 0;
-    while (at < size && ok) {
-      uint8_t end = static_cast<uint8_t>(at + 1u + random.next() % 48u);
-      if (end > size) end = size;
-      while (at < end && ok) {
-        const tether::FeedResult fed = by_run.feed(tether::ByteView(wire + at, static_cast<size_t>(end - at)));
-        ok = fed.consumed >= 1 && fed.consumed <= static_cast<size_t>(end - at);
-        at = static_cast<uint8_t>(at + fed.consumed);
-        if (fed.status != tether::DecodeStatus::more) {
-          ok = ok && seen < events && !(elcano_event(fed.status, by_run) != expected[seen]);
-          ++seen;
-        }
-      }
-    }
-    ok = ok && seen == events && run_counters.frames_ok == byte_counters.frames_ok &&
-         run_counters.crc_errors == byte_counters.crc_errors &&
-         run_counters.framing_errors == byte_counters.framing_errors &&
-         run_counters.oversize_frames == byte_counters.oversize_frames && run_counters.resyncs == byte_counters.resyncs &&
-         by_run.in_frame() == by_byte.in_frame();
+    ok = runs_give(random, wire, size, by_run, expected, events, &elcano_event) &&
+         same_counters(run_counters, byte_counters) && by_run.in_frame() == by_byte.in_frame();
     frames = static_cast<uint16_t>(frames + byte_counters.frames_ok);
     errors = static_cast<uint16_t>(errors + byte_counters.framing_errors + byte_counters.oversize_frames +
                                    byte_counters.crc_errors);
