@@ -35,69 +35,21 @@
 #include "tether/rpc/json_mapping.hpp"
 #include "tether/rpc/schema.hpp"
 #include "tether_rpc.pb.h"
+#include "typed_call_steps.hpp"
 
 namespace {
 
 namespace pb = google::protobuf;
 using namespace tether;
 
-std::string frame_of(const std::string& payload) {
-  std::string out(proxy::max_frame_size(payload.size()), '\0');
-  const Result<size_t> size =
-      proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
-                          MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
-  out.resize(size.ok() ? size.value() : 0);
-  return out;
-}
-
-// What the device sends for call `id`: its Reply (reached_cdeg = -4500) and its Ack.
-struct DeviceFrames {
-  std::string reply;
-  std::string ack;
-};
-DeviceFrames device_frames(std::uint32_t id) {
-  arm::JointReply joint;
-  joint.set_reached_cdeg(-4500);
-  rpc::wire::DeviceMessage reply;
-  reply.mutable_reply()->set_call(id);
-  reply.mutable_reply()->set_reply(joint.SerializeAsString());
-  rpc::wire::DeviceMessage ack;
-  ack.mutable_ack()->set_id(id);
-  return DeviceFrames{frame_of(reply.SerializeAsString()), frame_of(ack.SerializeAsString())};
-}
-
-// Encode: the call's HostMessage frame of `call` (the initiation's encoding), as the strand makes it.
-void call_frame(const rpc::detail::CallRequest& call, const rpc::Method& method, std::uint32_t id, std::string& frame) {
-  rpc::envelope::HostMessage message;
-  message.id = id;
-  message.body = rpc::envelope::HostBody::call;
-  message.method = method.index;
-  message.request = ByteView::from_chars(call.request.data(), call.request.size());
-  rpc::envelope::write_frame(message, frame);
-}
+using rpc::testing::DeviceFrames;
 
 // Decode: the device's frames through the client's frame reader; the Reply's payload bytes.
 template <std::size_t Capacity>
 std::string reply_payload(rpc::envelope::FrameReader<Capacity>& decoder, const DeviceFrames& answer, bool with_ack,
-                          benchmark::State& state) {
+                          std::uint32_t id, benchmark::State& state) {
   std::string reply_bytes;
-  for (const std::string* incoming : {&answer.reply, &answer.ack}) {
-    if (incoming == &answer.ack && !with_ack) break;
-    ByteView input = ByteView::from_chars(incoming->data(), incoming->size());
-    while (!input.empty()) {
-      const FeedResult fed = decoder.feed(input);
-      input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
-      if (fed.status != DecodeStatus::frame) continue;
-      rpc::envelope::DeviceMessage out;
-      if (rpc::envelope::decode(decoder.frame(), out) != rpc::envelope::DecodeError::none) {
-        state.SkipWithError("undecodable");
-      }
-      if (out.body == rpc::envelope::DeviceBody::reply) {
-        reply_bytes.assign(reinterpret_cast<const char*>(out.reply.reply.data()), out.reply.reply.size());
-      }
-      benchmark::DoNotOptimize(out.body);
-    }
-  }
+  if (!rpc::testing::read_answer(decoder, answer, with_ack, id, reply_bytes)) state.SkipWithError("undecodable");
   return reply_bytes;
 }
 
@@ -112,7 +64,7 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
   const rpc::Schema schema(arm::ArmClient::descriptor());
   const rpc::Method& method = *schema.find("MoveJoint");
   constexpr std::uint32_t kId = 0x12345678;
-  const DeviceFrames answer = device_frames(kId);
+  const DeviceFrames answer = rpc::testing::device_frames(kId, -4500);
   LinkCounters counters;
   rpc::envelope::FrameReader<rpc::kMaxPayload> decoder(counters);  // the client's
   arm::JointRequest request;
@@ -126,11 +78,11 @@ void typed_move_joint(benchmark::State& state, bool with_ack) {
     // Encode: the initiation's encoding of the request, then what the strand does with it.
     rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request);
     if (call.type != method.input || schema.find(call.method) != &method) state.SkipWithError("not the compiled-in type");
-    call_frame(call, method, kId, frame);
+    rpc::testing::call_frame(call, method, kId, frame);
     call_bytes = frame.size();
     benchmark::DoNotOptimize(frame.data());
 
-    const std::string reply_bytes = reply_payload(decoder, answer, with_ack, state);
+    const std::string reply_bytes = reply_payload(decoder, answer, with_ack, kId, state);
     // The typed call's reply class is the method's output: taken as one (client.cpp on_completion).
     if (call.reply.type != method.output) state.SkipWithError("not the typed reply");
     std::shared_ptr<pb::Message> decoded = replies.take(call.reply);
@@ -149,7 +101,7 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
   const rpc::Schema schema = rpc::Schema::load(TETHER_RPC_EXAMPLE_SCHEMA);
   const rpc::Method& method = *schema.find("MoveJoint");
   constexpr std::uint32_t kId = 0x12345678;
-  const DeviceFrames answer = device_frames(kId);
+  const DeviceFrames answer = rpc::testing::device_frames(kId, -4500);
   pb::DynamicMessageFactory factory;
   const pb::Message* request_prototype = factory.GetPrototype(method.input);
   const pb::Message* reply_prototype = factory.GetPrototype(method.output);
@@ -167,11 +119,11 @@ void BM_RpcDynamicJsonMoveJoint(benchmark::State& state) {
     if (!json.from_json(json_request, *request).ok()) state.SkipWithError("bad JSON");
     rpc::detail::CallRequest call = rpc::detail::make_call_request("MoveJoint", *request);
     if (schema.find(call.method) != &method) state.SkipWithError("no method");
-    call_frame(call, method, kId, frame);
+    rpc::testing::call_frame(call, method, kId, frame);
     call_bytes = frame.size();
     benchmark::DoNotOptimize(frame.data());
 
-    const std::string reply_bytes = reply_payload(decoder, answer, false, state);
+    const std::string reply_bytes = reply_payload(decoder, answer, false, kId, state);
     std::shared_ptr<pb::Message> decoded(reply_prototype->New(), [](pb::Message* m) { delete m; });
     if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) {
       state.SkipWithError("bad reply");

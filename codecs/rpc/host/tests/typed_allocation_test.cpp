@@ -17,12 +17,10 @@
 #include <string>
 
 #include "arm.tether.hpp"
-#include "tether/proxy/decoder.hpp"
-#include "tether/proxy/encoder.hpp"
 #include "tether/rpc/client.hpp"
 #include "tether/rpc/envelope.hpp"
 #include "tether/rpc/schema.hpp"
-#include "tether_rpc.pb.h"
+#include "typed_call_steps.hpp"
 
 namespace {
 thread_local std::size_t allocations = 0;
@@ -51,30 +49,13 @@ namespace {
 
 using namespace tether;
 
-std::string frame_of(const std::string& payload) {
-  std::string out(proxy::max_frame_size(payload.size()), '\0');
-  const Result<size_t> size =
-      proxy::encode_frame(ByteView::from_chars(payload.data(), payload.size()), proxy::Integrity::crc16, true,
-                          MutableByteView(reinterpret_cast<std::uint8_t*>(out.data()), out.size()));
-  out.resize(size.ok() ? size.value() : 0);
-  return out;
-}
-
 // One typed MoveJoint call's encode and decode, with the state the client keeps between calls.
 class TypedCall {
  public:
-  TypedCall() : method_(*schema_.find("MoveJoint")), decoder_(counters_) {
+  TypedCall()
+      : method_(*schema_.find("MoveJoint")), decoder_(counters_), answer_(rpc::testing::device_frames(kId, -4500)) {
     request_.set_joint(2);
     request_.set_angle_cdeg(-4500);
-    arm::JointReply joint;
-    joint.set_reached_cdeg(-4500);
-    rpc::wire::DeviceMessage reply;
-    reply.mutable_reply()->set_call(kId);
-    reply.mutable_reply()->set_reply(joint.SerializeAsString());
-    rpc::wire::DeviceMessage ack;
-    ack.mutable_ack()->set_id(kId);
-    reply_frame_ = frame_of(reply.SerializeAsString());
-    ack_frame_ = frame_of(ack.SerializeAsString());
   }
 
   // The reply's reached_cdeg (0 when a step failed: the test's checks say which).
@@ -82,32 +63,12 @@ class TypedCall {
     // Encode: the initiation's request, then the strand's frame.
     rpc::detail::CallRequest call = rpc::detail::make_typed_call_request<arm::JointReply>("MoveJoint", request_);
     if (!call.encoded || schema_.find(call.method) != &method_ || call.reply.type != method_.output) return 0;
-    rpc::envelope::HostMessage message;
-    message.id = kId;
-    message.body = rpc::envelope::HostBody::call;
-    message.method = method_.index;
-    message.request = ByteView::from_chars(call.request.data(), call.request.size());
-    rpc::envelope::write_frame(message, frame_);
+    rpc::testing::call_frame(call, method_, kId, frame_);
     if (frame_.size() < 8) return 0;
 
     // Decode: the device's Reply and Ack.
     std::string reply_bytes;  // the call's state until the Ack
-    bool acked = false;
-    for (const std::string* incoming : {&reply_frame_, &ack_frame_}) {
-      ByteView input = ByteView::from_chars(incoming->data(), incoming->size());
-      while (!input.empty()) {
-        const FeedResult fed = decoder_.feed(input);
-        input = ByteView(input.data() + fed.consumed, input.size() - fed.consumed);
-        if (fed.status != DecodeStatus::frame) continue;
-        rpc::envelope::DeviceMessage out;
-        if (rpc::envelope::decode(decoder_.frame(), out) != rpc::envelope::DecodeError::none) return 0;
-        if (out.body == rpc::envelope::DeviceBody::reply && out.reply.call == kId) {
-          reply_bytes.assign(reinterpret_cast<const char*>(out.reply.reply.data()), out.reply.reply.size());
-        }
-        if (out.body == rpc::envelope::DeviceBody::ack && out.ack.id == kId) acked = true;
-      }
-    }
-    if (!acked) return 0;
+    if (!rpc::testing::read_answer(decoder_, answer_, true, kId, reply_bytes)) return 0;
     std::shared_ptr<google::protobuf::Message> decoded = replies_.take(call.reply);
     if (!decoded->ParseFromArray(reply_bytes.data(), static_cast<int>(reply_bytes.size()))) return 0;
     const arm::JointReply reply = rpc::detail::take_as<arm::JointReply>(decoded);
@@ -122,9 +83,8 @@ class TypedCall {
   rpc::envelope::FrameReader<rpc::kMaxPayload> decoder_;
   rpc::detail::TypedReplies replies_;
   std::string frame_;
+  const rpc::testing::DeviceFrames answer_;
   arm::JointRequest request_;
-  std::string reply_frame_;
-  std::string ack_frame_;
 };
 
 TEST(RpcTypedCallAllocations, AWarmedUpTypedCallsEncodeAndDecodeAllocateNothing) {
