@@ -16,6 +16,9 @@
 // and the test says so instead of comparing.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -219,6 +222,39 @@ TEST(DevicesBootDetection, BoardThatNeverAnnouncesFallsBackAtTheUpperBound) {
 // plugged back; the re-open resets it into optiboot again (DTR), detection runs again, and the up event
 // reports when it was ready. The proxy client then starts its new session by itself.
 class DevicesBootDetectionAfterReopen : public testing::ReconnectTest {};
+
+// The port opened again and again while the board talks (the echo image, sent a burst before each open):
+// each open resets the board, and the harness never hangs (it used to reset the board under the lock its
+// output handler takes: the board's thread waited for the lock, the reset for the board's thread).
+TEST_F(DevicesBootDetectionAfterReopen, OpensWhileTheBoardTalksEachResetItAndNothingHangs) {
+  SKIP_WITHOUT("echo");
+  testing::UnpluggableBoard* const uno = start("echo");
+  ASSERT_NE(uno, nullptr);
+  uno->unplug();
+  const std::string slave = uno->plug();
+  uno->reset_on_open();
+  const int keeper = ::open(slave.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);  // the host's end, kept open
+  ASSERT_GE(keeper, 0);
+  ASSERT_TRUE(testing::wait_until([&] { return uno->open_resets() >= 1; }));
+  const std::string burst(64, 'x');
+  char drained[256];
+  for (std::uint64_t open = 2; open <= 201; ++open) {
+    // Open while the board is echoing a burst: right after its next byte left.
+    const std::uint64_t sent = uno->board().stats().tx_bytes;
+    ASSERT_EQ(::write(keeper, burst.data(), burst.size()), static_cast<ssize_t>(burst.size()));
+    ASSERT_TRUE(testing::wait_until([&] { return uno->board().stats().tx_bytes > sent; })) << "the board went silent";
+    const int fd = ::open(slave.c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC);
+    ASSERT_GE(fd, 0);
+    ::close(fd);
+    ASSERT_TRUE(testing::wait_until([&] { return uno->open_resets() >= open; })) << "open " << open;
+    while (::read(keeper, drained, sizeof drained) > 0) {
+    }
+  }
+  // Every open the watcher saw reset the board once (inotify may merge two opens into one event).
+  EXPECT_GE(uno->open_resets(), 200u);
+  EXPECT_EQ(uno->board().stats().injected_external_resets, uno->open_resets());
+  ::close(keeper);
+}
 
 TEST_F(DevicesBootDetectionAfterReopen, AProxyBoardThatRebootedDuringTheOutageIsDetectedAgainAndTheUpEventSaysWhen) {
   SKIP_WITHOUT("proxy");

@@ -132,7 +132,7 @@ class UnpluggableBoard {
     if (pty) watch_opens(pty->slave_path(), generation);
   }
 
-  /// Resets by `reset_on_open` so far.
+  /// Resets by `reset_on_open` so far (each counted once the board has reset).
   std::uint64_t open_resets() {
     std::lock_guard lock(mutex_);
     return open_resets_;
@@ -239,10 +239,12 @@ class UnpluggableBoard {
       {
         std::lock_guard lock(mutex_);
         if (generation != generation_ || !pty_) return;
-        if (opened) {
-          ++open_resets_;
-          boards_.front()->reset(transports::ResetKind::external);
-        }
+      }
+      if (opened) {
+        // Not under the lock: reset() waits for the board's thread, whose output handler takes the lock.
+        boards_.front()->reset(transports::ResetKind::external);
+        std::lock_guard lock(mutex_);
+        ++open_resets_;  // counted once done
       }
       read_opens(watcher, generation);
     });
