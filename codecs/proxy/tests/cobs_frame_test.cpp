@@ -268,48 +268,71 @@ TEST(ProxyFrame, ZeroCrcBytesGiveTheCanonicalCobsEncoding) {
   }
 }
 
-TEST(ProxyFrame, FeedingSpansGivesTheSameEventsAsFeedingBytes) {
-  // Decoder::feed(ByteView) copies a block's data bytes in one loop; it must stop at the same events,
-  // with the same frames, errors and counters, as byte-at-a-time feeding, whatever the chunking.
-  auto random = tether::testing::seeded_generator(31);
+// What a link may deliver: frames (payloads up to `max_payload`, zeros included, some past the decoder's
+// bound), frames with a byte changed or cut short, garbage and lone delimiters.
+Bytes random_wire(std::mt19937_64& random, Integrity integrity, size_t max_payload) {
+  Bytes wire;
+  for (int part = 0; part < 12; ++part) {
+    const unsigned kind = static_cast<unsigned>(random() % 10);
+    if (kind == 8) {  // garbage, zeros included
+      for (size_t i = random() % 40; i != 0; --i) wire.push_back(static_cast<uint8_t>(random() % 3 == 0 ? 0 : random()));
+      continue;
+    }
+    if (kind == 9) {  // delimiters between frames
+      wire.insert(wire.end(), 1 + random() % 3, 0x00);
+      continue;
+    }
+    Bytes payload(random() % (max_payload + 1));
+    for (auto& b : payload) b = random() % 4 == 0 ? 0 : static_cast<uint8_t>(random());
+    Bytes f = frame(payload, integrity, random() % 2 == 0);
+    if (kind < 2 && f.size() > 2) f[random() % (f.size() - 1)] ^= static_cast<uint8_t>(1 + random() % 255);
+    if (kind == 2) f.resize(random() % (f.size() + 1));  // cut short
+    wire.insert(wire.end(), f.begin(), f.end());
+  }
+  return wire;
+}
+
+// Decoder::feed(ByteView) takes a block's data bytes in one run (on the host: a scan, a copy and the CRC of
+// the whole block); it must stop at the same events, with the same frames, errors and counters, as
+// byte-at-a-time feeding, whatever the chunking: the whole stream in one read, single bytes, or reads of
+// 1..`max_chunk` bytes.
+template <size_t Capacity>
+void expect_spans_give_what_bytes_give(uint64_t seed, size_t max_payload, size_t max_chunk) {
+  auto random = tether::testing::seeded_generator(seed);
   for (const Integrity integrity : {Integrity::crc16, Integrity::none}) {
     for (int round = 0; round < 300; ++round) {
-      Bytes wire;
-      for (int part = 0; part < 12; ++part) {
-        Bytes payload(random() % 80);  // some longer than the decoder's 48
-        for (auto& b : payload) b = random() % 4 == 0 ? 0 : static_cast<uint8_t>(random());
-        Bytes f = frame(payload, integrity, random() % 2 == 0);
-        const unsigned damage = static_cast<unsigned>(random() % 4);
-        if (damage == 0 && f.size() > 2) f[random() % (f.size() - 1)] ^= static_cast<uint8_t>(1 + random() % 255);
-        if (damage == 1) f.resize(random() % (f.size() + 1));  // cut short
-        wire.insert(wire.end(), f.begin(), f.end());
-      }
+      const Bytes wire = random_wire(random, integrity, max_payload);
       LinkCounters byte_counters;
-      Decoder<48> by_byte(integrity, byte_counters);
+      Decoder<Capacity> by_byte(integrity, byte_counters);
       std::vector<std::pair<DecodeStatus, Bytes>> expected;
       for (size_t i = 0; i < wire.size(); ++i) {
         const DecodeStatus status = by_byte.feed(wire[i]);
         if (status == DecodeStatus::frame) expected.emplace_back(status, Bytes(by_byte.frame().begin(), by_byte.frame().end()));
-        if (status == DecodeStatus::error) expected.emplace_back(status, Bytes{static_cast<uint8_t>(by_byte.error()), static_cast<uint8_t>(i)});
+        if (status == DecodeStatus::error) {
+          expected.emplace_back(status, Bytes{static_cast<uint8_t>(by_byte.error()), static_cast<uint8_t>(i), static_cast<uint8_t>(i >> 8)});
+        }
       }
       LinkCounters span_counters;
-      Decoder<48> by_span(integrity, span_counters);
+      Decoder<Capacity> by_span(integrity, span_counters);
       std::vector<std::pair<DecodeStatus, Bytes>> got;
+      const unsigned split = static_cast<unsigned>(round % 3);
       size_t at = 0;
       while (at < wire.size()) {
-        const size_t chunk = std::min<size_t>(wire.size() - at, 1 + random() % 40);
-        ByteView rest(wire.data() + at, chunk);
+        const size_t chunk = split == 0 ? wire.size() : split == 1 ? 1 : 1 + random() % max_chunk;
+        ByteView rest(wire.data() + at, std::min(chunk, wire.size() - at));
         while (!rest.empty()) {
           const FeedResult fed = by_span.feed(rest);
           ASSERT_GE(fed.consumed, 1u);
           const size_t last = at + fed.consumed - 1;
           if (fed.status == DecodeStatus::frame) got.emplace_back(fed.status, Bytes(by_span.frame().begin(), by_span.frame().end()));
-          if (fed.status == DecodeStatus::error) got.emplace_back(fed.status, Bytes{static_cast<uint8_t>(by_span.error()), static_cast<uint8_t>(last)});
+          if (fed.status == DecodeStatus::error) {
+            got.emplace_back(fed.status, Bytes{static_cast<uint8_t>(by_span.error()), static_cast<uint8_t>(last), static_cast<uint8_t>(last >> 8)});
+          }
           at += fed.consumed;
           rest = rest.subview(fed.consumed);
         }
       }
-      ASSERT_EQ(got, expected) << "round " << round;
+      ASSERT_EQ(got, expected) << "round " << round << ", " << wire.size() << " bytes";
       EXPECT_EQ(span_counters.frames_ok, byte_counters.frames_ok);
       EXPECT_EQ(span_counters.crc_errors, byte_counters.crc_errors);
       EXPECT_EQ(span_counters.framing_errors, byte_counters.framing_errors);
@@ -318,6 +341,14 @@ TEST(ProxyFrame, FeedingSpansGivesTheSameEventsAsFeedingBytes) {
       EXPECT_EQ(by_span.in_frame(), by_byte.in_frame());
     }
   }
+}
+
+TEST(ProxyFrame, FeedingSpansGivesTheSameEventsAsFeedingBytes) {
+  expect_spans_give_what_bytes_give<48>(31, 80, 40);  // 8-bit counts (the AVR's decoders)
+}
+
+TEST(ProxyFrame, FeedingSpansGivesTheSameEventsAsFeedingBytesPastAByteOfCount) {
+  expect_spans_give_what_bytes_give<300>(4, 400, 300);  // 16-bit counts, runs longer than 255 bytes
 }
 
 TEST(ProxyFrame, TooSmallBufferIsReported) {
