@@ -28,6 +28,7 @@ function(tether_add_gtests target)
   if(TESTS_FILTER)
     set(filter TEST_FILTER "${TESTS_FILTER}")
   endif()
+  target_compile_options(${target} PRIVATE ${TETHER_TEST_SANITIZE_FLAGS})  # see the top-level CMakeLists.txt
   gtest_discover_tests(${target} TEST_PREFIX "${TESTS_PREFIX}" DISCOVERY_TIMEOUT 60 ${filter}
     PROPERTIES LABELS ${TESTS_LABEL} ${TESTS_PROPERTIES})
 endfunction()
