@@ -14,34 +14,17 @@ function(_tether_check_label label)
   endif()
 endfunction()
 
-# One precompiled header for the test programs' C++ units: GoogleTest, asio and nlohmann::json, which nearly
-# every test program includes and which took the largest share of a typical unit's parsing (a sanitized test
-# unit: 23.7 -> 20.4 s of CPU with it; docs/building.md). Built once, by a target of its own with the test
-# programs' flags; each program includes it first (`-include`, ahead of the asio workaround's forced
-# <utility>, which a precompiled header must precede to be used; the header holds <utility> itself), and
-# -Winvalid-pch with -Werror makes a header built with other flags an error, never a silently slow build.
-option(TETHER_TEST_PCH "Compile the test programs with one shared precompiled header (GCC)" ON)
-set(TETHER_TEST_PCH_HEADER "")
-if(TETHER_TEST_PCH AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
-  find_package(nlohmann_json 3 REQUIRED)
-  set(_tether_test_pch_main ${PROJECT_BINARY_DIR}/CMakeFiles/tether_test_pch_main.cpp)
-  file(CONFIGURE OUTPUT ${_tether_test_pch_main}
-    CONTENT "// Builds the test programs' precompiled header (cmake/testing.cmake).\nint main() { return 0; }\n")
-  # An executable, as the test programs are: the header records -fPIE (a library's -fPIC would not match).
-  add_executable(tether_test_pch EXCLUDE_FROM_ALL ${_tether_test_pch_main})
-  target_link_libraries(tether_test_pch PRIVATE GTest::gtest Boost::headers nlohmann_json::nlohmann_json)
-  target_compile_definitions(tether_test_pch PRIVATE BOOST_ASIO_NO_DEPRECATED)
-  target_compile_options(tether_test_pch PRIVATE ${TETHER_TEST_SANITIZE_FLAGS})
-  target_precompile_headers(tether_test_pch PRIVATE <utility> <gtest/gtest.h> <boost/asio.hpp> <nlohmann/json.hpp>)
-  set(TETHER_TEST_PCH_HEADER ${PROJECT_BINARY_DIR}/CMakeFiles/tether_test_pch.dir/cmake_pch.hxx)
-endif()
+include(precompiled-header)  # tether_test_pch: the test programs' shared precompiled header
 
-# tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [FILTER <gtest filter>] [PROPERTIES <name> <value>...]):
+# tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [FILTER <gtest filter>] [NO_PRECOMPILED_HEADER]
+#                   [PROPERTIES <name> <value>...]):
 # registers every GoogleTest case of <target> (or those FILTER selects) as <prefix><Suite>.<Case> with <label>
 # (and the further test properties). A program that gathers several folders' or tiers' cases is registered
-# once per FILTER, so each case keeps its name and tier.
+# once per FILTER, so each case keeps its name and tier. Its C++ units include the shared precompiled header
+# (cmake/precompiled-header.cmake) unless NO_PRECOMPILED_HEADER: for a program of many small units that do
+# not include what the header holds (loading it costs about 1.5 s of CPU per unit).
 function(tether_add_gtests target)
-  cmake_parse_arguments(TESTS "" "PREFIX;LABEL;FILTER" "PROPERTIES" ${ARGN})
+  cmake_parse_arguments(TESTS "NO_PRECOMPILED_HEADER" "PREFIX;LABEL;FILTER" "PROPERTIES" ${ARGN})
   if(NOT TESTS_PREFIX OR NOT TESTS_LABEL)
     message(FATAL_ERROR "tether_add_gtests(${target}) needs PREFIX and LABEL")
   endif()
@@ -51,12 +34,8 @@ function(tether_add_gtests target)
     set(filter TEST_FILTER "${TESTS_FILTER}")
   endif()
   target_compile_options(${target} PRIVATE ${TETHER_TEST_SANITIZE_FLAGS})  # see the top-level CMakeLists.txt
-  if(TETHER_TEST_PCH_HEADER)
-    # First on the command line (BEFORE): the header's definitions as the header was built with them.
-    target_compile_options(${target} BEFORE PRIVATE
-      "$<$<COMPILE_LANGUAGE:CXX>:-Winvalid-pch;-include${TETHER_TEST_PCH_HEADER}>")
-    target_compile_definitions(${target} PRIVATE BOOST_ALL_NO_LIB BOOST_ASIO_NO_DEPRECATED)
-    add_dependencies(${target} tether_test_pch)
+  if(NOT TESTS_NO_PRECOMPILED_HEADER)
+    tether_use_precompiled_header(${target} tether_test_pch)
   endif()
   gtest_discover_tests(${target} TEST_PREFIX "${TESTS_PREFIX}" DISCOVERY_TIMEOUT 60 ${filter}
     PROPERTIES LABELS ${TESTS_LABEL} ${TESTS_PROPERTIES})

@@ -15,11 +15,17 @@
 # relying on which `testing` namespaces happen to be visible (qualify: `::tether::testing::...`).
 include_guard(GLOBAL)
 
+#
+# The static libraries listed here are the heavy ones (asio and JSON in every unit): in the test build they
+# also include its shared precompiled header (cmake/precompiled-header.cmake), batched or not.
 function(tether_unity_build)
-  if(NOT TETHER_UNITY_BUILD)
-    return()
-  endif()
   foreach(target IN LISTS ARGN)
-    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0)
+    get_target_property(type ${target} TYPE)
+    if(type STREQUAL "STATIC_LIBRARY" AND COMMAND tether_use_precompiled_header)
+      tether_use_precompiled_header(${target} tether_library_pch)
+    endif()
+    if(TETHER_UNITY_BUILD)
+      set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0)
+    endif()
   endforeach()
 endfunction()
