@@ -1,5 +1,6 @@
 # Shared precompiled headers for the test build (`tools/setup test`; TETHER_PRECOMPILED_HEADERS, on by default
-# with GCC when the tests are built). Nearly every heavy unit of that build parses asio and nlohmann::json
+# with GCC when the tests are built in unity batches, as there: a developer's source-by-source build stays
+# the one that checks each source includes what it uses, which a forced header would hide). Nearly every heavy unit of that build parses asio and nlohmann::json
 # (and the test programs GoogleTest) before its own code: a sanitized test unit took 23.7 s of CPU, 20.4 s
 # with a precompiled header of them (docs/building.md). A header is built once per flag set, by a target of
 # its own, and a unit includes it first: `-include`, ahead of the asio workaround's forced <utility> (a
@@ -14,7 +15,8 @@
 # a header (about 1.5 s of CPU) costs more than it saves. Packagers' and parent projects' builds (no tests)
 # compile plainly.
 include_guard(GLOBAL)
-option(TETHER_PRECOMPILED_HEADERS "Compile the test build's heavy units with shared precompiled headers (GCC)" ON)
+option(TETHER_PRECOMPILED_HEADERS "Compile the test build's heavy units with shared precompiled headers (GCC)"
+  ${TETHER_UNITY_BUILD})
 
 # _tether_define_pch(<name> EXECUTABLE|LIBRARY OPTIONS <flags>... HEADERS <header>... LIBRARIES <lib>...)
 function(_tether_define_pch name kind)
