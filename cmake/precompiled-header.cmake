@@ -1,7 +1,8 @@
 # Shared precompiled headers for the test build (`tools/setup test`; TETHER_PRECOMPILED_HEADERS, on by default
 # with GCC when the tests are built in unity batches, as there: a developer's source-by-source build stays
-# the one that checks each source includes what it uses, which a forced header would hide). Nearly every heavy unit of that build parses asio and nlohmann::json
-# (and the test programs GoogleTest) before its own code: a sanitized test unit took 23.7 s of CPU, 20.4 s
+# the one that checks each source includes what it uses, which a forced header would hide). Nearly every
+# heavy unit of that build parses asio and nlohmann::json (and the test programs GoogleTest) before its own
+# code: a sanitized test unit took 23.7 s of CPU, 20.4 s
 # with a precompiled header of them (docs/building.md). A header is built once per flag set, by a target of
 # its own, and a unit includes it first: `-include`, ahead of the asio workaround's forced <utility> (a
 # precompiled header must come before anything else to be used; the headers hold <utility> themselves).
@@ -30,7 +31,7 @@ function(_tether_define_pch name kind)
     add_library(${name} STATIC EXCLUDE_FROM_ALL ${source})
   endif()
   target_link_libraries(${name} PRIVATE ${PCH_LIBRARIES})
-  target_compile_definitions(${name} PRIVATE BOOST_ALL_NO_LIB BOOST_ASIO_NO_DEPRECATED GTEST_HAS_PTHREAD=1)
+  target_compile_definitions(${name} PRIVATE BOOST_ALL_NO_LIB BOOST_ASIO_NO_DEPRECATED)
   target_compile_options(${name} PRIVATE ${PCH_OPTIONS})
   target_precompile_headers(${name} PRIVATE ${PCH_HEADERS})
   # Where CMake writes the header it precompiles (the .gch beside it).
@@ -38,14 +39,14 @@ function(_tether_define_pch name kind)
 endfunction()
 
 # tether_use_precompiled_header(<target> <pch>): <target>'s C++ units include <pch>'s header first, with the
-# definitions it was built with.
+# definitions it was built with (GoogleTest's come with GTest::gtest, which every test program links).
 function(tether_use_precompiled_header target pch)
   if(NOT TARGET ${pch})
     return()
   endif()
   get_target_property(header ${pch} TETHER_PCH_HEADER)
   target_compile_options(${target} BEFORE PRIVATE "$<$<COMPILE_LANGUAGE:CXX>:-Winvalid-pch;-include${header}>")
-  target_compile_definitions(${target} PRIVATE BOOST_ALL_NO_LIB BOOST_ASIO_NO_DEPRECATED GTEST_HAS_PTHREAD=1)
+  target_compile_definitions(${target} PRIVATE BOOST_ALL_NO_LIB BOOST_ASIO_NO_DEPRECATED)
   add_dependencies(${target} ${pch})
 endfunction()
 

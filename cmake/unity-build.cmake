@@ -13,11 +13,11 @@
 # parent's subdirectory (FetchContent): compiled once, never edited there. `tools/setup test` (CI) turns it on. A target listed here must be unity-safe: no two of its sources
 # define the same name inside an unnamed namespace or at file scope, and no source names `testing::...`
 # relying on which `testing` namespaces happen to be visible (qualify: `::tether::testing::...`).
-include_guard(GLOBAL)
-
 #
 # The static libraries listed here are the heavy ones (asio and JSON in every unit): in the test build they
 # also include its shared precompiled header (cmake/precompiled-header.cmake), batched or not.
+include_guard(GLOBAL)
+
 function(tether_unity_build)
   foreach(target IN LISTS ARGN)
     get_target_property(type ${target} TYPE)
