@@ -18,6 +18,8 @@
 #include <system_error>
 #include <utility>
 
+#include <nlohmann/json.hpp>
+
 namespace tether::devices {
 
 // --- helpers ----------------------------------------------------------------------------------------------

@@ -1,6 +1,8 @@
 // Reading configuration JSON with paths and suggestions (json_reader.hpp).
 #include "tether/devices/json_reader.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <utility>
 
@@ -90,6 +92,8 @@ JsonNode JsonNode::key(std::string_view name) const {
 }
 
 JsonNode JsonNode::index(std::size_t i) const { return JsonNode{value.at(i), path + "[" + std::to_string(i) + "]"}; }
+
+std::size_t JsonNode::size() const { return value.size(); }
 
 void JsonNode::expected(std::string_view what) const {
   fail_config(path, "expected " + std::string(what) + ", got " + show_json(value));

@@ -3,6 +3,8 @@
 
 #include <iterator>
 
+#include <nlohmann/json.hpp>
+
 #include "tether/devices/config.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/elcano/plugin.hpp"

@@ -8,6 +8,8 @@
 #include <utility>
 #include <variant>
 
+#include <nlohmann/json.hpp>
+
 #include "tether/elcano/decoder.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/elcano/node_settings.hpp"

@@ -13,6 +13,8 @@
 #include <utility>
 #include <variant>
 
+#include <nlohmann/json.hpp>
+
 #include "tether/devices/json_reader.hpp"
 #include "tether/proxy/boot_frame.hpp"
 #include "tether/proxy/decoder.hpp"

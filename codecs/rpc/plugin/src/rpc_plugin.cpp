@@ -21,6 +21,7 @@
 #include "tether/rpc/plugin.hpp"
 
 #include <google/protobuf/descriptor.h>
+#include <nlohmann/json.hpp>
 
 #include "tether_rpc.pb.h"
 

@@ -42,7 +42,7 @@
 #include <typeinfo>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "tether/core/session/request_table.hpp"
 #include "tether/devices/config.hpp"

@@ -35,7 +35,7 @@
 
 #include <boost/system/error_code.hpp>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <any>
 #include <chrono>

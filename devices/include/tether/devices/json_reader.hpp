@@ -11,7 +11,7 @@
 /// @endcode
 #pragma once
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <cstddef>
 #include <cstdint>
@@ -53,6 +53,8 @@ struct JsonNode {
   JsonNode key(std::string_view name) const;
   /// The element `i` (which must exist).
   JsonNode index(std::size_t i) const;
+  /// The number of elements of an array (members of an object; 1 for any other value, as nlohmann's `size`).
+  std::size_t size() const;
   /// Throws "PATH: expected WHAT, got SHOWN".
   [[noreturn]] void expected(std::string_view what) const;
 };
@@ -104,7 +106,7 @@ nlohmann::json parse_json_text(std::string_view json_text);
 /// Calls `visit(element_node, i)` for each element of an array node.
 template <typename Visit>
 void for_each_element(const JsonNode& node, Visit visit) {
-  for (std::size_t i = 0; i < node.value.size(); ++i) visit(node.index(i), i);
+  for (std::size_t i = 0, count = node.size(); i < count; ++i) visit(node.index(i), i);
 }
 
 }  // namespace tether::devices
