@@ -7,9 +7,13 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "tether/devices/codecs.hpp"
 #include "tether/devices/config.hpp"
+#include "tether/devices/json_reader.hpp"
 #include "tether/elcano/node/config.hpp"
 #include "tether/elcano/node_settings.hpp"
 #include "tether/elcano/plugin.hpp"
@@ -775,6 +779,20 @@ TEST(DevicesExamples, TheEmbeddedVirtualConfigIsTheExampleFile) {
   ParseOptions options;
   options.firmware_dir = TETHER_FIRMWARE_DIR;
   EXPECT_EQ(parse_config(default_virtual_rover_config(), options).devices.size(), 6u);
+}
+
+// The reader a codec's option parser uses: an array's elements visited with their paths, counted by size().
+TEST(DevicesJsonReader, ForEachElementVisitsEveryElementWithItsPath) {
+  const nlohmann::json document = nlohmann::json::parse(R"({"pins": [9, 10, 11], "empty": []})");
+  const JsonObject object(JsonNode{document, ""});
+  const JsonNode pins = object.required("pins");
+  EXPECT_EQ(pins.size(), 3u);
+  EXPECT_EQ(object.required("empty").size(), 0u);
+  std::vector<std::string> seen;
+  for_each_element(pins, [&](const JsonNode& pin, std::size_t i) {
+    seen.push_back(pin.path + "=" + std::to_string(read_unsigned(pin)) + "@" + std::to_string(i));
+  });
+  EXPECT_EQ(seen, (std::vector<std::string>{"pins[0]=9@0", "pins[1]=10@1", "pins[2]=11@2"}));
 }
 
 }  // namespace
