@@ -1,23 +1,32 @@
 # Shared precompiled headers for the test build (`tools/setup test`; TETHER_PRECOMPILED_HEADERS, on by default
-# with GCC when the tests are built in unity batches, as there: a developer's source-by-source build stays
-# the one that checks each source includes what it uses, which a forced header would hide). Nearly every
-# heavy unit of that build parses asio and nlohmann::json (and the test programs GoogleTest) before its own
-# code: a sanitized test unit took 23.7 s of CPU, 20.4 s
-# with a precompiled header of them (docs/building.md). A header is built once per flag set, by a target of
-# its own, and a unit includes it first: `-include`, ahead of the asio workaround's forced <utility> (a
-# precompiled header must come before anything else to be used; the headers hold <utility> themselves).
-# -Winvalid-pch with -Werror makes a header built with other flags an error, never a silently slow build.
+# with GCC when the tests are built in unity batches, as there). A developer's source-by-source build stays
+# the one that checks each source includes what it uses, which a forced header would hide; packagers' and
+# parent projects' builds (no tests) compile plainly: at -O2, GCC 12 does not keep the system-header status
+# of the headers inside a precompiled header, so libstdc++'s known false -Warray-bounds in string
+# concatenation is reported and -Werror fails the build (docs/building.md).
+# Nearly every heavy unit of the test build parses asio and nlohmann::json (and the test programs
+# GoogleTest) before its own code: a sanitized test unit took 23.7 s of CPU, 20.4 s with a precompiled
+# header of them (docs/building.md). A header is built once per flag set, by a target of its own, and a unit
+# includes it first: `-include`, ahead of the asio workaround's forced <utility> (a precompiled header must
+# come before anything else to be used; the headers hold <utility> themselves). -Winvalid-pch with -Werror
+# makes a header built with other flags an error, never a silently slow build.
 #
 #   tether_test_pch     the test programs (tether_add_gtests): GoogleTest, asio, JSON, the test programs' flags
 #   tether_library_pch  the heavy static libraries (those tether_unity_build lists, the codec plugins): asio,
 #                       JSON, all of UBSan
 #
 # Not the fuzz targets nor the benchmarks: half of them are small units that include neither, where loading
-# a header (about 1.5 s of CPU) costs more than it saves. Packagers' and parent projects' builds (no tests)
-# compile plainly.
+# a header (about 1.5 s of CPU) costs more than it saves. The top-level CMakeLists.txt includes this file
+# before the targets (after CMAKE_POSITION_INDEPENDENT_CODE: a header records -fPIC or -fPIE); without the
+# headers, tether_use_precompiled_header does nothing.
 include_guard(GLOBAL)
+if(TETHER_BUILD_TESTS AND TETHER_UNITY_BUILD)
+  set(_tether_pch_default ON)
+else()
+  set(_tether_pch_default OFF)
+endif()
 option(TETHER_PRECOMPILED_HEADERS "Compile the test build's heavy units with shared precompiled headers (GCC)"
-  ${TETHER_UNITY_BUILD})
+  ${_tether_pch_default})
 
 # _tether_define_pch(<name> EXECUTABLE|LIBRARY OPTIONS <flags>... HEADERS <header>... LIBRARIES <lib>...)
 function(_tether_define_pch name kind)
@@ -52,9 +61,11 @@ endfunction()
 
 if(TETHER_PRECOMPILED_HEADERS AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND NOT TETHER_FUZZ)
   find_package(nlohmann_json 3 REQUIRED)
-  _tether_define_pch(tether_test_pch EXECUTABLE OPTIONS ${TETHER_TEST_SANITIZE_FLAGS}
-    HEADERS <utility> <gtest/gtest.h> <boost/asio.hpp> <nlohmann/json.hpp>
-    LIBRARIES GTest::gtest Boost::headers nlohmann_json::nlohmann_json)
+  if(TETHER_BUILD_TESTS)
+    _tether_define_pch(tether_test_pch EXECUTABLE OPTIONS ${TETHER_TEST_SANITIZE_FLAGS}
+      HEADERS <utility> <gtest/gtest.h> <boost/asio.hpp> <nlohmann/json.hpp>
+      LIBRARIES GTest::gtest Boost::headers nlohmann_json::nlohmann_json)
+  endif()
   _tether_define_pch(tether_library_pch LIBRARY
     HEADERS <utility> <boost/asio.hpp> <nlohmann/json.hpp>
     LIBRARIES Boost::headers nlohmann_json::nlohmann_json)

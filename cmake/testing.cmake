@@ -14,8 +14,6 @@ function(_tether_check_label label)
   endif()
 endfunction()
 
-include(precompiled-header)  # tether_test_pch: the test programs' shared precompiled header
-
 # tether_add_gtests(<target> PREFIX <prefix> LABEL <label> [FILTER <gtest filter>] [NO_PRECOMPILED_HEADER]
 #                   [PROPERTIES <name> <value>...]):
 # registers every GoogleTest case of <target> (or those FILTER selects) as <prefix><Suite>.<Case> with <label>
