@@ -123,9 +123,9 @@ class RoverOpener {
                     const OpenOptions& options) {
     validate(config);
     Rover rover;
+    Recorders recorders;
     try {
       // The capture files first: a file that may not be written fails the open before any device resets.
-      Recorders recorders;
       for (std::size_t i = 0; i < config.devices.size(); ++i) {
         const DeviceConfig& device = config.devices[i];
         if (device.record) {
@@ -142,6 +142,8 @@ class RoverOpener {
       }
     } catch (...) {
       rover.close();
+      // A capture that recorded nothing goes with the failed open: opening again must not find it.
+      for (const auto& [file, recorder] : recorders.by_file) recorder->discard_if_empty();
       throw;
     }
     return rover;

@@ -369,7 +369,7 @@ std::optional<DeviceTarget> resolve_device(const DeviceOptions& options, devices
   std::optional<transports::RecordOptions> record = record_options(options, error);
   if (!error.empty()) return std::nullopt;
   std::optional<DeviceTarget> target = resolve_target(options, default_codec, error);
-  // --record replaces a configuration's own `record` (the rover's applies to a whole rover only).
+  // --record replaces the configuration's `record` (the device's own, else the rover's).
   if (target && record) target->config.record = record;
   return target;
 }
@@ -425,6 +425,7 @@ std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices
           return std::nullopt;
         }
         target.config = device;
+        if (!target.config.record) target.config.record = rover.record;  // the rover's, for a device without its own
         if (auto* serial = std::get_if<devices::SerialTransport>(&target.config.transport); serial && !options.reconnect) {
           serial->options.reconnect.enabled = false;
         }
@@ -692,7 +693,8 @@ std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::a
     opened.recording_ = opened.rover_->devices().front().recording;
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();  // the JSON path of a one-device rover would only confuse (--port, --virtual)
-    code = failure.code();
+    // The transport's cause only: a capture file's missing folder is not a port to wait for.
+    if (failure.path().find(".transport") != std::string::npos) code = failure.code();
     return std::nullopt;
   }
   return opened;
@@ -714,7 +716,12 @@ std::shared_ptr<transports::ByteStream> open_stream(const DeviceTarget& target, 
       }
     }
     // A ring's boards live as long as its stream.
-    stream = devices::open_transport(target.config, std::move(executor)).stream;
+    try {
+      stream = devices::open_transport(target.config, std::move(executor)).stream;
+    } catch (const devices::ConfigError&) {
+      if (recorder) recorder->discard_if_empty();  // opening again must not find it
+      throw;
+    }
     if (recorder) stream = devices::record_stream(target.config, std::move(stream), std::move(recorder));
   } catch (const devices::ConfigError& failure) {
     error = failure.detail();

@@ -146,7 +146,8 @@ class OpenDevice {
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                       const ClientHooks& hooks, Progress& progress, std::string& error);
 
-/// `open_device` that also gives the cause of a failure in `code` (the transport's error: ENOENT, ...).
+/// `open_device` that also gives the cause of a failure in `code` when the transport failed (ENOENT, ...; clear
+/// when something else did, such as the capture file).
 std::optional<OpenDevice> open_device(const DeviceTarget& target, boost::asio::any_io_executor executor,
                                       const ClientHooks& hooks, Progress& progress, std::string& error,
                                       transports::error_code& code);

@@ -159,6 +159,16 @@ void CaptureRecorder::close() {
   drained_.notify_all();
 }
 
+bool CaptureRecorder::discard_if_empty() {
+  close();
+  std::lock_guard lock(mutex_);
+  if (counters_.packets != 0 || counters_.dropped_packets != 0 || counters_.lost_packets != 0 || counters_.files != 1) {
+    return false;
+  }
+  std::error_code ignored;
+  return std::filesystem::remove(options_.file, ignored);
+}
+
 RecordCounters CaptureRecorder::counters() const {
   std::lock_guard lock(mutex_);
   return counters_;
@@ -357,13 +367,14 @@ void RecordingStream::do_read(asio::mutable_buffer buffer, IoHandler handler) {
 }
 
 void RecordingStream::do_write(asio::const_buffer buffer, IoHandler handler) {
-  const std::uint64_t handed = clock_();
   inner_->async_write_some(
-      buffer, asio::bind_executor(strand(), [this, self = shared_from_this(), buffer, handed,
+      buffer, asio::bind_executor(strand(), [this, self = shared_from_this(), buffer,
                                              handler = std::move(handler)](error_code error, std::size_t wrote) mutable {
+        // Stamped when the link took the bytes, as reads are when they complete: a read that completed while
+        // this write was pending is recorded first, so the file's times never go backwards.
         if (wrote > 0) {
           record(*outbound_, CaptureDirection::outbound,
-                 std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(buffer.data()), wrote), handed);
+                 std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(buffer.data()), wrote), clock_());
         }
         handler(error, wrote);
       }));

@@ -539,5 +539,99 @@ TEST(RecordingStream, RecordsBothDirectionsFramedWithTheWallClock) {
   EXPECT_EQ(capture.packets[3].timestamp_us, 3000u);
 }
 
+// Reads from an in-memory host end; holds each write until `release_write()`, as a busy serial port does.
+class HeldWriteStream final : public ByteStream {
+ public:
+  explicit HeldWriteStream(std::shared_ptr<ByteStream> inner) : ByteStream(inner->get_executor()), inner_(std::move(inner)) {}
+  std::string description() const override { return "held writes"; }
+  void release_write() {
+    asio::post(strand(), [this, handler = std::move(write_), size = write_size_]() mutable { handler(error_code(), size); });
+  }
+  bool write_held() const { return static_cast<bool>(write_); }
+
+ protected:
+  void do_read(asio::mutable_buffer buffer, IoHandler handler) override {
+    inner_->async_read_some(buffer, asio::bind_executor(strand(), [handler = std::move(handler)](
+                                                                      error_code error, std::size_t got) mutable {
+                              handler(error, got);
+                            }));
+  }
+  void do_write(asio::const_buffer buffer, IoHandler handler) override {
+    write_ = std::move(handler);
+    write_size_ = buffer.size();
+  }
+  void do_close(error_code& error) override { inner_->close(error); }
+
+ private:
+  std::shared_ptr<ByteStream> inner_;
+  IoHandler write_;
+  std::size_t write_size_ = 0;
+};
+
+TEST(RecordingStream, PacketsAreInTimeOrderWhenAWriteCompletesAfterARead) {
+  TempDir dir;
+  RecordOptions options;
+  options.file = dir / "order.pcapng";
+  auto recorder = CaptureRecorder::open(options);
+  asio::io_context io;
+  auto [host, device] = InMemoryStream::make_pair(io.get_executor());
+  auto held = std::make_shared<HeldWriteStream>(host);
+  std::uint64_t now = 1000;
+  const CaptureFraming framing = [](bool) { return std::make_unique<DelimitedFramer>(lines("#", true, 64)); };
+  auto recorded = RecordingStream::wrap(held, recorder, "arm", "tether codec=romi baud=- transport=virtual", framing,
+                                        [&now] { return now; });
+  const std::string request = "#e:0a5c\r\n";
+  const std::string log = "#!booted:0000\r\n";
+  bool written = false;
+  asio::async_write(*recorded, asio::buffer(request), [&](error_code error, std::size_t) {
+    EXPECT_FALSE(error);
+    written = true;
+  });
+  io.poll();
+  ASSERT_TRUE(held->write_held());
+  now = 2000;  // the device's line arrives while the request is still being written
+  std::vector<std::uint8_t> got(log.size());
+  bool read = false;
+  asio::async_write(*device, asio::buffer(log), [](error_code, std::size_t) {});
+  asio::async_read(*recorded, asio::buffer(got), [&](error_code error, std::size_t) {
+    EXPECT_FALSE(error);
+    read = true;
+  });
+  while (!read && io.run_one() > 0) {
+  }
+  ASSERT_TRUE(read);
+  now = 3000;
+  held->release_write();
+  while (!written && io.run_one() > 0) {
+  }
+  ASSERT_TRUE(written);
+  recorded->close();
+  recorder->close();
+  const Capture capture = read_back(options.file);
+  ASSERT_EQ(capture.packets.size(), 2u);
+  EXPECT_EQ(text_of(capture.packets[0].data), log);
+  EXPECT_EQ(text_of(capture.packets[1].data), request);
+  EXPECT_EQ(capture.packets[0].timestamp_us, 2000u);
+  EXPECT_EQ(capture.packets[1].timestamp_us, 3000u);  // when the link took it, after the read: never backwards
+}
+
+TEST(CaptureRecorder, DiscardIfEmptyRemovesOnlyAFileWithoutPackets) {
+  TempDir dir;
+  RecordOptions options;
+  options.file = dir / "failed-open.pcapng";
+  auto empty = CaptureRecorder::open(options);
+  empty->add_interface("arm", "tether codec=romi baud=- transport=virtual");
+  EXPECT_TRUE(empty->discard_if_empty());
+  EXPECT_FALSE(fs::exists(options.file));
+  EXPECT_TRUE(CaptureRecorder::open(options) != nullptr);  // opening again finds nothing in the way
+
+  options.file = dir / "kept.pcapng";
+  auto used = CaptureRecorder::open(options);
+  const std::uint32_t arm = used->add_interface("arm", "tether codec=romi baud=- transport=virtual");
+  used->record(arm, CaptureDirection::outbound, 1000, bytes_of("#e:0a5c\r\n"), "");
+  EXPECT_FALSE(used->discard_if_empty());
+  EXPECT_EQ(read_back(options.file).packets.size(), 1u);
+}
+
 }  // namespace
 }  // namespace tether::transports

@@ -116,6 +116,47 @@ TEST(TetherRecord, AnExistingFileIsNeverOverwrittenWithoutForce) {
   EXPECT_NE(nowhere.err.find("/nonexistent/x.pcapng: No such file or directory"), std::string::npos) << nowhere.err;
 }
 
+TEST(TetherRecord, AFailedOpenLeavesNoCaptureBehind) {
+  // `call` waits for a missing port within its budget, trying again: the capture the first try created must
+  // not fail the next one ("File exists"), and none is left when the port never comes.
+  const std::string file = capture_file("no-port");
+  const std::string port = (fs::path(::testing::TempDir()) / "tether-record-no-such-port").string();
+  const Outcome waited = run_tether({"call", "--port", port, "--timeout", "300", "--record", file, "e"});
+  EXPECT_EQ(waited.status, 2);
+  EXPECT_NE(waited.err.find(port + ": No such file or directory"), std::string::npos) << waited.err;
+  EXPECT_EQ(waited.err.find("File exists"), std::string::npos) << waited.err;
+  EXPECT_FALSE(fs::exists(file));
+  const Outcome once = run_tether({"stats", "--port", port, "--no-reconnect", "--record", file, "--duration", "1"});
+  EXPECT_EQ(once.status, 2);
+  EXPECT_EQ(once.err.find("File exists"), std::string::npos) << once.err;
+  EXPECT_FALSE(fs::exists(file));
+}
+
+TEST(TetherRecord, ACaptureFileThatCannotBeCreatedIsNotAPortToWaitFor) {
+  const std::string port = (fs::path(::testing::TempDir()) / "tether-record-no-such-port").string();
+  const auto started = std::chrono::steady_clock::now();
+  const Outcome run = run_tether({"call", "--port", port, "--timeout", "60000", "--record", "/nonexistent/x.pcapng", "e"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("/nonexistent/x.pcapng: No such file or directory"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find("waited"), std::string::npos) << run.err;  // failed at once, not after the budget
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(50));
+}
+
+TEST(TetherRecord, AConfigurationsTopLevelRecordAppliesToTheDeviceACommandOpens) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = capture_file("top-level");
+  const fs::path config = fs::path(::testing::TempDir()) / "tether-record-top-level.json";
+  std::ofstream(config) << R"({"record": ")" << file << R"(", "devices": [{"name": "arm", "codec": "romi",
+      "transport": {"virtual": {"firmware": ")" << TETHER_FIRMWARE_DIR << R"(/romi-test.elf"}}}]})";
+  const Outcome run = run_tether({"call", "--config", config.string(), "--device", "arm", "e"});
+  fs::remove(config);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Capture capture = read_capture_file(file);
+  ASSERT_EQ(capture.interfaces.size(), 1u);
+  EXPECT_EQ(capture.interfaces[0].name, "arm");
+  EXPECT_FALSE(capture.packets.empty());
+}
+
 TEST(TetherRecord, StatsCountsWhatWasRecorded) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   const std::string file = capture_file("stats");

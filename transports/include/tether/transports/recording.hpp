@@ -100,6 +100,10 @@ class CaptureRecorder {
   void flush();
   /// Writes what is queued, then closes the file and stops the writer. Idempotent; later packets are lost.
   void close();
+  /// Closes the recorder, then removes its file if no packet ever reached it (none written, dropped or lost):
+  /// the file an open that failed created, so that opening again does not fail on "File exists". A file with
+  /// packets is kept (what crossed the link before the failure). True when the file was removed.
+  bool discard_if_empty();
   /// A snapshot of the counters.
   RecordCounters counters() const;
   /// The options it was opened with.
