@@ -5,17 +5,9 @@ if(NOT TETHER_AVR_GXX)
   message(FATAL_ERROR "avr-g++ not found: run tools/setup (installs gcc-avr), or configure with -DTETHER_BUILD_AVR=OFF")
 endif()
 
-# nanopb runtime sources for the AVR (see tools/fetch-nanopb-source). tools/setup passes the directory;
-# a hand-run configure finds what a previous setup unpacked under .deps/.
+# nanopb runtime sources for the AVR: found before the codecs (nanopb-source.cmake), or the sub-build fails.
 if(NOT TETHER_NANOPB_SOURCE_DIR)
-  file(GLOB _nanopb_dirs LIST_DIRECTORIES true ${PROJECT_SOURCE_DIR}/.deps/nanopb-*)
-  if(_nanopb_dirs)
-    list(SORT _nanopb_dirs)
-    list(GET _nanopb_dirs -1 _nanopb_dir)
-    set(TETHER_NANOPB_SOURCE_DIR ${_nanopb_dir} CACHE PATH "nanopb source tree (from tools/fetch-nanopb-source)")
-  else()
-    message(FATAL_ERROR "nanopb runtime sources not found: run tools/setup deps (or tools/fetch-nanopb-source) first")
-  endif()
+  message(FATAL_ERROR "nanopb runtime sources not found: run tools/setup deps (or tools/fetch-nanopb-source) first")
 endif()
 
 # What the sub-build takes from this build, generically (a codec is its folder and its registration):
