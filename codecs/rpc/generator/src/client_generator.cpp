@@ -48,6 +48,24 @@ std::string leading_comment(const Descriptor& descriptor, const std::string& ind
 }
 
 // `a.b` -> `a::b`.
+// protoc's identifier of a file in its generated names (`descriptor_table_<it>`): letters and digits kept,
+// any other byte `_` and its hex code (`split/svc.proto` -> `split_2fsvc_2eproto`).
+std::string protoc_file_identifier(const std::string& file) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string identifier;
+  for (const char c : file) {
+    const auto byte = static_cast<unsigned char>(c);
+    if ((byte >= '0' && byte <= '9') || (byte >= 'a' && byte <= 'z') || (byte >= 'A' && byte <= 'Z')) {
+      identifier += c;
+    } else {
+      identifier += '_';
+      if (byte >= 16) identifier += kHex[byte >> 4];
+      identifier += kHex[byte & 15];
+    }
+  }
+  return identifier;
+}
+
 std::string cpp_namespace(const std::string& package) {
   std::string out;
   for (const char c : package) {
@@ -179,7 +197,11 @@ void write_client_definitions(std::ostringstream& cpp, const Schema& schema) {
         << "      " << cpp_class_name(*file.message_type(0)) << "::descriptor()->file()->FindServiceByName(\""
         << service.name() << "\");\n";
   } else {
-    cpp << "  const ::google::protobuf::ServiceDescriptor* service =\n"
+    // No class of the file to reach it through: its descriptor table, named here, makes the linker take
+    // protoc's code of the file (and its registration in the pool) from a static library.
+    cpp << "  ::google::protobuf::internal::AssignDescriptors(&descriptor_table_" << protoc_file_identifier(file.name())
+        << ");\n"
+        << "  const ::google::protobuf::ServiceDescriptor* service =\n"
         << "      ::google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(\"" << service.full_name()
         << "\");\n";
   }
