@@ -97,6 +97,11 @@ struct TestLimits {
   static constexpr size_t kReplyStructBytes = sizeof(Replies);
 };
 
+// The same tables, the answer buffers in static RAM (as the Arduino libraries keep them).
+struct StaticTestLimits : TestLimits {
+  static constexpr bool kStaticBuffers = true;
+};
+
 // A device's answer, decoded; the Reply / StreamMessage payload kept as bytes.
 struct Answer {
   tether_rpc_wire_DeviceMessage message;
@@ -551,4 +556,38 @@ TEST_P(RpcDevice, PollsBetweenDeadlinesRunNothingAndEveryDeadlineComesOnTime) {
   EXPECT_EQ(hello[0].message.which_body, tether_rpc_wire_DeviceMessage_hello_tag);
 }
 
+
+TEST_P(RpcDevice, AnswerBuffersInStaticRamAnswerByteForByteAsOnTheStack) {
+  wire::Recorder recorder;
+  tether::rpc::device::Device<StaticTestLimits> device(service_, recorder.sink(), &wire::Recorder::restart, &recorder);
+  device.set_min_period_ms(5);
+  device.begin(0xC0FFEE, now_);
+  EXPECT_EQ(recorder.frames, recorder_.frames);  // ResetEvent
+  const auto feed = [&](const tether_rpc_wire_HostMessage& message) {
+    recorder.clear();
+    const Bytes frame = wire::frame(wire::encode(tether_rpc_wire_HostMessage_fields, &message), Integrity::crc16);
+    for (size_t used = 0; used < frame.size();) {
+      used += device.handle_bytes(tether::ByteView(frame.data() + used, frame.size() - used), now_);
+    }
+  };
+  // A hello, a call, its re-send (from the cache), a refusal, a stream and its messages.
+  for (const auto& message : {bare(1, tether_rpc_wire_HostMessage_hello_tag), move(2, 2, -4500), move(2, 2, -4500),
+                              call(3, 7, {}), open(4, 1, 20)}) {
+    send(message);
+    feed(message);
+    EXPECT_EQ(recorder.frames, recorder_.frames) << message.id;
+  }
+  // Stream messages: the handler's content moves on with each run (the application's state), their frames'
+  // sizes do not.
+  for (const Millis at : {now_ + 20, now_ + 40}) {
+    poll_at(at);
+    recorder.clear();
+    device.poll(at);
+    ASSERT_EQ(recorder.frames.size(), recorder_.frames.size()) << at;
+    ASSERT_FALSE(recorder_.frames.empty());
+    for (size_t i = 0; i < recorder.frames.size(); ++i) EXPECT_EQ(recorder.frames[i].size(), recorder_.frames[i].size());
+  }
+  EXPECT_EQ(device.counters().calls, device_.counters().calls);
+  EXPECT_EQ(device.counters().stream_messages, device_.counters().stream_messages);
+}
 }  // namespace

@@ -78,8 +78,7 @@ class RpcDevice {
     device_.begin(session_id, millis());
   }
   /// Call from loop(): runs the calls whose bytes arrived, then what is due (stream messages, hellos, the
-  /// ping failsafe). Each entry point is out of line: its answer buffers live on the stack only while it
-  /// runs (rpc_device.hpp).
+  /// ping failsafe). The answer buffers are static (counted in the sketch's RAM figure).
   void poll() {
     // One clock read per call, none per byte: the bytes waiting arrived before it.
     const Millis now = millis();
@@ -124,9 +123,27 @@ class RpcDevice {
   }
   __attribute__((noinline)) void run_timers(Millis now) { device_.poll(now); }
 
+  // The schema's sizes, with the answer buffers in static RAM: the build's RAM figure counts them, so a
+  // schema too large for the board fails the build ("not enough memory") instead of overflowing the stack
+  // at its first large answer.
+  struct Limits : ServiceCode::Limits {
+    static constexpr bool kStaticBuffers = true;
+  };
+
   Stream& stream_;
   HardwareSerial* hardware_;  // stream_ when it is the core's HardwareSerial, else null
-  typename ServiceCode::Device device_;
+  rpc::device::Device<Limits> device_;
+
+#if defined(RAMEND) && defined(RAMSTART)
+  // The device's tables and answer buffers alone over the board's RAM: said here, before the linker's
+  // "section .bss is not within region data".
+  static constexpr size_t kDeviceRam = sizeof(rpc::device::Device<Limits>) + Limits::kMaxOutPayload +
+                                       proxy::max_frame_size(Limits::kMaxOutPayload) + Limits::kRequestStructBytes +
+                                       Limits::kReplyStructBytes;
+  static_assert(kDeviceRam <= static_cast<size_t>(RAMEND - RAMSTART + 1),
+                "this schema's rpc device needs more RAM than the board has: lower the .options bounds "
+                "(max_size, max_count) of its largest messages");
+#endif
 };
 
 }  // namespace arduino

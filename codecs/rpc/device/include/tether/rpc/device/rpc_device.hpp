@@ -82,6 +82,23 @@ struct DefaultLimits {
                                                      ///< DeviceError with its text, a DeviceHello).
   static constexpr size_t kRequestStructBytes = 64;  ///< Largest request struct (sizeof, the input types').
   static constexpr size_t kReplyStructBytes = 64;    ///< Largest reply struct (sizeof, the output types').
+  /// Where the answer buffers (the reply's encoding, its frame, the request and reply structs) live while
+  /// a frame or a timer is handled: false, on the stack of that entry point only (RAM shared with the rest
+  /// of the program when idle); true, in static RAM, so that the build's RAM figure counts them and a
+  /// schema too large for the board fails the link instead of overflowing the stack at its first call.
+  /// Optional in a `Limits` (false when absent).
+  static constexpr bool kStaticBuffers = false;
+};
+
+/// `Limits::kStaticBuffers`, false when the limits do not say.
+template <class Limits, class = void>
+struct StaticBuffers {
+  static constexpr bool value = false;  ///< On the stack.
+};
+/// `Limits::kStaticBuffers` when the limits say.
+template <class Limits>
+struct StaticBuffers<Limits, decltype(void(Limits::kStaticBuffers))> {
+  static constexpr bool value = Limits::kStaticBuffers;  ///< As the limits say.
 };
 
 /// Diagnostics of an rpc device. Counters only grow (wrap at 2^32). Plain data.
@@ -294,8 +311,8 @@ class Device : public DeviceCore {
 
   /// End of setup: remembers `session_id`, starts the clocks at `now`, sends ResetEvent.
   void begin(uint32_t session_id, Millis now) {
-    Buffers buffers;
-    begin_with(buffers, session_id, now);
+    Home home;
+    begin_with(home.get(), session_id, now);
   }
 
   /// Handles one received byte at `now`; a completed frame is handled at once.
@@ -321,8 +338,8 @@ class Device : public DeviceCore {
   void poll(Millis now) {
     if (!poll_due(now)) return;
     if (poll_frame_deadline(now)) decoder_.restart();
-    Buffers buffers;
-    poll_with(buffers, now);
+    Home home;
+    poll_with(home.get(), now);
   }
 
   /// True while the stream opened by message `id` runs.
@@ -344,13 +361,25 @@ class Device : public DeviceCore {
     StructRoom<Limits::kRequestStructBytes> request;
     StructRoom<Limits::kReplyStructBytes> reply;
   };
+  // An entry point's buffers: on its stack (a member of the home), or one static set for the type.
+  template <bool kStatic, class Unused = void>
+  struct BufferHome {
+    Buffers local;
+    Buffers& get() { return local; }
+  };
+  template <class Unused>
+  struct BufferHome<true, Unused> {
+    Buffers& get() { return static_buffers_; }
+  };
+  using Home = BufferHome<StaticBuffers<Limits>::value>;
+  static Buffers static_buffers_;  // defined (and in RAM) only when a static home uses it
   using Entry = CacheEntry<Limits::kReplyCacheBytes>;
   static_assert(offsetof(Entry, bytes) == sizeof(CacheHead), "an entry's answer follows its head");
   // Out of line: one call site per entry point, its buffers on its own stack only while a frame is handled.
   __attribute__((noinline)) void handle_payload(ByteView payload, uint16_t fingerprint, Millis now) {
-    Buffers buffers;
+    Home home;
     const Cache cache{&cache_[0].head, sizeof(Entry), Limits::kDuplicateDepth};
-    handle_frame(buffers, cache, payload, fingerprint, now);
+    handle_frame(home.get(), cache, payload, fingerprint, now);
   }
 
   proxy::Decoder<Limits::kMaxPayload> decoder_;
@@ -358,6 +387,9 @@ class Device : public DeviceCore {
   StreamSlot slot_table_[Limits::kStreams] = {};
   uint8_t request_table_[Limits::kStreams][Limits::kStreamRequestBytes] = {};
 };
+
+template <class Limits>
+typename Device<Limits>::Buffers Device<Limits>::static_buffers_;
 
 }  // namespace device
 }  // namespace rpc
