@@ -242,6 +242,14 @@ int run_tap(const MonitorArguments& arguments, const DeviceTarget& target, trans
       records.clear();
       boost::system::error_code write_error;
       write_to_device(to, asio::buffer(buffer.data(), size), write_error, run_end);
+      if (direction == Direction::host_to_device && (write_error == transports::TransportError::disconnected ||
+                                                     write_error == transports::TransportError::reconnected)) {
+        // The device's supervised port is away: what the application sends meanwhile is lost, as on a wire
+        // to an unplugged board, and the tap stays up for when the port is back.
+        std::fprintf(stderr, "tether monitor: %zu bytes from the application dropped: the device's port is away\n",
+                     size);
+        continue;
+      }
       if (write_error) {
         if (stop || is_done() || std::chrono::steady_clock::now() >= run_end) {  // stopped, or --duration is up
           finish(0);
