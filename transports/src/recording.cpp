@@ -1,5 +1,6 @@
 // Capture recorders and recording streams (recording.hpp).
 #include "tether/transports/recording.hpp"
+#include "tether/transports/serial_port_stream.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -358,7 +359,15 @@ void RecordingStream::do_read(asio::mutable_buffer buffer, IoHandler handler) {
           flush(*inbound_, CaptureDirection::inbound, "cut at outage");
           record_event("down");
         } else if (error == TransportError::reconnected) {
-          record_event("up");
+          // A supervised serial port says how long the board took to be ready again.
+          const auto port = std::dynamic_pointer_cast<SerialPortStream>(inner_);
+          if (port) {
+            const BootReport boot = port->link_counters().last_boot;
+            record_event("up ready after " + std::to_string(boot.ready_after.count()) + " ms (" +
+                         std::string(to_string(boot.outcome)) + ")");
+          } else {
+            record_event("up");
+          }
         } else {
           flush(*inbound_, CaptureDirection::inbound, "cut at close");
         }

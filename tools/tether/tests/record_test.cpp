@@ -157,6 +157,30 @@ TEST(TetherRecord, AConfigurationsTopLevelRecordAppliesToTheDeviceACommandOpens)
   EXPECT_FALSE(capture.packets.empty());
 }
 
+TEST(TetherRecord, AnOutageOfThePortIsRecordedAsLinkEvents) {
+  TETHER_REQUIRE_FIRMWARE("romi-test");
+  const std::string file = capture_file("outage");
+  const std::string link = ::testing::TempDir() + "/tether-record-outage-" + std::to_string(::getpid());
+  const std::vector<std::string> sim = {firmware("romi-test").string(), "--link", link};
+  auto board = std::make_unique<SimBoard>(sim);
+  Terminal terminal({"shell", "--port", link, "--record", file});
+  ASSERT_TRUE(terminal.expect("romi> ")) << terminal.screen();
+  board.reset();  // unplugged
+  ASSERT_TRUE(terminal.expect("link down: ")) << terminal.screen();
+  board = std::make_unique<SimBoard>(sim);  // back
+  ASSERT_TRUE(terminal.expect("link up after ")) << terminal.screen();
+  terminal.type(":quit\n");
+  ASSERT_EQ(terminal.wait_exit(), 0) << terminal.screen();
+  std::vector<std::string> events;
+  for (const auto& packet : read_capture_file(file).packets) {
+    if (packet.link_event()) events.push_back(packet.comment);
+  }
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0], "link: down");
+  // The re-opened port's boot: how long until ready, and how that was known.
+  EXPECT_TRUE(matches(events[1], "link: up ready after # ms (*)")) << events[1];
+}
+
 TEST(TetherRecord, StatsCountsWhatWasRecorded) {
   TETHER_REQUIRE_FIRMWARE("romi-test");
   const std::string file = capture_file("stats");

@@ -492,6 +492,13 @@ TEST_F(Dissector, Proxy) {
   EXPECT_EQ(value(p[5], "pbf.tether.proxy.ArduinoInfo.sessionId"), "48879");
   EXPECT_NE(experts(p[5]).find("CRC-16"), std::string::npos) << experts(p[5]);
 
+  // The filter docs/wireshark.md gives for tshark, on the generic protobuf fields (tshark compiles -Y before
+  // the pbf.* fields exist).
+  const auto filtered = dissect(capture, "-Y 'protobuf.field.name == \"position\" && protobuf.field.value.int32 > 100'");
+  ASSERT_EQ(filtered.size(), 2u);
+  EXPECT_EQ(value(filtered[0], "pbf.tether.proxy.ServoControl.position"), "120");
+  EXPECT_EQ(value(filtered[1], "pbf.tether.proxy.ServoControl.position"), "999");
+
   // Unframed bytes.
   EXPECT_EQ(value(p[6], "tether.unframed"), "cut at close");
   EXPECT_EQ(experts(p[6]), "3 bytes that formed no frame (cut at close)\n");

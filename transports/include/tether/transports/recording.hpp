@@ -166,7 +166,7 @@ class RecordingStream final : public ByteStream {
   std::uint32_t interface() const { return interface_; }
   /// The stream it records (a serial port's, for its link events).
   const std::shared_ptr<ByteStream>& inner() const { return inner_; }
-  /// Records a link event: a zero-length packet with comment `link: <text>` (`down`, `up ready after 37 ms`).
+  /// Records a link event: a zero-length packet with comment `link: <text>` (`down`, `up ready after 37 ms (probed)`).
   void record_event(const std::string& text);
   /// `recording to FILE over <inner>`.
   std::string description() const override;
