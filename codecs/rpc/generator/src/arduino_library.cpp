@@ -7,13 +7,17 @@
 
 #include <google/protobuf/descriptor.h>
 
+#include <cctype>
 #include <cerrno>
 #include <fstream>
 #include <random>
+#include <set>
 #include <sstream>
 #include <system_error>
 
 #include "tether/rpc/generator.hpp"
+
+#include "generated_files.hpp"
 
 extern char** environ;
 
@@ -25,20 +29,6 @@ namespace pb = google::protobuf;
 
 // The marker of a folder this generator wrote: `--force` replaces only such folders.
 constexpr const char* kMarker = "GENERATED.txt";
-
-// Imports that only carry options (nanopb's, protobuf's own descriptors): no code on the device.
-bool carries_code(const std::string& file) {
-  return file != "nanopb.proto" && file != "google/protobuf/descriptor.proto";
-}
-
-// The schema's file and every file it imports, transitively, dependencies first, each once.
-void collect_files(const pb::FileDescriptor& file, std::vector<const pb::FileDescriptor*>& files) {
-  for (const pb::FileDescriptor* known : files) {
-    if (known == &file) return;
-  }
-  for (int i = 0; i < file.dependency_count(); ++i) collect_files(*file.dependency(i), files);
-  files.push_back(&file);
-}
 
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
@@ -114,6 +104,56 @@ void run_nanopb(const Schema& schema, const ArduinoLibraryOptions& options, cons
   if (status != 0) {
     throw GenerateError("nanopb's generator failed on " + schema.file().string() + " (exit status " +
                         std::to_string(status) + "; its messages are above)");
+  }
+}
+
+// Refuses a double anywhere in the files nanopb writes code of: avr-gcc's double is 32-bit, so nanopb's
+// code of the file stops at its DOUBLE_MUST_BE_8_BYTES assertion. (nanopb's PB_CONVERT_DOUBLE_FLOAT converts
+// in nanopb's runtime, which the device does not use for the schema's messages.)
+void refuse_doubles(const Schema& schema) {
+  const auto check = [](const auto& self, const pb::Descriptor& type) -> void {
+    for (int i = 0; i < type.field_count(); ++i) {
+      const pb::FieldDescriptor& field = *type.field(i);
+      if (field.type() != pb::FieldDescriptor::TYPE_DOUBLE) continue;
+      throw SchemaError(field.file()->name() + ": " + field.full_name() +
+                        " is a double: use float (a double on the AVR is 32-bit, and nanopb's code of a double "
+                        "does not build there)");
+    }
+    for (int i = 0; i < type.nested_type_count(); ++i) self(self, *type.nested_type(i));
+  };
+  std::vector<const pb::FileDescriptor*> files;
+  collect_files(*schema.service().file(), files);
+  for (const pb::FileDescriptor* file : files) {
+    if (!carries_code(file->name())) continue;
+    for (int i = 0; i < file->message_type_count(); ++i) check(check, *file->message_type(i));
+  }
+}
+
+std::string lower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// Refuses a schema file (or an import) whose nanopb code would take the name of one of the kit's files
+// (`tether_rpc.proto` -> `tether_rpc.pb.h`, the envelope's): compared without case, as the file systems of
+// macOS and Windows do.
+void refuse_kit_file_names(const Schema& schema, const fs::path& kit_src) {
+  std::set<std::string> kit_files;
+  std::error_code error;
+  for (fs::recursive_directory_iterator it(kit_src, error), end; !error && it != end; it.increment(error)) {
+    kit_files.insert(lower(it->path().lexically_relative(kit_src).generic_string()));
+  }
+  std::vector<const pb::FileDescriptor*> files;
+  collect_files(*schema.service().file(), files);
+  for (const pb::FileDescriptor* file : files) {
+    if (!carries_code(file->name())) continue;
+    const std::string stem = fs::path(file->name()).replace_extension().generic_string();
+    for (const std::string& generated : {stem + ".pb.h", stem + ".pb.c"}) {
+      if (kit_files.count(lower(generated)) == 0) continue;
+      throw GenerateError(file->name() + ": nanopb's code of it would be " + generated +
+                          ", which is the name of one of the kit's own files: rename " + file->name() +
+                          (file == schema.service().file() ? "" : " and the import lines that name it"));
+    }
   }
 }
 
@@ -233,6 +273,8 @@ fs::path write_arduino_library(const Schema& schema, const fs::path& out, const 
       throw GenerateError("library name \"" + name + "\" clashes with the kit's " + file + ": choose another --name");
     }
   }
+  refuse_kit_file_names(schema, kit_src);
+  refuse_doubles(schema);
 
   fs::create_directories(out, error);
   if (error || !fs::is_directory(out, error)) {

@@ -17,10 +17,27 @@ namespace {
 
 namespace pb = google::protobuf;
 
-// The members every client has: a method of the same name would hide one.
+// The members every client has (`client_`: the private one): a method of the same name would hide one.
 const std::set<std::string> kClientMembers = {"kSchemaHash", "descriptor", "wait_ready", "async_wait_ready",
                                               "counters",    "session",    "close",      "is_open",
-                                              "get_executor", "dynamic"};
+                                              "get_executor", "dynamic",   "client_"};
+
+// C++20's keywords (alternative tokens included): a method cannot be a member of that name.
+const std::set<std::string> kCppKeywords = {
+    "alignas",  "alignof",   "and",        "and_eq",   "asm",          "auto",         "bitand",
+    "bitor",    "bool",      "break",      "case",     "catch",        "char",         "char8_t",
+    "char16_t", "char32_t",  "class",      "compl",    "concept",      "const",        "consteval",
+    "constexpr", "constinit", "const_cast", "continue", "co_await",     "co_return",    "co_yield",
+    "decltype", "default",   "delete",     "do",       "double",       "dynamic_cast", "else",
+    "enum",     "explicit",  "export",     "extern",   "false",        "float",        "for",
+    "friend",   "goto",      "if",         "inline",   "int",          "long",         "mutable",
+    "namespace", "new",      "noexcept",   "not",      "not_eq",       "nullptr",      "operator",
+    "or",       "or_eq",     "private",    "protected", "public",      "register",     "reinterpret_cast",
+    "requires", "return",    "short",      "signed",   "sizeof",       "static",       "static_assert",
+    "static_cast", "struct", "switch",     "template", "this",         "thread_local", "throw",
+    "true",     "try",       "typedef",    "typeid",   "typename",     "union",        "unsigned",
+    "using",    "virtual",   "void",       "volatile", "wchar_t",      "while",        "xor",
+    "xor_eq"};
 
 // `text` (a comment from the .proto) as `///` lines, each indented by `indent`.
 std::string doc_lines(const std::string& text, const std::string& indent) {
@@ -79,10 +96,27 @@ std::string cpp_namespace(const std::string& package) {
 }
 
 void check_names(const Schema& schema, const std::string& class_name) {
+  // The class shares its namespace with the package's protoc classes (and top-level enum values).
+  const std::string package = schema.service().file()->package();
+  const std::string full = package.empty() ? class_name : package + "." + class_name;
+  const pb::DescriptorPool& pool = *schema.service().file()->pool();
+  const char* kind = pool.FindMessageTypeByName(full) != nullptr ? "message"
+                     : pool.FindEnumTypeByName(full) != nullptr  ? "enum"
+                     : pool.FindEnumValueByName(full) != nullptr ? "enum value"
+                                                                 : nullptr;
+  if (kind != nullptr) {
+    throw SchemaError(schema.file().filename().string() + ": " + kind + " " + full + " has the name of service " +
+                      schema.service().name() + "'s client class (" + cpp_namespace(full) +
+                      ") in the same namespace: rename the " + kind);
+  }
   std::set<std::string> names;
   for (const Method& method : schema.methods()) names.insert(method.name);
   for (const Method& method : schema.methods()) {
     const std::string where = schema.file().filename().string() + ": " + schema.service().name() + "." + method.name;
+    if (kCppKeywords.count(method.name) != 0) {
+      throw SchemaError(where + ": " + method.name + " is a C++ keyword, which cannot name a member of " + class_name +
+                        ": rename the method");
+    }
     if (kClientMembers.count(method.name) != 0 || method.name == class_name) {
       throw SchemaError(where + ": the name is one of " + class_name + "'s own members: rename the method");
     }

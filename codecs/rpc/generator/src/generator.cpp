@@ -5,6 +5,8 @@
 #include <google/protobuf/descriptor.h>
 
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
@@ -37,14 +39,154 @@ std::string max_of(const std::vector<std::string>& names, const std::string& non
   return out;
 }
 
-}  // namespace
-
-std::string nanopb_name(const pb::Descriptor& type) {
-  std::string name = type.full_name();
+// A full protobuf name as nanopb's C name (`arm.Outer.Inner` -> `arm_Outer_Inner`).
+std::string c_name(std::string name) {
   for (char& c : name) {
     if (c == '.') c = '_';
   }
   return name;
+}
+
+// The C names nanopb gives the types of the schema's files (and the macros it derives from them), each with
+// what has it: a service code whose names meet one of them does not build, nor does nanopb's code when two
+// types meet. The library's own names are checked against them before anything is written.
+class NanopbNames {
+ public:
+  NanopbNames(const Schema& schema, std::string where) : where_(std::move(where)) {
+    std::vector<const pb::FileDescriptor*> files;
+    collect_files(*schema.service().file(), files);
+    for (const pb::FileDescriptor* file : files) {
+      if (!carries_code(file->name())) continue;
+      for (int i = 0; i < file->message_type_count(); ++i) add_message(*file->message_type(i));
+      for (int i = 0; i < file->enum_type_count(); ++i) add_enum(*file->enum_type(i));
+    }
+  }
+
+  // Refuses `id`, the library's `what`, when nanopb's code has it too; `other_fix` is the library's side of
+  // the remedy.
+  void refuse_taken(const std::string& id, const std::string& what, const std::string& other_fix) const {
+    auto found = types_.find(id);
+    if (found == types_.end()) {
+      found = derived_.find(id);
+      if (found == derived_.end()) return;
+    }
+    const std::string& owner = found->second;  // "message a.B", "enum value a.C": its kind, then its name
+    throw SchemaError(where_ + what + " " + id + " is also nanopb's name of " + owner + ": rename the " +
+                      owner.substr(0, owner.rfind(' ')) + ", or " + other_fix);
+  }
+
+ private:
+  void claim(const std::string& id, const std::string& what) {
+    // The kit's own nanopb code (the envelope, package tether.rpc.wire) and codec functions use the prefix.
+    if (id.rfind("tether_rpc_", 0) == 0) {
+      throw SchemaError(where_ + what + " becomes " + id +
+                        " in nanopb's C code, and names starting tether_rpc_ are the kit's: use another package");
+    }
+    const auto [known, added] = types_.emplace(id, what);
+    if (!added) {
+      throw SchemaError(where_ + known->second + " and " + what + " both become " + id +
+                        " in nanopb's C code: rename one of them");
+    }
+  }
+
+  void add_enum(const pb::EnumDescriptor& type) {
+    const std::string id = c_name(type.full_name());
+    claim(id, "enum " + type.full_name());
+    // nanopb's long names (its default): the enum's name, then the value's.
+    for (int i = 0; i < type.value_count(); ++i) claim(id + "_" + type.value(i)->name(), "enum value " + type.value(i)->full_name());
+  }
+
+  void add_message(const pb::Descriptor& type) {
+    const std::string id = c_name(type.full_name());
+    const std::string what = "message " + type.full_name();
+    claim(id, what);
+    for (const char* suffix : {"_init_default", "_init_zero", "_fields", "_msg", "_size", "_FIELDLIST", "_CALLBACK",
+                               "_DEFAULT"}) {
+      derived_.emplace(id + suffix, what);
+    }
+    for (int i = 0; i < type.field_count(); ++i) {
+      derived_.emplace(id + "_" + type.field(i)->name() + "_tag", what);
+      if (type.field(i)->message_type() != nullptr) derived_.emplace(id + "_" + type.field(i)->name() + "_MSGTYPE", what);
+    }
+    for (int i = 0; i < type.nested_type_count(); ++i) add_message(*type.nested_type(i));
+    for (int i = 0; i < type.enum_type_count(); ++i) add_enum(*type.enum_type(i));
+  }
+
+  std::string where_;
+  std::map<std::string, std::string> types_;    // a type's or enum value's C name -> what has it
+  std::map<std::string, std::string> derived_;  // nanopb's macros of a message -> the message
+};
+
+// Refuses a message the methods reach that contains itself: nanopb makes the field that closes the loop a
+// callback (it has no size bound), which the device's codec does not carry.
+void refuse_recursion(const Schema& schema, const std::string& where) {
+  std::vector<const pb::Descriptor*> path;
+  std::set<const pb::Descriptor*> done;
+  const auto visit = [&](const auto& self, const pb::Descriptor* type) -> void {
+    if (done.count(type) != 0) return;
+    path.push_back(type);
+    for (int i = 0; i < type->field_count(); ++i) {
+      const pb::FieldDescriptor& field = *type->field(i);
+      const pb::Descriptor* inner = field.message_type();
+      if (inner == nullptr) continue;
+      for (const pb::Descriptor* outer : path) {
+        if (outer != inner) continue;
+        throw SchemaError(where + field.full_name() + ": a recursive field (" + inner->full_name() + " contains " +
+                          inner->full_name() + " through it): nanopb makes it a callback, which the device does " +
+                          "not carry; nest messages of other types, one per level");
+      }
+      self(self, inner);
+    }
+    path.pop_back();
+    done.insert(type);
+  };
+  for (const Method& method : schema.methods()) {
+    visit(visit, method.input);
+    visit(visit, method.output);
+  }
+}
+
+// What the generated code of `schema` would not build with: a recursive message, two types with one C
+// name, the library's names (its class, its service struct, the handlers) taken by nanopb's code.
+void check_device_schema(const Schema& schema, const std::string& name) {
+  const std::string where = schema.file().filename().string() + ": ";
+  refuse_recursion(schema, where);
+  const NanopbNames names(schema, where);
+  const std::string other_name = "give the library another name (--name)";
+  names.refuse_taken(name, "the library's class", other_name);
+  names.refuse_taken(name + "Service", "the library's service struct", other_name);
+  for (const Method& method : schema.methods()) {
+    names.refuse_taken(handler_name(schema, method), "the handler",
+                       "the method " + schema.service().name() + "." + method.name);
+  }
+}
+
+}  // namespace
+
+bool carries_code(const std::string& file) {
+  return file != "nanopb.proto" && file != "google/protobuf/descriptor.proto";
+}
+
+void collect_files(const pb::FileDescriptor& file, std::vector<const pb::FileDescriptor*>& files) {
+  for (const pb::FileDescriptor* known : files) {
+    if (known == &file) return;
+  }
+  for (int i = 0; i < file.dependency_count(); ++i) collect_files(*file.dependency(i), files);
+  files.push_back(&file);
+}
+
+std::string nanopb_name(const pb::Descriptor& type) { return c_name(type.full_name()); }
+
+Schema load_schema_to_serve(const std::filesystem::path& file, const SchemaOptions& options, std::string_view option) {
+  try {
+    return Schema::load(file, options);
+  } catch (const SchemaError& e) {
+    // Schema::load's refusal of a file with several services asks for a choice: say how to make it.
+    const std::string_view message = e.what();
+    constexpr std::string_view kChoose = ": name the one to serve";
+    if (!options.service.empty() || !message.ends_with(kChoose)) throw;
+    throw SchemaError(std::string(message) + " with " + std::string(option) + " NAME");
+  }
 }
 
 std::string default_library_name(const Schema& schema) { return schema.service().name() + "Rpc"; }
@@ -56,6 +198,7 @@ std::string handler_name(const Schema& schema, const Method& method) {
 ServiceCode service_code(const Schema& schema, std::string_view name_view, std::string_view nanopb_header) {
   const std::string name(name_view);
   if (!is_identifier(name)) throw SchemaError("library name \"" + name + "\" is not a C++ identifier");
+  check_device_schema(schema, name);
   const std::string service = name + "Service";
   const std::string origin = "Generated by `tether generate` from " + schema.file().filename().string() +
                              " (service " + schema.service().full_name() + ", schema hash " +

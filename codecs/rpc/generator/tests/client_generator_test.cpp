@@ -111,6 +111,33 @@ TEST(RpcClientGenerator, AMethodNamedLikeAClientMemberIsRefused) {
   EXPECT_EQ(refusal(head + "service Robot { rpc Go(M) returns (M); }\n"), "(generated)");
 }
 
+TEST(RpcClientGenerator, AMethodNamedLikeAKeywordOrThePrivateMemberIsRefused) {
+  const std::string head = "syntax = \"proto3\";\npackage robot;\nmessage M {}\n";
+  for (const std::string keyword : {"delete", "register", "co_await", "requires", "char8_t", "xor_eq"}) {
+    EXPECT_EQ(refusal(head + "service Robot { rpc Go(M) returns (M); rpc " + keyword + "(M) returns (M); }\n"),
+              "robot.proto: Robot." + keyword + ": " + keyword +
+                  " is a C++ keyword, which cannot name a member of RobotClient: rename the method");
+  }
+  EXPECT_EQ(refusal(head + "service Robot { rpc client_(M) returns (M); }\n"),
+            "robot.proto: Robot.client_: the name is one of RobotClient's own members: rename the method");
+  EXPECT_EQ(refusal(head + "service Robot { rpc Delete(M) returns (M); rpc final(M) returns (M); }\n"), "(generated)");
+}
+
+TEST(RpcClientGenerator, ATypeNamedLikeTheClientClassIsRefused) {
+  EXPECT_EQ(refusal("syntax = \"proto3\";\npackage cc;\nmessage SensorClient { int32 x = 1; }\n"
+                    "service Sensor { rpc Get(SensorClient) returns (SensorClient); }\n"),
+            "robot.proto: message cc.SensorClient has the name of service Sensor's client class (cc::SensorClient) "
+            "in the same namespace: rename the message");
+  EXPECT_EQ(refusal("syntax = \"proto3\";\nmessage M {}\nenum Kind { SensorClient = 0; }\n"
+                    "service Sensor { rpc Get(M) returns (M); }\n"),
+            "robot.proto: enum value SensorClient has the name of service Sensor's client class (SensorClient) in "
+            "the same namespace: rename the enum value");
+  // Nested, it is protoc's Outer_SensorClient.
+  EXPECT_EQ(refusal("syntax = \"proto3\";\npackage cc;\nmessage M { message SensorClient {} }\n"
+                    "service Sensor { rpc Get(M) returns (M); }\n"),
+            "(generated)");
+}
+
 TEST(RpcClientGenerator, WritesTheTwoFilesNamedAfterTheSchema) {
   const SchemaFile file("syntax = \"proto3\";\npackage robot;\nmessage M {}\nservice Robot { rpc Go(M) returns (M); }\n");
   const auto written = tether::rpc::write_client_code(file.path(), {}, file.directory() / "out");

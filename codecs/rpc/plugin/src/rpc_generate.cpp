@@ -1,4 +1,4 @@
-// `tether generate SCHEMA.proto --out DIR [--name NAME] [--force] [-I DIR]...`: a user's schema becomes an
+// `tether generate SCHEMA.proto --out DIR [--service NAME] [--name NAME] [--force] [-I DIR]...`: a user's schema becomes an
 // Arduino library, DIR/NAME/ (generator.hpp's write_arduino_library). The kit it copies from is found as
 // the firmware images are: $TETHER_RPC_ARDUINO_DIR, else installed beside the program
 // (bin/../share/tether/rpc-arduino), else the build tree's; nanopb's generator is $TETHER_NANOPB_GENERATOR,
@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 const CommandText& rpc_generate_text() {
   static const CommandText text(
       "generate",
-      "usage: tether generate SCHEMA.proto --out DIR [--name NAME] [--force] [-I DIR]...\n"
+      "usage: tether generate SCHEMA.proto --out DIR [--service NAME] [--name NAME] [--force] [-I DIR]...\n"
       "\n"
       "Writes an Arduino library (1.5 format) that serves SCHEMA's service over the rpc codec: DIR/NAME/ with\n"
       "library.properties and src/NAME.h, the sketch's include. The sketch defines one handler per method,\n"
@@ -50,14 +50,19 @@ const CommandText& rpc_generate_text() {
       "  void setup() { Serial.begin(115200); device.begin(); }\n"
       "  void loop() { device.poll(); }\n"
       "nanopb's bounds of strings, bytes and repeated fields come from SCHEMA's .options file beside it (or\n"
-      "nanopb's field options); every request must be at most 64 bytes encoded.\n"
+      "nanopb's field options); every request must be at most 64 bytes encoded. Refused before anything is\n"
+      "written: a double field (the AVR's double is 32-bit: use float), a message that contains itself, two\n"
+      "names nanopb's C code would merge (a.B_C and a.B.C), a file whose nanopb code takes a kit file's name\n"
+      "(tether_rpc.proto), a type named like the library's class.\n"
       "\n"
-      "  --out DIR    the folder the library goes in (an Arduino libraries folder: ~/Arduino/libraries)\n"
-      "  --name NAME  the library's and its class's name, a C++ identifier (default: the service's name and\n"
-      "               Rpc: ArmRpc)\n"
-      "  --force      replace DIR/NAME when `tether generate` wrote it before (its GENERATED.txt); without it\n"
-      "               an existing non-empty DIR/NAME is refused, and a folder it did not write never replaced\n"
-      "  -I DIR       a folder the schema's imports are found in (more than one: each in turn)\n"
+      "  --out DIR       the folder the library goes in (an Arduino libraries folder: ~/Arduino/libraries)\n"
+      "  --service NAME  the service to serve when SCHEMA has more than one (default: its only service)\n"
+      "  --name NAME     the library's and its class's name, a C++ identifier (default: the service's name\n"
+      "                  and Rpc: ArmRpc)\n"
+      "  --force         replace DIR/NAME when `tether generate` wrote it before (its GENERATED.txt); without\n"
+      "                  it an existing non-empty DIR/NAME is refused, and a folder it did not write never\n"
+      "                  replaced\n"
+      "  -I DIR          a folder the schema's imports are found in (more than one: each in turn)\n"
       "\n"
       "Needs nanopb's generator (Debian: nanopb; $TETHER_NANOPB_GENERATOR names another) and the kit installed\n"
       "with tether (share/tether/rpc-arduino; $TETHER_RPC_ARDUINO_DIR names another).\n"
@@ -116,18 +121,21 @@ int run_rpc_generate(int argc, char** argv) {
   std::string schema_path;
   std::optional<std::string> out;
   rpc::ArduinoLibraryOptions options;
+  std::string service;
   const auto value_of = [&](int& i) -> std::optional<std::string> {
     if (i + 1 >= argc) return std::nullopt;
     return std::string(argv[++i]);
   };
   const auto status = parse_arguments(argc, argv, text, [&](std::string_view argument, int& i) -> std::optional<int> {
-    if (argument == "--out" || argument == "--name" || argument == "-I") {
+    if (argument == "--out" || argument == "--name" || argument == "--service" || argument == "-I") {
       const auto value = value_of(i);
       if (!value || value->empty()) return text.usage_error(std::string(argument) + " needs a value");
       if (argument == "--out") {
         out = *value;
       } else if (argument == "--name") {
         options.name = *value;
+      } else if (argument == "--service") {
+        service = *value;
       } else {
         options.import_paths.emplace_back(*value);
       }
@@ -148,7 +156,8 @@ int run_rpc_generate(int argc, char** argv) {
   try {
     rpc::SchemaOptions schema_options;
     schema_options.import_paths = options.import_paths;
-    const rpc::Schema schema = rpc::Schema::load(schema_path, schema_options);
+    schema_options.service = service;
+    const rpc::Schema schema = rpc::load_schema_to_serve(schema_path, schema_options, "--service");
     const auto generator = nanopb_generator();
     if (!generator) {
       return text.fail("nanopb's generator is not found (Debian: apt install nanopb; or set TETHER_NANOPB_GENERATOR)");

@@ -37,6 +37,11 @@ namespace tether::rpc {
 /// The C name nanopb gives a message: its full name with `.` as `_` (`arm.Outer.Inner` -> `arm_Outer_Inner`).
 std::string nanopb_name(const google::protobuf::Descriptor& type);
 
+/// Schema::load for a command whose option `option` (`--service`) fills `options.service`: a file with more
+/// than one service and none chosen is refused with a message that says to choose one with `option NAME`.
+/// Throws SchemaError.
+Schema load_schema_to_serve(const std::filesystem::path& file, const SchemaOptions& options, std::string_view option);
+
 /// The default library name: the service's name and `Rpc` (`Arm` -> `ArmRpc`).
 std::string default_library_name(const Schema& schema);
 
@@ -49,6 +54,11 @@ struct ServiceCode {
   std::string header;  ///< `<name>_service.h`
   std::string source;  ///< `<name>_service.cpp`
 };
+/// Throws SchemaError for a name that is not a C++ identifier and for what would not build: a message the
+/// methods reach that contains itself (nanopb makes the field a callback), two types or enum values with one
+/// C name in nanopb's code (`a.B_C` and `a.B.C`), a name starting `tether_rpc_` (the kit's), the library's
+/// class, its `<name>Service` or a handler named like one of nanopb's types or macros (a package-less
+/// `message ArmRpc` beside `service Arm`).
 ServiceCode service_code(const Schema& schema, std::string_view name, std::string_view nanopb_header);
 
 /// Writes `<name>_service.h` and `<name>_service.cpp` into `directory` (created); returns their paths.
@@ -80,8 +90,9 @@ std::string arduino_library_header(const Schema& schema, std::string_view name);
 /// beside its final place and moved there once complete, so a failure leaves nothing half written. An
 /// existing non-empty `out/<name>/` is refused unless `options.force` and it holds `GENERATED.txt` (the
 /// marker this function writes): then it is replaced as a whole (the library is generated output; the
-/// sketch lives elsewhere). Throws SchemaError for a name that is not a C++ identifier, GenerateError
-/// otherwise.
+/// sketch lives elsewhere). Throws SchemaError for what `service_code` refuses and for a `double` field
+/// (avr-gcc's double is 32-bit: use float), GenerateError otherwise (a schema file or import whose nanopb
+/// code would take a kit file's name: `tether_rpc.proto`).
 std::filesystem::path write_arduino_library(const Schema& schema, const std::filesystem::path& out,
                                             const ArduinoLibraryOptions& options);
 
@@ -98,8 +109,9 @@ struct ClientCode {
   std::string header;  ///< `<stem>.tether.hpp`
   std::string source;  ///< `<stem>.tether.cpp`
 };
-/// Throws SchemaError for a method whose name is one of the client's own members (`close`, `wait_ready`,
-/// ...) or whose `async_` form is another method's name.
+/// Throws SchemaError for a method whose name is a C++ keyword or one of the client's own members (`close`,
+/// `wait_ready`, `client_`, ...) or whose `async_` form is another method's name, and for a message, enum
+/// or enum value of the package named like the class (`SensorClient` beside `service Sensor`).
 ClientCode client_code(const std::vector<Schema>& schemas, std::string_view stem);
 
 /// Writes `<stem>.tether.hpp` and `<stem>.tether.cpp` of `proto` (its services read with `options`) into
