@@ -174,7 +174,8 @@ CodecCommands rpc_commands() {
       "                'METHOD FIELD=VALUE ...' that call every --interval ms (default: no call)\n";
   row.flags = {{"--schema",
                 "    --schema FILE    the device's .proto (its service; the device's Hello must carry its hash);\n"
-                "                     with --virtual IMAGE, IMAGE.proto beside the image when not given\n",
+                "                     with --virtual IMAGE, IMAGE.proto beside the image when not given;\n"
+                "                     without --codec it makes the codec rpc (unless the image's name says one)\n",
                 [](std::string_view value) -> std::optional<std::string> {
                   if (value.empty()) return std::string("a .proto file");
                   return std::nullopt;

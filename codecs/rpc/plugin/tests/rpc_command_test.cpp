@@ -148,6 +148,29 @@ TEST(TetherRpcCall, DeviceOfAConfigurationWithTheSchemaBesideIt) {
   EXPECT_EQ(run.out, "{\"reachedCdeg\":9}\n");
 }
 
+// --schema names the codec when nothing else does: a port, or an image whose name says no codec (a
+// sketch built with arduino-builder).
+TEST(TetherRpcCall, SchemaWithoutCodecIsRpc) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether({"call", "--port", device.path(), "--schema", kArm, "MoveJoint", "joint=2"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":-1}\n");
+}
+
+TEST(TetherRpcVirtual, SchemaWithoutCodecIsRpcForAnImageNamedOtherwise) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-sketch-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path image = cli::testing::firmware("rpc-example");
+  fs::copy_file(image, dir / "ArmSketch.ino.elf", fs::copy_options::overwrite_existing);
+  const Outcome run = run_tether({"call", "--virtual", (dir / "ArmSketch.ino.elf").string(), "--schema",
+                                  fs::path(image).replace_extension(".proto").string(), "MoveJoint", "joint=1",
+                                  "angle_cdeg=7"});
+  fs::remove_all(dir);
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":7}\n");
+}
+
 TEST(TetherRpcCall, HelpOfTheCodec) {
   const Outcome run = run_tether({"call", "--codec", "rpc", "--help"});
   EXPECT_EQ(run.status, 0);
