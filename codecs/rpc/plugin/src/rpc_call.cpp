@@ -60,11 +60,14 @@ const CommandText& rpc_call_text() {
           "  --timeout MS     a call: its whole budget, re-sends included (default 2000, or the configuration's\n"
           "                   call_budget_ms); a stream: the longest wait for its next message (default 2000 +\n"
           "                   3 periods). A serial port that is missing or vanishes before the call is sent is\n"
-          "                   waited for within the budget (not with --no-reconnect); one that vanishes with\n"
-          "                   the call on its way ends it (disconnected: the device may have run it)\n"
+          "                   waited for within the budget (not with --no-reconnect), and so is the device's\n"
+          "                   session (its hello; on a virtual board, on the board's clock); a port that\n"
+          "                   vanishes with the call on its way ends it (disconnected: the device may have run it)\n"
           "  --period MS      a stream method's period, 1..65535 (required for one)\n"
           "  --count N        a stream: stop after N messages (default: until Ctrl-C); while its serial port\n"
-          "                   is gone the stream waits for it and goes on with the board behind it\n"
+          "                   is gone the stream waits for it and goes on with the board behind it. The stream\n"
+          "                   is closed on the device, its close acknowledged, before the command exits (after\n"
+          "                   Ctrl-C for at most 500 ms; unacknowledged: a warning on stderr)\n"
           "  --json           one JSON object per outcome: {\"method\":\"MoveJoint\",\"reply\":{...},\"message_id\":N,\n"
           "                   \"attempts\":N}; a stream's {\"method\":\"Watch\",\"seq\":N,\"message\":{...}}; the\n"
           "                   device's error {\"method\":...,\"error\":\"device_error\",\"code\":42,\"text\":\"...\"}\n"
@@ -128,6 +131,25 @@ void print_device_error(bool json, const std::string& method, const rpc::error_c
   std::fprintf(stderr, "tether call: %s\n", line.text.c_str());
 }
 
+// Stops the stream on the device and waits for its ack: a command that exits with the close unsent leaves
+// the device streaming until its failsafe (10 s without a ping). After Ctrl-C the wait is short (the
+// command ends within a second).
+void close_on_device(rpc::Stream& stream, const std::string& name, bool stopping) {
+  rpc::error_code error;
+  if (stopping) {
+    stream.close_and_wait(error, std::chrono::milliseconds(500));
+  } else {
+    stream.close_and_wait(error);
+  }
+  if (error) {
+    cli::out().flush();
+    std::fprintf(stderr,
+                 "tether call: %s: warning: the device did not acknowledge the stream's close (%s); it may stream "
+                 "until its failsafe (10 s without a ping)\n",
+                 name.c_str(), error.message().c_str());
+  }
+}
+
 // A stream's messages until `count`, its end or a stop signal. While the device's serial port is gone the
 // wait for the next message is suspended: the command waits for the port (the client re-opens the stream
 // in the board's new session once it is back), and the wait starts again when it is.
@@ -178,7 +200,7 @@ int run_rpc_stream(rpc::Client& client, const OpenDevice& device, const rpc::Met
       if (port->link_counters().gave_up) {
         lock.unlock();
         progress.clear();
-        stream.close();
+        stream.close();  // the link failed for good: nothing to tell the device
         return rpc_call_text().fail(name + ": " + port->path() + " vanished and did not come back");
       }
       if (!waiting_for_port) progress.show("waiting for " + port->path() + " to come back...");
@@ -190,14 +212,14 @@ int run_rpc_stream(rpc::Client& client, const OpenDevice& device, const rpc::Met
     waiting_for_port = false;
     if (std::chrono::steady_clock::now() - state->last > gap && !state->ended) {
       lock.unlock();
-      stream.close();
+      close_on_device(stream, name, stop);
       return rpc_call_text().fail(name + ": no stream message within " + std::to_string(gap.count()) + " ms");
     }
   }
   const std::optional<rpc::error_code> ended = state->ended;
   const rpc::DeviceError answer = state->answer;
   lock.unlock();
-  stream.close();
+  close_on_device(stream, name, stop);
   if (!ended) return 0;
   if (*ended == rpc::RpcError::device_error || *ended == rpc::RpcError::refused) {
     print_device_error(json, name, *ended, answer);

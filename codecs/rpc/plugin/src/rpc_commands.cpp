@@ -3,6 +3,7 @@
 // command-line defaults.
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -69,8 +70,17 @@ class RpcShell final : public ShellSession {
   }
 
   void finish(const std::atomic<bool>&) override {
-    std::lock_guard lock(mutex_);
-    streams_.clear();  // closes them
+    std::map<std::string, rpc::Stream> streams;
+    {
+      std::lock_guard lock(mutex_);
+      streams.swap(streams_);
+    }
+    // Acked before the client closes, or the device streams on until its failsafe; briefly: the shell
+    // ends within a second.
+    for (auto& [name, stream] : streams) {
+      rpc::error_code error;
+      stream.close_and_wait(error, std::chrono::milliseconds(300));
+    }
   }
 
  private:

@@ -130,6 +130,17 @@ TEST(TetherRpcCall, StreamPrintsOneObjectPerMessage) {
   }
 }
 
+// The command closes its stream on the device, and waits for the ack, before it exits: the device does
+// not stream on until its failsafe.
+TEST(TetherRpcCall, StreamIsClosedOnTheDeviceWhenTheCountIsReached) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether(call_on(device, {"Watch", "--period", "20", "--count", "2"}));
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.lines().size(), 2u) << run.out;
+  EXPECT_EQ(run.err, "");
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.open_streams(); }), 0);
+}
+
 TEST(TetherRpcCall, DeviceOfAConfigurationWithTheSchemaBesideIt) {
   testing::ArmOnPty device(arm_hash());
   const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-call-" + std::to_string(::getpid()));

@@ -37,9 +37,10 @@
 ///      within `kIdWindow` ids of every unacked message's anchor (the device remembers `kIdWindow` ids).
 ///   3. **Streams.** `open_stream` sends `OpenStream{method, request, period}` (acked like a call); each
 ///      `StreamMessage` goes to the stream's handler. `close()` (or the handle's destruction) sends
-///      `CloseStream`. A device error ends the stream (its handler gets it once). One stream per method (the
-///      device's rule): opening a method that streams already closes the older stream first (its handler
-///      is not called again).
+///      `CloseStream`; `close_and_wait` also waits for its ack (before closing the client, or the device
+///      streams on until its failsafe). A device error ends the stream (its handler gets it once). One
+///      stream per method (the device's rule): opening a method that streams already closes the older
+///      stream first (its handler is not called again).
 ///   4. **Heartbeat.** A `Ping` every `ping_period` (1 s); the device closes its streams after 10 s
 ///      without one.
 ///
@@ -218,7 +219,18 @@ class Stream {
   /// Closes the stream.
   ~Stream();
   /// Stops the stream (the device is told; its handler is not called again). Idempotent, any thread.
+  /// Does not wait: a client closed right after may not have sent the close, and the device then streams
+  /// until its failsafe (10 s without a ping).
   void close();
+  /// `close()`, then waits until the device acknowledged the close (at most the client's `call_budget` once
+  /// sent, as long again for a session to send it in). `error`: none once acknowledged or when nothing runs
+  /// on the device (the stream never reached it, ended already, or the device's session ended); else
+  /// `RpcError::timed_out`, `queue_timeout` or the link's error. Not on the client's strand (a stream
+  /// handler): `would_deadlock`.
+  void close_and_wait(error_code& error);
+  /// `close_and_wait` giving up after `limit` (`RpcError::timed_out`; the close goes on without a waiter):
+  /// for a program that must end soon (Ctrl-C).
+  void close_and_wait(error_code& error, std::chrono::milliseconds limit);
   /// True until `close()` or the stream's end.
   bool is_open() const;
 
