@@ -235,7 +235,8 @@ CodecCommands rpc_commands() {
   row.shell_help = [](const devices::DeviceConfig& config) {
     std::string methods;
     if (const auto schema = rpc_config_schema(config)) methods = rpc_method_list(*schema, "  ");
-    return "Type a method and its request's fields (FIELD=VALUE; or the request as one JSON object):\n" + methods +
+    return "Type a method and its request's fields (FIELD=VALUE, bytes in base64; or the request as one JSON\n"
+           "object):\n" + methods +
            "A call prints its reply as JSON (or the device's error code and text). A stream method starts with\n"
            "period=MS among its fields (`Watch period=100`), prints each message as it arrives, and stops with\n"
            "`Watch stop` (and at the end of input). Session changes and resets appear as they happen.\n" +

@@ -62,6 +62,39 @@ std::optional<double> rpc_parse_number(const std::string& text) {
   return value;
 }
 
+// `text` as base64, protobuf's JSON form of bytes (what the replies print): the standard or the URL-safe
+// alphabet, padding optional. Nothing when it is not base64.
+std::optional<std::string> rpc_base64_decode(std::string_view text) {
+  while (!text.empty() && text.back() == '=') text.remove_suffix(1);
+  if (text.size() % 4 == 1) return std::nullopt;
+  std::string bytes;
+  std::uint32_t bits = 0;
+  int count = 0;
+  for (const char c : text) {
+    std::uint32_t value = 0;
+    if (c >= 'A' && c <= 'Z') {
+      value = static_cast<std::uint32_t>(c - 'A');
+    } else if (c >= 'a' && c <= 'z') {
+      value = static_cast<std::uint32_t>(c - 'a') + 26;
+    } else if (c >= '0' && c <= '9') {
+      value = static_cast<std::uint32_t>(c - '0') + 52;
+    } else if (c == '+' || c == '-') {
+      value = 62;
+    } else if (c == '/' || c == '_') {
+      value = 63;
+    } else {
+      return std::nullopt;
+    }
+    bits = (bits << 6) | value;
+    count += 6;
+    if (count >= 8) {
+      count -= 8;
+      bytes += static_cast<char>((bits >> count) & 0xFF);
+    }
+  }
+  return bytes;
+}
+
 // Sets one scalar field from its typed text; what is wrong otherwise.
 std::optional<std::string> rpc_set_field(pb::Message& message, const pb::FieldDescriptor& field,
                                          const std::string& value) {
@@ -117,6 +150,13 @@ std::optional<std::string> rpc_set_field(pb::Message& message, const pb::FieldDe
       }
       return std::nullopt;
     case pb::FieldDescriptor::CPPTYPE_STRING:
+      if (field.type() == pb::FieldDescriptor::TYPE_BYTES) {
+        // As the JSON form takes them and the reply prints them, so printed bytes can be given back.
+        const auto bytes = rpc_base64_decode(value);
+        if (!bytes) return bad("base64 (protobuf's JSON form of bytes: AQID is 01 02 03)");
+        reflection.SetString(&message, &field, *bytes);
+        return std::nullopt;
+      }
       reflection.SetString(&message, &field, value);
       return std::nullopt;
     case pb::FieldDescriptor::CPPTYPE_ENUM: {

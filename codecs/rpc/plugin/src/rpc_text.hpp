@@ -26,7 +26,8 @@ namespace tether::cli {
 /// Fills `request` from `words`: one word starting with `{` is the whole request as JSON (protobuf's
 /// mapping: repeated and nested fields); else each word is `FIELD=VALUE` (the field's name as declared or
 /// its JSON name), a scalar field at most once. Values: integers in the field's range, numbers,
-/// true/false (1/0), strings and bytes as typed, enums by name or number. Nothing on success, else what is
+/// true/false (1/0), strings as typed, bytes in base64 (as the JSON form and the replies: `AQID` is
+/// 01 02 03), enums by name or number. Nothing on success, else what is
 /// wrong, naming the field or value (`MoveJoint has no field "jiont" (fields: joint, angle_cdeg)`).
 std::optional<std::string> fill_rpc_request(google::protobuf::Message& request, std::span<const std::string> words);
 

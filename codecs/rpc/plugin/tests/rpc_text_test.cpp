@@ -37,7 +37,7 @@ class TypedRequest : public ::testing::Test {
 
 TEST_F(TypedRequest, EveryScalarKindAndEnumsByNameOrNumber) {
   EXPECT_EQ(fill({"small=-7", "big=18446744073709551615", "negative=-9000000000", "ratio=0.5", "precise=-1e-3",
-                  "on=true", "label=hello", "raw=xy", "mode=MODE_HOLD"}),
+                  "on=true", "label=hello", "raw=eHk=", "mode=MODE_HOLD"}),
             std::nullopt);
   EXPECT_EQ(rpc_message_json(*request_),
             R"({"small":-7,"big":"18446744073709551615","negative":"-9000000000","ratio":0.5,"precise":-0.001,)"
@@ -46,6 +46,26 @@ TEST_F(TypedRequest, EveryScalarKindAndEnumsByNameOrNumber) {
   EXPECT_EQ(rpc_message_value(*request_)["mode"], "MODE_RUN");
   EXPECT_EQ(fill({"labelText=x"}).value_or(""), "Everything has no field \"labelText\" (fields: small, big, negative, "
                                                  "ratio, precise, on, label, raw, mode, values, at)");
+}
+
+// Bytes in base64 as the JSON form takes them and the output prints them: what is printed can be given back.
+TEST_F(TypedRequest, BytesAreBase64AsTheJsonFormAndTheOutput) {
+  for (const std::string given : {"AQID", "AQI=", "AQI", "_-8=", "/+8", ""}) {
+    SCOPED_TRACE(given);
+    ASSERT_EQ(fill({"raw=" + given}), std::nullopt);
+    const std::string words = request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw"));
+    ASSERT_EQ(fill({R"({"raw": ")" + given + R"("})"}), std::nullopt) << "the JSON form takes it too";
+    EXPECT_EQ(request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw")), words);
+  }
+  ASSERT_EQ(fill({"raw=AQID"}), std::nullopt);
+  EXPECT_EQ(rpc_message_value(*request_)["raw"], "AQID");
+  ASSERT_EQ(fill({"raw=/+8="}), std::nullopt);
+  EXPECT_EQ(request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw")),
+            std::string("\xff\xef"));
+  for (const std::string bad : {"AQI$", "A", "AQIDA", "a b", "AQ=D"}) {
+    EXPECT_EQ(fill({"raw=" + bad}),
+              "raw=\"" + bad + "\": expected base64 (protobuf's JSON form of bytes: AQID is 01 02 03)");
+  }
 }
 
 TEST_F(TypedRequest, JsonNamesAndTheWholeRequestAsJson) {
