@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -24,6 +25,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "cli_support.hpp"
@@ -248,6 +250,15 @@ static int run_rpc_call(int argc, char** argv) {
                             std::string(arguments.device.firmware.empty() ? ")" : "; none beside the image)"));
   }
   if (arguments.timeout_ms) options.client.timing.call_budget = *arguments.timeout_ms;
+  // Opening waits for the device's session within the call's budget, as it waits for a missing port: a
+  // device that never answers fails the command in --timeout, not in the session's own 10 s. A virtual
+  // board's client counts on the board's clock, so a loaded machine does not fail its open: its wall-time
+  // limit stays the configuration's.
+  const std::uint32_t budget_ms = options.client.timing.call_budget;
+  options.client.timing.queue_timeout = std::min(options.client.timing.queue_timeout, budget_ms);
+  const bool virtual_board = std::holds_alternative<devices::VirtualTransport>(target->config.transport) ||
+                             std::holds_alternative<devices::VirtualRingTransport>(target->config.transport);
+  if (!virtual_board) options.open_timeout = std::min(options.open_timeout, std::chrono::milliseconds(budget_ms));
 
   // The method and request, checked against the schema before anything opens.
   std::optional<rpc::Schema> schema;
@@ -275,10 +286,16 @@ static int run_rpc_call(int argc, char** argv) {
   // A serial port that is missing, or vanishes before the call is sent, is waited for within the call's
   // budget (not with --no-reconnect). A call the device may have received when its port vanished is not
   // sent again: it may have run.
-  const std::uint32_t budget_ms = options.client.timing.call_budget;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(budget_ms);
   auto device = open_device_within(*target, io.executor(), ClientHooks(), progress, deadline, error_text);
-  if (!device) return text.fail("cannot open " + error_text + " (" + target->label + ")");
+  if (!device) {
+    // The session's wait was the call's budget: say so, as the wait for a port does.
+    const std::string within = "no rpc session within " + std::to_string(budget_ms) + " ms";
+    if (const std::size_t at = error_text.find(within); at != std::string::npos) {
+      error_text.insert(at + within.size(), " (the call's budget)");
+    }
+    return text.fail("cannot open " + target->label + ": " + error_text);
+  }
   const auto client = device->client_as<rpc::Client>();
   // The client's own request type (its pool): the same fields, so the bytes carry over.
   const auto typed = client->new_request(method->name);

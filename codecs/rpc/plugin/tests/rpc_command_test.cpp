@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -13,6 +14,8 @@
 
 #include "arm_on_pty.hpp"
 #include "tether/rpc/schema.hpp"
+#include "tether/transports/io_thread.hpp"
+#include "tether/transports/pty_stream.hpp"
 #include "tether_process.hpp"
 
 namespace tether::rpc {
@@ -96,6 +99,25 @@ TEST(TetherRpcCall, UnknownMethodFieldOrBadValueExitTwoNamingIt) {
     EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
   }
   EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.moves(); }), 0);
+}
+
+// A device that never answers: opening waits for its session within the call's budget (not the session's
+// own 10 s), and says so.
+TEST(TetherRpcCall, NoSessionWithinTheCallsBudget) {
+  transports::IoThread io;
+  const auto silent = transports::PtyStream::open(io.executor());  // nobody answers on its other side
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome run = run_tether({"call", "--port", silent->slave_path(), "--codec", "rpc", "--schema", kArm,
+                                  "--timeout", "300", "MoveJoint", "joint=1"});
+  const auto took = std::chrono::steady_clock::now() - start;
+  silent->close();
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find("no rpc session within 300 ms (the call's budget): no DeviceHello answered our Hello"),
+            std::string::npos)
+      << run.err;
+  EXPECT_EQ(run.err.find("waited too long before the first send"), std::string::npos) << run.err;
+  EXPECT_LT(took, std::chrono::seconds(8));  // the session's own wait is 10 s
 }
 
 TEST(TetherRpcCall, SchemaTheDeviceRefusesExitsTwoNamingBothHashesAndTheFile) {
