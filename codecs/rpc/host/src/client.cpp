@@ -74,11 +74,17 @@ Duration RpcTiming::attempt_window(std::size_t frame_bytes) const {
   return proxy::ack_timeout(ack_timing(*this), frame_bytes + kAnswerFrameBytes);
 }
 
+std::string_view refusal_hint(std::uint16_t code) {
+  // The device cannot tell a malformed request from one over a bound (nanopb refuses both alike).
+  return code == static_cast<std::uint16_t>(DeviceErrorCode::bad_request) ? " (a field over its .options bound?)" : "";
+}
+
 CallError::CallError(error_code code, const std::string& method, DeviceError device_error)
     : boost::system::system_error(code),
       device_error_(std::move(device_error)),
       what_(method + ": " + (code == RpcError::refused ? "refused " : "device error ") +
-            std::to_string(device_error_.code) + ": " + device_error_.text) {}
+            std::to_string(device_error_.code) + ": " + device_error_.text +
+            std::string(code == RpcError::refused ? refusal_hint(device_error_.code) : "")) {}
 
 namespace detail {
 
@@ -303,9 +309,11 @@ class ClientImpl final : public client::ClientLink {
     CallRequest call = make_call_request(method, request);
     const error_code error = build(call, true, op);
     if (error) throw boost::system::system_error(error, "open_stream " + std::string(method));
-    if (period.count() < 1 || period.count() > 0xFFFF) {
-      throw boost::system::system_error(make_error_code(RpcError::invalid_request),
-                                        "open_stream " + std::string(method) + ": period must be 1..65535 ms");
+    if (period.count() < 1 || period.count() > 0xFFFF) {  // the request is fine: the period has its own words
+      throw boost::system::system_error(
+          boost::system::errc::make_error_code(boost::system::errc::invalid_argument),
+          "open_stream " + std::string(method) + ": the period, " + std::to_string(period.count()) +
+              " ms, is outside 1..65535 ms");
     }
     const std::uint64_t key = ++stream_keys_;
     {

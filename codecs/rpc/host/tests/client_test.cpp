@@ -186,7 +186,28 @@ TEST(RpcClient, WhatTheSchemaRefusesFailsBeforeAnythingIsWritten) {
     EXPECT_NE(std::string(e.what()).find("MoveJoint: "), std::string::npos) << e.what();
   }
   EXPECT_THROW(link.client->new_request("Fly"), std::invalid_argument);
+  for (const auto period : {0ms, 65536ms}) {
+    try {
+      (void)link.client->open_stream("Watch", *link.client->new_request("Watch"), period,
+                                     [](const tether::rpc::error_code&, const tether::rpc::StreamMessage&) {});
+      ADD_FAILURE() << "no exception";
+    } catch (const boost::system::system_error& e) {  // the request is fine: only the period is named
+      EXPECT_EQ(e.code(), boost::system::errc::invalid_argument);
+      EXPECT_NE(std::string(e.what()).find("open_stream Watch: the period, " + std::to_string(period.count()) +
+                                           " ms, is outside 1..65535 ms"),
+                std::string::npos)
+          << e.what();
+      EXPECT_EQ(std::string(e.what()).find("request"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_EQ(link.client->counters().messages_sent, 0u);
+}
+
+TEST(RpcClient, ARefusalOfARequestThatDoesNotDecodeHintsAtTheBounds) {
+  const tether::rpc::CallError refused(RpcError::refused, "Configure", {0xFF02, "request does not decode"});
+  EXPECT_STREQ(refused.what(), "Configure: refused 65282: request does not decode (a field over its .options bound?)");
+  const tether::rpc::CallError other(RpcError::refused, "Configure", {0xFF01, "unknown method"});
+  EXPECT_STREQ(other.what(), "Configure: refused 65281: unknown method");
 }
 
 TEST(RpcClient, ALostAnswerIsFetchedAgainFromTheDevicesCacheWithoutASecondRun) {

@@ -75,8 +75,10 @@ const CommandText& rpc_call_text() {
           "                   \"attempts\":N}; a stream's {\"method\":\"Watch\",\"seq\":N,\"message\":{...}}; the\n"
           "                   device's error {\"method\":...,\"error\":\"device_error\",\"code\":42,\"text\":\"...\"}\n"
           "\n"
-          "The method and request are checked against the schema before the device is opened. Opening waits for\n"
-          "the device's hello: a device built from another schema is refused, both hashes named.\n"
+          "The method and request are checked against the schema before the device is opened, and against the\n"
+          "nanopb bounds of the .options file beside it (max_size, max_length, max_count: the field over its bound\n"
+          "named). Opening waits for the device's hello: a device built from another schema is refused, both\n"
+          "hashes named. --schema without --codec means rpc (a sketch's image: --virtual Sketch.ino.elf --schema F).\n"
           "\n"
           "Exit status: 0 answered; 1 the device answered an error (code and text on stderr and in --json);\n"
           "2 an unknown method or field, a bad value, a schema that does not read or that the device refuses, a\n"
@@ -280,6 +282,8 @@ static int run_rpc_call(int argc, char** argv) {
   std::unique_ptr<google::protobuf::Message> request(factory.GetPrototype(method->input)->New());
   const std::vector<std::string> request_words(arguments.words.begin() + 1, arguments.words.end());
   if (const auto error = fill_rpc_request(*request, request_words)) return text.fail(name + ": " + *error);
+  // The device would refuse it as a request that does not decode, without naming the field.
+  if (const auto error = RpcBounds(*schema).check(*request)) return text.fail(name + ": " + *error);
 
   transports::IoThread io;
   Progress progress("call");

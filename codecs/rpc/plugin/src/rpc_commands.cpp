@@ -41,7 +41,7 @@ std::vector<std::string> rpc_words(const std::string& line) {
 class RpcShell final : public ShellSession {
  public:
   RpcShell(std::shared_ptr<rpc::Client> client, const ShellContext& context)
-      : client_(std::move(client)), printer_(context.printer) {
+      : client_(std::move(client)), bounds_(client_->schema()), printer_(context.printer) {
     const ShellPrinter printer = context.printer;
     const std::function<void()> link_failed = context.link_failed;
     client_->on_event([printer, link_failed](const rpc::Event& event) {
@@ -90,6 +90,10 @@ class RpcShell final : public ShellSession {
       printer_.error(*error);
       return;
     }
+    if (const auto error = bounds_.check(*request)) {
+      printer_.error(method.name + ": " + *error);
+      return;
+    }
     rpc::error_code error;
     const rpc::CallResult result = client_->call(method.name, *request, error);
     if (!error) {
@@ -129,6 +133,10 @@ class RpcShell final : public ShellSession {
       printer_.error(*error);
       return;
     }
+    if (const auto error = bounds_.check(*request)) {
+      printer_.error(method.name + ": " + *error);
+      return;
+    }
     const ShellPrinter printer = printer_;
     const std::string name = method.name;
     try {
@@ -156,6 +164,7 @@ class RpcShell final : public ShellSession {
   }
 
   std::shared_ptr<rpc::Client> client_;
+  const RpcBounds bounds_;  // the schema's .options, read once
   ShellPrinter printer_;
   std::mutex mutex_;
   std::map<std::string, rpc::Stream> streams_;

@@ -101,6 +101,20 @@ TEST(TetherRpcCall, UnknownMethodFieldOrBadValueExitTwoNamingIt) {
   EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.moves(); }), 0);
 }
 
+// A field over its bound in the .options file beside the schema is named before anything opens (the device
+// would refuse the request without naming it).
+TEST(TetherRpcCall, AFieldOverItsOptionsBoundIsNamedBeforeSending) {
+  const fs::path bounds = fs::path(TETHER_RPC_TEST_SCHEMAS) / "../../../plugin/tests/schemas/bounds.proto";
+  const Outcome run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "--schema",
+                                  bounds.lexically_normal().string(), "Configure", "label=abcdef"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find("tether call: Configure: label: 6 bytes, over its .options bound (bounds.options: "
+                         "max_size:6, a string of at most 5 bytes)"),
+            std::string::npos)
+      << run.err;
+}
+
 // A device that never answers: opening waits for its session within the call's budget (not the session's
 // own 10 s), and says so.
 TEST(TetherRpcCall, NoSessionWithinTheCallsBudget) {

@@ -167,6 +167,11 @@ using CallSignature = void(error_code, CallResult);
 /// Completion signature of `async_wait_ready`: the device's session.
 using ReadySignature = void(error_code, std::uint32_t);
 
+/// What the host adds to a device refusal's text, which the device keeps short: for `bad_request`
+/// (errors.hpp) `" (a field over its .options bound?)"`, as a request the schema accepts is refused when a
+/// string, bytes or repeated field exceeds the device's nanopb bound; else empty.
+std::string_view refusal_hint(std::uint16_t code);
+
 /// The blocking forms' exception for a device's answer (`RpcError::device_error` or `refused`): what() is
 /// `"MoveJoint: device error 42: joint 3 is locked"`.
 class CallError : public boost::system::system_error {
@@ -175,7 +180,8 @@ class CallError : public boost::system::system_error {
   CallError(error_code code, const std::string& method, DeviceError device_error);
   /// The device's code and text.
   const DeviceError& device_error() const { return device_error_; }
-  /// `"<method>: device error <code>: <text>"` (`refused` instead of `device error` for a refusal).
+  /// `"<method>: device error <code>: <text>"` (`refused` instead of `device error` for a refusal, and
+  /// `refusal_hint`'s words after its text).
   const char* what() const noexcept override { return what_.c_str(); }
 
  private:
@@ -430,7 +436,8 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   std::string call_json(std::string_view method, std::string_view json_request);
 
   /// Opens a stream of `method` with `request` every `period` (1..65535 ms); `handler` gets its messages.
-  /// Throws `boost::system::system_error` for an unknown or unary method, a bad request or period.
+  /// Throws `boost::system::system_error` for an unknown or unary method, a bad request (`RpcError`) or a
+  /// period outside 1..65535 ms (`errc::invalid_argument`).
   Stream open_stream(std::string_view method, const google::protobuf::Message& request,
                      std::chrono::milliseconds period, StreamHandler handler);
 
