@@ -345,6 +345,30 @@ std::optional<int> parse_device_arguments(int argc, char** argv, const CommandTe
   });
 }
 
+namespace {
+// --codec; else, for --port or an image whose name says no codec, the one codec that takes a codec flag
+// given (--schema: rpc), so the flag needs no --codec beside it.
+std::optional<devices::Codec> given_codec(const DeviceOptions& options) {
+  if (options.codec || !options.config_file.empty() || !options.device.empty()) return options.codec;
+  if (!options.firmware.empty() && codec_row_of_image(firmware_image(options.firmware)) != nullptr) return std::nullopt;
+  for (const auto& [given, value] : options.codec_flags) {
+    std::optional<devices::Codec> only;
+    int takers = 0;
+    for (const devices::CodecRow* row : devices::codec_rows()) {
+      const CodecCommands* commands = codec_commands(row->codec);
+      if (commands == nullptr) continue;
+      const auto& flags = commands->flags;
+      if (std::any_of(flags.begin(), flags.end(), [&given = given](const CodecFlag& f) { return f.name == given; })) {
+        only = row->codec;
+        ++takers;
+      }
+    }
+    if (takers == 1) return only;
+  }
+  return std::nullopt;
+}
+}  // namespace
+
 devices::Codec codec_of_arguments(int argc, char** argv, devices::Codec default_codec) {
   DeviceOptions options;
   for (int index = 1; index < argc; ++index) {
@@ -352,6 +376,7 @@ devices::Codec codec_of_arguments(int argc, char** argv, devices::Codec default_
     std::string error;
     if (parse_device_option(argc, argv, index, options, error) == OptionParse::error) return default_codec;
   }
+  options.codec = given_codec(options);
   options.codec_flags.clear();  // the codec's own subcommand checks them
   std::string error;
   const std::optional<DeviceTarget> target = resolve_device(options, default_codec, error);
@@ -460,7 +485,8 @@ std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices
       return std::nullopt;
     }
   }
-  const devices::Codec codec = options.codec ? *options.codec : (board ? codec_of_image(firmware) : default_codec);
+  const std::optional<devices::Codec> chosen = given_codec(options);
+  const devices::Codec codec = chosen ? *chosen : (board ? codec_of_image(firmware) : default_codec);
   const CodecCommands& commands = *codec_commands(codec);  // parse_codec and codec_of_image name rows it has
   for (const auto& [given, value] : options.codec_flags) {
     const auto takes = [&given = given](const CodecCommands& row) {

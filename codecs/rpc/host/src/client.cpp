@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <future>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -40,6 +41,7 @@
 #include "tether/rpc/json_mapping.hpp"
 #include "tether/client/client_link.hpp"
 #include "tether/client/pending_operations.hpp"
+#include "tether/transports/transport_error.hpp"
 
 namespace tether::rpc {
 
@@ -72,11 +74,17 @@ Duration RpcTiming::attempt_window(std::size_t frame_bytes) const {
   return proxy::ack_timeout(ack_timing(*this), frame_bytes + kAnswerFrameBytes);
 }
 
+std::string_view refusal_hint(std::uint16_t code) {
+  // The device cannot tell a malformed request from one over a bound (nanopb refuses both alike).
+  return code == static_cast<std::uint16_t>(DeviceErrorCode::bad_request) ? " (a field over its .options bound?)" : "";
+}
+
 CallError::CallError(error_code code, const std::string& method, DeviceError device_error)
     : boost::system::system_error(code),
       device_error_(std::move(device_error)),
       what_(method + ": " + (code == RpcError::refused ? "refused " : "device error ") +
-            std::to_string(device_error_.code) + ": " + device_error_.text) {}
+            std::to_string(device_error_.code) + ": " + device_error_.text +
+            std::string(code == RpcError::refused ? refusal_hint(device_error_.code) : "")) {}
 
 namespace detail {
 
@@ -301,9 +309,11 @@ class ClientImpl final : public client::ClientLink {
     CallRequest call = make_call_request(method, request);
     const error_code error = build(call, true, op);
     if (error) throw boost::system::system_error(error, "open_stream " + std::string(method));
-    if (period.count() < 1 || period.count() > 0xFFFF) {
-      throw boost::system::system_error(make_error_code(RpcError::invalid_request),
-                                        "open_stream " + std::string(method) + ": period must be 1..65535 ms");
+    if (period.count() < 1 || period.count() > 0xFFFF) {  // the request is fine: the period has its own words
+      throw boost::system::system_error(
+          boost::system::errc::make_error_code(boost::system::errc::invalid_argument),
+          "open_stream " + std::string(method) + ": the period, " + std::to_string(period.count()) +
+              " ms, is outside 1..65535 ms");
     }
     const std::uint64_t key = ++stream_keys_;
     {
@@ -348,33 +358,62 @@ class ClientImpl final : public client::ClientLink {
     return key;
   }
 
-  void close_stream(std::uint64_t key) {
+  // Any thread. `done` (may be empty) completes once the device no longer runs the stream as far as the
+  // client can tell: its close acked, or nothing to tell it (never opened there, its session gone); with the
+  // close's error otherwise (timed_out, queue_timeout, the link's).
+  void close_stream(std::uint64_t key, CallHandler done = CallHandler()) {
     {
       const std::lock_guard<std::mutex> lock(stream_mutex_);
       const auto pending = pending_keys_.find(key);
       if (pending != pending_keys_.end()) {  // the strand has not taken it: it never starts
         pending->second = true;
+        if (done) post_completion(std::move(done), error_code(), CallResult());
         return;
       }
       open_keys_.erase(key);
       closing_keys_.insert(key);  // no delivery from now on, until the strand has removed it
     }
-    post_to_strand([this, key] {
+    post_to_strand([this, key, done = std::move(done)]() mutable {
       {
         const std::lock_guard<std::mutex> lock(stream_mutex_);
         closing_keys_.erase(key);
       }
       const auto found = streams_.find(key);
-      if (found == streams_.end()) return;
+      if (found == streams_.end()) {  // ended already (a device error, the link): nothing runs on the device
+        if (done) post_completion(std::move(done), error_code(), CallResult());
+        return;
+      }
       const std::uint32_t wire_id = found->second.wire_id;
+      const bool opening = found->second.opening;
       streams_.erase(found);
-      if (wire_id != 0 && is_open() && !link_error()) {
+      if (!is_open() || link_error()) {
+        if (done) post_completion(std::move(done), closed_error(), CallResult());
+        return;
+      }
+      const Millis now = this->now();
+      if (wire_id != 0) {
         Op close;
         close.kind = Op::Kind::close;
         close.close_target = wire_id;
-        ops_.add(0, CallHandler(), std::move(close));
-        pump(now());
+        // A waiter's close does not wait for a session for ever (the device may be gone).
+        ops_.add(0, std::move(done), std::move(close), done ? deadline_after(now, options_.timing.call_budget) : Deadline());
+        pump(now);
+        return;
       }
+      if (opening && done) {
+        // Its open is on its way: finish_open sends the close once it is acked, and completes `done` then.
+        for (auto it = ops_.begin(); it != ops_.end(); ++it) {
+          if (it->state.kind != Op::Kind::open || it->state.stream != key) continue;
+          if (it->state.stage == Op::Stage::queued) {  // never sent: the device never ran it
+            ops_.complete(it, error_code(), CallResult());
+          } else {
+            it->handler = std::move(done);
+          }
+          pump(now);
+          return;
+        }
+      }
+      if (done) post_completion(std::move(done), error_code(), CallResult());
     });
   }
 
@@ -514,7 +553,7 @@ class ClientImpl final : public client::ClientLink {
       finish_dropped(op, RpcError::device_reset, cancelled.ok() ? cancelled.value().attempts : 0);
     }
     for (auto it = ops_.begin(); it != ops_.end();) {
-      it = it->state.kind != Op::Kind::call ? ops_.erase(it) : std::next(it);
+      it = it->state.kind != Op::Kind::call ? ops_.complete(it, error_code(), CallResult()) : std::next(it);
     }
     for (auto& [key, entry] : streams_) {
       entry.wire_id = 0;
@@ -531,7 +570,7 @@ class ClientImpl final : public client::ClientLink {
       if (found != streams_.end()) found->second.opening = false;
     }
     if (op->state.kind != Op::Kind::call) {
-      ops_.erase(op);
+      ops_.complete(op, error_code(), CallResult());  // the device's session ended: its streams with it
       return;
     }
     CallResult result;
@@ -665,7 +704,8 @@ class ClientImpl final : public client::ClientLink {
       return;
     }
     if (op->state.kind == Op::Kind::close) {
-      ops_.erase(op);
+      // Refused: the device runs no such stream (it ended there already), which is what closing wants.
+      ops_.complete(op, error == RpcError::refused ? error_code() : error, CallResult());
       return;
     }
     CallResult result;
@@ -697,6 +737,7 @@ class ClientImpl final : public client::ClientLink {
     const std::uint64_t key = op->state.stream;
     const std::uint32_t id = op->state.id;
     const DeviceError device_error = op->state.error;
+    CallHandler closing = std::move(op->handler);  // a close_stream waiter, when it was closed meanwhile
     ops_.erase(op);
     const auto found = streams_.find(key);
     if (found == streams_.end()) {  // closed meanwhile: stop it on the device too
@@ -704,7 +745,9 @@ class ClientImpl final : public client::ClientLink {
         Op close;
         close.kind = Op::Kind::close;
         close.close_target = id;
-        ops_.add(0, CallHandler(), std::move(close));
+        ops_.add(0, std::move(closing), std::move(close));
+      } else if (closing) {  // refused: the device never ran it; else whether it did is unknown
+        post_completion(std::move(closing), error == RpcError::refused ? error_code() : error, CallResult());
       }
       return;
     }
@@ -1073,6 +1116,37 @@ void Stream::close() {
   if (key_ == 0) return;
   if (const auto client = client_.lock()) client->close_stream(key_);
   key_ = 0;
+}
+
+void Stream::close_and_wait(error_code& error) {
+  error = error_code();
+  const std::uint64_t key = std::exchange(key_, 0);
+  if (key == 0) return;
+  const auto impl = client_.lock();
+  if (!impl) return;  // the client is gone, and its streams with it
+  (void)client::wait_for_operation<CallResult>(
+      *impl, [&](client::ClientLink::OperationId, detail::CallHandler handler) {
+        impl->close_stream(key, std::move(handler));
+      },
+      error);
+}
+
+void Stream::close_and_wait(error_code& error, std::chrono::milliseconds limit) {
+  error = error_code();
+  const std::uint64_t key = std::exchange(key_, 0);
+  if (key == 0) return;
+  const auto impl = client_.lock();
+  if (!impl) return;
+  if (impl->on_strand()) {
+    impl->close_stream(key);
+    error = transports::TransportError::would_deadlock;
+    return;
+  }
+  // Shared with the completion, which may come after the wait gave up.
+  auto done = std::make_shared<std::promise<error_code>>();
+  std::future<error_code> acked = done->get_future();
+  impl->close_stream(key, detail::CallHandler([done](error_code e, CallResult) { done->set_value(e); }));
+  error = acked.wait_for(limit) == std::future_status::ready ? acked.get() : make_error_code(RpcError::timed_out);
 }
 
 bool Stream::is_open() const {

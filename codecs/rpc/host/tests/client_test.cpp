@@ -14,6 +14,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "arm_device.hpp"
@@ -185,7 +186,28 @@ TEST(RpcClient, WhatTheSchemaRefusesFailsBeforeAnythingIsWritten) {
     EXPECT_NE(std::string(e.what()).find("MoveJoint: "), std::string::npos) << e.what();
   }
   EXPECT_THROW(link.client->new_request("Fly"), std::invalid_argument);
+  for (const auto period : {0ms, 65536ms}) {
+    try {
+      (void)link.client->open_stream("Watch", *link.client->new_request("Watch"), period,
+                                     [](const tether::rpc::error_code&, const tether::rpc::StreamMessage&) {});
+      ADD_FAILURE() << "no exception";
+    } catch (const boost::system::system_error& e) {  // the request is fine: only the period is named
+      EXPECT_EQ(e.code(), boost::system::errc::invalid_argument);
+      EXPECT_NE(std::string(e.what()).find("open_stream Watch: the period, " + std::to_string(period.count()) +
+                                           " ms, is outside 1..65535 ms"),
+                std::string::npos)
+          << e.what();
+      EXPECT_EQ(std::string(e.what()).find("request"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_EQ(link.client->counters().messages_sent, 0u);
+}
+
+TEST(RpcClient, ARefusalOfARequestThatDoesNotDecodeHintsAtTheBounds) {
+  const tether::rpc::CallError refused(RpcError::refused, "Configure", {0xFF02, "request does not decode"});
+  EXPECT_STREQ(refused.what(), "Configure: refused 65282: request does not decode (a field over its .options bound?)");
+  const tether::rpc::CallError other(RpcError::refused, "Configure", {0xFF01, "unknown method"});
+  EXPECT_STREQ(other.what(), "Configure: refused 65281: unknown method");
 }
 
 TEST(RpcClient, ALostAnswerIsFetchedAgainFromTheDevicesCacheWithoutASecondRun) {
@@ -259,6 +281,92 @@ TEST(RpcClient, AStreamDeliversEveryPeriodUntilClosed) {
   const auto sent = link.peer->read([](const ArmDevice& d) { return d.stream_messages(); });
   link.run_for(500);
   EXPECT_EQ(link.peer->read([](const ArmDevice& d) { return d.stream_messages(); }), sent);
+}
+
+// close_and_wait returns once the device acked the close: the device runs no stream from then on, which
+// a program that closes its client right after (`tether call --count N`) relies on.
+TEST(RpcClient, CloseAndWaitReturnsOnceTheDeviceStoppedTheStream) {
+  Link link;
+  ASSERT_TRUE(link.ready());
+  std::atomic<int> messages{0};
+  tether::rpc::Stream watch = link.client->open_stream(
+      "Watch", *link.client->new_request("Watch"), 50ms,
+      [&](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
+        if (!error) ++messages;
+      });
+  ASSERT_TRUE(link.run_until([&] { return messages.load() >= 2; }));
+  std::promise<tether::rpc::error_code> closed;
+  std::thread closer([&] {
+    tether::rpc::error_code error;
+    watch.close_and_wait(error);
+    closed.set_value(error);
+  });
+  auto done = closed.get_future();
+  ASSERT_TRUE(link.run_until([&] { return done.wait_for(0s) == std::future_status::ready; }));
+  closer.join();
+  EXPECT_FALSE(done.get());
+  EXPECT_FALSE(watch.is_open());
+  EXPECT_EQ(link.peer->read([](const ArmDevice& d) { return d.open_streams(); }), 0);
+
+  // Closed while its open is on its way (its first frame lost): the wait covers the open's ack, then the
+  // close's.
+  link.peer->drop_requests(1);
+  tether::rpc::Stream early = link.client->open_stream(
+      "Watch", *link.client->new_request("Watch"), 50ms, [](const tether::rpc::error_code&, const tether::rpc::StreamMessage&) {});
+  ASSERT_TRUE(link.run_until([&] { return link.client->counters().messages_sent >= 3; }));  // open, close, open
+  std::promise<tether::rpc::error_code> early_closed;
+  std::thread early_closer([&] {
+    tether::rpc::error_code error;
+    early.close_and_wait(error);
+    early_closed.set_value(error);
+  });
+  auto early_done = early_closed.get_future();
+  ASSERT_TRUE(link.run_until([&] { return early_done.wait_for(0s) == std::future_status::ready; }));
+  early_closer.join();
+  EXPECT_FALSE(early_done.get());
+  EXPECT_EQ(link.peer->read([](const ArmDevice& d) { return d.open_streams(); }), 0);
+
+  tether::rpc::error_code again;
+  early.close_and_wait(again);  // closed already: nothing to wait for
+  EXPECT_FALSE(again);
+}
+
+// A device that no longer answers: the wait ends with the close's budget, or the caller's limit.
+TEST(RpcClient, CloseAndWaitOnASilentDeviceTimesOut) {
+  Link link;
+  ASSERT_TRUE(link.ready());
+  std::atomic<int> messages{0};
+  const auto open = [&] {
+    return link.client->open_stream("Watch", *link.client->new_request("Watch"), 50ms,
+                                    [&](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
+                                      if (!error) ++messages;
+                                    });
+  };
+  tether::rpc::Stream watch = open();
+  ASSERT_TRUE(link.run_until([&] { return messages.load() >= 1; }));
+  link.peer->deaf(true);
+  std::promise<tether::rpc::error_code> closed;
+  std::thread closer([&] {
+    tether::rpc::error_code error;
+    watch.close_and_wait(error);
+    closed.set_value(error);
+  });
+  auto done = closed.get_future();
+  const Millis start = link.clock->now();
+  ASSERT_TRUE(link.run_until([&] { return done.wait_for(0s) == std::future_status::ready; }));
+  closer.join();
+  EXPECT_EQ(done.get(), RpcError::timed_out);
+  EXPECT_GE(tether::tick_difference(link.clock->now(), start), 2000);  // the call budget
+
+  link.peer->deaf(false);
+  messages = 0;
+  tether::rpc::Stream second = open();
+  ASSERT_TRUE(link.run_until([&] { return messages.load() >= 1; }));
+  link.peer->deaf(true);
+  tether::rpc::error_code error;
+  second.close_and_wait(error, 20ms);  // no simulated time passes: only the limit ends the wait
+  EXPECT_EQ(error, RpcError::timed_out);
+  EXPECT_FALSE(second.is_open());
 }
 
 TEST(RpcClient, AfterADeviceResetTheSessionAndItsStreamsComeBack) {

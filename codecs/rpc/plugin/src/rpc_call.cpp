@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -24,6 +25,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "cli_support.hpp"
@@ -49,8 +51,9 @@ const CommandText& rpc_call_text() {
           "\n"
           "Calls one method of an rpc device's schema and prints the reply as one JSON object (protobuf's JSON\n"
           "names, every field). The request is FIELD=VALUE words (the field's name as declared or its JSON\n"
-          "name; integers, numbers, true/false, strings, enum values by name or number), or a single argument\n"
-          "starting with `{`: the whole request as JSON, for repeated and nested fields:\n"
+          "name; integers, numbers, true/false, strings, bytes in base64 as the JSON form and the output show\n"
+          "them (blob=AQID is 01 02 03), enum values by name or number), or a single argument starting with\n"
+          "`{`: the whole request as JSON, for repeated and nested fields:\n"
           "  tether call --port /dev/ttyACM0 --codec rpc --schema arm.proto MoveJoint joint=2 angle_cdeg=-4500\n"
           "  tether call --config rover.json --device arm MoveJoint '{\"joint\": 2, \"angleCdeg\": -4500}'\n"
           "A stream method prints one JSON object per message: `Watch --period 100 --count 5`.\n"
@@ -60,17 +63,22 @@ const CommandText& rpc_call_text() {
           "  --timeout MS     a call: its whole budget, re-sends included (default 2000, or the configuration's\n"
           "                   call_budget_ms); a stream: the longest wait for its next message (default 2000 +\n"
           "                   3 periods). A serial port that is missing or vanishes before the call is sent is\n"
-          "                   waited for within the budget (not with --no-reconnect); one that vanishes with\n"
-          "                   the call on its way ends it (disconnected: the device may have run it)\n"
+          "                   waited for within the budget (not with --no-reconnect), and so is the device's\n"
+          "                   session (its hello; on a virtual board, on the board's clock); a port that\n"
+          "                   vanishes with the call on its way ends it (disconnected: the device may have run it)\n"
           "  --period MS      a stream method's period, 1..65535 (required for one)\n"
           "  --count N        a stream: stop after N messages (default: until Ctrl-C); while its serial port\n"
-          "                   is gone the stream waits for it and goes on with the board behind it\n"
+          "                   is gone the stream waits for it and goes on with the board behind it. The stream\n"
+          "                   is closed on the device, its close acknowledged, before the command exits (after\n"
+          "                   Ctrl-C for at most 500 ms; unacknowledged: a warning on stderr)\n"
           "  --json           one JSON object per outcome: {\"method\":\"MoveJoint\",\"reply\":{...},\"message_id\":N,\n"
           "                   \"attempts\":N}; a stream's {\"method\":\"Watch\",\"seq\":N,\"message\":{...}}; the\n"
           "                   device's error {\"method\":...,\"error\":\"device_error\",\"code\":42,\"text\":\"...\"}\n"
           "\n"
-          "The method and request are checked against the schema before the device is opened. Opening waits for\n"
-          "the device's hello: a device built from another schema is refused, both hashes named.\n"
+          "The method and request are checked against the schema before the device is opened, and against the\n"
+          "nanopb bounds of the .options file beside it (max_size, max_length, max_count: the field over its bound\n"
+          "named). Opening waits for the device's hello: a device built from another schema is refused, both\n"
+          "hashes named. --schema without --codec means rpc (a sketch's image: --virtual Sketch.ino.elf --schema F).\n"
           "\n"
           "Exit status: 0 answered; 1 the device answered an error (code and text on stderr and in --json);\n"
           "2 an unknown method or field, a bad value, a schema that does not read or that the device refuses, a\n"
@@ -128,6 +136,25 @@ void print_device_error(bool json, const std::string& method, const rpc::error_c
   std::fprintf(stderr, "tether call: %s\n", line.text.c_str());
 }
 
+// Stops the stream on the device and waits for its ack: a command that exits with the close unsent leaves
+// the device streaming until its failsafe (10 s without a ping). After Ctrl-C the wait is short (the
+// command ends within a second).
+void close_on_device(rpc::Stream& stream, const std::string& name, bool stopping) {
+  rpc::error_code error;
+  if (stopping) {
+    stream.close_and_wait(error, std::chrono::milliseconds(500));
+  } else {
+    stream.close_and_wait(error);
+  }
+  if (error) {
+    cli::out().flush();
+    std::fprintf(stderr,
+                 "tether call: %s: warning: the device did not acknowledge the stream's close (%s); it may stream "
+                 "until its failsafe (10 s without a ping)\n",
+                 name.c_str(), error.message().c_str());
+  }
+}
+
 // A stream's messages until `count`, its end or a stop signal. While the device's serial port is gone the
 // wait for the next message is suspended: the command waits for the port (the client re-opens the stream
 // in the board's new session once it is back), and the wait starts again when it is.
@@ -178,7 +205,7 @@ int run_rpc_stream(rpc::Client& client, const OpenDevice& device, const rpc::Met
       if (port->link_counters().gave_up) {
         lock.unlock();
         progress.clear();
-        stream.close();
+        stream.close();  // the link failed for good: nothing to tell the device
         return rpc_call_text().fail(name + ": " + port->path() + " vanished and did not come back");
       }
       if (!waiting_for_port) progress.show("waiting for " + port->path() + " to come back...");
@@ -190,14 +217,14 @@ int run_rpc_stream(rpc::Client& client, const OpenDevice& device, const rpc::Met
     waiting_for_port = false;
     if (std::chrono::steady_clock::now() - state->last > gap && !state->ended) {
       lock.unlock();
-      stream.close();
+      close_on_device(stream, name, stop);
       return rpc_call_text().fail(name + ": no stream message within " + std::to_string(gap.count()) + " ms");
     }
   }
   const std::optional<rpc::error_code> ended = state->ended;
   const rpc::DeviceError answer = state->answer;
   lock.unlock();
-  stream.close();
+  close_on_device(stream, name, stop);
   if (!ended) return 0;
   if (*ended == rpc::RpcError::device_error || *ended == rpc::RpcError::refused) {
     print_device_error(json, name, *ended, answer);
@@ -225,6 +252,15 @@ static int run_rpc_call(int argc, char** argv) {
                             std::string(arguments.device.firmware.empty() ? ")" : "; none beside the image)"));
   }
   if (arguments.timeout_ms) options.client.timing.call_budget = *arguments.timeout_ms;
+  // Opening waits for the device's session within the call's budget, as it waits for a missing port: a
+  // device that never answers fails the command in --timeout, not in the session's own 10 s. A virtual
+  // board's client counts on the board's clock, so a loaded machine does not fail its open: its wall-time
+  // limit stays the configuration's.
+  const std::uint32_t budget_ms = options.client.timing.call_budget;
+  options.client.timing.queue_timeout = std::min(options.client.timing.queue_timeout, budget_ms);
+  const bool virtual_board = std::holds_alternative<devices::VirtualTransport>(target->config.transport) ||
+                             std::holds_alternative<devices::VirtualRingTransport>(target->config.transport);
+  if (!virtual_board) options.open_timeout = std::min(options.open_timeout, std::chrono::milliseconds(budget_ms));
 
   // The method and request, checked against the schema before anything opens.
   std::optional<rpc::Schema> schema;
@@ -246,16 +282,24 @@ static int run_rpc_call(int argc, char** argv) {
   std::unique_ptr<google::protobuf::Message> request(factory.GetPrototype(method->input)->New());
   const std::vector<std::string> request_words(arguments.words.begin() + 1, arguments.words.end());
   if (const auto error = fill_rpc_request(*request, request_words)) return text.fail(name + ": " + *error);
+  // The device would refuse it as a request that does not decode, without naming the field.
+  if (const auto error = RpcBounds(*schema).check(*request)) return text.fail(name + ": " + *error);
 
   transports::IoThread io;
   Progress progress("call");
   // A serial port that is missing, or vanishes before the call is sent, is waited for within the call's
   // budget (not with --no-reconnect). A call the device may have received when its port vanished is not
   // sent again: it may have run.
-  const std::uint32_t budget_ms = options.client.timing.call_budget;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(budget_ms);
   auto device = open_device_within(*target, io.executor(), ClientHooks(), progress, deadline, error_text);
-  if (!device) return text.fail("cannot open " + error_text + " (" + target->label + ")");
+  if (!device) {
+    // The session's wait was the call's budget: say so, as the wait for a port does.
+    const std::string within = "no rpc session within " + std::to_string(budget_ms) + " ms";
+    if (const std::size_t at = error_text.find(within); at != std::string::npos) {
+      error_text.insert(at + within.size(), " (the call's budget)");
+    }
+    return text.fail("cannot open " + target->label + ": " + error_text);
+  }
   const auto client = device->client_as<rpc::Client>();
   // The client's own request type (its pool): the same fields, so the bytes carry over.
   const auto typed = client->new_request(method->name);

@@ -3,6 +3,7 @@
 // command-line defaults.
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -40,7 +41,7 @@ std::vector<std::string> rpc_words(const std::string& line) {
 class RpcShell final : public ShellSession {
  public:
   RpcShell(std::shared_ptr<rpc::Client> client, const ShellContext& context)
-      : client_(std::move(client)), printer_(context.printer) {
+      : client_(std::move(client)), bounds_(client_->schema()), printer_(context.printer) {
     const ShellPrinter printer = context.printer;
     const std::function<void()> link_failed = context.link_failed;
     client_->on_event([printer, link_failed](const rpc::Event& event) {
@@ -69,8 +70,17 @@ class RpcShell final : public ShellSession {
   }
 
   void finish(const std::atomic<bool>&) override {
-    std::lock_guard lock(mutex_);
-    streams_.clear();  // closes them
+    std::map<std::string, rpc::Stream> streams;
+    {
+      std::lock_guard lock(mutex_);
+      streams.swap(streams_);
+    }
+    // Acked before the client closes, or the device streams on until its failsafe; briefly: the shell
+    // ends within a second.
+    for (auto& [name, stream] : streams) {
+      rpc::error_code error;
+      stream.close_and_wait(error, std::chrono::milliseconds(300));
+    }
   }
 
  private:
@@ -78,6 +88,10 @@ class RpcShell final : public ShellSession {
     const auto request = client_->new_request(method.name);
     if (const auto error = fill_rpc_request(*request, arguments)) {
       printer_.error(*error);
+      return;
+    }
+    if (const auto error = bounds_.check(*request)) {
+      printer_.error(method.name + ": " + *error);
       return;
     }
     rpc::error_code error;
@@ -119,6 +133,10 @@ class RpcShell final : public ShellSession {
       printer_.error(*error);
       return;
     }
+    if (const auto error = bounds_.check(*request)) {
+      printer_.error(method.name + ": " + *error);
+      return;
+    }
     const ShellPrinter printer = printer_;
     const std::string name = method.name;
     try {
@@ -146,6 +164,7 @@ class RpcShell final : public ShellSession {
   }
 
   std::shared_ptr<rpc::Client> client_;
+  const RpcBounds bounds_;  // the schema's .options, read once
   ShellPrinter printer_;
   std::mutex mutex_;
   std::map<std::string, rpc::Stream> streams_;
@@ -174,7 +193,8 @@ CodecCommands rpc_commands() {
       "                'METHOD FIELD=VALUE ...' that call every --interval ms (default: no call)\n";
   row.flags = {{"--schema",
                 "    --schema FILE    the device's .proto (its service; the device's Hello must carry its hash);\n"
-                "                     with --virtual IMAGE, IMAGE.proto beside the image when not given\n",
+                "                     with --virtual IMAGE, IMAGE.proto beside the image when not given;\n"
+                "                     without --codec it makes the codec rpc (unless the image's name says one)\n",
                 [](std::string_view value) -> std::optional<std::string> {
                   if (value.empty()) return std::string("a .proto file");
                   return std::nullopt;
@@ -224,7 +244,8 @@ CodecCommands rpc_commands() {
   row.shell_help = [](const devices::DeviceConfig& config) {
     std::string methods;
     if (const auto schema = rpc_config_schema(config)) methods = rpc_method_list(*schema, "  ");
-    return "Type a method and its request's fields (FIELD=VALUE; or the request as one JSON object):\n" + methods +
+    return "Type a method and its request's fields (FIELD=VALUE, bytes in base64; or the request as one JSON\n"
+           "object):\n" + methods +
            "A call prints its reply as JSON (or the device's error code and text). A stream method starts with\n"
            "period=MS among its fields (`Watch period=100`), prints each message as it arrives, and stops with\n"
            "`Watch stop` (and at the end of input). Session changes and resets appear as they happen.\n" +

@@ -119,6 +119,11 @@ struct RpcReadiness {
   std::string mismatch;
 };
 
+std::string no_session_text(Duration waited_ms) {
+  return "no rpc session within " + std::to_string(waited_ms) +
+         " ms: no DeviceHello answered our Hello (is the device running an rpc image, at the right baud rate?)";
+}
+
 void await_rpc(const devices::DeviceClient& device_client, const devices::DeviceConfig& device,
                const std::string& path) {
   Client& client = *device_client.get<Client>();
@@ -154,18 +159,15 @@ void await_rpc(const devices::DeviceClient& device_client, const devices::Device
     throw devices::ConfigError(path + ".options.schema", text, make_error_code(RpcError::schema_mismatch));
   }
   if (done && error) {
-    if (error == RpcError::queue_timeout) {
-      throw devices::ConfigError(path, "no rpc session: " + error.message(),
+    if (error == RpcError::queue_timeout) {  // the client's wait for a session ended first
+      throw devices::ConfigError(path, no_session_text(options.client.timing.queue_timeout),
                                  devices::make_error_code(devices::DevicesError::device_not_ready));
     }
     throw devices::ConfigError(path + ".transport", "the link failed: " + error.message(), error);
   }
   if (!finished) {
-    throw devices::ConfigError(
-        path,
-        "no rpc session within " + std::to_string(options.open_timeout.count()) +
-            " ms (no DeviceHello answered our Hello: is the device running an rpc image, at the right baud rate?)",
-        devices::make_error_code(devices::DevicesError::device_not_ready));
+    throw devices::ConfigError(path, no_session_text(static_cast<Duration>(options.open_timeout.count())),
+                               devices::make_error_code(devices::DevicesError::device_not_ready));
   }
 }
 

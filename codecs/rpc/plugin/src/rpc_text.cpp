@@ -5,11 +5,15 @@
 #include <google/protobuf/dynamic_message.h>
 #include <google/protobuf/util/json_util.h>
 
+#include <fnmatch.h>
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -60,6 +64,39 @@ std::optional<double> rpc_parse_number(const std::string& text) {
   const double value = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size()) return std::nullopt;
   return value;
+}
+
+// `text` as base64, protobuf's JSON form of bytes (what the replies print): the standard or the URL-safe
+// alphabet, padding optional. Nothing when it is not base64.
+std::optional<std::string> rpc_base64_decode(std::string_view text) {
+  while (!text.empty() && text.back() == '=') text.remove_suffix(1);
+  if (text.size() % 4 == 1) return std::nullopt;
+  std::string bytes;
+  std::uint32_t bits = 0;
+  int count = 0;
+  for (const char c : text) {
+    std::uint32_t value = 0;
+    if (c >= 'A' && c <= 'Z') {
+      value = static_cast<std::uint32_t>(c - 'A');
+    } else if (c >= 'a' && c <= 'z') {
+      value = static_cast<std::uint32_t>(c - 'a') + 26;
+    } else if (c >= '0' && c <= '9') {
+      value = static_cast<std::uint32_t>(c - '0') + 52;
+    } else if (c == '+' || c == '-') {
+      value = 62;
+    } else if (c == '/' || c == '_') {
+      value = 63;
+    } else {
+      return std::nullopt;
+    }
+    bits = (bits << 6) | value;
+    count += 6;
+    if (count >= 8) {
+      count -= 8;
+      bytes += static_cast<char>((bits >> count) & 0xFF);
+    }
+  }
+  return bytes;
 }
 
 // Sets one scalar field from its typed text; what is wrong otherwise.
@@ -117,6 +154,13 @@ std::optional<std::string> rpc_set_field(pb::Message& message, const pb::FieldDe
       }
       return std::nullopt;
     case pb::FieldDescriptor::CPPTYPE_STRING:
+      if (field.type() == pb::FieldDescriptor::TYPE_BYTES) {
+        // As the JSON form takes them and the reply prints them, so printed bytes can be given back.
+        const auto bytes = rpc_base64_decode(value);
+        if (!bytes) return bad("base64 (protobuf's JSON form of bytes: AQID is 01 02 03)");
+        reflection.SetString(&message, &field, *bytes);
+        return std::nullopt;
+      }
       reflection.SetString(&message, &field, value);
       return std::nullopt;
     case pb::FieldDescriptor::CPPTYPE_ENUM: {
@@ -388,6 +432,101 @@ std::optional<std::string> fill_rpc_request(pb::Message& request, std::span<cons
   return std::nullopt;
 }
 
+RpcBounds::RpcBounds(const rpc::Schema& schema) {
+  const std::filesystem::path folder = schema.file().parent_path();
+  std::vector<const pb::FileDescriptor*> pending;
+  for (const rpc::Method& m : schema.methods()) pending.push_back(m.input->file());
+  while (!pending.empty()) {
+    const pb::FileDescriptor* file = pending.back();
+    pending.pop_back();
+    if (files_.count(file->name()) != 0) continue;
+    for (int i = 0; i < file->dependency_count(); ++i) pending.push_back(file->dependency(i));
+    File& bounds = files_[file->name()];
+    const std::filesystem::path options = (folder / file->name()).replace_extension(".options");
+    bounds.name = std::filesystem::path(file->name()).replace_extension(".options").string();
+    std::ifstream in(options);
+    for (std::string text; std::getline(in, text);) {
+      text = text.substr(0, text.find('#'));
+      std::istringstream words(text);
+      Line line;
+      if (!(words >> line.pattern)) continue;
+      for (std::string option; words >> option;) {
+        const std::size_t colon = option.find(':');
+        if (colon == std::string::npos) continue;
+        const std::string key = option.substr(0, colon);
+        if (key != "max_size" && key != "max_length" && key != "max_count") continue;  // only these bound sizes
+        if (const auto value = rpc_parse_integer<std::uint64_t>(std::string_view(option).substr(colon + 1))) {
+          line.values[key] = *value;
+        }
+      }
+      if (!line.values.empty()) bounds.lines.push_back(std::move(line));
+    }
+  }
+}
+
+std::optional<std::string> RpcBounds::check(const pb::Message& message) const { return check(message, ""); }
+
+std::optional<std::string> RpcBounds::check(const pb::Message& message, const std::string& path) const {
+  const pb::Descriptor& type = *message.GetDescriptor();
+  const pb::Reflection& reflection = *message.GetReflection();
+  const auto found = files_.find(type.file()->name());
+  for (int i = 0; i < type.field_count(); ++i) {
+    const pb::FieldDescriptor& field = *type.field(i);
+    const std::string name = path + field.name();
+    // As nanopb's generator: every line whose pattern matches the message or the field, in order.
+    std::map<std::string, std::uint64_t> bound;
+    if (found != files_.end()) {
+      const std::string message_name = type.full_name();
+      const std::string field_name = message_name + "." + field.name();
+      for (const Line& line : found->second.lines) {
+        if (::fnmatch(line.pattern.c_str(), message_name.c_str(), 0) != 0 &&
+            ::fnmatch(line.pattern.c_str(), field_name.c_str(), 0) != 0) {
+          continue;
+        }
+        for (const auto& [key, value] : line.values) bound[key] = value;
+      }
+    }
+    const auto over = [&](const std::string& what, const std::string& key, const std::string& rule) {
+      return name + ": " + what + ", over its .options bound (" + found->second.name + ": " + key + ":" +
+             std::to_string(bound.at(key)) + rule + ")";
+    };
+    // A string or bytes value against max_length / max_size; what is wrong, else nothing.
+    const auto check_value = [&](const std::string& value) -> std::optional<std::string> {
+      const bool string = field.type() == pb::FieldDescriptor::TYPE_STRING;
+      if (string && bound.count("max_length") != 0) {
+        if (value.size() > bound.at("max_length")) return over(std::to_string(value.size()) + " bytes", "max_length", "");
+      } else if (bound.count("max_size") != 0) {
+        // A string's max_size counts its terminator.
+        const std::uint64_t most = string ? (bound.at("max_size") > 0 ? bound.at("max_size") - 1 : 0) : bound.at("max_size");
+        if (value.size() > most) {
+          return over(std::to_string(value.size()) + " bytes", "max_size",
+                      string ? ", a string of at most " + std::to_string(most) + " bytes" : "");
+        }
+      }
+      return std::nullopt;
+    };
+    const bool text = field.cpp_type() == pb::FieldDescriptor::CPPTYPE_STRING;
+    const bool nested = field.cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE;
+    if (field.is_repeated()) {
+      const int count = reflection.FieldSize(message, &field);
+      if (bound.count("max_count") != 0 && static_cast<std::uint64_t>(count) > bound.at("max_count")) {
+        return over(std::to_string(count) + " values", "max_count", "");
+      }
+      for (int j = 0; j < count; ++j) {
+        std::optional<std::string> error;
+        if (text) error = check_value(reflection.GetRepeatedString(message, &field, j));
+        if (nested) error = check(reflection.GetRepeatedMessage(message, &field, j), name + "[" + std::to_string(j) + "].");
+        if (error) return error;
+      }
+    } else if (text) {
+      if (auto error = check_value(reflection.GetString(message, &field))) return error;
+    } else if (nested && reflection.HasField(message, &field)) {
+      if (auto error = check(reflection.GetMessage(message, &field), name + ".")) return error;
+    }
+  }
+  return std::nullopt;
+}
+
 std::string rpc_message_json(const pb::Message& message) {
   std::string json;
   pb::util::JsonPrintOptions options;
@@ -454,7 +593,7 @@ ShellLine rpc_event_line(const rpc::Event& event) {
 ShellLine rpc_device_error_line(std::string_view method, const rpc::error_code& error, const rpc::DeviceError& answer) {
   const bool refused = error == rpc::RpcError::refused;
   return {std::string(method) + ": " + (refused ? "refused " : "device error ") + std::to_string(answer.code) + ": " +
-              printable(answer.text),
+              printable(answer.text) + std::string(refused ? rpc::refusal_hint(answer.code) : ""),
           {{"method", method}, {"error", refused ? "refused" : "device_error"}, {"code", answer.code}, {"text", answer.text}}};
 }
 

@@ -9,11 +9,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "monitor_decoding.hpp"
 #include "shell_text.hpp"
@@ -26,9 +29,38 @@ namespace tether::cli {
 /// Fills `request` from `words`: one word starting with `{` is the whole request as JSON (protobuf's
 /// mapping: repeated and nested fields); else each word is `FIELD=VALUE` (the field's name as declared or
 /// its JSON name), a scalar field at most once. Values: integers in the field's range, numbers,
-/// true/false (1/0), strings and bytes as typed, enums by name or number. Nothing on success, else what is
+/// true/false (1/0), strings as typed, bytes in base64 (as the JSON form and the replies: `AQID` is
+/// 01 02 03), enums by name or number. Nothing on success, else what is
 /// wrong, naming the field or value (`MoveJoint has no field "jiont" (fields: joint, angle_cdeg)`).
 std::optional<std::string> fill_rpc_request(google::protobuf::Message& request, std::span<const std::string> words);
+
+/// nanopb's bounds of a schema's string, bytes and repeated fields as its `.options` files say them: the
+/// file beside each .proto of the schema (`sensor.options` beside `sensor.proto`; an import's beside it,
+/// by the import's name), read as nanopb's generator reads it (`max_size`, `max_length`, `max_count` on a
+/// field, on its message or on a wildcard pattern; later lines win). The device refuses a request over a
+/// bound as one that does not decode, without naming the field; the host names it before sending. A
+/// field no file bounds is not checked (bounds written in the .proto as `(nanopb)` options are not read).
+class RpcBounds {
+ public:
+  /// The bounds of `schema`'s files; none when they have no .options file beside them.
+  explicit RpcBounds(const rpc::Schema& schema);
+  /// Nothing when every field of `message` (nested ones included) is within its bound; else the first
+  /// field over one, e.g. `label: 7 bytes, over its .options bound (sensor.options: max_size:6, a string
+  /// of at most 5 bytes)`.
+  std::optional<std::string> check(const google::protobuf::Message& message) const;
+
+ private:
+  struct Line {
+    std::string pattern;                         // nanopb's name pattern: `pkg.Message.field`, `*.label`
+    std::map<std::string, std::uint64_t> values;  // max_size, max_length, max_count
+  };
+  struct File {
+    std::string name;  // the .options file's name, for the messages
+    std::vector<Line> lines;
+  };
+  std::optional<std::string> check(const google::protobuf::Message& message, const std::string& path) const;
+  std::map<std::string, File> files_;  // by the .proto's name in the schema's pool
+};
 
 /// `message` as one JSON object on one line: protobuf's JSON names, every field (defaults included).
 std::string rpc_message_json(const google::protobuf::Message& message);

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -13,6 +14,8 @@
 
 #include "arm_on_pty.hpp"
 #include "tether/rpc/schema.hpp"
+#include "tether/transports/io_thread.hpp"
+#include "tether/transports/pty_stream.hpp"
 #include "tether_process.hpp"
 
 namespace tether::rpc {
@@ -98,6 +101,39 @@ TEST(TetherRpcCall, UnknownMethodFieldOrBadValueExitTwoNamingIt) {
   EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.moves(); }), 0);
 }
 
+// A field over its bound in the .options file beside the schema is named before anything opens (the device
+// would refuse the request without naming it).
+TEST(TetherRpcCall, AFieldOverItsOptionsBoundIsNamedBeforeSending) {
+  const fs::path bounds = fs::path(TETHER_RPC_TEST_SCHEMAS) / "../../../plugin/tests/schemas/bounds.proto";
+  const Outcome run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "--schema",
+                                  bounds.lexically_normal().string(), "Configure", "label=abcdef"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find("tether call: Configure: label: 6 bytes, over its .options bound (bounds.options: "
+                         "max_size:6, a string of at most 5 bytes)"),
+            std::string::npos)
+      << run.err;
+}
+
+// A device that never answers: opening waits for its session within the call's budget (not the session's
+// own 10 s), and says so.
+TEST(TetherRpcCall, NoSessionWithinTheCallsBudget) {
+  transports::IoThread io;
+  const auto silent = transports::PtyStream::open(io.executor());  // nobody answers on its other side
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome run = run_tether({"call", "--port", silent->slave_path(), "--codec", "rpc", "--schema", kArm,
+                                  "--timeout", "300", "MoveJoint", "joint=1"});
+  const auto took = std::chrono::steady_clock::now() - start;
+  silent->close();
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.out, "");
+  EXPECT_NE(run.err.find("no rpc session within 300 ms (the call's budget): no DeviceHello answered our Hello"),
+            std::string::npos)
+      << run.err;
+  EXPECT_EQ(run.err.find("waited too long before the first send"), std::string::npos) << run.err;
+  EXPECT_LT(took, std::chrono::seconds(8));  // the session's own wait is 10 s
+}
+
 TEST(TetherRpcCall, SchemaTheDeviceRefusesExitsTwoNamingBothHashesAndTheFile) {
   testing::ArmOnPty device(arm_hash() ^ 0xF00D);
   const Outcome run = run_tether(call_on(device, {"MoveJoint", "joint=2"}));
@@ -130,6 +166,17 @@ TEST(TetherRpcCall, StreamPrintsOneObjectPerMessage) {
   }
 }
 
+// The command closes its stream on the device, and waits for the ack, before it exits: the device does
+// not stream on until its failsafe.
+TEST(TetherRpcCall, StreamIsClosedOnTheDeviceWhenTheCountIsReached) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether(call_on(device, {"Watch", "--period", "20", "--count", "2"}));
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.lines().size(), 2u) << run.out;
+  EXPECT_EQ(run.err, "");
+  EXPECT_EQ(device.with_device([](testing::ArmDevice& arm) { return arm.open_streams(); }), 0);
+}
+
 TEST(TetherRpcCall, DeviceOfAConfigurationWithTheSchemaBesideIt) {
   testing::ArmOnPty device(arm_hash());
   const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-call-" + std::to_string(::getpid()));
@@ -146,6 +193,29 @@ TEST(TetherRpcCall, DeviceOfAConfigurationWithTheSchemaBesideIt) {
   fs::remove_all(dir);
   EXPECT_EQ(run.status, 0) << run.err;
   EXPECT_EQ(run.out, "{\"reachedCdeg\":9}\n");
+}
+
+// --schema names the codec when nothing else does: a port, or an image whose name says no codec (a
+// sketch built with arduino-builder).
+TEST(TetherRpcCall, SchemaWithoutCodecIsRpc) {
+  testing::ArmOnPty device(arm_hash());
+  const Outcome run = run_tether({"call", "--port", device.path(), "--schema", kArm, "MoveJoint", "joint=2"});
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":-1}\n");
+}
+
+TEST(TetherRpcVirtual, SchemaWithoutCodecIsRpcForAnImageNamedOtherwise) {
+  TETHER_REQUIRE_FIRMWARE("rpc-example");
+  const fs::path dir = fs::path(::testing::TempDir()) / ("tether-rpc-sketch-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path image = cli::testing::firmware("rpc-example");
+  fs::copy_file(image, dir / "ArmSketch.ino.elf", fs::copy_options::overwrite_existing);
+  const Outcome run = run_tether({"call", "--virtual", (dir / "ArmSketch.ino.elf").string(), "--schema",
+                                  fs::path(image).replace_extension(".proto").string(), "MoveJoint", "joint=1",
+                                  "angle_cdeg=7"});
+  fs::remove_all(dir);
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out, "{\"reachedCdeg\":7}\n");
 }
 
 TEST(TetherRpcCall, HelpOfTheCodec) {

@@ -37,7 +37,7 @@ class TypedRequest : public ::testing::Test {
 
 TEST_F(TypedRequest, EveryScalarKindAndEnumsByNameOrNumber) {
   EXPECT_EQ(fill({"small=-7", "big=18446744073709551615", "negative=-9000000000", "ratio=0.5", "precise=-1e-3",
-                  "on=true", "label=hello", "raw=xy", "mode=MODE_HOLD"}),
+                  "on=true", "label=hello", "raw=eHk=", "mode=MODE_HOLD"}),
             std::nullopt);
   EXPECT_EQ(rpc_message_json(*request_),
             R"({"small":-7,"big":"18446744073709551615","negative":"-9000000000","ratio":0.5,"precise":-0.001,)"
@@ -46,6 +46,78 @@ TEST_F(TypedRequest, EveryScalarKindAndEnumsByNameOrNumber) {
   EXPECT_EQ(rpc_message_value(*request_)["mode"], "MODE_RUN");
   EXPECT_EQ(fill({"labelText=x"}).value_or(""), "Everything has no field \"labelText\" (fields: small, big, negative, "
                                                  "ratio, precise, on, label, raw, mode, values, at)");
+}
+
+// Bytes in base64 as the JSON form takes them and the output prints them: what is printed can be given back.
+TEST_F(TypedRequest, BytesAreBase64AsTheJsonFormAndTheOutput) {
+  for (const std::string given : {"AQID", "AQI=", "AQI", "_-8=", "/+8", ""}) {
+    SCOPED_TRACE(given);
+    ASSERT_EQ(fill({"raw=" + given}), std::nullopt);
+    const std::string words = request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw"));
+    ASSERT_EQ(fill({R"({"raw": ")" + given + R"("})"}), std::nullopt) << "the JSON form takes it too";
+    EXPECT_EQ(request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw")), words);
+  }
+  ASSERT_EQ(fill({"raw=AQID"}), std::nullopt);
+  EXPECT_EQ(rpc_message_value(*request_)["raw"], "AQID");
+  ASSERT_EQ(fill({"raw=/+8="}), std::nullopt);
+  EXPECT_EQ(request_->GetReflection()->GetString(*request_, request_->GetDescriptor()->FindFieldByName("raw")),
+            std::string("\xff\xef"));
+  for (const std::string bad : {"AQI$", "A", "AQIDA", "a b", "AQ=D"}) {
+    EXPECT_EQ(fill({"raw=" + bad}),
+              "raw=\"" + bad + "\": expected base64 (protobuf's JSON form of bytes: AQID is 01 02 03)");
+  }
+}
+
+// Bounds from the .options file beside the schema, as nanopb's generator reads it: the field named, with
+// its bound and the file; what no line bounds is not checked.
+TEST(RpcBounds, NameTheFieldOverItsOptionsBound) {
+  const rpc::Schema schema = rpc::Schema::load(kPluginSchemas + "/bounds.proto");
+  const RpcBounds bounds(schema);
+  pb::DynamicMessageFactory factory(&schema.pool());
+  const std::unique_ptr<pb::Message> request(factory.GetPrototype(schema.find("Configure")->input)->New());
+  const auto check = [&](const std::string& json) {
+    request->Clear();
+    EXPECT_EQ(fill_rpc_request(*request, std::vector<std::string>{json}), std::nullopt) << json;
+    return bounds.check(*request);
+  };
+  EXPECT_EQ(check(R"({"label": "abcde", "blob": "AQID", "thresholds": [1], "note": "ab", "free": "any length at all",)"
+                  R"( "channels": [{"id": 1, "gain": {"unit": "abcd"}}, {}]})"),
+            std::nullopt);
+  EXPECT_EQ(check(R"({"label": "abcdef"})"),
+            "label: 6 bytes, over its .options bound (bounds.options: max_size:6, a string of at most 5 bytes)");
+  EXPECT_EQ(check(R"({"blob": "AQIDBA=="})"), "blob: 4 bytes, over its .options bound (bounds.options: max_size:3)");
+  EXPECT_EQ(check(R"({"thresholds": [1, 2]})"),
+            "thresholds: 2 values, over its .options bound (bounds.options: max_count:1)");
+  EXPECT_EQ(check(R"({"channels": [{}, {}, {}]})"),
+            "channels: 3 values, over its .options bound (bounds.options: max_count:2)");
+  EXPECT_EQ(check(R"({"channels": [{}, {"gain": {"unit": "kelvin"}}]})"),
+            "channels[1].gain.unit: 6 bytes, over its .options bound (bounds.options: max_length:4)");
+  EXPECT_EQ(check(R"({"note": "abc"})"),  // the later line wins
+            "note: 3 bytes, over its .options bound (bounds.options: max_size:3, a string of at most 2 bytes)");
+
+  // No .options beside the schema: nothing is known, nothing refused.
+  const rpc::Schema kinds = rpc::Schema::load(kPluginSchemas + "/kinds.proto");
+  pb::DynamicMessageFactory kinds_factory(&kinds.pool());
+  const std::unique_ptr<pb::Message> everything(kinds_factory.GetPrototype(kinds.find("Set")->input)->New());
+  ASSERT_EQ(fill_rpc_request(*everything,
+                             std::vector<std::string>{R"({"label": "a long label, longer than any bound", "values": [1]})"}),
+            std::nullopt);
+  EXPECT_EQ(RpcBounds(kinds).check(*everything), std::nullopt);
+}
+
+// The device cannot say which field it could not decode; the host's text hints at the likely cause.
+TEST(RpcDeviceErrorLine, ARequestThatDoesNotDecodeHintsAtTheBounds) {
+  rpc::DeviceError answer{0xFF02, "request does not decode"};
+  EXPECT_EQ(rpc_device_error_line("Configure", make_error_code(rpc::RpcError::refused), answer).text,
+            "Configure: refused 65282: request does not decode (a field over its .options bound?)");
+  EXPECT_EQ(rpc_device_error_line("Configure", make_error_code(rpc::RpcError::refused), answer).json["text"],
+            "request does not decode");  // the device's own text, as it sent it
+  answer = {0xFF01, "unknown method"};
+  EXPECT_EQ(rpc_device_error_line("Configure", make_error_code(rpc::RpcError::refused), answer).text,
+            "Configure: refused 65281: unknown method");
+  answer = {0xFF02, "mine"};  // an application's code is the application's
+  EXPECT_EQ(rpc_device_error_line("Configure", make_error_code(rpc::RpcError::device_error), answer).text,
+            "Configure: device error 65282: mine");
 }
 
 TEST_F(TypedRequest, JsonNamesAndTheWholeRequestAsJson) {

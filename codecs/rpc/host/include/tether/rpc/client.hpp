@@ -37,9 +37,10 @@
 ///      within `kIdWindow` ids of every unacked message's anchor (the device remembers `kIdWindow` ids).
 ///   3. **Streams.** `open_stream` sends `OpenStream{method, request, period}` (acked like a call); each
 ///      `StreamMessage` goes to the stream's handler. `close()` (or the handle's destruction) sends
-///      `CloseStream`. A device error ends the stream (its handler gets it once). One stream per method (the
-///      device's rule): opening a method that streams already closes the older stream first (its handler
-///      is not called again).
+///      `CloseStream`; `close_and_wait` also waits for its ack (before closing the client, or the device
+///      streams on until its failsafe). A device error ends the stream (its handler gets it once). One
+///      stream per method (the device's rule): opening a method that streams already closes the older
+///      stream first (its handler is not called again).
 ///   4. **Heartbeat.** A `Ping` every `ping_period` (1 s); the device closes its streams after 10 s
 ///      without one.
 ///
@@ -166,6 +167,11 @@ using CallSignature = void(error_code, CallResult);
 /// Completion signature of `async_wait_ready`: the device's session.
 using ReadySignature = void(error_code, std::uint32_t);
 
+/// What the host adds to a device refusal's text, which the device keeps short: for `bad_request`
+/// (errors.hpp) `" (a field over its .options bound?)"`, as a request the schema accepts is refused when a
+/// string, bytes or repeated field exceeds the device's nanopb bound; else empty.
+std::string_view refusal_hint(std::uint16_t code);
+
 /// The blocking forms' exception for a device's answer (`RpcError::device_error` or `refused`): what() is
 /// `"MoveJoint: device error 42: joint 3 is locked"`.
 class CallError : public boost::system::system_error {
@@ -174,7 +180,8 @@ class CallError : public boost::system::system_error {
   CallError(error_code code, const std::string& method, DeviceError device_error);
   /// The device's code and text.
   const DeviceError& device_error() const { return device_error_; }
-  /// `"<method>: device error <code>: <text>"` (`refused` instead of `device error` for a refusal).
+  /// `"<method>: device error <code>: <text>"` (`refused` instead of `device error` for a refusal, and
+  /// `refusal_hint`'s words after its text).
   const char* what() const noexcept override { return what_.c_str(); }
 
  private:
@@ -218,7 +225,18 @@ class Stream {
   /// Closes the stream.
   ~Stream();
   /// Stops the stream (the device is told; its handler is not called again). Idempotent, any thread.
+  /// Does not wait: a client closed right after may not have sent the close, and the device then streams
+  /// until its failsafe (10 s without a ping).
   void close();
+  /// `close()`, then waits until the device acknowledged the close (at most the client's `call_budget` once
+  /// sent, as long again for a session to send it in). `error`: none once acknowledged or when nothing runs
+  /// on the device (the stream never reached it, ended already, or the device's session ended); else
+  /// `RpcError::timed_out`, `queue_timeout` or the link's error. Not on the client's strand (a stream
+  /// handler): `would_deadlock`.
+  void close_and_wait(error_code& error);
+  /// `close_and_wait` giving up after `limit` (`RpcError::timed_out`; the close goes on without a waiter):
+  /// for a program that must end soon (Ctrl-C).
+  void close_and_wait(error_code& error, std::chrono::milliseconds limit);
   /// True until `close()` or the stream's end.
   bool is_open() const;
 
@@ -418,7 +436,8 @@ class Client : public client::ClientFront<detail::ClientImpl, Event> {
   std::string call_json(std::string_view method, std::string_view json_request);
 
   /// Opens a stream of `method` with `request` every `period` (1..65535 ms); `handler` gets its messages.
-  /// Throws `boost::system::system_error` for an unknown or unary method, a bad request or period.
+  /// Throws `boost::system::system_error` for an unknown or unary method, a bad request (`RpcError`) or a
+  /// period outside 1..65535 ms (`errc::invalid_argument`).
   Stream open_stream(std::string_view method, const google::protobuf::Message& request,
                      std::chrono::milliseconds period, StreamHandler handler);
 
