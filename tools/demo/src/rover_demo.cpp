@@ -180,15 +180,24 @@ void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::
 }
 
 // Runs the workload of one device; fills `report`.
+// What a device's run leaves for the count after the rover closed: its workload (the client's counters) and
+// the counters before it.
+struct DeviceRun {
+  std::unique_ptr<Workload> workload;
+  LinkCounters before;
+};
+
 void run_device(const DemoOptions& options, const devices::RoverDevice& device, const devices::DeviceConfig& config,
-                const std::shared_ptr<transports::FaultInjectingStream>& link, DeviceReport& report) {
-  std::unique_ptr<Workload> workload = make_workload(device, config);
+                const std::shared_ptr<transports::FaultInjectingStream>& link, DeviceReport& report, DeviceRun& run) {
+  run.workload = make_workload(device, config);
+  Workload* const workload = run.workload.get();
   report.operation = workload->operation();
   report.confirmed = workload->confirms();
   transports::FaultConfig noise;
   noise.bit_error_rate = options.bit_error_rate;
   if (link) link->set_faults(noise, noise);
   const LinkCounters before = workload->link();
+  run.before = before;
   const std::optional<std::uint32_t> resets_before = workload->resets_detected();
 
   // The device that executes the commands: a ring's last board drives the servos.
@@ -279,11 +288,6 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
   if (last_executed) last_ok = last_executed;
   if (const std::optional<Pulses> settled = workload->settle(report.final_rewrites)) last_ok = settled;
 
-  const LinkCounters after = workload->link();
-  report.retries = after.retries - before.retries;
-  report.stale = after.stale - before.stale;
-  report.crc_errors = after.crc_errors - before.crc_errors;
-  report.framing_errors = after.framing_errors - before.framing_errors;
   if (const auto resets = workload->resets_detected()) report.resets_detected = *resets - resets_before.value_or(0);
   if (link) {
     const transports::FaultCounts to = link->to_device_counts();
@@ -322,6 +326,7 @@ DemoReport run_demo(const DemoOptions& options) {
   std::vector<std::thread> threads;
   std::mutex error_mutex;
   std::exception_ptr first_exception;
+  std::vector<DeviceRun> runs(rover.devices().size());
   for (std::size_t k = 0; k < rover.devices().size(); ++k) {
     const devices::RoverDevice& device = rover.devices()[k];
     DeviceReport& device_report = report.devices[k];
@@ -330,7 +335,7 @@ DemoReport run_demo(const DemoOptions& options) {
     device_report.transport = device.transport;
     threads.emplace_back([&, k] {
       try {
-        run_device(options, rover.devices()[k], config.devices[k], links[k], report.devices[k]);
+        run_device(options, rover.devices()[k], config.devices[k], links[k], report.devices[k], runs[k]);
       } catch (...) {
         std::lock_guard lock(error_mutex);
         if (!first_exception) first_exception = std::current_exception();
@@ -340,6 +345,18 @@ DemoReport run_demo(const DemoOptions& options) {
   for (std::thread& thread : threads) thread.join();
   rover.close();
   if (first_exception) std::rethrow_exception(first_exception);
+  // The link's counters once the clients are closed: a late answer to a re-send (under load, after the
+  // workload ended) is counted as it is recorded in a capture, where every frame read is one a client took.
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (!runs[k].workload) continue;
+    const LinkCounters& before = runs[k].before;
+    const LinkCounters after = runs[k].workload->link();
+    DeviceReport& device_report = report.devices[k];
+    device_report.retries = after.retries - before.retries;
+    device_report.stale = after.stale - before.stale;
+    device_report.crc_errors = after.crc_errors - before.crc_errors;
+    device_report.framing_errors = after.framing_errors - before.framing_errors;
+  }
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
   return report;
 }
