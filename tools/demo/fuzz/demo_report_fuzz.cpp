@@ -48,6 +48,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     device.stale = input.ConsumeIntegral<std::uint32_t>();
     device.crc_errors = input.ConsumeIntegral<std::uint32_t>();
     device.framing_errors = input.ConsumeIntegral<std::uint32_t>();
+    device.resyncs = input.ConsumeIntegral<std::uint32_t>();
     device.resets_injected = input.ConsumeIntegral<std::uint32_t>();
     if ((flags & 2) != 0) device.resets_detected = input.ConsumeIntegral<std::uint32_t>();
     if ((flags & 4) != 0) device.recovery_ms = any_double(input);

@@ -175,6 +175,7 @@ nlohmann::json to_json(const DemoReport& report) {
         {"stale", d.stale},
         {"crc_errors", d.crc_errors},
         {"framing_errors", d.framing_errors},
+        {"resyncs", d.resyncs},
         {"resets_injected", d.resets_injected},
         {"resets_detected", d.resets_detected ? nlohmann::json(*d.resets_detected) : nlohmann::json(nullptr)},
         {"recovery_ms", d.recovery_ms ? nlohmann::json(*d.recovery_ms) : nlohmann::json(nullptr)},

@@ -356,6 +356,7 @@ DemoReport run_demo(const DemoOptions& options) {
     device_report.stale = after.stale - before.stale;
     device_report.crc_errors = after.crc_errors - before.crc_errors;
     device_report.framing_errors = after.framing_errors - before.framing_errors;
+    device_report.resyncs = after.resyncs - before.resyncs;
   }
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
   return report;

@@ -93,6 +93,7 @@ struct DeviceReport {
   std::uint32_t stale = 0;       ///< Replies that matched no call (dropped).
   std::uint32_t crc_errors = 0;  ///< Frames dropped by the checksum.
   std::uint32_t framing_errors = 0;  ///< Frames dropped as malformed.
+  std::uint32_t resyncs = 0;  ///< Times the decoder dropped bytes to catch the next frame (a Romi frame cut by a new `#`).
   std::uint32_t resets_injected = 0;  ///< Power cycles injected.
   /// Resets the host detected (proxy: session change). Unset: the protocol cannot tell.
   std::optional<std::uint32_t> resets_detected;
