@@ -84,7 +84,8 @@ TEST(TetherUsage, DeviceSelectionErrors) {
   expect_usage_error({"stats"}, "no device given");
   expect_usage_error({"monitor", "--port", "/dev/null", "--virtual", "romi-test"}, "give only one of");
   expect_usage_error({"shell", "--virtual", "romi-test", "--baud", "9600"}, "--baud does not apply to --virtual");
-  expect_usage_error({"stats", "--port", "/dev/null", "--capture", "drive"}, "--capture applies to the elcano codec");
+  expect_usage_error({"stats", "--port", "/dev/null", "--codec", "romi", "--capture", "drive"},
+                     "--capture applies to the elcano codec");
   expect_usage_error({"monitor", "--port", "/dev/null", "--codec", "mavlink"}, "--codec needs romi, proxy");
   expect_usage_error({"monitor", "--port", "/dev/null", "--baud", "fast"}, "--baud needs a positive number");
   expect_usage_error({"monitor", "--port"}, "--port needs a value");
