@@ -180,11 +180,9 @@ void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::
 }
 
 // Runs the workload of one device; fills `report`.
-// What a device's run leaves for the count after the rover closed: its workload (the client's counters) and
-// the counters before it.
+// What a device's run leaves for the count after the rover closed: its workload (the client's counters).
 struct DeviceRun {
   std::unique_ptr<Workload> workload;
-  LinkCounters before;
 };
 
 void run_device(const DemoOptions& options, const devices::RoverDevice& device, const devices::DeviceConfig& config,
@@ -196,8 +194,6 @@ void run_device(const DemoOptions& options, const devices::RoverDevice& device, 
   transports::FaultConfig noise;
   noise.bit_error_rate = options.bit_error_rate;
   if (link) link->set_faults(noise, noise);
-  const LinkCounters before = workload->link();
-  run.before = before;
   const std::optional<std::uint32_t> resets_before = workload->resets_detected();
 
   // The device that executes the commands: a ring's last board drives the servos.
@@ -345,18 +341,18 @@ DemoReport run_demo(const DemoOptions& options) {
   for (std::thread& thread : threads) thread.join();
   rover.close();
   if (first_exception) std::rethrow_exception(first_exception);
-  // The link's counters once the clients are closed: a late answer to a re-send (under load, after the
-  // workload ended) is counted as it is recorded in a capture, where every frame read is one a client took.
+  // The links' counters over their whole sessions, taken once the clients are closed: what a capture of
+  // the run records (a re-send while a device opened, on a loaded machine; a late answer to a re-send after
+  // the workload ended), every frame read being one a client took.
   for (std::size_t k = 0; k < runs.size(); ++k) {
     if (!runs[k].workload) continue;
-    const LinkCounters& before = runs[k].before;
-    const LinkCounters after = runs[k].workload->link();
+    const LinkCounters link = runs[k].workload->link();
     DeviceReport& device_report = report.devices[k];
-    device_report.retries = after.retries - before.retries;
-    device_report.stale = after.stale - before.stale;
-    device_report.crc_errors = after.crc_errors - before.crc_errors;
-    device_report.framing_errors = after.framing_errors - before.framing_errors;
-    device_report.resyncs = after.resyncs - before.resyncs;
+    device_report.retries = link.retries;
+    device_report.stale = link.stale;
+    device_report.crc_errors = link.crc_errors;
+    device_report.framing_errors = link.framing_errors;
+    device_report.resyncs = link.resyncs;
   }
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - started).count();
   return report;

@@ -203,7 +203,13 @@ CodecCommands rpc_commands() {
     rpc::DeviceOptions options;
     options.client.timing.baud = baud;
     if (const std::string* schema = given.codec_flag("--schema")) options.schema = *schema;
-    if (!options.schema.empty()) (void)rpc::load_schema(options, "--schema");  // its error is a usage error
+    if (!options.schema.empty()) {
+      try {
+        (void)rpc::load_schema(options, "");  // its error is a usage error, about the flag
+      } catch (const devices::ConfigError& failure) {
+        throw devices::ConfigError("--schema", failure.detail(), failure.code());
+      }
+    }
     return options;
   };
   // A lone board: the schema beside its image (`rpc-example.elf`, `rpc-example.proto`), if there is one,

@@ -148,6 +148,10 @@ TEST(TetherRpcCall, SchemaThatDoesNotReadOrIsMissing) {
   Outcome run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "--schema", bad.string(), "MoveJoint"});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("bad_type.proto:3:42: \"int33\" is not defined."), std::string::npos) << run.err;
+  run = run_tether({"call", "--port", "/dev/null", "--schema", "/nonexistent/arm.proto", "MoveJoint"});
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("--schema: /nonexistent/arm.proto: no such file"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find("--schema.schema"), std::string::npos) << run.err;
   run = run_tether({"call", "--port", "/dev/null", "--codec", "rpc", "MoveJoint"});
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("no schema: give --schema FILE"), std::string::npos) << run.err;

@@ -89,6 +89,8 @@ struct DeviceReport {
   double latency_p50_ms = 0;  ///< Median operation time (wall clock; percentiles to 0.5 %, bounded memory).
   double latency_p99_ms = 0;  ///< 99th percentile.
   double latency_max_ms = 0;  ///< Slowest.
+  // The link's counters below cover the device's whole session, its opening included (as a capture of the
+  // run does).
   std::uint32_t retries = 0;     ///< Re-sends by the session engine.
   std::uint32_t stale = 0;       ///< Replies that matched no call (dropped).
   std::uint32_t crc_errors = 0;  ///< Frames dropped by the checksum.
