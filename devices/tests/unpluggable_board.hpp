@@ -257,7 +257,9 @@ class UnpluggableBoard {
       if (error) return;  // closed (unplugged)
       {
         std::lock_guard lock(mutex_);
-        if (generation != generation_) return;
+        // Unplugged since (the pty taken out, maybe closed): a read started now on a closed pty would
+        // never complete, and its handler would keep the pty alive (a leak at exit).
+        if (generation != generation_ || pty_ != pty) return;
         if (held_) {
           held_bytes_.append(reinterpret_cast<const char*>(buffer->data()), size);
           changed_.notify_all();

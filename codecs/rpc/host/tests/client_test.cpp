@@ -118,6 +118,14 @@ struct Link {
   std::optional<Client> client;
 };
 
+// A Watch stream every 50 ms whose messages count into `messages`.
+tether::rpc::Stream counted_watch(Link& link, std::atomic<int>& messages) {
+  return link.client->open_stream("Watch", *link.client->new_request("Watch"), 50ms,
+                                  [&messages](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
+                                    if (!error) ++messages;
+                                  });
+}
+
 TEST(RpcClient, HelloEstablishesTheSessionWithTheDevicesSchema) {
   Link link;
   ASSERT_TRUE(link.ready());
@@ -289,11 +297,7 @@ TEST(RpcClient, CloseAndWaitReturnsOnceTheDeviceStoppedTheStream) {
   Link link;
   ASSERT_TRUE(link.ready());
   std::atomic<int> messages{0};
-  tether::rpc::Stream watch = link.client->open_stream(
-      "Watch", *link.client->new_request("Watch"), 50ms,
-      [&](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
-        if (!error) ++messages;
-      });
+  tether::rpc::Stream watch = counted_watch(link, messages);
   ASSERT_TRUE(link.run_until([&] { return messages.load() >= 2; }));
   std::promise<tether::rpc::error_code> closed;
   std::thread closer([&] {
@@ -337,10 +341,7 @@ TEST(RpcClient, CloseAndWaitOnASilentDeviceTimesOut) {
   ASSERT_TRUE(link.ready());
   std::atomic<int> messages{0};
   const auto open = [&] {
-    return link.client->open_stream("Watch", *link.client->new_request("Watch"), 50ms,
-                                    [&](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
-                                      if (!error) ++messages;
-                                    });
+    return counted_watch(link, messages);
   };
   tether::rpc::Stream watch = open();
   ASSERT_TRUE(link.run_until([&] { return messages.load() >= 1; }));
@@ -373,11 +374,7 @@ TEST(RpcClient, AfterADeviceResetTheSessionAndItsStreamsComeBack) {
   Link link;
   ASSERT_TRUE(link.ready());
   std::atomic<int> messages{0};
-  tether::rpc::Stream watch = link.client->open_stream(
-      "Watch", *link.client->new_request("Watch"), 50ms,
-      [&](const tether::rpc::error_code& error, const tether::rpc::StreamMessage&) {
-        if (!error) ++messages;
-      });
+  tether::rpc::Stream watch = counted_watch(link, messages);
   ASSERT_TRUE(link.run_until([&] { return messages.load() >= 2; }));
   link.peer->boot(0xBEEF);  // the device restarts: no stream, a new session, ResetEvent
   ASSERT_TRUE(link.run_until([&] { return link.log.of<events::SessionEstablished>().size() >= 2; }));
