@@ -252,14 +252,18 @@ class UnpluggableBoard {
 
   void read_loop(const std::shared_ptr<transports::PtyStream>& pty, std::uint64_t generation) {
     auto buffer = std::make_shared<std::array<std::uint8_t, 256>>();
-    pty->async_read_some(boost::asio::buffer(*buffer), [this, pty, generation, buffer](boost::system::error_code error,
-                                                                                        std::size_t size) {
+    // The handler holds the pty weakly: the stream keeps a pending read's handler until it completes, and a
+    // read the close aborts completes on the I/O thread, which may be gone by then (the test's end): a strong
+    // reference would keep the pty and the handler alive for good (a leak at exit).
+    const std::weak_ptr<transports::PtyStream> weak = pty;
+    pty->async_read_some(boost::asio::buffer(*buffer), [this, weak, generation, buffer](boost::system::error_code error,
+                                                                                         std::size_t size) {
       if (error) return;  // closed (unplugged)
+      const std::shared_ptr<transports::PtyStream> plugged = weak.lock();
+      if (!plugged) return;
       {
         std::lock_guard lock(mutex_);
-        // Unplugged since (the pty taken out, maybe closed): a read started now on a closed pty would
-        // never complete, and its handler would keep the pty alive (a leak at exit).
-        if (generation != generation_ || pty_ != pty) return;
+        if (generation != generation_ || pty_ != plugged) return;  // unplugged since
         if (held_) {
           held_bytes_.append(reinterpret_cast<const char*>(buffer->data()), size);
           changed_.notify_all();
@@ -267,7 +271,7 @@ class UnpluggableBoard {
           boards_.front()->write(std::span<const std::uint8_t>(buffer->data(), size));
         }
       }
-      read_loop(pty, generation);
+      read_loop(plugged, generation);
     });
   }
 
