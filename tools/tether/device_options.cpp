@@ -346,24 +346,29 @@ std::optional<int> parse_device_arguments(int argc, char** argv, const CommandTe
 }
 
 namespace {
+// True when the codec's commands take the codec flag `name` (`--schema`).
+bool takes_flag(const CodecCommands& commands, std::string_view name) {
+  return std::any_of(commands.flags.begin(), commands.flags.end(), [name](const CodecFlag& flag) { return flag.name == name; });
+}
+
+// The codecs whose commands take the codec flag `name`, in the table's order.
+std::vector<const devices::CodecRow*> codecs_taking(std::string_view name) {
+  std::vector<const devices::CodecRow*> rows;
+  for (const devices::CodecRow* row : devices::codec_rows()) {
+    const CodecCommands* commands = codec_commands(row->codec);
+    if (commands != nullptr && takes_flag(*commands, name)) rows.push_back(row);
+  }
+  return rows;
+}
+
 // --codec; else, for --port or an image whose name says no codec, the one codec that takes a codec flag
 // given (--schema: rpc), so the flag needs no --codec beside it.
 std::optional<devices::Codec> given_codec(const DeviceOptions& options) {
   if (options.codec || !options.config_file.empty() || !options.device.empty()) return options.codec;
   if (!options.firmware.empty() && codec_row_of_image(firmware_image(options.firmware)) != nullptr) return std::nullopt;
   for (const auto& [given, value] : options.codec_flags) {
-    std::optional<devices::Codec> only;
-    int takers = 0;
-    for (const devices::CodecRow* row : devices::codec_rows()) {
-      const CodecCommands* commands = codec_commands(row->codec);
-      if (commands == nullptr) continue;
-      const auto& flags = commands->flags;
-      if (std::any_of(flags.begin(), flags.end(), [&given = given](const CodecFlag& f) { return f.name == given; })) {
-        only = row->codec;
-        ++takers;
-      }
-    }
-    if (takers == 1) return only;
+    const std::vector<const devices::CodecRow*> takers = codecs_taking(given);
+    if (takers.size() == 1) return takers.front()->codec;
   }
   return std::nullopt;
 }
@@ -489,14 +494,10 @@ std::optional<DeviceTarget> resolve_target(const DeviceOptions& options, devices
   const devices::Codec codec = chosen ? *chosen : (board ? codec_of_image(firmware) : default_codec);
   const CodecCommands& commands = *codec_commands(codec);  // parse_codec and codec_of_image name rows it has
   for (const auto& [given, value] : options.codec_flags) {
-    const auto takes = [&given = given](const CodecCommands& row) {
-      return std::any_of(row.flags.begin(), row.flags.end(), [&](const CodecFlag& flag) { return flag.name == given; });
-    };
-    if (takes(commands)) continue;
+    if (takes_flag(commands, given)) continue;
     std::string codecs;
-    for (const devices::CodecRow* row : devices::codec_rows()) {
-      const CodecCommands* other = codec_commands(row->codec);
-      if (other != nullptr && takes(*other)) codecs += (codecs.empty() ? "" : " or ") + std::string(row->name);
+    for (const devices::CodecRow* row : codecs_taking(given)) {
+      codecs += (codecs.empty() ? "" : " or ") + std::string(row->name);
     }
     error = given + " applies to the " + codecs + " codec only";
     return std::nullopt;

@@ -179,12 +179,12 @@ void check_pins(DeviceReport& report, transports::VirtualUno& board, const std::
                        (last->d10 == 0 ? std::string("-") : describe(d10, last->d10));
 }
 
-// Runs the workload of one device; fills `report`.
 // What a device's run leaves for the count after the rover closed: its workload (the client's counters).
 struct DeviceRun {
   std::unique_ptr<Workload> workload;
 };
 
+// Runs the workload of one device; fills `report` (its link counts once the rover is closed: run_demo).
 void run_device(const DemoOptions& options, const devices::RoverDevice& device, const devices::DeviceConfig& config,
                 const std::shared_ptr<transports::FaultInjectingStream>& link, DeviceReport& report, DeviceRun& run) {
   run.workload = make_workload(device, config);

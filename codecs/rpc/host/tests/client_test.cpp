@@ -118,6 +118,23 @@ struct Link {
   std::optional<Client> client;
 };
 
+// `stream.close_and_wait` on a thread of its own while the test drives the link's simulated time: its error,
+// or nothing when it did not end within the run (the client is then closed, which ends the wait).
+std::optional<tether::rpc::error_code> close_and_wait_driven(Link& link, tether::rpc::Stream& stream) {
+  std::promise<tether::rpc::error_code> closed;
+  auto done = closed.get_future();
+  std::thread closer([&] {
+    tether::rpc::error_code error;
+    stream.close_and_wait(error);
+    closed.set_value(error);
+  });
+  const bool ended = link.run_until([&] { return done.wait_for(0s) == std::future_status::ready; });
+  if (!ended) link.client->close();
+  closer.join();
+  if (!ended) return std::nullopt;
+  return done.get();
+}
+
 // A Watch stream every 50 ms whose messages count into `messages`.
 tether::rpc::Stream counted_watch(Link& link, std::atomic<int>& messages) {
   return link.client->open_stream("Watch", *link.client->new_request("Watch"), 50ms,
@@ -299,16 +316,9 @@ TEST(RpcClient, CloseAndWaitReturnsOnceTheDeviceStoppedTheStream) {
   std::atomic<int> messages{0};
   tether::rpc::Stream watch = counted_watch(link, messages);
   ASSERT_TRUE(link.run_until([&] { return messages.load() >= 2; }));
-  std::promise<tether::rpc::error_code> closed;
-  std::thread closer([&] {
-    tether::rpc::error_code error;
-    watch.close_and_wait(error);
-    closed.set_value(error);
-  });
-  auto done = closed.get_future();
-  ASSERT_TRUE(link.run_until([&] { return done.wait_for(0s) == std::future_status::ready; }));
-  closer.join();
-  EXPECT_FALSE(done.get());
+  const auto closed = close_and_wait_driven(link, watch);
+  ASSERT_TRUE(closed);
+  EXPECT_FALSE(*closed);
   EXPECT_FALSE(watch.is_open());
   EXPECT_EQ(link.peer->read([](const ArmDevice& d) { return d.open_streams(); }), 0);
 
@@ -318,16 +328,9 @@ TEST(RpcClient, CloseAndWaitReturnsOnceTheDeviceStoppedTheStream) {
   tether::rpc::Stream early = link.client->open_stream(
       "Watch", *link.client->new_request("Watch"), 50ms, [](const tether::rpc::error_code&, const tether::rpc::StreamMessage&) {});
   ASSERT_TRUE(link.run_until([&] { return link.client->counters().messages_sent >= 3; }));  // open, close, open
-  std::promise<tether::rpc::error_code> early_closed;
-  std::thread early_closer([&] {
-    tether::rpc::error_code error;
-    early.close_and_wait(error);
-    early_closed.set_value(error);
-  });
-  auto early_done = early_closed.get_future();
-  ASSERT_TRUE(link.run_until([&] { return early_done.wait_for(0s) == std::future_status::ready; }));
-  early_closer.join();
-  EXPECT_FALSE(early_done.get());
+  const auto early_closed = close_and_wait_driven(link, early);
+  ASSERT_TRUE(early_closed);
+  EXPECT_FALSE(*early_closed);
   EXPECT_EQ(link.peer->read([](const ArmDevice& d) { return d.open_streams(); }), 0);
 
   tether::rpc::error_code again;
@@ -346,17 +349,10 @@ TEST(RpcClient, CloseAndWaitOnASilentDeviceTimesOut) {
   tether::rpc::Stream watch = open();
   ASSERT_TRUE(link.run_until([&] { return messages.load() >= 1; }));
   link.peer->deaf(true);
-  std::promise<tether::rpc::error_code> closed;
-  std::thread closer([&] {
-    tether::rpc::error_code error;
-    watch.close_and_wait(error);
-    closed.set_value(error);
-  });
-  auto done = closed.get_future();
   const Millis start = link.clock->now();
-  ASSERT_TRUE(link.run_until([&] { return done.wait_for(0s) == std::future_status::ready; }));
-  closer.join();
-  EXPECT_EQ(done.get(), RpcError::timed_out);
+  const auto closed = close_and_wait_driven(link, watch);
+  ASSERT_TRUE(closed);
+  EXPECT_EQ(*closed, RpcError::timed_out);
   EXPECT_GE(tether::tick_difference(link.clock->now(), start), 2000);  // the call budget
 
   link.peer->deaf(false);
